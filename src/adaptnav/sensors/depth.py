@@ -1,0 +1,105 @@
+"""Depth meter (pressure sensor): depth of the sensor point, depth = -height (spec §4).
+
+Model (spec §4 table; Groves (2013) ch. 16, height/depth aiding with lever arm)::
+
+    z = -h + (C_nb l_b)_D,
+
+the sensor sitting at ``r_n + C_nb l_b`` (NED) with l_b the lever arm from the IMU (body FRD, m).
+Conversion of pressure to depth (water density, atmospheric pressure) happens before this model.
+
+Linearisation for ``dx = x_true ⊖ x_hat`` (``h_true = h - dr_D``, ``C_true = Exp(phi) C``), with
+``a = C_nb l_b``: ``-h_true = -h + dr_D`` and ``(Exp(phi) a)_D ≈ a_D + (phi × a)_D``, so::
+
+    H_drD = 1,    H_phi = -[a×]_(D row) = [a_E, -a_N, 0].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from adaptnav import attitude
+from adaptnav.errorstate import ATT, N_STATES, POS
+from adaptnav.sensors.base import (
+    Array,
+    Measurement,
+    check_name,
+    check_reading,
+    check_scalar_sigma,
+    check_state,
+    check_vector3,
+)
+from adaptnav.strapdown import NOM_ATT
+
+DIM = 1
+
+
+def predict(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
+    """h(x) = [-h + (C_nb l_b)_D], the depth the sensor should read (m, shape (1,))."""
+    xa = check_state(x)
+    a = attitude.quat_to_dcm(xa[NOM_ATT]) @ np.asarray(l_b, dtype=float)
+    return np.array([-xa[2] + a[2]])
+
+
+def jacobian(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
+    """H (1×15): 1 on dr_D, ``[a_E, -a_N, 0]`` on phi (a = C_nb l_b)."""
+    xa = check_state(x)
+    a = attitude.quat_to_dcm(xa[NOM_ATT]) @ np.asarray(l_b, dtype=float)
+    H = np.zeros((DIM, N_STATES))
+    H[0, POS] = (0.0, 0.0, 1.0)
+    H[0, ATT] = -attitude.skew(a)[2]
+    return H
+
+
+@dataclass(frozen=True, eq=False)
+class Depth:
+    """Depth sensor.
+
+    Attributes:
+        sigma: nominal noise σ (m).
+        l_b: lever arm from the IMU to the pressure port, body FRD (m).
+        name: sensor name, also the component's name.
+    """
+
+    sigma: float
+    l_b: Array = field(default_factory=lambda: np.zeros(3))
+    name: str = "depth"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
+        object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
+        object.__setattr__(self, "name", check_name("name", self.name))
+
+    @property
+    def dim(self) -> int:
+        return DIM
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    @property
+    def R(self) -> Array:
+        return np.array([[self.sigma**2]])
+
+    def predict(self, x: ArrayLike) -> Array:
+        """See :func:`predict`."""
+        return predict(x, self.l_b)
+
+    def jacobian(self, x: ArrayLike) -> Array:
+        """See :func:`jacobian`."""
+        return jacobian(x, self.l_b)
+
+    def evaluate(
+        self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
+    ) -> Measurement | None:
+        """Residual ``z - h(x)`` (m), H and R; None if the reading is NaN/inf.
+
+        ``z`` is a scalar or shape (1,); ``omega_ib_b`` is not used.
+        """
+        zz = check_reading(self.name, z, DIM)
+        if zz is None:
+            return None
+        return Measurement(zz - self.predict(x), self.jacobian(x), self.R, self.names)

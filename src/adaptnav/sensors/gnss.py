@@ -1,0 +1,157 @@
+"""GNSS (or USBL) position fix of the antenna: latitude, longitude and optionally height (spec §4).
+
+Model (spec §4 table; Groves (2013) ch. 14, loosely coupled position with lever arm): the
+antenna is at ``r_n + a``, ``a = C_nb l_b`` (NED, m), whose geodetic coordinates are, to
+O(|a|²/R) (≈ 1e-6 m for a few metres of lever arm)::
+
+    lat_a = lat + a_N / (R_M(lat) + h),
+    lon_a = lon + a_E / ((R_N(lat) + h) cos lat),
+    h_a = h - a_D.
+
+The residual is taken in NED metres at the estimate (radii at lat_hat, h_hat; longitude
+difference wrapped to (-π, π] so fixes across the antimeridian work)::
+
+    y = [(lat_z - lat_a)(R_M + h), wrap(lon_z - lon_a)(R_N + h) cos lat, -(h_z - h_a)]
+
+(the third component only with ``use_height``). For ``dx = x_true ⊖ x_hat`` (lat_true =
+lat + dr_N/(R_M + h), ..., ``C_true = Exp(phi) C``) this is
+``y ≈ dr + (Exp(phi) a - a) + (curvature terms of the lever arm)``, and H is its exact derivative::
+
+    H_dr  = [[1 - a_N R_M'/ρ_M²,          0, a_N/ρ_M],
+             [a_E (tan lat - R_N'/ρ_N)/ρ_M, 1, a_E/ρ_N],
+             [0,                          0, 1      ]]     (ρ = R + h, R' = dR/dlat)
+    H_phi = -[a×]
+
+The curvature terms (a/R ≈ 1e-6, a tan(lat)/R at high latitude) change nothing in practice but
+make H the true Jacobian of the model above.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from adaptnav import attitude, earth
+from adaptnav.errorstate import ATT, N_STATES, POS
+from adaptnav.sensors.base import (
+    Array,
+    Measurement,
+    check_name,
+    check_reading,
+    check_sigma,
+    check_state,
+    check_vector3,
+)
+from adaptnav.strapdown import NOM_ATT
+
+
+def _lever_n(x: Array, l_b: ArrayLike) -> Array:
+    return np.asarray(attitude.quat_to_dcm(x[NOM_ATT]) @ np.asarray(l_b, dtype=float), dtype=float)
+
+
+def predict(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0), use_height: bool = True) -> Array:
+    """h(x) = antenna [lat, lon (, h)] (rad, rad, m); longitude wrapped to (-π, π]."""
+    xa = check_state(x)
+    lat, lon, h = float(xa[0]), float(xa[1]), float(xa[2])
+    a = _lever_n(xa, l_b)
+    rm = float(earth.meridian_radius(lat)) + h
+    rn = float(earth.transverse_radius(lat)) + h
+    lat_a = lat + a[0] / rm
+    lon_a = float(attitude.wrap_angle(lon + a[1] / (rn * np.cos(lat))))
+    out = np.array([lat_a, lon_a, h - a[2]])
+    return out if use_height else out[:2]
+
+
+def residual(x: ArrayLike, z: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
+    """y = z - h(x) in NED metres at the estimate (module docstring); len(z) is 2 or 3."""
+    xa = check_state(x)
+    zz = np.asarray(z, dtype=float)
+    pred = predict(xa, l_b, use_height=zz.shape == (3,))
+    lat, h = float(xa[0]), float(xa[2])
+    rm = float(earth.meridian_radius(lat)) + h
+    rn = float(earth.transverse_radius(lat)) + h
+    y = np.empty(zz.shape)
+    y[0] = (zz[0] - pred[0]) * rm
+    y[1] = float(attitude.wrap_angle(zz[1] - pred[1])) * rn * np.cos(lat)
+    if zz.shape == (3,):
+        y[2] = -(zz[2] - pred[2])
+    return y
+
+
+def jacobian(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0), use_height: bool = True) -> Array:
+    """H (2 or 3 × 15) on dr and phi, as in the module docstring."""
+    xa = check_state(x)
+    lat, h = float(xa[0]), float(xa[2])
+    a = _lever_n(xa, l_b)
+    rm = float(earth.meridian_radius(lat)) + h
+    rn = float(earth.transverse_radius(lat)) + h
+    drm = float(earth.meridian_radius_dlat(lat))
+    drn = float(earth.transverse_radius_dlat(lat))
+    H = np.zeros((3, N_STATES))
+    H[:, POS] = [
+        [1.0 - a[0] * drm / rm**2, 0.0, a[0] / rm],
+        [a[1] * (np.tan(lat) - drn / rn) / rm, 1.0, a[1] / rn],
+        [0.0, 0.0, 1.0],
+    ]
+    H[:, ATT] = -attitude.skew(a)
+    return H if use_height else H[:2]
+
+
+@dataclass(frozen=True, eq=False)
+class GNSS:
+    """GNSS / USBL position fix.
+
+    Attributes:
+        sigma: nominal noise σ of the residual components [N, E(, D)] (m); a scalar applies to
+            all; shape (2,) without height, (3,) with.
+        l_b: lever arm from the IMU to the antenna (transducer), body FRD (m).
+        use_height: also use the height (3 components) or only lat, lon (2).
+        name: sensor name; components are ``{name}_N``, ``{name}_E`` (, ``{name}_D``).
+    """
+
+    sigma: float | Array
+    l_b: Array = field(default_factory=lambda: np.zeros(3))
+    use_height: bool = True
+    name: str = "gnss"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.use_height, bool):
+            raise ValueError(f"use_height must be a bool, got {self.use_height!r}")
+        object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, self.dim))
+        object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
+        object.__setattr__(self, "name", check_name("name", self.name))
+
+    @property
+    def dim(self) -> int:
+        return 3 if self.use_height else 2
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (f"{self.name}_N", f"{self.name}_E", f"{self.name}_D")[: self.dim]
+
+    @property
+    def R(self) -> Array:
+        return np.diag(np.asarray(self.sigma, dtype=float) ** 2)
+
+    def predict(self, x: ArrayLike) -> Array:
+        """See :func:`predict`."""
+        return predict(x, self.l_b, self.use_height)
+
+    def jacobian(self, x: ArrayLike) -> Array:
+        """See :func:`jacobian`."""
+        return jacobian(x, self.l_b, self.use_height)
+
+    def evaluate(
+        self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
+    ) -> Measurement | None:
+        """Residual in NED metres (see :func:`residual`), H and R; None if z has a NaN/inf.
+
+        ``z = [lat, lon(, h)]`` (rad, rad, m), of length :attr:`dim`; ``omega_ib_b`` is not used.
+        """
+        zz = check_reading(self.name, z, self.dim)
+        if zz is None:
+            return None
+        y = residual(x, zz, self.l_b)
+        return Measurement(y, self.jacobian(x), self.R, self.names)

@@ -1,0 +1,467 @@
+"""Measurement models (spec §4, §9): H against finite differences, residual signs, hand values.
+
+The Jacobian check: for every sensor, J = ∂/∂dx of the residual of the reading a truth
+``x_hat ⊕ dx`` would give, ``y(dx) = z(x_hat ⊕ dx) - h(x_hat)``, at dx = 0, by central differences
+with per-column steps and Richardson extrapolation. For DVL, depth and inclinometer this is exactly
+``∂h(x_hat ⊕ dx)/∂dx``; for heading the difference is wrapped; for GNSS it is the same in NED
+metres (the residual's own units), which also avoids differencing latitudes as raw numbers. The
+conversion itself is checked separately against the exact geodetic <-> NED transformation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from adaptnav import attitude, earth, errorstate, strapdown
+from adaptnav.errorstate import ATT, BG, N_STATES, POS, VEL
+from adaptnav.sensors import (
+    DVL,
+    GNSS,
+    Depth,
+    Heading,
+    Inclinometer,
+    Measurement,
+    MeasurementModel,
+    dvl,
+    gnss,
+)
+
+Model = DVL | Depth | Inclinometer | Heading | GNSS
+
+# Per-column FD steps: 10 m of position is 1.6e-6 rad of latitude, far above float64 resolution;
+# rotations and rates are small enough for Richardson's O(ε⁴) to reach 1e-10.
+STEPS = np.array([10.0] * 3 + [1e-3] * 3 + [1e-4] * 3 + [1e-3] * 3 + [1e-4] * 3)
+# GNSS residuals are (lat_z - lat_pred)·R with ~1.4e-9 m of rounding in each reading, so larger
+# steps: rounding then costs < 2.5e-7 in J and the O(ε⁴) truncation (ε⁴|l|/30) < 3e-8.
+GNSS_STEPS = np.array([100.0] * 3 + [1e-3] * 3 + [2e-2] * 3 + [1e-3] * 3 + [1e-4] * 3)
+RTOL = 1e-6
+MAX_PITCH = math.radians(89.0)
+
+
+# --- strategies --------------------------------------------------------------------------------
+
+
+def _rotvec(axis: list[float], angle: float) -> np.ndarray:
+    a = np.array(axis)
+    n = float(np.linalg.norm(a))
+    assume(n > 0.1)
+    return a / n * angle
+
+
+rotvecs = st.builds(
+    _rotvec, st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3), st.floats(0.0, math.pi)
+)
+
+
+def _vec(bound: float) -> st.SearchStrategy[np.ndarray]:
+    return st.lists(st.floats(-bound, bound), min_size=3, max_size=3).map(np.array)
+
+
+def _state(lat_deg: float, lon_deg: float, h: float, v, rv, b_g) -> np.ndarray:
+    return strapdown.NavState(
+        math.radians(lat_deg),
+        math.radians(lon_deg),
+        h,
+        v,
+        attitude.rotvec_to_quat(rv),
+        np.array([0.01, -0.02, 0.03]),
+        b_g,
+    ).to_array()
+
+
+states = st.builds(
+    _state,
+    st.floats(-80.0, 80.0),
+    st.floats(-180.0, 180.0),
+    st.floats(-1000.0, 1000.0),
+    _vec(10.0),
+    rotvecs,
+    _vec(0.01),
+)
+levers = _vec(3.0)
+rates = _vec(0.5)
+mountings = st.one_of(
+    st.none(), rotvecs.map(lambda rv: attitude.quat_to_dcm(attitude.rotvec_to_quat(rv)))
+)
+
+
+def _mounting(C_sb: np.ndarray | None) -> np.ndarray:
+    return np.eye(3) if C_sb is None else C_sb
+
+
+# --- helpers -----------------------------------------------------------------------------------
+
+
+def _reading(model: Model, x: np.ndarray, w: np.ndarray | None) -> np.ndarray:
+    if isinstance(model, DVL):
+        return model.predict(x, w)
+    return model.predict(x)
+
+
+def _residual(model: Model, x_hat: np.ndarray, z: np.ndarray, w: np.ndarray | None) -> np.ndarray:
+    m = model.evaluate(x_hat, z, w)
+    assert m is not None
+    return m.y
+
+
+def _fd_jacobian(fun: Callable[[np.ndarray], np.ndarray], steps: np.ndarray) -> np.ndarray:
+    """Central differences, Richardson-extrapolated: (4 J(ε) - J(2ε)) / 3, error O(ε⁴)."""
+
+    def central(scale: float) -> np.ndarray:
+        cols = []
+        for j in range(N_STATES):
+            e = np.zeros(N_STATES)
+            e[j] = steps[j] * scale
+            cols.append((fun(e) - fun(-e)) / (2.0 * e[j]))
+        return np.column_stack(cols)
+
+    return (4.0 * central(1.0) - central(2.0)) / 3.0
+
+
+def _check_H(
+    model: Model, x: np.ndarray, w: np.ndarray | None = None, steps: np.ndarray = STEPS
+) -> None:
+    def y_of(dx: np.ndarray) -> np.ndarray:
+        return _residual(model, x, _reading(model, errorstate.inject(x, dx), w), w)
+
+    J = _fd_jacobian(y_of, steps)
+    m = model.evaluate(x, _reading(model, x, w), w)
+    assert m is not None
+    err = float(np.abs(m.H - J).max())
+    assert err <= RTOL * max(1.0, float(np.abs(J).max())), f"max|H - J| = {err:.3e}\nH={m.H}\nJ={J}"
+
+
+def _pitch(x: np.ndarray, C_sb: np.ndarray | None) -> float:
+    C = attitude.quat_to_dcm(x[6:10]) @ _mounting(C_sb).T
+    return float(attitude.dcm_to_euler(C)[1])
+
+
+# --- H against finite differences, every sensor ------------------------------------------------
+
+FD = settings(max_examples=60, deadline=None, derandomize=True)
+
+
+@FD
+@given(states, levers, rates, mountings)
+def test_dvl_H_matches_finite_differences(x, l_b, w, C_sb) -> None:
+    _check_H(DVL(0.01, l_b, _mounting(C_sb)), x, w)
+
+
+@FD
+@given(states, levers)
+def test_depth_H_matches_finite_differences(x, l_b) -> None:
+    _check_H(Depth(0.05, l_b), x)
+
+
+@FD
+@given(states, mountings)
+def test_inclinometer_H_matches_finite_differences(x, C_sb) -> None:
+    assume(abs(_pitch(x, C_sb)) < MAX_PITCH)
+    _check_H(Inclinometer(1e-3, _mounting(C_sb)), x)
+
+
+@FD
+@given(states, mountings)
+def test_heading_H_matches_finite_differences(x, C_sb) -> None:
+    assume(abs(_pitch(x, C_sb)) < MAX_PITCH)
+    _check_H(Heading(1e-2, _mounting(C_sb)), x)
+
+
+@FD
+@given(states, levers, st.booleans())
+def test_gnss_H_matches_finite_differences(x, l_b, use_height) -> None:
+    _check_H(GNSS(2.0, l_b, use_height), x, steps=GNSS_STEPS)
+
+
+@pytest.mark.parametrize("lat_deg", [80.0, 45.0, -80.0])
+@pytest.mark.parametrize("yaw_deg", [0.0, 50.0, -120.0])
+def test_gnss_lever_arm_curvature_terms(lat_deg: float, yaw_deg: float) -> None:
+    """The dr block's lever-arm terms (a/R up to a tan(lat)/R ≈ 5e-6) are resolved: the FD of
+    the position columns is good to ~3e-11, so compare them at 1e-9, below the smallest of them
+    (a_N R_M'/ρ_M² ≈ 1e-8)."""
+    x = strapdown.NavState.from_euler(
+        math.radians(lat_deg), 2.0, 30.0, [3, -2, 1], 0.3, -0.2, math.radians(yaw_deg)
+    ).to_array()
+    model = GNSS(1.0, np.array([3.0, -3.0, 3.0]))
+
+    def y_of(dx: np.ndarray) -> np.ndarray:
+        return _residual(model, x, model.predict(errorstate.inject(x, dx)), None)
+
+    J = _fd_jacobian(y_of, GNSS_STEPS)
+    H = model.jacobian(x)
+    assert np.abs(H[:, POS] - J[:, POS]).max() < 1e-9
+    assert np.abs(H[:, POS] - np.eye(3)).max() > 1e-8  # the terms are there to be tested
+
+
+def test_heading_H_near_the_wrap() -> None:
+    """Yaw within 1e-5 rad of ±π: the FD readings straddle the cut and the residual unwraps them."""
+    for yaw in (math.pi - 1e-5, -math.pi + 1e-5, math.pi):
+        x = strapdown.NavState.from_euler(0.5, 1.0, 0.0, [1.0, 0.0, 0.0], 0.2, -0.3, yaw)
+        _check_H(Heading(1e-2), x.to_array())
+
+
+# --- residual sign: y ≈ H dx for a reading from x_true = x_hat ⊕ dx -----------------------------
+
+DX = np.array([0.3, -0.2, 0.4, 0.02, -0.01, 0.03, 1e-4, -2e-4, 1.5e-4, 0, 0, 0, 1e-4, -2e-4, 3e-4])
+
+
+def _first_order(model: Model, x: np.ndarray, w: np.ndarray | None = None) -> None:
+    z = _reading(model, errorstate.inject(x, DX), w)
+    m = model.evaluate(x, z, w)
+    assert m is not None
+    lin = m.H @ DX
+    bound = 0.02 * (np.abs(m.H) @ np.abs(DX)) + 1e-12
+    assert np.all(np.abs(m.y - lin) <= bound), (m.y, lin)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(states, levers, rates, mountings, st.booleans())
+def test_residual_is_truth_minus_estimate_to_first_order(x, l_b, w, C_sb, use_height) -> None:
+    C = _mounting(C_sb)
+    _first_order(DVL(0.01, l_b, C), x, w)
+    _first_order(Depth(0.05, l_b), x)
+    _first_order(GNSS(2.0, l_b, use_height), x)
+    assume(abs(_pitch(x, C_sb)) < math.radians(80.0))
+    _first_order(Inclinometer(1e-3, C), x)
+    _first_order(Heading(1e-2, C), x)
+
+
+def _level(yaw_deg: float = 0.0, v=(0.0, 0.0, 0.0), h: float = -10.0) -> np.ndarray:
+    return strapdown.NavState.from_euler(
+        math.radians(45.0), 0.1, h, v, 0.0, 0.0, math.radians(yaw_deg)
+    ).to_array()
+
+
+def _dx(**blocks: list[float]) -> np.ndarray:
+    names = {"r": POS, "v": VEL, "phi": ATT, "bg": BG}
+    d = np.zeros(N_STATES)
+    for k, val in blocks.items():
+        d[names[k]] = val
+    return d
+
+
+def test_residual_signs_by_hand() -> None:
+    """Truth ahead of the estimate in each sensed quantity gives a positive residual."""
+    x = _level()
+    # truly faster north, heading north: the DVL reads more forward speed than predicted
+    z = DVL(0.01).predict(errorstate.inject(x, _dx(v=[0.1, 0, 0])))
+    assert DVL(0.01).evaluate(x, z).y == pytest.approx([0.1, 0.0, 0.0])
+    # truly 1 m deeper (dr_D = +1): depth residual +1
+    z = Depth(0.1).predict(errorstate.inject(x, _dx(r=[0, 0, 1.0])))
+    assert Depth(0.1).evaluate(x, z).y == pytest.approx([1.0])
+    # truly yawed 0.01 rad further clockwise (phi_D > 0): heading residual +0.01
+    z = Heading(0.01).predict(errorstate.inject(x, _dx(phi=[0, 0, 0.01])))
+    assert Heading(0.01).evaluate(x, z).y == pytest.approx([0.01])
+    # truly rolled right about north at yaw 0: roll residual +
+    z = Inclinometer(0.01).predict(errorstate.inject(x, _dx(phi=[0.01, 0, 0])))
+    assert Inclinometer(0.01).evaluate(x, z).y == pytest.approx([0.01, 0.0], abs=1e-9)
+    # truly 5 m north, 3 m east, 2 m down of the estimate
+    g = GNSS(1.0)
+    z = g.predict(errorstate.inject(x, _dx(r=[5.0, 3.0, 2.0])))
+    assert g.evaluate(x, z).y == pytest.approx([5.0, 3.0, 2.0], abs=1e-8)
+
+
+# --- hand-worked values ------------------------------------------------------------------------
+
+
+def test_dvl_hand_values() -> None:
+    # level, yaw 90°: body x points east, so eastward 2 m/s is forward 2 m/s
+    x = _level(90.0, v=(0.0, 2.0, 0.0))
+    assert dvl.predict(x, np.zeros(3)) == pytest.approx([2.0, 0.0, 0.0], abs=1e-12)
+    # 0.1 rad/s yaw rate with the DVL 1 m forward: it moves 0.1 m/s to the right
+    x = _level()
+    s = DVL(0.01, np.array([1.0, 0.0, 0.0]))
+    assert s.predict(x, np.array([0.0, 0.0, 0.1])) == pytest.approx([0.0, 0.1, 0.0], abs=1e-12)
+    # the same rate entirely explained by the gyro bias: no lever-arm velocity
+    xb = x.copy()
+    xb[strapdown.NOM_BG] = [0.0, 0.0, 0.1]
+    assert s.predict(xb, np.array([0.0, 0.0, 0.1])) == pytest.approx([0.0, 0.0, 0.0], abs=1e-12)
+    # DVL mounted rotated 90° about body z (its x is the body's right): forward motion is its -y
+    x = _level(0.0, v=(1.5, 0.0, 0.0))
+    rot = DVL(0.01, C_sb=attitude.euler_to_dcm(0.0, 0.0, math.pi / 2).T)
+    assert rot.predict(x) == pytest.approx([0.0, -1.5, 0.0], abs=1e-12)
+    m = rot.evaluate(x, np.array([0.0, -1.4, 0.0]))
+    assert m is not None
+    assert m.y == pytest.approx([0.0, 0.1, 0.0], abs=1e-12)
+    assert m.names == ("dvl_x", "dvl_y", "dvl_z")
+    np.testing.assert_allclose(m.R, np.diag([1e-4] * 3))
+
+
+def test_depth_hand_values() -> None:
+    x = _level(h=-50.0)
+    assert Depth(0.1).predict(x) == pytest.approx([50.0])
+    assert Depth(0.1, np.array([0.0, 0.0, 2.0])).predict(x) == pytest.approx([52.0])
+    # nose up 30°: a sensor 2 m forward sits 1 m higher
+    x30 = strapdown.NavState.from_euler(0.7, 0.0, -50.0, [0, 0, 0], 0.0, math.radians(30.0), 1.0)
+    assert Depth(0.1, np.array([2.0, 0.0, 0.0])).predict(x30.to_array()) == pytest.approx([49.0])
+    m = Depth(0.1).evaluate(x, 50.5)
+    assert m is not None
+    assert m.y == pytest.approx([0.5])
+    assert m.names == ("depth",)
+
+
+def test_attitude_sensors_hand_values() -> None:
+    x = strapdown.NavState.from_euler(0.7, 0.0, 0.0, [0, 0, 0], 0.1, -0.2, 1.0).to_array()
+    assert Inclinometer(1e-3).predict(x) == pytest.approx([0.1, -0.2])
+    assert Heading(1e-2).predict(x) == pytest.approx([1.0])
+    # a compass mounted 90° to starboard reads the heading + 90° (level vehicle)
+    xl = _level(10.0)
+    mount = attitude.euler_to_dcm(0.0, 0.0, math.pi / 2).T
+    assert Heading(1e-2, mount).predict(xl) == pytest.approx([math.radians(100.0)])
+    # mounted 90° to starboard (its y points aft): nose up is its positive roll
+    xp = strapdown.NavState.from_euler(0.7, 0.0, 0.0, [0, 0, 0], 0.0, 0.1, 0.0).to_array()
+    assert Inclinometer(1e-3, mount).predict(xp) == pytest.approx([0.1, 0.0], abs=1e-12)
+
+
+def test_heading_residual_wraps() -> None:
+    x = _level(-179.0)
+    m = Heading(1e-2).evaluate(x, math.radians(179.0))
+    assert m is not None
+    assert m.y == pytest.approx([math.radians(-2.0)])
+    m = Heading(1e-2).evaluate(_level(179.0), math.radians(-179.0))
+    assert m is not None
+    assert m.y == pytest.approx([math.radians(2.0)])
+    # a reading given on another branch (0..360°) means the same
+    m = Heading(1e-2).evaluate(_level(-90.0), math.radians(270.5))
+    assert m is not None
+    assert m.y == pytest.approx([math.radians(0.5)])
+
+
+def test_wrap_keeps_in_range_angles_exact() -> None:
+    assert attitude.wrap_angle(1e-20) == 1e-20  # no rounding through a + π
+    assert attitude.wrap_angle(np.array([math.pi, -math.pi, 3 * math.pi / 2])) == pytest.approx(
+        [math.pi, math.pi, -math.pi / 2]
+    )
+
+
+def test_gnss_hand_values() -> None:
+    x = _level(h=20.0)
+    lat, lon, h = x[0], x[1], x[2]
+    rm = earth.meridian_radius(lat) + h
+    rn = earth.transverse_radius(lat) + h
+    g = GNSS(np.array([1.0, 1.0, 3.0]))
+    m = g.evaluate(x, np.array([lat + 1e-6, lon - 2e-6, h + 3.0]))
+    assert m is not None
+    assert m.y == pytest.approx([1e-6 * rm, -2e-6 * rn * math.cos(lat), -3.0], rel=1e-8)
+    assert m.names == ("gnss_N", "gnss_E", "gnss_D")
+    np.testing.assert_allclose(m.R, np.diag([1.0, 1.0, 9.0]))
+    # antenna 2 m above the IMU on a level vehicle
+    assert GNSS(1.0, np.array([0.0, 0.0, -2.0])).predict(x)[2] == pytest.approx(22.0)
+    # 2-D fix: two components
+    m2 = GNSS(1.0, use_height=False).evaluate(x, np.array([lat, lon]))
+    assert m2 is not None
+    assert m2.y.shape == (2,) and m2.H.shape == (2, N_STATES) and m2.names == ("gnss_N", "gnss_E")
+    # across the antimeridian: 2e-7 rad east of the estimate, not 2π west
+    xa = x.copy()
+    xa[1] = math.pi - 1e-7
+    m = GNSS(1.0).evaluate(xa, np.array([lat, -math.pi + 1e-7, h]))
+    assert m is not None
+    assert m.y[1] == pytest.approx(2e-7 * rn * math.cos(lat), rel=1e-6)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(states, levers)
+def test_gnss_antenna_position_matches_exact_geodesy(x, l_b) -> None:
+    """The first-order lever-arm shift in lat/lon/h agrees with the exact NED -> geodetic map."""
+    lat, lon, h = x[0], x[1], x[2]
+    a = attitude.quat_to_dcm(x[6:10]) @ l_b
+    lat_e, lon_e, h_e = earth.ned_to_geodetic(a, lat, lon, h)
+    pred = gnss.predict(x, l_b)
+    rm = earth.meridian_radius(lat) + h
+    rn = earth.transverse_radius(lat) + h
+    err_m = [
+        (pred[0] - lat_e) * rm,
+        float(attitude.wrap_angle(pred[1] - lon_e)) * rn * math.cos(lat),
+        pred[2] - h_e,
+    ]
+    assert np.abs(err_m).max() < 1e-4  # O(|a|²/R) ≈ 4e-6 m, rounding of ECEF ~1e-8 m
+
+
+# --- configuration and readings ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("make", "field", "value"),
+    [
+        (lambda: DVL(-0.01), "sigma", "-0.01"),
+        (lambda: DVL(np.array([0.01, math.nan, 0.01])), "sigma", "nan"),
+        (lambda: DVL(np.array([0.01, 0.01])), "sigma", "shape (2,)"),
+        (lambda: DVL(0.01, np.array([0.0, math.nan, 0.0])), "l_b", "nan"),
+        (lambda: DVL(0.01, np.zeros(2)), "l_b", "shape (2,)"),
+        (lambda: DVL(0.01, C_sb=2.0 * np.eye(3)), "C_sb", "2."),
+        (lambda: DVL(0.01, C_sb=np.diag([1.0, 1.0, -1.0])), "C_sb", "-1."),
+        (lambda: DVL(0.01, name=""), "name", "''"),
+        (lambda: Depth(0.0), "sigma", "0.0"),
+        (lambda: Depth(math.nan), "sigma", "nan"),
+        (lambda: Depth(0.1, np.array([0.0, 0.0, math.inf])), "l_b", "inf"),
+        (lambda: Inclinometer(np.array([1e-3, -1e-3])), "sigma", "-0.001"),
+        (lambda: Inclinometer(1e-3, np.eye(2)), "C_sb", "shape (2, 2)"),
+        (lambda: Heading(-1.0), "sigma", "-1.0"),
+        (lambda: Heading(np.array([0.1, 0.1])), "sigma", "shape (2,)"),
+        (lambda: GNSS(np.array([1.0, 1.0]), use_height=True), "sigma", "shape (2,)"),
+        (lambda: GNSS(math.inf), "sigma", "inf"),
+        (lambda: GNSS(1.0, np.array([math.nan, 0, 0])), "l_b", "nan"),
+        (lambda: GNSS(1.0, use_height=1), "use_height", "1"),  # type: ignore[arg-type]
+    ],
+)
+def test_bad_config_is_refused_with_field_and_value(make, field, value) -> None:
+    with pytest.raises(ValueError) as info:
+        make()
+    msg = str(info.value)
+    assert field in msg and value in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("model", "bad"),
+    [
+        (DVL(0.01), np.array([0.1, math.nan, 0.0])),
+        (Depth(0.1), math.nan),
+        (Depth(0.1), np.array([math.inf])),
+        (Inclinometer(1e-3), np.array([math.nan, 0.0])),
+        (Heading(1e-2), math.nan),
+        (GNSS(1.0), np.array([0.7, math.nan, 0.0])),
+        (GNSS(1.0, use_height=False), np.array([math.nan, 0.1])),
+    ],
+)
+def test_nan_reading_is_no_measurement(model: Model, bad) -> None:
+    assert model.evaluate(_level(), bad, np.zeros(3)) is None
+
+
+def test_wrong_reading_shape_and_missing_rate_raise() -> None:
+    with pytest.raises(ValueError, match="dvl reading must have shape"):
+        DVL(0.01).evaluate(_level(), np.zeros(2))
+    with pytest.raises(ValueError, match="gnss reading must have shape"):
+        GNSS(1.0).evaluate(_level(), np.zeros(2))
+    with pytest.raises(ValueError, match="omega_ib_b"):
+        DVL(0.01, np.array([1.0, 0.0, 0.0])).evaluate(_level(), np.zeros(3))
+    with pytest.raises(ValueError, match="nominal state"):
+        Depth(0.1).evaluate(np.zeros(15), 1.0)
+
+
+def test_models_satisfy_the_protocol_and_configs_are_frozen() -> None:
+    models: list[MeasurementModel] = [
+        DVL(0.01),
+        Depth(0.1),
+        Inclinometer(1e-3),
+        Heading(1e-2),
+        GNSS(1.0),
+        GNSS(1.0, use_height=False),
+    ]
+    for model, dim in zip(models, (3, 1, 2, 1, 3, 2), strict=True):
+        assert isinstance(model, MeasurementModel)
+        assert model.dim == dim
+    d = DVL([0.01, 0.02, 0.03], [1.0, 2.0, 3.0])  # lists are accepted and stored as arrays
+    assert isinstance(d.sigma, np.ndarray) and d.l_b.dtype == np.float64
+    with pytest.raises(ValueError):
+        d.l_b[0] = 5.0  # read-only: the config cannot change under the filter's feet
+
+
+def test_measurement_checks_shapes() -> None:
+    with pytest.raises(ValueError, match="Measurement"):
+        Measurement(np.zeros(2), np.zeros((2, N_STATES)), np.eye(3), ("a", "b"))
