@@ -1,0 +1,364 @@
+"""Exact IMU signals of an analytically defined motion (inverse strapdown; spec §2, §9).
+
+A :class:`Motion` gives, as vectorised closed-form functions of time t (s), the geodetic
+position ``p = [L, λ, h]`` (rad, rad, m) with ``ṗ`` and ``p̈``, and the ZYX Euler angles
+``e = [φ, θ, ψ]`` (roll, pitch, yaw) with ``ė``. Everything else follows exactly, with the WGS84
+model of :mod:`adaptnav.earth` (conventions: ``docs/conventions.md``):
+
+1. NED velocity from the curvilinear position rates (Groves 2013 §2.4.3; the continuous form
+   of the position update, Groves 5.56)::
+
+       v_n = [(R_M + h) L̇,  (R_N + h) cos L λ̇,  -ḣ]
+
+   and its time derivative by the product rule, ``Ṙ_M = (dR_M/dL) L̇``, ``Ṙ_N = (dR_N/dL) L̇``::
+
+       v̇_N = (Ṙ_M + ḣ) L̇ + (R_M + h) L̈
+       v̇_E = (Ṙ_N + ḣ) cos L λ̇ - (R_N + h) sin L L̇ λ̇ + (R_N + h) cos L λ̈
+       v̇_D = -ḧ
+
+2. Attitude ``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` and the body rate relative to n. Differentiating
+   ``C_nb`` gives ``Ċ_nb = C_nb [ω_nb^b ×]`` with
+   ``ω_nb^b = e_x φ̇ + Rx(φ)ᵀ e_y θ̇ + Rx(φ)ᵀ Ry(θ)ᵀ e_z ψ̇``, i.e.::
+
+       ω_nb^b = [φ̇ - sin θ ψ̇,  cos φ θ̇ + sin φ cos θ ψ̇,  -sin φ θ̇ + cos φ cos θ ψ̇]
+
+3. The local-navigation-frame mechanization equations (Groves 2013 §5.4: attitude
+   ``Ċ_nb = C_nb [ω_ib^b×] - [ω_in^n×] C_nb``, velocity 5.54
+   ``v̇_n = C_nb f^b + g_n - (2 ω_ie^n + ω_en^n) × v_n``) solved for the sensor outputs::
+
+       ω_ib^b = ω_nb^b + C_nbᵀ (ω_ie^n + ω_en^n)
+       f^b    = C_nbᵀ (v̇_n - g_n + (2 ω_ie^n + ω_en^n) × v_n)
+
+   with ``ω_ie^n`` (Groves 2.123), ``ω_en^n`` (Groves 5.44) and normal gravity ``g_n`` (which
+   contains the centrifugal term) exactly as :mod:`adaptnav.earth` defines them, so a perfect
+   mechanization fed with these signals reproduces the motion up to its integration error.
+
+IMU model (``adaptnav.strapdown``): interval k = (t_{k-1}, t_k] carries the raw body-frame
+increments ``Δθ_k = ∫ ω_ib^b dt`` and ``Δv_k = ∫ f^b dt`` (no coning or sculling applied, as a
+real IMU outputs them). They are integrated here by m-point Gauss-Legendre quadrature per
+interval, whose error is ``dt^{2m+1} (m!)^4 / ((2m+1) ((2m)!)^3) g^{(2m)}(ξ)`` (Abramowitz &
+Stegun 25.4.30): for a signal of angular frequency Ω, relative ``≈ 2e-23 (Ω dt)^{16}`` at
+m = 8, far below double precision for any vessel motion at IMU rates.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav import earth
+
+Array = NDArray[np.float64]
+
+TimeFunction = Callable[[Array], Array]
+"""Maps times of shape (N,) to values of shape (N, 3)."""
+
+GAUSS_NODES = 8
+"""Default number of Gauss-Legendre nodes per IMU interval in :func:`imu_increments`."""
+
+_CHUNK = 8192
+"""Intervals evaluated at once by :func:`imu_increments` (bounds the memory of long runs)."""
+
+
+@dataclass(frozen=True)
+class Motion:
+    """An analytically defined motion: closed-form functions of time, vectorised over t.
+
+    Each field maps times (N,) to an (N, 3) array:
+
+    * ``position``: geodetic ``[lat, lon, h]`` (rad, rad, m, ellipsoidal height);
+    * ``position_rate``, ``position_accel``: its first and second time derivatives;
+    * ``euler``: ZYX Euler angles ``[roll, pitch, yaw]`` of ``C_nb`` (rad);
+    * ``euler_rate``: their time derivatives (rad/s).
+
+    The derivatives must be the exact derivatives of the values: nothing checks it here
+    (``tests/test_mechanization.py`` checks the ready-made motions against finite differences).
+    """
+
+    position: TimeFunction
+    position_rate: TimeFunction
+    position_accel: TimeFunction
+    euler: TimeFunction
+    euler_rate: TimeFunction
+
+
+class Kinematics(NamedTuple):
+    """True kinematic quantities at N instants (all arrays have leading dimension N)."""
+
+    position: Array
+    """``[lat, lon, h]`` (N, 3)."""
+    v_n: Array
+    """NED velocity (N, 3)."""
+    v_n_rate: Array
+    """Time derivative of the NED velocity, ``v̇_n`` (N, 3)."""
+    C_nb: Array
+    """Body-to-NED DCM (N, 3, 3)."""
+    omega_nb_b: Array
+    """Body rate relative to the NED frame, resolved in b (N, 3)."""
+    omega_ib_b: Array
+    """Body rate relative to inertial space, resolved in b: the gyro output (N, 3)."""
+    f_b: Array
+    """Specific force resolved in b: the accelerometer output (N, 3)."""
+
+
+def _times(t: ArrayLike) -> Array:
+    ta = np.atleast_1d(np.asarray(t, dtype=float))
+    if ta.ndim != 1:
+        raise ValueError(f"times must be a scalar or a 1-D array, got shape {ta.shape}")
+    return ta
+
+
+def _euler_to_dcm(e: Array) -> Array:
+    """``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` for an (N, 3) array of ``[φ, θ, ψ]`` → (N, 3, 3).
+
+    The vectorised twin of :func:`adaptnav.attitude.euler_to_dcm`.
+    """
+    sr, cr = np.sin(e[:, 0]), np.cos(e[:, 0])
+    sp, cp = np.sin(e[:, 1]), np.cos(e[:, 1])
+    sy, cy = np.sin(e[:, 2]), np.cos(e[:, 2])
+    rows = [
+        np.stack([cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy], axis=-1),
+        np.stack([cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy], axis=-1),
+        np.stack([-sp, sr * cp, cr * cp], axis=-1),
+    ]
+    return np.stack(rows, axis=-2)
+
+
+def _euler_to_quat(e: Array) -> Array:
+    """``q_nb = q_z(ψ) ⊗ q_y(θ) ⊗ q_x(φ)`` for (N, 3) Euler angles → (N, 4), w ≥ 0.
+
+    Half-angle closed form; the sign is chosen as :func:`adaptnav.attitude.euler_to_quat`
+    (``dcm_to_quat``) chooses it, so the two agree to rounding.
+    """
+    sr, cr = np.sin(0.5 * e[:, 0]), np.cos(0.5 * e[:, 0])
+    sp, cp = np.sin(0.5 * e[:, 1]), np.cos(0.5 * e[:, 1])
+    sy, cy = np.sin(0.5 * e[:, 2]), np.cos(0.5 * e[:, 2])
+    q = np.stack(
+        [
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        ],
+        axis=-1,
+    )
+    result: Array = np.where(q[:, :1] < 0.0, -q, q)
+    return result
+
+
+def true_kinematics(motion: Motion, t: ArrayLike) -> Kinematics:
+    """All true kinematic quantities of ``motion`` at the instants ``t`` (module docstring).
+
+    Earth rate, transport rate and gravity are the vectorised forms of
+    :func:`adaptnav.earth.earth_rate_n`, :func:`~adaptnav.earth.transport_rate_n` and
+    :func:`~adaptnav.earth.gravity_n`.
+    """
+    tt = _times(t)
+    p, pd, pdd = motion.position(tt), motion.position_rate(tt), motion.position_accel(tt)
+    lat, h = p[:, 0], p[:, 2]
+    dlat, dlon, dh = pd[:, 0], pd[:, 1], pd[:, 2]
+    ddlat, ddlon, ddh = pdd[:, 0], pdd[:, 1], pdd[:, 2]
+    sl, cl = np.sin(lat), np.cos(lat)
+    rm = earth.meridian_radius(lat) + h
+    rn = earth.transverse_radius(lat) + h
+    drm = earth.meridian_radius_dlat(lat) * dlat + dh
+    drn = earth.transverse_radius_dlat(lat) * dlat + dh
+
+    v_n = np.stack([rm * dlat, rn * cl * dlon, -dh], axis=-1)
+    v_n_rate = np.stack(
+        [
+            drm * dlat + rm * ddlat,
+            drn * cl * dlon - rn * sl * dlat * dlon + rn * cl * ddlon,
+            -ddh,
+        ],
+        axis=-1,
+    )
+
+    e, ed = motion.euler(tt), motion.euler_rate(tt)
+    C_nb = _euler_to_dcm(e)
+    s_r, c_r = np.sin(e[:, 0]), np.cos(e[:, 0])
+    s_p, c_p = np.sin(e[:, 1]), np.cos(e[:, 1])
+    omega_nb_b = np.stack(
+        [
+            ed[:, 0] - s_p * ed[:, 2],
+            c_r * ed[:, 1] + s_r * c_p * ed[:, 2],
+            -s_r * ed[:, 1] + c_r * c_p * ed[:, 2],
+        ],
+        axis=-1,
+    )
+
+    zero = np.zeros_like(lat)
+    omega_ie_n = earth.OMEGA_IE * np.stack([cl, zero, -sl], axis=-1)
+    v_N, v_E = v_n[:, 0], v_n[:, 1]
+    omega_en_n = np.stack([v_E / rn, -v_N / rm, -v_E * np.tan(lat) / rn], axis=-1)
+    g_n = np.stack([zero, zero, earth.gravity(lat, h)], axis=-1)
+
+    omega_ib_b = omega_nb_b + np.einsum("nji,nj->ni", C_nb, omega_ie_n + omega_en_n)
+    f_n = v_n_rate - g_n + np.cross(2.0 * omega_ie_n + omega_en_n, v_n)
+    f_b = np.einsum("nji,nj->ni", C_nb, f_n)
+    return Kinematics(p, v_n, v_n_rate, C_nb, omega_nb_b, omega_ib_b, f_b)
+
+
+def imu_rates(motion: Motion, t: ArrayLike) -> tuple[Array, Array]:
+    """Error-free gyro and accelerometer outputs sampled at the instants t.
+
+    Returns ``(ω_ib^b, f^b)``, each (N, 3), in rad/s and m/s² (module docstring, item 3).
+    """
+    k = true_kinematics(motion, t)
+    return k.omega_ib_b, k.f_b
+
+
+def imu_increments(motion: Motion, t: ArrayLike, nodes: int = GAUSS_NODES) -> tuple[Array, Array]:
+    """Exact IMU increments over the intervals (t_{k-1}, t_k] of the instants t.
+
+    ``Δθ_k = ∫ ω_ib^b dt`` (rad) and ``Δv_k = ∫ f^b dt`` (m/s), the raw body-frame integrals,
+    each by ``nodes``-point Gauss-Legendre quadrature per interval (exact to double precision
+    for the smooth motions used here; module docstring). N instants give N-1 increments,
+    like :func:`adaptnav.strapdown.rates_to_increments`.
+    """
+    tt = _times(t)
+    if tt.size < 2:
+        raise ValueError("need at least two instants to form an interval")
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    dtheta = np.empty((tt.size - 1, 3))
+    dvel = np.empty((tt.size - 1, 3))
+    for start in range(0, tt.size - 1, _CHUNK):
+        a = tt[start : start + _CHUNK]
+        b = tt[start + 1 : start + _CHUNK + 1]
+        a = a[: b.size]
+        half = 0.5 * (b - a)
+        tau = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]
+        gyro, accel = imu_rates(motion, tau.ravel())
+        weights = (half[:, None] * w[None, :])[:, :, None]
+        dtheta[start : start + a.size] = np.sum(gyro.reshape(a.size, nodes, 3) * weights, axis=1)
+        dvel[start : start + a.size] = np.sum(accel.reshape(a.size, nodes, 3) * weights, axis=1)
+    return dtheta, dvel
+
+
+def true_states(motion: Motion, t: ArrayLike) -> Array:
+    """True nominal states (N, 16) at the instants t: ``[lat, lon, h, v_n, q_nb, 0 (6)]``.
+
+    Layout of :mod:`adaptnav.strapdown` (``NOM_*``); the bias slots are zero (a perfect IMU).
+    ``q_nb`` equals :func:`adaptnav.attitude.euler_to_quat` of the Euler angles (w ≥ 0).
+    """
+    tt = _times(t)
+    k = true_kinematics(motion, tt)
+    q = _euler_to_quat(motion.euler(tt))
+    return np.concatenate([k.position, k.v_n, q, np.zeros((tt.size, 6))], axis=1)
+
+
+# --- ready-made motions ---------------------------------------------------------------------
+
+
+def _constant(value: ArrayLike) -> TimeFunction:
+    v = np.asarray(value, dtype=float)
+
+    def f(t: Array) -> Array:
+        return np.tile(v, (np.shape(t)[0], 1))
+
+    return f
+
+
+def stationary(
+    lat: float,
+    lon: float,
+    h: float = 0.0,
+    roll: float = 0.0,
+    pitch: float = 0.0,
+    yaw: float = 0.0,
+) -> Motion:
+    """A body at rest on the rotating Earth with a fixed attitude (angles in rad).
+
+    Its IMU senses only earth rate and gravity: ``ω_ib^b = C_nbᵀ ω_ie^n``,
+    ``f^b = -C_nbᵀ g_n``.
+    """
+    zero = np.zeros(3)
+    return Motion(
+        position=_constant([lat, lon, h]),
+        position_rate=_constant(zero),
+        position_accel=_constant(zero),
+        euler=_constant([roll, pitch, yaw]),
+        euler_rate=_constant(zero),
+    )
+
+
+def turn_with_waves(
+    lat0: float = np.deg2rad(26.8),
+    lon0: float = np.deg2rad(56.3),
+    h0: float = 0.0,
+    speed: float = 2.0,
+    radius: float = 300.0,
+    course0: float = 0.0,
+    heave_amplitude: float = 0.5,
+    heave_period: float = 8.0,
+    roll_amplitude: float = np.deg2rad(5.0),
+    roll_period: float = 7.0,
+    pitch_amplitude: float = np.deg2rad(3.0),
+    pitch_period: float = 9.0,
+    phases: tuple[float, float, float] = (0.0, 0.5, 1.0),
+) -> Motion:
+    """A vessel in a steady turn in waves, every derivative in closed form.
+
+    Course ``χ(t) = χ0 + Ω t`` with ``Ω = speed / radius`` (Ω > 0 turns to starboard, i.e.
+    clockwise seen from above), on a circle through the start point; local offsets from it::
+
+        n(t) = R (sin χ - sin χ0),   e(t) = -R (cos χ - cos χ0),
+        u(t) = A_h sin(2π t / T_h + φ_h)       (heave, up positive)
+
+    so that ``[ṅ, ė] = speed [cos χ, sin χ]``. They become geodetic coordinates with the
+    *constant* scale factors of the start point (the motion is defined this way, it is not an
+    approximation of anything)::
+
+        L = L0 + n / (R_M(L0) + h0),   λ = λ0 + e / ((R_N(L0) + h0) cos L0),   h = h0 + u.
+
+    Attitude: yaw = course (no crab), roll ``A_r sin(2π t / T_r + φ_r)``, pitch
+    ``A_p sin(2π t / T_p + φ_p)``; ``phases = (φ_h, φ_r, φ_p)`` in rad. Defaults: 2 m/s on a
+    300 m radius at 26.8° N, 0.5 m heave at 8 s, 5° roll at 7 s, 3° pitch at 9 s.
+    """
+    rate = speed / radius
+    k_lat = 1.0 / (float(earth.meridian_radius(lat0)) + h0)
+    k_lon = 1.0 / ((float(earth.transverse_radius(lat0)) + h0) * np.cos(lat0))
+    w_h, w_r, w_p = (
+        2.0 * np.pi / heave_period,
+        2.0 * np.pi / roll_period,
+        2.0 * np.pi / pitch_period,
+    )
+    ph_h, ph_r, ph_p = phases
+    s0, c0 = np.sin(course0), np.cos(course0)
+
+    def position(t: Array) -> Array:
+        chi = course0 + rate * t
+        n = radius * (np.sin(chi) - s0)
+        e = -radius * (np.cos(chi) - c0)
+        u = heave_amplitude * np.sin(w_h * t + ph_h)
+        return np.stack([lat0 + k_lat * n, lon0 + k_lon * e, h0 + u], axis=-1)
+
+    def position_rate(t: Array) -> Array:
+        chi = course0 + rate * t
+        dn = speed * np.cos(chi)
+        de = speed * np.sin(chi)
+        du = heave_amplitude * w_h * np.cos(w_h * t + ph_h)
+        return np.stack([k_lat * dn, k_lon * de, du], axis=-1)
+
+    def position_accel(t: Array) -> Array:
+        chi = course0 + rate * t
+        ddn = -speed * rate * np.sin(chi)
+        dde = speed * rate * np.cos(chi)
+        ddu = -heave_amplitude * w_h**2 * np.sin(w_h * t + ph_h)
+        return np.stack([k_lat * ddn, k_lon * dde, ddu], axis=-1)
+
+    def euler(t: Array) -> Array:
+        roll = roll_amplitude * np.sin(w_r * t + ph_r)
+        pitch = pitch_amplitude * np.sin(w_p * t + ph_p)
+        return np.stack([roll, pitch, course0 + rate * t], axis=-1)
+
+    def euler_rate(t: Array) -> Array:
+        droll = roll_amplitude * w_r * np.cos(w_r * t + ph_r)
+        dpitch = pitch_amplitude * w_p * np.cos(w_p * t + ph_p)
+        return np.stack([droll, dpitch, np.full_like(t, rate)], axis=-1)
+
+    return Motion(position, position_rate, position_accel, euler, euler_rate)
