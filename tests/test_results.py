@@ -1,0 +1,216 @@
+"""Result tables from an engine run, ledger counts, noise record, run folder round trip."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav import attitude
+from adaptnav.engine import EngineOutput
+from adaptnav.errorstate import STATE_NAMES
+from adaptnav.results import (
+    SOLUTION_COLUMNS,
+    Result,
+    RunFolderError,
+    ledger_counts,
+    load,
+    quat_to_euler_rows,
+    save,
+)
+
+EULER = np.array(
+    [[0.1, -0.2, 0.3], [0.0, 0.0, 3.1], [-0.3, 0.4, -3.0], [0.05, 1.2, 1.0], [1.0, -0.7, -1.5]]
+)
+
+
+def _row(
+    t: float, sensor: str, fate: str, nu: list[float], r: list[float], **kw: object
+) -> dict[str, object]:
+    rec: dict[str, object] = {
+        "t": t,
+        "t_epoch": kw.get("t_epoch", t),
+        "sensor": sensor,
+        "row": kw.get("row", 0),
+        "fate": fate,
+        "reason": kw.get("reason", ""),
+        "statistic": kw.get("statistic", math.nan),
+        "threshold": kw.get("threshold", math.nan),
+        "iterations": kw.get("iterations", 0),
+    }
+    for j in range(3):
+        rec[f"nu_{j}"] = nu[j] if j < len(nu) else math.nan
+        rec[f"r_{j}"] = r[j] if j < len(r) else math.nan
+    return rec
+
+
+def synthetic_output() -> EngineOutput:
+    n = EULER.shape[0]
+    t = np.arange(n, dtype=float) * 0.1
+    x = np.zeros((n, 16))
+    x[:, 0] = math.radians(45.0) + 1e-6 * np.arange(n)
+    x[:, 1] = math.radians(7.0) - 2e-6 * np.arange(n)
+    x[:, 2] = -10.0 + np.arange(n)
+    x[:, 3:6] = [1.0, -0.5, 0.1]
+    for k in range(n):
+        x[k, 6:10] = attitude.euler_to_quat(*EULER[k])
+    x[:, 10:13] = [1e-3, -2e-3, 3e-3]
+    x[:, 13:16] = [1e-5, -2e-5, 3e-5]
+    P_diag = np.tile((np.arange(15, dtype=float) + 1.0) ** 2, (n, 1))
+    ledger = [
+        _row(0.1, "dvl", "used", [0.1, -0.2, 0.05], [0.01, 0.02, 0.03], statistic=2.5, row=0),
+        _row(0.15, "depth", "used", [0.3], [0.04], statistic=0.8, row=0, iterations=3),
+        _row(
+            0.2,
+            "dvl",
+            "rejected",
+            [5.0, 1.0, 0.0],
+            [0.01, 0.02, 0.03],
+            reason="gate q",
+            statistic=40.0,
+            threshold=9.0,
+            row=1,
+        ),
+        _row(0.3, "dvl", "used", [0.0, 0.1, 0.0], [0.011, 0.021, 0.031], statistic=3.1, row=2),
+        _row(0.25, "depth", "dropped", [], [], reason="late", t_epoch=0.3, row=1),
+        _row(0.9, "depth", "dropped", [], [], reason="after", t_epoch=math.nan, row=2),
+    ]
+    return EngineOutput(t, x, P_diag, ledger, x[-1].copy(), np.diag(P_diag[-1]))
+
+
+def make_result(**kw: object) -> Result:
+    meta = {"settings": {"q": 3.0, "epoch_policy": "exact"}, "elapsed_s": np.float64(1.5)}
+    repairs = [
+        {"file": "dvl.csv", "line": 12, "field": "vx", "action": "drop", "detail": "NaN"},
+    ]
+    return Result.from_engine(
+        synthetic_output(),
+        "vb",
+        "m1",
+        meta,
+        repairs=repairs,
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+def test_solution_table() -> None:
+    out = synthetic_output()
+    res = make_result()
+    sol = res.solution
+    assert list(sol.columns) == list(SOLUTION_COLUMNS)
+    assert [c for c in sol.columns if c.startswith("sd_")] == [f"sd_{s}" for s in STATE_NAMES]
+    np.testing.assert_array_equal(sol["t_s"], out.t)
+    np.testing.assert_array_equal(sol["lat_rad"], out.x[:, 0])
+    np.testing.assert_array_equal(sol["vd_m_s"], out.x[:, 5])
+    np.testing.assert_array_equal(sol["bg_z_rad_s"], out.x[:, 15])
+    np.testing.assert_allclose(sol[["roll_rad", "pitch_rad", "yaw_rad"]], EULER, atol=1e-12)
+    np.testing.assert_allclose(sol["sd_dbg_z"], 15.0)
+    np.testing.assert_allclose(sol["sd_dr_N"], 1.0)
+
+
+def test_vectorised_euler_matches_attitude() -> None:
+    rng = np.random.default_rng(1)
+    q = rng.normal(size=(200, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    rows = quat_to_euler_rows(q)
+    ref = np.array([attitude.quat_to_euler(qk) for qk in q])
+    np.testing.assert_allclose(rows, ref, rtol=0, atol=1e-14)
+
+
+def test_ledger_kept_and_kind() -> None:
+    res = make_result(kinds={"dvl": "DVL", "depth": "Depth"})
+    led = res.ledger
+    assert len(led) == 6
+    assert list(led.columns[:4]) == ["t", "t_epoch", "sensor", "kind"]
+    assert list(led["kind"]) == ["DVL", "Depth", "DVL", "DVL", "Depth", "Depth"]
+    assert led["row"].dtype == np.int64
+    assert led.loc[2, "reason"] == "gate q"
+    with pytest.raises(ValueError, match="depth"):
+        make_result(kinds={"dvl": "DVL"})
+
+
+def test_ledger_counts() -> None:
+    counts = ledger_counts(make_result().ledger)
+    assert counts == {
+        "depth": {"used": 1, "rejected": 0, "dropped": 2},
+        "dvl": {"used": 2, "rejected": 1, "dropped": 0},
+    }
+    assert ledger_counts(make_result().ledger.iloc[0:0]) == {}
+
+
+def test_noise_table_from_used_rows() -> None:
+    noise = make_result().noise
+    assert list(noise.columns) == ["t_s", "sensor", "component", "r_hat"]
+    expected = pd.DataFrame(
+        {
+            "t_s": [0.1, 0.1, 0.1, 0.15, 0.3, 0.3, 0.3],
+            "sensor": ["dvl", "dvl", "dvl", "depth", "dvl", "dvl", "dvl"],
+            "component": [0, 1, 2, 0, 0, 1, 2],
+            "r_hat": [0.01, 0.02, 0.03, 0.04, 0.011, 0.021, 0.031],
+        }
+    )
+    np.testing.assert_array_equal(noise["t_s"], expected["t_s"])
+    assert list(noise["sensor"]) == list(expected["sensor"])
+    assert list(noise["component"]) == list(expected["component"])
+    np.testing.assert_array_equal(noise["r_hat"], expected["r_hat"])
+
+
+def test_save_load_round_trip(tmp_path: Path) -> None:
+    res = make_result(kinds={"dvl": "DVL", "depth": "Depth"})
+    folder = save(res, tmp_path / "run")
+    names = sorted(p.name for p in folder.iterdir())
+    assert names == [
+        "ledger.parquet", "noise.parquet", "repairs.parquet", "solution.parquet", "summary.json",
+    ]  # fmt: skip
+    info = json.loads((folder / "summary.json").read_text())
+    assert info["filter"] == "vb" and info["mission"] == "m1"
+    assert info["counts"]["dvl"] == {"used": 2, "rejected": 1, "dropped": 0}
+    back = load(folder)
+    assert back.filter == "vb" and back.mission == "m1"
+    assert (
+        back.meta
+        == res.meta
+        == {
+            "settings": {"q": 3.0, "epoch_policy": "exact"},
+            "elapsed_s": 1.5,
+        }
+    )
+    for name in ("solution", "ledger", "noise", "repairs"):
+        pd.testing.assert_frame_equal(getattr(back, name), getattr(res, name))
+
+
+def test_empty_repairs_round_trip(tmp_path: Path) -> None:
+    res = Result.from_engine(synthetic_output(), "meskf", "m2", {})
+    assert res.repairs.empty and list(res.repairs.columns) == [
+        "file", "line", "field", "action", "detail",
+    ]  # fmt: skip
+    back = load(save(res, tmp_path))
+    assert back.repairs.empty
+    pd.testing.assert_frame_equal(back.solution, res.solution)
+
+
+def test_meta_must_be_json() -> None:
+    with pytest.raises(TypeError, match=r"meta\.bad"):
+        Result.from_engine(synthetic_output(), "vb", "m", {"bad": object()})
+    res = Result.from_engine(synthetic_output(), "vb", "m", {"x": math.nan, "a": (1, 2)})
+    assert res.meta == {"x": None, "a": [1, 2]}
+
+
+def test_load_errors(tmp_path: Path) -> None:
+    with pytest.raises(RunFolderError, match="does not exist"):
+        load(tmp_path / "nowhere")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match=r"missing summary\.json"):
+        load(empty)
+    folder = save(make_result(), tmp_path / "run")
+    (folder / "noise.parquet").unlink()
+    with pytest.raises(RunFolderError, match=r"missing noise\.parquet"):
+        load(folder)
+    (folder / "summary.json").write_text("{not json")
+    with pytest.raises(RunFolderError, match=r"summary\.json"):
+        load(folder)
