@@ -1,0 +1,58 @@
+"""Mission input format: a folder with ``mission.toml`` and one table per stream.
+
+Defined once here and documented in docs/data-format.md: the TOML schema
+(:mod:`adaptnav.io.config`), the tables and their columns (:mod:`adaptnav.io.tables`) and the
+loaded, checked data (:mod:`adaptnav.io.mission`). Bad input gives a :class:`MissionError`
+naming file, line and field, or a logged :class:`Repair` (logger ``adaptnav.io``).
+"""
+
+from adaptnav.io.config import (
+    FilterConfig,
+    ImuConfig,
+    ImuNoiseConfig,
+    InitialBiasSigma,
+    InitialConfig,
+    MissionConfig,
+    MissionError,
+    MissionSection,
+    MissionUnitError,
+    SensorConfig,
+    TruthConfig,
+    load_config,
+    parse_config,
+    write_config,
+)
+from adaptnav.io.mission import (
+    ImuData,
+    Mission,
+    SensorData,
+    build_sensor_model,
+    load_mission,
+    write_mission,
+)
+from adaptnav.io.tables import DroppedRow, Repair
+
+__all__ = [
+    "DroppedRow",
+    "FilterConfig",
+    "ImuConfig",
+    "ImuData",
+    "ImuNoiseConfig",
+    "InitialBiasSigma",
+    "InitialConfig",
+    "Mission",
+    "MissionConfig",
+    "MissionError",
+    "MissionSection",
+    "MissionUnitError",
+    "Repair",
+    "SensorConfig",
+    "SensorData",
+    "TruthConfig",
+    "build_sensor_model",
+    "load_config",
+    "load_mission",
+    "parse_config",
+    "write_config",
+    "write_mission",
+]

@@ -1,0 +1,696 @@
+"""Mission input format (adaptnav.io): round trips, conversions and every bad-input case."""
+
+from __future__ import annotations
+
+import logging
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.attitude import euler_to_dcm
+from adaptnav.io import (
+    MissionConfig,
+    MissionError,
+    build_sensor_model,
+    load_config,
+    load_mission,
+    parse_config,
+    write_config,
+    write_mission,
+)
+from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
+from adaptnav.units import DEG, G0, UnitError
+
+DATA = Path(__file__).parent / "data" / "io"
+RATE = 100.0
+T = 1.0 / RATE
+
+
+# --- builders -----------------------------------------------------------------------------------
+
+
+def config_dict(**sections: Any) -> dict[str, Any]:
+    """A minimal valid mission.toml as a dict; ``sections`` replace or add top-level tables."""
+    d: dict[str, Any] = {
+        "mission": {"name": "test"},
+        "imu": {
+            "file": "imu.csv",
+            "rate_hz": RATE,
+            "noise": {"arw": [0.0667, "deg/sqrt(h)"], "vrw": [55, "ug/sqrt(Hz)"]},
+        },
+        "sensors": {
+            "dvl": {"kind": "dvl", "file": "dvl.csv", "sigma": [0.02, "m/s"], "rate_hz": 3.0},
+        },
+        "initial": {"lat_deg": 26.8, "lon_deg": 56.0},
+    }
+    d.update(sections)
+    return d
+
+
+def imu_rates(n: int = 50, t0: float = 10.0) -> pd.DataFrame:
+    t = t0 + T * np.arange(n)
+    return pd.DataFrame(
+        {
+            "t_s": t,
+            "gyro_x_rad_s": 1e-3 * t,
+            "gyro_y_rad_s": 0.0,
+            "gyro_z_rad_s": 2e-3,
+            "accel_x_m_s2": 0.1,
+            "accel_y_m_s2": 0.0,
+            "accel_z_m_s2": -G0,
+        }
+    )
+
+
+def dvl_table(n: int = 5, t0: float = 10.05) -> pd.DataFrame:
+    t = t0 + np.arange(n) / 3.0
+    return pd.DataFrame(
+        {"t_s": t, "vx_m_s": 1.0 + 0.01 * t, "vy_m_s": 0.1, "vz_m_s": -0.01 * np.arange(n)}
+    )
+
+
+def write_dir(root: Path, cfg: dict[str, Any], files: dict[str, pd.DataFrame | str]) -> Path:
+    """A mission folder with ``cfg`` and files given as DataFrames (by extension) or CSV text."""
+    root.mkdir(parents=True, exist_ok=True)
+    write_config(parse_config(cfg), root / "mission.toml")
+    for name, content in files.items():
+        if isinstance(content, str):
+            (root / name).write_text(content)
+        elif name.endswith(".csv"):
+            content.to_csv(root / name, index=False)
+        else:
+            content.to_parquet(root / name, index=False)
+    return root
+
+
+def csv_text(df: pd.DataFrame) -> str:
+    return str(df.to_csv(index=False))
+
+
+def load_error(root: Path) -> str:
+    with pytest.raises(MissionError) as info:
+        load_mission(root)
+    return str(info.value)
+
+
+# --- configuration ------------------------------------------------------------------------------
+
+
+def test_example_config_round_trips() -> None:
+    cfg = load_config(DATA / "mission.toml")
+    assert cfg.mission.name == "paper-1"
+    assert cfg.sensors["gnss"].use == "init" and cfg.sensors["gnss"].dim == 2
+    assert math.isinf(cfg.imu.noise.to_imu_noise().accel_bias_tau)
+    assert cfg.imu.noise.to_imu_noise().arw == pytest.approx(0.0667 * DEG / 60.0)
+    again = parse_config(tomllib.loads(cfg.dump_toml()))
+    assert again == cfg
+    settings = cfg.filter_settings()
+    assert settings.gate_sensors == ("dvl",) and settings.gate_q["maeskf"] == 1800.0
+    assert cfg.output_every() == 10
+
+
+def test_docs_example_is_valid() -> None:
+    text = (Path(__file__).parents[1] / "docs" / "data-format.md").read_text()
+    block = text.split("```toml\n", 1)[1].split("```", 1)[0]
+    cfg = parse_config(tomllib.loads(block))
+    assert cfg.mission.name == "paper-1" and cfg.gated_sensors() == ("dvl",)
+    assert parse_config(tomllib.loads(cfg.dump_toml())) == cfg
+
+
+def test_defaults_of_a_minimal_config() -> None:
+    cfg = parse_config(config_dict())
+    assert cfg.imu.format == "rates" and cfg.imu.gap_limit_s == pytest.approx(0.05)
+    assert cfg.filter.kind == "vb" and cfg.initial.mode == "alignment"
+    assert cfg.gated_sensors() == ("dvl",)
+    assert cfg.truth.file is None
+    noise = cfg.imu.noise.to_imu_noise()
+    g, a = cfg.imu.initial_bias_sigma.si(noise)
+    assert g == pytest.approx(10 * DEG / 3600) and a == pytest.approx(1e-3 * G0)
+    assert parse_config(tomllib.loads(cfg.dump_toml())) == cfg
+
+
+def _config_error(mutate: Any) -> MissionError:
+    d = config_dict()
+    mutate(d)
+    with pytest.raises(MissionError) as info:
+        parse_config(d)
+    return info.value
+
+
+@pytest.mark.parametrize(
+    ("mutate", "path", "words"),
+    [
+        (lambda d: d["imu"].update(rte_hz=1.0), "imu.rte_hz", "unknown key"),
+        (lambda d: d["sensors"]["dvl"].update(gateq=1.0), "sensors.dvl.gateq", "unknown key"),
+        (lambda d: d.update(extra={"a": 1}), "extra", "unknown key"),
+        (lambda d: d["imu"].update(rate_hz=0.0), "imu.rate_hz", "greater than 0 (got 0.0)"),
+        (lambda d: d["imu"].update(rate_hz=math.nan), "imu.rate_hz", "finite"),
+        (lambda d: d["sensors"]["dvl"].update(sigma=[-0.02, "m/s"]), "sensors.dvl.sigma", "-0.02"),
+        (lambda d: d["sensors"]["dvl"].update(sigma=[math.nan, "m/s"]), "sensors.dvl.sigma", "nan"),
+        (lambda d: d["sensors"]["dvl"].update(kind="usbl"), "sensors.dvl.kind", "'usbl'"),
+        (lambda d: d["sensors"]["dvl"].pop("file"), "sensors.dvl.file", "missing required"),
+        (lambda d: d["mission"].pop("name"), "mission.name", "missing required"),
+        (lambda d: d["imu"]["noise"].pop("vrw"), "imu.noise.vrw", "missing required"),
+        (lambda d: d["imu"].update(file="imu.txt"), "imu.file", "unknown table format"),
+        (lambda d: d.update(filter={"gate_q": {"ekf": 1.0}}), "filter.gate_q", "'ekf'"),
+        (lambda d: d.update(filter={"gate_sensors": ["dv"]}), "filter.gate_sensors", "'dv'"),
+        (lambda d: d["sensors"]["dvl"].update(use_height=True), "sensors.dvl.use_height", "gnss"),
+        (lambda d: d["sensors"]["dvl"].update(optional="yes"), "sensors.dvl.optional", "bool"),
+        (lambda d: d["sensors"].update(imu=d["sensors"]["dvl"]), "sensors", "reserved"),
+        (lambda d: d["initial"].pop("lat_deg"), "initial.lat_deg", "required for alignment"),
+        (lambda d: d["initial"].update(lat_deg=95.0), "initial.lat_deg", "95"),
+        (
+            lambda d: d["sensors"].update(d={"kind": "depth", "file": "d.csv", "sigma": [1, "m"],
+                                             "mounting_rpy_deg": [0, 0, 1]}),
+            "sensors.d.mounting_rpy_deg",
+            "no mounting rotation",
+        ),
+        (
+            lambda d: d.update(initial={"mode": "state", "lat_deg": 1.0, "lon_deg": 2.0}),
+            "initial.rpy_deg",
+            "required when mode = 'state'",
+        ),
+        (
+            lambda d: d["sensors"].update(g={"kind": "gnss", "file": "g.csv",
+                                             "sigma": [[1, 1, 2], "m"]}),
+            "sensors.g.sigma",
+            "use_height = false has 2 components",
+        ),
+    ],
+)  # fmt: skip
+def test_config_errors_name_the_key(mutate: Any, path: str, words: str) -> None:
+    err = _config_error(mutate)
+    assert f"{path}: " in str(err) and words in str(err), str(err)
+    assert str(err).startswith("mission.toml: ")
+
+
+@pytest.mark.parametrize(
+    ("mutate", "path"),
+    [
+        (lambda d: d["imu"]["noise"].update(arw=[0.1, "deg/h"]), "imu.noise.arw"),
+        (lambda d: d["sensors"]["dvl"].update(sigma=[0.02, "m"]), "sensors.dvl.sigma"),
+        (lambda d: d["imu"]["noise"].update(gyro_bias_tau=[1, "deg"]), "imu.noise.gyro_bias_tau"),
+        (
+            lambda d: d["imu"].update(initial_bias_sigma={"accel": [1, "deg/h"]}),
+            "imu.initial_bias_sigma.accel",
+        ),
+    ],
+)
+def test_wrong_units_are_unit_errors(mutate: Any, path: str) -> None:
+    err = _config_error(mutate)
+    assert isinstance(err, UnitError)
+    assert f"{path}: unknown unit" in str(err)
+    assert err.field == path
+
+
+def test_load_config_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(MissionError, match="file not found"):
+        load_config(tmp_path / "mission.toml")
+    (tmp_path / "mission.toml").write_text("[mission]\nname = 'x'\n[imu\n")
+    with pytest.raises(MissionError, match=r"mission.toml: invalid TOML.*line 3"):
+        load_config(tmp_path / "mission.toml")
+    (tmp_path / "mission.toml").write_text("[mission]\nname = 'x'\n")
+    with pytest.raises(MissionError, match=r"imu: missing required key"):
+        load_config(tmp_path / "mission.toml")
+
+
+def test_taus_accept_inf() -> None:
+    d = config_dict()
+    d["imu"]["noise"].update(gyro_bias_tau=["inf", "s"], accel_bias_tau=[math.inf, "h"])
+    noise = parse_config(d).imu.noise.to_imu_noise()
+    assert math.isinf(noise.gyro_bias_tau) and math.isinf(noise.accel_bias_tau)
+
+
+# --- sensor models ------------------------------------------------------------------------------
+
+
+def test_build_sensor_models() -> None:
+    d = config_dict()
+    d["sensors"] = {
+        "dvl": {
+            "kind": "dvl",
+            "file": "dvl.csv",
+            "sigma": [[2, 2, 3], "cm/s"],
+            "lever_arm_m": [1.0, 0.5, 0.2],
+            "mounting_rpy_deg": [10.0, -5.0, 45.0],
+        },
+        "dep": {"kind": "depth", "file": "d.csv", "sigma": [5, "cm"], "lever_arm_m": [0, 0, 1]},
+        "inc": {"kind": "inclinometer", "file": "i.csv", "sigma": [0.05, "deg"]},
+        "hdg": {"kind": "heading", "file": "h.csv", "sigma": [0.5, "deg"]},
+        "gps": {"kind": "gnss", "file": "g.csv", "sigma": [[2, 3, 5], "m"], "use_height": True},
+    }
+    cfg = parse_config(d)
+    dvl = build_sensor_model("dvl", cfg.sensors["dvl"])
+    assert isinstance(dvl, DVL) and dvl.name == "dvl"
+    np.testing.assert_allclose(dvl.sigma, [0.02, 0.02, 0.03])
+    np.testing.assert_allclose(dvl.l_b, [1.0, 0.5, 0.2])
+    C_bs = euler_to_dcm(10 * DEG, -5 * DEG, 45 * DEG)
+    np.testing.assert_allclose(dvl.C_sb, C_bs.T)
+    # a vector along the DVL's x axis is C_bs[:, 0] in body axes and reads back as x
+    np.testing.assert_allclose(dvl.C_sb @ C_bs[:, 0], [1.0, 0.0, 0.0], atol=1e-15)
+    dep = build_sensor_model("dep", cfg.sensors["dep"])
+    assert isinstance(dep, Depth) and dep.sigma == pytest.approx(0.05)
+    inc = build_sensor_model("inc", cfg.sensors["inc"])
+    assert isinstance(inc, Inclinometer)
+    np.testing.assert_allclose(inc.sigma, [0.05 * DEG] * 2)
+    hdg = build_sensor_model("hdg", cfg.sensors["hdg"])
+    assert isinstance(hdg, Heading) and hdg.sigma == pytest.approx(0.5 * DEG)
+    gps = build_sensor_model("gps", cfg.sensors["gps"])
+    assert isinstance(gps, GNSS) and gps.dim == 3
+    np.testing.assert_allclose(gps.sigma, [2.0, 3.0, 5.0])
+
+
+# --- round trips and conversions ----------------------------------------------------------------
+
+
+def _full_mission() -> tuple[dict[str, Any], dict[str, pd.DataFrame]]:
+    d = config_dict(truth={"file": "truth.parquet"})
+    d["sensors"] = {
+        "dvl": {"kind": "dvl", "file": "dvl.parquet", "sigma": [0.02, "m/s"]},
+        "depth": {"kind": "depth", "file": "depth.parquet", "sigma": [0.1, "m"]},
+        "incl": {"kind": "inclinometer", "file": "incl.parquet", "sigma": [0.1, "deg"]},
+        "hdg": {"kind": "heading", "file": "hdg.parquet", "sigma": [1, "deg"]},
+        "gnss": {"kind": "gnss", "file": "gnss.parquet", "sigma": [3, "m"], "use": "init"},
+    }
+    rng = np.random.default_rng(1)
+    t = 10.0 + np.arange(6) * 0.123456789
+    dvl = dvl_table()
+    dvl["is_outlier"] = [False, True, False, False, False]
+    tables = {
+        "imu": imu_rates(),
+        "dvl": dvl,
+        "depth": pd.DataFrame({"t_s": t, "depth_m": rng.normal(5, 1, 6)}),
+        "incl": pd.DataFrame({"t_s": t, "roll_rad": rng.normal(0, 0.1, 6), "pitch_rad": 0.01}),
+        "hdg": pd.DataFrame({"t_s": t, "yaw_rad": rng.uniform(-3, 3, 6)}),
+        "gnss": pd.DataFrame(
+            {"t_s": t, "lat_rad": 0.46 + 1e-7 * t, "lon_rad": 0.97, "h_m": rng.normal(0, 1, 6)}
+        ),
+        "truth": pd.DataFrame(
+            {
+                "t_s": t,
+                **{c: rng.normal(size=6) for c in ("lat_rad", "lon_rad", "h_m", "vn_m_s")},
+                **{c: rng.normal(size=6) for c in ("ve_m_s", "vd_m_s", "roll_rad", "pitch_rad")},
+                "yaw_rad": rng.normal(size=6),
+                "sigma_dvl_m_s": 0.02,
+            }
+        ),
+    }
+    return d, tables
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_write_then_load_round_trip(tmp_path: Path, fmt: str) -> None:
+    d, tables = _full_mission()
+    written = write_mission(tmp_path, parse_config(d), tables, fmt=fmt)  # type: ignore[arg-type]
+    assert written.imu.file == f"imu.{fmt}" and (tmp_path / f"dvl.{fmt}").is_file()
+    m = load_mission(tmp_path)
+    assert m.config == written and m.repairs == () and m.dropped == ()
+    imu = tables["imu"]
+    t = imu["t_s"].to_numpy()
+    np.testing.assert_array_equal(m.imu.t, t[1:])
+    np.testing.assert_array_equal(m.imu.dt, np.diff(t))
+    for name, cols in [
+        ("dvl", ["vx_m_s", "vy_m_s", "vz_m_s"]),
+        ("depth", ["depth_m"]),
+        ("incl", ["roll_rad", "pitch_rad"]),
+        ("hdg", ["yaw_rad"]),
+        ("gnss", ["lat_rad", "lon_rad"]),
+    ]:
+        s = m.sensors[name]
+        np.testing.assert_array_equal(s.t, tables[name]["t_s"].to_numpy())
+        np.testing.assert_array_equal(s.z, tables[name][cols].to_numpy())
+        np.testing.assert_array_equal(s.rows, np.arange(len(tables[name])))
+    assert m.sensors["gnss"].kind == "gnss" and m.sensors["gnss"].z.shape == (6, 2)
+    assert m.sensors["dvl"].period == pytest.approx(1 / 3)  # median interval (no rate_hz)
+    assert list(m.readings()) == ["dvl", "depth", "incl", "hdg"]  # gnss is use = "init"
+    assert m.truth is not None
+    pd.testing.assert_frame_equal(m.truth, tables["truth"], check_dtype=False)
+    assert list(m.tables["dvl"]["is_outlier"]) == [False, True, False, False, False]
+
+
+def test_rates_are_integrated_by_the_trapezoid_rule(tmp_path: Path) -> None:
+    imu = imu_rates(n=11)
+    imu.loc[5:, "t_s"] += 0.004  # one longer interval: the trapezoid uses each interval's dt
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    t = imu["t_s"].to_numpy()
+    assert len(m.imu) == 10 and m.imu.start == t[0]
+    np.testing.assert_allclose(m.imu.dt, np.diff(t), rtol=0, atol=0)
+    w = imu["gyro_x_rad_s"].to_numpy()
+    np.testing.assert_allclose(m.imu.dtheta[:, 0], (w[1:] + w[:-1]) / 2 * np.diff(t))
+    np.testing.assert_allclose(m.imu.dtheta[:, 2], 2e-3 * np.diff(t))
+    np.testing.assert_allclose(m.imu.dvel[:, 2], -G0 * np.diff(t))
+
+
+def _increments(n: int = 8, t0: float = 5.0) -> pd.DataFrame:
+    t = t0 + T * np.arange(n)
+    return pd.DataFrame(
+        {
+            "t_s": t,
+            "dtheta_x_rad": 1e-5,
+            "dtheta_y_rad": 0.0,
+            "dtheta_z_rad": 2e-5,
+            "dvel_x_m_s": 1e-3,
+            "dvel_y_m_s": 0.0,
+            "dvel_z_m_s": -G0 * T,
+        }
+    )
+
+
+def test_increments_format(tmp_path: Path) -> None:
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _increments()
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    np.testing.assert_array_equal(m.imu.t, inc["t_s"].to_numpy())
+    assert m.imu.dt[0] == pytest.approx(T)  # the first interval gets 1/rate_hz
+    np.testing.assert_allclose(m.imu.dt[1:], np.diff(inc["t_s"].to_numpy()))
+    cols = ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"]
+    np.testing.assert_array_equal(m.imu.dtheta, inc[cols].to_numpy())
+    assert m.imu.dvel[0, 2] == -G0 * T
+
+
+def test_increment_row_with_nan_is_dropped_and_next_interval_stretched(tmp_path: Path) -> None:
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _increments()
+    inc.loc[3, "dvel_y_m_s"] = np.nan
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert len(m.imu) == 7
+    assert m.imu.dt[3] == pytest.approx(2 * T)  # line 6 now covers (t_2, t_4]
+    assert m.imu.dvel[3, 2] == pytest.approx(-2 * G0 * T)  # constant rate over the hole
+    (r,) = m.repairs
+    assert (r.file, r.line, r.field) == ("imu.csv", 5, "dvel_y_m_s")
+    assert r.action == "dropped row with non-finite value"
+
+
+# --- structure of the files ---------------------------------------------------------------------
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates()})
+    msg = load_error(root)
+    assert msg.startswith("dvl.csv: file not found")
+    with pytest.raises(MissionError, match=r"mission\.toml: file not found"):
+        load_mission(tmp_path / "nowhere")
+
+
+def test_file_that_is_not_csv_or_parquet(tmp_path: Path) -> None:
+    imu = imu_rates()
+    root = write_dir(tmp_path, config_dict(), {"dvl.csv": dvl_table()})
+    imu.to_parquet(root / "imu.csv")  # a Parquet file named .csv
+    assert "imu.csv: not a CSV text file" in load_error(root)
+    (root / "imu.csv").write_bytes(b"t_s,\xff\xfe\n")
+    assert "imu.csv: not UTF-8 text" in load_error(root)
+    d = config_dict()
+    d["imu"]["file"] = "imu.parquet"
+    write_dir(root, d, {"imu.parquet": "t_s,gyro_x\n1,2\n"})  # CSV text named .parquet
+    assert "imu.parquet: not a readable Parquet file" in load_error(root)
+
+
+def test_empty_tables(tmp_path: Path) -> None:
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": "", "dvl.csv": dvl_table()})
+    assert "imu.csv: empty file (no header line)" in load_error(root)
+    header = ",".join(imu_rates().columns) + "\n"
+    (root / "imu.csv").write_text(header)
+    assert "imu.csv (imu): no data rows" in load_error(root)
+
+
+def test_truncated_last_line_is_dropped(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    text = csv_text(imu_rates(n=20))
+    text = text[: text.rstrip("\n").rfind(",")]  # cut the last row in its last field
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": text, "dvl.csv": dvl_table()})
+    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+        m = load_mission(root)
+    assert len(m.imu) == 18  # 19 complete samples → 18 intervals
+    (r,) = m.repairs
+    assert (r.file, r.line, r.action) == ("imu.csv", 21, "dropped truncated last line")
+    assert "imu.csv line 21" in caplog.text
+
+
+def test_short_line_in_the_middle_is_an_error(tmp_path: Path) -> None:
+    lines = csv_text(imu_rates()).splitlines()
+    lines[4] = ",".join(lines[4].split(",")[:3])
+    root = write_dir(
+        tmp_path, config_dict(), {"imu.csv": "\n".join(lines) + "\n", "dvl.csv": dvl_table()}
+    )
+    assert "imu.csv line 5: 3 fields, the header (line 1) has 7" in load_error(root)
+
+
+def test_columns_in_another_order_and_blank_lines(tmp_path: Path) -> None:
+    imu = imu_rates()
+    shuffled = imu[list(reversed(imu.columns))]
+    lines = csv_text(shuffled).splitlines()
+    lines.insert(3, "")  # a blank line: skipped, but line numbers still count it
+    lines[7] = lines[7].replace(lines[7].split(",")[0], "oops", 1)
+    files: dict[str, pd.DataFrame | str] = {"imu.csv": "\n".join(lines), "dvl.csv": dvl_table()}
+    root = write_dir(tmp_path, config_dict(), files)
+    assert "imu.csv line 8, accel_z_m_s2: value 'oops' is not a number" in load_error(root)
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": csv_text(shuffled)})
+    m = load_mission(root)
+    np.testing.assert_array_equal(m.imu.t, imu["t_s"].to_numpy()[1:])
+
+
+def test_missing_column_lists_missing_and_found(tmp_path: Path) -> None:
+    dvl = dvl_table().drop(columns=["vy_m_s"])
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    msg = load_error(root)
+    assert "dvl.csv (sensor 'dvl'): missing column(s) ['vy_m_s']" in msg
+    assert "found ['t_s', 'vx_m_s', 'vz_m_s']" in msg
+
+
+def test_table_of_the_wrong_kind(tmp_path: Path) -> None:
+    gnss = pd.DataFrame({"t_s": [1.0, 2.0], "lat_deg": [26.8, 26.8], "lon_deg": [56.0, 56.0]})
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": gnss})
+    msg = load_error(root)
+    assert "missing column(s) ['vx_m_s', 'vy_m_s', 'vz_m_s']" in msg
+    assert "looks like a gnss table" in msg
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), "dvl.csv": dvl_table()})
+    assert "looks like a imu (format = 'rates') table" in load_error(root)
+
+
+def test_non_numeric_value_names_line_and_field(tmp_path: Path) -> None:
+    dvl = dvl_table().astype({"vy_m_s": object})
+    dvl.loc[2, "vy_m_s"] = "1.2.3"
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    assert "dvl.csv line 4, vy_m_s: value '1.2.3' is not a number" in load_error(root)
+
+
+def test_parquet_errors_name_the_row(tmp_path: Path) -> None:
+    d = config_dict()
+    d["sensors"]["dvl"]["file"] = "dvl.parquet"
+    dvl = dvl_table()
+    dvl["vx_m_s"] = dvl["vx_m_s"].astype(str)  # a text column, as a bad exporter writes it
+    dvl.loc[3, "vx_m_s"] = "fast"
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), "dvl.parquet": dvl})
+    assert "dvl.parquet row 3, vx_m_s: value 'fast' is not a number" in load_error(root)
+
+
+# --- values -------------------------------------------------------------------------------------
+
+
+def test_imu_nan_row_dropped_then_gap_checked(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    imu = imu_rates()
+    imu.loc[7, "gyro_y_rad_s"] = np.nan
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+        m = load_mission(root)
+    assert len(m.imu) == 48 and m.imu.dt[6] == pytest.approx(2 * T)
+    (r,) = m.repairs
+    assert (r.line, r.field, r.action) == (9, "gyro_y_rad_s", "dropped row with non-finite value")
+    assert "imu.csv line 9, gyro_y_rad_s: dropped row" in caplog.text
+    imu.loc[8:12, "accel_x_m_s2"] = np.nan  # now 6 rows in a row: a 70 ms hole
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu})
+    msg = load_error(root)
+    assert "IMU gap of 0.07 s between imu.csv line 8 (t = 10.06 s)" in msg
+    assert "line 15 (t = 10.13" in msg and "6 row(s) between them were dropped" in msg
+
+
+def test_sensor_nan_row_is_kept(tmp_path: Path) -> None:
+    dvl = dvl_table()
+    dvl.loc[1, "vz_m_s"] = np.nan
+    dvl_csv = csv_text(dvl).replace(",,", ",,", 1)
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl_csv})
+    m = load_mission(root)
+    assert m.sensors["dvl"].z.shape == (5, 3) and np.isnan(m.sensors["dvl"].z[1, 2])
+    assert m.repairs == () and m.dropped == ()
+
+
+def test_time_must_be_finite(tmp_path: Path) -> None:
+    imu = imu_rates()
+    imu.loc[4, "t_s"] = np.inf
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    assert "imu.csv line 6, t_s: time inf is not finite" in load_error(root)
+
+
+def test_out_of_order_names_first_line_and_both_times(tmp_path: Path) -> None:
+    imu = imu_rates()
+    imu.loc[10, "t_s"] = 9.0
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    msg = load_error(root)
+    assert "imu.csv line 12, t_s: time goes backwards: t = 9.0 s after t = 10.09 s" in msg
+    assert "at imu.csv line 11" in msg
+    dvl = dvl_table()
+    dvl.loc[3, "t_s"] = 10.0
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    assert "dvl.csv line 5, t_s: time goes backwards: t = 10.0 s" in load_error(root)
+
+
+def test_imu_duplicates(tmp_path: Path) -> None:
+    imu = imu_rates()
+    dup = pd.concat([imu.iloc[:6], imu.iloc[5:]], ignore_index=True)  # row 5 twice
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": dup, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    np.testing.assert_array_equal(m.imu.t, imu["t_s"].to_numpy()[1:])
+    (r,) = m.repairs
+    assert (r.line, r.action) == (8, "dropped duplicate row") and "imu.csv line 7" in r.detail
+    dup.loc[6, "accel_x_m_s2"] = 0.2
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": dup})
+    msg = load_error(root)
+    assert "imu.csv line 8, t_s: repeated time t = 10.05 s (also at imu.csv line 7)" in msg
+
+
+def test_sensor_duplicate_timestamp_goes_to_dropped(tmp_path: Path) -> None:
+    dvl = dvl_table()
+    t1 = float(dvl["t_s"].iloc[1])
+    dvl.loc[2, "t_s"] = t1
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    m = load_mission(root)
+    s = m.sensors["dvl"]
+    np.testing.assert_array_equal(s.rows, [0, 1, 3, 4])
+    np.testing.assert_array_equal(s.z[1], dvl.loc[1, ["vx_m_s", "vy_m_s", "vz_m_s"]])
+    (d,) = m.dropped
+    assert (d.sensor, d.row, d.t, d.reason) == ("dvl", 2, t1, "duplicate timestamp")
+
+
+def test_imu_gap_names_lines_and_times(tmp_path: Path) -> None:
+    imu = imu_rates()
+    imu.loc[20:, "t_s"] += 0.5
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    msg = load_error(root)
+    assert "imu.csv: IMU gap of 0.51 s between imu.csv line 21 (t = 10.19 s) and" in msg
+    assert "imu.csv line 22 (t = 10.7 s) exceeds imu.max_gap_s = 0.05 s" in msg
+    d = config_dict()
+    d["imu"]["max_gap_s"] = 1.0
+    write_dir(tmp_path, d, {})
+    assert len(load_mission(tmp_path).imu) == 49
+
+
+def test_sensor_without_samples(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    empty = "t_s,vx_m_s,vy_m_s,vz_m_s\n"
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": empty})
+    assert "sensor 'dvl' (dvl.csv): no samples (set optional = true" in load_error(root)
+    d = config_dict()
+    d["sensors"]["dvl"]["optional"] = True
+    write_dir(tmp_path, d, {})
+    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+        m = load_mission(tmp_path)
+    assert m.sensors == {}
+    (r,) = m.repairs
+    assert r.action == "disabled sensor" and "dvl" in r.detail
+    assert "disabled sensor" in caplog.text
+
+
+def test_off_sensor_is_not_loaded(tmp_path: Path) -> None:
+    d = config_dict()
+    d["sensors"]["dvl"]["use"] = "off"
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates()})  # no dvl.csv at all
+    m = load_mission(root)
+    assert m.sensors == {} and set(m.tables) == {"imu"}
+
+
+def test_absurd_imu_magnitudes_hint_at_units(tmp_path: Path) -> None:
+    imu = imu_rates()
+    imu.loc[12, "gyro_z_rad_s"] = 57.3  # deg/s given as rad/s
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    msg = load_error(root)
+    assert "imu.csv line 14, gyro_z_rad_s: value 57.3 exceeds 20 rad/s: wrong units?" in msg
+    assert "deg/s" in msg
+    imu = imu_rates()
+    imu["accel_z_m_s2"] = -9806.65  # mm/s²
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu})
+    assert "imu.csv line 2, accel_z_m_s2: value -9806.65 exceeds 20 g" in load_error(root)
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _increments()
+    inc.loc[2, "dtheta_x_rad"] = 0.573  # deg per 10 ms given as rad
+    root = write_dir(tmp_path, d, {"imu.csv": inc})
+    msg = load_error(root)
+    assert "imu.csv line 4, dtheta_x_rad: value 0.573 over dt = 0.01 s is a rate of 57.3" in msg
+
+
+def test_degree_columns_are_converted_and_noted(tmp_path: Path) -> None:
+    d = config_dict()
+    d["sensors"] = {"hdg": {"kind": "heading", "file": "hdg.csv", "sigma": [1, "deg"]}}
+    hdg = pd.DataFrame({"t_s": [10.1, 10.2], "yaw_deg": [90.0, -45.0], "quality": [1, 2]})
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), "hdg.csv": hdg})
+    m = load_mission(root)
+    np.testing.assert_allclose(m.sensors["hdg"].z[:, 0], [math.pi / 2, -math.pi / 4])
+    (r,) = m.repairs
+    assert (r.file, r.field, r.action) == ("hdg.csv", "yaw_deg", "converted degrees")
+    assert list(m.tables["hdg"].columns) == ["t_s", "yaw_deg", "quality"]
+
+
+def test_gnss_height_column_only_with_use_height(tmp_path: Path) -> None:
+    d = config_dict()
+    d["sensors"] = {"gps": {"kind": "gnss", "file": "g.csv", "sigma": [2, "m"]}}
+    gps = pd.DataFrame({"t_s": [10.1, 10.2], "lat_deg": [26.8, 26.8], "lon_deg": [56.0, 56.1]})
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), "g.csv": gps})
+    z = load_mission(root).sensors["gps"].z
+    np.testing.assert_allclose(z, np.deg2rad(gps[["lat_deg", "lon_deg"]].to_numpy()))
+    d["sensors"]["gps"]["use_height"] = True
+    write_dir(tmp_path, d, {})
+    assert "missing column(s) ['h_m']" in load_error(tmp_path)
+
+
+def test_many_repairs_are_all_recorded_but_logged_briefly(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    dvl = dvl_table(n=30)
+    t = dvl["t_s"].to_numpy().copy()
+    t[1::2] = t[0::2]  # every other stamp repeated
+    dvl["t_s"] = t
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+        m = load_mission(root)
+    assert len(m.dropped) == 15 and len(m.sensors["dvl"].t) == 15
+    assert "5 more: duplicate timestamp" in caplog.text
+
+
+def test_write_mission_checks_the_tables(tmp_path: Path) -> None:
+    cfg = parse_config(config_dict())
+    with pytest.raises(MissionError, match=r"no table given for \['dvl'\]"):
+        write_mission(tmp_path, cfg, {"imu": imu_rates()})
+    with pytest.raises(MissionError, match=r"tables \['usbl'\] name no stream"):
+        write_mission(tmp_path, cfg, {"imu": imu_rates(), "dvl": dvl_table(), "usbl": dvl_table()})
+    kept = write_mission(tmp_path, cfg, {"imu": imu_rates(), "dvl": dvl_table()}, fmt=None)
+    assert kept == cfg and (tmp_path / "imu.csv").is_file()
+    assert isinstance(load_mission(tmp_path / "mission.toml").config, MissionConfig)
+
+
+def test_header_problems(tmp_path: Path) -> None:
+    semi = csv_text(dvl_table()).replace(",", ";")
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": semi})
+    assert "the separator must be a comma" in load_error(root)
+    (root / "dvl.csv").write_text("t_s,vx_m_s,vx_m_s,vz_m_s\n1,2,3,4\n")
+    assert "dvl.csv line 1: repeated column name(s) ['vx_m_s']" in load_error(root)
+
+
+def test_truncated_parquet_file(tmp_path: Path) -> None:
+    d = config_dict()
+    d["imu"]["file"] = "imu.parquet"
+    root = write_dir(tmp_path, d, {"imu.parquet": imu_rates(), "dvl.csv": dvl_table()})
+    data = (root / "imu.parquet").read_bytes()
+    (root / "imu.parquet").write_bytes(data[: len(data) // 2])
+    assert "imu.parquet: not a readable Parquet file" in load_error(root)
