@@ -13,6 +13,7 @@ from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.heading import Heading
 from adaptnav.sensors.inclinometer import Inclinometer
+from adaptnav.sensors.zupt import ZeroVelocity
 
 __all__ = [
     "DVL",
@@ -22,5 +23,6 @@ __all__ = [
     "Inclinometer",
     "Measurement",
     "MeasurementModel",
+    "ZeroVelocity",
     "euler_jacobian",
 ]

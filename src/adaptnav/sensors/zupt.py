@@ -1,0 +1,95 @@
+"""Zero-velocity update (ZUPT): a stationary vehicle's NED velocity is zero (spec §8).
+
+A pseudo-measurement used during static alignment (Groves (2013) §15.3.1 zero-velocity update,
+§14.4 fine alignment): the vehicle is known to be at rest, so its velocity "reads" z = 0. The
+model is more generally a direct NED velocity observation of the IMU point::
+
+    h(x) = v_n,    z = 0 (at rest),    y = z - h(x_hat) = -v_n_hat.
+
+Linearisation for ``dx = x_true ⊖ x_hat`` (``v_true = v_hat + dv``): ``h(x_hat ⊕ dx) = v_hat + dv``
+exactly, so ``H = [0 I 0 0 0]`` (identity on the dv block). No lever arm: at rest every point of
+the body moves only with the earth, whose rotation the n-frame already carries.
+
+σ is the velocity noise the rest assumption allows for (a moored vessel sways): 0.01 m/s by
+default.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from adaptnav.errorstate import N_STATES, VEL
+from adaptnav.sensors.base import (
+    Array,
+    Measurement,
+    check_name,
+    check_reading,
+    check_scalar_sigma,
+    check_state,
+)
+from adaptnav.strapdown import NOM_VEL
+
+DIM = 3
+
+
+def predict(x: ArrayLike) -> Array:
+    """h(x) = v_n, the NED velocity of the IMU (m/s, shape (3,))."""
+    return np.array(check_state(x)[NOM_VEL], dtype=float)
+
+
+def jacobian(x: ArrayLike) -> Array:
+    """H (3×15): identity on dv, zero elsewhere."""
+    check_state(x)
+    H = np.zeros((DIM, N_STATES))
+    H[:, VEL] = np.eye(3)
+    return H
+
+
+@dataclass(frozen=True, eq=False)
+class ZeroVelocity:
+    """Zero-velocity pseudo-measurement for a stationary vehicle.
+
+    Attributes:
+        sigma: noise σ of each NED velocity component (m/s).
+        name: sensor name; components are ``{name}_N``, ``{name}_E``, ``{name}_D``.
+    """
+
+    sigma: float = 0.01
+    name: str = "zupt"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
+        object.__setattr__(self, "name", check_name("name", self.name))
+
+    @property
+    def dim(self) -> int:
+        return DIM
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (f"{self.name}_N", f"{self.name}_E", f"{self.name}_D")
+
+    @property
+    def R(self) -> Array:
+        return np.eye(DIM) * self.sigma**2
+
+    def predict(self, x: ArrayLike) -> Array:
+        """See :func:`predict`."""
+        return predict(x)
+
+    def jacobian(self, x: ArrayLike) -> Array:
+        """See :func:`jacobian`."""
+        return jacobian(x)
+
+    def evaluate(
+        self, x: Array, z: ArrayLike = (0.0, 0.0, 0.0), omega_ib_b: ArrayLike | None = None
+    ) -> Measurement | None:
+        """Residual ``z - v_n`` (m/s; ``-v_n`` for the usual z = 0), H and R; None if z has a
+        NaN/inf. ``z`` has shape (3,); ``omega_ib_b`` is not used."""
+        zz = check_reading(self.name, z, DIM)
+        if zz is None:
+            return None
+        return Measurement(zz - self.predict(x), self.jacobian(x), self.R, self.names)
