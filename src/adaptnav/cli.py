@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, NoReturn
 
 import numpy as np
 import typer
@@ -14,6 +14,9 @@ from rich.table import Table
 from adaptnav import errorstate, propagation
 from adaptnav.imu_noise import ImuNoise
 from adaptnav.sim import kinematics as kin
+from adaptnav.units import UnitError
+
+FILTER_CHOICES = ("meskf", "maeskf", "vb")
 
 app = typer.Typer(
     help="adaptnav: asynchronous multirate multi-sensor inertial navigation.",
@@ -21,6 +24,7 @@ app = typer.Typer(
     add_completion=False,
 )
 console = Console()
+err_console = Console(stderr=True)
 
 
 def paper_imu() -> ImuNoise:
@@ -117,6 +121,112 @@ def demo(
         "[yellow]Interim demo:[/] the three filters (MESKF, MAESKF, VB-MAESKF) on the paper's "
         "trajectory No. 1 replace this once the fusion engine and the simulator land."
     )
+
+
+def _fail(message: str) -> NoReturn:
+    """A user's mistake (bad file, bad config): one clear line, exit status 2, no traceback."""
+    err_console.print(f"[bold red]error:[/] {message}")
+    raise typer.Exit(2)
+
+
+@app.command("run")
+def run_cmd(
+    mission_dir: Annotated[Path, typer.Argument(help="mission folder (mission.toml + tables)")],
+    filter: Annotated[
+        str, typer.Option("--filter", "-f", help="meskf | maeskf | vb (default: the mission's)")
+    ] = "",
+    out: Annotated[Path, typer.Option("--out", "-o", help="run folder to write")] = Path(
+        "runs/run"
+    ),
+    epoch_policy: Annotated[
+        str, typer.Option(help="exact (default) | grid (the paper's); default: the mission's")
+    ] = "",
+) -> None:
+    """Run one filter on a mission; write the solution, ledger and R-hat record to --out."""
+    from adaptnav import api, results
+    from adaptnav.align import AlignmentError
+    from adaptnav.io import MissionError, load_mission
+
+    if filter and filter not in FILTER_CHOICES:
+        _fail(f"--filter: {filter!r} is not one of {', '.join(FILTER_CHOICES)}")
+    if epoch_policy and epoch_policy not in ("exact", "grid"):
+        _fail(f"--epoch-policy: {epoch_policy!r} is not 'exact' or 'grid'")
+    try:
+        mission = load_mission(mission_dir)
+        result = api.run(mission, filter or None, epoch_policy=epoch_policy or None)  # type: ignore[arg-type]
+    except (MissionError, AlignmentError, UnitError) as exc:
+        _fail(str(exc))
+    results.save(result, out)
+    if mission.truth is not None:
+        mission.truth.to_parquet(out / "truth.parquet", index=False)
+    counts = results.ledger_counts(result.ledger)
+    table = Table(title=f"{result.filter} on {result.mission}")
+    for col in ("sensor", "used", "rejected", "dropped"):
+        table.add_column(col)
+    for sensor, c in counts.items():
+        table.add_row(sensor, *(str(c.get(k, 0)) for k in ("used", "rejected", "dropped")))
+    console.print(table)
+    rate = result.meta.get("imu_samples_per_s", float("nan"))
+    console.print(f"{result.meta['imu_samples']} IMU samples, {rate:,.0f} samples/s; run in {out}/")
+
+
+@app.command("evaluate")
+def evaluate_cmd(
+    run_dir: Annotated[Path, typer.Argument(help="run folder written by `adaptnav run`")],
+    as_json: Annotated[bool, typer.Option("--json", help="print one JSON object")] = False,
+    mission: Annotated[
+        Path | None, typer.Option(help="mission folder to take the reference from")
+    ] = None,
+) -> None:
+    """RMSE, relative RMSE, distance, duration, ledger counts vs the reference (P-32, P-33)."""
+    import json
+
+    import pandas as pd
+
+    from adaptnav import evaluate, results
+    from adaptnav.io import MissionError, load_mission
+
+    try:
+        result = results.load(run_dir)
+        if mission is not None:
+            truth = load_mission(mission).truth
+        elif (run_dir / "truth.parquet").is_file():
+            truth = pd.read_parquet(run_dir / "truth.parquet")
+        else:
+            truth = None
+    except (results.RunFolderError, MissionError) as exc:
+        _fail(str(exc))
+    if truth is None:
+        _fail(f"{run_dir}: no reference (truth.parquet) and no --mission with a [truth] table")
+    metrics = evaluate.evaluate(result, truth)
+    d = metrics.to_dict()
+    if as_json:
+        typer.echo(json.dumps({"filter": result.filter, **d}, default=str))
+        return
+    table = Table(title=f"{result.filter} on {result.mission} (against the reference)")
+    table.add_column("metric")
+    table.add_column("value")
+    for key, label, fmt in (
+        ("rmse_m", "RMSE (m)", "{:.3f}"),
+        ("relative_rmse_pct", "relative RMSE (%)", "{:.3f}"),
+        ("horizontal_rmse_m", "horizontal RMSE (m)", "{:.3f}"),
+        ("max_horizontal_error_m", "max horizontal error (m)", "{:.3f}"),
+        ("distance_m", "travelled distance (m)", "{:.1f}"),
+        ("duration_s", "duration (s)", "{:.1f}"),
+    ):
+        value = d.get(key)
+        table.add_row(label, "n/a" if value is None else fmt.format(value))
+    console.print(table)
+    counts = Table(title="ledger")
+    for col in ("sensor", "used", "rejected", "dropped", "mean NIS"):
+        counts.add_column(col)
+    for sensor, c in metrics.counts.items():
+        nis = metrics.mean_nis.get(sensor)
+        counts.add_row(
+            sensor, *(str(c.get(k, 0)) for k in ("used", "rejected", "dropped")),
+            "n/a" if nis is None or nis != nis else f"{nis:.2f}",
+        )  # fmt: skip
+    console.print(counts)
 
 
 @app.command()

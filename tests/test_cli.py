@@ -1,0 +1,137 @@
+"""End to end through the CLI: a mission folder → `adaptnav run` → `adaptnav evaluate`."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+import synthetic
+from adaptnav import attitude
+from adaptnav.cli import app
+from adaptnav.io import parse_config, write_mission
+
+runner = CliRunner()
+
+
+def _mission(tmp_path: Path, seed: int = 5, duration: float = 60.0) -> Path:
+    ds = synthetic.make(seed, duration=duration)
+    x0 = ds.truth[0]
+    rpy = np.degrees(attitude.quat_to_euler(x0[6:10]))
+    config = parse_config(
+        {
+            "mission": {"name": "synthetic-turn"},
+            "imu": {
+                "file": "imu.parquet",
+                "format": "increments",
+                "rate_hz": 100.0,
+                "noise": {
+                    "arw": [0.0667, "deg/sqrt(h)"],
+                    "vrw": [55, "ug/sqrt(Hz)"],
+                    "gyro_bias_sigma": [1, "deg/h"],
+                    "gyro_bias_tau": [1, "h"],
+                    "accel_bias_sigma": [0.25, "mg"],
+                    "accel_bias_tau": [1, "h"],
+                },
+            },
+            "sensors": {
+                "dvl": {"kind": "dvl", "file": "dvl.parquet", "sigma": [0.02, "m/s"],
+                        "rate_hz": 3.0},
+                "depth": {"kind": "depth", "file": "depth.parquet", "sigma": [0.1, "m"],
+                          "rate_hz": 1.0},
+                "gnss": {
+                    "kind": "gnss", "file": "gnss.parquet", "sigma": [2.0, "m"], "rate_hz": 1.0,
+                    "use_height": True,
+                },
+            },
+            "initial": {
+                "mode": "state",
+                "lat_deg": math.degrees(x0[0]),
+                "lon_deg": math.degrees(x0[1]),
+                "h_m": float(x0[2]),
+                "v_ned_m_s": [float(v) for v in x0[3:6]],
+                "rpy_deg": [float(a) for a in rpy],
+                "sigma_position_m": 2.0,
+                "sigma_velocity_m_s": 0.05,
+                "sigma_attitude_deg": [0.06, 0.06, 0.3],
+            },
+            "truth": {"file": "truth.parquet"},
+        }
+    )  # fmt: skip
+    t = ds.imu_t
+    imu = pd.DataFrame({"t_s": t})
+    for i, ax in enumerate("xyz"):
+        imu[f"dtheta_{ax}_rad"] = ds.dtheta[:, i]
+        imu[f"dvel_{ax}_m_s"] = ds.dvel[:, i]
+    tables = {"imu": imu}
+    cols = {
+        "dvl": ["vx_m_s", "vy_m_s", "vz_m_s"],
+        "depth": ["depth_m"],
+        "gnss": ["lat_rad", "lon_rad", "h_m"],
+    }
+    for name, (ts, z) in ds.readings.items():
+        tables[name] = pd.DataFrame({"t_s": ts, **{c: z[:, j] for j, c in enumerate(cols[name])}})
+    k = np.arange(0, ds.truth_t.size, 10)
+    eul = np.array([attitude.quat_to_euler(q) for q in ds.truth[k, 6:10]])
+    tables["truth"] = pd.DataFrame(
+        {
+            "t_s": ds.truth_t[k], "lat_rad": ds.truth[k, 0], "lon_rad": ds.truth[k, 1],
+            "h_m": ds.truth[k, 2], "vn_m_s": ds.truth[k, 3], "ve_m_s": ds.truth[k, 4],
+            "vd_m_s": ds.truth[k, 5], "roll_rad": eul[:, 0], "pitch_rad": eul[:, 1],
+            "yaw_rad": eul[:, 2],
+        }
+    )  # fmt: skip
+    root = tmp_path / "mission"
+    write_mission(root, config, tables)
+    return root
+
+
+@pytest.mark.parametrize("kind", ["meskf", "maeskf", "vb"])
+def test_run_then_evaluate_json(tmp_path: Path, kind: str) -> None:
+    mission = _mission(tmp_path)
+    out = tmp_path / f"run-{kind}"
+    res = runner.invoke(app, ["run", str(mission), "--filter", kind, "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["evaluate", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    assert d["filter"] == kind
+    assert {"rmse_m", "relative_rmse_pct", "distance_m", "duration_s"} <= d.keys()
+    # 60 s at 2 m/s; GNSS at 2 m keeps the error at the metre level.
+    assert 110.0 < d["distance_m"] < 130.0
+    assert 0.0 < d["rmse_m"] < 3.0
+    assert d["relative_rmse_pct"] == pytest.approx(100 * d["rmse_m"] / d["distance_m"])
+    res = runner.invoke(app, ["evaluate", str(out)])
+    assert res.exit_code == 0 and "RMSE (m)" in res.stdout
+
+
+def test_every_reading_has_a_fate(tmp_path: Path) -> None:
+    from adaptnav import results
+
+    mission = _mission(tmp_path, duration=20.0)
+    out = tmp_path / "run"
+    assert runner.invoke(app, ["run", str(mission), "--out", str(out)]).exit_code == 0
+    r = results.load(out)
+    for name in ("dvl", "depth", "gnss"):
+        n_rows = len(pd.read_parquet(mission / f"{name}.parquet"))
+        rows = r.ledger[r.ledger["sensor"] == name]["row"]
+        assert sorted(rows) == list(range(n_rows)), name
+
+
+def test_bad_mission_gives_a_clear_error_not_a_traceback(tmp_path: Path) -> None:
+    mission = _mission(tmp_path, duration=5.0)
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(toml.replace("[initial]", "[initial]\nspeeed = 3", 1))
+    res = runner.invoke(app, ["run", str(mission), "--out", str(tmp_path / "r")])
+    assert res.exit_code == 2
+    assert "speeed" in res.output and "Traceback" not in res.output
+
+
+def test_evaluate_needs_a_run_folder(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["evaluate", str(tmp_path / "nothing"), "--json"])
+    assert res.exit_code == 2 and "Traceback" not in res.output
