@@ -17,34 +17,92 @@ epochs ``t^i``. A :class:`Navigator` consumes both in time order:
 Every reading's fate is written to the ledger: ``used``, ``rejected`` (rule, statistic,
 threshold) or ``dropped`` (why). The batch runner :func:`run_batch` feeds whole tables through
 the same :class:`Navigator` that a live system feeds sample by sample.
+
+Speed: the engine runs compiled. Readings go to a store of arrays and a queue sorted by
+(stamp, sensor, arrival), the order a heap would give them; :meth:`Navigator.feed_imu` hands an
+IMU chunk and the queue to :func:`_navigate`, the compiled form of the time ordering above: it
+propagates to the next reading (:func:`_advance`: whole intervals, an output row every
+``output_every``, split intervals; the steps of :mod:`adaptnav.kernels`), drops late readings,
+gathers an epoch's readings and updates with them (:func:`adaptnav.update_kernels.epoch`:
+linearise, predict the adaptation states, gate, stacked update, feedback, reset, ledger rows),
+until the chunk is used up. Python sees a chunk once, not an epoch. Per-sensor settings and
+adaptation states are packed into tables built once; ledger and output rows go to arrays that
+grow by doubling and become dicts / arrays in :meth:`Navigator.output`. A sensor without a
+compiled linearisation (:func:`~adaptnav.update_kernels.compiled_linearisation` is None) is
+linearised by its ``evaluate`` in Python: the loop returns at its epochs, which then go through
+the same compiled update. The noise strategy must be :class:`~adaptnav.noise.FixedNoise`,
+:class:`~adaptnav.noise.CovarianceMatching` or :class:`~adaptnav.noise.VariationalBayes`, whose
+``update`` methods are the readable twins of the compiled update; ``tests/engine_reference.py``
+keeps the engine as it was (a Python loop, NumPy epochs) and the tests hold the two equal.
 """
 
 from __future__ import annotations
 
-import heapq
+import gc
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import errorstate, kernels
+from adaptnav import errorstate
+from adaptnav import update_kernels as uk
 from adaptnav.errorstate import N_STATES
-from adaptnav.gate import Gate, apply_gate
+from adaptnav.gate import Gate
 from adaptnav.imu_noise import ImuNoise
-from adaptnav.kalman import innovation_covariance
-from adaptnav.noise.base import Block, NoiseStrategy
+from adaptnav.kernels import (
+    _SERIES_LAT,
+    State,
+    Vec3,
+    _lat_ref,
+    _load,
+    _store,
+    _unpad,
+    _work,
+    jit,
+    jit_inline,
+)
+from adaptnav.noise import (
+    CovarianceMatching,
+    FixedNoise,
+    MatchingState,
+    VariationalBayes,
+    VBState,
+)
+from adaptnav.noise.base import NoiseStrategy
 from adaptnav.sensors.base import MeasurementModel
 from adaptnav.strapdown import NOM_SIZE
 
 Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 EpochPolicy = Literal["exact", "grid"]
-MAX_DIM = 3
+MAX_DIM = uk.MAX_DIM
 """Largest sensor dimension; the ledger keeps this many innovation / R columns."""
 SAME_EPOCH_S = 1e-9
 """Stamps closer than this are one epoch under the ``exact`` policy (float rounding)."""
+
+LEDGER_KEYS: tuple[str, ...] = (
+    "t", "t_epoch", "sensor", "row", "fate", "reason", "statistic", "threshold", "iterations",
+    *(key for j in range(MAX_DIM) for key in (f"nu_{j}", f"r_{j}")),
+)  # fmt: skip
+"""Keys of a ledger row, in order."""
+assert MAX_DIM == 3, "Navigator._ledger spells out the nu_j, r_j keys"
+_FATES: dict[int, tuple[str, str]] = {
+    uk.LEDGER_USED: ("used", ""),
+    uk.LEDGER_REJECTED_COMPONENT: ("rejected", "gate component"),
+    uk.LEDGER_REJECTED_CHI2: ("rejected", "gate chi2"),
+    uk.LEDGER_DUPLICATE: ("dropped", "duplicate: sensor already at this epoch"),
+    uk.LEDGER_INVALID: ("dropped", "invalid reading (non-finite)"),
+    uk.LEDGER_LATE: ("dropped", "late: stamped before the current time"),
+    uk.LEDGER_AFTER_IMU: ("dropped", "after the last IMU sample"),
+}
+_KINDS: dict[type, int] = {
+    FixedNoise: uk.KIND_FIXED,
+    CovarianceMatching: uk.KIND_MATCHING,
+    VariationalBayes: uk.KIND_VB,
+}
 
 
 @dataclass(frozen=True)
@@ -78,14 +136,14 @@ class EngineConfig:
             raise ValueError(f"output_every: value {self.output_every!r} must be >= 1")
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Records:
-    """Growing output buffers (plain lists; turned into arrays once at the end)."""
+    """The outputs so far: solution samples (t, x, diag P) and the ledger rows."""
 
-    sol_t: list[float] = field(default_factory=list)
-    sol_x: list[Array] = field(default_factory=list)
-    sol_p: list[Array] = field(default_factory=list)
-    ledger: list[dict[str, Any]] = field(default_factory=list)
+    sol_t: Array
+    sol_x: Array
+    sol_p: Array
+    ledger: list[dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -100,10 +158,258 @@ class EngineOutput:
     P_final: Array
 
 
+def _grow(a: NDArray[Any], need: int) -> NDArray[Any]:
+    """``a`` with at least ``need`` rows (doubling), the old rows kept."""
+    if need <= a.shape[0]:
+        return a
+    out = np.zeros((max(need, 2 * a.shape[0]), *a.shape[1:]), dtype=a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+# --- the compiled time-ordering loop ------------------------------------------------------------
+# The Navigator's state lives in small arrays that these functions update in place: the cursor
+# ``cur`` (uk.C_*: time, start, length of and offset into the current IMU interval), the raw mean
+# rates of the previous and current interval ``rates`` (uk.R_*), and the counters ``icur``.
+
+I_START, I_DONE, I_HAVE_RATES, I_CLOSE, I_N_OUT, I_EVERY, I_HEAD, I_END, I_N_LEDGER = range(9)
+"""``icur``: next interval of the chunk, intervals completed, rates known, an epoch completed the
+interval, output rows, output decimation, first queued reading, end of the epoch's group,
+ledger rows."""
+N_ICUR = 9
+_ADVANCE_DONE, _ADVANCE_LATE, _ADVANCE_EPOCH = 0, 1, 2
+NAV_DONE, NAV_PYTHON, NAV_SINGULAR = 0, 1, 2
+
+
+@jit_inline
+def _row(rates: Array, r: int) -> Vec3:
+    return (rates[r, 0], rates[r, 1], rates[r, 2])
+
+
+@jit_inline
+def _interval_done(
+    t: float, state: State, Pw: Array, icur: IntArray, out_t: Array, out_x: Array, out_p: Array
+) -> None:
+    """Count a completed interval; every ``output_every``-th, an output row (t, x, diag P)."""
+    icur[I_DONE] += 1
+    if icur[I_DONE] % icur[I_EVERY] == 0:
+        o = icur[I_N_OUT]
+        out_t[o] = t
+        _store(out_x[o], state)
+        for i in range(N_STATES):
+            out_p[o, i] = Pw[i * 16 + i]
+        icur[I_N_OUT] = o + 1
+
+
+@jit
+def _advance(
+    x: Array,
+    P: Array,
+    tk: Array,
+    dts: Array,
+    dth: Array,
+    dv: Array,
+    t_next: float,
+    grid: bool,
+    cur: Array,
+    rates: Array,
+    icur: IntArray,
+    q_psd: Array,
+    tau_a: float,
+    tau_g: float,
+    out_t: Array,
+    out_x: Array,
+    out_p: Array,
+) -> int:
+    """Propagate through the IMU intervals ``(tk - dts, tk]`` from ``icur[I_START]`` on until
+    the earliest queued reading, stamped ``t_next`` (inf: none), must be acted on.
+
+    Whole intervals one after the other (the steps of kernels.propagate_run), an output row
+    after every ``output_every``-th completed one; the interval that contains t_next is begun
+    (its rates; the previous ones carried) and propagated to t_next (``exact``, the steps of
+    kernels.propagate_partial) or to its end (``grid``). Returns _ADVANCE_EPOCH (update now,
+    at ``cur[C_T]``; an interval the update ends is completed on the next call),
+    _ADVANCE_LATE (t_next is not after the current time) or _ADVANCE_DONE (chunk used up).
+    Each loop turn chooses one (sub)step, so that the step is compiled once.
+    """
+    n = tk.shape[0]
+    wk = _work(P)
+    Pw = wk[3]
+    state = _load(x)
+    ref = _lat_ref(state[0])
+    inv_tau = (1.0 / tau_a, 1.0 / tau_g)
+    T_last, decay = -1.0, (1.0, 1.0)
+    status = _ADVANCE_DONE
+    last = -1  # end of the run of whole intervals under way (-1: none)
+    while True:
+        if icur[I_CLOSE] != 0:  # an epoch at the end of its interval completed it
+            icur[I_CLOSE] = 0
+            _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p)
+        k = icur[I_START]
+        t_start, dt, offset = cur[uk.C_T_START], cur[uk.C_DT], cur[uk.C_OFFSET]
+        whole = offset >= dt
+        if not whole:  # an interval split by an exact-time update is open: on to tau
+            tau = dt
+            if t_next <= t_start + dt:
+                if t_next <= cur[uk.C_T]:
+                    status = _ADVANCE_LATE
+                    break
+                status = _ADVANCE_EPOCH
+                if not grid:
+                    tau = t_next - t_start
+            tau = min(max(tau, offset), dt)
+            ta, tb = offset, tau
+            wp, fp = _row(rates, uk.R_W_PREV), _row(rates, uk.R_F_PREV)
+            wc, fc = _row(rates, uk.R_W_CUR), _row(rates, uk.R_F_CUR)
+        else:
+            if last < 0:  # where does the next run of whole intervals end?
+                if k >= n:
+                    break
+                last = int(np.searchsorted(tk, t_next)) if t_next <= tk[n - 1] else n
+                if last < n and t_next <= cur[uk.C_T]:
+                    status = _ADVANCE_LATE
+                    break
+                if last > k and icur[I_HAVE_RATES] == 0:
+                    for c in range(3):
+                        rates[uk.R_W_CUR, c] = dth[k, c] / dts[k]
+                        rates[uk.R_F_CUR, c] = dv[k, c] / dts[k]
+                    icur[I_HAVE_RATES] = 1
+            if k >= last:  # the run is done: stop at the chunk's end, or begin the interval
+                if last == n:  # that contains t_next
+                    icur[I_START] = n
+                    break
+                dt = dts[last]
+                if icur[I_HAVE_RATES] == 0:
+                    for c in range(3):
+                        rates[uk.R_W_CUR, c] = dth[last, c] / dt
+                        rates[uk.R_F_CUR, c] = dv[last, c] / dt
+                    icur[I_HAVE_RATES] = 1
+                for c in range(3):
+                    rates[uk.R_W_PREV, c] = rates[uk.R_W_CUR, c]
+                    rates[uk.R_F_PREV, c] = rates[uk.R_F_CUR, c]
+                    rates[uk.R_W_CUR, c] = dth[last, c] / dt
+                    rates[uk.R_F_CUR, c] = dv[last, c] / dt
+                cur[uk.C_T_START] = tk[last] - dt
+                cur[uk.C_DT] = dt
+                cur[uk.C_OFFSET] = 0.0
+                cur[uk.C_T] = cur[uk.C_T_START]
+                icur[I_START] = last + 1
+                last = -1
+                continue
+            dt = dts[k]
+            ta, tb = 0.0, dt
+            tau = dt
+            wp, fp = _row(rates, uk.R_W_CUR), _row(rates, uk.R_F_CUR)
+            wc = (dth[k, 0] / dt, dth[k, 1] / dt, dth[k, 2] / dt)
+            fc = (dv[k, 0] / dt, dv[k, 1] / dt, dv[k, 2] / dt)
+        if whole or tb > ta:  # one (sub)step [ta, tb] of an interval of length dt
+            T = tb - ta
+            if T_last != T:
+                decay, T_last = (math.exp(-T / tau_a), math.exp(-T / tau_g)), T
+            if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
+                ref = _lat_ref(state[0])
+            state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd)
+        if whole:
+            for c in range(3):
+                rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
+            cur[uk.C_DT] = cur[uk.C_OFFSET] = dt
+            cur[uk.C_T] = tk[k]
+            cur[uk.C_T_START] = tk[k] - dt
+            icur[I_START] = k + 1
+            _interval_done(tk[k], state, Pw, icur, out_t, out_x, out_p)
+            continue
+        cur[uk.C_OFFSET] = tau
+        cur[uk.C_T] = t_start + tau if tau < dt else t_start + dt
+        if status == _ADVANCE_EPOCH:
+            if tau >= dt:
+                icur[I_CLOSE] = 1
+            break
+        _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p)
+    _store(x, state)
+    _unpad(Pw, P)
+    return status
+
+
+@jit
+def _navigate(
+    x: Array,
+    P: Array,
+    tk: Array,
+    dts: Array,
+    dth: Array,
+    dv: Array,
+    q_t: Array,
+    q_idx: IntArray,
+    grid: bool,
+    cur: Array,
+    rates: Array,
+    icur: IntArray,
+    q_psd: Array,
+    tau_a: float,
+    tau_g: float,
+    out_t: Array,
+    out_x: Array,
+    out_p: Array,
+    st_sensor: IntArray,
+    st_z: Array,
+    s_int: IntArray,
+    s_flt: Array,
+    s_state: Array,
+    rings: Array,
+    kind: int,
+    reset_covariance: bool,
+    python_lin: bool,
+    lg_int: IntArray,
+    lg_flt: Array,
+    ws: uk.Workspace,
+) -> int:
+    """Run the IMU chunk against the queue (stamps q_t, readings q_idx, sorted; the first
+    pending is ``icur[I_HEAD]``): propagate to the next reading; drop it if late; else gather
+    the readings of its epoch (stamped <= the epoch, + SAME_EPOCH_S under ``exact``) and update
+    with them (:func:`adaptnav.update_kernels.epoch`); until the chunk is used up (NAV_DONE).
+    Returns early with NAV_PYTHON when the epoch's group ``icur[I_HEAD]..icur[I_END]`` has a
+    reading to linearise in Python, or NAV_SINGULAR if S was not positive definite."""
+    nq = q_t.shape[0]
+    fb = np.zeros((0, uk.N_FB))  # no readings linearised in Python here
+    while True:
+        head = icur[I_HEAD]
+        t_next = q_t[head] if head < nq else math.inf
+        status = _advance(
+            x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, out_t,
+            out_x, out_p,
+        )  # fmt: skip
+        if status == _ADVANCE_DONE:
+            return NAV_DONE
+        n = icur[I_N_LEDGER]
+        if status == _ADVANCE_LATE:
+            uk.ledger_drop(lg_int, lg_flt, n, q_idx[head], uk.LEDGER_LATE, cur[uk.C_T])
+            icur[I_N_LEDGER] = n + 1
+            icur[I_HEAD] = head + 1
+            continue
+        t_until = cur[uk.C_T] if grid else cur[uk.C_T] + SAME_EPOCH_S
+        end = head
+        while end < nq and q_t[end] <= t_until:
+            end += 1
+        icur[I_END] = end
+        if python_lin:
+            for k in range(head, end):
+                if s_int[st_sensor[q_idx[k]], uk.S_CODE] == uk.LIN_PYTHON:
+                    return NAV_PYTHON
+        n = uk.epoch(
+            x, P, rates, cur[uk.C_T], q_idx, head, end - head, st_sensor, st_z, fb, s_int,
+            s_flt, s_state, rings, kind, reset_covariance, lg_int, lg_flt, n, ws,
+        )  # fmt: skip
+        icur[I_HEAD] = end
+        if n < 0:
+            icur[I_N_LEDGER] = -n - 1
+            return NAV_SINGULAR
+        icur[I_N_LEDGER] = n
+
+
 class Navigator:
     """Streaming multirate ESKF: feed IMU intervals and sensor readings; read the solution.
 
-    Readings may be fed ahead of the IMU (they wait in a time-ordered heap until the IMU covers
+    Readings may be fed ahead of the IMU (they wait in a time-ordered queue until the IMU covers
     their stamp); a reading stamped before the navigator's current time is dropped as ``late``.
     """
 
@@ -121,6 +427,15 @@ class Navigator:
         kinds = {type(c.strategy) for c in channels}
         if len(kinds) > 1:
             raise ValueError("all sensors of one filter must use the same noise strategy class")
+        self._kind = uk.KIND_FIXED
+        if kinds:
+            cls = kinds.pop()
+            if cls not in _KINDS:
+                raise TypeError(
+                    f"noise strategy {cls.__name__} has no compiled update; the engine runs "
+                    "FixedNoise, CovarianceMatching and VariationalBayes"
+                )
+            self._kind = _KINDS[cls]
         self.config = config
         self.channels = tuple(channels)
         self._index = {c.name: i for i, c in enumerate(channels)}
@@ -128,250 +443,367 @@ class Navigator:
         self.P = np.array(P0, dtype=float)
         if self.x.shape != (NOM_SIZE,) or self.P.shape != (N_STATES, N_STATES):
             raise ValueError(f"x0 must be ({NOM_SIZE},), P0 ({N_STATES}, {N_STATES})")
-        self.t = float(t0)
         self._q = errorstate.noise_psd(config.imu_noise)
         self._tau_a = float(config.imu_noise.accel_bias_tau)
         self._tau_g = float(config.imu_noise.gyro_bias_tau)
-        # The current IMU interval: [t_start, t_start + dt], rates, and how far we are into it.
-        self._t_start = self.t
-        self._dt = 0.0
-        self._offset = 0.0
-        self._w_cur = np.zeros(3)
-        self._f_cur = np.zeros(3)
-        self._w_prev = np.zeros(3)
-        self._f_prev = np.zeros(3)
-        self._have_rates = False
-        self._intervals_done = 0
-        self._states: list[Any] = [c.strategy.initial_state(_nominal_R(c.model)) for c in channels]
-        self._last_epoch = [math.nan] * len(channels)
-        self._pending: list[tuple[float, int, int, int, Array]] = []
-        self._seq = 0
-        self.records = _Records()
+        self._grid = config.epoch_policy == "grid"
+        # The propagation cursor: the current IMU interval [t_start, t_start + dt] and how far
+        # we are into it (offset), the previous and current interval's rates, counters.
+        self._cur = np.zeros(uk.N_CUR)
+        self._cur[uk.C_T] = self._cur[uk.C_T_START] = float(t0)
+        self._rates = np.zeros((4, 3))
+        self._icur = np.zeros(N_ICUR, dtype=np.int64)
+        self._icur[I_EVERY] = config.output_every
+        self._build_tables()
+        # Readings (the store), the queue of their indices, the ledger and the output rows.
+        self._st_t = np.zeros(64)
+        self._st_sensor = np.zeros(64, dtype=np.int64)
+        self._st_row = np.zeros(64, dtype=np.int64)
+        self._st_z = np.zeros((64, MAX_DIM))
+        self._n_store = 0
+        self._python_z: dict[int, Array] = {}
+        # The queue: store indices of the readings sorted by (t, sensor, arrival) and their
+        # stamps, from the first pending one (icur[I_HEAD]) on; how many stored readings it has.
+        self._q_idx = np.zeros(0, dtype=np.int64)
+        self._q_t = np.zeros(0)
+        self._n_queued = 0
+        self._fb = np.zeros((8, uk.N_FB))
+        self._lg_int = np.zeros((64, uk.N_LINT), dtype=np.int64)
+        self._lg_flt = np.zeros((64, uk.N_LFLT))
+        self._out_t = np.zeros(64)
+        self._out_x = np.zeros((64, NOM_SIZE))
+        self._out_p = np.zeros((64, N_STATES))
+        self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
         self._record()
 
+    def _build_tables(self) -> None:
+        """Per-sensor settings, linearisations and initial adaptation states, packed."""
+        n = len(self.channels)
+        windows = [getattr(c.strategy, "window", 1) for c in self.channels]
+        self._s_int = np.zeros((n, uk.N_SINT), dtype=np.int64)
+        self._s_flt = np.zeros((n, uk.N_SFLT))
+        self._s_state = np.zeros((n, uk.N_SSTATE))
+        self._s_state[:, uk.X_LAST] = math.nan
+        self._rings = np.zeros((n, 2, max(windows, default=1), MAX_DIM))
+        for i, ch in enumerate(self.channels):
+            d = int(ch.model.dim)
+            if not 1 <= d <= MAX_DIM:
+                raise ValueError(f"sensor {ch.name!r}: dimension {d} is not in 1..{MAX_DIM}")
+            R = _nominal_R(ch.model)
+            spec = uk.compiled_linearisation(ch.model)
+            si, sf, sx = self._s_int[i], self._s_flt[i], self._s_state[i]
+            si[uk.S_CODE] = uk.LIN_PYTHON if spec is None else spec[0]
+            if spec is not None:
+                sf[: uk.N_PAR] = spec[1]
+            si[uk.S_DIM] = d
+            sf[uk.F_RNOM : uk.F_RNOM + 9] = _block3(R)
+            sf[uk.F_PERIOD] = ch.period
+            if ch.gate is not None:
+                rule = uk.GATE_COMPONENT if ch.gate.rule == "component" else uk.GATE_CHI2
+                si[uk.S_GATE] = rule
+                sf[uk.F_GATE_Q] = ch.gate.q
+            st = ch.strategy
+            state0 = st.initial_state(R)
+            if isinstance(st, VariationalBayes):
+                si[uk.S_ITER] = st.iterations
+                sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
+                sf[uk.F_IRREGULAR] = float(st.irregular)
+                sx[uk.X_ALPHA : uk.X_ALPHA + d] = state0.alpha
+                sx[uk.X_BETA : uk.X_BETA + d] = state0.beta
+            elif isinstance(st, CovarianceMatching):
+                si[uk.S_WINDOW] = st.window
+                sf[uk.F_FLOOR], sf[uk.F_RAE] = st.floor, float(st.residual_based)
+                self._rings[i, 0, : st.window, :d] = state0.squares
+                self._rings[i, 1, : st.window, :d] = state0.hph
+                si[uk.S_COUNT] = state0.count
+                sx[uk.X_MR : uk.X_MR + 9] = _block3(state0.R)
+        self._python_lin = bool(np.any(self._s_int[:, uk.S_CODE] == uk.LIN_PYTHON))
+        self._ws = uk.workspace(n)
+
+    @property
+    def t(self) -> float:
+        """The navigator's current time (s)."""
+        return float(self._cur[uk.C_T])
+
     # --- feeding ------------------------------------------------------------------------------
+
+    def _check_reading(self, i: int, z: ArrayLike) -> Array:
+        zz = np.atleast_1d(np.asarray(z, dtype=float))
+        d = int(self._s_int[i, uk.S_DIM])
+        if zz.shape != (d,):
+            raise ValueError(
+                f"{self.channels[i].name} reading must have shape ({d},), got {zz.shape}"
+            )
+        return zz
 
     def feed_measurement(self, sensor: str, t: float, z: ArrayLike, row: int = -1) -> None:
         """Queue a reading of ``sensor`` stamped ``t``; it is processed once the IMU covers t."""
         if sensor not in self._index:
             raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
         i = self._index[sensor]
-        heapq.heappush(self._pending, (float(t), i, self._seq, row, np.asarray(z, dtype=float)))
-        self._seq += 1
+        k = self._reserve_store(1)
+        self._st_t[k], self._st_sensor[k], self._st_row[k] = t, i, row
+        if self._s_int[i, uk.S_CODE] == uk.LIN_PYTHON:
+            self._python_z[k] = np.asarray(z, dtype=float)
+        else:
+            zz = self._check_reading(i, z)
+            self._st_z[k, : zz.size] = zz
+        self._n_store = k + 1
+
+    def feed_measurements(
+        self, sensor: str, t: ArrayLike, z: ArrayLike, rows: ArrayLike | None = None
+    ) -> None:
+        """Queue many readings of ``sensor`` at once: stamps ``t`` (n,), readings ``z`` (n, d),
+        ledger row numbers ``rows`` (default 0..n-1); as n calls of :meth:`feed_measurement`."""
+        if sensor not in self._index:
+            raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
+        i = self._index[sensor]
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        n = ts.size
+        if n == 0:
+            return
+        zs = np.asarray(z, dtype=float).reshape(n, -1)
+        rw = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64).reshape(n)
+        k0 = self._reserve_store(n)
+        self._st_t[k0 : k0 + n] = ts
+        self._st_sensor[k0 : k0 + n] = i
+        self._st_row[k0 : k0 + n] = rw
+        if self._s_int[i, uk.S_CODE] == uk.LIN_PYTHON:
+            for r in range(n):
+                self._python_z[k0 + r] = zs[r]
+        else:
+            self._check_reading(i, zs[0])
+            self._st_z[k0 : k0 + n, : zs.shape[1]] = zs
+        self._n_store = k0 + n
+
+    def _sort_queue(self) -> None:
+        """Merge the readings fed since the last call into the queue, in the order (t, sensor,
+        arrival): the order in which they are taken (ties at one stamp: sensor order)."""
+        if self._n_queued == self._n_store:
+            return
+        head = int(self._icur[I_HEAD])
+        idx = np.concatenate(
+            [self._q_idx[head:], np.arange(self._n_queued, self._n_store, dtype=np.int64)]
+        )
+        t = self._st_t[idx]
+        order = np.lexsort((idx, self._st_sensor[idx], t))
+        self._q_idx = idx[order]
+        self._q_t = t[order]
+        self._icur[I_HEAD] = 0
+        self._n_queued = self._n_store
+
+    def _reserve_store(self, n: int) -> int:
+        k = self._n_store
+        if k + n > self._st_t.shape[0]:
+            self._st_t = _grow(self._st_t, k + n)
+            self._st_sensor = _grow(self._st_sensor, k + n)
+            self._st_row = _grow(self._st_row, k + n)
+            self._st_z = _grow(self._st_z, k + n)
+        return k
 
     def feed_imu(self, t: ArrayLike, dt: ArrayLike, dtheta: ArrayLike, dvel: ArrayLike) -> None:
         """Integrate IMU intervals ``(t_k - dt_k, t_k]`` with increments, processing every queued
         reading they cover, in time order."""
-        tk = np.atleast_1d(np.asarray(t, dtype=float))
+        tk = np.require(np.atleast_1d(np.asarray(t, dtype=float)), np.float64, ["C", "W"])
         dts = np.broadcast_to(np.asarray(dt, dtype=float), tk.shape).copy()
-        dth = np.ascontiguousarray(np.atleast_2d(np.asarray(dtheta, dtype=float)))
-        dv = np.ascontiguousarray(np.atleast_2d(np.asarray(dvel, dtype=float)))
-        start, n = 0, tk.size
+        dth = np.require(np.atleast_2d(np.asarray(dtheta, dtype=float)), np.float64, ["C", "W"])
+        dv = np.require(np.atleast_2d(np.asarray(dvel, dtype=float)), np.float64, ["C", "W"])
+        n = tk.size
+        if tk.ndim != 1 or dth.shape != (n, 3) or dv.shape != (n, 3):
+            raise ValueError(
+                f"IMU: t must be (N,), dtheta and dvel (N, 3); got {tk.shape}, {dth.shape}, "
+                f"{dv.shape}"
+            )
+        self._icur[I_START] = 0
+        self._reserve_output(n // self.config.output_every + 2)
+        self._sort_queue()
         while True:
-            if self._offset < self._dt:  # an interval split by an exact-time update is open
-                if self._pending and self._pending[0][0] <= self._t_start + self._dt:
-                    self._epoch_in_open_interval()
-                    continue
-                self._advance_in_interval(self._dt)
-                self._interval_done()
-            if start >= n:
-                return
-            if not self._pending or self._pending[0][0] > tk[-1]:
-                self._bulk(tk, dts, dth, dv, start, n)
-                return
-            if self._pending[0][0] <= self.t:
-                self._drop_late()
-                continue
-            k = int(np.searchsorted(tk, self._pending[0][0], side="left"))
-            self._bulk(tk, dts, dth, dv, start, k)
-            self._begin_interval(float(tk[k] - dts[k]), float(dts[k]), dth[k], dv[k])
-            start = k + 1
-
-    def _epoch_in_open_interval(self) -> None:
-        """Process the earliest queued reading, which lies in the open interval."""
-        t_m = self._pending[0][0]
-        if t_m <= self.t:
-            self._drop_late()
-            return
-        t_end = self._t_start + self._dt
-        if self.config.epoch_policy == "grid":
-            self._advance_in_interval(self._dt)
-            self._epoch(t_end, t_end)
-        else:
-            self._advance_in_interval(t_m - self._t_start)
-            self._epoch(self.t, self.t + SAME_EPOCH_S)
-        if self._offset >= self._dt:
-            self._interval_done()
-
-    # --- propagation --------------------------------------------------------------------------
-
-    def _begin_interval(self, t_start: float, dt: float, dtheta: Array, dvel: Array) -> None:
-        w, f = dtheta / dt, dvel / dt
-        if not self._have_rates:
-            self._w_cur, self._f_cur, self._have_rates = w, f, True
-        self._w_prev, self._f_prev = self._w_cur, self._f_cur
-        self._w_cur, self._f_cur = w, f
-        self._t_start, self._dt, self._offset = t_start, dt, 0.0
-        self.t = t_start
-
-    def _advance_in_interval(self, tau: float) -> None:
-        """Propagate inside the open interval up to offset tau (clamped to it)."""
-        tau = min(max(tau, self._offset), self._dt)
-        if tau > self._offset:
-            kernels.propagate_partial(
-                self.x, self.P, self._w_prev, self._f_prev, self._w_cur, self._f_cur,
-                self._dt, self._offset, tau, self._q, self._tau_a, self._tau_g,
+            self._reserve_ledger(self._q_idx.size - int(self._icur[I_HEAD]))
+            status = _navigate(
+                self.x, self.P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
+                self._rates, self._icur, self._q, self._tau_a, self._tau_g, self._out_t,
+                self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
+                self._s_flt, self._s_state, self._rings, self._kind,
+                self.config.reset_covariance, self._python_lin, self._lg_int, self._lg_flt,
+                self._ws,
             )  # fmt: skip
-            self._offset = tau
-        self.t = self._t_start + tau if tau < self._dt else self._t_start + self._dt
-
-    def _interval_done(self) -> None:
-        self._intervals_done += 1
-        if self._intervals_done % self.config.output_every == 0:
-            self._record()
-
-    def _bulk(self, tk: Array, dts: Array, dth: Array, dv: Array, a: int, b: int) -> None:
-        """Whole intervals a..b-1, in compiled runs that end on output epochs."""
-        if b <= a:
-            return
-        if not self._have_rates:
-            self._w_cur, self._f_cur = dth[a] / dts[a], dv[a] / dts[a]
-            self._have_rates = True
-        every = self.config.output_every
-        i = a
-        while i < b:
-            to_output = every - self._intervals_done % every
-            j = min(b, i + to_output)
-            wp, fp = self._w_cur.copy(), self._f_cur.copy()
-            kernels.propagate_run(
-                self.x, self.P, dth[i:j], dv[i:j], dts[i:j], wp, fp,
-                self._q, self._tau_a, self._tau_g,
-            )  # fmt: skip
-            self._w_cur, self._f_cur = wp, fp
-            self._dt = self._offset = float(dts[j - 1])
-            self.t = float(tk[j - 1])
-            self._t_start = self.t - self._dt
-            self._intervals_done += j - i - 1
-            self._interval_done()
-            i = j
+            if status == NAV_DONE:
+                return
+            if status == NAV_SINGULAR:
+                raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
+            self._epoch_python()
 
     # --- measurement epochs -------------------------------------------------------------------
 
-    def _drop_late(self) -> None:
-        t_m, i, _, row, _ = heapq.heappop(self._pending)
-        self._ledger(i, row, t_m, self.t, "dropped", "late: stamped before the current time")
+    def _epoch_python(self) -> None:
+        """The epoch of the group icur[I_HEAD]..icur[I_END] when it has readings of sensors
+        linearised by their ``evaluate``: those in Python, then the same compiled update."""
+        head, end = int(self._icur[I_HEAD]), int(self._icur[I_END])
+        g = end - head
+        self._fb = _grow(self._fb, g)
+        self._evaluate_in_python(head, g)
+        n = uk.epoch(
+            self.x, self.P, self._rates, self.t, self._q_idx, head, g, self._st_sensor,
+            self._st_z, self._fb, self._s_int, self._s_flt, self._s_state, self._rings,
+            self._kind, self.config.reset_covariance, self._lg_int, self._lg_flt,
+            int(self._icur[I_N_LEDGER]), self._ws,
+        )  # fmt: skip
+        self._icur[I_HEAD] = end
+        if n < 0:
+            self._icur[I_N_LEDGER] = -n - 1
+            raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
+        self._icur[I_N_LEDGER] = n
 
-    def _epoch(self, t_epoch: float, t_until: float) -> None:
-        """Stacked update with every queued reading stamped <= t_until (spec §5)."""
-        group: list[tuple[float, int, int, Array]] = []
-        while self._pending and self._pending[0][0] <= t_until:
-            t_m, i, _, row, z = heapq.heappop(self._pending)
-            group.append((t_m, i, row, z))
-        blocks: list[Block] = []
-        meta: list[tuple[int, int, float]] = []
+    def _evaluate_in_python(self, head: int, g: int) -> None:
+        """Linearise the group's readings of sensors without a compiled linearisation by their
+        ``evaluate`` into the fallback rows (a sensor's later readings are duplicates)."""
         seen: set[int] = set()
-        for t_m, i, row, z in group:
-            ch = self.channels[i]
-            if i in seen:
-                self._ledger(
-                    i, row, t_m, t_epoch, "dropped", "duplicate: sensor already at this epoch"
-                )
+        w = self._rates[uk.R_W_CUR].copy()
+        for k in range(g):
+            idx = int(self._q_idx[head + k])
+            i = int(self._st_sensor[idx])
+            if self._s_int[i, uk.S_CODE] != uk.LIN_PYTHON or i in seen:
                 continue
-            meas = ch.model.evaluate(self.x, z, self._w_cur)
+            meas = self.channels[i].model.evaluate(self.x, self._python_z[idx], w)
+            row = self._fb[k]
+            row[:] = 0.0
             if meas is None:
-                self._ledger(i, row, t_m, t_epoch, "dropped", "invalid reading (non-finite)")
                 continue
             seen.add(i)
-            last = self._last_epoch[i]
-            dt_i = ch.period if math.isnan(last) else t_epoch - last
-            self._states[i] = ch.strategy.predict(self._states[i], dt_i, ch.period)
-            self._last_epoch[i] = t_epoch
-            if ch.gate is not None:
-                R_now = ch.strategy.current_R(self._states[i], meas.R)
-                S = innovation_covariance(self.P, meas.H, R_now)
-                d = apply_gate(ch.gate, meas.y, S)
-                if not d.accepted:
-                    self._ledger(
-                        i, row, t_m, t_epoch, "rejected", f"gate {d.rule}", d.statistic,
-                        d.threshold, meas.y, np.diag(R_now),
-                    )  # fmt: skip
-                    continue
-            blocks.append(Block(ch.name, meas.y, meas.H, meas.R, self._states[i]))
-            meta.append((i, row, t_m))
-        if not blocks:
-            return
-        P_prior = self.P
-        res = self.channels[meta[0][0]].strategy.update(P_prior, blocks)
-        dx = res.correction.dx
-        self.x = errorstate.inject(self.x, dx)
-        P = res.correction.P
-        if self.config.reset_covariance:
-            G = errorstate.reset_jacobian(dx)
-            P = G @ P @ G.T
-        self.P = np.ascontiguousarray(0.5 * (P + P.T))
-        for (i, row, t_m), b, st, R in zip(meta, blocks, res.states, res.R_used, strict=True):
-            self._states[i] = st
-            S_i = innovation_covariance(P_prior, b.H, R)
-            nis = float(b.y @ np.linalg.solve(S_i, b.y))
-            self._ledger(
-                i, row, t_m, t_epoch, "used", "", nis, math.nan, b.y, np.diag(R), res.iterations
-            )
+            d = meas.y.size
+            row[uk.FB_VALID] = 1.0
+            row[uk.FB_Y : uk.FB_Y + d] = meas.y
+            row[uk.FB_H : uk.FB_H + N_STATES * d] = np.asarray(meas.H, dtype=float).ravel()
+            row[uk.FB_R : uk.FB_R + 9] = _block3(meas.R)
 
-    def _ledger(
-        self,
-        i: int,
-        row: int,
-        t_m: float,
-        t_epoch: float,
-        fate: str,
-        reason: str,
-        statistic: float = math.nan,
-        threshold: float = math.nan,
-        nu: Array | None = None,
-        r_diag: Array | None = None,
-        iterations: int = 0,
-    ) -> None:
-        rec: dict[str, Any] = {
-            "t": t_m,
-            "t_epoch": t_epoch,
-            "sensor": self.channels[i].name,
-            "row": row,
-            "fate": fate,
-            "reason": reason,
-            "statistic": statistic,
-            "threshold": threshold,
-            "iterations": iterations,
-        }
-        for j in range(MAX_DIM):
-            rec[f"nu_{j}"] = float(nu[j]) if nu is not None and j < nu.size else math.nan
-            rec[f"r_{j}"] = float(r_diag[j]) if r_diag is not None and j < r_diag.size else math.nan
-        self.records.ledger.append(rec)
+    def _reserve_ledger(self, n: int) -> None:
+        need = int(self._icur[I_N_LEDGER]) + n + 1
+        self._lg_int = _grow(self._lg_int, need)
+        self._lg_flt = _grow(self._lg_flt, need)
+
+    def _ledger(self) -> list[dict[str, Any]]:
+        """The ledger rows so far as dicts (keys :data:`LEDGER_KEYS`, in that order)."""
+        n = int(self._icur[I_N_LEDGER])
+        li, lf = self._lg_int[:n], self._lg_flt[:n]
+        idx = li[:, uk.L_STORE]
+        names = [c.name for c in self.channels]
+        fates = [_FATES[c] for c in li[:, uk.L_CODE].tolist()]
+        nu = [lf[:, uk.L_NU + j].tolist() for j in range(MAX_DIM)]
+        r = [lf[:, uk.L_R + j].tolist() for j in range(MAX_DIM)]
+        columns = zip(
+            self._st_t[idx].tolist(), lf[:, uk.L_T_EPOCH].tolist(), self._st_sensor[idx].tolist(),
+            self._st_row[idx].tolist(), fates, lf[:, uk.L_STAT].tolist(),
+            lf[:, uk.L_THRESHOLD].tolist(), li[:, uk.L_ITER].tolist(), nu[0], r[0], nu[1], r[1],
+            nu[2], r[2], strict=True,
+        )  # fmt: skip
+        gc_was_on = gc.isenabled()
+        gc.disable()  # tens of thousands of new dicts: no cyclic garbage, no need to scan
+        try:
+            return [
+                {
+                    "t": t,
+                    "t_epoch": te,
+                    "sensor": names[i],
+                    "row": rw,
+                    "fate": fr[0],
+                    "reason": fr[1],
+                    "statistic": st,
+                    "threshold": th,
+                    "iterations": it,
+                    "nu_0": n0,
+                    "r_0": r0,
+                    "nu_1": n1,
+                    "r_1": r1,
+                    "nu_2": n2,
+                    "r_2": r2,
+                }
+                for t, te, i, rw, fr, st, th, it, n0, r0, n1, r1, n2, r2 in columns
+            ]
+        finally:
+            if gc_was_on:
+                gc.enable()
+
+    def _reserve_output(self, n: int) -> None:
+        need = int(self._icur[I_N_OUT]) + n
+        self._out_t = _grow(self._out_t, need)
+        self._out_x = _grow(self._out_x, need)
+        self._out_p = _grow(self._out_p, need)
 
     def _record(self) -> None:
-        self.records.sol_t.append(self.t)
-        self.records.sol_x.append(self.x.copy())
-        self.records.sol_p.append(np.diag(self.P).copy())
+        self._reserve_output(1)
+        n = int(self._icur[I_N_OUT])
+        self._out_t[n] = self.t
+        self._out_x[n] = self.x
+        self._out_p[n] = np.diag(self.P)
+        self._icur[I_N_OUT] = n + 1
+
+    @property
+    def records(self) -> _Records:
+        """The solution samples and ledger rows so far (copies)."""
+        n = int(self._icur[I_N_OUT])
+        return _Records(
+            self._out_t[:n].copy(), self._out_x[:n].copy(), self._out_p[:n].copy(), self._ledger()
+        )
 
     def adaptation_state(self, sensor: str) -> Any:
-        """The current noise-adaptation state of ``sensor`` (VB α, β; matching window; ...)."""
-        return self._states[self._index[sensor]]
+        """The current noise-adaptation state of ``sensor`` (VB α, β; matching window; ...).
+
+        The same object is returned until the sensor's state changes."""
+        i = self._index[sensor]
+        version = int(self._s_int[i, uk.S_VERSION])
+        cached = self._state_cache[i]
+        if cached is not None and cached[0] == version:
+            return cached[1]
+        d = int(self._s_int[i, uk.S_DIM])
+        sx = self._s_state[i]
+        state: Any = None
+        if self._kind == uk.KIND_VB:
+            state = VBState(
+                sx[uk.X_ALPHA : uk.X_ALPHA + d].copy(), sx[uk.X_BETA : uk.X_BETA + d].copy()
+            )
+        elif self._kind == uk.KIND_MATCHING:
+            w = int(self._s_int[i, uk.S_WINDOW])
+            R = sx[uk.X_MR : uk.X_MR + 9].reshape(3, 3)[:d, :d].copy()
+            state = MatchingState(
+                self._rings[i, 0, :w, :d].copy(),
+                self._rings[i, 1, :w, :d].copy(),
+                int(self._s_int[i, uk.S_COUNT]),
+                R,
+            )
+        self._state_cache[i] = (version, state)
+        return state
 
     def flush(self) -> None:
         """Drop every reading still queued (the IMU ended before its stamp), with a reason."""
-        while self._pending:
-            t_m, i, _, row, _ = heapq.heappop(self._pending)
-            self._ledger(i, row, t_m, math.nan, "dropped", "after the last IMU sample")
+        self._sort_queue()
+        head, n = int(self._icur[I_HEAD]), int(self._icur[I_N_LEDGER])
+        rest = self._q_idx[head:]
+        self._reserve_ledger(rest.size)
+        self._lg_int[n : n + rest.size] = 0
+        self._lg_int[n : n + rest.size, uk.L_STORE] = rest
+        self._lg_int[n : n + rest.size, uk.L_CODE] = uk.LEDGER_AFTER_IMU
+        self._lg_flt[n : n + rest.size] = math.nan
+        self._icur[I_N_LEDGER] = n + rest.size
+        self._icur[I_HEAD] = self._q_idx.size
 
     def output(self) -> EngineOutput:
-        r = self.records
+        n = int(self._icur[I_N_OUT])
         return EngineOutput(
-            np.asarray(r.sol_t),
-            np.asarray(r.sol_x),
-            np.asarray(r.sol_p),
-            list(r.ledger),
+            self._out_t[:n].copy(),
+            self._out_x[:n].copy(),
+            self._out_p[:n].copy(),
+            self._ledger(),
             self.x.copy(),
             self.P.copy(),
         )
+
+
+def _block3(R: ArrayLike) -> Array:
+    """A d×d matrix (d ≤ 3) in the top-left of a 3×3 one, flattened row-major."""
+    Ra = np.asarray(R, dtype=float)
+    out = np.zeros((MAX_DIM, MAX_DIM))
+    out[: Ra.shape[0], : Ra.shape[1]] = Ra
+    return out.ravel()
 
 
 def _nominal_R(model: MeasurementModel) -> Array:
@@ -399,10 +831,7 @@ def run_batch(
     """
     nav = Navigator(config, channels, x0, P0, t0)
     for name, (t, z) in readings.items():
-        ts = np.asarray(t, dtype=float)
-        zs = np.asarray(z, dtype=float).reshape(ts.size, -1)
-        for row in range(ts.size):
-            nav.feed_measurement(name, float(ts[row]), zs[row], row)
+        nav.feed_measurements(name, t, z)
     nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
     nav.flush()
     return nav.output()

@@ -1,0 +1,352 @@
+"""The engine as it was before the compiled epochs: the readable reference for the tests.
+
+A verbatim copy of ``adaptnav.engine`` before ``adaptnav.update_kernels`` (NumPy sensors'
+``evaluate``, the strategies' ``update``, ``errorstate.inject`` / ``reset_jacobian``, a heap of
+readings, ledger dicts), with the engine's data classes imported rather than redefined.
+``tests/test_update_kernels.py`` runs it side by side with :class:`adaptnav.engine.Navigator`.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav import errorstate, kernels
+from adaptnav.engine import EngineConfig, EngineOutput, SensorChannel
+from adaptnav.errorstate import N_STATES
+from adaptnav.gate import apply_gate
+from adaptnav.kalman import innovation_covariance
+from adaptnav.noise.base import Block
+from adaptnav.sensors.base import MeasurementModel
+from adaptnav.strapdown import NOM_SIZE
+
+Array = NDArray[np.float64]
+EpochPolicy = Literal["exact", "grid"]
+MAX_DIM = 3
+"""Largest sensor dimension; the ledger keeps this many innovation / R columns."""
+SAME_EPOCH_S = 1e-9
+"""Stamps closer than this are one epoch under the ``exact`` policy (float rounding)."""
+
+
+@dataclass
+class _Records:
+    """Growing output buffers (plain lists; turned into arrays once at the end)."""
+
+    sol_t: list[float] = field(default_factory=list)
+    sol_x: list[Array] = field(default_factory=list)
+    sol_p: list[Array] = field(default_factory=list)
+    ledger: list[dict[str, Any]] = field(default_factory=list)
+
+
+class Navigator:
+    """Streaming multirate ESKF: feed IMU intervals and sensor readings; read the solution.
+
+    Readings may be fed ahead of the IMU (they wait in a time-ordered heap until the IMU covers
+    their stamp); a reading stamped before the navigator's current time is dropped as ``late``.
+    """
+
+    def __init__(
+        self,
+        config: EngineConfig,
+        channels: Sequence[SensorChannel],
+        x0: ArrayLike,
+        P0: ArrayLike,
+        t0: float,
+    ) -> None:
+        names = [c.name for c in channels]
+        if len(set(names)) != len(names):
+            raise ValueError(f"sensor names must be unique, got {names}")
+        kinds = {type(c.strategy) for c in channels}
+        if len(kinds) > 1:
+            raise ValueError("all sensors of one filter must use the same noise strategy class")
+        self.config = config
+        self.channels = tuple(channels)
+        self._index = {c.name: i for i, c in enumerate(channels)}
+        self.x = np.array(x0, dtype=float)
+        self.P = np.array(P0, dtype=float)
+        if self.x.shape != (NOM_SIZE,) or self.P.shape != (N_STATES, N_STATES):
+            raise ValueError(f"x0 must be ({NOM_SIZE},), P0 ({N_STATES}, {N_STATES})")
+        self.t = float(t0)
+        self._q = errorstate.noise_psd(config.imu_noise)
+        self._tau_a = float(config.imu_noise.accel_bias_tau)
+        self._tau_g = float(config.imu_noise.gyro_bias_tau)
+        # The current IMU interval: [t_start, t_start + dt], rates, and how far we are into it.
+        self._t_start = self.t
+        self._dt = 0.0
+        self._offset = 0.0
+        self._w_cur = np.zeros(3)
+        self._f_cur = np.zeros(3)
+        self._w_prev = np.zeros(3)
+        self._f_prev = np.zeros(3)
+        self._have_rates = False
+        self._intervals_done = 0
+        self._states: list[Any] = [c.strategy.initial_state(_nominal_R(c.model)) for c in channels]
+        self._last_epoch = [math.nan] * len(channels)
+        self._pending: list[tuple[float, int, int, int, Array]] = []
+        self._seq = 0
+        self.records = _Records()
+        self._record()
+
+    # --- feeding ------------------------------------------------------------------------------
+
+    def feed_measurement(self, sensor: str, t: float, z: ArrayLike, row: int = -1) -> None:
+        """Queue a reading of ``sensor`` stamped ``t``; it is processed once the IMU covers t."""
+        if sensor not in self._index:
+            raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
+        i = self._index[sensor]
+        heapq.heappush(self._pending, (float(t), i, self._seq, row, np.asarray(z, dtype=float)))
+        self._seq += 1
+
+    def feed_imu(self, t: ArrayLike, dt: ArrayLike, dtheta: ArrayLike, dvel: ArrayLike) -> None:
+        """Integrate IMU intervals ``(t_k - dt_k, t_k]`` with increments, processing every queued
+        reading they cover, in time order."""
+        tk = np.atleast_1d(np.asarray(t, dtype=float))
+        dts = np.broadcast_to(np.asarray(dt, dtype=float), tk.shape).copy()
+        dth = np.ascontiguousarray(np.atleast_2d(np.asarray(dtheta, dtype=float)))
+        dv = np.ascontiguousarray(np.atleast_2d(np.asarray(dvel, dtype=float)))
+        start, n = 0, tk.size
+        while True:
+            if self._offset < self._dt:  # an interval split by an exact-time update is open
+                if self._pending and self._pending[0][0] <= self._t_start + self._dt:
+                    self._epoch_in_open_interval()
+                    continue
+                self._advance_in_interval(self._dt)
+                self._interval_done()
+            if start >= n:
+                return
+            if not self._pending or self._pending[0][0] > tk[-1]:
+                self._bulk(tk, dts, dth, dv, start, n)
+                return
+            if self._pending[0][0] <= self.t:
+                self._drop_late()
+                continue
+            k = int(np.searchsorted(tk, self._pending[0][0], side="left"))
+            self._bulk(tk, dts, dth, dv, start, k)
+            self._begin_interval(float(tk[k] - dts[k]), float(dts[k]), dth[k], dv[k])
+            start = k + 1
+
+    def _epoch_in_open_interval(self) -> None:
+        """Process the earliest queued reading, which lies in the open interval."""
+        t_m = self._pending[0][0]
+        if t_m <= self.t:
+            self._drop_late()
+            return
+        t_end = self._t_start + self._dt
+        if self.config.epoch_policy == "grid":
+            self._advance_in_interval(self._dt)
+            self._epoch(t_end, t_end)
+        else:
+            self._advance_in_interval(t_m - self._t_start)
+            self._epoch(self.t, self.t + SAME_EPOCH_S)
+        if self._offset >= self._dt:
+            self._interval_done()
+
+    # --- propagation --------------------------------------------------------------------------
+
+    def _begin_interval(self, t_start: float, dt: float, dtheta: Array, dvel: Array) -> None:
+        w, f = dtheta / dt, dvel / dt
+        if not self._have_rates:
+            self._w_cur, self._f_cur, self._have_rates = w, f, True
+        self._w_prev, self._f_prev = self._w_cur, self._f_cur
+        self._w_cur, self._f_cur = w, f
+        self._t_start, self._dt, self._offset = t_start, dt, 0.0
+        self.t = t_start
+
+    def _advance_in_interval(self, tau: float) -> None:
+        """Propagate inside the open interval up to offset tau (clamped to it)."""
+        tau = min(max(tau, self._offset), self._dt)
+        if tau > self._offset:
+            kernels.propagate_partial(
+                self.x, self.P, self._w_prev, self._f_prev, self._w_cur, self._f_cur,
+                self._dt, self._offset, tau, self._q, self._tau_a, self._tau_g,
+            )  # fmt: skip
+            self._offset = tau
+        self.t = self._t_start + tau if tau < self._dt else self._t_start + self._dt
+
+    def _interval_done(self) -> None:
+        self._intervals_done += 1
+        if self._intervals_done % self.config.output_every == 0:
+            self._record()
+
+    def _bulk(self, tk: Array, dts: Array, dth: Array, dv: Array, a: int, b: int) -> None:
+        """Whole intervals a..b-1, in compiled runs that end on output epochs."""
+        if b <= a:
+            return
+        if not self._have_rates:
+            self._w_cur, self._f_cur = dth[a] / dts[a], dv[a] / dts[a]
+            self._have_rates = True
+        every = self.config.output_every
+        i = a
+        while i < b:
+            to_output = every - self._intervals_done % every
+            j = min(b, i + to_output)
+            wp, fp = self._w_cur.copy(), self._f_cur.copy()
+            kernels.propagate_run(
+                self.x, self.P, dth[i:j], dv[i:j], dts[i:j], wp, fp,
+                self._q, self._tau_a, self._tau_g,
+            )  # fmt: skip
+            self._w_cur, self._f_cur = wp, fp
+            self._dt = self._offset = float(dts[j - 1])
+            self.t = float(tk[j - 1])
+            self._t_start = self.t - self._dt
+            self._intervals_done += j - i - 1
+            self._interval_done()
+            i = j
+
+    # --- measurement epochs -------------------------------------------------------------------
+
+    def _drop_late(self) -> None:
+        t_m, i, _, row, _ = heapq.heappop(self._pending)
+        self._ledger(i, row, t_m, self.t, "dropped", "late: stamped before the current time")
+
+    def _epoch(self, t_epoch: float, t_until: float) -> None:
+        """Stacked update with every queued reading stamped <= t_until (spec §5)."""
+        group: list[tuple[float, int, int, Array]] = []
+        while self._pending and self._pending[0][0] <= t_until:
+            t_m, i, _, row, z = heapq.heappop(self._pending)
+            group.append((t_m, i, row, z))
+        blocks: list[Block] = []
+        meta: list[tuple[int, int, float]] = []
+        seen: set[int] = set()
+        for t_m, i, row, z in group:
+            ch = self.channels[i]
+            if i in seen:
+                self._ledger(
+                    i, row, t_m, t_epoch, "dropped", "duplicate: sensor already at this epoch"
+                )
+                continue
+            meas = ch.model.evaluate(self.x, z, self._w_cur)
+            if meas is None:
+                self._ledger(i, row, t_m, t_epoch, "dropped", "invalid reading (non-finite)")
+                continue
+            seen.add(i)
+            last = self._last_epoch[i]
+            dt_i = ch.period if math.isnan(last) else t_epoch - last
+            self._states[i] = ch.strategy.predict(self._states[i], dt_i, ch.period)
+            self._last_epoch[i] = t_epoch
+            if ch.gate is not None:
+                R_now = ch.strategy.current_R(self._states[i], meas.R)
+                S = innovation_covariance(self.P, meas.H, R_now)
+                d = apply_gate(ch.gate, meas.y, S)
+                if not d.accepted:
+                    self._ledger(
+                        i, row, t_m, t_epoch, "rejected", f"gate {d.rule}", d.statistic,
+                        d.threshold, meas.y, np.diag(R_now),
+                    )  # fmt: skip
+                    continue
+            blocks.append(Block(ch.name, meas.y, meas.H, meas.R, self._states[i]))
+            meta.append((i, row, t_m))
+        if not blocks:
+            return
+        P_prior = self.P
+        res = self.channels[meta[0][0]].strategy.update(P_prior, blocks)
+        dx = res.correction.dx
+        self.x = errorstate.inject(self.x, dx)
+        P = res.correction.P
+        if self.config.reset_covariance:
+            G = errorstate.reset_jacobian(dx)
+            P = G @ P @ G.T
+        self.P = np.ascontiguousarray(0.5 * (P + P.T))
+        for (i, row, t_m), b, st, R in zip(meta, blocks, res.states, res.R_used, strict=True):
+            self._states[i] = st
+            S_i = innovation_covariance(P_prior, b.H, R)
+            nis = float(b.y @ np.linalg.solve(S_i, b.y))
+            self._ledger(
+                i, row, t_m, t_epoch, "used", "", nis, math.nan, b.y, np.diag(R), res.iterations
+            )
+
+    def _ledger(
+        self,
+        i: int,
+        row: int,
+        t_m: float,
+        t_epoch: float,
+        fate: str,
+        reason: str,
+        statistic: float = math.nan,
+        threshold: float = math.nan,
+        nu: Array | None = None,
+        r_diag: Array | None = None,
+        iterations: int = 0,
+    ) -> None:
+        rec: dict[str, Any] = {
+            "t": t_m,
+            "t_epoch": t_epoch,
+            "sensor": self.channels[i].name,
+            "row": row,
+            "fate": fate,
+            "reason": reason,
+            "statistic": statistic,
+            "threshold": threshold,
+            "iterations": iterations,
+        }
+        for j in range(MAX_DIM):
+            rec[f"nu_{j}"] = float(nu[j]) if nu is not None and j < nu.size else math.nan
+            rec[f"r_{j}"] = float(r_diag[j]) if r_diag is not None and j < r_diag.size else math.nan
+        self.records.ledger.append(rec)
+
+    def _record(self) -> None:
+        self.records.sol_t.append(self.t)
+        self.records.sol_x.append(self.x.copy())
+        self.records.sol_p.append(np.diag(self.P).copy())
+
+    def adaptation_state(self, sensor: str) -> Any:
+        """The current noise-adaptation state of ``sensor`` (VB α, β; matching window; ...)."""
+        return self._states[self._index[sensor]]
+
+    def flush(self) -> None:
+        """Drop every reading still queued (the IMU ended before its stamp), with a reason."""
+        while self._pending:
+            t_m, i, _, row, _ = heapq.heappop(self._pending)
+            self._ledger(i, row, t_m, math.nan, "dropped", "after the last IMU sample")
+
+    def output(self) -> EngineOutput:
+        r = self.records
+        return EngineOutput(
+            np.asarray(r.sol_t),
+            np.asarray(r.sol_x),
+            np.asarray(r.sol_p),
+            list(r.ledger),
+            self.x.copy(),
+            self.P.copy(),
+        )
+
+
+def _nominal_R(model: MeasurementModel) -> Array:
+    R = getattr(model, "R", None)
+    if R is None:
+        raise TypeError(f"sensor {model.name!r} exposes no nominal R")
+    return np.asarray(R() if callable(R) else R, dtype=float)
+
+
+def run_batch(
+    config: EngineConfig,
+    channels: Sequence[SensorChannel],
+    x0: ArrayLike,
+    P0: ArrayLike,
+    t0: float,
+    imu_t: ArrayLike,
+    imu_dt: ArrayLike,
+    dtheta: ArrayLike,
+    dvel: ArrayLike,
+    readings: Mapping[str, tuple[ArrayLike, ArrayLike]],
+) -> EngineOutput:
+    """Run a whole mission: every reading queued, then the IMU fed through one Navigator.
+
+    ``readings[name] = (t (n,), z (n, d))``; row numbers in the ledger index those arrays.
+    """
+    nav = Navigator(config, channels, x0, P0, t0)
+    for name, (t, z) in readings.items():
+        ts = np.asarray(t, dtype=float)
+        zs = np.asarray(z, dtype=float).reshape(ts.size, -1)
+        for row in range(ts.size):
+            nav.feed_measurement(name, float(ts[row]), zs[row], row)
+    nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
+    nav.flush()
+    return nav.output()
