@@ -105,7 +105,9 @@ def demo(
             f"{r['dvl_used']} / {r['dvl_rejected']}",
         )  # fmt: skip
     console.print(table)
-    console.print(f"alignment: heading from {info.get('heading_source', info.get('initial'))}")
+    source = {"gyrocompass": "gyrocompassing", "heading": "the mission's given heading"}
+    how = source.get(str(info.get("heading_source")), str(info.get("initial")))
+    console.print(f"static alignment: heading from {how}; all three filters start from it")
 
     import matplotlib
 
