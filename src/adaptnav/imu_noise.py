@@ -14,6 +14,18 @@ from typing import Any
 
 from adaptnav.units import Kind, UnitError, to_si
 
+FIELD_KINDS: dict[str, Kind] = {
+    "arw": Kind.ANGLE_RANDOM_WALK,
+    "vrw": Kind.VELOCITY_RANDOM_WALK,
+    "gyro_bias_sigma": Kind.ANGULAR_RATE,
+    "gyro_bias_tau": Kind.TIME,
+    "accel_bias_sigma": Kind.ACCELERATION,
+    "accel_bias_tau": Kind.TIME,
+    "gyro_bias_rrw": Kind.RATE_RANDOM_WALK,
+    "accel_bias_arw": Kind.ACCEL_RANDOM_WALK,
+}
+"""The quantity kind (hence the accepted datasheet units) of each :class:`ImuNoise` field."""
+
 
 @dataclass(frozen=True)
 class ImuNoise:
@@ -74,16 +86,7 @@ class ImuNoise:
                                     gyro_bias_sigma=(1, "deg/h"), gyro_bias_tau=(1, "h"),
                                     accel_bias_sigma=(0.25, "mg"), accel_bias_tau=(1, "h"))
         """
-        kinds = {
-            "arw": Kind.ANGLE_RANDOM_WALK,
-            "vrw": Kind.VELOCITY_RANDOM_WALK,
-            "gyro_bias_sigma": Kind.ANGULAR_RATE,
-            "gyro_bias_tau": Kind.TIME,
-            "accel_bias_sigma": Kind.ACCELERATION,
-            "accel_bias_tau": Kind.TIME,
-            "gyro_bias_rrw": Kind.RATE_RANDOM_WALK,
-            "accel_bias_arw": Kind.ACCEL_RANDOM_WALK,
-        }
+        kinds = FIELD_KINDS
         si: dict[str, Any] = {}
         for name, pair in fields.items():
             if name not in kinds:

@@ -31,7 +31,7 @@ from pydantic import (
 )
 
 from adaptnav.attitude import euler_to_dcm
-from adaptnav.imu_noise import ImuNoise
+from adaptnav.imu_noise import FIELD_KINDS, ImuNoise
 from adaptnav.units import DEG, Kind, UnitError, to_si
 
 if TYPE_CHECKING:
@@ -133,16 +133,7 @@ class MissionSection(_Model):
     description: str = ""
 
 
-_NOISE_KINDS: dict[str, Kind] = {
-    "arw": Kind.ANGLE_RANDOM_WALK,
-    "vrw": Kind.VELOCITY_RANDOM_WALK,
-    "gyro_bias_sigma": Kind.ANGULAR_RATE,
-    "gyro_bias_tau": Kind.TIME,
-    "accel_bias_sigma": Kind.ACCELERATION,
-    "accel_bias_tau": Kind.TIME,
-    "gyro_bias_rrw": Kind.RATE_RANDOM_WALK,
-    "accel_bias_arw": Kind.ACCEL_RANDOM_WALK,
-}
+_NOISE_KINDS: dict[str, Kind] = FIELD_KINDS
 
 
 class ImuNoiseConfig(_Model):

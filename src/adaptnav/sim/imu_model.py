@@ -64,20 +64,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
-from adaptnav.imu_noise import ImuNoise
+from adaptnav.imu_noise import FIELD_KINDS, ImuNoise
 from adaptnav.units import DEG, G0, Kind, UnitError, to_si
 
 Array = NDArray[np.float64]
 
 _KINDS: dict[str, Kind] = {
-    "arw": Kind.ANGLE_RANDOM_WALK,
-    "vrw": Kind.VELOCITY_RANDOM_WALK,
-    "gyro_bias_sigma": Kind.ANGULAR_RATE,
-    "gyro_bias_tau": Kind.TIME,
-    "accel_bias_sigma": Kind.ACCELERATION,
-    "accel_bias_tau": Kind.TIME,
-    "gyro_bias_rrw": Kind.RATE_RANDOM_WALK,
-    "accel_bias_arw": Kind.ACCEL_RANDOM_WALK,
+    **FIELD_KINDS,
     "gyro_turn_on_sigma": Kind.ANGULAR_RATE,
     "accel_turn_on_sigma": Kind.ACCELERATION,
 }
