@@ -18,20 +18,22 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from adaptnav import errorstate, kernels
-from adaptnav.engine import EngineConfig, EngineOutput, SensorChannel
+from adaptnav.engine import (
+    MAX_DIM,
+    SAME_EPOCH_S,
+    EngineConfig,
+    EngineOutput,
+    SensorChannel,
+    _nominal_R,
+)
 from adaptnav.errorstate import N_STATES
 from adaptnav.gate import apply_gate
 from adaptnav.kalman import innovation_covariance
 from adaptnav.noise.base import Block
-from adaptnav.sensors.base import MeasurementModel
 from adaptnav.strapdown import NOM_SIZE
 
 Array = NDArray[np.float64]
 EpochPolicy = Literal["exact", "grid"]
-MAX_DIM = 3
-"""Largest sensor dimension; the ledger keeps this many innovation / R columns."""
-SAME_EPOCH_S = 1e-9
-"""Stamps closer than this are one epoch under the ``exact`` policy (float rounding)."""
 
 
 @dataclass
@@ -316,13 +318,6 @@ class Navigator:
             self.x.copy(),
             self.P.copy(),
         )
-
-
-def _nominal_R(model: MeasurementModel) -> Array:
-    R = getattr(model, "R", None)
-    if R is None:
-        raise TypeError(f"sensor {model.name!r} exposes no nominal R")
-    return np.asarray(R() if callable(R) else R, dtype=float)
 
 
 def run_batch(
