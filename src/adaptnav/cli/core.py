@@ -1,33 +1,22 @@
-"""Command line: the only place that knows files and human units (degrees, hours)."""
+"""The core commands: demo, run, evaluate, simulate, version."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
-from adaptnav.units import UnitError
-
-FILTER_CHOICES = ("meskf", "maeskf", "vb")
-
-app = typer.Typer(
-    help="adaptnav: asynchronous multirate multi-sensor inertial navigation.",
-    no_args_is_help=True,
-    add_completion=False,
+from adaptnav.cli._app import (
+    FILTER_CHOICES,
+    FILTER_LABELS,
+    PAPER_TABLE3,
+    app,
+    console,
 )
-console = Console()
-err_console = Console(stderr=True)
-
-
-PAPER_TABLE3 = {
-    "paper-1": {"vb": (46.0, 0.20), "maeskf": (80.0, 0.35), "meskf": (184.0, 0.80)},
-    "paper-2": {"vb": (62.0, 0.65), "maeskf": (89.0, 0.91), "meskf": (102.0, 1.06)},
-}
-"""The paper's Table 3: RMSE (m) and relative RMSE (%) per trajectory and filter."""
-FILTER_LABELS = {"meskf": "MESKF", "maeskf": "MAESKF", "vb": "VB-MAESKF"}
+from adaptnav.cli._app import fail as _fail
+from adaptnav.units import UnitError
 
 
 @app.command()
@@ -130,12 +119,6 @@ def demo(
         "[yellow]Not yet:[/] the HTML report, q and process-noise sweeps and the oracle "
         "baseline (issue 5)."
     )
-
-
-def _fail(message: str) -> NoReturn:
-    """A user's mistake (bad file, bad config): one clear line, exit status 2, no traceback."""
-    err_console.print(f"[bold red]error:[/] {message}")
-    raise typer.Exit(2)
 
 
 @app.command("run")
