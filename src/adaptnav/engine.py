@@ -459,7 +459,8 @@ class Navigator:
         self._st_t = np.zeros(64)
         self._st_sensor = np.zeros(64, dtype=np.int64)
         self._st_row = np.zeros(64, dtype=np.int64)
-        self._st_z = np.zeros((64, MAX_DIM))
+        # A store row: the reading (MAX_DIM) then its own R diagonal (MAX_DIM; NaN: none).
+        self._st_z = np.full((64, 2 * MAX_DIM), math.nan)
         self._n_store = 0
         self._python_z: dict[int, Array] = {}
         # The queue: store indices of the readings sorted by (t, sensor, arrival) and their
@@ -536,13 +537,29 @@ class Navigator:
             )
         return zz
 
-    def feed_measurement(self, sensor: str, t: float, z: ArrayLike, row: int = -1) -> None:
-        """Queue a reading of ``sensor`` stamped ``t``; it is processed once the IMU covers t."""
+    def feed_measurement(
+        self,
+        sensor: str,
+        t: float,
+        z: ArrayLike,
+        row: int = -1,
+        r_diag: ArrayLike | None = None,
+    ) -> None:
+        """Queue a reading of ``sensor`` stamped ``t``; it is processed once the IMU covers t.
+
+        ``r_diag`` (d,): this reading's own measurement variances, replacing the sensor's nominal
+        R for it (the oracle baseline's known per-reading noise); default: the sensor's.
+        """
         if sensor not in self._index:
             raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
         i = self._index[sensor]
         k = self._reserve_store(1)
         self._st_t[k], self._st_sensor[k], self._st_row[k] = t, i, row
+        self._st_z[k] = math.nan
+        if r_diag is not None:
+            self._st_z[k, MAX_DIM : MAX_DIM + int(self._s_int[i, uk.S_DIM])] = self._r_diag(
+                i, r_diag, 1
+            )[0]
         if self._s_int[i, uk.S_CODE] == uk.LIN_PYTHON:
             self._python_z[k] = np.asarray(z, dtype=float)
         else:
@@ -551,10 +568,16 @@ class Navigator:
         self._n_store = k + 1
 
     def feed_measurements(
-        self, sensor: str, t: ArrayLike, z: ArrayLike, rows: ArrayLike | None = None
+        self,
+        sensor: str,
+        t: ArrayLike,
+        z: ArrayLike,
+        rows: ArrayLike | None = None,
+        r_diag: ArrayLike | None = None,
     ) -> None:
         """Queue many readings of ``sensor`` at once: stamps ``t`` (n,), readings ``z`` (n, d),
-        ledger row numbers ``rows`` (default 0..n-1); as n calls of :meth:`feed_measurement`."""
+        ledger row numbers ``rows`` (default 0..n-1), own variances ``r_diag`` (n, d) or None;
+        as n calls of :meth:`feed_measurement`."""
         if sensor not in self._index:
             raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
         i = self._index[sensor]
@@ -568,6 +591,10 @@ class Navigator:
         self._st_t[k0 : k0 + n] = ts
         self._st_sensor[k0 : k0 + n] = i
         self._st_row[k0 : k0 + n] = rw
+        self._st_z[k0 : k0 + n] = math.nan
+        if r_diag is not None:
+            d = int(self._s_int[i, uk.S_DIM])
+            self._st_z[k0 : k0 + n, MAX_DIM : MAX_DIM + d] = self._r_diag(i, r_diag, n)
         if self._s_int[i, uk.S_CODE] == uk.LIN_PYTHON:
             for r in range(n):
                 self._python_z[k0 + r] = zs[r]
@@ -575,6 +602,17 @@ class Navigator:
             self._check_reading(i, zs[0])
             self._st_z[k0 : k0 + n, : zs.shape[1]] = zs
         self._n_store = k0 + n
+
+    def _r_diag(self, i: int, r_diag: ArrayLike, n: int) -> Array:
+        """Per-reading variances (n, d) of sensor i, checked: finite and positive."""
+        d = int(self._s_int[i, uk.S_DIM])
+        r = np.asarray(r_diag, dtype=float)
+        if r.size != n * d:
+            raise ValueError(f"{self.channels[i].name}: r_diag must have {n} x {d} values")
+        r = r.reshape(n, d)
+        if not np.all(np.isfinite(r) & (r > 0.0)):
+            raise ValueError(f"{self.channels[i].name}: r_diag must be finite and positive")
+        return r
 
     def _sort_queue(self) -> None:
         """Merge the readings fed since the last call into the queue, in the order (t, sensor,
@@ -823,15 +861,16 @@ def run_batch(
     imu_dt: ArrayLike,
     dtheta: ArrayLike,
     dvel: ArrayLike,
-    readings: Mapping[str, tuple[ArrayLike, ArrayLike]],
+    readings: Mapping[str, tuple[ArrayLike, ...]],
 ) -> EngineOutput:
     """Run a whole mission: every reading queued, then the IMU fed through one Navigator.
 
-    ``readings[name] = (t (n,), z (n, d))``; row numbers in the ledger index those arrays.
+    ``readings[name] = (t (n,), z (n, d))`` or ``(t, z, r_diag (n, d))`` with each reading's
+    own variances; row numbers in the ledger index those arrays.
     """
     nav = Navigator(config, channels, x0, P0, t0)
-    for name, (t, z) in readings.items():
-        nav.feed_measurements(name, t, z)
+    for name, (t, z, *r_diag) in readings.items():
+        nav.feed_measurements(name, t, z, r_diag=r_diag[0] if r_diag else None)
     nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
     nav.flush()
     return nav.output()

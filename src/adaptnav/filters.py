@@ -3,7 +3,9 @@
 * ``meskf``: fixed nominal R (:class:`~adaptnav.noise.FixedNoise`), outlier gate on;
 * ``maeskf``: R by innovation covariance matching (:class:`~adaptnav.noise.CovarianceMatching`),
   gate on;
-* ``vb``: VB-MAESKF, R by variational Bayes (:class:`~adaptnav.noise.VariationalBayes`), no gate.
+* ``vb``: VB-MAESKF, R by variational Bayes (:class:`~adaptnav.noise.VariationalBayes`), no gate;
+* ``oracle``: not a filter a user can run on real data, a baseline: fixed R, no gate, each
+  reading given its true variance and known outliers removed (:mod:`adaptnav.oracle`).
 
 Default gate coefficients are the paper's best on its trajectory No. 1 (q = 600 for MESKF,
 1800 for MAESKF; Fig. 4); the paper gives no ρ, N or α0, so ours are stated choices: ρ = 0.99
@@ -21,8 +23,8 @@ from adaptnav.gate import Gate, GateRule
 from adaptnav.noise import CovarianceMatching, FixedNoise, NoiseStrategy, VariationalBayes
 from adaptnav.sensors.base import MeasurementModel
 
-FilterKind = Literal["meskf", "maeskf", "vb"]
-FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb")
+FilterKind = Literal["meskf", "maeskf", "vb", "oracle"]
+FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "oracle")
 DEFAULT_GATE_Q: dict[str, float] = {"meskf": 600.0, "maeskf": 1800.0}
 
 
@@ -62,7 +64,7 @@ class FilterSettings:
 
     def strategy(self, overrides: SensorOverrides = SensorOverrides()) -> NoiseStrategy:
         """The R strategy of this filter kind for one sensor."""
-        if self.kind == "meskf":
+        if self.kind in ("meskf", "oracle"):
             return FixedNoise()
         if self.kind == "maeskf":
             window = overrides.matching_window or self.matching_window

@@ -948,6 +948,18 @@ def ledger_drop(lg_int: IntArray, lg_flt: Array, n: int, idx: int, code: int, t:
     _ledger(lg_int, lg_flt, n, idx, code, t, math.nan, math.nan, 0, lg_flt[n], 0, lg_flt, 0, 0)
 
 
+@jit_inline
+def _reading_R(st_z: Array, idx: int, d: int, Rb: Array, nb: int) -> None:
+    """A reading's own nominal R, where it carries one: store columns MAX_DIM.. of its row hold
+    the diagonal ``r_diag`` (NaN: none), which replaces the sensor's nominal R (off-diagonal
+    terms zero). Used by the oracle baseline, which knows each reading's true variance."""
+    if st_z.shape[1] <= MAX_DIM or not math.isfinite(st_z[idx, MAX_DIM]):
+        return
+    for a in range(d):
+        for c in range(d):
+            Rb[nb, a, c] = st_z[idx, MAX_DIM + a] if a == c else 0.0
+
+
 @jit
 def epoch(
     x: Array,
@@ -976,7 +988,8 @@ def epoch(
 
     Per reading, in order (spec §5-7): a second reading of a sensor already at this epoch is
     dropped (duplicate); the reading is linearised at x (compiled, or the Python ``evaluate``
-    result in ``fb[k]``) and dropped if non-finite; the sensor's adaptation state is predicted
+    result in ``fb[k]``) and dropped if non-finite; its nominal R is the sensor's, or its own
+    where the store row carries one (:func:`_reading_R`); the sensor's adaptation state is predicted
     over the time since its previous epoch (VB: ``ρ`` or ``ρ^(dt/T)``, P-12, P-13); the gate,
     if any, tests it against ``S = H P Hᵀ + R_now``. The accepted blocks are stacked into one
     update (:func:`stacked_update`); x ← x ⊕ dx, P ← G P⁺ Gᵀ (if ``reset_covariance``),
@@ -1020,6 +1033,7 @@ def epoch(
                 for a in range(d):
                     for c in range(d):
                         Rb[nb, a, c] = s_flt[i, F_RNOM + 3 * a + c]
+                _reading_R(st_z, idx, d, Rb, nb)
         else:
             valid = fb[k, FB_VALID] != 0.0
             if valid:
@@ -1029,6 +1043,7 @@ def epoch(
                         H[D + a, c] = fb[k, FB_H + N_STATES * a + c]
                     for c in range(d):
                         Rb[nb, a, c] = fb[k, FB_R + 3 * a + c]
+                _reading_R(st_z, idx, d, Rb, nb)
         if not valid:
             _ledger(lg_int, lg_flt, n_ledger, idx, LEDGER_INVALID, t_epoch, math.nan,
                     math.nan, 0, y, 0, R_now, 0, 0)  # fmt: skip
