@@ -18,10 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from adaptnav import attitude, engine
+from adaptnav import attitude, engine, oracle
 from adaptnav.align import align
 from adaptnav.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.filters import FilterKind, FilterSettings, build_channels
+from adaptnav.imu_noise import ImuNoise
 from adaptnav.io import Mission, load_mission
 from adaptnav.io.mission import build_sensor_model
 from adaptnav.results import Result
@@ -116,16 +117,23 @@ def run(
     settings: FilterSettings | None = None,
     epoch_policy: engine.EpochPolicy | None = None,
     initial: tuple[np.ndarray, np.ndarray, float] | None = None,
+    imu_noise: ImuNoise | None = None,
 ) -> Result:
     """Run one filter on a mission and return its :class:`~adaptnav.results.Result`.
 
     Args:
         mission: a loaded :class:`~adaptnav.io.Mission` or its folder.
-        filter: ``"meskf"``, ``"maeskf"`` or ``"vb"``; default: the mission's ``filter.kind``.
+        filter: ``"meskf"``, ``"maeskf"``, ``"vb"`` or ``"oracle"`` (a simulated mission's
+            limit: true per-reading R, known outliers dropped; :mod:`adaptnav.oracle`);
+            default: the mission's ``filter.kind``.
         settings: filter settings overriding the mission's ``[filter]`` section.
         epoch_policy: ``"exact"`` or ``"grid"``; default: the mission's.
         initial: (x0, P0, t0) to start from instead of the mission's ``[initial]`` (e.g. to
             share one alignment between filters).
+        imu_noise: the IMU noise model for the engine's process noise Q (spec §3) instead of
+            the mission's ``[imu.noise]`` (e.g. to scale the gyro-bias Q, the paper's Fig. 6,
+            without touching the mission); the alignment of ``initial_state`` keeps the
+            mission's.
     """
     m = mission if isinstance(mission, Mission) else load_mission(mission)
     cfg = m.config
@@ -133,15 +141,18 @@ def run(
     if filter is not None:
         s = s.with_kind(filter)
     policy = epoch_policy or cfg.filter.epoch_policy
-    noise = cfg.imu.noise.to_imu_noise()
+    noise = imu_noise if imu_noise is not None else cfg.imu.noise.to_imu_noise()
 
     started = time.perf_counter()
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
 
     extra: list[dict[str, Any]] = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
     sensors = []
-    readings: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    readings: dict[str, tuple[np.ndarray, ...]] = {}
     overrides = {}
+    aiding = [n for n in m.sensors if cfg.sensors[n].use == "aid"]
+    known = oracle.mission_noise(m, aiding) if s.kind == "oracle" else {}
+    kept: dict[str, np.ndarray] = {}
     for name, data in m.sensors.items():
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
@@ -154,7 +165,19 @@ def run(
         before = data.t <= t0
         for r, t in zip(data.rows[before], data.t[before], strict=True):
             extra.append(_ledger_row(name, int(r), float(t), "before navigation start (alignment)"))
-        readings[name] = (data.t[~before], data.z[~before])
+        keep = ~before
+        if name in known:
+            outlier = known[name].outlier
+            for r, t in zip(data.rows[keep & outlier], data.t[keep & outlier], strict=True):
+                extra.append(_ledger_row(name, int(r), float(t), oracle.OUTLIER_REASON))
+            keep &= ~outlier
+        kept[name] = keep
+        r_diag = known[name].r_diag if name in known else None
+        readings[name] = (
+            (data.t[keep], data.z[keep])
+            if r_diag is None
+            else (data.t[keep], data.z[keep], r_diag[keep])
+        )
         # A single-sample table has no median interval; its period matters only to VB's
         # irregular-rate variant, where one sample makes it moot.
         period = data.period if math.isfinite(data.period) else 1.0
@@ -172,7 +195,7 @@ def run(
     elapsed = time.perf_counter() - started
     # Rows that never reached the engine are dropped, but keep their fate in the ledger; the
     # engine's own rows index its readings, so map them back to the files' data rows.
-    rows_of = {name: m.sensors[name].rows[m.sensors[name].t > t0] for name in readings}
+    rows_of = {name: m.sensors[name].rows[kept[name]] for name in readings}
     ledger = []
     for rec in out.ledger:
         r = dict(rec)
@@ -184,6 +207,11 @@ def run(
         "mission_dir": str(m.root),
         "filter_settings": {k: v for k, v in s.__dict__.items()},
         "epoch_policy": policy,
+        **(
+            {"oracle_nominal_R": [n for n, o in known.items() if o.r_diag is None]}
+            if s.kind == "oracle"
+            else {}
+        ),
         "imu_samples": int(imu_t.size),
         "elapsed_s": elapsed,
         "imu_samples_per_s": imu_t.size / elapsed if elapsed > 0 else math.nan,
