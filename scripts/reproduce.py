@@ -1,0 +1,381 @@
+"""Reproduce the paper's comparison on both simulated trajectories and write docs/results.md.
+
+``make reproduce`` runs this with its defaults: on ``paper-1`` and ``paper-2``
+
+* a Monte Carlo over seeds 1..20 of MESKF, MAESKF, VB-MAESKF (and the oracle, where this
+  version has it) at their defaults (the paper's Table 3 as a distribution);
+* the q sweep of the paper's Fig. 4 (25 values in [200, 2600], every filter gated, VB-MAESKF
+  ungated and the oracle as references) on seeds 1..5;
+* the gyro-bias process-noise sweep of the paper's Fig. 6 (factors 10^[-2, 2], 9 values) on
+  seeds 1..5;
+
+all through the cached, resumable sweep of :mod:`adaptnav.sweep` (rerun it after an
+interruption: finished runs are kept), then writes ``docs/results.md``, its figures and the
+table of every run under ``docs/results/``. The section "Where we disagree with the paper and
+why" is ``docs/results-discussion.md`` included verbatim (a marked placeholder until written).
+
+Smoke test: ``python scripts/reproduce.py --presets demo --seeds 2 --q-seeds 1 --q-values 3
+--pn-seeds 1 --scales 3 --out /tmp/results.md --figures /tmp/results``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime as dt
+import math
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from adaptnav import __version__
+from adaptnav import sweep as sw
+from adaptnav.cli._app import PAPER_TABLE3
+from adaptnav.filters import DEFAULT_GATE_Q
+from adaptnav.sim.scenarios import PRESETS
+
+ROOT = Path(__file__).resolve().parent.parent
+LABELS = sw.LABELS
+PAPER_BEST_Q = {
+    "paper-1": {"meskf": 600.0, "maeskf": 1800.0, "vb": 2600.0},
+    "paper-2": {"meskf": 200.0, "maeskf": 1400.0, "vb": 2600.0},
+}
+"""The paper's best q per filter (Fig. 4 and its text)."""
+PLACEHOLDER = """> **PLACEHOLDER: the lead engineer writes this after reading the numbers above.**
+> Create `docs/results-discussion.md`; this script includes it here verbatim.
+"""
+
+
+def _args(argv: Sequence[str]) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--presets", default="paper-1,paper-2", help="comma-separated presets")
+    p.add_argument("--seeds", type=int, default=20, help="Monte Carlo seeds 1..N [20]")
+    p.add_argument("--q-seeds", type=int, default=5, help="q-sweep seeds 1..N [5]")
+    p.add_argument("--q-values", type=int, default=25, help="q values in [200, 2600] [25]")
+    p.add_argument("--pn-seeds", type=int, default=5, help="process-noise seeds 1..N [5]")
+    p.add_argument("--scales", type=int, default=9, help="gyro-bias Q factors in 10^[-2,2] [9]")
+    p.add_argument("--cache", type=Path, default=ROOT / "runs" / "reproduce-cache")
+    p.add_argument("--jobs", type=int, default=None, help="worker processes [cores]")
+    p.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md")
+    p.add_argument("--figures", type=Path, default=ROOT / "docs" / "results")
+    p.add_argument("--discussion", type=Path, default=ROOT / "docs" / "results-discussion.md")
+    p.add_argument(
+        "--keep-missions",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="keep simulated missions in the cache (off: delete each after its runs)",
+    )
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True)
+    a = p.parse_args(argv)
+    for name in ("seeds", "q_seeds", "q_values", "pn_seeds", "scales"):
+        if getattr(a, name) < 0:
+            p.error(f"--{name.replace('_', '-')} must be >= 0")
+    if a.jobs is not None and a.jobs < 1:
+        p.error("--jobs must be >= 1")
+    unknown = [x for x in a.presets.split(",") if x.strip() and x.strip() not in PRESETS]
+    if unknown or not a.presets.strip(","):
+        p.error(f"--presets: {unknown or a.presets!r}; use {', '.join(PRESETS)}")
+    return a
+
+
+def _git_commit() -> str:
+    try:
+        done = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return done.stdout.strip() or "unknown"
+
+
+def _du(path: Path) -> int:
+    total = 0
+    for base, _, files in os.walk(path):
+        for f in files:
+            with contextlib.suppress(OSError):
+                total += (Path(base) / f).stat().st_size
+    return total
+
+
+def _f(v: Any, fmt: str) -> str:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return "-"
+    return "-" if not math.isfinite(x) else format(x, fmt)
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _seeds_text(n: int) -> str:
+    return "none" if n == 0 else ("seed 1" if n == 1 else f"seeds 1-{n}")
+
+
+def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
+    out: list[str] = []
+    summary = sw.summarize(mc)
+    comparison = sw.paired_comparison(mc, "vb")
+    for preset in presets:
+        s = summary[summary["preset"] == preset]
+        if s.empty:
+            continue
+        paper = PAPER_TABLE3.get(preset, {})
+        rows = []
+        for r in s.to_dict("records"):
+            pm, pr = paper.get(str(r["filter"]), (math.nan, math.nan))
+            rows.append(
+                [
+                    LABELS.get(str(r["filter"]), str(r["filter"])),
+                    str(r["n"]),
+                    f"{_f(r['rmse_m_mean'], '.1f')} ± {_f(r['rmse_m_std'], '.1f')}",
+                    _f(r["rmse_m_median"], ".1f"),
+                    f"{_f(r['rmse_m_min'], '.1f')}-{_f(r['rmse_m_max'], '.1f')}",
+                    f"{_f(r['relative_rmse_pct_mean'], '.3f')} ± "
+                    f"{_f(r['relative_rmse_pct_std'], '.3f')}",
+                    _f(pm, ".0f"),
+                    _f(pr, ".2f"),
+                ]
+            )
+        out += [f"### {preset}", ""]
+        out.append(
+            _table(
+                [
+                    "filter",
+                    "runs",
+                    "RMSE m, mean ± std",
+                    "median",
+                    "min-max",
+                    "relative RMSE %, mean ± std",
+                    "paper m",
+                    "paper %",
+                ],
+                rows,
+            )
+        )
+        out.append("")
+        means = dict(zip(s["filter"], s["relative_rmse_pct_mean"], strict=True))
+        c = comparison[comparison["preset"] == preset]
+        lines = []
+        for r in c.to_dict("records"):
+            other = str(r["other"])
+            text = (
+                f"- VB-MAESKF vs {LABELS.get(other, other)}: lower RMSE on {r['wins']:g} of "
+                f"{r['n']} seeds (win rate {_f(100 * r['win_rate'], '.0f')} %); RMSE ratio "
+                f"VB / {LABELS.get(other, other)}: median {_f(r['ratio_median'], '.2f')}, "
+                f"ratio of means {_f(r['ratio_of_means'], '.2f')}"
+            )
+            if other in means and "vb" in means and other != "oracle":
+                ours = 100.0 * (1.0 - means["vb"] / means[other])
+                word = "lower" if ours >= 0 else "higher"
+                text += f"; VB's mean relative RMSE {_f(abs(ours), '.0f')} % {word}"
+                if other in paper and "vb" in paper:
+                    theirs = 100.0 * (1.0 - paper["vb"][1] / paper[other][1])
+                    text += f" (paper: {theirs:.0f} % lower)"
+            lines.append(text)
+        out += lines
+        out.append("")
+    return out
+
+
+def _spread_section(
+    table: pd.DataFrame, parameter: str, presets: Sequence[str], best_paper: bool
+) -> list[str]:
+    c = sw.curve(table, parameter)
+    spread = sw.curve_spread(c, parameter)
+    out: list[str] = []
+    for preset in presets:
+        s = spread[spread["preset"] == preset]
+        if s.empty:
+            continue
+        name = "q" if parameter == "q" else "factor"
+        header = ["filter", "values", f"best {name}", "best %", f"worst {name}", "worst %",
+                  "worst/best"]  # fmt: skip
+        if best_paper:
+            header.append("paper's best q")
+        rows = []
+        for r in s.to_dict("records"):
+            row = [
+                LABELS.get(str(r["filter"]), str(r["filter"])) + (", gated" if best_paper else ""),
+                str(r["values"]),
+                _f(r["best_at"], "g"),
+                _f(r["best"], ".3f"),
+                _f(r["worst_at"], "g"),
+                _f(r["worst"], ".3f"),
+                _f(r["worst_over_best"], ".2f"),
+            ]
+            if best_paper:
+                row.append(_f(PAPER_BEST_Q.get(preset, {}).get(str(r["filter"])), "g"))
+            rows.append(row)
+        out += [f"**{preset}** (relative RMSE, mean over seeds)", "", _table(header, rows), ""]
+        if best_paper:
+            ok = table[table["error"].isna() & ~np.isfinite(table["q"].astype(float))]
+            refs = ok[ok["preset"] == preset].groupby("filter", sort=False)["relative_rmse_pct"]
+            for filt, v in refs:
+                name = LABELS.get(str(filt), str(filt))
+                name += ", no gate (its default)" if filt == "vb" else " (reference)"
+                out.append(f"- {name}: {_f(v.mean(), '.3f')} % (mean of {v.size} seeds)")
+            out.append("")
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = _args(argv)
+    started = time.perf_counter()
+    presets = [p.strip() for p in args.presets.split(",") if p.strip()]
+    filters = sw.available_filters(sw.DEFAULT_FILTERS)
+    oracle = "oracle" in filters
+    mc_seeds = list(range(1, args.seeds + 1))
+    q_seeds = list(range(1, args.q_seeds + 1))
+    pn_seeds = list(range(1, args.pn_seeds + 1))
+    q_values = [float(v) for v in np.linspace(200.0, 2600.0, args.q_values)]
+    scales = [float(v) for v in np.logspace(-2.0, 2.0, args.scales)]
+    mc_specs = sw.monte_carlo_specs(presets, mc_seeds, filters)
+    q_specs = sw.q_sweep_specs(presets, q_seeds, q_values) if q_values else []
+    pn_specs = sw.process_noise_specs(presets, pn_seeds, scales) if scales else []
+    all_specs = mc_specs + q_specs + pn_specs
+    n_unique = len({s.key() for s in all_specs})
+    n_missions = len({s.mission_name for s in all_specs})
+    print(
+        f"reproduce: {n_unique} runs on {n_missions} missions ({len(mc_specs)} Monte Carlo, "
+        f"{len(q_specs)} q sweep, {len(pn_specs)} process noise; shared runs counted once); "
+        f"cache {args.cache}",
+        file=sys.stderr,
+    )
+    outcome = sw.run_sweep(
+        all_specs, args.cache, jobs=args.jobs, progress=args.progress,
+        keep_missions=args.keep_missions,
+    )  # fmt: skip
+    mc = outcome.rows(mc_specs)
+    qt = outcome.rows(q_specs) if q_specs else outcome.table.iloc[0:0]
+    pn = outcome.rows(pn_specs) if pn_specs else outcome.table.iloc[0:0]
+
+    figs = args.figures
+    figs.mkdir(parents=True, exist_ok=True)
+    outcome.table.to_csv(figs / "runs.csv", index=False)
+    fig_mc = sw.plot_monte_carlo(mc, figs / "monte_carlo.png")
+    fig_q = sw.plot_q_sweep(qt, figs / "q_sweep.png") if q_specs else None
+    fig_pn = sw.plot_process_noise(pn, figs / "process_noise.png") if pn_specs else None
+    wall = time.perf_counter() - started
+
+    def rel(p: Path) -> str:
+        return os.path.relpath(p, args.out.parent)
+
+    ok = outcome.table[outcome.table["error"].isna()]
+    per_run = ok.groupby("preset")["elapsed_s"].mean()
+    command = " ".join(["python scripts/reproduce.py", *argv])
+    md: list[str] = [
+        "# Results: the paper's comparison rerun on the simulated trajectories",
+        "",
+        f"Generated by `{command}` (`make reproduce` runs it with the defaults) on "
+        f"{dt.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}; adaptnav "
+        f"{__version__}, commit `{_git_commit()}`; {os.cpu_count()} cores. This invocation: "
+        f"{wall / 60:.1f} min wall, {outcome.ran} runs computed, {outcome.reused} read from the "
+        f"cache (`{args.cache}`), {outcome.failed} failed. Mean time per run (filter + "
+        "evaluation): "
+        + ", ".join(f"{p} {v:.1f} s" for p, v in per_run.items())
+        + f"; CPU time of all {len(ok)} runs {ok['elapsed_s'].sum() / 60:.1f} min. "
+        f"Every run: [`{rel(figs / 'runs.csv')}`]({rel(figs / 'runs.csv')}).",
+        "",
+        "## Setup",
+        "",
+        f"- Trajectories: {', '.join(presets)} (`adaptnav simulate`, every disturbance on: "
+        "DVL outliers, noise segments and dropouts, sea-state depth noise, pendulum "
+        "inclinometer, clock offsets and jitter; see `docs/simulation.md`). Each seed draws "
+        "every error source anew on the same track.",
+        f"- Monte Carlo: {_seeds_text(args.seeds)} per trajectory; filters "
+        f"{', '.join(LABELS.get(f, f) for f in filters)}"
+        + (
+            "; the oracle is the ESKF given the simulator's true per-reading σ and told "
+            "which DVL readings are outliers (a limit, not a filter for real data)."
+            if oracle
+            else "; no oracle in this version (`adaptnav.filters.FILTER_KINDS`)."
+        ),
+        f"- q sweep (Fig. 4): {len(q_values)} values of q in [200, 2600] on "
+        f"{_seeds_text(args.q_seeds)} per trajectory (fewer seeds than the Monte Carlo, to fit "
+        "the time), every filter with the DVL gate on at that q (the paper's per-component "
+        "rule, spec §7), VB-MAESKF included; VB-MAESKF ungated"
+        + (" and the oracle" if oracle else "")
+        + " as reference lines.",
+        f"- Gyro-bias process noise (Fig. 6): the gyro bias's driving-noise PSD in the "
+        f"filter's Q times {len(scales)} factors in 10^[-2, 2] on {_seeds_text(args.pn_seeds)} "
+        "per trajectory, each filter at its default q; the missions and their alignment are "
+        "unchanged.",
+        "- Every filter and parameter on a mission starts from one shared static alignment "
+        "(10 min), as in the paper's comparison.",
+        "- **What was tuned:** nothing per filter beyond what the paper describes. The paper "
+        "tunes q and Q for MESKF and MAESKF per trajectory; our defaults are its best q on "
+        f"trajectory No. 1 (MESKF {DEFAULT_GATE_Q['meskf']:g}, MAESKF "
+        f"{DEFAULT_GATE_Q['maeskf']:g}), used on both trajectories, and the mission's Q "
+        "(the IMU's datasheet noise) for every filter. VB-MAESKF runs ungated with the stated "
+        "choices ρ = 0.99, N = 5, α0 = 1 (the paper gives none). The sweeps below show what "
+        "tuning q or Q per trajectory would change.",
+        "",
+        "## Monte Carlo over seeds (Table 3)",
+        "",
+        f"Each filter at its defaults; the paper's sea-trial figures beside ours. "
+        f"![Monte Carlo]({rel(fig_mc)})",
+        "",
+        *_monte_carlo(mc, presets),
+    ]
+    if q_specs:
+        md += [
+            "## Sensitivity to the gate coefficient q (Fig. 4)",
+            "",
+            "Spread of each filter's mean relative RMSE over the q values: best and worst q "
+            "and worst / best (1.00: insensitive).",
+            "",
+            *_spread_section(qt, "q", presets, best_paper=True),
+            f"![q sweep]({rel(fig_q)})" if fig_q else "",
+            "",
+        ]
+    if pn_specs:
+        md += [
+            "## Sensitivity to the gyro-bias process noise (Fig. 6)",
+            "",
+            "Spread of each filter's mean relative RMSE over the factors on the gyro-bias Q "
+            "(1 = the mission's).",
+            "",
+            *_spread_section(pn, "q_scale", presets, best_paper=False),
+            f"![process noise]({rel(fig_pn)})" if fig_pn else "",
+            "",
+        ]
+    if outcome.failed:
+        md += ["## Failed runs", ""]
+        md += [f"- `{k}`: {v}" for k, v in sorted(outcome.errors.items())]
+        md.append("")
+    discussion = (
+        args.discussion.read_text(encoding="utf-8").strip() + "\n"
+        if args.discussion.is_file()
+        else PLACEHOLDER
+    )
+    md += ["## Where we disagree with the paper and why", "", discussion]
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text("\n".join(md), encoding="utf-8")
+    size = _du(args.cache) / 1e6
+    print(
+        f"wrote {args.out} and {figs}/ in {wall / 60:.1f} min ({outcome.ran} runs now, "
+        f"{outcome.reused} cached, {outcome.failed} failed); cache {size:.0f} MB",
+        file=sys.stderr,
+    )
+    return 1 if outcome.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,315 @@
+"""``adaptnav sweep``: the paper's sweeps and a Monte Carlo over seeds, cached and parallel.
+
+* ``adaptnav sweep q PRESET...``: relative RMSE against the gate coefficient q (the paper's
+  Fig. 4), every filter gated at every q, VB-MAESKF ungated and the oracle as references;
+* ``adaptnav sweep process-noise PRESET...``: against a factor on the gyro-bias process noise
+  (the paper's Fig. 6);
+* ``adaptnav sweep seeds PRESET...``: each filter at its defaults over many seeds (Table 3 as
+  a distribution), with VB-MAESKF's win rate against each other filter.
+
+Each writes ``runs.csv`` (every run), ``summary.csv`` and a figure to ``--out``, and prints a
+table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.sweep`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.table import Table
+
+from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, app, console, fail
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from adaptnav.sweep import RunSpec, SweepOutcome
+
+sweep_app = typer.Typer(
+    help="Sweeps (q, gyro-bias process noise) and Monte Carlo over seeds, cached and parallel.",
+    no_args_is_help=True,
+)
+app.add_typer(sweep_app, name="sweep")
+
+Presets = Annotated[list[str], typer.Argument(help="simulation presets: paper-1, paper-2, demo")]
+Cache = Annotated[
+    Path, typer.Option(help="cache folder: simulated missions and finished runs (resumable)")
+]
+Out = Annotated[
+    Path | None,
+    typer.Option(help="folder for runs.csv, summary.csv, the figure (default: CACHE/<sweep kind>)"),
+]
+Jobs = Annotated[int | None, typer.Option(help="worker processes (default: the number of cores)")]
+AsJson = Annotated[bool, typer.Option("--json", help="print one JSON object, no table")]
+ShowProgress = Annotated[bool, typer.Option(help="progress bars on stderr")]
+KeepMissions = Annotated[
+    bool, typer.Option(help="keep simulated missions in the cache after their runs")
+]
+DEFAULT_CACHE = Path("runs/sweep-cache")
+
+
+def _label(kind: str) -> str:
+    return FILTER_LABELS.get(kind, kind)
+
+
+def _floats(text: str, option: str, geometric: bool) -> list[float]:
+    """``a,b,c`` or ``start:stop:count`` (linear for q, geometric for scales)."""
+    import numpy as np
+
+    try:
+        if ":" in text:
+            parts = text.split(":")
+            if len(parts) != 3:
+                raise ValueError
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+            if n < 1 or (geometric and (a <= 0 or b <= 0)):
+                raise ValueError
+            space = np.geomspace if geometric else np.linspace
+            values = [float(v) for v in space(a, b, n)]
+        else:
+            values = [float(v) for v in text.split(",")]
+    except ValueError:
+        what = "start:stop:count" + (" (start, stop > 0)" if geometric else "")
+        fail(f"{option}: {text!r} is not a list a,b,c or {what}")
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        fail(f"{option}: {text!r}: every value must be a finite number > 0")
+    return values
+
+
+def _common(
+    presets: list[str], seeds: str, filters: str, jobs: int | None
+) -> tuple[list[int], tuple[str, ...]]:
+    from adaptnav.sim.scenarios import PRESETS
+    from adaptnav.sweep import available_filters, parse_seeds
+
+    for p in presets:
+        if p not in PRESETS:
+            fail(f"preset {p!r}: use one of {', '.join(PRESETS)}")
+    if jobs is not None and jobs < 1:
+        fail(f"--jobs: {jobs} must be >= 1")
+    try:
+        seed_list = parse_seeds(seeds)
+    except ValueError as exc:
+        fail(f"--seeds: {exc}")
+    try:
+        names = available_filters(f.strip() for f in filters.split(","))
+    except ValueError as exc:
+        fail(f"--filters: {exc}")
+    if not names:
+        fail("--filters: no filter to run")
+    return seed_list, names
+
+
+def _execute(
+    specs: list[RunSpec], cache: Path, jobs: int | None, progress: bool, keep: bool
+) -> SweepOutcome:
+    from adaptnav.sweep import run_sweep
+
+    try:
+        return run_sweep(specs, cache, jobs=jobs, progress=progress, keep_missions=keep)
+    except OSError as exc:
+        fail(f"{cache}: {exc}")
+
+
+def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
+    from adaptnav.results import jsonable
+
+    records: list[dict[str, Any]] = jsonable(frame.to_dict(orient="records"), "table")
+    return records
+
+
+def _finish(
+    kind: str,
+    outcome: SweepOutcome,
+    out: Path,
+    figure: Path,
+    tables: dict[str, pd.DataFrame],
+    as_json: bool,
+    extra: dict[str, Any],
+) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    outcome.table.to_csv(out / "runs.csv", index=False)
+    files = {"runs": out / "runs.csv", "figure": figure}
+    for name, frame in tables.items():
+        frame.to_csv(out / f"{name}.csv", index=False)
+        files[name] = out / f"{name}.csv"
+    if outcome.failed:
+        first = next(iter(outcome.errors.values()))
+        console.print(f"[yellow]{outcome.failed} run(s) failed[/] (not cached), e.g.: {first}")
+    if as_json:
+        doc = {
+            "sweep": kind,
+            **extra,
+            "runs": len(outcome.table),
+            "ran": outcome.ran,
+            "reused": outcome.reused,
+            "failed": outcome.failed,
+            "wall_s": outcome.wall_s,
+            "files": {k: str(v) for k, v in files.items()},
+            **{name: _records(frame) for name, frame in tables.items()},
+        }
+        typer.echo(json.dumps(doc))
+        return
+    console.print(
+        f"{len(outcome.table)} runs: {outcome.ran} run now, {outcome.reused} from the cache, "
+        f"{outcome.failed} failed, {outcome.wall_s:.0f} s; written to {out}/ "
+        f"({', '.join(p.name for p in files.values())})"
+    )
+
+
+def _spread_table(title: str, spread: pd.DataFrame, parameter: str) -> Table:
+    table = Table(title=title)
+    for col in ("preset", "filter", "values", f"best at {parameter}", "best %",
+                f"worst at {parameter}", "worst %", "worst/best"):  # fmt: skip
+        table.add_column(col)
+    for r in spread.itertuples(index=False):
+        table.add_row(
+            str(r.preset), _label(str(r.filter)), str(r.values), f"{r.best_at:g}",
+            f"{r.best:.3f}", f"{r.worst_at:g}", f"{r.worst:.3f}", f"{r.worst_over_best:.2f}",
+        )  # fmt: skip
+    return table
+
+
+@sweep_app.command("q")
+def q_cmd(
+    presets: Presets,
+    seeds: Annotated[str, typer.Option(help="seeds: 1-5, 1,3,8 or 1-3,10")] = "1-5",
+    q: Annotated[str, typer.Option("--q", help="q values: a,b,c or start:stop:count")] = (
+        "200:2600:25"
+    ),
+    filters: Annotated[str, typer.Option(help="gated filters, comma-separated")] = (
+        "meskf,maeskf,vb"
+    ),
+    cache: Cache = DEFAULT_CACHE,
+    out: Out = None,
+    jobs: Jobs = None,
+    as_json: AsJson = False,
+    progress: ShowProgress = True,
+    keep_missions: KeepMissions = True,
+) -> None:
+    """Relative RMSE against the gate coefficient q (the paper's Fig. 4).
+
+    Every filter runs with the DVL gate on at each q (the per-component rule of spec §7;
+    VB-MAESKF gated too), plus VB-MAESKF ungated and the oracle at their defaults as
+    reference lines. Prints each filter's spread over q (best, worst, worst/best of the mean
+    over seeds).
+    """
+    from adaptnav import sweep
+
+    seed_list, names = _common(presets, seeds, filters, jobs)
+    q_values = _floats(q, "--q", geometric=False)
+    specs = sweep.q_sweep_specs(presets, seed_list, q_values, names)
+    outcome = _execute(specs, cache, jobs, progress, keep_missions)
+    folder = out or cache / "q"
+    figure = sweep.plot_q_sweep(outcome.table, folder / "q_sweep.png")
+    c = sweep.curve(outcome.table, "q")
+    spread = sweep.curve_spread(c, "q")
+    refs = sweep.summarize(outcome.table[outcome.table["q"].isna()])
+    tables = {"summary": c, "spread": spread, "references": refs}
+    extra = {"presets": presets, "seeds": seed_list, "q": q_values, "filters": list(names)}
+    _finish("q", outcome, folder, figure, tables, as_json, extra)
+    if not as_json:
+        console.print(_spread_table("Relative RMSE (%) over q, mean over seeds", spread, "q"))
+        for r in refs.itertuples(index=False):
+            name = _label(str(r.filter)) + (", no gate" if r.filter == "vb" else "")
+            console.print(f"reference {r.preset} {name}: {r.relative_rmse_pct_mean:.3f} %")
+
+
+@sweep_app.command("process-noise")
+def process_noise_cmd(
+    presets: Presets,
+    seeds: Annotated[str, typer.Option(help="seeds: 1-5, 1,3,8 or 1-3,10")] = "1-5",
+    scales: Annotated[
+        str, typer.Option(help="factors on the gyro-bias Q: a,b,c or start:stop:count (geometric)")
+    ] = "0.01:100:9",
+    filters: Annotated[str, typer.Option(help="filters, comma-separated")] = "meskf,maeskf,vb",
+    cache: Cache = DEFAULT_CACHE,
+    out: Out = None,
+    jobs: Jobs = None,
+    as_json: AsJson = False,
+    progress: ShowProgress = True,
+    keep_missions: KeepMissions = True,
+) -> None:
+    """Relative RMSE against the gyro-bias process noise (the paper's Fig. 6).
+
+    The gyro bias's driving-noise PSD in the filter's Q is multiplied by each factor (the
+    mission and its alignment are unchanged); every filter at its default q.
+    """
+    from adaptnav import sweep
+
+    seed_list, names = _common(presets, seeds, filters, jobs)
+    scale_values = _floats(scales, "--scales", geometric=True)
+    specs = sweep.process_noise_specs(presets, seed_list, scale_values, names)
+    outcome = _execute(specs, cache, jobs, progress, keep_missions)
+    folder = out or cache / "process-noise"
+    figure = sweep.plot_process_noise(outcome.table, folder / "process_noise.png")
+    c = sweep.curve(outcome.table, "q_scale")
+    spread = sweep.curve_spread(c, "q_scale")
+    tables = {"summary": c, "spread": spread}
+    extra = {"presets": presets, "seeds": seed_list, "scales": scale_values, "filters": list(names)}
+    _finish("process-noise", outcome, folder, figure, tables, as_json, extra)
+    if not as_json:
+        title = "Relative RMSE (%) over the gyro-bias Q scale, mean over seeds"
+        console.print(_spread_table(title, spread, "scale"))
+
+
+@sweep_app.command("seeds")
+def seeds_cmd(
+    presets: Presets,
+    seeds: Annotated[str, typer.Option(help="seeds: 1-20, 1,3,8 or 1-3,10")] = "1-20",
+    filters: Annotated[
+        str, typer.Option(help="filters, comma-separated (oracle: where available)")
+    ] = "meskf,maeskf,vb,oracle",
+    cache: Cache = DEFAULT_CACHE,
+    out: Out = None,
+    jobs: Jobs = None,
+    as_json: AsJson = False,
+    progress: ShowProgress = True,
+    keep_missions: KeepMissions = True,
+) -> None:
+    """Monte Carlo over seeds: each filter at its defaults (Table 3 as a distribution).
+
+    Prints mean ± std, median and range of RMSE and relative RMSE per filter beside the
+    paper's Table 3, and VB-MAESKF's win rate (paired by seed) and RMSE ratio against each
+    other filter.
+    """
+    from adaptnav import sweep
+
+    seed_list, names = _common(presets, seeds, filters, jobs)
+    specs = sweep.monte_carlo_specs(presets, seed_list, names)
+    outcome = _execute(specs, cache, jobs, progress, keep_missions)
+    folder = out or cache / "seeds"
+    figure = sweep.plot_monte_carlo(outcome.table, folder / "monte_carlo.png")
+    summary = sweep.summarize(outcome.table)
+    comparison = sweep.paired_comparison(outcome.table, "vb")
+    tables = {"summary": summary, "comparison": comparison}
+    extra = {"presets": presets, "seeds": seed_list, "filters": list(names)}
+    _finish("seeds", outcome, folder, figure, tables, as_json, extra)
+    if as_json:
+        return
+    table = Table(title=f"Monte Carlo over {len(seed_list)} seed(s), beside the paper's Table 3")
+    for col in ("preset", "filter", "n", "RMSE m (mean ± std)", "median", "min-max",
+                "rel. % (mean ± std)", "paper m", "paper %"):  # fmt: skip
+        table.add_column(col)
+    for r in summary.itertuples(index=False):
+        paper = PAPER_TABLE3.get(str(r.preset), {}).get(str(r.filter))
+        table.add_row(
+            str(r.preset), _label(str(r.filter)), str(r.n),
+            f"{r.rmse_m_mean:.1f} ± {r.rmse_m_std:.1f}", f"{r.rmse_m_median:.1f}",
+            f"{r.rmse_m_min:.1f}-{r.rmse_m_max:.1f}",
+            f"{r.relative_rmse_pct_mean:.3f} ± {r.relative_rmse_pct_std:.3f}",
+            "-" if paper is None else f"{paper[0]:.0f}",
+            "-" if paper is None else f"{paper[1]:.2f}",
+        )  # fmt: skip
+    console.print(table)
+    for c in _records(comparison):
+        if not c["n"]:
+            continue
+        console.print(
+            f"{c['preset']}: VB-MAESKF beats {_label(c['other'])} on {c['wins']:g} of {c['n']} "
+            f"seeds ({100 * c['win_rate']:.0f} %); RMSE ratio median {c['ratio_median']:.2f}, "
+            f"ratio of means {c['ratio_of_means']:.2f}"
+        )

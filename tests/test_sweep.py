@@ -1,0 +1,313 @@
+"""Sweeps and Monte Carlo (adaptnav.sweep, `adaptnav sweep`): cache keys, resume, parallel =
+serial, q reaching the gate, the gyro-bias scale reaching Q, statistics by hand, the CLI.
+
+One short ``demo`` mission (seed 1, every disturbance on: it has DVL outliers) is simulated
+once for the module and shared through copies of its cache folder.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from adaptnav import sweep as sw
+from adaptnav.cli import app
+from adaptnav.imu_noise import ImuNoise
+from adaptnav.sim.sensors import Disturbances
+
+runner = CliRunner()
+
+SPECS = [
+    sw.RunSpec("demo", 1, "meskf", q=200.0),
+    sw.RunSpec("demo", 1, "meskf", q=2600.0),
+    sw.RunSpec("demo", 1, "vb", q=200.0),
+    sw.RunSpec("demo", 1, "vb"),
+    sw.RunSpec("demo", 1, "meskf", q_scale=0.01),
+    sw.RunSpec("demo", 1, "meskf", q_scale=100.0),
+]
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, sw.SweepOutcome]:
+    cache = tmp_path_factory.mktemp("sweep") / "cache"
+    return cache, sw.run_sweep(SPECS, cache, jobs=1, progress=False)
+
+
+def _copy_missions(cache: Path, to: Path) -> Path:
+    shutil.copytree(cache / "missions", to / "missions")
+    return to
+
+
+def _metrics(table: pd.DataFrame) -> pd.DataFrame:
+    cols = [c for c in sw.METRICS if c != "elapsed_s"]
+    return table.set_index("key")[cols].sort_index()
+
+
+# --- specs and keys ----------------------------------------------------------------------------
+
+
+def test_key_is_stable_and_normalised() -> None:
+    spec = sw.RunSpec("demo", 1, "vb")
+    # The key is a content hash: a change here invalidates every cache (bump on purpose only).
+    assert spec.key(version="test") == sw.RunSpec("demo", 1, "vb").key(version="test")
+    assert len(spec.key()) == 20 and spec.key() != spec.key(version="other")
+    assert sw.RunSpec("demo", 1, "vb", q_scale=1.0, disturbances=Disturbances()) == spec
+    assert sw.RunSpec("demo", 1, "vb", q_scale=1.0).key() == spec.key()
+    assert sw.RunSpec("demo", 1, "vb", q=600).key() != spec.key()
+    assert sw.RunSpec("demo", 2, "vb").key() != spec.key()
+    off = sw.RunSpec("demo", 1, "vb", disturbances=Disturbances(dvl_outliers=False))
+    assert off.key() != spec.key() and off.mission_name.startswith("demo-s1-d")
+    assert spec.mission_name == "demo-s1"
+    assert spec.key(version="test") == "2a07df161c05292faf48"
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"preset": "nope"},
+        {"seed": -1},
+        {"filter": "kalman"},
+        {"q": 0.0},
+        {"q": math.inf},
+        {"q_scale": -1.0},
+    ],
+)
+def test_bad_spec_raises(kwargs: dict[str, object]) -> None:
+    args: dict[str, object] = {"preset": "demo", "seed": 1, "filter": "vb", **kwargs}
+    with pytest.raises(ValueError):
+        sw.RunSpec(**args)  # type: ignore[arg-type]
+
+
+def test_parse_seeds() -> None:
+    assert sw.parse_seeds("1-3,10,2") == [1, 2, 3, 10]
+    assert sw.parse_seeds("7") == [7]
+    for bad in ("", "a", "5-1", "1,,2", "-3"):
+        with pytest.raises(ValueError):
+            sw.parse_seeds(bad)
+
+
+def test_specs_of_the_paper_sweeps() -> None:
+    assert len(sw.Q_VALUES) == 25 and sw.Q_VALUES[0] == 200.0 and sw.Q_VALUES[-1] == 2600.0
+    assert len(sw.Q_SCALES) == 9 and math.isclose(sw.Q_SCALES[4], 1.0)
+    q = sw.q_sweep_specs(["demo"], [1, 2])
+    gated = [s for s in q if s.q is not None]
+    assert len(gated) == 2 * 3 * 25 and {s.filter for s in gated} == {"meskf", "maeskf", "vb"}
+    assert {(s.filter, s.q) for s in q if s.q is None} <= {("vb", None), ("oracle", None)}
+    pn = sw.process_noise_specs(["demo"], [1])
+    assert len(pn) == 27 and all(s.q is None for s in pn)
+    assert sum(s.q_scale is None for s in pn) == 3  # factor 1: the default run, one cache entry
+
+
+def test_oracle_left_out_where_absent(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setattr(sw, "FILTER_KINDS", ("meskf", "maeskf", "vb"))
+    with caplog.at_level(logging.WARNING, logger="adaptnav.sweep"):
+        assert sw.available_filters(["vb", "oracle", "vb"]) == ("vb",)
+    assert "oracle" in caplog.text
+    with pytest.raises(ValueError):
+        sw.available_filters(["kalman"])
+
+
+def test_scale_gyro_bias_q_scales_the_psd_only() -> None:
+    gm = ImuNoise(1e-4, 1e-3, gyro_bias_sigma=5e-6, gyro_bias_tau=3600.0, accel_bias_sigma=2e-3)
+    scaled = sw.scale_gyro_bias_q(gm, 100.0)
+    assert math.isclose(scaled.gyro_bias_psd, 100.0 * gm.gyro_bias_psd)
+    assert scaled.gyro_bias_tau == gm.gyro_bias_tau and scaled.accel_bias_psd == gm.accel_bias_psd
+    rw = ImuNoise(1e-4, 1e-3, gyro_bias_rrw=1e-7)
+    assert math.isclose(sw.scale_gyro_bias_q(rw, 0.01).gyro_bias_psd, 0.01 * rw.gyro_bias_psd)
+
+
+# --- running -----------------------------------------------------------------------------------
+
+
+def test_sweep_runs_and_caches(serial: tuple[Path, sw.SweepOutcome]) -> None:
+    cache, out = serial
+    assert (out.ran, out.reused, out.failed) == (len(SPECS), 0, 0)
+    assert list(out.table["key"]) == [s.key() for s in SPECS]
+    assert (cache / "missions" / "demo-s1" / "mission.toml").is_file()
+    assert (cache / "missions" / "demo-s1.alignment.npz").is_file()
+    for s in SPECS:
+        record = json.loads((cache / "runs" / f"{s.key()}.json").read_text())
+        assert record["spec"] == s.as_dict() and record["key"] == s.key()
+    t = out.table
+    assert np.all(t["rmse_m"] > 0) and np.all(t["relative_rmse_pct"] > 0)
+    assert np.all(t["distance_m"] > 400) and np.all(t["dvl_used"] > 0)
+
+
+def test_second_sweep_runs_nothing(serial: tuple[Path, sw.SweepOutcome]) -> None:
+    cache, first = serial
+    files = sorted((cache / "runs").iterdir())
+    mtimes = [p.stat().st_mtime_ns for p in files]
+    again = sw.run_sweep([*SPECS, SPECS[0]], cache, jobs=1, progress=False)
+    assert (again.ran, again.reused, again.failed) == (0, len(SPECS), 0)
+    assert sorted((cache / "runs").iterdir()) == files
+    assert [p.stat().st_mtime_ns for p in files] == mtimes
+    pd.testing.assert_frame_equal(_metrics(again.table), _metrics(first.table))
+
+
+def test_parallel_equals_serial(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
+    cache, first = serial
+    other = _copy_missions(cache, tmp_path / "cache")
+    par = sw.run_sweep(SPECS, other, jobs=2, progress=False, chunk_size=3)
+    assert (par.ran, par.reused, par.failed) == (len(SPECS), 0, 0)
+    pd.testing.assert_frame_equal(_metrics(par.table), _metrics(first.table))
+    assert par.rows(SPECS[::-1])["key"].tolist() == [s.key() for s in SPECS[::-1]]
+
+
+def test_q_reaches_the_gate(serial: tuple[Path, sw.SweepOutcome]) -> None:
+    t = serial[1].table.set_index("key")
+    low, high, vb_gated, vb = (t.loc[s.key()] for s in SPECS[:4])
+    assert low["gate_q"] == 200.0 and high["gate_q"] == 2600.0
+    assert low["dvl_rejected"] > high["dvl_rejected"] > 0
+    assert vb_gated["gated"] and vb_gated["dvl_rejected"] > 0
+    assert not vb["gated"] and vb["dvl_rejected"] == 0 and math.isnan(vb["gate_q"])
+
+
+def test_process_noise_scale_reaches_q(serial: tuple[Path, sw.SweepOutcome]) -> None:
+    t = serial[1].table.set_index("key")
+    small, large = (t.loc[s.key()] for s in SPECS[4:])
+    assert small["q_scale"] == 0.01 and large["q_scale"] == 100.0
+    assert small["gate_q"] == large["gate_q"] == 600.0  # MESKF's default q
+    assert abs(small["rmse_m"] - large["rmse_m"]) > 1e-3 * small["rmse_m"]
+
+
+def test_failed_run_is_reported_not_cached(
+    serial: tuple[Path, sw.SweepOutcome], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    cache = _copy_missions(serial[0], tmp_path / "cache")
+    spec = sw.RunSpec("demo", 1, "maeskf")
+
+    def boom(*args: object) -> dict[str, float]:
+        raise RuntimeError("diverged")
+
+    monkeypatch.setattr(sw, "run_one", boom)
+    out = sw.run_sweep([spec], cache, jobs=1, progress=False, keep_missions=False)
+    assert (out.ran, out.failed) == (0, 1) and "diverged" in out.errors[spec.key()]
+    assert out.table["error"].iloc[0].startswith("RuntimeError") and out.table["rmse_m"].isna()[0]
+    assert not (cache / "runs" / f"{spec.key()}.json").exists()
+    assert not (cache / "missions" / "demo-s1").exists()  # keep_missions=False
+    assert (cache / "missions" / "demo-s1.alignment.npz").is_file()
+
+
+def test_stale_temporaries_are_removed(
+    serial: tuple[Path, sw.SweepOutcome], tmp_path: Path
+) -> None:
+    cache = _copy_missions(serial[0], tmp_path / "cache")
+    dead = 999_999_999  # above any pid_max: no such process
+    (cache / "missions" / f".demo-s7.tmp-{dead}").mkdir()
+    (cache / "runs").mkdir()
+    (cache / "runs" / f".x.json.tmp-{dead}").write_text("{")
+    sw.run_sweep([], cache, jobs=1, progress=False)
+    assert not list((cache / "missions").glob(".*")) and not list((cache / "runs").iterdir())
+
+
+# --- statistics --------------------------------------------------------------------------------
+
+
+def _hand_table() -> pd.DataFrame:
+    rows = []
+    values = {"meskf": [4.0, 6.0, 8.0], "vb": [2.0, 6.0, 5.0], "oracle": [1.0, 3.0, 5.0]}
+    for f, v in values.items():
+        for seed, r in enumerate(v, start=1):
+            rows.append({"preset": "p", "seed": seed, "filter": f, "rmse_m": r,
+                         "relative_rmse_pct": r / 10.0, "error": None})  # fmt: skip
+    rows.append({"preset": "p", "seed": 4, "filter": "vb", "rmse_m": math.nan,
+                 "relative_rmse_pct": math.nan, "error": "boom"})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_summarize_by_hand() -> None:
+    s = sw.summarize(_hand_table()).set_index("filter")
+    assert s.loc["meskf", "n"] == 3 and s.loc["vb", "n"] == 3  # the failed run left out
+    assert s.loc["meskf", "rmse_m_mean"] == pytest.approx(6.0)
+    assert s.loc["meskf", "rmse_m_std"] == pytest.approx(2.0)  # sample std of 4, 6, 8
+    assert s.loc["vb", "rmse_m_median"] == 5.0
+    assert (s.loc["vb", "rmse_m_min"], s.loc["vb", "rmse_m_max"]) == (2.0, 6.0)
+    assert s.loc["vb", "relative_rmse_pct_mean"] == pytest.approx(13.0 / 30.0)
+
+
+def test_paired_comparison_by_hand() -> None:
+    c = sw.paired_comparison(_hand_table(), "vb").set_index("other")
+    # vb vs meskf: 2<4 win, 6=6 tie (½), 5<8 win
+    assert c.loc["meskf", "n"] == 3 and c.loc["meskf", "wins"] == 2.5
+    assert c.loc["meskf", "win_rate"] == pytest.approx(2.5 / 3)
+    assert c.loc["meskf", "ratio_mean"] == pytest.approx((0.5 + 1.0 + 5.0 / 8.0) / 3)
+    assert c.loc["meskf", "ratio_median"] == pytest.approx(5.0 / 8.0)
+    # vb vs oracle: 2>1, 6>3, 5=5 (½)
+    assert c.loc["oracle", "wins"] == 0.5
+    assert c.loc["oracle", "ratio_of_means"] == pytest.approx(13.0 / 9.0)
+    with pytest.raises(ValueError):
+        sw.paired_comparison(pd.concat([_hand_table(), _hand_table()]))
+
+
+def test_curve_and_spread_by_hand() -> None:
+    t = pd.DataFrame(
+        {
+            "preset": "p",
+            "seed": [1, 2, 1, 2, 1],
+            "filter": "meskf",
+            "q": [200.0, 200.0, 400.0, 400.0, math.nan],
+            "rmse_m": 1.0,
+            "relative_rmse_pct": [1.0, 3.0, 0.5, 0.5, 9.0],
+            "error": None,
+        }
+    )
+    c = sw.curve(t, "q")
+    assert c["q"].tolist() == [200.0, 400.0] and c["mean"].tolist() == [2.0, 0.5]
+    assert c["min"].tolist() == [1.0, 0.5] and c["max"].tolist() == [3.0, 0.5]
+    s = sw.curve_spread(c, "q").iloc[0]
+    assert (s["best_at"], s["worst_at"], s["worst_over_best"]) == (400.0, 200.0, 4.0)
+
+
+def test_figures(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
+    t = serial[1].table
+    for plot in (sw.plot_q_sweep, sw.plot_process_noise, sw.plot_monte_carlo):
+        path = plot(t, tmp_path / f"{plot.__name__}.png")
+        assert path.stat().st_size > 1000
+
+
+# --- CLI ---------------------------------------------------------------------------------------
+
+
+def test_cli_json_prints_one_object(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
+    cache = _copy_missions(serial[0], tmp_path / "cache")
+    args = ["sweep", "seeds", "demo", "--seeds", "1", "--filters", "meskf,vb", "--cache",
+            str(cache), "--jobs", "1", "--json", "--no-progress"]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["sweep"] == "seeds" and doc["runs"] == 2 and doc["failed"] == 0
+    assert {r["filter"] for r in doc["summary"]} == {"meskf", "vb"}
+    assert doc["comparison"][0]["other"] == "meskf"
+    for f in doc["files"].values():
+        assert Path(f).is_file()
+    again = runner.invoke(app, args)
+    assert json.loads(again.stdout)["reused"] == 2
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["seeds", "atlantis"],
+        ["seeds", "demo", "--seeds", "5-1"],
+        ["seeds", "demo", "--jobs", "0"],
+        ["seeds", "demo", "--filters", "kalman"],
+        ["q", "demo", "--q", "abc"],
+        ["q", "demo", "--q", "200:2600"],
+        ["process-noise", "demo", "--scales", "0:10:3"],
+    ],
+)
+def test_cli_bad_arguments_exit_2(args: list[str], tmp_path: Path) -> None:
+    result = runner.invoke(app, ["sweep", *args, "--cache", str(tmp_path / "c")])
+    assert result.exit_code == 2, result.output
+    assert "error" in result.output
+    assert not (tmp_path / "c").exists()
