@@ -17,7 +17,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import errorstate, kernels
+from adaptnav import earth, errorstate, kernels
 from adaptnav.engine import (
     MAX_DIM,
     SAME_EPOCH_S,
@@ -86,6 +86,11 @@ class Navigator:
         self._f_cur = np.zeros(3)
         self._w_prev = np.zeros(3)
         self._f_prev = np.zeros(3)
+        self._f_lp = np.full(3, np.nan)  # F's low-passed specific force (kernels._low_pass)
+        self._tau_f = config.specific_force_tau_s
+        if config.at_rest:
+            self._f_lp = -earth.gravity_n(self.x[0], self.x[2])
+            self._tau_f = math.inf
         self._have_rates = False
         self._intervals_done = 0
         self._states: list[Any] = [c.strategy.initial_state(_nominal_R(c.model)) for c in channels]
@@ -166,7 +171,8 @@ class Navigator:
         if tau > self._offset:
             kernels.propagate_partial(
                 self.x, self.P, self._w_prev, self._f_prev, self._w_cur, self._f_cur,
-                self._dt, self._offset, tau, self._q, self._tau_a, self._tau_g,
+                self._dt, self._offset, tau, self._q, self._tau_a, self._tau_g, self._f_lp,
+                self._tau_f,
             )  # fmt: skip
             self._offset = tau
         self.t = self._t_start + tau if tau < self._dt else self._t_start + self._dt
@@ -191,7 +197,7 @@ class Navigator:
             wp, fp = self._w_cur.copy(), self._f_cur.copy()
             kernels.propagate_run(
                 self.x, self.P, dth[i:j], dv[i:j], dts[i:j], wp, fp,
-                self._q, self._tau_a, self._tau_g,
+                self._q, self._tau_a, self._tau_g, self._f_lp, self._tau_f,
             )  # fmt: skip
             self._w_cur, self._f_cur = wp, fp
             self._dt = self._offset = float(dts[j - 1])

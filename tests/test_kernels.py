@@ -17,6 +17,7 @@ import pytest
 
 from adaptnav import attitude, errorstate, kernels, strapdown
 from adaptnav.propagation import (
+    low_pass,
     propagate,
     propagate_numpy,
     propagate_partial,
@@ -88,7 +89,13 @@ def _assert_P_close(P: np.ndarray, ref: np.ndarray, tol: float = 1e-9) -> None:
 
 
 def _compare_run(
-    seed: int, n: int, chunks: int, dt: float, taus: tuple[float, float], rate: float = 0.5
+    seed: int,
+    n: int,
+    chunks: int,
+    dt: float,
+    taus: tuple[float, float],
+    rate: float = 0.5,
+    tau_f: float = 0.0,
 ) -> None:
     rng = np.random.default_rng(seed)
     x, P = _random_state(rng), _random_P(rng)
@@ -97,19 +104,58 @@ def _compare_run(
     wp, fp = dth[0] / dt, dv[0] / dt  # first sample of a mission: prev = current
     xc, Pc, wc, fc = x, P, wp, fp
     xn, Pn, wn, fn = x, P, wp, fp
+    lc, ln = np.full(3, np.nan), np.full(3, np.nan)  # F's low-passed f, carried across chunks
     for idx in np.array_split(np.arange(n), chunks):
-        xc, Pc, wc, fc = propagate(xc, Pc, dth[idx], dv[idx], dt, wc, fc, q, *taus)
-        xn, Pn, wn, fn = propagate_numpy(xn, Pn, dth[idx], dv[idx], dt, wn, fn, q, *taus)
+        xc, Pc, wc, fc = propagate(
+            xc, Pc, dth[idx], dv[idx], dt, wc, fc, q, *taus, f_lp=lc, tau_f=tau_f
+        )
+        xn, Pn, wn, fn = propagate_numpy(
+            xn, Pn, dth[idx], dv[idx], dt, wn, fn, q, *taus, f_lp=ln, tau_f=tau_f
+        )
         _assert_states_close(xc, xn)
         _assert_P_close(Pc, Pn)
         np.testing.assert_array_equal(wc, wn)
         np.testing.assert_array_equal(fc, fn)
+        np.testing.assert_allclose(lc, ln, rtol=1e-9, atol=1e-12)
     assert np.abs(xc[2] - x[2]) > 0.1  # it did move
 
 
 def test_compiled_equals_twin_over_10000_steps() -> None:
     """10 000 steps at 100 Hz, compared at 5 points; τ_a finite (GM), τ_g = inf (random walk)."""
     _compare_run(seed=1, n=10_000, chunks=5, dt=0.01, taus=(600.0, math.inf))
+
+
+def test_compiled_equals_twin_with_low_passed_specific_force() -> None:
+    """F with the specific force low-passed (τ_f = 1 s, the engine's default), over chunks."""
+    _compare_run(seed=5, n=2_000, chunks=4, dt=0.01, taus=(600.0, 600.0), tau_f=1.0)
+
+
+def test_low_pass_of_F_only_changes_P() -> None:
+    """The nominal state does not see the low-pass; P does, and with τ_f → 0 it is the
+    measured-f P again, bit for bit at τ_f = 0."""
+    rng = np.random.default_rng(6)
+    x, P = _random_state(rng), _random_P(rng)
+    dth, dv = _random_imu(rng, x, 500, 0.01, 2.0)
+    dv = dv + rng.normal(0.0, 0.05 * 0.01, dv.shape)  # accelerometer noise
+    q = _q_psd(rng)
+    args = (dth, dv, 0.01, dth[0] / 0.01, dv[0] / 0.01, q, 600.0, 600.0)
+    x0, P0, _, _ = propagate(x, P, *args)
+    x1, P1, _, _ = propagate(x, P, *args, tau_f=1.0)
+    _, P2, _, _ = propagate(x, P, *args, tau_f=1e-9)
+    _, P3, _, _ = propagate(x, P, *args, tau_f=0.0)
+    np.testing.assert_array_equal(x0, x1)
+    assert np.abs(P1 - P0).max() > 1e-6 * np.abs(P0).max()
+    np.testing.assert_allclose(P2, P0, rtol=1e-12, atol=0.0)
+    np.testing.assert_array_equal(P3, P0)
+
+
+def test_low_pass_is_a_first_order_filter() -> None:
+    """A step in f: the filter output after t is f (1 - exp(-t/τ)) (exact discretisation)."""
+    flp = np.full(3, np.nan)
+    low_pass(flp, np.zeros(3), 0.01, 2.0)
+    for _ in range(100):
+        low_pass(flp, np.array([1.0, -2.0, 9.8]), 0.01, 2.0)
+    np.testing.assert_allclose(flp, np.array([1.0, -2.0, 9.8]) * (1.0 - math.exp(-0.5)))
 
 
 def test_compiled_equals_twin_other_bias_models() -> None:
@@ -273,17 +319,21 @@ def test_public_functions_do_not_modify_their_inputs() -> None:
 
 
 def test_in_place_kernel_contract() -> None:
-    """kernels.propagate_run overwrites x, P, w_prev, f_prev and nothing else."""
+    """kernels.propagate_run overwrites x, P, w_prev, f_prev, f_lp and nothing else."""
     rng = np.random.default_rng(11)
     x, P, q = _random_state(rng), _random_P(rng), _q_psd(rng)
     dth, dv = _random_imu(rng, x, 20, 0.01)
     dts = np.full(20, 0.01)
     wp, fp = dth[0] / 0.01, dv[0] / 0.01
-    x_out, P_out, w_out, f_out = propagate(x, P, dth, dv, dts, wp, fp, q, 60.0, 60.0)
-    xk, Pk, wk, fk = x.copy(), P.copy(), wp.copy(), fp.copy()
+    l_out = np.full(3, np.nan)
+    x_out, P_out, w_out, f_out = propagate(
+        x, P, dth, dv, dts, wp, fp, q, 60.0, 60.0, f_lp=l_out, tau_f=1.0
+    )
+    assert np.all(np.isfinite(l_out))
+    xk, Pk, wk, fk, lk = x.copy(), P.copy(), wp.copy(), fp.copy(), np.full(3, np.nan)
     dth0, dv0, q0 = dth.copy(), dv.copy(), q.copy()
-    kernels.propagate_run(xk, Pk, dth, dv, dts, wk, fk, q, 60.0, 60.0)
-    for got, want in ((xk, x_out), (Pk, P_out), (wk, w_out), (fk, f_out)):
+    kernels.propagate_run(xk, Pk, dth, dv, dts, wk, fk, q, 60.0, 60.0, lk, 1.0)
+    for got, want in ((xk, x_out), (Pk, P_out), (wk, w_out), (fk, f_out), (lk, l_out)):
         np.testing.assert_array_equal(got, want)
     for a, b in ((dth, dth0), (dv, dv0), (q, q0)):
         np.testing.assert_array_equal(a, b)
@@ -296,7 +346,9 @@ def test_in_place_partial_kernel_contract() -> None:
     rates = [rng.uniform(-0.5, 0.5, 3), rng.uniform(-10.0, 10.0, 3)] * 2
     x_out, P_out = propagate_partial(x, P, *rates, 0.01, 0.003, 0.008, q, 60.0, 60.0)
     xk, Pk, saved = x.copy(), P.copy(), [r.copy() for r in rates]
-    kernels.propagate_partial(xk, Pk, *rates, 0.01, 0.003, 0.008, q, 60.0, 60.0)
+    kernels.propagate_partial(
+        xk, Pk, *rates, 0.01, 0.003, 0.008, q, 60.0, 60.0, np.full(3, np.nan), 0.0
+    )
     np.testing.assert_array_equal(xk, x_out)
     np.testing.assert_array_equal(Pk, P_out)
     for r, r0 in zip(rates, saved, strict=True):

@@ -47,7 +47,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import errorstate
+from adaptnav import earth, errorstate
 from adaptnav import update_kernels as uk
 from adaptnav.errorstate import N_STATES
 from adaptnav.gate import Gate
@@ -128,12 +128,25 @@ class EngineConfig:
     reset_covariance: bool = True
     output_every: int = 10
     """Record the solution every this many IMU intervals (10 → 10 Hz at 100 Hz)."""
+    specific_force_tau_s: float = 1.0
+    """Time constant of the low-pass filter on the specific force that F is evaluated with
+    (kernels._low_pass; 0: the measured one). 1 s divides the accelerometer noise that reaches
+    F by 14 at 100 Hz and lags a vessel's motion little."""
+    at_rest: bool = False
+    """The vehicle is known to be at rest (static alignment): F is evaluated with the specific
+    force at rest, ``-g_n`` at the start position, exactly (no low-pass needed). With the
+    measured one, its noise and the tilt estimate's wander make heading look observable and the
+    alignment claims a heading σ it does not have (tests/test_align.py)."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
             raise ValueError(f"epoch_policy: value {self.epoch_policy!r} must be 'exact' or 'grid'")
         if self.output_every < 1:
             raise ValueError(f"output_every: value {self.output_every!r} must be >= 1")
+        if not self.specific_force_tau_s >= 0.0:  # NaN too
+            raise ValueError(
+                f"specific_force_tau_s: value {self.specific_force_tau_s!r} must be >= 0"
+            )
 
 
 @dataclass(frozen=True)
@@ -217,6 +230,7 @@ def _advance(
     q_psd: Array,
     tau_a: float,
     tau_g: float,
+    tau_f: float,
     out_t: Array,
     out_x: Array,
     out_p: Array,
@@ -238,7 +252,8 @@ def _advance(
     state = _load(x)
     ref = _lat_ref(state[0])
     inv_tau = (1.0 / tau_a, 1.0 / tau_g)
-    T_last, decay = -1.0, (1.0, 1.0)
+    T_last, decay = -1.0, (1.0, 1.0, 0.0)
+    f_lp = rates[uk.R_F_LP]
     status = _ADVANCE_DONE
     last = -1  # end of the run of whole intervals under way (-1: none)
     while True:
@@ -305,10 +320,11 @@ def _advance(
         if whole or tb > ta:  # one (sub)step [ta, tb] of an interval of length dt
             T = tb - ta
             if T_last != T:
-                decay, T_last = (math.exp(-T / tau_a), math.exp(-T / tau_g)), T
+                decay_f = math.exp(-T / tau_f) if tau_f > 0.0 else 0.0
+                decay, T_last = (math.exp(-T / tau_a), math.exp(-T / tau_g), decay_f), T
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
-            state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd)
+            state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
         if whole:
             for c in range(3):
                 rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
@@ -347,6 +363,7 @@ def _navigate(
     q_psd: Array,
     tau_a: float,
     tau_g: float,
+    tau_f: float,
     out_t: Array,
     out_x: Array,
     out_p: Array,
@@ -375,8 +392,8 @@ def _navigate(
         head = icur[I_HEAD]
         t_next = q_t[head] if head < nq else math.inf
         status = _advance(
-            x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, out_t,
-            out_x, out_p,
+            x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, tau_f,
+            out_t, out_x, out_p,
         )  # fmt: skip
         if status == _ADVANCE_DONE:
             return NAV_DONE
@@ -451,7 +468,12 @@ class Navigator:
         # we are into it (offset), the previous and current interval's rates, counters.
         self._cur = np.zeros(uk.N_CUR)
         self._cur[uk.C_T] = self._cur[uk.C_T_START] = float(t0)
-        self._rates = np.zeros((4, 3))
+        self._rates = np.zeros((uk.N_RATES, 3))
+        self._rates[uk.R_F_LP] = math.nan  # starts at the first step's specific force
+        self._tau_f = config.specific_force_tau_s
+        if config.at_rest:  # held at -g_n: decay exp(-T/inf) = 1
+            self._rates[uk.R_F_LP] = -earth.gravity_n(self.x[0], self.x[2])
+            self._tau_f = math.inf
         self._icur = np.zeros(N_ICUR, dtype=np.int64)
         self._icur[I_EVERY] = config.output_every
         self._build_tables()
@@ -659,7 +681,8 @@ class Navigator:
             self._reserve_ledger(self._q_idx.size - int(self._icur[I_HEAD]))
             status = _navigate(
                 self.x, self.P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
-                self._rates, self._icur, self._q, self._tau_a, self._tau_g, self._out_t,
+                self._rates, self._icur, self._q, self._tau_a, self._tau_g,
+                self._tau_f, self._out_t,
                 self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
                 self._s_flt, self._s_state, self._rings, self._kind,
                 self.config.reset_covariance, self._python_lin, self._lg_int, self._lg_flt,

@@ -588,6 +588,24 @@ def _unpad(Pw: Array, P: Array) -> None:
             P[i, j] = Pw[i * _W + j]
 
 
+@jit_inline
+def _low_pass(f_lp: Array, f: Vec3, decay: float) -> Vec3:
+    """The specific force F is evaluated with, in place: ``f_lp ← decay f_lp + (1 - decay) f``
+    with ``decay = exp(-T/τ_f)`` (0: f itself, bit for bit); NaN f_lp starts at f.
+
+    Why: F multiplies the attitude error by ``[f_n×]`` (Groves 14.64). With the *measured* f,
+    its white noise makes the heading error look observable at rest (the filter then claims a
+    heading σ it does not have; tests/test_align.py); the motion F must see is slow, the noise
+    is not. Twin: :func:`adaptnav.propagation.low_pass`.
+    """
+    if math.isnan(f_lp[0]):
+        f_lp[0], f_lp[1], f_lp[2] = f
+    else:
+        for c in range(3):
+            f_lp[c] = decay * f_lp[c] + (1.0 - decay) * f[c]
+    return (f_lp[0], f_lp[1], f_lp[2])
+
+
 @jit
 def _propagate(
     x: Array,
@@ -600,10 +618,12 @@ def _propagate(
     q_psd: Array,
     tau_a: float,
     tau_g: float,
+    f_lp: Array,
+    tau_f: float,
     ta: float,
     tb: float,
 ) -> None:
-    """The one compiled loop behind both public kernels (x, P, w_prev, f_prev in place).
+    """The one compiled loop behind both public kernels (x, P, w_prev, f_prev, f_lp in place).
 
     ``tb < 0``: ``rot``, ``vel`` are the increments of N whole intervals of lengths ``dt``.
     Otherwise one interval, ``rot``, ``vel`` (1, 3) are its mean rates, propagated over
@@ -615,7 +635,7 @@ def _propagate(
     wp = (w_prev[0], w_prev[1], w_prev[2])
     fp = (f_prev[0], f_prev[1], f_prev[2])
     inv_tau_a, inv_tau_g = 1.0 / tau_a, 1.0 / tau_g
-    T_last, decay_a, decay_g = -1.0, 1.0, 1.0
+    T_last, decay_a, decay_g, decay_f = -1.0, 1.0, 1.0, 0.0
     state = _load(x)
     ref = _lat_ref(state[0])
     for k in range(rot.shape[0]):
@@ -624,12 +644,14 @@ def _propagate(
         T = b - a
         if T_last != T:
             decay_a, decay_g, T_last = math.exp(-T / tau_a), math.exp(-T / tau_g), T
+            decay_f = math.exp(-T / tau_f) if tau_f > 0.0 else 0.0
         if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
             ref = _lat_ref(state[0])
         d = 1.0 if partial else dt_k
         wc = (rot[k, 0] / d, rot[k, 1] / d, rot[k, 2] / d)
         fc = (vel[k, 0] / d, vel[k, 1] / d, vel[k, 2] / d)
         state, e, h, v, C, f = _strapdown(state, ref, wp, fp, wc, fc, dt_k, a, b, decay_a, decay_g)
+        f = _low_pass(f_lp, f, decay_f)
         _fill_At(At, e, h, v, C, f, inv_tau_a, inv_tau_g, T)
         _fill_PhiT(PhiT, At, n - 4)
         _covariance_step(Pw, PhiT, M, C, q_psd, T, n)
@@ -652,6 +674,8 @@ def propagate_run(
     q_psd: Array,
     tau_a: float,
     tau_g: float,
+    f_lp: Array,
+    tau_f: float,
 ) -> None:
     """Propagate x (16) and P (15×15) over N IMU increments, **in place**.
 
@@ -659,9 +683,11 @@ def propagate_run(
     :func:`adaptnav.propagation.propagate` for a copying, shape-checking wrapper). ``dtheta``,
     ``dvel``: (N, 3) C-contiguous; ``dt``: (N,). ``x`` and ``P`` are overwritten with the
     propagated values and ``w_prev``, ``f_prev`` (3) with the last interval's raw mean rates
-    ``dtheta[-1]/dt[-1]``, ready for the next call. P leaves exactly symmetric.
+    ``dtheta[-1]/dt[-1]``, ready for the next call, and ``f_lp`` (3) with the low-passed
+    specific force of F (:func:`_low_pass`, time constant ``tau_f``). P leaves exactly
+    symmetric.
     """
-    _propagate(x, P, dtheta, dvel, dt, w_prev, f_prev, q_psd, tau_a, tau_g, 0.0, -1.0)
+    _propagate(x, P, dtheta, dvel, dt, w_prev, f_prev, q_psd, tau_a, tau_g, f_lp, tau_f, 0.0, -1.0)
 
 
 @jit
@@ -678,14 +704,17 @@ def propagate_partial(
     q_psd: Array,
     tau_a: float,
     tau_g: float,
+    f_lp: Array,
+    tau_f: float,
 ) -> None:
     """Propagate x and P over [ta, tb] of one interval of length dt, **in place**.
 
     Compiled twin of :func:`adaptnav.propagation.propagate_partial_numpy` (copying wrapper:
     :func:`adaptnav.propagation.propagate_partial`). Rates are the raw mean rates of the
-    previous and current interval (not modified); Φ and Qd are taken over T = tb - ta.
+    previous and current interval (not modified); Φ and Qd are taken over T = tb - ta;
+    ``f_lp`` (in place) as in :func:`propagate_run`.
     """
     _propagate(
         x, P, w_cur.reshape(1, 3), f_cur.reshape(1, 3), np.full(1, dt), w_prev.copy(),
-        f_prev.copy(), q_psd, tau_a, tau_g, ta, tb,
+        f_prev.copy(), q_psd, tau_a, tau_g, f_lp, tau_f, ta, tb,
     )  # fmt: skip

@@ -18,6 +18,9 @@ arguments.
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -69,6 +72,31 @@ def _check_interval(dt: float, ta: float, tb: float) -> None:
         raise ValueError(f"need 0 <= ta < tb <= dt, got ta={ta}, tb={tb}, dt={dt}")
 
 
+def low_pass(f_lp: Array, f: Array, T: float, tau_f: float) -> Array:
+    """The specific force F is evaluated with: ``f_lp ← e f_lp + (1 - e) f``, ``e = exp(-T/τ_f)``
+    (τ_f = 0: f itself); NaN f_lp starts at f. ``f_lp`` is updated in place and returned.
+
+    F's ``[f_n×]`` couples attitude into velocity error (Groves 14.64). Evaluated with the
+    *measured* f, its white noise makes the heading error look observable at rest and the filter
+    claims a heading σ it does not have (tests/test_align.py); the motion F must see is slow.
+    Twin of :func:`adaptnav.kernels._low_pass`.
+    """
+    if np.isnan(f_lp[0]):
+        f_lp[:] = f
+    else:
+        e = math.exp(-T / tau_f) if tau_f > 0.0 else 0.0
+        f_lp[:] = e * f_lp + (1.0 - e) * f
+    return f_lp
+
+
+def _f_state(f_lp: Array | None) -> Array:
+    if f_lp is None:
+        return np.full(3, np.nan)
+    if not (isinstance(f_lp, np.ndarray) and f_lp.shape == (3,) and f_lp.dtype == np.float64):
+        raise ValueError("f_lp must be a float64 array of shape (3,) (updated in place)")
+    return f_lp
+
+
 def _covariance_numpy(
     P: Array, mid: strapdown.StepMidpoint, q: Array, T: float, tau_a: float, tau_g: float
 ) -> Array:
@@ -90,22 +118,29 @@ def propagate_numpy(
     q_psd: ArrayLike,
     tau_a: float = np.inf,
     tau_g: float = np.inf,
+    *,
+    f_lp: Array | None = None,
+    tau_f: float = 0.0,
 ) -> tuple[Array, Array, Array, Array]:
     """Propagate x (16) and P (15×15) over N IMU increments (readable NumPy twin).
 
     ``dtheta``, ``dvel``: (N, 3) increments (rad, m/s); ``dt``: scalar or (N,); ``w_prev``,
     ``f_prev``: raw mean rates of the interval before the first one; ``q_psd``: the 12 PSDs of
     :func:`errorstate.noise_psd`; ``tau_a``, ``tau_g``: bias correlation times (inf: random
-    walk). Per sample the four steps of the module docstring (spec §2-3, P-10, P-11). Returns
-    new ``(x, P, w_prev, f_prev)``, the last two being the last interval's rates for the next
-    call. Inputs are not modified.
+    walk). Per sample the four steps of the module docstring (spec §2-3, P-10, P-11), F with the
+    specific force low-passed with time constant ``tau_f`` (:func:`low_pass`; its state
+    ``f_lp`` (3), NaN to start, is the one argument updated in place, so that a run can go on in
+    the next call). Returns new ``(x, P, w_prev, f_prev)``, the last two being the last
+    interval's rates for the next call.
     """
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     dth, dv, dts = _imu_inputs(dtheta, dvel, dt)
+    flp = _f_state(f_lp)
     for k in range(dth.shape[0]):
         T = float(dts[k])
         wc, fc = dth[k] / T, dv[k] / T
         xa, mid = strapdown.propagate(xa, wp, fp, wc, fc, T, 0.0, T, tau_a, tau_g)
+        mid = replace(mid, f_n=low_pass(flp, mid.f_n, T, tau_f).copy())
         Pa = _covariance_numpy(Pa, mid, q, T, tau_a, tau_g)
         wp, fp = wc, fc
     return xa, Pa, wp.copy(), fp.copy()
@@ -124,6 +159,9 @@ def propagate_partial_numpy(
     q_psd: ArrayLike,
     tau_a: float = np.inf,
     tau_g: float = np.inf,
+    *,
+    f_lp: Array | None = None,
+    tau_f: float = 0.0,
 ) -> tuple[Array, Array]:
     """Propagate x and P over the part [ta, tb] of one IMU interval of length dt (NumPy twin).
 
@@ -131,12 +169,15 @@ def propagate_partial_numpy(
     offsets from the interval's start, ``w_*``/``f_*`` the raw mean rates of the previous and
     current interval (the linear-rate model of :mod:`adaptnav.strapdown`). The state follows
     ``strapdown.propagate(..., dt, ta, tb)``; Φ and Qd are taken over T = tb - ta at that
-    sub-step's midpoint (spec §2-3, P-10, P-11). Returns new ``(x, P)``; inputs not modified.
+    sub-step's midpoint (spec §2-3, P-10, P-11), F's specific force as in
+    :func:`propagate_numpy` (``f_lp`` in place). Returns new ``(x, P)``.
     """
     _check_interval(dt, ta, tb)
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     wc, fc = _vec(w_cur, 3, "w_cur"), _vec(f_cur, 3, "f_cur")
+    flp = _f_state(f_lp)
     xa, mid = strapdown.propagate(xa, wp, fp, wc, fc, dt, ta, tb, tau_a, tau_g)
+    mid = replace(mid, f_n=low_pass(flp, mid.f_n, tb - ta, tau_f).copy())
     return xa, _covariance_numpy(Pa, mid, q, tb - ta, tau_a, tau_g)
 
 
@@ -151,14 +192,20 @@ def propagate(
     q_psd: ArrayLike,
     tau_a: float = np.inf,
     tau_g: float = np.inf,
+    *,
+    f_lp: Array | None = None,
+    tau_f: float = 0.0,
 ) -> tuple[Array, Array, Array, Array]:
-    """Compiled :func:`propagate_numpy` (same arguments and results; inputs not modified).
+    """Compiled :func:`propagate_numpy` (same arguments and results; inputs but ``f_lp`` not
+    modified).
 
     Runs :func:`adaptnav.kernels.propagate_run` on copies. The returned P is exactly symmetric.
     """
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     dth, dv, dts = _imu_inputs(dtheta, dvel, dt)
-    kernels.propagate_run(xa, Pa, dth, dv, dts, wp, fp, q, float(tau_a), float(tau_g))
+    kernels.propagate_run(
+        xa, Pa, dth, dv, dts, wp, fp, q, float(tau_a), float(tau_g), _f_state(f_lp), float(tau_f)
+    )
     return xa, Pa, wp, fp
 
 
@@ -175,8 +222,12 @@ def propagate_partial(
     q_psd: ArrayLike,
     tau_a: float = np.inf,
     tau_g: float = np.inf,
+    *,
+    f_lp: Array | None = None,
+    tau_f: float = 0.0,
 ) -> tuple[Array, Array]:
-    """Compiled :func:`propagate_partial_numpy` (same arguments and results; inputs unchanged).
+    """Compiled :func:`propagate_partial_numpy` (same arguments and results; inputs but ``f_lp``
+    unchanged).
 
     Runs :func:`adaptnav.kernels.propagate_partial` on copies.
     """
@@ -184,6 +235,7 @@ def propagate_partial(
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     wc, fc = _vec(w_cur, 3, "w_cur"), _vec(f_cur, 3, "f_cur")
     kernels.propagate_partial(
-        xa, Pa, wp, fp, wc, fc, float(dt), float(ta), float(tb), q, float(tau_a), float(tau_g)
-    )
+        xa, Pa, wp, fp, wc, fc, float(dt), float(ta), float(tb), q, float(tau_a), float(tau_g),
+        _f_state(f_lp), float(tau_f),
+    )  # fmt: skip
     return xa, Pa

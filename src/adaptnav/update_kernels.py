@@ -61,6 +61,7 @@ from adaptnav.kernels import (
     _cross,
     _fill_At,
     _fill_PhiT,
+    _low_pass,
     _matvec,
     _quat_mult,
     _quat_to_dcm,
@@ -128,7 +129,9 @@ LEDGER_DUPLICATE, LEDGER_INVALID, LEDGER_LATE, LEDGER_AFTER_IMU = 3, 4, 5, 6
 
 C_T, C_T_START, C_DT, C_OFFSET = 0, 1, 2, 3
 N_CUR = 4
-R_W_PREV, R_F_PREV, R_W_CUR, R_F_CUR = 0, 1, 2, 3
+R_W_PREV, R_F_PREV, R_W_CUR, R_F_CUR, R_F_LP = 0, 1, 2, 3, 4
+N_RATES = 5
+"""Rows of ``rates``: the raw mean rates, and the low-passed specific force of F."""
 
 
 # --- scalar helpers -----------------------------------------------------------------------------
@@ -1138,18 +1141,21 @@ def step(
     dt: float,
     ta: float,
     tb: float,
-    decay: tuple[float, float],
+    decay: tuple[float, float, float],
     inv_tau: tuple[float, float],
     q_psd: Array,
+    f_lp: Array,
 ) -> State:
     """Propagate over [ta, tb] of an interval of length dt: the body of the loop of
     kernels._propagate (``propagate_run``: ta = 0, tb = dt; ``propagate_partial``), on the
     state tuple and the padded P of ``wk``. ``wp``, ``fp`` / ``wc``, ``fc``: raw mean rates of
-    the previous / current interval; ``decay = (exp(-T/τ_a), exp(-T/τ_g))`` for T = tb - ta;
-    ``inv_tau = (1/τ_a, 1/τ_g)``."""
+    the previous / current interval; ``decay = (exp(-T/τ_a), exp(-T/τ_g), exp(-T/τ_f))`` for
+    T = tb - ta (the last 0 when τ_f = 0); ``inv_tau = (1/τ_a, 1/τ_g)``; ``f_lp``: the
+    low-passed specific force of F (kernels._low_pass), in place."""
     At, PhiT, M, Pw, n = wk
     T = tb - ta
     state, e, h, v, C, f = _strapdown(state, ref, wp, fp, wc, fc, dt, ta, tb, decay[0], decay[1])
+    f = _low_pass(f_lp, f, decay[2])
     _fill_At(At, e, h, v, C, f, inv_tau[0], inv_tau[1], T)
     _fill_PhiT(PhiT, At, n - 4)
     _covariance_step(Pw, PhiT, M, C, q_psd, T, n)
