@@ -8,14 +8,11 @@ from typing import NoReturn
 import typer
 from rich.console import Console
 
-FILTER_CHOICES = ("meskf", "maeskf", "vb")
-FILTER_LABELS = {"meskf": "MESKF", "maeskf": "MAESKF", "vb": "VB-MAESKF"}
+from adaptnav.compare import FILTER_LABELS as FILTER_LABELS  # single sources, re-exported
+from adaptnav.compare import PAPER_TABLE3 as PAPER_TABLE3
 
-PAPER_TABLE3 = {
-    "paper-1": {"vb": (46.0, 0.20), "maeskf": (80.0, 0.35), "meskf": (184.0, 0.80)},
-    "paper-2": {"vb": (62.0, 0.65), "maeskf": (89.0, 0.91), "meskf": (102.0, 1.06)},
-}
-"""The paper's Table 3: RMSE (m) and relative RMSE (%) per trajectory and filter."""
+FILTER_CHOICES = ("meskf", "maeskf", "vb", "oracle")
+"""Filters ``adaptnav run`` runs (the engine's kinds; the floor is not a filter)."""
 
 app = typer.Typer(
     help="adaptnav: asynchronous multirate multi-sensor inertial navigation.",

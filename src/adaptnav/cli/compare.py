@@ -1,0 +1,138 @@
+"""``adaptnav compare`` and ``adaptnav report``: several filters on one mission, and its page.
+
+* ``adaptnav compare MISSION_DIR --filters meskf,maeskf,vb[,oracle][,floor] --out DIR``: one
+  alignment, every filter from it (:func:`adaptnav.compare.compare`), the comparison folder
+  written to ``--out`` (runs, ``comparison.csv/json``, figures) and a table of ours beside the
+  paper's Table 3; with ``--json`` only one JSON object on stdout (filter → metrics), progress
+  on stderr.
+* ``adaptnav report COMPARE_DIR [--out FILE]``: the self-contained HTML report of a comparison
+  folder (:func:`adaptnav.report.write_report`); prints its path.
+
+A user's mistake (unknown filter, a mission without a reference, a bad mission) exits with
+status 2 and one line on stderr (:func:`adaptnav.cli._app.fail`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.table import Table
+
+from adaptnav.cli._app import FILTER_LABELS, app, console, err_console, fail
+
+if TYPE_CHECKING:
+    from adaptnav.compare import Comparison
+
+DEFAULT_CLI_FILTERS = "meskf,maeskf,vb"
+"""The paper's three; ``oracle`` needs a simulated mission and ``floor`` a reference attitude,
+so both are asked for by name."""
+
+
+def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
+    """A rich table of a comparison that fits 80 columns: RMSE and relative RMSE, the paper's
+    Table 3 beside them where it applies, the largest horizontal error, and the readings each
+    gated sensor's gate rejected; the caption gives the distance and duration scored. ``name``
+    stands for the mission's name in the title."""
+    from adaptnav.compare import PAPER_TABLE3
+
+    frame = cmp.table()
+    paper = cmp.mission_name in PAPER_TABLE3
+    gated = [s for s in cmp.sensors() if frame[f"{s}_rejected"].sum() > 0]
+    beside = " beside the paper's Table 3" if paper else ""
+    first = frame.iloc[0] if len(frame) else None
+    caption = (
+        None
+        if first is None
+        else f"{first['distance_m'] / 1000.0:.2f} km in {first['duration_min']:.1f} min scored"
+    )
+    table = Table(title=f"{name or cmp.mission_name}: ours{beside}", caption=caption)
+    columns = ["filter", "RMSE m", "rel. %"]
+    if paper:
+        columns += ["paper m", "paper %"]
+    columns += ["max horiz. m", *(f"{s} rej." for s in gated)]
+    for i, col in enumerate(columns):
+        table.add_column(col, justify="left" if i == 0 else "right", no_wrap=True)
+
+    def f(value: float, fmt: str) -> str:
+        return "-" if value is None or not math.isfinite(value) else fmt.format(value)
+
+    for _, r in frame.iterrows():
+        cells = [
+            FILTER_LABELS.get(str(r["filter"]), str(r["filter"])),
+            f(r["rmse_m"], "{:.1f}"),
+            f(r["relative_rmse_pct"], "{:.3f}"),
+        ]
+        if paper:
+            cells += [f(r["paper_rmse_m"], "{:.0f}"), f(r["paper_relative_rmse_pct"], "{:.2f}")]
+        cells.append(f(r["max_horizontal_error_m"], "{:.1f}"))
+        cells += [str(int(r[f"{s}_rejected"])) for s in gated]
+        table.add_row(*cells)
+    return table
+
+
+@app.command("compare")
+def compare_cmd(
+    mission_dir: Annotated[Path, typer.Argument(help="mission folder (mission.toml + tables)")],
+    filters: Annotated[
+        str,
+        typer.Option("--filters", "-f", help="comma-separated: meskf, maeskf, vb, oracle, floor"),
+    ] = DEFAULT_CLI_FILTERS,
+    out: Annotated[Path, typer.Option("--out", "-o", help="comparison folder to write")] = Path(
+        "runs/compare"
+    ),
+    as_json: Annotated[
+        bool, typer.Option("--json", help="print only one JSON object (filter → metrics)")
+    ] = False,
+) -> None:
+    """Run several filters on one mission from one shared alignment and compare them.
+
+    Writes each run (``adaptnav evaluate OUT/<filter>`` works), comparison.csv/json and the
+    figures to --out, and prints RMSE and relative RMSE beside the paper's Table 3 when the
+    mission is one of its trajectories (paper-1, paper-2). Make the HTML page with
+    ``adaptnav report OUT``.
+    """
+    from adaptnav.compare import compare, parse_filters
+    from adaptnav.io import MissionError, load_mission
+    from adaptnav.units import UnitError
+
+    try:
+        names = parse_filters(filters)
+    except ValueError as exc:
+        fail(f"--filters: {exc}")
+    try:
+        mission = load_mission(mission_dir)
+        cmp = compare(mission, names, progress=lambda line: err_console.print(line))
+    except (MissionError, UnitError, ValueError, OSError) as exc:
+        # ValueError covers the alignment, the oracle's and floor's missing columns, and a
+        # mission without a reference; OSError a missing or unreadable folder.
+        fail(str(exc))
+    err_console.print(f"writing {out}/ ...")
+    cmp.save(out)
+    if as_json:
+        typer.echo(json.dumps(cmp.to_json(), allow_nan=False))
+        return
+    console.print(comparison_table(cmp))
+    console.print(f"runs, comparison.csv/json and figures in {out}/; `adaptnav report {out}`")
+
+
+@app.command("report")
+def report_cmd(
+    compare_dir: Annotated[
+        Path, typer.Argument(help="comparison folder written by `adaptnav compare`")
+    ],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="HTML file [COMPARE_DIR/report.html]")
+    ] = None,
+) -> None:
+    """Write one self-contained HTML report of a comparison folder and print its path."""
+    from adaptnav.report import ReportError, write_report
+
+    try:
+        path = write_report(compare_dir, out)
+    except ReportError as exc:
+        fail(str(exc))
+    typer.echo(str(path))

@@ -1,0 +1,234 @@
+"""compare(): several filters from one alignment, tabulated and saved; the `compare` and `demo`
+commands. One short simulated mission (the ``demo`` preset, ≈ 3 s) serves the whole module."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+import math
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from adaptnav import api, evaluate, plots, results
+from adaptnav.cli import app
+from adaptnav.compare import (
+    COMPARISON_CSV,
+    COMPARISON_JSON,
+    PAPER_TABLE3,
+    Comparison,
+    compare,
+    parse_filters,
+)
+from adaptnav.filters import FILTER_KINDS
+from adaptnav.sim.scenarios import simulate
+
+runner = CliRunner()
+
+HAS_ORACLE = "oracle" in FILTER_KINDS
+HAS_FLOOR = importlib.util.find_spec("adaptnav.floor") is not None
+FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", *(("oracle",) if HAS_ORACLE else ()))
+SEED = 3
+
+
+@pytest.fixture(scope="module")
+def mission_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return simulate("demo", SEED, tmp_path_factory.mktemp("compare") / "mission")
+
+
+@pytest.fixture(scope="module")
+def saved(mission_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Comparison, Path]:
+    cmp = compare(mission_dir, FILTERS)
+    out = tmp_path_factory.mktemp("compare-out")
+    cmp.save(out)
+    return cmp, out
+
+
+def test_table_has_one_row_per_filter_equal_to_evaluate_on_the_saved_runs(
+    saved: tuple[Comparison, Path],
+) -> None:
+    cmp, out = saved
+    table = cmp.table()
+    assert list(table["filter"]) == list(FILTERS)
+    for _, row in table.iterrows():
+        run_dir = out / str(row["filter"])
+        m = evaluate.evaluate(results.load(run_dir), pd.read_parquet(run_dir / "truth.parquet"))
+        for col, value in (
+            ("rmse_m", m.rmse_m),
+            ("relative_rmse_pct", m.relative_rmse_pct),
+            ("horizontal_rmse_m", m.horizontal_rmse_m),
+            ("max_horizontal_error_m", m.max_horizontal_error_m),
+            ("distance_m", m.distance_m),
+            ("duration_min", m.duration_s / 60.0),
+        ):
+            assert row[col] == pytest.approx(value, rel=1e-12), (row["filter"], col)
+        for sensor, counts in m.counts.items():
+            for fate, n in counts.items():
+                assert row[f"{sensor}_{fate}"] == n, (row["filter"], sensor, fate)
+    # The demo preset is not one of the paper's trajectories: no Table-3 figures beside it.
+    assert table["paper_rmse_m"].isna().all()
+    saved_csv = pd.read_csv(out / COMPARISON_CSV)
+    assert list(saved_csv["filter"]) == list(FILTERS)
+    np.testing.assert_allclose(saved_csv["rmse_m"], table["rmse_m"], rtol=1e-12)
+
+
+def test_every_filter_starts_from_the_one_alignment(saved: tuple[Comparison, Path]) -> None:
+    cmp, _ = saved
+    t0 = cmp.initial["t0_s"]
+    assert cmp.initial["initial"] == "alignment" and math.isfinite(t0)
+    firsts = []
+    for name in FILTERS:
+        r = cmp.results[name]
+        assert r.meta["initial"] == "given", name
+        sol = r.solution
+        assert sol["t_s"].iloc[0] == pytest.approx(t0, abs=1e-9), name
+        firsts.append(sol.iloc[0][["lat_rad", "lon_rad", "h_m", "yaw_rad", "sd_dr_N", "sd_phi_D"]])
+    for other in firsts[1:]:
+        np.testing.assert_array_equal(other.to_numpy(), firsts[0].to_numpy())
+
+
+def test_the_alignment_runs_once(mission_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = []
+    real = api.initial_state
+
+    def counting(mission: Any) -> Any:
+        calls.append(mission)
+        return real(mission)
+
+    monkeypatch.setattr(api, "initial_state", counting)
+    cmp = compare(mission_dir, ("meskf", "vb"))
+    assert len(calls) == 1
+    assert set(cmp.results) == {"meskf", "vb"}
+
+
+def test_saved_folder_json_and_figures(saved: tuple[Comparison, Path]) -> None:
+    cmp, out = saved
+    doc = json.loads((out / COMPARISON_JSON).read_text())
+    assert doc["format"] == "adaptnav-comparison"
+    assert doc["mission"] == cmp.mission_name == "demo"
+    assert doc["seed"] == SEED and doc["filters"] == list(FILTERS)
+    assert doc["results"] == cmp.to_json()
+    for name in FILTERS:
+        entry = doc["results"][name]
+        assert {"rmse_m", "relative_rmse_pct", "distance_m", "duration_s"} <= entry.keys()
+        assert {"horizontal_rmse_m", "counts"} <= entry.keys()
+        assert entry["counts"]["dvl"]["used"] > 0
+        assert (out / name / "truth.parquet").is_file()
+    stems = {Path(f).stem for f in doc["figures"]}
+    assert {"trajectory", "position_error", "ledger_counts", "nis"} <= stems
+    assert {"noise_dvl", "noise_depth", "noise_inclinometer"} <= stems
+    for f in doc["figures"]:
+        assert (out / f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_figures_leave_no_pyplot_state(saved: tuple[Comparison, Path]) -> None:
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums()
+    figs = saved[0].figures()
+    assert figs and plt.get_fignums() == before
+
+
+def test_paper_presets_get_table3_beside_ours(saved: tuple[Comparison, Path]) -> None:
+    cmp, _ = saved
+    as_paper = dataclasses.replace(cmp, mission_name="paper-2").table().set_index("filter")
+    for name, (rmse, rel) in PAPER_TABLE3["paper-2"].items():
+        assert as_paper.loc[name, "paper_rmse_m"] == rmse
+        assert as_paper.loc[name, "paper_relative_rmse_pct"] == rel
+    if HAS_ORACLE:
+        assert math.isnan(as_paper.loc["oracle", "paper_rmse_m"])
+
+
+@pytest.mark.skipif(not HAS_ORACLE, reason="the oracle filter kind is not in this version")
+def test_oracle_is_a_row_of_its_own(saved: tuple[Comparison, Path]) -> None:
+    cmp, _ = saved
+    m = cmp.metrics["oracle"]
+    assert math.isfinite(m.rmse_m) and m.rmse_m > 0.0
+    assert cmp.results["oracle"].filter == "oracle"
+
+
+@pytest.mark.skipif(not HAS_FLOOR, reason="adaptnav.floor is not in this version")
+def test_floor_baseline_is_scored_over_the_same_span(
+    mission_dir: Path, saved: tuple[Comparison, Path]
+) -> None:
+    cmp = compare(mission_dir, ("vb", "floor"))
+    floor = cmp.results["floor"]
+    assert floor.solution["t_s"].iloc[0] >= cmp.t0
+    assert cmp.metrics["floor"].duration_s == pytest.approx(cmp.metrics["vb"].duration_s, abs=1.0)
+    assert list(cmp.table()["filter"]) == ["vb", "floor"]
+
+
+def test_parse_filters() -> None:
+    assert parse_filters("meskf, VB,floor") == ("meskf", "vb", "floor")
+    for bad, word in (("meskf,kalman", "kalman"), ("vb,vb", "vb"), (" , ", "no filter")):
+        with pytest.raises(ValueError, match=word):
+            parse_filters(bad)
+
+
+def test_envelope_keeps_a_single_spike_and_gaps() -> None:
+    t = np.arange(100_000, dtype=float)
+    y = np.zeros_like(t)
+    y[54_321] = 7.0
+    y[10_000:10_100] = np.nan
+    y[90_000:] = np.nan
+    te, ye = plots.envelope(t, y, max_points=1000)
+    assert te.size <= 1000 and np.all(np.diff(te) >= 0)
+    assert np.nanmax(ye) == 7.0 and te[np.nanargmax(ye)] == 54_321
+    assert np.isnan(ye[te >= 90_000]).all()
+
+
+def test_cli_compare_json_prints_one_object(mission_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    res = runner.invoke(
+        app, ["compare", str(mission_dir), "--filters", "meskf,vb", "--out", str(out), "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)  # nothing else on stdout
+    assert set(d) == {"meskf", "vb"}
+    for entry in d.values():
+        assert math.isfinite(entry["rmse_m"]) and math.isfinite(entry["relative_rmse_pct"])
+    # A saved run is an ordinary run folder with its reference beside it.
+    res = runner.invoke(app, ["evaluate", str(out / "vb"), "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["rmse_m"] == pytest.approx(d["vb"]["rmse_m"], rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("filters", "word"), [("meskf,kalman", "kalman"), ("vb,vb", "more than once")]
+)
+def test_cli_compare_bad_filter_exits_2(
+    mission_dir: Path, tmp_path: Path, filters: str, word: str
+) -> None:
+    res = runner.invoke(
+        app, ["compare", str(mission_dir), "--filters", filters, "-o", str(tmp_path)]
+    )
+    assert res.exit_code == 2
+    assert word in res.output and "Traceback" not in res.output
+
+
+def test_cli_compare_needs_a_reference_and_a_mission(mission_dir: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "no-truth"
+    shutil.copytree(mission_dir, copy)
+    toml = (copy / "mission.toml").read_text()
+    (copy / "mission.toml").write_text(toml.replace('[truth]\nfile = "truth.parquet"\n', ""))
+    res = runner.invoke(app, ["compare", str(copy), "--filters", "vb", "-o", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "reference" in res.output, res.output
+    res = runner.invoke(app, ["compare", str(tmp_path / "nothing"), "-o", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "Traceback" not in res.output, res.output
+
+
+def test_cli_demo_writes_the_comparison_and_the_report(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    res = runner.invoke(app, ["demo", "--preset", "demo", "--seed", "2", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    for f in ("mission/mission.toml", COMPARISON_CSV, COMPARISON_JSON, "report.html"):
+        assert (out / f).is_file(), f
+    table = pd.read_csv(out / COMPARISON_CSV)
+    assert list(table["filter"]) == list(FILTERS)
+    assert "report:" in res.stdout and "VB-MAESKF" in res.stdout
