@@ -232,3 +232,20 @@ def test_cli_demo_writes_the_comparison_and_the_report(tmp_path: Path) -> None:
     table = pd.read_csv(out / COMPARISON_CSV)
     assert list(table["filter"]) == list(FILTERS)
     assert "report:" in res.stdout and "VB-MAESKF" in res.stdout
+
+
+def test_figures_do_not_modify_the_mission_tables(saved: tuple[Comparison, Path]) -> None:
+    """Fig. 10 marks outliers on the spiked axes only; that selection must not write into the
+    mission's tables. With a bool ``is_outlier`` (as the A-KIT import writes it) pandas hands
+    out a read-only view, and an in-place ``&=`` raised there."""
+    cmp = saved[0]
+    tables = dict(cmp.mission.tables)
+    dvl = tables["dvl"].copy()
+    dvl["is_outlier"] = dvl["is_outlier"].astype(bool)
+    assert dvl["is_outlier"].any() and "spike_x_m_s" in dvl.columns
+    tables["dvl"] = dvl
+    mission = dataclasses.replace(cmp.mission, tables=tables)
+    before = dvl.copy()
+    figs = dataclasses.replace(cmp, mission=mission).figures()
+    assert "noise_dvl" in figs
+    pd.testing.assert_frame_equal(mission.tables["dvl"], before)

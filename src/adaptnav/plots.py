@@ -290,7 +290,8 @@ def noise_variance(
                 # An outlier event spikes only some axes: mark it on those (spike_<axis>_m_s).
                 spike = f"spike_{col.split('_')[0][-1]}_m_s"
                 if spike in table.columns:
-                    out &= table[spike].to_numpy(dtype=float) != 0.0
+                    # Not in place: to_numpy may be a (read-only) view of the mission's table.
+                    out = out & (table[spike].to_numpy(dtype=float) != 0.0)
                 if out.any():
                     ax_z.plot(
                         _minutes(t[out], start), table[col].to_numpy(dtype=float)[out] * scale,
