@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo reproduce test lint bench clean
+.PHONY: demo reproduce akit test lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -17,6 +17,10 @@ demo: $(STAMP)
 
 reproduce: $(STAMP)
 	$(BIN)/python scripts/reproduce.py
+
+# Issue 6: the filters on the nine Snapir AUV segments, clean and with DVL faults.
+akit: $(STAMP)
+	$(BIN)/python scripts/akit_eval.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench scripts

@@ -333,3 +333,26 @@ def test_cli_bad_input_exits_2(tmp_path: Path) -> None:
     assert res.exit_code == 2
     assert "error:" in res.output and "IMU_trajectory3.csv" in res.output
     assert "Traceback" not in res.output
+
+
+@needs_data
+def test_akit_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
+    """scripts/akit_eval.py (make akit) on one segment: tables, targets and figures written."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "akit_eval", Path(__file__).resolve().parent.parent / "scripts" / "akit_eval.py"
+    )
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out, figs = tmp_path / "r.md", tmp_path / "figs"
+    args = ["--src", str(DATA), "--trajectories", "1", "--jobs", "1", "--work",
+            str(tmp_path / "w"), "--out", str(out), "--figures", str(figs)]  # fmt: skip
+    assert mod.main(args) == 0
+    text = out.read_text()
+    for heading in ("## Targets", "## Clean DVL", "## Faulted DVL", "relative_rmse.png"):
+        assert heading in text
+    runs = pd.read_csv(figs / "runs.csv")
+    assert set(runs["filter"]) == set(mod.FILTERS) and set(runs["case"]) == {"clean", "faulted"}
+    assert (runs["rmse_m"] > 0).all() and (figs / "relative_rmse.png").stat().st_size > 10_000
