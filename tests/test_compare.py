@@ -4,7 +4,6 @@ commands. One short simulated mission (the ``demo`` preset, ≈ 3 s) serves the 
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import json
 import math
 import shutil
@@ -26,14 +25,11 @@ from adaptnav.compare import (
     compare,
     parse_filters,
 )
-from adaptnav.filters import FILTER_KINDS
 from adaptnav.sim.scenarios import simulate
 
 runner = CliRunner()
 
-HAS_ORACLE = "oracle" in FILTER_KINDS
-HAS_FLOOR = importlib.util.find_spec("adaptnav.floor") is not None
-FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", *(("oracle",) if HAS_ORACLE else ()))
+FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle")
 SEED = 3
 
 
@@ -141,11 +137,9 @@ def test_paper_presets_get_table3_beside_ours(saved: tuple[Comparison, Path]) ->
     for name, (rmse, rel) in PAPER_TABLE3["paper-2"].items():
         assert as_paper.loc[name, "paper_rmse_m"] == rmse
         assert as_paper.loc[name, "paper_relative_rmse_pct"] == rel
-    if HAS_ORACLE:
-        assert math.isnan(as_paper.loc["oracle", "paper_rmse_m"])
+    assert math.isnan(as_paper.loc["oracle", "paper_rmse_m"])
 
 
-@pytest.mark.skipif(not HAS_ORACLE, reason="the oracle filter kind is not in this version")
 def test_oracle_is_a_row_of_its_own(saved: tuple[Comparison, Path]) -> None:
     cmp, _ = saved
     m = cmp.metrics["oracle"]
@@ -153,7 +147,6 @@ def test_oracle_is_a_row_of_its_own(saved: tuple[Comparison, Path]) -> None:
     assert cmp.results["oracle"].filter == "oracle"
 
 
-@pytest.mark.skipif(not HAS_FLOOR, reason="adaptnav.floor is not in this version")
 def test_floor_baseline_is_scored_over_the_same_span(
     mission_dir: Path, saved: tuple[Comparison, Path]
 ) -> None:

@@ -107,12 +107,6 @@ def parse_filters(spec: str | Iterable[str]) -> tuple[str, ...]:
     return names
 
 
-def _oracle_available() -> bool:
-    from adaptnav.filters import FILTER_KINDS
-
-    return "oracle" in FILTER_KINDS
-
-
 def _simulation_info(root: Path) -> dict[str, Any] | None:
     """The simulator's ``simulation.json`` of a mission folder, or None (a real mission)."""
     path = root / SIMULATION_FILE
@@ -320,8 +314,6 @@ def compare(
 
     say = progress or (lambda _message: None)
     names = parse_filters(filters)
-    if "oracle" in names and not _oracle_available():
-        raise ValueError("filter 'oracle' is not available in this version of adaptnav")
     m = mission if not isinstance(mission, str | Path) else load_mission(mission)
     name = m.config.mission.name
     if m.truth is None:
@@ -345,31 +337,23 @@ def compare(
         if n == "floor":
             results[n] = _run_floor(m, None if start is None else start[2])
         else:
-            # "oracle" joins FilterKind when it lands in adaptnav.filters; checked above.
             results[n] = api.run(m, cast("FilterKind", n), settings=settings, initial=start)
         metrics[n] = evaluate.evaluate(results[n], truth)
     return Comparison(name, m, results, metrics, initial)
 
 
 def _run_floor(mission: Mission, t0: float | None) -> Result:
-    """The DVL dead-reckoning baseline (``adaptnav.floor``), imported only when asked for.
+    """The DVL dead-reckoning baseline (``adaptnav.floor``).
 
     It dead-reckons from the first DVL reading, not from the alignment; its solution is cut
     to start at the filters' navigation start ``t0`` (when there is one) so that every row of
     the comparison is scored over the same stretch of the reference.
     """
-    import importlib
     from dataclasses import replace
 
-    from adaptnav.results import Result
+    from adaptnav import floor
 
-    try:
-        floor = importlib.import_module("adaptnav.floor")
-    except ModuleNotFoundError as exc:
-        raise ValueError("filter 'floor' is not available in this version of adaptnav") from exc
     result = floor.run(mission)
-    if not isinstance(result, Result):
-        raise TypeError(f"adaptnav.floor.run returned {type(result).__name__}, not a Result")
     if t0 is None:
         return result
     sol = result.solution

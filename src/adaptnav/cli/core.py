@@ -35,18 +35,13 @@ def demo(
     """
     from adaptnav.cli.compare import comparison_table
     from adaptnav.compare import compare
-    from adaptnav.filters import FILTER_KINDS
     from adaptnav.report import write_report
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
 
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
-    filters = ["meskf", "maeskf", "vb"]
-    if "oracle" in FILTER_KINDS:
-        filters.append("oracle")
-    else:
-        console.print("[yellow]note:[/] this version has no oracle filter; running three")
+    filters = ["meskf", "maeskf", "vb", "oracle"]
     out.mkdir(parents=True, exist_ok=True)
     console.print(f"simulating {preset} (seed {seed}) ...")
     mission_dir = run_simulation(preset, seed, out / "mission")
