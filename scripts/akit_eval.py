@@ -3,10 +3,11 @@
 ``make akit`` runs this with its defaults: for each of trajectories 1-9 of
 ``../shared/data/akit-snapir-auv`` it imports the segment twice (``adaptnav.io.akit``), clean and
 with seeded DVL faults (1 % spikes of 1-3 m/s, a 20-s bottom-lock loss reading zeros, 60 s of
-×5 noise), runs MESKF, MAESKF, VB-MAESKF, the oracle (told the injected faults) and the floor
-(DVL dead reckoning with the reference's attitude) from the same start through
-:func:`adaptnav.compare.compare`, and writes per-trajectory tables, the means, the issue's
-targets with their verdicts, two figures and the command that made them.
+×5 noise), runs MESKF, MAESKF, VB-MAESKF (ungated, behind the paper's gate and behind a gate on
+the nominal R), the oracle (told the injected faults) and the floor (DVL dead reckoning with the
+reference's attitude) from the same start through :func:`adaptnav.compare.compare`, and writes
+per-trajectory tables, the means, the issue's targets with their verdicts, the same means over
+other fault draws, two figures and the command that made them.
 
 Every number in the page comes from this run; nothing is typed in by hand.
 
@@ -23,6 +24,7 @@ import sys
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -35,18 +37,23 @@ ROOT = Path(__file__).resolve().parent.parent
 RUN_FILTERS = ("meskf", "maeskf", "vb", "oracle", "floor")
 """What :func:`adaptnav.compare.compare` runs at the filters' defaults."""
 VB_GATE_Q = 2600.0
-"""The paper's best q for VB-MAESKF (Fig. 4, "insensitive"): the gated VB row ``vb_q``."""
-FILTERS = ("meskf", "maeskf", "vb", "vb_q", "oracle", "floor")
+"""The paper's best q for VB-MAESKF (Fig. 4, "insensitive"): the gated VB rows ``vb_q`` (S with
+VB's own R̂, the paper's gate) and ``vb_n`` (S with the nominal R, gate.py)."""
+FILTERS = ("meskf", "maeskf", "vb", "vb_q", "vb_n", "oracle", "floor")
 LABELS = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
     "vb": "VB-MAESKF",
     "vb_q": f"VB-MAESKF q={VB_GATE_Q:.0f}",
+    "vb_n": f"VB-MAESKF q={VB_GATE_Q:.0f} nominal-R gate",
     "oracle": "oracle",
     "floor": "floor (DVL DR)",
 }
+VB_VARIANTS = ("vb", "vb_q", "vb_n")
 FAULT_SEED_BASE = 100
-"""Faulted segment N uses seed FAULT_SEED_BASE + N (clean: seed N), so every run is fixed."""
+"""Faulted segment N uses seed FAULT_SEED_BASE + N (clean: seed N), so every run is fixed; the
+per-trajectory tables are of this draw, the other ``--fault-seeds`` bases go into one table of
+means."""
 
 
 def _args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -57,11 +64,23 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-akit.md")
     p.add_argument("--figures", type=Path, default=ROOT / "docs" / "results-akit")
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    p.add_argument(
+        "--fault-seeds",
+        default="100,200,300",
+        help="seed bases of the fault draws (segment N: base + N); the first is tabulated per "
+        "trajectory [100,200,300]",
+    )
     a = p.parse_args(argv)
     try:
         a.segments = _parse_segments(a.trajectories)
     except ValueError as exc:
         p.error(f"--trajectories: {exc}")
+    try:
+        a.seed_bases = [int(v) for v in a.fault_seeds.split(",")]
+    except ValueError:
+        p.error(f"--fault-seeds: {a.fault_seeds!r} is not a comma-separated list of integers")
+    if not a.seed_bases or min(a.seed_bases) < 1 or len(set(a.seed_bases)) != len(a.seed_bases):
+        p.error("--fault-seeds: give distinct integers >= 1")
     if a.jobs < 1:
         p.error("--jobs must be >= 1")
     if not a.src.is_dir():
@@ -83,28 +102,33 @@ def _parse_segments(spec: str) -> list[int]:
     return sorted(set(out))
 
 
-def _one(src: Path, work: Path, n: int, faults: bool) -> dict[str, Any]:
-    """Import segment n (clean or faulted), compare every filter, save the comparison folder."""
+def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str, Any]:
+    """Import segment n (clean for seed_base 0, else faulted with seed seed_base + n), compare
+    every filter, save the comparison folder; ``keep``: return the comparison (for figures)."""
     from adaptnav import api, evaluate
     from adaptnav.compare import compare
     from adaptnav.filters import DEFAULT_GATE_Q, FilterSettings
     from adaptnav.io import akit
 
+    faults = seed_base > 0
     case = "faulted" if faults else "clean"
     t_start = time.perf_counter()
     root = akit.import_segment(
-        src, n, work / f"{n}-{case}" / "mission", seed=FAULT_SEED_BASE + n if faults else n,
-        faults=faults,
+        src, n, work / f"{n}-{case}{seed_base if faults else ''}" / "mission",
+        seed=seed_base + n if faults else n, faults=faults,
     )  # fmt: skip
     t_import = time.perf_counter() - t_start
     cmp = compare(root, RUN_FILTERS)
-    # VB-MAESKF with the gate the paper gives it in Fig. 4, from the same start.
+    # VB-MAESKF with the gate the paper gives it in Fig. 4, on its own R̂ and on the nominal R,
+    # from the same start.
     gated = FilterSettings(kind="vb", gate_q={**DEFAULT_GATE_Q, "vb": VB_GATE_Q})
     x0, P0, t0, _ = api.initial_state(cmp.mission)  # mode "state": the reference, no alignment
     start = (x0, P0, t0)
-    vb_q = api.run(cmp.mission, "vb", settings=gated, initial=start)
     metrics = dict(cmp.metrics)
-    metrics["vb_q"] = evaluate.evaluate(vb_q, cmp.truth)
+    for name, reference in (("vb_q", "adapted"), ("vb_n", "nominal")):
+        settings = replace(gated, gate_reference=reference)
+        run = api.run(cmp.mission, "vb", settings=settings, initial=start)
+        metrics[name] = evaluate.evaluate(run, cmp.truth)
     t_run = time.perf_counter() - t_start - t_import
     rows = []
     for name in FILTERS:
@@ -114,6 +138,7 @@ def _one(src: Path, work: Path, n: int, faults: bool) -> dict[str, Any]:
             {
                 "trajectory": n,
                 "case": case,
+                "fault_seed_base": seed_base,
                 "filter": name,
                 "rmse_m": m.rmse_m,
                 "relative_rmse_pct": m.relative_rmse_pct,
@@ -131,7 +156,7 @@ def _one(src: Path, work: Path, n: int, faults: bool) -> dict[str, Any]:
         "case": case,
         "import_s": t_import,
         "run_s": t_run,
-        "comparison": cmp if (n, faults) == (2, True) else None,
+        "comparison": cmp if keep else None,
     }
 
 
@@ -171,13 +196,28 @@ def _counts_table(df: pd.DataFrame) -> str:
     return _md_table(header, rows)
 
 
+def _draws_table(every: pd.DataFrame, bases: Sequence[int]) -> str:
+    """Per fault draw (and their mean): each filter's mean relative RMSE and its ratio to the
+    same filter's clean mean."""
+    mean = every.groupby(["fault_seed_base", "filter"])["relative_rmse_pct"].mean()
+    header = ["fault seeds", *[LABELS[f] for f in FILTERS]]
+    rows = []
+    for b in (*bases, None):
+        cells = []
+        for f in FILTERS:
+            v = float(np.mean([mean[(x, f)] for x in bases])) if b is None else mean[(b, f)]
+            cells.append(f"{v:.3f} (×{v / mean[(0, f)]:.2f})")
+        rows.append(["**mean of the draws**" if b is None else f"{b}+N", *cells])
+    return _md_table(header, rows)
+
+
 def _targets(df: pd.DataFrame) -> list[tuple[str, float, float, bool]]:
     """(what, measured, limit, met) for the issue's three targets, on mean relative RMSE, for
-    VB-MAESKF as specified (no gate) and with the paper's q."""
+    VB-MAESKF as specified (no gate) and with the paper's q, on its R̂ and on the nominal R."""
     mean = df.groupby(["case", "filter"])["relative_rmse_pct"].mean()
     floor_c, meskf_c = mean[("clean", "floor")], mean[("clean", "meskf")]
     out = []
-    for vb in ("vb", "vb_q"):
+    for vb in VB_VARIANTS:
         c, f, lab = mean[("clean", vb)], mean[("faulted", vb)], LABELS[vb]
         out += [
             (f"{lab} clean / floor clean", c / floor_c, 1.15, c / floor_c <= 1.15),
@@ -194,9 +234,10 @@ def _figure_bars(df: pd.DataFrame, path: Path) -> None:
     import matplotlib.pyplot as plt
     import matplotlib.ticker
 
-    colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2", "vb_q": "C8", "oracle": "C4",
-              "floor": "0.4"}  # fmt: skip
-    hatch = {"meskf": "//", "maeskf": "..", "vb": "", "vb_q": "\\\\", "oracle": "xx", "floor": "--"}
+    colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2", "vb_q": "C8", "vb_n": "C1",
+              "oracle": "C4", "floor": "0.4"}  # fmt: skip
+    hatch = {"meskf": "//", "maeskf": "..", "vb": "", "vb_q": "\\\\", "vb_n": "++",
+             "oracle": "xx", "floor": "--"}  # fmt: skip
     fig, axes = plt.subplots(2, 1, figsize=(11, 7), sharex=True, constrained_layout=True)
     for ax, case in zip(axes, ("clean", "faulted"), strict=True):
         sub = df[df["case"] == case].pivot(
@@ -225,7 +266,7 @@ def _figure_bars(df: pd.DataFrame, path: Path) -> None:
         ax.set_xticks(x, [str(n) for n in sub.index])
     axes[-1].set_xlabel("trajectory (400-s segment)")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, ncol=len(FILTERS), fontsize=9, loc="outside lower center")
+    fig.legend(handles, labels, ncol=4, fontsize=9, loc="outside lower center")
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -256,19 +297,24 @@ def _report(o: dict[str, Any]) -> dict[str, Any]:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _args(argv)
     t0 = time.perf_counter()
-    tasks = [(n, f) for n in args.segments for f in (False, True)]
+    base = args.seed_bases[0]
+    keep_n = 2 if 2 in args.segments else args.segments[0]
+    tasks = [
+        (n, b, n == keep_n and b == base) for n in args.segments for b in (0, *args.seed_bases)
+    ]
     outs = []
     if args.jobs == 1:  # in process (no pickling: also when this file is loaded by path)
-        results = (_one(args.src, args.work, n, f) for n, f in tasks)
+        results = (_one(args.src, args.work, *task) for task in tasks)
         outs = [_report(o) for o in results]
     else:
         with ProcessPoolExecutor(max_workers=min(args.jobs, len(tasks))) as pool:
-            futures = [pool.submit(_one, args.src, args.work, n, f) for n, f in tasks]
+            futures = [pool.submit(_one, args.src, args.work, *task) for task in tasks]
             outs = [_report(fut.result()) for fut in futures]
     wall = time.perf_counter() - t0
-    df = pd.DataFrame([r for o in outs for r in o["rows"]])
+    every = pd.DataFrame([r for o in outs for r in o["rows"]])
+    df = every[every["fault_seed_base"].isin([0, base])]  # clean and the tabulated fault draw
     args.figures.mkdir(parents=True, exist_ok=True)
-    df.to_csv(args.figures / "runs.csv", index=False, float_format="%.6g")
+    every.to_csv(args.figures / "runs.csv", index=False, float_format="%.6g")
     _figure_bars(df, args.figures / "relative_rmse.png")
     figs: list[str] = []
     for o in outs:
@@ -276,7 +322,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if cmp is not None:
             for stem, fig in cmp.figures().items():
                 if stem in ("position_error", "noise_dvl", "trajectory"):
-                    fig.savefig(args.figures / f"traj2_faulted_{stem}.png", dpi=90)
+                    fig.savefig(args.figures / f"traj{keep_n}_faulted_{stem}.png", dpi=90)
                     figs.append(stem)
     targets = _targets(df)
     rel = args.out.parent
@@ -289,7 +335,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         f"Written by `{cmd}` (scripts/akit_eval.py) on {dt.date.today().isoformat()}, "
         f"adaptnav {__version__}, commit {_git_commit()}; the whole evaluation (import, "
-        f"{len(tasks)} comparisons of {len(FILTERS)} runs each) took **{wall:.0f} s** on "
+        f"{len(tasks)} comparisons of {len(FILTERS)} runs each: clean and "
+        f"{len(args.seed_bases)} fault draws per trajectory) took **{wall:.0f} s** on "
         f"{args.jobs} worker(s) here. Every number below comes from that run; the table of "
         f"every run is [`{fig_rel}/runs.csv`]({fig_rel}/runs.csv).",
         "",
@@ -298,11 +345,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         "- **clean**: `adaptnav import akit -n N --seed N`: the recorded IMU and DVL with every "
         "correction, and a **semi-synthetic depth** (reference depth + 0.05 m noise; the "
         "recordings have no depth sensor, so the vertical is partly aided by the reference);",
-        f"- **faulted**: the same with `--faults --seed {FAULT_SEED_BASE}+N`: 1 % DVL spikes of "
-        "1-3 m/s, a 20-s bottom-lock loss that reads zeros, 60 s of ×5 noise;",
+        f"- **faulted**: the same with `--faults --seed {base}+N`: 1 % DVL spikes of "
+        "1-3 m/s, a 20-s bottom-lock loss that reads zeros, 60 s of ×5 noise (where they fall "
+        "is drawn from the seed; the other draws, seeds "
+        f"{', '.join(f'{b}+N' for b in args.seed_bases[1:]) or 'none'}, are summarised in "
+        "their own table);",
         "- filters: MESKF (q = 600 on the DVL), MAESKF (q = 1800), VB-MAESKF (no gate, the "
         f"paper's method as specified), VB-MAESKF with the component gate at q = {VB_GATE_Q:.0f} "
-        "(the paper's best q for it in Fig. 4), "
+        "(the paper's best q for it in Fig. 4) whose S holds VB's own R̂ (the paper's gate), the "
+        'same gate with S on the nominal R (`gate_reference = "nominal"`, adaptation cannot '
+        "open it), "
         "the oracle (the injected σ and outliers known; on clean data the nominal σ) and the "
         "**floor**: DVL dead reckoning with the reference's own attitude (no filter);",
         "- every filter starts from the reference state at the segment's first reference "
@@ -332,9 +384,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         _case_table(df, "faulted"),
         "",
         "DVL readings used / rejected by the gate / dropped (the oracle drops the injected "
-        "outliers; VB-MAESKF has no gate and de-weights them):",
+        "outliers; ungated VB-MAESKF de-weights them):",
         "",
         _counts_table(df),
+        "",
+        "## Every fault draw: mean relative RMSE (%) over the trajectories, and × the clean mean",
+        "",
+        _draws_table(every, args.seed_bases),
         "",
         "## Figures",
         "",
@@ -342,8 +398,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
     ]
     for stem in figs:
-        lines += [f"Trajectory 2, faulted: {stem.replace('_', ' ')}", "",
-                  f"![{stem}]({fig_rel}/traj2_faulted_{stem}.png)", ""]  # fmt: skip
+        lines += [f"Trajectory {keep_n}, faulted (seed {base}+{keep_n}): "
+                  f"{stem.replace('_', ' ')}", "",
+                  f"![{stem}]({fig_rel}/traj{keep_n}_faulted_{stem}.png)", ""]  # fmt: skip
     discussion = ROOT / "docs" / "results-akit-discussion.md"
     if discussion.is_file():
         lines += ["## Reading the numbers", "", discussion.read_text().strip(), ""]

@@ -239,7 +239,11 @@ class Navigator:
             self._states[i] = ch.strategy.predict(self._states[i], dt_i, ch.period)
             self._last_epoch[i] = t_epoch
             if ch.gate is not None:
-                R_now = ch.strategy.current_R(self._states[i], meas.R)
+                R_now = (
+                    meas.R
+                    if ch.gate.reference == "nominal"
+                    else ch.strategy.current_R(self._states[i], meas.R)
+                )
                 S = innovation_covariance(self.P, meas.H, R_now)
                 d = apply_gate(ch.gate, meas.y, S)
                 if not d.accepted:

@@ -348,11 +348,14 @@ def test_akit_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
     spec.loader.exec_module(mod)
     out, figs = tmp_path / "r.md", tmp_path / "figs"
     args = ["--src", str(DATA), "--trajectories", "1", "--jobs", "1", "--work",
-            str(tmp_path / "w"), "--out", str(out), "--figures", str(figs)]  # fmt: skip
+            str(tmp_path / "w"), "--out", str(out), "--figures", str(figs),
+            "--fault-seeds", "100,200"]  # fmt: skip
     assert mod.main(args) == 0
     text = out.read_text()
-    for heading in ("## Targets", "## Clean DVL", "## Faulted DVL", "relative_rmse.png"):
+    for heading in ("## Targets", "## Clean DVL", "## Faulted DVL", "## Every fault draw",
+                    "relative_rmse.png", "traj1_faulted_trajectory.png"):  # fmt: skip
         assert heading in text
     runs = pd.read_csv(figs / "runs.csv")
     assert set(runs["filter"]) == set(mod.FILTERS) and set(runs["case"]) == {"clean", "faulted"}
+    assert set(runs["fault_seed_base"]) == {0, 100, 200}
     assert (runs["rmse_m"] > 0).all() and (figs / "relative_rmse.png").stat().st_size > 10_000

@@ -292,3 +292,43 @@ def test_a_sensor_absent_at_an_epoch_keeps_its_alpha_beta() -> None:
     assert depth_after is depth_before  # untouched, not even ρ-predicted (P-29, P-30)
     dvl = nav.adaptation_state("dvl")
     assert np.all(dvl.alpha == pytest.approx(0.99 * 1.0 + 0.5))
+
+
+def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
+    """40 s of ×5 DVL noise, then a 20-s bottom-lock loss reading zeros (the A-KIT faults).
+
+    VB-MAESKF's R̂ grows with the ×5 noise; a gate on that R̂ (the paper's) then lets the zeros
+    through. A gate on the nominal R (gate.py, ``reference = "nominal"``) cannot be opened by
+    adaptation: each zero is off by the vehicle's speed (2 m/s, 100 nominal σ), and is rejected
+    for as long as H P Hᵀ stays below 4/q - σ² (here q = 600, MESKF's; at q = 2600 this IMU's
+    P grows past that bound in the last second of the loss). The ×5 readings (within 5 σ·√q)
+    still reach the filter and its R̂.
+    """
+    ds = synthetic.make(3, duration=120.0, sensors=("dvl", "depth"))
+    t, z = ds.readings["dvl"]
+    z = z.copy()
+    noisy = (t >= 40.0) & (t < 80.0)
+    lost = (t >= 80.0) & (t < 100.0)
+    rng = np.random.default_rng(30)
+    z[noisy] += rng.normal(0.0, 0.02 * np.sqrt(24.0), (int(noisy.sum()), 3))
+    z[lost] = 0.0
+    assert np.linalg.norm(ds.truth[:, 3:6], axis=1).min() > 95 * 0.02  # zeros: gross errors
+    ds.readings["dvl"] = (t, z)
+    runs = {
+        ref: _run_batch("vb", ds, gate_q={"vb": 600.0}, gate_reference=ref)
+        for ref in ("adapted", "nominal")
+    }
+    lost_rows = set(np.nonzero(lost)[0].tolist())
+    noisy_rows = set(np.nonzero(noisy)[0].tolist())
+    fate = {
+        ref: {r["row"]: r["fate"] for r in out.ledger if r["sensor"] == "dvl"}
+        for ref, out in runs.items()
+    }
+    used_zeros = {ref: sum(f[r] == "used" for r in lost_rows) for ref, f in fate.items()}
+    used_noisy = {ref: sum(f[r] == "used" for r in noisy_rows) for ref, f in fate.items()}
+    e = {ref: _rmse(out, ds) for ref, out in runs.items()}
+    print(f"\nzeros used {used_zeros}, ×5 used {used_noisy} of {len(noisy_rows)}, RMSE {e}")
+    assert used_zeros["adapted"] > 0
+    assert used_zeros["nominal"] == 0
+    assert used_noisy["nominal"] >= 0.95 * len(noisy_rows)
+    assert e["nominal"] < e["adapted"]

@@ -114,6 +114,14 @@ def test_example_config_round_trips() -> None:
     assert cfg.output_every() == 10
 
 
+def test_gate_reference_reaches_every_gate() -> None:
+    d = config_dict()
+    d["filter"] = {"kind": "vb", "gate_q": {"vb": 2600.0}, "gate_reference": "nominal"}
+    settings = parse_config(d).filter_settings()
+    gate = settings.gate("dvl")
+    assert gate is not None and gate.q == 2600.0 and gate.reference == "nominal"
+
+
 def test_docs_example_is_valid() -> None:
     text = (Path(__file__).parents[1] / "docs" / "data-format.md").read_text()
     block = text.split("```toml\n", 1)[1].split("```", 1)[0]
@@ -127,6 +135,7 @@ def test_defaults_of_a_minimal_config() -> None:
     assert cfg.imu.format == "rates" and cfg.imu.gap_limit_s == pytest.approx(0.05)
     assert cfg.filter.kind == "vb" and cfg.initial.mode == "alignment"
     assert cfg.gated_sensors() == ("dvl",)
+    assert cfg.filter_settings().gate_reference == "adapted"  # the paper's gate
     assert cfg.truth.file is None
     noise = cfg.imu.noise.to_imu_noise()
     g, a = cfg.imu.initial_bias_sigma.si(noise)
@@ -159,6 +168,7 @@ def _config_error(mutate: Any) -> MissionError:
         (lambda d: d["imu"].update(file="imu.txt"), "imu.file", "unknown table format"),
         (lambda d: d.update(filter={"gate_q": {"ekf": 1.0}}), "filter.gate_q", "'ekf'"),
         (lambda d: d.update(filter={"gate_sensors": ["dv"]}), "filter.gate_sensors", "'dv'"),
+        (lambda d: d.update(filter={"gate_reference": "R"}), "filter.gate_reference", "'R'"),
         (lambda d: d["sensors"]["dvl"].update(use_height=True), "sensors.dvl.use_height", "gnss"),
         (lambda d: d["sensors"]["dvl"].update(optional="yes"), "sensors.dvl.optional", "bool"),
         (lambda d: d["sensors"].update(imu=d["sensors"]["dvl"]), "sensors", "reserved"),

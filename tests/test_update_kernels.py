@@ -335,6 +335,11 @@ def test_gate_statistic_equals_apply_gate() -> None:
             _assert_rel(uk.gate_statistic(code, nu, S), ref.statistic)
 
 
+def test_gate_refuses_an_unknown_reference() -> None:
+    with pytest.raises(ValueError, match="gate reference: value 'R'"):
+        Gate(10.0, "component", "R")  # type: ignore[arg-type]
+
+
 def test_inject_and_reset_equal_errorstate() -> None:
     rng = np.random.default_rng(8)
     for k in range(50):
@@ -393,7 +398,9 @@ def _strategy(kind: str) -> Any:
     return VariationalBayes(rho=0.95, iterations=4, tol=1e-8, irregular=True)
 
 
-def _channels(kind: str, ds: synthetic.Dataset, python_depth: bool) -> list[engine.SensorChannel]:
+def _channels(
+    kind: str, ds: synthetic.Dataset, python_depth: bool, reference: str = "adapted"
+) -> list[engine.SensorChannel]:
     periods = synthetic.periods()
     out = []
     for name in ds.readings:
@@ -402,7 +409,8 @@ def _channels(kind: str, ds: synthetic.Dataset, python_depth: bool) -> list[engi
             model = PythonOnly(model)
         gate = None
         if name == "dvl":
-            gate = Gate(60.0 if kind != "vb" else 1e6, "chi2" if kind == "maeskf" else "component")
+            q = 1e6 if kind == "vb" and reference == "adapted" else 60.0
+            gate = Gate(q, "chi2" if kind == "maeskf" else "component", reference)  # type: ignore[arg-type]
         out.append(engine.SensorChannel(model, periods[name], _strategy(kind), gate))
     return out
 
@@ -438,23 +446,25 @@ def _compare(out: engine.EngineOutput, ref: engine.EngineOutput) -> None:
 
 
 @pytest.mark.parametrize(
-    ("kind", "policy", "python_depth"),
+    ("kind", "policy", "python_depth", "reference"),
     [
-        ("meskf", "exact", False),
-        ("maeskf", "exact", True),
-        ("rae", "grid", False),
-        ("vb", "exact", False),
-        ("vb", "grid", True),
+        ("meskf", "exact", False, "adapted"),
+        ("maeskf", "exact", True, "adapted"),
+        ("maeskf", "exact", False, "nominal"),
+        ("rae", "grid", False, "adapted"),
+        ("vb", "exact", False, "adapted"),
+        ("vb", "grid", True, "adapted"),
+        ("vb", "exact", True, "nominal"),
     ],
 )
 def test_batch_engine_equals_the_readable_engine(
-    kind: str, policy: str, python_depth: bool
+    kind: str, policy: str, python_depth: bool, reference: str
 ) -> None:
     ds, readings = _mission(11)
     cfg = engine.EngineConfig(synthetic.NOISE, epoch_policy=policy, output_every=7)  # type: ignore[arg-type]
     args = (ds.x0_hat, ds.P0, ds.t0, ds.imu_t, ds.dt, ds.dtheta, ds.dvel, readings)
-    out = engine.run_batch(cfg, _channels(kind, ds, python_depth), *args)
-    ref = engine_reference.run_batch(cfg, _channels(kind, ds, python_depth), *args)
+    out = engine.run_batch(cfg, _channels(kind, ds, python_depth, reference), *args)
+    ref = engine_reference.run_batch(cfg, _channels(kind, ds, python_depth, reference), *args)
     fates = {r["fate"] + r["reason"] for r in ref.ledger}
     assert len(fates) >= 3  # used, rejected by the gate, and dropped
     _compare(out, ref)

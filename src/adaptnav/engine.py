@@ -524,6 +524,8 @@ class Navigator:
             if ch.gate is not None:
                 rule = uk.GATE_COMPONENT if ch.gate.rule == "component" else uk.GATE_CHI2
                 si[uk.S_GATE] = rule
+                nominal = ch.gate.reference == "nominal"
+                si[uk.S_GATE_REF] = uk.GATE_REF_NOMINAL if nominal else uk.GATE_REF_ADAPTED
                 sf[uk.F_GATE_Q] = ch.gate.q
             st = ch.strategy
             state0 = st.initial_state(R)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 from adaptnav.engine import SensorChannel
-from adaptnav.gate import Gate, GateRule
+from adaptnav.gate import Gate, GateReference, GateRule
 from adaptnav.noise import CovarianceMatching, FixedNoise, NoiseStrategy, VariationalBayes
 from adaptnav.sensors.base import MeasurementModel
 
@@ -45,6 +45,8 @@ class FilterSettings:
     gate_rule: GateRule = "component"
     gate_q: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_GATE_Q))
     """q per filter kind; a kind absent here runs without a gate."""
+    gate_reference: GateReference = "adapted"
+    """R in the gate's S: the strategy's current R (the paper) or the nominal one (gate.py)."""
     gate_sensors: tuple[str, ...] = ("dvl",)
     matching_window: int = 20
     matching_floor: float = 1e-2
@@ -79,7 +81,7 @@ class FilterSettings:
         if self.kind not in self.gate_q or sensor not in self.gate_sensors:
             return None
         q = overrides.gate_q if overrides.gate_q is not None else self.gate_q[self.kind]
-        return Gate(q, self.gate_rule)
+        return Gate(q, self.gate_rule, self.gate_reference)
 
 
 def build_channels(

@@ -350,7 +350,8 @@ def _filters(doc: Mapping[str, Any], summaries: Mapping[str, Mapping[str, Any]])
         kind = fs.get("kind", name)
         q = (fs.get("gate_q") or {}).get(kind)
         gate = (
-            f"q = {q:g} ({_e(fs.get('gate_rule'))}) on {_e(', '.join(fs.get('gate_sensors', [])))}"
+            f"q = {q:g} ({_e(fs.get('gate_rule'))}, {_e(fs.get('gate_reference', 'adapted'))} R) "
+            f"on {_e(', '.join(fs.get('gate_sensors', [])))}"
             if q is not None
             else "none"
         )

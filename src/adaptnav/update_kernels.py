@@ -96,8 +96,8 @@ PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
 # --- per-sensor tables (rows: sensors) ----------------------------------------------------------
 
 # s_int: int64 settings and counters
-S_CODE, S_DIM, S_GATE, S_ITER, S_WINDOW, S_COUNT, S_VERSION = 0, 1, 2, 3, 4, 5, 6
-N_SINT = 7
+S_CODE, S_DIM, S_GATE, S_ITER, S_WINDOW, S_COUNT, S_VERSION, S_GATE_REF = 0, 1, 2, 3, 4, 5, 6, 7
+N_SINT = 8
 # s_flt: float64 settings; columns 0..N_PAR-1 are the linearisation parameters
 F_RNOM, F_GATE_Q, F_PERIOD = 16, 25, 26  # nominal R (3×3 row-major), gate q, period
 F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE = 27, 28, 29, 30, 31  # strategy settings
@@ -108,6 +108,7 @@ N_SSTATE = 16
 # rings (sensors, 2, W_max, 3): [.., 0] squared innovations/residuals, [.., 1] diag(H P⁺ Hᵀ)
 
 GATE_NONE, GATE_COMPONENT, GATE_CHI2 = 0, 1, 2
+GATE_REF_ADAPTED, GATE_REF_NOMINAL = 0, 1
 KIND_FIXED, KIND_MATCHING, KIND_VB = 0, 1, 2
 
 # fallback rows (one per group member) for sensors linearised in Python: valid, y, H, R
@@ -1067,9 +1068,10 @@ def epoch(
         s_state[i, X_LAST] = t_epoch
         rule = s_int[i, S_GATE]
         if rule != GATE_NONE:
+            nominal = kind == KIND_FIXED or s_int[i, S_GATE_REF] == GATE_REF_NOMINAL
             for a in range(d):
                 for c in range(d):
-                    if kind == KIND_FIXED:
+                    if nominal:
                         R_now[a, c] = Rb[nb, a, c]
                     elif kind == KIND_MATCHING:
                         R_now[a, c] = s_state[i, X_MR + 3 * a + c]

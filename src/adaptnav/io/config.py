@@ -379,6 +379,8 @@ class FilterConfig(_Model):
     gate_rule: Literal["component", "chi2"] = "component"
     gate_q: dict[str, Positive] = Field(default_factory=lambda: {"meskf": 600.0, "maeskf": 1800.0})
     """q per filter kind; a kind absent here runs without a gate."""
+    gate_reference: Literal["adapted", "nominal"] = "adapted"
+    """R in the gate's S: ``adapted`` (the filter's current R, the paper) or ``nominal``."""
     gate_sensors: tuple[str, ...] | None = None
     """Gated sensor names; None → every sensor of kind dvl."""
     matching_window: Annotated[int, Field(ge=1)] = 20
@@ -467,6 +469,7 @@ class MissionConfig(_Model):
             kind=f.kind,
             gate_rule=f.gate_rule,
             gate_q=dict(f.gate_q),
+            gate_reference=f.gate_reference,
             gate_sensors=self.gated_sensors(),
             matching_window=f.matching_window,
             matching_floor=f.matching_floor,
