@@ -21,14 +21,12 @@ from typer.testing import CliRunner
 
 from adaptnav.cli import app
 from adaptnav.compare import COMPARISON_JSON, compare
-from adaptnav.filters import FILTER_KINDS
 from adaptnav.report import ReportError, write_report
 from adaptnav.sim.scenarios import simulate
 
 runner = CliRunner()
 
-ORACLE: tuple[str, ...] = ("oracle",) if "oracle" in FILTER_KINDS else ()
-FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", *ORACLE)
+FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle")
 CHROMIUM_PATH = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -8,7 +8,6 @@ once for the module and shared through copies of its cache folder.
 from __future__ import annotations
 
 import json
-import logging
 import math
 import shutil
 from pathlib import Path
@@ -106,14 +105,9 @@ def test_specs_of_the_paper_sweeps() -> None:
     assert sum(s.q_scale is None for s in pn) == 3  # factor 1: the default run, one cache entry
 
 
-def test_oracle_left_out_where_absent(
-    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
-) -> None:
-    monkeypatch.setattr(sw, "FILTER_KINDS", ("meskf", "maeskf", "vb"))
-    with caplog.at_level(logging.WARNING, logger="adaptnav.sweep"):
-        assert sw.available_filters(["vb", "oracle", "vb"]) == ("vb",)
-    assert "oracle" in caplog.text
-    with pytest.raises(ValueError):
+def test_available_filters_dedupes_and_names_the_known_ones() -> None:
+    assert sw.available_filters(["vb", "oracle", "vb", "meskf"]) == ("vb", "oracle", "meskf")
+    with pytest.raises(ValueError, match="'kalman': use one of meskf, maeskf, vb, oracle"):
         sw.available_filters(["kalman"])
 
 

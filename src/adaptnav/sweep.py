@@ -210,20 +210,14 @@ class RunSpec:
 
 
 def available_filters(filters: Iterable[str]) -> tuple[str, ...]:
-    """``filters`` without duplicates, leaving out ``"oracle"`` with a logged note where this
-    version has no oracle kind (``adaptnav.filters.FILTER_KINDS``). Raises ValueError for an
-    unknown name."""
+    """``filters`` in order without duplicates; ValueError for a name that is not one of
+    ``adaptnav.filters.FILTER_KINDS``."""
     out: list[str] = []
     for f in filters:
-        if f in out:
-            continue
         if f not in FILTER_KINDS:
-            if f == "oracle":
-                logger.warning("filter 'oracle' is not available in this version; left out")
-                continue
-            known = ", ".join(dict.fromkeys((*FILTER_KINDS, "oracle")))
-            raise ValueError(f"filter {f!r}: use one of {known}")
-        out.append(f)
+            raise ValueError(f"filter {f!r}: use one of {', '.join(FILTER_KINDS)}")
+        if f not in out:
+            out.append(f)
     return tuple(out)
 
 
