@@ -343,6 +343,19 @@ def test_write_then_load_round_trip(tmp_path: Path, fmt: str) -> None:
     assert list(m.tables["dvl"]["is_outlier"]) == [False, True, False, False, False]
 
 
+def test_truth_velocity_and_attitude_are_optional_groups(tmp_path: Path) -> None:
+    d, tables = _full_mission()
+    truth = tables["truth"].drop(columns=["roll_rad", "pitch_rad", "yaw_rad"])
+    write_mission(tmp_path, parse_config(d), {**tables, "truth": truth})
+    m = load_mission(tmp_path)
+    assert m.truth is not None and "yaw_rad" not in m.truth.columns
+    np.testing.assert_array_equal(m.truth["vn_m_s"], truth["vn_m_s"])
+    partial = truth.drop(columns=["vd_m_s"])
+    partial.to_parquet(tmp_path / "truth.parquet", index=False)
+    err = load_error(tmp_path)
+    assert "truth.parquet (truth)" in err and "['vd_m_s']" in err and "or none" in err
+
+
 def test_rates_are_integrated_by_the_trapezoid_rule(tmp_path: Path) -> None:
     imu = imu_rates(n=11)
     imu.loc[5:, "t_s"] += 0.004  # one longer interval: the trapezoid uses each interval's dt

@@ -37,6 +37,7 @@ from adaptnav.io.tables import (
     Repair,
     Table,
     check_order,
+    present,
     read_table,
     show,
     take_columns,
@@ -319,11 +320,37 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     return SensorData(name, cfg.kind, tk, z[rows], rows, period)
 
 
+TRUTH_OPTIONAL_GROUPS = (TRUTH_COLUMNS[3:6], TRUTH_COLUMNS[6:9])
+"""Velocity and attitude: each group all or none (a GNSS reference has no attitude)."""
+
+
+def _truth_columns(table: Table) -> list[str]:
+    """Position, plus each optional group whose columns are all present; a partial group is an
+    error naming the missing columns."""
+    names = list(table.df.columns)
+    columns = list(TRUTH_COLUMNS[:3])
+    for group in TRUTH_OPTIONAL_GROUPS:
+        have = [c for c in group if present(names, c)]
+        if have and len(have) < len(group):
+            missing = [c for c in group if c not in have]
+            raise MissionError(
+                f"{table.label} (truth): has {have} but not {missing}; give all of {list(group)} "
+                "or none",
+                file=table.label,
+                field=missing[0],
+            )
+        if have:
+            columns += group
+    return columns
+
+
 def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
-    """The reference table with its SI columns as floats (degrees converted), extras kept."""
+    """The reference table with its SI columns as floats (degrees converted), extras kept:
+    position always, velocity and attitude where the table has them (all three or none)."""
     if len(table) == 0:
         raise MissionError(f"{table.label} (truth): no data rows", file=table.label)
-    t, z, _ = take_columns(table, TRUTH_COLUMNS, "truth", journal)
+    columns = _truth_columns(table)
+    t, z, _ = take_columns(table, columns, "truth", journal)
     check_order(table, t)
     same = np.flatnonzero(np.diff(t) == 0.0)
     if same.size:
@@ -333,7 +360,7 @@ def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
         )
     out = table.df.copy()
     out[TIME_COLUMN] = t
-    for i, c in enumerate(TRUTH_COLUMNS):
+    for i, c in enumerate(columns):
         out[c] = z[:, i]
     return out
 

@@ -304,14 +304,15 @@ def deg_variant(column: str) -> str | None:
     return column.replace("_rad", "_deg", 1) if "_rad" in column else None
 
 
-def _present(df_columns: Sequence[str], column: str) -> bool:
+def present(df_columns: Sequence[str], column: str) -> bool:
+    """Whether ``column`` or its degree variant (``*_deg*``) is among ``df_columns``."""
     alt = deg_variant(column)
     return column in df_columns or (alt is not None and alt in df_columns)
 
 
 def looks_like(columns: Sequence[str]) -> list[str]:
     """The kinds of table whose measurement columns are all in ``columns``."""
-    return [k for k, cols in STREAM_COLUMNS.items() if all(_present(columns, c) for c in cols)]
+    return [k for k, cols in STREAM_COLUMNS.items() if all(present(columns, c) for c in cols)]
 
 
 def numeric(table: Table, column: str) -> Array:
@@ -350,7 +351,7 @@ def take_columns(
     """
     names = list(table.df.columns)
     wanted = [TIME_COLUMN, *columns]
-    missing = [c for c in wanted if not _present(names, c)]
+    missing = [c for c in wanted if not present(names, c)]
     if missing:
         hint = looks_like(names)
         extra = f"; it looks like a {' / '.join(hint)} table" if hint else ""
