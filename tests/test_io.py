@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from adaptnav import api
 from adaptnav.attitude import euler_to_dcm
 from adaptnav.io import (
     MissionConfig,
@@ -112,6 +113,21 @@ def test_example_config_round_trips() -> None:
     settings = cfg.filter_settings()
     assert settings.gate_sensors == ("dvl",) and settings.gate_q["maeskf"] == 1800.0
     assert cfg.output_every() == 10
+
+
+def test_initial_bias_starts_a_state_mode_mission(tmp_path: Path) -> None:
+    d = config_dict()
+    d["initial"] = {"mode": "state", "lat_deg": 10.0, "lon_deg": 20.0, "rpy_deg": [0, 0, 30]}
+    d["imu"]["initial_bias"] = {"gyro": [[0.1, -0.2, 0.3], "deg/s"], "accel": [[1, 2, 3], "mg"]}
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), "dvl.csv": dvl_table()})
+    x0, _, _, _ = api.initial_state(load_mission(root))
+    np.testing.assert_allclose(x0[13:16], np.radians([0.1, -0.2, 0.3]))
+    np.testing.assert_allclose(x0[10:13], 1e-3 * G0 * np.array([1.0, 2.0, 3.0]))
+    d["imu"]["initial_bias"] = {"gyro": [[0.1, 0.2], "deg/s"]}
+    assert "three values" in str(_config_error(lambda c: c.update(d)))
+    d["imu"]["initial_bias"] = {"gyro": [[0.1, 0.2, 0.3], "deg/s"]}
+    d["initial"] = {"mode": "alignment", "lat_deg": 10.0, "lon_deg": 20.0}
+    assert "mode = 'state' only" in str(_config_error(lambda c: c.update(d)))
 
 
 def test_gate_reference_reaches_every_gate() -> None:

@@ -26,7 +26,7 @@ from adaptnav.imu_noise import ImuNoise
 from adaptnav.io import Mission, load_mission
 from adaptnav.io.mission import build_sensor_model
 from adaptnav.results import Result
-from adaptnav.strapdown import NavState
+from adaptnav.strapdown import NOM_BA, NOM_BG, NavState
 
 __all__ = ["initial_state", "run"]
 
@@ -55,7 +55,8 @@ def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict
 
     ``alignment``: coarse + fine static alignment over the first ``alignment_s`` seconds, at the
     configured position (or the mean of GNSS fixes in the window); navigation starts at its end.
-    ``state``: the configured state and σ's, from the IMU's first interval start.
+    ``state``: the configured state and σ's (biases from ``[imu.initial_bias]``, else zero),
+    from the IMU's first interval start.
     """
     cfg = mission.config
     imu = mission.imu
@@ -70,6 +71,7 @@ def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict
             math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m, ini.v_ned_m_s,
             roll, pitch, yaw,
         ).to_array()  # fmt: skip
+        x0[NOM_BG], x0[NOM_BA] = cfg.imu.initial_bias.si()
         sig = np.zeros(N_STATES)
         sig[POS] = ini.sigma_position_m
         sig[VEL] = ini.sigma_velocity_m_s

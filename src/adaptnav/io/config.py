@@ -101,7 +101,9 @@ VecPair = tuple[float | list[float], str]
 """``[value, "unit"]`` or ``[[v1, v2, ...], "unit"]`` (one value per component)."""
 
 
-def _pair_si(pair: tuple[Any, str], kind: Kind, field: str) -> float | Array:
+def _pair_si(
+    pair: tuple[Any, str], kind: Kind, field: str, allow_negative: bool = False
+) -> float | Array:
     """SI value of a ``[value, unit]`` pair; "inf" is allowed for times (random-walk biases)."""
     value, unit = pair
     if kind is Kind.TIME and (
@@ -113,10 +115,10 @@ def _pair_si(pair: tuple[Any, str], kind: Kind, field: str) -> float | Array:
     if isinstance(value, list):
         if not value:
             raise UnitError(f"{field}: empty list of values")
-        return np.array([to_si(v, unit, kind, field) for v in value])
+        return np.array([to_si(v, unit, kind, field, allow_negative) for v in value])
     if isinstance(value, str):
         raise UnitError(f"{field}: value {value!r} is not a number")
-    return to_si(value, unit, kind, field)
+    return to_si(value, unit, kind, field, allow_negative)
 
 
 class _Model(BaseModel):
@@ -203,6 +205,41 @@ class InitialBiasSigma(_Model):
         return g, a
 
 
+class InitialBias(_Model):
+    """``[imu.initial_bias]``: bias estimates to start from (a calibration, or a static mean
+    taken by an importer), each ``[[x, y, z], "unit"]`` in body axes; zero where absent. Used
+    with ``initial.mode = "state"`` (an alignment estimates its own)."""
+
+    gyro: VecPair | None = None
+    accel: VecPair | None = None
+
+    @field_validator("gyro", "accel")
+    @classmethod
+    def _check_vector(cls, v: VecPair | None, info: ValidationInfo) -> VecPair | None:
+        if v is not None:
+            name = str(info.field_name)
+            kind = Kind.ANGULAR_RATE if name == "gyro" else Kind.ACCELERATION
+            si = np.asarray(_pair_si(v, kind, name, allow_negative=True), dtype=float)
+            if si.shape != (3,):
+                raise UnitError(f"{name}: give three values [[x, y, z], unit], got {v[0]!r}")
+        return v
+
+    def given(self) -> bool:
+        return self.gyro is not None or self.accel is not None
+
+    def si(self) -> tuple[Array, Array]:
+        """(gyro rad/s (3,), accel m/s² (3,))."""
+        g: Any = 0.0
+        a: Any = 0.0
+        if self.gyro is not None:
+            g = _pair_si(self.gyro, Kind.ANGULAR_RATE, "gyro", allow_negative=True)
+        if self.accel is not None:
+            a = _pair_si(self.accel, Kind.ACCELERATION, "accel", allow_negative=True)
+        return np.broadcast_to(np.asarray(g, float), (3,)).copy(), np.broadcast_to(
+            np.asarray(a, float), (3,)
+        ).copy()
+
+
 class ImuConfig(_Model):
     """``[imu]``: the IMU table, its format and rate, the gap limit and the noise model."""
 
@@ -213,6 +250,7 @@ class ImuConfig(_Model):
     max_gap_s: Positive | None = None
     """Largest accepted interval between IMU samples; None → 5 nominal periods."""
     initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
+    initial_bias: InitialBias = InitialBias()
 
     @field_validator("file")
     @classmethod
@@ -443,6 +481,11 @@ class MissionConfig(_Model):
                     f"filter.gate_sensors: {unknown} name no sensor (configured: "
                     f"{list(self.sensors)})"
                 )
+        if self.initial.mode == "alignment" and self.imu.initial_bias.given():
+            raise ValueError(
+                "imu.initial_bias: used with initial.mode = 'state' only (an alignment estimates "
+                "the biases)"
+            )
         if self.initial.mode == "alignment" and not any(
             s.kind == "gnss" and s.use != "off" for s in self.sensors.values()
         ):
