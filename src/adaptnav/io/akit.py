@@ -35,7 +35,7 @@ import json
 import logging
 import math
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -53,6 +53,7 @@ from adaptnav.evaluate import ned_errors
 from adaptnav.io.config import MissionError, parse_config
 from adaptnav.io.mission import write_mission
 from adaptnav.io.tables import Journal, Repair, Table, numeric, read_table
+from adaptnav.io.timing import minimise_lag
 from adaptnav.strapdown import NOM_ATT, NOM_VEL, NavState
 
 log = logging.getLogger("adaptnav.io.akit")
@@ -400,46 +401,6 @@ def reference_state(
 # --- offsets ------------------------------------------------------------------------------------
 
 
-def _parabolic_minimum(x: Array, cost: Array) -> float:
-    """Vertex of the parabola through the grid minimum and its neighbours (sub-step lag)."""
-    i = int(np.argmin(cost))
-    if i == 0 or i == cost.size - 1 or not np.isfinite(cost[i]):
-        raise ValueError(
-            f"cost minimum at the edge of the searched lags [{x[0]:.2f}, {x[-1]:.2f}] s"
-        )
-    c0, c1, c2 = cost[i - 1], cost[i], cost[i + 1]
-    curv = c0 - 2.0 * c1 + c2
-    step = x[1] - x[0]
-    return float(x[i] + 0.5 * step * (c0 - c2) / curv) if curv > 0.0 else float(x[i])
-
-
-COARSE_STEPS = 5
-"""The lag searches first use a grid this many times coarser than ``step_s``."""
-
-
-def _minimise_lag(
-    cost: Callable[[float], float], lo: float, hi: float, step: float, half_width: float
-) -> float:
-    """Lag minimising ``cost`` over [lo, hi].
-
-    A grid of ``COARSE_STEPS × step`` finds the basin (the costs here have one smooth minimum
-    over the span); then the cost on a grid of ``step`` within ``± half_width`` of it is
-    fitted by a least-squares parabola (``numpy.polyfit``), whose vertex is the estimate. The
-    fit smooths the small jitter of the cost from lag to lag (the gyro noise in the DVL's
-    lever-arm term), which would otherwise move a three-point vertex by a few hundredths.
-    """
-    coarse = np.arange(lo, hi + 0.5 * step, COARSE_STEPS * step)
-    centre = _parabolic_minimum(coarse, np.array([cost(float(x)) for x in coarse]))
-    fine = np.arange(centre - half_width, centre + half_width + 0.5 * step, step)
-    c = np.array([cost(float(x)) for x in fine])
-    ok = np.isfinite(c)
-    a2, a1, _ = np.polyfit(fine[ok] - centre, c[ok], 2)
-    vertex = centre - a1 / (2.0 * a2) if a2 > 0.0 else math.nan
-    if not abs(vertex - centre) <= half_width:
-        return float(fine[int(np.argmin(np.where(ok, c, np.inf)))])
-    return float(vertex)
-
-
 def reference_increments(segment: RawSegment) -> Array:
     """Body-frame rotation vectors (K-1, 3) between consecutive reference samples, as the
     gyros sense them: ``φ_k = Log(C_nb,kᵀ Exp(ω_in_n T) C_nb,k+1)``.
@@ -475,7 +436,8 @@ def estimate_reference_offset(
     (linearly interpolated between IMU samples). The second-order (coning) term matters in
     the sharp turns (up to 17 °/s with 8° of roll), where it is up to 0.6° in 1 s. The mean
     squared difference is minimised over ``[-max_lag_s, max_lag_s]``: a coarse grid, then a
-    parabola fitted to the cost on a grid of ``step_s`` within ± 0.05 s (:func:`_minimise_lag`).
+    parabola fitted to the cost on a grid of ``step_s`` within ± 0.05 s
+    (:func:`~adaptnav.io.timing.minimise_lag`).
     Raises ValueError if the minimum lies at the edge of the span (L not identifiable).
     """
     t_imu = segment.imu_t
@@ -497,7 +459,7 @@ def estimate_reference_offset(
         phi = d + 0.5 * (at(coning, tb[ok]) - at(coning, ta[ok]) - np.cross(th_a, d))
         return float(np.mean(np.sum((phi - increments[ok]) ** 2, axis=1)))
 
-    return _minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05)
+    return minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05)
 
 
 def dvl_residuals(
@@ -540,7 +502,8 @@ def estimate_dvl_offset(
 
     Minimises the mean squared :func:`dvl_residuals` (DVL against the reference's body-frame
     velocity with the lever-arm term) over ``search_s``: a coarse grid, then a parabola
-    fitted to the cost on a grid of ``step_s`` within ± 0.15 s (:func:`_minimise_lag`). The
+    fitted to the cost on a grid of ``step_s`` within ± 0.15 s
+    (:func:`~adaptnav.io.timing.minimise_lag`). The
     body-frame velocity changes mostly with speed, sideslip and heave, so the minimum is flat
     over a few hundredths of a second and this is less sharp than L (docs/akit.md gives the
     spread over segments 1-9: 1.00-1.05 s).
@@ -550,7 +513,7 @@ def estimate_dvl_offset(
         _, r = dvl_residuals(segment, reference_offset_s, lag, lever_arm_m)
         return float(np.mean(np.sum(r * r, axis=1))) if r.shape[0] >= 10 else math.inf
 
-    return _minimise_lag(cost, search_s[0], search_s[1], step_s, 0.15)
+    return minimise_lag(cost, search_s[0], search_s[1], step_s, 0.15)
 
 
 # --- a consistency check: free inertial navigation ----------------------------------------------
