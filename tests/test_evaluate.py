@@ -16,6 +16,7 @@ from adaptnav.evaluate import (
     nees_position,
     nis_bounds,
     nis_summary,
+    outage_drift,
     position_errors,
     relative_rmse_pct,
     rmse,
@@ -232,3 +233,30 @@ def test_evaluate_needs_overlap() -> None:
         evaluate(make_result(sol, []), truth)
     with pytest.raises(ValueError, match="truth lacks"):
         position_errors(sol, truth.drop(columns="h_m"))
+
+
+def test_outage_drift_scores_the_end_of_each_window() -> None:
+    """A solution whose east error is ½ a (t - 100)² inside (100, 130] and zero elsewhere: the
+    drift at the window's end is ½ a 30², its maximum the same, the distance 30 m (1 m/s)."""
+    truth = straight_north()
+    t = truth["t_s"].to_numpy()
+    a = 0.02
+    east = np.where((t > 100.0) & (t <= 130.0), 0.5 * a * (t - 100.0) ** 2, 0.0)
+    lat, lon, h = [], [], []
+    for k, (la, lo, hh) in enumerate(truth[["lat_rad", "lon_rad", "h_m"]].to_numpy()):
+        r = earth.ned_to_geodetic(np.array([0.0, east[k], 0.0]), la, lo, hh)
+        lat.append(float(r[0]))
+        lon.append(float(r[1]))
+        h.append(float(r[2]))
+    sol = offset_solution(truth, np.zeros(3), sd=2.0)
+    sol["lat_rad"], sol["lon_rad"], sol["h_m"] = lat, lon, h
+    table = outage_drift(sol, truth, [(100.0, 30.0), (500.0, 10.0)])
+    first, second = table.iloc[0], table.iloc[1]
+    assert first["end_horizontal_m"] == pytest.approx(0.5 * a * 30.0**2, rel=1e-6)
+    assert first["max_horizontal_m"] == pytest.approx(first["end_horizontal_m"])
+    assert first["distance_m"] == pytest.approx(30.0, rel=1e-6)
+    assert first["drift_pct"] == pytest.approx(100.0 * 9.0 / 30.0, rel=1e-6)
+    assert first["claimed_sd_horizontal_m"] == pytest.approx(2.0 * math.sqrt(2.0))
+    assert second["end_horizontal_m"] == pytest.approx(0.0, abs=1e-6)
+    with pytest.raises(ValueError, match="no truth sample inside"):
+        outage_drift(sol, truth, [(2000.0, 10.0)])

@@ -26,6 +26,7 @@ matter to any metric here.)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -165,6 +166,58 @@ def travelled_distance(truth: pd.DataFrame) -> float:
 def relative_rmse_pct(rmse_m: float, distance_m: float) -> float:
     """P-33: ``100 RMSE / D`` (%); NaN when the distance is zero."""
     return 100.0 * rmse_m / distance_m if distance_m > 0.0 else math.nan
+
+
+def outage_drift(
+    solution: pd.DataFrame, truth: pd.DataFrame, windows: Sequence[tuple[float, float]]
+) -> pd.DataFrame:
+    """The inertial drift over aiding outages, scored against the withheld reference.
+
+    For each window ``(start, length)`` (s), over the truth samples in ``(start, start +
+    length]``: the horizontal error at the last one (``end_horizontal_m``, the drift), its
+    maximum, the 3-D error at the end, the distance travelled (the truth's steps) and the drift
+    as a percentage of it. Also the filter's claimed horizontal σ at the end,
+    ``sqrt(sd_N² + sd_E²)`` (NaN if the solution has no ``sd_dr_*``), to judge its
+    consistency. A window with no truth sample is an error.
+    """
+    errors = position_errors(solution, truth)
+    t_sol = _solution_time(solution)
+    t_e = _column(errors, "t_s")
+    t_truth = _column(truth, "t_s")
+    has_sd = all(c in solution.columns for c in POSITION_SD[:2])
+    rows = []
+    for i, (start, length) in enumerate(windows):
+        inside = (t_e > start) & (t_e <= start + length)
+        if not inside.any():
+            raise ValueError(f"outage {i} ({start:g} s + {length:g} s): no truth sample inside")
+        k = int(np.flatnonzero(inside)[-1])
+        in_truth = (t_truth >= start) & (t_truth <= start + length)
+        dist = travelled_distance(truth[in_truth]) if in_truth.sum() > 1 else 0.0
+        end_h = float(errors["horizontal_m"].iloc[k])
+        sd = (
+            float(
+                math.hypot(
+                    *(_interp(t_e[k : k + 1], t_sol, _column(solution, c))[0]
+                      for c in POSITION_SD[:2])
+                )
+            )
+            if has_sd
+            else math.nan
+        )  # fmt: skip
+        rows.append(
+            {
+                "outage": i,
+                "start_s": float(start),
+                "length_s": float(length),
+                "end_horizontal_m": end_h,
+                "max_horizontal_m": float(errors["horizontal_m"][inside].max()),
+                "end_error_m": float(errors["error_m"].iloc[k]),
+                "distance_m": dist,
+                "drift_pct": 100.0 * end_h / dist if dist > 0.0 else math.nan,
+                "claimed_sd_horizontal_m": sd,
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def nees_position(solution: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:

@@ -1,4 +1,4 @@
-"""Importers of external recordings into mission folders: ``adaptnav import akit``."""
+"""Importers of external recordings into mission folders: ``adaptnav import akit``, ``rtklib``."""
 
 from __future__ import annotations
 
@@ -108,3 +108,99 @@ def akit(
             f"{f['noisy_window_s'][1]:.1f} s"
         )
     console.print(f"mission akit-{trajectory} written to {root} (depth is semi-synthetic)")
+
+
+def _parse_outages(spec: str) -> list[tuple[float, float]]:
+    """``"60+15,100+30"`` → [(60, 15), (100, 30)]; ``""`` or ``"none"`` → []."""
+    if spec.strip().lower() in ("", "none"):
+        return []
+    out = []
+    for part in spec.split(","):
+        start, plus, length = part.strip().partition("+")
+        try:
+            out.append((float(start), float(length)))
+        except ValueError:
+            fail(f"--outages: {part.strip()!r} is not START+LENGTH in seconds (e.g. 60+15)")
+        if not plus:
+            fail(f"--outages: {part.strip()!r} is not START+LENGTH in seconds (e.g. 60+15)")
+    return out
+
+
+@import_app.command("rtklib")
+def rtklib(
+    pos: Annotated[Path, typer.Option(help="RTKLIB .pos solution (GPST, lat/lon/height)")],
+    imu: Annotated[Path, typer.Option(help="raw IMU CSV: acc (g), gyro (deg/s), counter (ms)")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="mission folder to write")],
+    tag: Annotated[
+        Path | None, typer.Option(help="the IMU file's RTKLIB time tag [IMU + .tag]")
+    ] = None,
+    outages: Annotated[
+        str,
+        typer.Option(
+            help="GNSS outages START+LENGTH (s from the first IMU sample), comma-separated, or "
+            "'none' [the five of docs/rtklib.md]"
+        ),
+    ] = "default",
+    time_offset_s: Annotated[
+        float | None,
+        typer.Option(help="IMU time offset (s; true = tag + offset) [estimated from the data]"),
+    ] = None,
+    imu_noise: Annotated[
+        str, typer.Option(help="IMU white noise: measured (parked), driving or published")
+    ] = "measured",
+    csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
+) -> None:
+    """Import an RTKLIB-logged GNSS + IMU drive as a mission folder.
+
+    Maps the IMU counter onto GPST through the time tag, estimates the IMU time offset from the
+    gyro's yaw against the GNSS course, turns the IMU into the vehicle's axes, levels and takes
+    the gyro bias while parked, carries the heading back from the first fast GNSS course, and
+    withholds the RTK fixes in the outage windows (they stay in the truth, to score the drift).
+    import.json in the mission folder records every estimate, check and left-out fix.
+    """
+    from adaptnav.io import MissionError
+    from adaptnav.io.rtklib import DEFAULT_OUTAGES_S, import_drive
+
+    if imu_noise not in ("measured", "driving", "published"):
+        fail(f"--imu-noise: {imu_noise!r} must be measured, driving or published")
+    windows = list(DEFAULT_OUTAGES_S) if outages == "default" else _parse_outages(outages)
+    try:
+        root = import_drive(
+            pos,
+            imu,
+            out,
+            tag_path=tag,
+            outages=windows,
+            time_offset_s=time_offset_s,
+            imu_noise=imu_noise,  # type: ignore[arg-type]
+            fmt="csv" if csv else "parquet",
+        )
+    except (MissionError, ValueError, OSError) as exc:  # RtklibError is a MissionError
+        fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    info = json.loads((root / "import.json").read_text(encoding="utf-8"))
+    table = Table(title="RTKLIB drive: estimates and checks")
+    for col in ("quantity", "value", "published / expected"):
+        table.add_column(col)
+    off = info["imu_time_offset_s"]
+    table.add_row("IMU time offset (s)", f"{off['used']:+.3f}", f"{off['published']:+.3f}")
+    mnt = info["mounting"]
+    table.add_row(
+        "forward-axis angle (deg)",
+        f"{mnt['forward_axis_angle_deg']:+.1f}",
+        f"0 (without the mounting yaw: {mnt['forward_axis_angle_without_the_last_yaw_deg']:+.1f})",
+    )
+    ini = info["initial"]
+    table.add_row("initial roll, pitch, yaw (deg)", _fmt(ini["rpy_deg"], "+.1f"), "-")
+    table.add_row("gyro bias, parked (deg/s)", _fmt(ini["gyro_bias_deg_s"], "+.3f"), "-")
+    g = info["gnss"]
+    table.add_row("GNSS fixes aiding / epochs", f"{g['used']} / {g['epochs']}", "-")
+    console.print(table)
+    for repair in info["repairs"]:
+        console.print(
+            f"[yellow]repaired:[/] {repair['file']} line {repair['line']}: {repair['action']} "
+            f"({repair['detail']})"
+        )
+    for reason, n in g["left_out"].items():
+        if n:
+            console.print(f"GNSS left out: {n} ({reason})")
+    console.print(f"mission written to {root} ({len(windows)} outage window(s))")
