@@ -336,3 +336,30 @@ def test_imu_units_are_converted() -> None:
     f, w = rtklib.body_imu(imu, np.eye(3))
     np.testing.assert_allclose(f, [[0.0, 0.0, G0]])
     np.testing.assert_allclose(w, [[0.0, 0.0, math.pi / 2]])
+
+
+@needs_data
+def test_rtklib_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
+    """scripts/rtklib_eval.py (make rtklib) with one noise model: tables and figures written."""
+    import importlib.util
+
+    import pandas as pd
+
+    spec = importlib.util.spec_from_file_location(
+        "rtklib_eval", Path(__file__).resolve().parent.parent / "scripts" / "rtklib_eval.py"
+    )
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out, figs = tmp_path / "r.md", tmp_path / "figs"
+    args = ["--src", str(DRIVE), "--noise", "measured", "--work", str(tmp_path / "w"),
+            "--out", str(out), "--figures", str(figs)]  # fmt: skip
+    assert mod.main(args) == 0
+    text = out.read_text()
+    for heading in ("## Summary", "## Drift per outage, IMU noise in Q: measured",
+                    "outage_drift.png", "track.png"):  # fmt: skip
+        assert heading in text
+    runs = pd.read_csv(figs / "runs.csv")
+    assert set(runs["filter"]) == set(mod.FILTERS)
+    assert len(runs) == len(mod.FILTERS) * len(rtklib.DEFAULT_OUTAGES_S)
+    assert (runs["end_horizontal_m"] > 0).all() and (figs / "track.png").stat().st_size > 10_000

@@ -1,0 +1,309 @@
+"""Score the filters over GNSS outages on the RTKLIB car drive and write docs/results-rtklib.md.
+
+``make rtklib`` runs this with its defaults: it imports ``drive_0708`` of
+``../shared/data/rtklibexplorer-gnss-imu`` three times (``adaptnav.io.rtklib``), once per IMU
+white-noise model of the filters' Q (measured parked, driving vibration taken as white, and the
+published figures), runs MESKF, MAESKF and VB-MAESKF on each with the RTK fixes withheld in the
+five outage windows, and writes the drift at the end of each outage against the withheld fixes,
+its ratio to the filter's own claimed σ, the aided accuracy, three figures and the command.
+
+Every number in the page comes from this run; nothing is typed in by hand.
+
+Smoke test: ``python scripts/rtklib_eval.py --noise measured --out /tmp/r.md --figures /tmp/r``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from adaptnav import __version__
+
+ROOT = Path(__file__).resolve().parent.parent
+FILTERS = ("meskf", "maeskf", "vb")
+LABELS = {"meskf": "MESKF", "maeskf": "MAESKF", "vb": "VB-MAESKF"}
+NOISES = ("measured", "driving", "published")
+NOISE_TEXT = {
+    "measured": "parked Allan deviation at 1 s (the importer's default)",
+    "driving": "the vibration while driving taken as white noise (an upper bound)",
+    "published": "the data README's white-noise densities",
+}
+
+
+def _args(argv: Sequence[str] | None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument(
+        "--src", type=Path, default=ROOT.parent / "shared/data/rtklibexplorer-gnss-imu/drive_0708"
+    )
+    p.add_argument(
+        "--noise", default=",".join(NOISES), help=f"IMU noise models [{','.join(NOISES)}]"
+    )
+    p.add_argument("--work", type=Path, default=ROOT / "runs" / "rtklib")
+    p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-rtklib.md")
+    p.add_argument("--figures", type=Path, default=ROOT / "docs" / "results-rtklib")
+    a = p.parse_args(argv)
+    a.noises = [n.strip() for n in a.noise.split(",") if n.strip()]
+    bad = [n for n in a.noises if n not in NOISES]
+    if bad or not a.noises:
+        p.error(f"--noise: {bad or a.noise!r}: use some of {', '.join(NOISES)}")
+    for name in ("gnss_1934_sf.pos", "imu_1934.csv", "imu_1934.csv.tag"):
+        if not (a.src / name).is_file():
+            p.error(f"--src: {a.src / name} not found (the RTKLIB drive, shared/data)")
+    return a
+
+
+def _run(src: Path, work: Path, noise: str) -> dict[str, Any]:
+    from adaptnav import api, evaluate
+    from adaptnav.io import load_mission, rtklib
+
+    root = rtklib.import_drive(
+        src / "gnss_1934_sf.pos",
+        src / "imu_1934.csv",
+        work / noise,
+        imu_noise=noise,  # type: ignore[arg-type]
+    )
+    m = load_mission(root)
+    assert m.truth is not None
+    x0, P0, t0, _ = api.initial_state(m)
+    withheld = m.truth["t_s"].to_numpy()[m.truth["withheld"].to_numpy(dtype=bool)]
+    rows, errors = [], {}
+    for kind in FILTERS:
+        t_start = time.perf_counter()
+        run = api.run(m, kind, initial=(x0, P0, t0))
+        elapsed = time.perf_counter() - t_start
+        drift = evaluate.outage_drift(run.solution, m.truth, rtklib.DEFAULT_OUTAGES_S)
+        e = evaluate.position_errors(run.solution, m.truth)
+        aided = ~np.isin(e["t_s"].to_numpy(), withheld)
+        errors[kind] = e
+        for r in drift.to_dict("records"):
+            rows.append(
+                {
+                    "noise": noise,
+                    "filter": kind,
+                    **r,
+                    "aided_median_horizontal_m": float(np.median(e["horizontal_m"][aided])),
+                    "run_s": elapsed,
+                }
+            )
+    return {"rows": rows, "errors": errors, "truth": m.truth, "root": root}
+
+
+def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def _drift_table(df: pd.DataFrame, noise: str) -> str:
+    sub = df[df["noise"] == noise]
+    outages = sub[sub["filter"] == FILTERS[0]][["outage", "start_s", "length_s", "distance_m"]]
+    header = ["outage", "start (s)", "length (s)", "travelled (m)",
+              *[f"{LABELS[f]} drift m (× claimed σ)" for f in FILTERS]]  # fmt: skip
+    rows = []
+    for o in outages.itertuples():
+        cells = []
+        for f in FILTERS:
+            r = sub[(sub["filter"] == f) & (sub["outage"] == o.outage)].iloc[0]
+            ratio = r["end_horizontal_m"] / r["claimed_sd_horizontal_m"]
+            cells.append(f"{r['end_horizontal_m']:.1f} (×{ratio:.1f})")
+        rows.append([str(o.outage), f"{o.start_s:.0f}", f"{o.length_s:.0f}",
+                     f"{o.distance_m:.0f}", *cells])  # fmt: skip
+    means = []
+    for f in FILTERS:
+        g = sub[sub["filter"] == f]
+        means.append(f"**{g['end_horizontal_m'].mean():.1f}**")
+    rows.append(["**mean**", "", "", f"{outages['distance_m'].mean():.0f}", *means])
+    return _md_table(header, rows)
+
+
+def _summary_table(df: pd.DataFrame) -> str:
+    header = ["IMU noise in Q", *[f"{LABELS[f]} mean drift m / % of distance / median aided m"
+                                  for f in FILTERS]]  # fmt: skip
+    rows = []
+    for noise in df["noise"].unique():
+        cells = []
+        for f in FILTERS:
+            g = df[(df["noise"] == noise) & (df["filter"] == f)]
+            pct = 100.0 * g["end_horizontal_m"].sum() / g["distance_m"].sum()
+            cells.append(
+                f"{g['end_horizontal_m'].mean():.1f} / {pct:.1f} / "
+                f"{g['aided_median_horizontal_m'].iloc[0]:.3f}"
+            )
+        rows.append([noise, *cells])
+    return _md_table(header, rows)
+
+
+def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from adaptnav.io.rtklib import DEFAULT_OUTAGES_S
+
+    colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2"}
+    names = []
+    fig, ax = plt.subplots(figsize=(10, 4.2), constrained_layout=True)
+    sub = df[df["noise"] == noise]
+    n_out = int(sub["outage"].max()) + 1
+    x = np.arange(n_out)
+    w = 0.8 / len(FILTERS)
+    for i, f in enumerate(FILTERS):
+        g = sub[sub["filter"] == f].sort_values("outage")
+        ax.bar(x + (i - 1) * w, g["end_horizontal_m"], w, color=colors[f], label=LABELS[f])
+        ax.scatter(x + (i - 1) * w, g["claimed_sd_horizontal_m"], color="black", marker="_",
+                   s=120, zorder=3, label="claimed σ" if i == 0 else None)  # fmt: skip
+    ax.set_yscale("log")
+    ax.set_xticks(x, [f"{a:.0f} s + {length:.0f} s" for a, length in DEFAULT_OUTAGES_S])
+    ax.set_ylabel("horizontal drift at the outage's end (m)")
+    ax.set_title(f"RTKLIB drive, GNSS outages (IMU noise in Q: {noise})")
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+    ax.legend(fontsize=9)
+    fig.savefig(folder / "outage_drift.png", dpi=100)
+    plt.close(fig)
+    names.append("outage_drift")
+
+    fig, ax = plt.subplots(figsize=(10, 4.2), constrained_layout=True)
+    for f in FILTERS:
+        e = res["errors"][f]
+        ax.plot(e["t_s"], e["horizontal_m"].clip(lower=1e-3), color=colors[f], lw=0.9,
+                label=LABELS[f])  # fmt: skip
+    for a, length in DEFAULT_OUTAGES_S:
+        ax.axvspan(a, a + length, color="0.85", zorder=0)
+    ax.set_yscale("log")
+    ax.set_xlabel("time from the first IMU sample (s); grey: GNSS withheld")
+    ax.set_ylabel("horizontal error (m)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=9)
+    fig.savefig(folder / "horizontal_error.png", dpi=100)
+    plt.close(fig)
+    names.append("horizontal_error")
+
+    truth = res["truth"]
+    lat0, lon0 = float(truth["lat_rad"].iloc[0]), float(truth["lon_rad"].iloc[0])
+    from adaptnav import earth
+
+    def ne(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n = (lat - lat0) * (earth.meridian_radius(lat0) + float(truth["h_m"].iloc[0]))
+        e = (lon - lon0) * (earth.transverse_radius(lat0) * np.cos(lat0))
+        return np.asarray(n), np.asarray(e)
+
+    fig, ax = plt.subplots(figsize=(7, 7), constrained_layout=True)
+    n, e = ne(truth["lat_rad"].to_numpy(), truth["lon_rad"].to_numpy())
+    ax.plot(e, n, color="black", lw=1.0, label="RTK fixed (truth)")
+    wh = truth["withheld"].to_numpy(dtype=bool)
+    ax.scatter(e[wh], n[wh], color="C1", s=6, zorder=3, label="withheld in an outage")
+    ax.set_aspect("equal")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_title("RTKLIB drive_0708: 4.1 km, the five outages in orange")
+    ax.legend(fontsize=9, loc="best")
+    fig.savefig(folder / "track.png", dpi=90)
+    plt.close(fig)
+    names.append("track")
+    return names
+
+
+def _git_commit() -> str:
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+        )
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+            capture_output=True, text=True,
+        ).stdout.strip()  # fmt: skip
+        return (out.stdout.strip() or "unknown") + (" with uncommitted changes" if dirty else "")
+    except OSError:
+        return "unknown"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _args(argv)
+    t0 = time.perf_counter()
+    results = {noise: _run(args.src, args.work, noise) for noise in args.noises}
+    wall = time.perf_counter() - t0
+    df = pd.DataFrame([r for res in results.values() for r in res["rows"]])
+    args.figures.mkdir(parents=True, exist_ok=True)
+    df.to_csv(args.figures / "runs.csv", index=False, float_format="%.6g")
+    main_noise = args.noises[0]
+    figs = _figures(df, results[main_noise], args.figures, main_noise)
+    import json
+
+    info = json.loads((results[main_noise]["root"] / "import.json").read_text())
+    fig_rel = os.path.relpath(args.figures, args.out.parent)
+    cmd = "make rtklib" if not argv else "python scripts/rtklib_eval.py " + " ".join(argv)
+    off = info["imu_time_offset_s"]
+    noise_info = info["imu_noise"]
+    lines = [
+        "# Results on a real GNSS + MEMS IMU drive: GNSS outages (RTKLIB drive_0708)",
+        "",
+        f"Written by `{cmd}` (scripts/rtklib_eval.py) on {dt.date.today().isoformat()}, "
+        f"adaptnav {__version__}, commit {_git_commit()}; the whole evaluation (three imports, "
+        f"{len(df) // max(1, df['outage'].nunique())} filter runs) took **{wall:.0f} s** here. "
+        f"Every number below comes from that run; the table of every outage and run is "
+        f"[`{fig_rel}/runs.csv`]({fig_rel}/runs.csv). `docs/rtklib.md` says how the drive is "
+        "imported and checked.",
+        "",
+        "What was run:",
+        "",
+        "- the car drive of `shared/data/rtklibexplorer-gnss-imu` (549 s, 4.1 km, up to 16 m/s, "
+        "roof-mounted MEMS IMU at 100 Hz, u-blox RTK at 4 Hz, 99.6 % fixed), imported by "
+        "`adaptnav import rtklib` with the IMU time offset estimated from the data "
+        f"({off['estimated']:+.3f} s; published {off['published']:+.3f} s);",
+        "- the RTK fixes aid the filters (σ 2 cm N/E, 4 cm D) except in five **outages** "
+        "(15, 30, 45, 60 and 60 s, all while driving), where they are withheld and serve as the "
+        "reference; the drift is the horizontal error at the outage's last withheld fix;",
+        "- MESKF, MAESKF and VB-MAESKF at their defaults (no gate on GNSS), from one initial "
+        "state (parked: levelled, gyro bias from the static mean, heading carried back from "
+        "the first fast GNSS course);",
+        "- three IMU white-noise models for the filters' Q, the one thing noise adaptation of R "
+        "cannot fix: "
+        + "; ".join(f"**{n}**: {NOISE_TEXT[n]}" for n in args.noises)
+        + f". Parked ARW {noise_info['measured_arw_deg_sqrt_s']:.3f} °/√s, driving "
+        f"{noise_info['driving_arw_deg_sqrt_s']:.3f} °/√s, published "
+        f"{noise_info['published']['gyro_white_deg_s_rthz']:.4f} °/s/√Hz.",
+        "",
+        "## Summary: mean drift over the five outages, drift as % of the distance travelled in "
+        "them, and the median horizontal error while aided",
+        "",
+        _summary_table(df),
+        "",
+    ]
+    for noise in args.noises:
+        lines += [
+            f"## Drift per outage, IMU noise in Q: {noise}",
+            "",
+            "Drift at the outage's end (m), and in brackets its ratio to the filter's own "
+            "claimed horizontal σ at that moment (about 1-3 for a consistent filter):",
+            "",
+            _drift_table(df, noise),
+            "",
+        ]
+    lines += ["## Figures", ""]
+    for stem in figs:
+        lines += [f"![{stem}]({fig_rel}/{stem}.png)", ""]
+    discussion = ROOT / "docs" / "results-rtklib-discussion.md"
+    if discussion.is_file():
+        lines += ["## Reading the numbers", "", discussion.read_text().strip(), ""]
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text("\n".join(lines))
+    print(f"wrote {args.out} ({wall:.0f} s)")
+    for noise in args.noises:
+        g = df[df["noise"] == noise].groupby("filter")["end_horizontal_m"].mean()
+        print(noise, {LABELS[f]: round(float(g[f]), 1) for f in FILTERS})
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:] or None))
