@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import os
-import subprocess
 import sys
 import time
 from collections.abc import Sequence
@@ -32,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from adaptnav import __version__
+from adaptnav.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 RUN_FILTERS = ("meskf", "maeskf", "vb", "oracle", "floor")
@@ -160,12 +160,6 @@ def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str,
     }
 
 
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out)
-
-
 def _case_table(df: pd.DataFrame, case: str) -> str:
     sub = df[df["case"] == case]
     rel = sub.pivot(index="trajectory", columns="filter", values="relative_rmse_pct")
@@ -178,7 +172,7 @@ def _case_table(df: pd.DataFrame, case: str) -> str:
         rows.append([str(n), f"{dist.loc[n]:.0f}", *cells])
     means = [f"{rmse[f].mean():.2f} / **{rel[f].mean():.3f}**" for f in FILTERS]
     rows.append(["**mean**", f"{dist.mean():.0f}", *means])
-    return _md_table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _counts_table(df: pd.DataFrame) -> str:
@@ -193,7 +187,7 @@ def _counts_table(df: pd.DataFrame) -> str:
             if f != "floor"
         ]
         rows.append([str(n), *cells])
-    return _md_table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _draws_table(every: pd.DataFrame, bases: Sequence[int]) -> str:
@@ -208,7 +202,7 @@ def _draws_table(every: pd.DataFrame, bases: Sequence[int]) -> str:
             v = float(np.mean([mean[(x, f)] for x in bases])) if b is None else mean[(b, f)]
             cells.append(f"{v:.3f} (×{v / mean[(0, f)]:.2f})")
         rows.append(["**mean of the draws**" if b is None else f"{b}+N", *cells])
-    return _md_table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _targets(df: pd.DataFrame) -> list[tuple[str, float, float, bool]]:
@@ -271,20 +265,6 @@ def _figure_bars(df: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-def _git_commit() -> str:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
-        )
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-            capture_output=True, text=True,
-        ).stdout.strip()  # fmt: skip
-        return (out.stdout.strip() or "unknown") + (" with uncommitted changes" if dirty else "")
-    except OSError:
-        return "unknown"
-
-
 def _report(o: dict[str, Any]) -> dict[str, Any]:
     print(
         f"trajectory {o['n']} {o['case']}: import {o['import_s']:.1f} s, "
@@ -334,7 +314,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "# Results on real AUV data: the Snapir AUV (A-KIT) recordings",
         "",
         f"Written by `{cmd}` (scripts/akit_eval.py) on {dt.date.today().isoformat()}, "
-        f"adaptnav {__version__}, commit {_git_commit()}; the whole evaluation (import, "
+        f"adaptnav {__version__}, commit {git_revision(ROOT)}; the whole evaluation (import, "
         f"{len(tasks)} comparisons of {len(FILTERS)} runs each: clean and "
         f"{len(args.seed_bases)} fault draws per trajectory) took **{wall:.0f} s** on "
         f"{args.jobs} worker(s) here. Every number below comes from that run; the table of "
@@ -367,7 +347,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         "## Targets (issue 6), on the mean relative RMSE over the trajectories",
         "",
-        _md_table(
+        markdown_table(
             ["ratio", "measured", "target", "met"],
             [
                 [w, f"{v:.3f}", f"≤ {lim:.2f}", "yes" if ok else "**no**"]

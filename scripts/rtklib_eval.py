@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import os
-import subprocess
 import sys
 import time
 from collections.abc import Sequence
@@ -28,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from adaptnav import __version__
+from adaptnav.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 FILTERS = ("meskf", "maeskf", "vb")
@@ -98,12 +98,6 @@ def _run(src: Path, work: Path, noise: str) -> dict[str, Any]:
     return {"rows": rows, "errors": errors, "truth": m.truth, "root": root}
 
 
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out)
-
-
 def _drift_table(df: pd.DataFrame, noise: str) -> str:
     sub = df[df["noise"] == noise]
     outages = sub[sub["filter"] == FILTERS[0]][["outage", "start_s", "length_s", "distance_m"]]
@@ -123,7 +117,7 @@ def _drift_table(df: pd.DataFrame, noise: str) -> str:
         g = sub[sub["filter"] == f]
         means.append(f"**{g['end_horizontal_m'].mean():.1f}**")
     rows.append(["**mean**", "", "", f"{outages['distance_m'].mean():.0f}", *means])
-    return _md_table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _summary_table(df: pd.DataFrame) -> str:
@@ -140,7 +134,7 @@ def _summary_table(df: pd.DataFrame) -> str:
                 f"{g['aided_median_horizontal_m'].iloc[0]:.3f}"
             )
         rows.append([noise, *cells])
-    return _md_table(header, rows)
+    return markdown_table(header, rows)
 
 
 def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) -> list[str]:
@@ -214,20 +208,6 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
     return names
 
 
-def _git_commit() -> str:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
-        )
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-            capture_output=True, text=True,
-        ).stdout.strip()  # fmt: skip
-        return (out.stdout.strip() or "unknown") + (" with uncommitted changes" if dirty else "")
-    except OSError:
-        return "unknown"
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     args = _args(argv)
     t0 = time.perf_counter()
@@ -249,7 +229,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "# Results on a real GNSS + MEMS IMU drive: GNSS outages (RTKLIB drive_0708)",
         "",
         f"Written by `{cmd}` (scripts/rtklib_eval.py) on {dt.date.today().isoformat()}, "
-        f"adaptnav {__version__}, commit {_git_commit()}; the whole evaluation (three imports, "
+        f"adaptnav {__version__}, commit {git_revision(ROOT)}; the whole evaluation (three "
+        "imports, "
         f"{len(df) // max(1, df['outage'].nunique())} filter runs) took **{wall:.0f} s** here. "
         f"Every number below comes from that run; the table of every outage and run is "
         f"[`{fig_rel}/runs.csv`]({fig_rel}/runs.csv). `docs/rtklib.md` says how the drive is "

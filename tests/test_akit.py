@@ -25,6 +25,7 @@ from adaptnav.io.akit import (
     AkitError,
     RawSegment,
 )
+from script_loader import load_script
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "akit-snapir-auv"
 needs_data = pytest.mark.skipif(
@@ -338,14 +339,7 @@ def test_cli_bad_input_exits_2(tmp_path: Path) -> None:
 @needs_data
 def test_akit_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
     """scripts/akit_eval.py (make akit) on one segment: tables, targets and figures written."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(
-        "akit_eval", Path(__file__).resolve().parent.parent / "scripts" / "akit_eval.py"
-    )
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("akit_eval")
     out, figs = tmp_path / "r.md", tmp_path / "figs"
     args = ["--src", str(DATA), "--trajectories", "1", "--jobs", "1", "--work",
             str(tmp_path / "w"), "--out", str(out), "--figures", str(figs),

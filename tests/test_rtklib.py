@@ -10,6 +10,7 @@ from functools import cache
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -18,6 +19,7 @@ from adaptnav.cli import app
 from adaptnav.io import load_mission, rtklib
 from adaptnav.io.rtklib import RtklibError
 from adaptnav.units import G0
+from script_loader import load_script
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "rtklibexplorer-gnss-imu"
 DRIVE = DATA / "drive_0708"
@@ -341,16 +343,7 @@ def test_imu_units_are_converted() -> None:
 @needs_data
 def test_rtklib_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
     """scripts/rtklib_eval.py (make rtklib) with one noise model: tables and figures written."""
-    import importlib.util
-
-    import pandas as pd
-
-    spec = importlib.util.spec_from_file_location(
-        "rtklib_eval", Path(__file__).resolve().parent.parent / "scripts" / "rtklib_eval.py"
-    )
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script("rtklib_eval")
     out, figs = tmp_path / "r.md", tmp_path / "figs"
     args = ["--src", str(DRIVE), "--noise", "measured", "--work", str(tmp_path / "w"),
             "--out", str(out), "--figures", str(figs)]  # fmt: skip
