@@ -1,11 +1,12 @@
 """Score the filters over GNSS outages on the RTKLIB car drive and write docs/results-rtklib.md.
 
 ``make rtklib`` runs this with its defaults: it imports ``drive_0708`` of
-``../shared/data/rtklibexplorer-gnss-imu`` three times (``adaptnav.io.rtklib``), once per IMU
-white-noise model of the filters' Q (measured parked, driving vibration taken as white, and the
-published figures), runs MESKF, MAESKF and VB-MAESKF on each with the RTK fixes withheld in the
-five outage windows, and writes the drift at the end of each outage against the withheld fixes,
-its ratio to the filter's own claimed σ, the aided accuracy, three figures and the command.
+``../shared/data/rtklibexplorer-gnss-imu`` (``adaptnav.io.rtklib``) once per IMU white-noise
+model of the filters' Q (measured parked, driving vibration taken as white, and the published
+figures) and per aiding set (the RTK fixes alone, and with the non-holonomic constraint), runs
+MESKF, MAESKF and VB-MAESKF on each with the fixes withheld in the five outage windows, and
+writes the drift at the end of each outage against the withheld fixes, its ratio to the
+filter's own claimed σ, the aided accuracy, three figures and the command.
 
 Every number in the page comes from this run; nothing is typed in by hand.
 
@@ -62,15 +63,16 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     return a
 
 
-def _run(src: Path, work: Path, noise: str) -> dict[str, Any]:
+def _run(src: Path, work: Path, noise: str, nhc: bool) -> dict[str, Any]:
     from adaptnav import api, evaluate
     from adaptnav.io import load_mission, rtklib
 
     root = rtklib.import_drive(
         src / "gnss_1934_sf.pos",
         src / "imu_1934.csv",
-        work / noise,
+        work / f"{noise}-{'nhc' if nhc else 'gnss'}",
         imu_noise=noise,  # type: ignore[arg-type]
+        nhc_sigma_m_s=rtklib.NHC_SIGMA_M_S if nhc else None,
     )
     m = load_mission(root)
     assert m.truth is not None
@@ -89,6 +91,7 @@ def _run(src: Path, work: Path, noise: str) -> dict[str, Any]:
             rows.append(
                 {
                     "noise": noise,
+                    "nhc": nhc,
                     "filter": kind,
                     **r,
                     "aided_median_horizontal_m": float(np.median(e["horizontal_m"][aided])),
@@ -98,8 +101,8 @@ def _run(src: Path, work: Path, noise: str) -> dict[str, Any]:
     return {"rows": rows, "errors": errors, "truth": m.truth, "root": root}
 
 
-def _drift_table(df: pd.DataFrame, noise: str) -> str:
-    sub = df[df["noise"] == noise]
+def _drift_table(df: pd.DataFrame, noise: str, nhc: bool) -> str:
+    sub = df[(df["noise"] == noise) & (df["nhc"] == nhc)]
     outages = sub[sub["filter"] == FILTERS[0]][["outage", "start_s", "length_s", "distance_m"]]
     header = ["outage", "start (s)", "length (s)", "travelled (m)",
               *[f"{LABELS[f]} drift m (× claimed σ)" for f in FILTERS]]  # fmt: skip
@@ -120,24 +123,30 @@ def _drift_table(df: pd.DataFrame, noise: str) -> str:
     return markdown_table(header, rows)
 
 
+def _aiding(nhc: bool) -> str:
+    return "GNSS + NHC" if nhc else "GNSS"
+
+
 def _summary_table(df: pd.DataFrame) -> str:
-    header = ["IMU noise in Q", *[f"{LABELS[f]} mean drift m / % of distance / median aided m"
-                                  for f in FILTERS]]  # fmt: skip
+    cell = "mean drift m / % of distance / median aided m"
+    header = ["IMU noise in Q", "aiding", *[f"{LABELS[f]} {cell}" for f in FILTERS]]
     rows = []
-    for noise in df["noise"].unique():
+    for (noise, nhc), _ in df.groupby(["noise", "nhc"], sort=False):
         cells = []
         for f in FILTERS:
-            g = df[(df["noise"] == noise) & (df["filter"] == f)]
+            g = df[(df["noise"] == noise) & (df["nhc"] == nhc) & (df["filter"] == f)]
             pct = 100.0 * g["end_horizontal_m"].sum() / g["distance_m"].sum()
             cells.append(
                 f"{g['end_horizontal_m'].mean():.1f} / {pct:.1f} / "
                 f"{g['aided_median_horizontal_m'].iloc[0]:.3f}"
             )
-        rows.append([noise, *cells])
+        rows.append([str(noise), _aiding(bool(nhc)), *cells])
     return markdown_table(header, rows)
 
 
 def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) -> list[str]:
+    """Outage drift bars (``noise``, each aiding set), the horizontal error over time and the
+    track, of run ``res``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -147,22 +156,25 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
 
     colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2"}
     names = []
-    fig, ax = plt.subplots(figsize=(10, 4.2), constrained_layout=True)
-    sub = df[df["noise"] == noise]
-    n_out = int(sub["outage"].max()) + 1
-    x = np.arange(n_out)
-    w = 0.8 / len(FILTERS)
-    for i, f in enumerate(FILTERS):
-        g = sub[sub["filter"] == f].sort_values("outage")
-        ax.bar(x + (i - 1) * w, g["end_horizontal_m"], w, color=colors[f], label=LABELS[f])
-        ax.scatter(x + (i - 1) * w, g["claimed_sd_horizontal_m"], color="black", marker="_",
-                   s=120, zorder=3, label="claimed σ" if i == 0 else None)  # fmt: skip
-    ax.set_yscale("log")
-    ax.set_xticks(x, [f"{a:.0f} s + {length:.0f} s" for a, length in DEFAULT_OUTAGES_S])
-    ax.set_ylabel("horizontal drift at the outage's end (m)")
-    ax.set_title(f"RTKLIB drive, GNSS outages (IMU noise in Q: {noise})")
-    ax.grid(True, axis="y", which="both", alpha=0.3)
-    ax.legend(fontsize=9)
+    aidings = sorted(df["nhc"].unique())
+    fig, axes = plt.subplots(1, len(aidings), figsize=(12, 4.4), sharey=True,
+                             constrained_layout=True, squeeze=False)  # fmt: skip
+    for ax, nhc in zip(axes[0], aidings, strict=True):
+        sub = df[(df["noise"] == noise) & (df["nhc"] == nhc)]
+        x = np.arange(int(sub["outage"].max()) + 1)
+        w = 0.8 / len(FILTERS)
+        for i, f in enumerate(FILTERS):
+            g = sub[sub["filter"] == f].sort_values("outage")
+            ax.bar(x + (i - 1) * w, g["end_horizontal_m"], w, color=colors[f], label=LABELS[f])
+            ax.scatter(x + (i - 1) * w, g["claimed_sd_horizontal_m"], color="black", marker="_",
+                       s=100, zorder=3, label="claimed σ" if i == 0 else None)  # fmt: skip
+        ax.set_yscale("log")
+        ax.set_xticks(x, [f"{length:.0f} s" for _, length in DEFAULT_OUTAGES_S])
+        ax.set_xlabel("outage length")
+        ax.set_title(f"{_aiding(bool(nhc))} (IMU noise in Q: {noise})")
+        ax.grid(True, axis="y", which="both", alpha=0.3)
+    axes[0, 0].set_ylabel("horizontal drift at the outage's end (m)")
+    axes[0, 0].legend(fontsize=9)
     fig.savefig(folder / "outage_drift.png", dpi=100)
     plt.close(fig)
     names.append("outage_drift")
@@ -176,6 +188,7 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
         ax.axvspan(a, a + length, color="0.85", zorder=0)
     ax.set_yscale("log")
     ax.set_xlabel("time from the first IMU sample (s); grey: GNSS withheld")
+    ax.set_title(f"horizontal error, {res['label']}")
     ax.set_ylabel("horizontal error (m)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=9)
@@ -211,16 +224,28 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
 def main(argv: Sequence[str] | None = None) -> int:
     args = _args(argv)
     t0 = time.perf_counter()
-    results = {noise: _run(args.src, args.work, noise) for noise in args.noises}
+    results = {
+        (noise, nhc): _run(args.src, args.work, noise, nhc)
+        for noise in args.noises
+        for nhc in (False, True)
+    }
     wall = time.perf_counter() - t0
     df = pd.DataFrame([r for res in results.values() for r in res["rows"]])
     args.figures.mkdir(parents=True, exist_ok=True)
     df.to_csv(args.figures / "runs.csv", index=False, float_format="%.6g")
     main_noise = args.noises[0]
-    figs = _figures(df, results[main_noise], args.figures, main_noise)
+    shown = results[(main_noise, True)]
+    shown["label"] = f"GNSS + NHC, IMU noise in Q: {main_noise}"
+    figs = _figures(df, shown, args.figures, main_noise)
+    from adaptnav.compare import compare
+
+    for stem, fig in compare(shown["root"], FILTERS).figures().items():
+        if stem in ("noise_nhc", "noise_gnss"):  # R̂ of each filter over the drive
+            fig.savefig(args.figures / f"{stem}.png", dpi=90)
+            figs.append(stem)
     import json
 
-    info = json.loads((results[main_noise]["root"] / "import.json").read_text())
+    info = json.loads((shown["root"] / "import.json").read_text())
     fig_rel = os.path.relpath(args.figures, args.out.parent)
     cmd = "make rtklib" if not argv else "python scripts/rtklib_eval.py " + " ".join(argv)
     off = info["imu_time_offset_s"]
@@ -229,7 +254,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "# Results on a real GNSS + MEMS IMU drive: GNSS outages (RTKLIB drive_0708)",
         "",
         f"Written by `{cmd}` (scripts/rtklib_eval.py) on {dt.date.today().isoformat()}, "
-        f"adaptnav {__version__}, commit {git_revision(ROOT)}; the whole evaluation (three "
+        f"adaptnav {__version__}, commit {git_revision(ROOT)}; the whole evaluation "
+        f"({len(results)} "
         "imports, "
         f"{len(df) // max(1, df['outage'].nunique())} filter runs) took **{wall:.0f} s** here. "
         f"Every number below comes from that run; the table of every outage and run is "
@@ -245,6 +271,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "- the RTK fixes aid the filters (σ 2 cm N/E, 4 cm D) except in five **outages** "
         "(15, 30, 45, 60 and 60 s, all while driving), where they are withheld and serve as the "
         "reference; the drift is the horizontal error at the outage's last withheld fix;",
+        "- two aiding sets: the RTK fixes alone (**GNSS**), and with a **non-holonomic "
+        "constraint** (**GNSS + NHC**: zero lateral and vertical velocity of the car at 10 Hz, "
+        f"σ {info['nhc']['sigma_m_s'][0]:g} and {info['nhc']['sigma_m_s'][1]:g} m/s, a model "
+        "of the car rather than a recorded sensor; it also holds in the outages);",
         "- MESKF, MAESKF and VB-MAESKF at their defaults (no gate on GNSS), from one initial "
         "state (parked: levelled, gyro bias from the static mean, heading carried back from "
         "the first fast GNSS course);",
@@ -261,14 +291,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         _summary_table(df),
         "",
     ]
-    for noise in args.noises:
+    for noise, nhc in results:
         lines += [
-            f"## Drift per outage, IMU noise in Q: {noise}",
+            f"## Drift per outage, {_aiding(nhc)}, IMU noise in Q: {noise}",
             "",
             "Drift at the outage's end (m), and in brackets its ratio to the filter's own "
             "claimed horizontal σ at that moment (about 1-3 for a consistent filter):",
             "",
-            _drift_table(df, noise),
+            _drift_table(df, noise, nhc),
             "",
         ]
     lines += ["## Figures", ""]
@@ -280,9 +310,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines))
     print(f"wrote {args.out} ({wall:.0f} s)")
-    for noise in args.noises:
-        g = df[df["noise"] == noise].groupby("filter")["end_horizontal_m"].mean()
-        print(noise, {LABELS[f]: round(float(g[f]), 1) for f in FILTERS})
+    for noise, nhc in results:
+        sel = (df["noise"] == noise) & (df["nhc"] == nhc)
+        g = df[sel].groupby("filter")["end_horizontal_m"].mean()
+        print(noise, _aiding(nhc), {LABELS[f]: round(float(g[f]), 1) for f in FILTERS})
     return 0
 
 

@@ -28,11 +28,12 @@ from adaptnav.sensors import (
     Inclinometer,
     Measurement,
     MeasurementModel,
+    NonHolonomic,
     dvl,
     gnss,
 )
 
-Model = DVL | Depth | Inclinometer | Heading | GNSS
+Model = DVL | Depth | Inclinometer | Heading | GNSS | NonHolonomic
 
 # Per-column FD steps: 10 m of position is 1.6e-6 rad of latitude, far above float64 resolution;
 # rotations and rates are small enough for Richardson's O(ε⁴) to reach 1e-10.
@@ -99,7 +100,7 @@ def _mounting(C_sb: np.ndarray | None) -> np.ndarray:
 
 
 def _reading(model: Model, x: np.ndarray, w: np.ndarray | None) -> np.ndarray:
-    if isinstance(model, DVL):
+    if isinstance(model, DVL | NonHolonomic):
         return model.predict(x, w)
     return model.predict(x)
 
@@ -151,6 +152,31 @@ FD = settings(max_examples=60, deadline=None, derandomize=True)
 @given(states, levers, rates, mountings)
 def test_dvl_H_matches_finite_differences(x, l_b, w, C_sb) -> None:
     _check_H(DVL(0.01, l_b, _mounting(C_sb)), x, w)
+
+
+@FD
+@given(states, levers, rates, mountings)
+def test_nhc_H_matches_finite_differences(x, l_b, w, C_sb) -> None:
+    _check_H(NonHolonomic(0.1, l_b, _mounting(C_sb)), x, w)
+
+
+def test_nhc_hand_values() -> None:
+    """Level, heading 30°, 10 m/s along the heading: no lateral or vertical velocity. With the
+    vehicle frame 2° to the right of the body (C_sb a yaw of 2°), the lateral reads
+    -10 sin 2°. Yawing right at 0.5 rad/s, a point 1.5 m behind the IMU moves to the left:
+    (ω × l)_y = ω_z l_x = -0.75 m/s."""
+    yaw = math.radians(30.0)
+    v_n = 10.0 * np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    x = strapdown.NavState.from_euler(0.7, 0.2, 10.0, v_n, 0.0, 0.0, yaw).to_array()
+    np.testing.assert_allclose(NonHolonomic(0.1).predict(x), [0.0, 0.0], atol=1e-12)
+    C_sb = attitude.euler_to_dcm(0.0, 0.0, math.radians(2.0)).T
+    lat = NonHolonomic(0.1, C_sb=C_sb).predict(x)
+    np.testing.assert_allclose(lat, [-10.0 * math.sin(math.radians(2.0)), 0.0], atol=1e-12)
+    rear = NonHolonomic(0.1, np.array([-1.5, 0.0, 0.0]))
+    np.testing.assert_allclose(rear.predict(x, np.array([0.0, 0.0, 0.5])), [-0.75, 0.0], atol=1e-12)
+    m = rear.evaluate(x, np.zeros(2), np.array([0.0, 0.0, 0.5]))
+    assert m is not None and m.names == ("nhc_y", "nhc_z")
+    np.testing.assert_allclose(m.y, [0.75, 0.0], atol=1e-12)
 
 
 @FD
@@ -427,6 +453,7 @@ def test_bad_config_is_refused_with_field_and_value(make, field, value) -> None:
         (Heading(1e-2), math.nan),
         (GNSS(1.0), np.array([0.7, math.nan, 0.0])),
         (GNSS(1.0, use_height=False), np.array([math.nan, 0.1])),
+        (NonHolonomic(0.1), np.array([0.0, math.nan])),
     ],
 )
 def test_nan_reading_is_no_measurement(model: Model, bad) -> None:
@@ -452,8 +479,9 @@ def test_models_satisfy_the_protocol_and_configs_are_frozen() -> None:
         Heading(1e-2),
         GNSS(1.0),
         GNSS(1.0, use_height=False),
+        NonHolonomic(0.1),
     ]
-    for model, dim in zip(models, (3, 1, 2, 1, 3, 2), strict=True):
+    for model, dim in zip(models, (3, 1, 2, 1, 3, 2, 2), strict=True):
         assert isinstance(model, MeasurementModel)
         assert model.dim == dim
     d = DVL([0.01, 0.02, 0.03], [1.0, 2.0, 3.0])  # lists are accepted and stored as arrays

@@ -36,6 +36,7 @@ SIGMA_COLUMNS: dict[str, str] = {
     "inclinometer": "sigma_rad",
     "heading": "sigma_rad",
     "gnss": "sigma_m",
+    "nhc": "sigma_m_s",
 }
 """The simulator's per-reading true σ column of each sensor kind (docs/simulation.md)."""
 

@@ -82,6 +82,7 @@ _DISPLAY: dict[str, tuple[float, str, tuple[str, ...]]] = {
     "inclinometer": (180.0 / math.pi, "deg", ("roll", "pitch")),
     "heading": (180.0 / math.pi, "deg", ("yaw",)),
     "gnss": (1.0, "m", ("north", "east", "height")),
+    "nhc": (1.0, "m/s", ("y (lateral)", "z (vertical)")),
 }
 ERROR_WINDOW = 30
 """Readings per running mean of the actual squared measurement error in :func:`noise_variance`."""

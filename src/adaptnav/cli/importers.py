@@ -148,6 +148,13 @@ def rtklib(
     imu_noise: Annotated[
         str, typer.Option(help="IMU white noise: measured (parked), driving or published")
     ] = "measured",
+    nhc: Annotated[
+        bool,
+        typer.Option(
+            "--nhc/--no-nhc",
+            help="add a non-holonomic constraint (zero lateral and vertical velocity) stream",
+        ),
+    ] = True,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
 ) -> None:
     """Import an RTKLIB-logged GNSS + IMU drive as a mission folder.
@@ -159,7 +166,7 @@ def rtklib(
     import.json in the mission folder records every estimate, check and left-out fix.
     """
     from adaptnav.io import MissionError
-    from adaptnav.io.rtklib import DEFAULT_OUTAGES_S, import_drive
+    from adaptnav.io.rtklib import DEFAULT_OUTAGES_S, NHC_SIGMA_M_S, import_drive
 
     if imu_noise not in ("measured", "driving", "published"):
         fail(f"--imu-noise: {imu_noise!r} must be measured, driving or published")
@@ -173,6 +180,7 @@ def rtklib(
             outages=windows,
             time_offset_s=time_offset_s,
             imu_noise=imu_noise,  # type: ignore[arg-type]
+            nhc_sigma_m_s=NHC_SIGMA_M_S if nhc else None,
             fmt="csv" if csv else "parquet",
         )
     except (MissionError, ValueError, OSError) as exc:  # RtklibError is a MissionError
@@ -203,4 +211,5 @@ def rtklib(
     for reason, n in g["left_out"].items():
         if n:
             console.print(f"GNSS left out: {n} ({reason})")
-    console.print(f"mission written to {root} ({len(windows)} outage window(s))")
+    extra = ", non-holonomic constraint" if nhc else ""
+    console.print(f"mission written to {root} ({len(windows)} outage window(s){extra})")

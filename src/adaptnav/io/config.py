@@ -40,8 +40,8 @@ if TYPE_CHECKING:
 Array = NDArray[np.float64]
 
 FILTER_KINDS = ("meskf", "maeskf", "vb")
-SensorKind = Literal["dvl", "depth", "inclinometer", "heading", "gnss"]
-SENSOR_KINDS: tuple[SensorKind, ...] = ("dvl", "depth", "inclinometer", "heading", "gnss")
+SensorKind = Literal["dvl", "depth", "inclinometer", "heading", "gnss", "nhc"]
+SENSOR_KINDS: tuple[SensorKind, ...] = ("dvl", "depth", "inclinometer", "heading", "gnss", "nhc")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
 RESERVED_NAMES = ("imu", "truth")
 """Stream names taken by the IMU and the reference; a sensor may not use them."""
@@ -59,9 +59,10 @@ SIGMA_KIND: dict[SensorKind, Kind] = {
     "inclinometer": Kind.ANGLE,
     "heading": Kind.ANGLE,
     "gnss": Kind.LENGTH,
+    "nhc": Kind.SPEED,
 }
-_HAS_LEVER_ARM = frozenset({"dvl", "depth", "gnss"})
-_HAS_MOUNTING = frozenset({"dvl", "inclinometer", "heading"})
+_HAS_LEVER_ARM = frozenset({"dvl", "depth", "gnss", "nhc"})
+_HAS_MOUNTING = frozenset({"dvl", "inclinometer", "heading", "nhc"})
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
 
 
@@ -368,7 +369,7 @@ class SensorConfig(_Model):
 def _dims(kind: str, use_height: bool) -> tuple[int, ...]:
     if kind == "gnss":
         return (3,) if use_height else (2,)
-    return {"dvl": (3,), "depth": (1,), "inclinometer": (2,), "heading": (1,)}[kind]
+    return {"dvl": (3,), "depth": (1,), "inclinometer": (2,), "heading": (1,), "nhc": (2,)}[kind]
 
 
 SENSOR_COLUMNS: dict[SensorKind, tuple[str, ...]] = {
@@ -377,6 +378,7 @@ SENSOR_COLUMNS: dict[SensorKind, tuple[str, ...]] = {
     "inclinometer": ("roll_rad", "pitch_rad"),
     "heading": ("yaw_rad",),
     "gnss": ("lat_rad", "lon_rad", "h_m"),
+    "nhc": ("vy_m_s", "vz_m_s"),
 }
 """Measurement columns of each sensor table, after ``t_s`` (gnss ``h_m`` only with height)."""
 

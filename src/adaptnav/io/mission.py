@@ -43,7 +43,15 @@ from adaptnav.io.tables import (
     take_columns,
     write_table,
 )
-from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer, MeasurementModel
+from adaptnav.sensors import (
+    DVL,
+    GNSS,
+    Depth,
+    Heading,
+    Inclinometer,
+    MeasurementModel,
+    NonHolonomic,
+)
 from adaptnav.strapdown import rates_to_increments
 from adaptnav.units import G0
 
@@ -378,6 +386,8 @@ def build_sensor_model(name: str, cfg: SensorConfig) -> MeasurementModel:
         return Depth(float(np.asarray(sigma).reshape(-1)[0]), cfg.lever_arm(), name)
     if cfg.kind == "inclinometer":
         return Inclinometer(sigma, cfg.sensor_from_body(), name)
+    if cfg.kind == "nhc":
+        return NonHolonomic(sigma, cfg.lever_arm(), cfg.sensor_from_body(), name)
     if cfg.kind == "heading":
         return Heading(float(np.asarray(sigma).reshape(-1)[0]), cfg.sensor_from_body(), name)
     return GNSS(sigma, cfg.lever_arm(), bool(cfg.use_height), name)

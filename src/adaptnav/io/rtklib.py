@@ -24,6 +24,8 @@ levelling over the static window before the drive, heading carried back from the
 at the first fast epoch through the gyro's yaw increments (:func:`initial_heading`), the gyro
 bias as the static mean (``[imu.initial_bias]``), position from the RTK solution.
 
+A non-holonomic constraint stream (zero lateral and vertical velocity, 10 Hz,
+:mod:`adaptnav.sensors.nhc`) is added by default: a model of the car, not a recorded sensor.
 The RTK fixes are both the aiding and the reference: :func:`import_drive` withholds the fixes
 inside **outage windows** from the GNSS stream (they stay in the truth table) so that the
 inertial drift can be scored against them, as GNSS/INS papers do. Float solutions are not used
@@ -115,6 +117,10 @@ at least 25 s of RTK fixes."""
 GNSS_SIGMA_M = (0.02, 0.02, 0.04)
 """σ (N, E, D) given to the RTK fixes (assumed: twice the solution's own 1-cm σ, for the antenna
 phase centre and multipath the solution's σ does not hold)."""
+NHC_SIGMA_M_S = (0.2, 0.1)
+"""σ (lateral, vertical) of the non-holonomic constraint (assumed: sideslip and the offset of
+the IMU from the rear axle in turns, suspension travel); VB-MAESKF adapts it."""
+NHC_RATE_HZ = 10.0
 STATIC_SPEED_M_S = 0.2
 """The car is parked while the GNSS speed stays below this."""
 STATIC_MARGIN_S = 2.0
@@ -808,6 +814,7 @@ def import_drive(
     mounting_rpy_deg: Sequence[Sequence[float]] = PUBLISHED_MOUNTING_RPY_DEG,
     imu_noise: Literal["measured", "driving", "published"] = "measured",
     gnss_sigma_m: Sequence[float] = GNSS_SIGMA_M,
+    nhc_sigma_m_s: Sequence[float] | None = NHC_SIGMA_M_S,
     fmt: Literal["parquet", "csv"] = "parquet",
 ) -> Path:
     """Import an RTKLIB drive as a mission folder ``out_dir``.
@@ -825,6 +832,9 @@ def import_drive(
             ``driving`` (the vibration while driving taken as white, :func:`driving_imu_noise`)
             or ``published`` (the data README's white-noise densities).
         gnss_sigma_m: σ (N, E, D) of the RTK fixes.
+        nhc_sigma_m_s: σ (lateral, vertical) of a non-holonomic constraint stream
+            (:mod:`adaptnav.sensors.nhc`, zeros at ``NHC_RATE_HZ`` over the whole drive, in the
+            vehicle frame turned by the measured forward-axis angle); None: no constraint.
 
     Mission time ``t_s`` is GPST minus the IMU's first (offset-corrected) sample time, which is
     recorded in import.json with every estimate, check, correction, left-out reading and
@@ -838,6 +848,11 @@ def import_drive(
     sigma_g = np.asarray(gnss_sigma_m, dtype=float)
     if sigma_g.shape != (3,) or not np.all(np.isfinite(sigma_g) & (sigma_g > 0)):
         raise ValueError(f"gnss_sigma_m: {gnss_sigma_m!r} is not three numbers > 0")
+    sigma_nhc = None if nhc_sigma_m_s is None else np.asarray(nhc_sigma_m_s, dtype=float)
+    if sigma_nhc is not None and (
+        sigma_nhc.shape != (2,) or not np.all(np.isfinite(sigma_nhc) & (sigma_nhc > 0))
+    ):
+        raise ValueError(f"nhc_sigma_m_s: {nhc_sigma_m_s!r} is not two numbers > 0")
     C_bs = mounting_dcm(mounting_rpy_deg)
     f_b, w_b = body_imu(raw, C_bs)
     t_tag = imu_gpst(raw, tag)
@@ -949,6 +964,12 @@ def import_drive(
         f"({sol.path.name}); the fixed solution (moved to the IMU) is the truth and the aiding, "
         f"withheld in {len(windows)} outage window(s); IMU time offset {delta:+.3f} s "
         "(import.json)"
+        + (
+            "; a non-holonomic constraint (zero lateral and vertical velocity) aids as a "
+            "pseudo-measurement"
+            if sigma_nhc is not None
+            else ""
+        )
     )
     doc: dict[str, Any] = {
         "mission": {"name": f"rtklib-{name}", "description": description},
@@ -984,10 +1005,25 @@ def import_drive(
         },
         "truth": {"file": "truth.parquet"},
     }
+    tables = {"imu": imu_df, "gnss": gnss_df, "truth": truth_df}
+    if sigma_nhc is not None:
+        # The constraint holds parked and driving alike, so the stream needs no motion
+        # detection (and nothing from the withheld fixes).
+        t_nhc = np.arange(t_imu[0] + 1.0 / NHC_RATE_HZ, t_imu[-1], 1.0 / NHC_RATE_HZ)
+        tables["nhc"] = pd.DataFrame(
+            {"t_s": t_nhc, "vy_m_s": np.zeros(t_nhc.size), "vz_m_s": np.zeros(t_nhc.size)}
+        )
+        doc["sensors"]["nhc"] = {
+            "kind": "nhc",
+            "file": "nhc.parquet",
+            "sigma": [[float(v) for v in sigma_nhc], "m/s"],
+            "rate_hz": NHC_RATE_HZ,
+            "mounting_rpy_deg": [0.0, 0.0, math.degrees(forward)],
+            "use": "aid",
+        }
     config = parse_config(doc, f"RTKLIB drive {name} (import)")
     root = Path(out_dir)
-    written = write_mission(root, config, {"imu": imu_df, "gnss": gnss_df, "truth": truth_df},
-                            fmt=fmt)  # fmt: skip
+    written = write_mission(root, config, tables, fmt=fmt)
     f_static = f_b[static].mean(axis=0)
     meta: dict[str, Any] = {
         "importer": "adaptnav.io.rtklib",
@@ -1036,6 +1072,16 @@ def import_drive(
             "first_fixed_line": int(sol.lines[k0]),
         },
         "outages": per_outage,
+        "nhc": None
+        if sigma_nhc is None
+        else {
+            "sigma_m_s": sigma_nhc.tolist(),
+            "rate_hz": NHC_RATE_HZ,
+            "vehicle_yaw_from_body_deg": math.degrees(forward),
+            "lever_arm_m": [0.0, 0.0, 0.0],
+            "meaning": "pseudo-measurement: zero lateral and vertical vehicle-frame velocity at "
+            "the IMU point (semi-synthetic: a model of the car, not a sensor)",
+        },
         "truth": "fixed solutions (Q = 1) in the IMU span, moved to the IMU point with the "
         "course heading; velocity from the solution; no attitude",
         "corrections": [

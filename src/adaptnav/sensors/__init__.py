@@ -13,6 +13,7 @@ from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.heading import Heading
 from adaptnav.sensors.inclinometer import Inclinometer
+from adaptnav.sensors.nhc import NonHolonomic
 from adaptnav.sensors.zupt import ZeroVelocity
 
 __all__ = [
@@ -23,6 +24,7 @@ __all__ = [
     "Inclinometer",
     "Measurement",
     "MeasurementModel",
+    "NonHolonomic",
     "ZeroVelocity",
     "euler_jacobian",
 ]
