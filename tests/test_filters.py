@@ -294,16 +294,9 @@ def test_a_sensor_absent_at_an_epoch_keeps_its_alpha_beta() -> None:
     assert np.all(dvl.alpha == pytest.approx(0.99 * 1.0 + 0.5))
 
 
-def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
-    """40 s of ×5 DVL noise, then a 20-s bottom-lock loss reading zeros (the A-KIT faults).
-
-    VB-MAESKF's R̂ grows with the ×5 noise; a gate on that R̂ (the paper's) then lets the zeros
-    through. A gate on the nominal R (gate.py, ``reference = "nominal"``) cannot be opened by
-    adaptation: each zero is off by the vehicle's speed (2 m/s, 100 nominal σ), and is rejected
-    for as long as H P Hᵀ stays below 4/q - σ² (here q = 600, MESKF's; at q = 2600 this IMU's
-    P grows past that bound in the last second of the loss). The ×5 readings (within 5 σ·√q)
-    still reach the filter and its R̂.
-    """
+def _sustained_fault() -> tuple[synthetic.Dataset, np.ndarray, np.ndarray]:
+    """120 s, DVL and depth; DVL ×5 noise in [40, 80) s, zeros (a bottom-lock loss) in
+    [80, 100) s. Returns the dataset and the masks of the noisy and the lost readings."""
     ds = synthetic.make(3, duration=120.0, sensors=("dvl", "depth"))
     t, z = ds.readings["dvl"]
     z = z.copy()
@@ -314,6 +307,20 @@ def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
     z[lost] = 0.0
     assert np.linalg.norm(ds.truth[:, 3:6], axis=1).min() > 95 * 0.02  # zeros: gross errors
     ds.readings["dvl"] = (t, z)
+    return ds, noisy, lost
+
+
+def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
+    """40 s of ×5 DVL noise, then a 20-s bottom-lock loss reading zeros (the A-KIT faults).
+
+    VB-MAESKF's R̂ grows with the ×5 noise; a gate on that R̂ (the paper's) then lets the zeros
+    through. A gate on the nominal R (gate.py, ``reference = "nominal"``) cannot be opened by
+    adaptation: each zero is off by the vehicle's speed (2 m/s, 100 nominal σ), and is rejected
+    for as long as H P Hᵀ stays below 4/q - σ² (here q = 600, MESKF's; at q = 2600 this IMU's
+    P grows past that bound in the last second of the loss). The ×5 readings (within 5 σ·√q)
+    still reach the filter and its R̂.
+    """
+    ds, noisy, lost = _sustained_fault()
     runs = {
         ref: _run_batch("vb", ds, gate_q={"vb": 600.0}, gate_reference=ref)
         for ref in ("adapted", "nominal")
@@ -332,3 +339,39 @@ def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
     assert used_zeros["nominal"] == 0
     assert used_noisy["nominal"] >= 0.95 * len(noisy_rows)
     assert e["nominal"] < e["adapted"]
+
+
+def _dvl_r(out: engine.EngineOutput) -> tuple[np.ndarray, np.ndarray]:
+    """(t, mean over the axes of the R used) of the used DVL readings."""
+    rows = [r for r in out.ledger if r["sensor"] == "dvl" and r["fate"] == "used"]
+    t = np.array([r["t"] for r in rows])
+    return t, np.array([[r[f"r_{j}"] for j in range(3)] for r in rows]).mean(axis=1)
+
+
+def test_student_t_vb_rides_out_a_sustained_fault_without_a_gate() -> None:
+    """The same ×5 noise and 20-s loss of zeros, ungated. The paper's Gaussian VB raises β by
+    ½ B for every zero, so R̂ after the loss is many times its value before and the zeros
+    pull the state. With Student-t readings (ν = 4) each zero, 100 σ off, gets λ ≈ ν / B·E[1/σ²]
+    ≪ 1. With R̂ ≈ 4e-3 m²/s² and 2 m/s errors on three axes, λ ≈ 7 / (4 + 12 / 4e-3) ≈ 2e-3:
+    each zero is used with an R hundreds of times R̂ (more than 20 times even once the state
+    has moved half-way to it), and β, so R̂ for the readings after the loss, hardly moves. A
+    heavy tail still lets each reading pull a little (the t influence falls as 1/error, not to
+    zero as a gate's), so the position is better than the Gaussian VB's, not as good as a
+    gate's."""
+    ds, noisy, lost = _sustained_fault()
+    runs = {dof: _run_batch("vb", ds, vb_dof=dof) for dof in (None, 4.0)}
+    t_dvl = ds.readings["dvl"][0]
+    r = {}
+    for dof, out in runs.items():
+        t, rr = _dvl_r(out)
+        before = float(np.median(rr[(t >= 70.0) & (t < 80.0)]))  # the ×5 level
+        after = float(np.median(rr[(t >= 100.0) & (t < 105.0)]))
+        in_loss = float(np.median(rr[(t >= t_dvl[lost][0]) & (t < 100.0)]))
+        r[dof] = (before, in_loss, after)
+    e = {dof: _rmse(out, ds) for dof, out in runs.items()}
+    print(f"\nR used (before, in the loss, after): {r}; RMSE {e}")
+    assert r[None][2] > 10.0 * r[None][0]  # Gaussian: R̂ taken over by the zeros
+    assert r[4.0][2] < 3.0 * r[4.0][0]  # Student-t: R̂ after the loss as before it
+    assert r[4.0][1] > 20.0 * r[4.0][0]  # each zero used with a huge R (tiny λ)
+    assert e[4.0] < e[None]
+    assert noisy.sum() > 0

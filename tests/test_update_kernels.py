@@ -290,12 +290,14 @@ def test_stacked_fixed_update_equals_FixedNoise() -> None:
         _run_stacked([FixedNoise()] * 3, rng, [None] * 3)
 
 
+@pytest.mark.parametrize("dof", [None, 3.0])
 @pytest.mark.parametrize("tol", [0.0, 1e-3])
-def test_stacked_vb_update_equals_VariationalBayes(tol: float) -> None:
-    """Several fixed-point iterations (all of them with tol = 0; early stop with 1e-3)."""
+def test_stacked_vb_update_equals_VariationalBayes(tol: float, dof: float | None) -> None:
+    """Several fixed-point iterations (all of them with tol = 0; early stop with 1e-3), with
+    the paper's Gaussian readings and with Student-t ones (a λ per sensor's reading)."""
     rng = np.random.default_rng(5)
     for _ in range(10):
-        strat = VariationalBayes(rho=0.97, iterations=int(rng.integers(1, 8)), tol=tol)
+        strat = VariationalBayes(rho=0.97, iterations=int(rng.integers(1, 8)), tol=tol, dof=dof)
         states = [VBState(rng.uniform(1.0, 30.0, d), rng.uniform(1e-6, 1e-2, d)) for d in (3, 1, 2)]
         _run_stacked([strat] * 3, rng, states)
 
@@ -395,6 +397,8 @@ def _strategy(kind: str) -> Any:
         return CovarianceMatching(window=6)
     if kind == "rae":
         return CovarianceMatching(window=4, residual_based=True)
+    if kind == "vbt":
+        return VariationalBayes(rho=0.95, iterations=4, tol=1e-8, irregular=True, dof=4.0)
     return VariationalBayes(rho=0.95, iterations=4, tol=1e-8, irregular=True)
 
 
@@ -409,7 +413,7 @@ def _channels(
             model = PythonOnly(model)
         gate = None
         if name == "dvl":
-            q = 1e6 if kind == "vb" and reference == "adapted" else 60.0
+            q = 1e6 if kind in ("vb", "vbt") and reference == "adapted" else 60.0
             gate = Gate(q, "chi2" if kind == "maeskf" else "component", reference)  # type: ignore[arg-type]
         out.append(engine.SensorChannel(model, periods[name], _strategy(kind), gate))
     return out
@@ -455,6 +459,7 @@ def _compare(out: engine.EngineOutput, ref: engine.EngineOutput) -> None:
         ("vb", "exact", False, "adapted"),
         ("vb", "grid", True, "adapted"),
         ("vb", "exact", True, "nominal"),
+        ("vbt", "exact", True, "adapted"),
     ],
 )
 def test_batch_engine_equals_the_readable_engine(

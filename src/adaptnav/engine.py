@@ -533,6 +533,7 @@ class Navigator:
                 si[uk.S_ITER] = st.iterations
                 sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
                 sf[uk.F_IRREGULAR] = float(st.irregular)
+                sf[uk.F_DOF] = st.dof if st.dof is not None else 0.0
                 sx[uk.X_ALPHA : uk.X_ALPHA + d] = state0.alpha
                 sx[uk.X_BETA : uk.X_BETA + d] = state0.beta
             elif isinstance(st, CovarianceMatching):

@@ -56,6 +56,9 @@ class FilterSettings:
     vb_iterations: int = 5
     vb_tol: float = 1e-6
     vb_irregular: bool = False
+    vb_dof: float | None = None
+    """Student-t ν of each reading for VB-MAESKF (noise/vb.py, beyond the paper); None:
+    Gaussian, the paper's update."""
 
     def __post_init__(self) -> None:
         if self.kind not in FILTER_KINDS:
@@ -73,7 +76,7 @@ class FilterSettings:
             return CovarianceMatching(window, self.matching_floor, self.matching_residual_based)
         rho = overrides.vb_rho if overrides.vb_rho is not None else self.vb_rho
         return VariationalBayes(
-            self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular
+            self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular, self.vb_dof
         )
 
     def gate(self, sensor: str, overrides: SensorOverrides = SensorOverrides()) -> Gate | None:

@@ -100,8 +100,8 @@ S_CODE, S_DIM, S_GATE, S_ITER, S_WINDOW, S_COUNT, S_VERSION, S_GATE_REF = 0, 1, 
 N_SINT = 8
 # s_flt: float64 settings; columns 0..N_PAR-1 are the linearisation parameters
 F_RNOM, F_GATE_Q, F_PERIOD = 16, 25, 26  # nominal R (3×3 row-major), gate q, period
-F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE = 27, 28, 29, 30, 31  # strategy settings
-N_SFLT = 32
+F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE, F_DOF = 27, 28, 29, 30, 31, 32  # strategy settings
+N_SFLT = 33
 # s_state: float64 adaptation state: last epoch, VB α and β, matching R̂ (3×3 row-major)
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
 N_SSTATE = 16
@@ -535,19 +535,20 @@ Workspace = tuple[NDArray[Any], ...]
 WS_H, WS_Y, WS_RB, WS_UT, WS_KT, WS_ET, WS_W, WS_S, WS_L, WS_GT, WS_R_USED = range(11)
 WS_VEC, WS_DX, WS_P_NEW, WS_R_NOW, WS_ROWS3, WS_SMALL3, WS_M3, WS_B3 = range(11, 19)
 WS_COLS, WS_BLK, WS_SEEN = range(19, 22)
-V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST = range(8)
+V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST, V_LAM, V_B = range(10)
+N_VEC = 10
 """Rows of ``ws[WS_VEC]``."""
 
 
 def workspace(n_sensors: int) -> Workspace:
     """Scratch arrays for epochs of up to ``n_sensors`` stacked sensors (D ≤ 3 n_sensors):
     stacked H, y, nominal R blocks, ``H P``, Kᵀ, Eᵀ (D×15), W, S, L, Gᵀ, R used (D×D), VB and
-    matching vectors (8×D), dx, P⁺, and small scratch; allocated once, reused every epoch."""
+    matching vectors (N_VEC×D), dx, P⁺, and small scratch; allocated once, reused every epoch."""
     n = max(n_sensors, 1)
     Dm = MAX_DIM * n
     ns = N_STATES
     f = [(Dm, ns), (Dm,), (n, MAX_DIM, MAX_DIM), (Dm, ns), (Dm, ns), (Dm, ns), (Dm, Dm),
-         (Dm, Dm), (Dm, Dm), (Dm, Dm), (Dm, Dm), (8, Dm), (ns,), (ns, ns), (3, 3), (3, ns),
+         (Dm, Dm), (Dm, Dm), (Dm, Dm), (Dm, Dm), (N_VEC, Dm), (ns,), (ns, ns), (3, 3), (3, ns),
          (3, 3), (3, 3), (3,)]  # fmt: skip
     ints = [(ns,), (3, n + 1), (n,)]
     return (
@@ -650,13 +651,20 @@ def _vb_iterate(
     S: Array,
     L: Array,
     Gt: Array,
+    nb: int,
+    blk_off: IntArray,
+    dof: float,
 ) -> int:
     """VB fixed point (P-24..P-28) in measurement space, on the rows of V: α (already α⁻ + ½)
-    and β⁻ given; leaves in R̂ the R of the last correction and in β its β. Returns the
-    iterations done, -1 if an S was not positive definite."""
+    and β⁻ given; leaves in R̂ the R of the last correction and in β its β. With ``dof`` > 0,
+    each block's reading has a Student-t scale λ (twin of VariationalBayes.update with its
+    ``dof``; ``dof`` <= 0: λ = 1, the paper's update). Returns the iterations done, -1 if an S
+    was not positive definite."""
     alpha, beta_prior, beta, r_hat, Gy = V[V_ALPHA], V[V_BETA_PRIOR], V[V_BETA], V[V_R_HAT], V[V_GY]
+    lam, B = V[V_LAM], V[V_B]
     for j in range(D):
         beta[j] = beta_prior[j]
+        lam[j] = 1.0
         r_hat[j] = beta[j] / alpha[j]
     done = 0
     while True:
@@ -683,13 +691,23 @@ def _vb_iterate(
                 for b in range(D):
                     t += W[a, b] * ((1.0 if b == j else 0.0) - Gt[b, j])
                 hph += ia * t + Gt[a, j] * Gt[a, j] * r_hat[a]
-            beta[j] = beta_prior[j] + 0.5 * resid * resid + 0.5 * hph
-            if not abs(beta[j] / alpha[j] - r_hat[j]) <= tol * r_hat[j]:
+            B[j] = resid * resid + hph
+        if dof > 0.0:
+            for b in range(nb):
+                s = 0.0
+                for j in range(blk_off[b], blk_off[b + 1]):
+                    s += B[j] * alpha[j] / beta[j]
+                lb = (dof + (blk_off[b + 1] - blk_off[b])) / (dof + s)
+                for j in range(blk_off[b], blk_off[b + 1]):
+                    lam[j] = lb
+        for j in range(D):
+            beta[j] = beta_prior[j] + 0.5 * lam[j] * B[j]
+            if not abs(beta[j] / alpha[j] / lam[j] - r_hat[j]) <= tol * r_hat[j]:
                 converged = False
         if done >= iterations or converged:
             return done
         for j in range(D):
-            r_hat[j] = beta[j] / alpha[j]
+            r_hat[j] = beta[j] / alpha[j] / lam[j]
 
 
 @jit
@@ -797,7 +815,7 @@ def stacked_update(
                 V[V_BETA_PRIOR, o + j] = s_state[i, X_BETA + j]
         iterations = _vb_iterate(
             W, y, D, V, s_int[first, S_ITER], s_flt[first, F_TOL], ws[WS_S], ws[WS_L],
-            ws[WS_GT],
+            ws[WS_GT], nb, blk_off, s_flt[first, F_DOF],
         )  # fmt: skip
         if iterations < 0:
             return -1

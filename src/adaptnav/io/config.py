@@ -431,6 +431,8 @@ class FilterConfig(_Model):
     vb_iterations: Annotated[int, Field(ge=1)] = 5
     vb_tol: Positive = 1e-6
     vb_irregular: StrictBool = False
+    vb_dof: Positive | None = None
+    """Student-t ν of each reading for VB-MAESKF (beyond the paper); None: Gaussian."""
 
     @field_validator("gate_q")
     @classmethod
@@ -524,6 +526,7 @@ class MissionConfig(_Model):
             vb_iterations=f.vb_iterations,
             vb_tol=f.vb_tol,
             vb_irregular=f.vb_irregular,
+            vb_dof=f.vb_dof,
         )
 
     def output_every(self) -> int:
