@@ -613,6 +613,30 @@ def test_sensor_duplicate_timestamp_goes_to_dropped(tmp_path: Path) -> None:
     assert (d.sensor, d.row, d.t, d.reason) == ("dvl", 2, t1, "duplicate timestamp")
 
 
+def test_dvl_zero_reading_is_a_lost_lock_when_asked(tmp_path: Path) -> None:
+    """Off by default (a zero is a reading); with zero_is_lost only the all-zero row goes, and
+    its fate reaches the run's ledger."""
+    dvl = dvl_table()
+    dvl.loc[3, ["vx_m_s", "vy_m_s", "vz_m_s"]] = 0.0
+    dvl.loc[1, "vy_m_s"] = 0.0  # one zero axis is not a lost lock
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    assert load_mission(root).dropped == ()
+    d = config_dict()
+    d["sensors"]["dvl"]["zero_is_lost"] = True
+    d["initial"] = {"mode": "state", "lat_deg": 10.0, "lon_deg": 20.0, "rpy_deg": [0, 0, 0]}
+    root = write_dir(tmp_path, d, {})
+    m = load_mission(root)
+    np.testing.assert_array_equal(m.sensors["dvl"].rows, [0, 1, 2, 4])
+    (drop,) = m.dropped
+    assert (drop.sensor, drop.row) == ("dvl", 3) and "bottom lock lost" in drop.reason
+    ledger = api.run(m, "meskf").ledger
+    rows = ledger[(ledger["sensor"] == "dvl") & (ledger["row"] == 3)]
+    assert list(zip(rows["fate"], rows["reason"], strict=True)) == [("dropped", drop.reason)]
+    d["sensors"]["gnss"] = {"kind": "gnss", "file": "g.csv", "sigma": [1, "m"],
+                            "zero_is_lost": True}  # fmt: skip
+    assert "only a dvl" in str(_config_error(lambda c: c.update(d)))
+
+
 def test_imu_gap_names_lines_and_times(tmp_path: Path) -> None:
     imu = imu_rates()
     imu.loc[20:, "t_s"] += 0.5

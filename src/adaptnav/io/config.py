@@ -293,6 +293,10 @@ class SensorConfig(_Model):
     """GNSS only (false is accepted and ignored elsewhere); None → false (marine: the height
     comes from the depth sensor)."""
     optional: StrictBool = False
+    zero_is_lost: StrictBool = False
+    """DVL only: a reading of exactly zero on every axis is a lost bottom lock (drivers that
+    report the loss so), dropped at load with that reason. Not for a vehicle that can sit
+    still on the bottom."""
 
     @field_validator("file")
     @classmethod
@@ -315,6 +319,8 @@ class SensorConfig(_Model):
 
     @model_validator(mode="after")
     def _check_kind_fields(self) -> SensorConfig:
+        if self.zero_is_lost and self.kind != "dvl":
+            raise ValueError(f"zero_is_lost: only a dvl reports a lost lock, not a {self.kind}")
         if self.use_height and self.kind != "gnss":
             raise ValueError(f"use_height: only a gnss sensor measures height, not a {self.kind}")
         if self.kind == "gnss":

@@ -59,6 +59,7 @@ log = logging.getLogger("adaptnav.io")
 
 Array = NDArray[np.float64]
 CONFIG_NAME = "mission.toml"
+LOST_LOCK_REASON = "all-zero DVL reading: bottom lock lost (zero_is_lost)"
 MAX_GYRO_RAD_S = 20.0
 """|gyro| above this (rad/s, ≈ 1150 °/s) is taken as wrong units (deg/s given as rad/s)."""
 MAX_ACCEL_M_S2 = 20.0 * G0
@@ -317,6 +318,14 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             table.where(int(r)),
             DroppedRow(name, int(r), float(t[r]), "duplicate timestamp"),
         )
+    if cfg.zero_is_lost:
+        for r in np.flatnonzero(keep & np.all(z == 0.0, axis=1)):
+            keep[r] = False
+            journal.drop(
+                table.label,
+                table.where(int(r)),
+                DroppedRow(name, int(r), float(t[r]), LOST_LOCK_REASON),
+            )
     rows = np.flatnonzero(keep).astype(np.int64)
     tk = t[rows]
     if cfg.rate_hz is not None:
