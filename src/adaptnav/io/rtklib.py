@@ -594,8 +594,8 @@ def estimate_imu_time_offset(
     of the Euler yaw rate (Groves 2.58) of the gyro less its ``static`` mean, at the parked
     ``roll_pitch`` (the road is nearly level). The mean squared misfit is minimised over
     ``[-max_lag_s, max_lag_s]`` (:func:`~adaptnav.io.timing.minimise_lag`). On drive_0708 this
-    gives -0.07 s for increments of 0.5-2 s and speed floors of 3-7 m/s (the published value
-    is -0.125 s; docs/rtklib.md).
+    gives -0.071 s (1-s increments, 5 m/s), and -0.04 to -0.08 s for increments of 0.5-2 s
+    and speed floors of 3-7 m/s (the published value is -0.125 s; docs/rtklib.md).
     """
     bias = gyro_b[static].mean(axis=0) if static is not None else np.zeros(3)
     rate = _yaw_rate(gyro_b - bias, *roll_pitch)
