@@ -102,6 +102,30 @@ def _f(v: Any, fmt: str) -> str:
     return "-" if not math.isfinite(x) else format(x, fmt)
 
 
+STUDENT_T_DOF = 4.0
+"""ν of the beyond-the-paper VB-MAESKF with Student-t readings (noise/vb.py), on the Monte Carlo
+seeds."""
+
+
+def _student_t(mc: pd.DataFrame, st: pd.DataFrame, presets: Sequence[str]) -> list[str]:
+    """VB-MAESKF with Student-t readings against the paper's Gaussian VB-MAESKF, seed by seed."""
+    header = ["trajectory", "seeds", "Gaussian VB-MAESKF %", f"Student-t ν={STUDENT_T_DOF:g} %",
+              "t / Gaussian", "Student-t better on"]  # fmt: skip
+    rows = []
+    for preset in presets:
+        g = mc[(mc["preset"] == preset) & (mc["filter"] == "vb")].set_index("seed")
+        t = st[st["preset"] == preset].set_index("seed")
+        common = g.index.intersection(t.index)
+        if common.empty:
+            continue
+        a = g.loc[common, "relative_rmse_pct"].astype(float)
+        b = t.loc[common, "relative_rmse_pct"].astype(float)
+        better = f"{int((b < a).sum())} of {len(common)}"
+        rows.append([preset, str(len(common)), f"{a.mean():.3f}", f"{b.mean():.3f}",
+                     f"{b.mean() / a.mean():.2f}", better])  # fmt: skip
+    return [markdown_table(header, rows), ""] if rows else []
+
+
 def _seeds_text(n: int) -> str:
     return "none" if n == 0 else ("seed 1" if n == 1 else f"seeds 1-{n}")
 
@@ -232,12 +256,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     mc_specs = sw.monte_carlo_specs(presets, mc_seeds, filters)
     q_specs = sw.q_sweep_specs(presets, q_seeds, q_values) if q_values else []
     pn_specs = sw.process_noise_specs(presets, pn_seeds, scales) if scales else []
-    all_specs = mc_specs + q_specs + pn_specs
+    st_specs = [sw.RunSpec(p, s, "vb", vb_dof=STUDENT_T_DOF) for p in presets for s in mc_seeds]
+    all_specs = mc_specs + q_specs + pn_specs + st_specs
     n_unique = len({s.key() for s in all_specs})
     n_missions = len({s.mission_name for s in all_specs})
     print(
         f"reproduce: {n_unique} runs on {n_missions} missions ({len(mc_specs)} Monte Carlo, "
-        f"{len(q_specs)} q sweep, {len(pn_specs)} process noise; shared runs counted once); "
+        f"{len(q_specs)} q sweep, {len(pn_specs)} process noise, {len(st_specs)} Student-t VB; "
+        "shared runs counted once); "
         f"cache {args.cache}",
         file=sys.stderr,
     )
@@ -248,6 +274,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     mc = outcome.rows(mc_specs)
     qt = outcome.rows(q_specs) if q_specs else outcome.table.iloc[0:0]
     pn = outcome.rows(pn_specs) if pn_specs else outcome.table.iloc[0:0]
+    st = outcome.rows(st_specs) if st_specs else outcome.table.iloc[0:0]
 
     figs = args.figures
     figs.mkdir(parents=True, exist_ok=True)
@@ -333,6 +360,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             *_spread_section(pn, "q_scale", presets, best_paper=False),
             f"![process noise]({rel(fig_pn)})" if fig_pn else "",
             "",
+        ]
+    if st_specs:
+        md += [
+            f"## Beyond the paper: VB-MAESKF with Student-t readings (ν = {STUDENT_T_DOF:g})",
+            "",
+            "The same Monte Carlo seeds, VB-MAESKF ungated with a per-reading Student-t scale on "
+            "top of its inverse-Gamma variances (`vb_dof`, `noise/vb.py`); mean relative RMSE. "
+            "On the real AUV data with DVL faults it meets the robustness target without a gate "
+            "(`docs/results-akit.md`).",
+            "",
+            *_student_t(mc, st, presets),
         ]
     if outcome.failed:
         md += ["## Failed runs", ""]

@@ -120,7 +120,7 @@ METRICS: tuple[str, ...] = (
 """Metric columns of a sweep's table (spec §10; ``gate_q``: the DVL gate's q, NaN ungated;
 ``elapsed_s``: wall time of the run and its evaluation)."""
 SPEC_COLUMNS: tuple[str, ...] = (
-    "key", "preset", "seed", "filter", "q", "q_scale", "disturbances", "gated",
+    "key", "preset", "seed", "filter", "q", "q_scale", "vb_dof", "disturbances", "gated",
 )  # fmt: skip
 CHUNK_SIZE = 8
 """Specs per worker task (one mission each): progress granularity vs. per-task overhead."""
@@ -149,6 +149,8 @@ class RunSpec:
         q_scale: factor on the gyro-bias process-noise PSD in the filter's Q
             (:func:`scale_gyro_bias_q`); None (or 1): the mission's Q.
         disturbances: the simulator's switches; None (or the default): all on.
+        vb_dof: VB-MAESKF only: Student-t ν of each reading (noise/vb.py, beyond the paper);
+            None: the paper's Gaussian update.
 
     Equal runs are equal specs: ``q_scale=1`` is stored as None and the default disturbances
     as None, so they share one cache entry.
@@ -160,6 +162,7 @@ class RunSpec:
     q: float | None = None
     q_scale: float | None = None
     disturbances: Disturbances | None = None
+    vb_dof: float | None = None
 
     def __post_init__(self) -> None:
         if self.preset not in PRESETS:
@@ -171,7 +174,9 @@ class RunSpec:
         object.__setattr__(self, "seed", int(self.seed))
         if self.filter not in FILTER_KINDS:
             raise ValueError(f"filter: {self.filter!r} is not one of {', '.join(FILTER_KINDS)}")
-        for name in ("q", "q_scale"):
+        if self.vb_dof is not None and self.filter != "vb":
+            raise ValueError(f"vb_dof: only for the vb filter, not {self.filter!r}")
+        for name in ("q", "q_scale", "vb_dof"):
             v = getattr(self, name)
             if v is None:
                 continue
@@ -200,6 +205,8 @@ class RunSpec:
             "q": self.q,
             "q_scale": self.q_scale,
             "disturbances": None if self.disturbances is None else self.disturbances.as_dict(),
+            # Only when set, so the keys of the paper's runs stay as they were.
+            **({} if self.vb_dof is None else {"vb_dof": self.vb_dof}),
         }
 
     def key(self, version: str = __version__) -> str:
@@ -412,6 +419,8 @@ def run_one(
     settings = cfg.filter_settings().with_kind(kind)
     if spec.q is not None:
         settings = replace(settings, gate_q={**settings.gate_q, kind: spec.q})
+    if spec.vb_dof is not None:
+        settings = replace(settings, vb_dof=spec.vb_dof)
     noise = None
     if spec.q_scale is not None:
         noise = scale_gyro_bias_q(cfg.imu.noise.to_imu_noise(), spec.q_scale)
@@ -510,6 +519,7 @@ def _row(spec: RunSpec, record: Mapping[str, Any] | None, error: str | None) -> 
         "filter": spec.filter,
         "q": math.nan if spec.q is None else spec.q,
         "q_scale": 1.0 if spec.q_scale is None else spec.q_scale,
+        "vb_dof": math.nan if spec.vb_dof is None else spec.vb_dof,
         "disturbances": "default"
         if spec.disturbances is None
         else _disturbance_tag(spec.disturbances),
