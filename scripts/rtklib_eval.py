@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import json
 import os
 import sys
 import time
@@ -27,7 +28,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from adaptnav import __version__
+from adaptnav import __version__, earth
 from adaptnav.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -198,7 +199,6 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
 
     truth = res["truth"]
     lat0, lon0 = float(truth["lat_rad"].iloc[0]), float(truth["lon_rad"].iloc[0])
-    from adaptnav import earth
 
     def ne(lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = (lat - lat0) * (earth.meridian_radius(lat0) + float(truth["h_m"].iloc[0]))
@@ -243,8 +243,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         if stem in ("noise_nhc", "noise_gnss"):  # R̂ of each filter over the drive
             fig.savefig(args.figures / f"{stem}.png", dpi=90)
             figs.append(stem)
-    import json
-
     info = json.loads((shown["root"] / "import.json").read_text())
     fig_rel = os.path.relpath(args.figures, args.out.parent)
     cmd = "make rtklib" if not argv else "python scripts/rtklib_eval.py " + " ".join(argv)

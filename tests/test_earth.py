@@ -82,3 +82,14 @@ def test_rates() -> None:
     w = earth.transport_rate_n(lat, 0.0, [0.0, 10.0, 0.0])
     assert w[0] == pytest.approx(10.0 / earth.transverse_radius(lat))
     assert w[2] == pytest.approx(-10.0 * math.tan(lat) / earth.transverse_radius(lat))
+
+
+def test_ned_to_geodetic_takes_one_origin_per_point() -> None:
+    rng = np.random.default_rng(8)
+    lat, lon, h = rng.uniform(-1.4, 1.4, 5), rng.uniform(-3, 3, 5), rng.uniform(-50, 2000, 5)
+    r_n = rng.normal(0.0, 30.0, (5, 3))
+    got = np.column_stack(earth.ned_to_geodetic(r_n, lat, lon, h))
+    want = np.array(
+        [np.hstack(earth.ned_to_geodetic(r_n[k], lat[k], lon[k], h[k])) for k in range(5)]
+    )
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)

@@ -171,8 +171,9 @@ def geodetic_to_ned(
 
 
 def ned_to_geodetic(
-    r_n: ArrayLike, lat0: float, lon0: float, h0: float
+    r_n: ArrayLike, lat0: ArrayLike, lon0: ArrayLike, h0: ArrayLike
 ) -> tuple[Array, Array, Array]:
-    """Inverse of :func:`geodetic_to_ned`."""
-    r_e = np.asarray(r_n, float) @ C_ne(lat0, lon0) + geodetic_to_ecef(lat0, lon0, h0)
-    return ecef_to_geodetic(r_e)
+    """Inverse of :func:`geodetic_to_ned`; the origin may also be one per point (arrays of the
+    points' leading shape)."""
+    r = np.asarray(r_n, float)[..., None, :] @ C_ne(lat0, lon0)  # r_nᵀ C_ne = (C_neᵀ r_n)ᵀ
+    return ecef_to_geodetic(r[..., 0, :] + geodetic_to_ecef(lat0, lon0, h0))

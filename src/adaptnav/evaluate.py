@@ -181,10 +181,15 @@ def outage_drift(
     consistency. A window with no truth sample is an error.
     """
     errors = position_errors(solution, truth)
-    t_sol = _solution_time(solution)
     t_e = _column(errors, "t_s")
+    horizontal, error = _column(errors, "horizontal_m"), _column(errors, "error_m")
+    if all(c in solution.columns for c in POSITION_SD[:2]):
+        t_sol = _solution_time(solution)
+        sd_n, sd_e = (_interp(t_e, t_sol, _column(solution, c)) for c in POSITION_SD[:2])
+        sd_h = np.hypot(sd_n, sd_e)
+    else:
+        sd_h = np.full(t_e.size, math.nan)
     t_truth = _column(truth, "t_s")
-    has_sd = all(c in solution.columns for c in POSITION_SD[:2])
     rows = []
     for i, (start, length) in enumerate(windows):
         inside = (t_e > start) & (t_e <= start + length)
@@ -193,28 +198,17 @@ def outage_drift(
         k = int(np.flatnonzero(inside)[-1])
         in_truth = (t_truth >= start) & (t_truth <= start + length)
         dist = travelled_distance(truth[in_truth]) if in_truth.sum() > 1 else 0.0
-        end_h = float(errors["horizontal_m"].iloc[k])
-        sd = (
-            float(
-                math.hypot(
-                    *(_interp(t_e[k : k + 1], t_sol, _column(solution, c))[0]
-                      for c in POSITION_SD[:2])
-                )
-            )
-            if has_sd
-            else math.nan
-        )  # fmt: skip
         rows.append(
             {
                 "outage": i,
                 "start_s": float(start),
                 "length_s": float(length),
-                "end_horizontal_m": end_h,
-                "max_horizontal_m": float(errors["horizontal_m"][inside].max()),
-                "end_error_m": float(errors["error_m"].iloc[k]),
+                "end_horizontal_m": float(horizontal[k]),
+                "max_horizontal_m": float(horizontal[inside].max()),
+                "end_error_m": float(error[k]),
                 "distance_m": dist,
-                "drift_pct": 100.0 * end_h / dist if dist > 0.0 else math.nan,
-                "claimed_sd_horizontal_m": sd,
+                "drift_pct": 100.0 * horizontal[k] / dist if dist > 0.0 else math.nan,
+                "claimed_sd_horizontal_m": float(sd_h[k]),
             }
         )
     return pd.DataFrame(rows)

@@ -3,7 +3,7 @@
 One module per group of commands, each registering on the one :data:`app`:
 :mod:`~adaptnav.cli.core` (demo, run, evaluate, simulate, version);
 :mod:`~adaptnav.cli.compare` (compare, report);
-:mod:`~adaptnav.cli.importers` (import akit);
+:mod:`~adaptnav.cli.importers` (import akit, import rtklib);
 :mod:`~adaptnav.cli.sweep` (sweep q, sweep process-noise, sweep seeds).
 """
 

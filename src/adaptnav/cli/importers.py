@@ -12,7 +12,7 @@ from rich.table import Table
 from adaptnav.cli._app import app, console, fail
 
 import_app = typer.Typer(
-    help="Import external recordings as mission folders (docs/akit.md).",
+    help="Import external recordings as mission folders (docs/akit.md, docs/rtklib.md).",
     no_args_is_help=True,
 )
 app.add_typer(import_app, name="import")
@@ -118,10 +118,8 @@ def _parse_outages(spec: str) -> list[tuple[float, float]]:
     for part in spec.split(","):
         start, plus, length = part.strip().partition("+")
         try:
-            out.append((float(start), float(length)))
+            out.append((float(start), float(length if plus else "")))
         except ValueError:
-            fail(f"--outages: {part.strip()!r} is not START+LENGTH in seconds (e.g. 60+15)")
-        if not plus:
             fail(f"--outages: {part.strip()!r} is not START+LENGTH in seconds (e.g. 60+15)")
     return out
 

@@ -230,15 +230,16 @@ class InitialBias(_Model):
 
     def si(self) -> tuple[Array, Array]:
         """(gyro rad/s (3,), accel m/s² (3,))."""
-        g: Any = 0.0
-        a: Any = 0.0
-        if self.gyro is not None:
-            g = _pair_si(self.gyro, Kind.ANGULAR_RATE, "gyro", allow_negative=True)
-        if self.accel is not None:
-            a = _pair_si(self.accel, Kind.ACCELERATION, "accel", allow_negative=True)
-        return np.broadcast_to(np.asarray(g, float), (3,)).copy(), np.broadcast_to(
-            np.asarray(a, float), (3,)
-        ).copy()
+
+        def vector(pair: VecPair | None, kind: Kind, name: str) -> Array:
+            if pair is None:
+                return np.zeros(3)
+            return np.asarray(_pair_si(pair, kind, name, allow_negative=True), dtype=float)
+
+        return (
+            vector(self.gyro, Kind.ANGULAR_RATE, "gyro"),
+            vector(self.accel, Kind.ACCELERATION, "accel"),
+        )
 
 
 class ImuConfig(_Model):

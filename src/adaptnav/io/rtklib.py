@@ -43,6 +43,7 @@ import math
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal
 
@@ -171,11 +172,11 @@ class PosSolution:
     lines: NDArray[np.int64]
     repairs: tuple[Repair, ...]
 
-    @property
+    @cached_property
     def speed(self) -> Array:
         return np.asarray(np.hypot(self.v_ned[:, 0], self.v_ned[:, 1]))
 
-    @property
+    @cached_property
     def course(self) -> Array:
         """atan2(v_E, v_N), unwrapped (rad)."""
         return np.asarray(np.unwrap(np.arctan2(self.v_ned[:, 1], self.v_ned[:, 0])))
@@ -425,12 +426,8 @@ def read_imu_csv(path: str | Path) -> RawImu:
     except UnicodeDecodeError as exc:
         raise RtklibError(f"{p.name}: not a text file ({exc.reason})", file=p.name) from None
     numbered = [(no, line) for no, line in enumerate(raw, start=1) if line.strip()]
-    if numbered:
-        first = numbered[0][1].split(",")
-        try:
-            [float(v) for v in first]
-        except ValueError:  # a header line
-            numbered = numbered[1:]
+    if numbered and not _numbers(numbered[0][1].split(",")):  # a header line
+        numbered = numbered[1:]
     repairs: list[Repair] = []
     if numbered:
         no, last = numbered[-1]
@@ -757,31 +754,22 @@ def driving_imu_noise(
 def _heading_track(sol: PosSolution, yaw0: float) -> Array:
     """Heading (rad) at each solution epoch: the course where faster than MOVING_SPEED_M_S, the
     previous one held elsewhere (``yaw0`` before the first)."""
-    crs = np.arctan2(sol.v_ned[:, 1], sol.v_ned[:, 0])
-    out = np.empty(sol.gpst_s.size)
-    last = yaw0
-    for i in range(out.size):
-        if sol.speed[i] > MOVING_SPEED_M_S and np.isfinite(crs[i]):
-            last = float(crs[i])
-        out[i] = last
-    return out
+    crs = pd.Series(np.arctan2(sol.v_ned[:, 1], sol.v_ned[:, 0]))
+    moving = (sol.speed > MOVING_SPEED_M_S) & np.isfinite(crs.to_numpy())
+    return np.asarray(crs.where(moving).ffill().fillna(yaw0).to_numpy(), dtype=float)
 
 
 def _move_to_imu(sol: PosSolution, heading: Array, lever_b: Array) -> tuple[Array, Array, Array]:
     """Antenna positions moved to the IMU: ``r_imu = r_ant - C_nb l_b`` with the heading only
     (roll and pitch of a car turn a 5-cm arm by millimetres)."""
-    ned = np.column_stack(
+    arm_n = np.column_stack(
         [
             np.cos(heading) * lever_b[0] - np.sin(heading) * lever_b[1],
             np.sin(heading) * lever_b[0] + np.cos(heading) * lever_b[1],
             np.full(heading.size, lever_b[2]),
         ]
     )
-    rm = earth.meridian_radius(sol.lat_rad) + sol.h_m
-    rn = earth.transverse_radius(sol.lat_rad) + sol.h_m
-    lat = sol.lat_rad - ned[:, 0] / rm
-    lon = sol.lon_rad - ned[:, 1] / (rn * np.cos(sol.lat_rad))
-    return np.asarray(lat), np.asarray(lon), np.asarray(sol.h_m + ned[:, 2])
+    return earth.ned_to_geodetic(-arm_n, sol.lat_rad, sol.lon_rad, sol.h_m)
 
 
 def _check_outages(
@@ -932,7 +920,7 @@ def import_drive(
             "pos_line": sol.lines[keep],
         }
     )
-    k0 = int(np.argmax(in_span & fixed))
+    k0 = int(np.argmax(keep))
     lat0 = float(np.interp(t_gps[0], sol.gpst_s[keep], lat_i[keep]))  # parked: no extrapolation
     lon0 = float(np.interp(t_gps[0], sol.gpst_s[keep], lon_i[keep]))
     h0 = float(np.interp(t_gps[0], sol.gpst_s[keep], h_i[keep]))
