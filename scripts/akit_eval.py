@@ -283,6 +283,7 @@ def _report(o: dict[str, Any]) -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _args(argv)
+    revision = git_revision(ROOT)  # before this run writes its own outputs
     t0 = time.perf_counter()
     base = args.seed_bases[0]
     keep_n = 2 if 2 in args.segments else args.segments[0]
@@ -321,7 +322,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "# Results on real AUV data: the Snapir AUV (A-KIT) recordings",
         "",
         f"Written by `{cmd}` (scripts/akit_eval.py) on {dt.date.today().isoformat()}, "
-        f"adaptnav {__version__}, commit {git_revision(ROOT)}; the whole evaluation (import, "
+        f"adaptnav {__version__}, commit {revision}; the whole evaluation (import, "
         f"{len(tasks)} comparisons of {len(FILTERS)} runs each: clean and "
         f"{len(args.seed_bases)} fault draws per trajectory) took **{wall:.0f} s** on "
         f"{args.jobs} worker(s) here. Every number below comes from that run; the table of "

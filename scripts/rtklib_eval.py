@@ -223,6 +223,7 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _args(argv)
+    revision = git_revision(ROOT)  # before this run writes its own outputs
     t0 = time.perf_counter()
     results = {
         (noise, nhc): _run(args.src, args.work, noise, nhc)
@@ -252,7 +253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "# Results on a real GNSS + MEMS IMU drive: GNSS outages (RTKLIB drive_0708)",
         "",
         f"Written by `{cmd}` (scripts/rtklib_eval.py) on {dt.date.today().isoformat()}, "
-        f"adaptnav {__version__}, commit {git_revision(ROOT)}; the whole evaluation "
+        f"adaptnav {__version__}, commit {revision}; the whole evaluation "
         f"({len(results)} "
         "imports, "
         f"{len(df) // max(1, df['outage'].nunique())} filter runs) took **{wall:.0f} s** here. "
