@@ -43,6 +43,7 @@ class _Records:
     sol_t: list[float] = field(default_factory=list)
     sol_x: list[Array] = field(default_factory=list)
     sol_p: list[Array] = field(default_factory=list)
+    sol_cross: list[Array] = field(default_factory=list)
     ledger: list[dict[str, Any]] = field(default_factory=list)
 
 
@@ -307,6 +308,11 @@ class Navigator:
         self.records.sol_t.append(self.t)
         self.records.sol_x.append(self.x.copy())
         self.records.sol_p.append(np.diag(self.P).copy())
+        # dr_N·dr_E, dr_N·dr_D, dr_E·dr_D, then the same for dv and phi (engine.P_CROSS_PAIRS)
+        P = self.P
+        self.records.sol_cross.append(
+            np.array([P[b + i, b + j] for b in (0, 3, 6) for i, j in ((0, 1), (0, 2), (1, 2))])
+        )
 
     def adaptation_state(self, sensor: str) -> Any:
         """The current noise-adaptation state of ``sensor`` (VB α, β; matching window; ...)."""
@@ -327,6 +333,7 @@ class Navigator:
             list(r.ledger),
             self.x.copy(),
             self.P.copy(),
+            P_cross=np.asarray(r.sol_cross).reshape(-1, 9),
         )
 
 

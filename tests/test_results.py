@@ -14,9 +14,13 @@ from adaptnav import attitude
 from adaptnav.engine import EngineOutput
 from adaptnav.errorstate import STATE_NAMES
 from adaptnav.results import (
+    COV_COLUMNS,
+    REQUIRED_SOLUTION_COLUMNS,
     SOLUTION_COLUMNS,
     Result,
     RunFolderError,
+    covariance_block,
+    has_covariances,
     ledger_counts,
     load,
     quat_to_euler_rows,
@@ -79,7 +83,19 @@ def synthetic_output() -> EngineOutput:
         _row(0.25, "depth", "dropped", [], [], reason="late", t_epoch=0.3, row=1),
         _row(0.9, "depth", "dropped", [], [], reason="after", t_epoch=math.nan, row=2),
     ]
-    return EngineOutput(t, x, P_diag, ledger, x[-1].copy(), np.diag(P_diag[-1]))
+    # off-diagonal elements of the dr, dv, phi blocks: correlation RHO[k] between their pairs
+    sd = np.sqrt(P_diag[0])
+    P_cross = np.array(
+        [
+            [RHO[k] * sd[b + i] * sd[b + j] for b in (0, 3, 6) for i, j in ((0, 1), (0, 2), (1, 2))]
+            for k in range(n)
+        ]
+    )
+    return EngineOutput(t, x, P_diag, ledger, x[-1].copy(), np.diag(P_diag[-1]), P_cross=P_cross)
+
+
+RHO = np.array([0.5, -0.3, 0.0, 0.9, -0.99])
+"""Correlation of every pair within a block, per row of :func:`synthetic_output`."""
 
 
 def make_result(**kw: object) -> Result:
@@ -110,6 +126,21 @@ def test_solution_table() -> None:
     np.testing.assert_allclose(sol[["roll_rad", "pitch_rad", "yaw_rad"]], EULER, atol=1e-12)
     np.testing.assert_allclose(sol["sd_dbg_z"], 15.0)
     np.testing.assert_allclose(sol["sd_dr_N"], 1.0)
+    assert COV_COLUMNS == (
+        "cov_dr_N_dr_E", "cov_dr_N_dr_D", "cov_dr_E_dr_D",
+        "cov_dv_N_dv_E", "cov_dv_N_dv_D", "cov_dv_E_dv_D",
+        "cov_phi_N_phi_E", "cov_phi_N_phi_D", "cov_phi_E_phi_D",
+    )  # fmt: skip
+    np.testing.assert_array_equal(sol[list(COV_COLUMNS)], out.P_cross)
+    np.testing.assert_allclose(sol["cov_dr_E_dr_D"], RHO * 2.0 * 3.0)  # sd 2 m and 3 m
+    np.testing.assert_allclose(sol["cov_phi_N_phi_D"], RHO * 7.0 * 9.0)
+    # the velocity block in full: sd 4, 5, 6 m/s, correlation RHO[k] between every pair
+    P = covariance_block(sol, ("dv_N", "dv_E", "dv_D"))
+    s = np.array([4.0, 5.0, 6.0])
+    for k in range(len(sol)):
+        expected = np.outer(s, s) * (RHO[k] + (1.0 - RHO[k]) * np.eye(3))
+        np.testing.assert_allclose(P[k], expected, rtol=1e-12)
+    assert has_covariances(sol, ("dv_N", "dv_E", "dv_D"))
 
 
 def test_vectorised_euler_matches_attitude() -> None:
@@ -181,6 +212,26 @@ def test_save_load_round_trip(tmp_path: Path) -> None:
     )
     for name in ("solution", "ledger", "noise", "repairs"):
         pd.testing.assert_frame_equal(getattr(back, name), getattr(res, name))
+    assert list(back.solution.columns) == list(SOLUTION_COLUMNS)
+    np.testing.assert_array_equal(back.solution[list(COV_COLUMNS)], synthetic_output().P_cross)
+
+
+def test_old_run_folder_without_covariances_loads(tmp_path: Path) -> None:
+    """A run folder written before the cov_ columns existed: loaded as it is, without them;
+    the blocks of P are then its diagonal."""
+    folder = save(make_result(), tmp_path / "old")
+    solution = pd.read_parquet(folder / "solution.parquet")
+    solution[list(REQUIRED_SOLUTION_COLUMNS)].to_parquet(folder / "solution.parquet")
+    back = load(folder)
+    assert list(back.solution.columns) == list(REQUIRED_SOLUTION_COLUMNS)
+    names = ("dr_N", "dr_E", "dr_D")
+    assert not has_covariances(back.solution, names)
+    P = covariance_block(back.solution, names)
+    np.testing.assert_allclose(P, np.broadcast_to(np.diag([1.0, 4.0, 9.0]), P.shape))
+    # but a folder missing an sd_ column is still refused
+    solution.drop(columns=["sd_dr_E"]).to_parquet(folder / "solution.parquet")
+    with pytest.raises(RunFolderError, match="sd_dr_E"):
+        load(folder)
 
 
 def test_empty_repairs_round_trip(tmp_path: Path) -> None:

@@ -36,7 +36,11 @@ from adaptnav.noise import (
 )
 from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
 from adaptnav.sensors.base import Measurement
+from adaptnav.sensors.inclinometer import PendulumInclinometer
 from adaptnav.sensors.zupt import ZeroVelocity
+
+_F0 = np.array([0.3, -0.2, -9.8])
+"""A specific force for the pendulum inclinometer's linearisation (m/s²)."""
 
 RTOL = 1e-9
 
@@ -91,6 +95,8 @@ def _models(rng: np.random.Generator) -> list[Any]:
         Depth(0.05, rng.uniform(-3, 3, 3)),
         Inclinometer(0.002, _rotation(rng)),
         Inclinometer((0.001, 0.003)),
+        PendulumInclinometer(0.002, _rotation(rng)),
+        PendulumInclinometer((0.001, 0.003)),
         Heading(0.01, _rotation(rng)),
         GNSS(2.0, rng.uniform(-3, 3, 3)),
         GNSS((1.0, 1.5), rng.uniform(-3, 3, 3), use_height=False),
@@ -98,25 +104,40 @@ def _models(rng: np.random.Generator) -> list[Any]:
     ]
 
 
-def _reading(model: Any, x: np.ndarray, w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    pred = model.predict(x, w) if isinstance(model, DVL) else np.atleast_1d(model.predict(x))
+def _reading(
+    model: Any, x: np.ndarray, w: np.ndarray, rng: np.random.Generator, f: np.ndarray = _F0
+) -> np.ndarray:
+    if isinstance(model, DVL):
+        pred = model.predict(x, w)
+    elif isinstance(model, PendulumInclinometer):
+        pred = model.predict(x, f)
+    else:
+        pred = np.atleast_1d(model.predict(x))
     z = pred + rng.normal(0.0, 0.05, pred.shape)
     if isinstance(model, GNSS):
         z = pred + rng.normal(0.0, 1e-6, pred.shape)
-    if isinstance(model, Heading | Inclinometer) and rng.random() < 0.5:
+    if isinstance(model, Heading | Inclinometer | PendulumInclinometer) and rng.random() < 0.5:
         z = z + 2.0 * math.pi * rng.integers(-2, 3)  # any branch: the residual is wrapped
     return np.asarray(z, dtype=float)
 
 
-def _linearise(model: Any, x: np.ndarray, z: np.ndarray, w: np.ndarray, row: int) -> Any:
+def _linearise(
+    model: Any, x: np.ndarray, z: np.ndarray, w: np.ndarray, row: int, f: np.ndarray = _F0
+) -> Any:
     spec = uk.compiled_linearisation(model)
     assert spec is not None
     y = np.full(row + 4, 7.0)
     H = np.full((row + 4, 15), 7.0)
     zz = np.zeros(3)
     zz[: z.size] = z
-    uk.linearise(spec[0], spec[1], x, zz, w, y, H, row)
+    uk.linearise(spec[0], spec[1], x, zz, w, f, y, H, row)
     return y, H
+
+
+def _evaluate(model: Any, x: np.ndarray, z: np.ndarray, w: Any, f: np.ndarray = _F0) -> Any:
+    if isinstance(model, PendulumInclinometer):
+        return model.evaluate(x, z, w, f)
+    return model.evaluate(x, z, w)
 
 
 # --- linearisations ------------------------------------------------------------------------------
@@ -127,12 +148,13 @@ def test_compiled_linearisations_equal_evaluate() -> None:
     for _ in range(60):
         x = _random_state(rng)
         w = rng.uniform(-0.5, 0.5, 3)
+        f = np.array([0.0, 0.0, -9.8]) + rng.uniform(-3.0, 3.0, 3)
         for model in _models(rng):
-            z = _reading(model, x, w, rng)
-            m = model.evaluate(x, z, w)
+            z = _reading(model, x, w, rng, f)
+            m = _evaluate(model, x, z, w, f)
             assert m is not None
             row = int(rng.integers(0, 4))
-            y, H = _linearise(model, x, z, w, row)
+            y, H = _linearise(model, x, z, w, row, f)
             d = model.dim
             _assert_rel(y[row : row + d], m.y)
             _assert_rel(H[row : row + d], m.H)
@@ -152,8 +174,9 @@ def test_wrapped_residuals_equal_evaluate() -> None:
     for dz in (math.pi - 1e-9, -math.pi + 1e-9, 3 * math.pi, -5 * math.pi, 0.0):
         cases.append((Heading(0.01), np.array([yaw + dz])))
         cases.append((Inclinometer(0.01), np.array([dz, -dz])))
+        cases.append((PendulumInclinometer(0.01), np.array([dz, -dz])))
     for model, zc in cases:
-        m = model.evaluate(x, zc, None)
+        m = _evaluate(model, x, zc, None)
         assert m is not None
         y, H = _linearise(model, x, zc, np.zeros(3), 0)
         _assert_rel(y[: model.dim], m.y)
@@ -185,7 +208,7 @@ def _stack(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
     w = rng.uniform(-0.5, 0.5, 3)
     models = _models(rng)
     chosen = rng.choice(len(models), n, replace=False)
-    ms = [models[i].evaluate(x, _reading(models[i], x, w, rng), w) for i in chosen]
+    ms = [_evaluate(models[i], x, _reading(models[i], x, w, rng), w) for i in chosen]
     return np.vstack([m.H for m in ms]), np.concatenate([m.y for m in ms])
 
 
@@ -440,6 +463,7 @@ def _compare(out: engine.EngineOutput, ref: engine.EngineOutput) -> None:
     np.testing.assert_array_equal(out.t, ref.t)
     _assert_rel(out.x[:, 3:], ref.x[:, 3:])
     _assert_rel(out.P_diag, ref.P_diag)
+    _assert_rel(out.P_cross, ref.P_cross)
     assert len(out.ledger) == len(ref.ledger)
     for a, b in zip(out.ledger, ref.ledger, strict=True):
         assert list(a) == list(b)

@@ -41,7 +41,7 @@ from __future__ import annotations
 import gc
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -82,6 +82,13 @@ MAX_DIM = uk.MAX_DIM
 """Largest sensor dimension; the ledger keeps this many innovation / R columns."""
 SAME_EPOCH_S = 1e-9
 """Stamps closer than this are one epoch under the ``exact`` policy (float rounding)."""
+P_CROSS_PAIRS: tuple[tuple[int, int], ...] = tuple(
+    (b + i, b + j) for b in (0, 3, 6) for i, j in ((0, 1), (0, 2), (1, 2))
+)
+"""The off-diagonal elements ``P[i, j]`` of the position, velocity and attitude error blocks
+recorded at every output row (:attr:`EngineOutput.P_cross`), in this order: dr_N·dr_E,
+dr_N·dr_D, dr_E·dr_D, then the same for dv and phi."""
+N_CROSS = len(P_CROSS_PAIRS)
 
 LEDGER_KEYS: tuple[str, ...] = (
     "t", "t_epoch", "sensor", "row", "fate", "reason", "statistic", "threshold", "iterations",
@@ -151,17 +158,23 @@ class EngineConfig:
 
 @dataclass(frozen=True)
 class _Records:
-    """The outputs so far: solution samples (t, x, diag P) and the ledger rows."""
+    """The outputs so far: solution samples (t, x, diag P, the 3×3 blocks' off-diagonal
+    elements :data:`P_CROSS_PAIRS`) and the ledger rows."""
 
     sol_t: Array
     sol_x: Array
     sol_p: Array
     ledger: list[dict[str, Any]]
+    sol_cross: Array
 
 
 @dataclass(frozen=True)
 class EngineOutput:
-    """What a run produced: solution samples, per-reading ledger rows, final state."""
+    """What a run produced: solution samples, per-reading ledger rows, final state.
+
+    ``P_cross`` (N, 9): at each solution sample, the off-diagonal elements of P's position,
+    velocity and attitude error blocks, ``P[i, j]`` for ``(i, j)`` in :data:`P_CROSS_PAIRS`
+    (keyword only)."""
 
     t: Array
     x: Array  # (N, 16) nominal states
@@ -169,6 +182,14 @@ class EngineOutput:
     ledger: list[dict[str, Any]]
     x_final: Array
     P_final: Array
+    P_cross: Array = field(kw_only=True)  # (N, 9)
+
+
+def cross_terms(P: Array) -> Array:
+    """The 9 off-diagonal elements of P's position, velocity and attitude blocks
+    (:data:`P_CROSS_PAIRS`), as :attr:`EngineOutput.P_cross` records them."""
+    Pa = np.asarray(P, dtype=float)
+    return np.array([Pa[i, j] for i, j in P_CROSS_PAIRS])
 
 
 def _grow(a: NDArray[Any], need: int) -> NDArray[Any]:
@@ -203,7 +224,9 @@ def _row(rates: Array, r: int) -> Vec3:
 def _interval_done(
     t: float, state: State, Pw: Array, icur: IntArray, out_t: Array, out_x: Array, out_p: Array
 ) -> None:
-    """Count a completed interval; every ``output_every``-th, an output row (t, x, diag P)."""
+    """Count a completed interval; every ``output_every``-th, an output row: t, x, and in
+    ``out_p`` P's diagonal (15) then the off-diagonal elements of its position, velocity and
+    attitude blocks (9, :data:`P_CROSS_PAIRS`)."""
     icur[I_DONE] += 1
     if icur[I_DONE] % icur[I_EVERY] == 0:
         o = icur[I_N_OUT]
@@ -211,6 +234,11 @@ def _interval_done(
         _store(out_x[o], state)
         for i in range(N_STATES):
             out_p[o, i] = Pw[i * 16 + i]
+        for b in range(3):  # P_CROSS_PAIRS, spelt out
+            a = 3 * b
+            out_p[o, N_STATES + a] = Pw[a * 16 + a + 1]
+            out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
+            out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
         icur[I_N_OUT] = o + 1
 
 
@@ -495,7 +523,7 @@ class Navigator:
         self._lg_flt = np.zeros((64, uk.N_LFLT))
         self._out_t = np.zeros(64)
         self._out_x = np.zeros((64, NOM_SIZE))
-        self._out_p = np.zeros((64, N_STATES))
+        self._out_p = np.zeros((64, N_STATES + N_CROSS))  # diag P, then P_CROSS_PAIRS
         self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
         self._record()
 
@@ -798,7 +826,8 @@ class Navigator:
         n = int(self._icur[I_N_OUT])
         self._out_t[n] = self.t
         self._out_x[n] = self.x
-        self._out_p[n] = np.diag(self.P)
+        self._out_p[n, :N_STATES] = np.diag(self.P)
+        self._out_p[n, N_STATES:] = cross_terms(self.P)
         self._icur[I_N_OUT] = n + 1
 
     @property
@@ -806,7 +835,11 @@ class Navigator:
         """The solution samples and ledger rows so far (copies)."""
         n = int(self._icur[I_N_OUT])
         return _Records(
-            self._out_t[:n].copy(), self._out_x[:n].copy(), self._out_p[:n].copy(), self._ledger()
+            self._out_t[:n].copy(),
+            self._out_x[:n].copy(),
+            self._out_p[:n, :N_STATES].copy(),
+            self._ledger(),
+            self._out_p[:n, N_STATES:].copy(),
         )
 
     def adaptation_state(self, sensor: str) -> Any:
@@ -855,10 +888,11 @@ class Navigator:
         return EngineOutput(
             self._out_t[:n].copy(),
             self._out_x[:n].copy(),
-            self._out_p[:n].copy(),
+            self._out_p[:n, :N_STATES].copy(),
             self._ledger(),
             self.x.copy(),
             self.P.copy(),
+            P_cross=self._out_p[:n, N_STATES:].copy(),
         )
 
 

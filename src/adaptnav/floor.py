@@ -37,6 +37,7 @@ from adaptnav import earth
 from adaptnav.attitude import wrap_angle
 from adaptnav.io import Mission
 from adaptnav.results import (
+    COV_COLUMNS,
     SD_COLUMNS,
     SOLUTION_COLUMNS,
     Result,
@@ -154,7 +155,7 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
         "pitch_rad": rpy[:, 1],
         "yaw_rad": wrap_angle(rpy[:, 2]),
         **{c: zeros for c in SOLUTION_COLUMNS if c.startswith(("ba_", "bg_"))},
-        **{c: np.full(n, np.nan) for c in SD_COLUMNS},
+        **{c: np.full(n, np.nan) for c in (*SD_COLUMNS, *COV_COLUMNS)},
     }
     solution = pd.DataFrame({c: columns[c] for c in SOLUTION_COLUMNS})
     ledger = ledger_frame([])

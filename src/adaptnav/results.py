@@ -4,9 +4,15 @@ A :class:`Result` holds what :func:`adaptnav.engine.run_batch` produced, as pand
 units in the column names:
 
 * ``solution``: one row per recorded epoch: time, nominal state (lat/lon in rad, ellipsoidal
-  height, NED velocity, ZYX Euler angles of ``q_nb``, IMU biases) and one standard deviation
+  height, NED velocity, ZYX Euler angles of ``q_nb``, IMU biases), one standard deviation
   ``sd_<name>`` per error state (:data:`adaptnav.errorstate.STATE_NAMES`), the square root of
-  P's diagonal. Only the diagonal of P is recorded by the engine, so correlations are lost.
+  P's diagonal, and the covariances inside the position, velocity and attitude error blocks,
+  ``cov_<a>_<b> = P[a, b]`` (:data:`COV_COLUMNS`: ``cov_dr_N_dr_E``, ``cov_dr_N_dr_D``,
+  ``cov_dr_E_dr_D`` in m², the same for dv in m²/s² and phi in rad²). With the ``sd_`` columns
+  they give each 3×3 block of P in full (:func:`covariance_block`), which the NEES needs
+  (:mod:`adaptnav.evaluate`, docs/metrics.md); the correlations between blocks and with the
+  biases are not kept. Run folders written before these columns existed load without them
+  (they are not required).
 * ``ledger``: the engine's per-reading rows as they are (``t, t_epoch, sensor, row, fate, reason,
   statistic, threshold, iterations, nu_j, r_j``), plus a ``kind`` column when sensor kinds are
   given.
@@ -34,7 +40,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav.engine import MAX_DIM, EngineOutput
+from adaptnav.engine import MAX_DIM, P_CROSS_PAIRS, EngineOutput
 from adaptnav.errorstate import N_STATES, STATE_NAMES
 from adaptnav.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_POS, NOM_SIZE, NOM_VEL
 
@@ -48,7 +54,22 @@ STATE_COLUMNS: tuple[str, ...] = (
     "ba_x_m_s2", "ba_y_m_s2", "ba_z_m_s2", "bg_x_rad_s", "bg_y_rad_s", "bg_z_rad_s",
 )  # fmt: skip
 SD_COLUMNS: tuple[str, ...] = tuple(f"sd_{name}" for name in STATE_NAMES)
-SOLUTION_COLUMNS: tuple[str, ...] = ("t_s", *STATE_COLUMNS, *SD_COLUMNS)
+
+
+def cov_column(a: str, b: str) -> str:
+    """The solution column of ``P[a, b]`` for error-state names a, b (``cov_dr_N_dr_E``)."""
+    return f"cov_{a}_{b}"
+
+
+COV_COLUMNS: tuple[str, ...] = tuple(
+    cov_column(STATE_NAMES[i], STATE_NAMES[j]) for i, j in P_CROSS_PAIRS
+)
+"""Off-diagonal elements of P's position, velocity and attitude blocks, in the order of
+:data:`adaptnav.engine.P_CROSS_PAIRS` (units m², m²/s², rad²)."""
+SOLUTION_COLUMNS: tuple[str, ...] = ("t_s", *STATE_COLUMNS, *SD_COLUMNS, *COV_COLUMNS)
+"""Every column of a solution table as written now."""
+REQUIRED_SOLUTION_COLUMNS: tuple[str, ...] = ("t_s", *STATE_COLUMNS, *SD_COLUMNS)
+"""The columns a solution must have (older run folders have no :data:`COV_COLUMNS`)."""
 LEDGER_COLUMNS: tuple[str, ...] = (
     "t", "t_epoch", "sensor", "row", "fate", "reason", "statistic", "threshold", "iterations",
     *(f"nu_{j}" for j in range(MAX_DIM)), *(f"r_{j}" for j in range(MAX_DIM)),
@@ -65,7 +86,7 @@ TABLE_FILES: dict[str, str] = {
     "repairs": "repairs.parquet",
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
-    "solution": SOLUTION_COLUMNS,
+    "solution": REQUIRED_SOLUTION_COLUMNS,
     "ledger": LEDGER_COLUMNS,
     "noise": NOISE_COLUMNS,
     "repairs": REPAIR_COLUMNS,
@@ -116,7 +137,7 @@ class Result:
         return cls(
             filter=filter,
             mission=mission,
-            solution=solution_frame(output.t, output.x, output.P_diag),
+            solution=solution_frame(output.t, output.x, output.P_diag, output.P_cross),
             ledger=ledger,
             noise=noise_frame(ledger),
             meta=dict(meta or {}),
@@ -147,17 +168,27 @@ def quat_to_euler_rows(q: Array) -> Array:
     return np.stack([roll, pitch, yaw], axis=-1)
 
 
-def solution_frame(t: Array, x: Array, P_diag: Array) -> pd.DataFrame:
-    """The ``solution`` table from times (N,), nominal states (N, 16) and P's diagonal (N, 15).
+def solution_frame(
+    t: Array, x: Array, P_diag: Array, P_cross: Array | None = None
+) -> pd.DataFrame:
+    """The ``solution`` table from times (N,), nominal states (N, 16), P's diagonal (N, 15)
+    and the off-diagonal elements of its position, velocity and attitude blocks (N, 9,
+    :data:`COV_COLUMNS`; None: NaN, unknown).
 
     ``sd_<name> = sqrt(P_ii)``; a negative diagonal element (a broken covariance) gives NaN.
     """
     ts = np.asarray(t, dtype=float).reshape(-1)
     xs = np.asarray(x, dtype=float).reshape(-1, NOM_SIZE)
     ps = np.asarray(P_diag, dtype=float).reshape(-1, N_STATES)
-    if not (ts.size == xs.shape[0] == ps.shape[0]):
+    n_cov = len(COV_COLUMNS)
+    if P_cross is None:
+        cs = np.full((ts.size, n_cov), np.nan)
+    else:
+        cs = np.asarray(P_cross, dtype=float).reshape(-1, n_cov)
+    if not (ts.size == xs.shape[0] == ps.shape[0] == cs.shape[0]):
         raise ValueError(
-            f"solution: t {ts.shape}, x {xs.shape} and P_diag {ps.shape} differ in rows"
+            f"solution: t {ts.shape}, x {xs.shape}, P_diag {ps.shape} and P_cross {cs.shape} "
+            "differ in rows"
         )
     sd = np.sqrt(np.where(ps >= 0.0, ps, np.nan))
     blocks = [
@@ -168,8 +199,35 @@ def solution_frame(t: Array, x: Array, P_diag: Array) -> pd.DataFrame:
         xs[:, NOM_BA],
         xs[:, NOM_BG],
         sd,
+        cs,
     ]
     return pd.DataFrame(np.hstack(blocks), columns=list(SOLUTION_COLUMNS))
+
+
+def has_covariances(solution: pd.DataFrame, names: Sequence[str]) -> bool:
+    """Whether ``solution`` holds the covariances between the error states ``names`` (every
+    pair's :func:`cov_column` present and not all NaN). Tables of older run folders do not."""
+    columns = [cov_column(a, b) for k, a in enumerate(names) for b in names[k + 1 :]]
+    return all(c in solution.columns for c in columns) and bool(
+        np.isfinite(solution[columns].to_numpy(dtype=float)).any()
+    )
+
+
+def covariance_block(solution: pd.DataFrame, names: Sequence[str]) -> Array:
+    """P's block (N, k, k) over the error states ``names`` (e.g. ``("dr_N", "dr_E",
+    "dr_D")``) at every row: ``sd_<a>²`` on the diagonal, ``cov_<a>_<b>`` off it, and zero off
+    it when the table has no covariances (:func:`has_covariances`, e.g. an older run folder).
+    The pairs must be in the order of :data:`adaptnav.errorstate.STATE_NAMES`."""
+    k = len(names)
+    P = np.zeros((len(solution), k, k))
+    for i, a in enumerate(names):
+        P[:, i, i] = solution[f"sd_{a}"].to_numpy(dtype=float) ** 2
+    if has_covariances(solution, names):
+        for i, a in enumerate(names):
+            for j in range(i + 1, k):
+                v = solution[cov_column(a, names[j])].to_numpy(dtype=float)
+                P[:, i, j] = P[:, j, i] = v
+    return P
 
 
 def ledger_frame(
