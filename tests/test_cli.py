@@ -106,8 +106,12 @@ def test_run_then_evaluate_json(tmp_path: Path, kind: str) -> None:
     assert 110.0 < d["distance_m"] < 130.0
     assert 0.0 < d["rmse_m"] < 3.0
     assert d["relative_rmse_pct"] == pytest.approx(100 * d["rmse_m"] / d["distance_m"])
+    for block in ("position", "velocity", "attitude"):
+        assert f"mean_nees_{block}" in d and f"nees_{block}_in_95" in d
+    assert d["mean_nees_position"] > 0.0 and d["nees_uses_correlations"] is True
     res = runner.invoke(app, ["evaluate", str(out)])
     assert res.exit_code == 0 and "RMSE (m)" in res.stdout
+    assert "mean NEES, attitude" in res.stdout
 
 
 def test_every_reading_has_a_fate(tmp_path: Path) -> None:

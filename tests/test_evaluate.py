@@ -9,10 +9,14 @@ import pandas as pd
 import pytest
 from scipy.stats import chi2
 
-from adaptnav import earth
+from adaptnav import attitude, earth
 from adaptnav.evaluate import (
+    NEES_BAND,
     Metrics,
+    block_errors,
     evaluate,
+    fraction_in_band,
+    nees,
     nees_position,
     nis_bounds,
     nis_summary,
@@ -22,7 +26,16 @@ from adaptnav.evaluate import (
     rmse,
     travelled_distance,
 )
-from adaptnav.results import SD_COLUMNS, SOLUTION_COLUMNS, Result, ledger_frame, noise_frame
+from adaptnav.results import (
+    COV_COLUMNS,
+    REQUIRED_SOLUTION_COLUMNS,
+    SD_COLUMNS,
+    SOLUTION_COLUMNS,
+    Result,
+    cov_column,
+    ledger_frame,
+    noise_frame,
+)
 
 LAT0, LON0, H0 = math.radians(43.0), math.radians(5.5), -20.0
 
@@ -69,21 +82,29 @@ def test_straight_line_constant_east_offset() -> None:
     np.testing.assert_allclose(err[["dN_m", "dD_m"]], 0.0, atol=1e-6)
     np.testing.assert_allclose(err["horizontal_m"], 3.0, atol=1e-6)
     assert rmse(err) == pytest.approx(3.0, abs=1e-6)
-    assert travelled_distance(truth) == pytest.approx(1000.0, abs=1e-6)
+    # The line is straight in the tangent plane at its start, so it climbs s²/(2R) above the
+    # ellipsoid: its horizontal length is ∫ cos(s/R) ds = L - L³/(6R²), 4 µm short of 1 km.
+    L, R = 1000.0, float(earth.meridian_radius(LAT0))
+    assert travelled_distance(truth) == pytest.approx(L - L**3 / (6.0 * R**2), abs=1e-8)
+    assert travelled_distance(truth) == pytest.approx(1000.0, abs=1e-5)
     m = evaluate(make_result(sol, []), truth)
     assert isinstance(m, Metrics)
     assert m.rmse_m == pytest.approx(3.0, abs=1e-6)
     assert m.relative_rmse_pct == pytest.approx(0.3, abs=1e-8)
     assert m.horizontal_rmse_m == pytest.approx(3.0, abs=1e-6)
     assert m.max_horizontal_error_m == pytest.approx(3.0, abs=1e-6)
-    assert m.distance_m == pytest.approx(1000.0, abs=1e-6)
+    assert m.distance_m == pytest.approx(1000.0, abs=1e-5)
     assert m.duration_s == 1000.0
     assert m.samples == 1001
     assert m.mean_nees_position == pytest.approx(9.0, abs=1e-5)  # (3 m / 1 m)²
+    assert m.nees_position_in_95 == 1.0  # 9 < 9.348
+    assert m.nees_uses_correlations
     d = m.to_dict()
     for key in ("rmse_m", "relative_rmse_pct", "distance_m", "duration_s"):
         assert key in d
     assert d["yaw_rmse_rad"] is None  # truth without attitude
+    for key in ("mean_nees_velocity", "mean_nees_attitude", "nees_velocity_in_95"):
+        assert d[key] is None  # truth without velocity and attitude
     assert d["counts"] == {} and d["nis"] == {}
 
 
@@ -168,8 +189,181 @@ def test_interpolation_at_truth_times_and_span() -> None:
 def test_nees_position() -> None:
     truth = straight_north().iloc[:11]
     sol = offset_solution(truth, np.array([1.0, -2.0, 2.0]), sd=2.0)
-    nees = nees_position(sol, truth)
-    np.testing.assert_allclose(nees["nees"], (1.0 + 4.0 + 4.0) / 4.0, atol=1e-6)
+    values = nees_position(sol, truth)
+    np.testing.assert_allclose(values["nees"], (1.0 + 4.0 + 4.0) / 4.0, atol=1e-6)
+
+
+def _set_block(sol: pd.DataFrame, names: tuple[str, str, str], P: np.ndarray) -> None:
+    """Write a constant 3×3 covariance ``P`` of the error states ``names`` into ``sol``."""
+    for i, a in enumerate(names):
+        sol[f"sd_{a}"] = math.sqrt(P[i, i])
+        for j in range(i + 1, 3):
+            sol[cov_column(a, names[j])] = P[i, j]
+
+
+def test_nees_uses_the_correlations_by_hand() -> None:
+    """P = [[4, 3, 0], [3, 4, 0], [0, 0, 1]] m²: along (1, -1, 0)/√2 its variance is 4 - 3 = 1,
+    along (1, 1, 0)/√2 it is 7. e = (1, -1, 0) m gives NEES |e|²/1 = 2, e = (1, 1, 0) m gives
+    2/7; P's diagonal alone gives 1/4 + 1/4 = 0.5 for both."""
+    truth = straight_north().iloc[:21]
+    P = np.array([[4.0, 3.0, 0.0], [3.0, 4.0, 0.0], [0.0, 0.0, 1.0]])
+    for e, full in (([1.0, -1.0, 0.0], 2.0), ([1.0, 1.0, 0.0], 2.0 / 7.0)):
+        sol = offset_solution(truth, np.array(e))
+        _set_block(sol, ("dr_N", "dr_E", "dr_D"), P)
+        got = nees(sol, truth, "position")
+        assert got.attrs["uses_correlations"]
+        np.testing.assert_allclose(got["nees"], full, rtol=1e-6)
+        diagonal = nees(sol.drop(columns=list(COV_COLUMNS)), truth, "position")
+        assert not diagonal.attrs["uses_correlations"]
+        np.testing.assert_allclose(diagonal["nees"], 0.5, rtol=1e-6)
+
+
+def test_nees_monte_carlo_full_block_against_diagonal() -> None:
+    """Position errors drawn from a known correlated P (heading error: N and E strongly
+    correlated), the solution claiming that P. With the full block NEES ~ χ²(3): mean 3, spread
+    var 6 and 95 % inside NEES_BAND. The diagonal-only NEES also has mean 3 (tr(D⁻¹P) = 3 for
+    any P), but not the χ²(3) spread: var 2 tr(ρ²) = 2 (3 + 2 Σ ρ_ij²) and the wrong share in the
+    band, so a test on its per-epoch values would call a consistent filter inconsistent."""
+    rng = np.random.default_rng(2024)
+    n = 20000
+    t = np.arange(n, dtype=float)
+    truth = truth_from_ned(t, np.zeros((n, 3)))  # at rest: one truth point, n epochs
+    sd = np.array([3.0, 3.0, 1.0])
+    rho = np.array([[1.0, 0.95, 0.2], [0.95, 1.0, -0.1], [0.2, -0.1, 1.0]])
+    P = rho * np.outer(sd, sd)
+    e = rng.multivariate_normal(np.zeros(3), P, size=n)
+    sol = offset_solution(truth, np.zeros(3))
+    lat, lon, h = earth.ned_to_geodetic(e, LAT0, LON0, H0)
+    sol["lat_rad"], sol["lon_rad"], sol["h_m"] = lat, lon, h
+    _set_block(sol, ("dr_N", "dr_E", "dr_D"), P)
+
+    full = nees(sol, truth, "position")["nees"].to_numpy()
+    # standard error of the mean sqrt(6 / n) = 0.017; of the band share sqrt(.95 .05 / n) = 0.0015
+    assert full.mean() == pytest.approx(3.0, abs=0.06)
+    assert full.var() == pytest.approx(6.0, abs=0.4)
+    assert fraction_in_band(full) == pytest.approx(0.95, abs=0.006)
+
+    diagonal = nees(sol.drop(columns=list(COV_COLUMNS)), truth, "position")["nees"].to_numpy()
+    var_diagonal = 2.0 * float(np.sum(rho**2))  # 2 tr(ρ²) = 2 (3 + 2 (0.9025 + 0.04 + 0.01))
+    assert var_diagonal == pytest.approx(9.81)
+    assert diagonal.var() == pytest.approx(var_diagonal, rel=0.1)
+    assert diagonal.var() > 8.0  # clearly not χ²(3)'s 6
+    assert fraction_in_band(diagonal) < 0.93  # clearly not 0.95
+    assert not np.allclose(full, diagonal, rtol=0.1)
+
+    # and evaluate() reports the full-block figures with the flag set
+    m = evaluate(make_result(sol, []), truth)
+    assert m.mean_nees_position == pytest.approx(full.mean(), rel=1e-9)
+    assert m.nees_position_in_95 == pytest.approx(fraction_in_band(full))
+    assert m.nees_uses_correlations
+    old = evaluate(make_result(sol[list(REQUIRED_SOLUTION_COLUMNS)], []), truth)
+    assert not old.nees_uses_correlations
+    assert old.nees_position_in_95 == pytest.approx(fraction_in_band(diagonal))
+
+
+def _moving_truth(t: np.ndarray) -> pd.DataFrame:
+    """North at 2 m/s with a heave velocity, and an attitude whose yaw crosses ±π."""
+    truth = truth_from_ned(t, np.stack([2.0 * t, 0.0 * t, 0.0 * t], axis=-1))
+    truth["vn_m_s"] = 2.0
+    truth["ve_m_s"] = 0.1 * np.sin(t)
+    truth["vd_m_s"] = 0.3 * np.cos(0.5 * t)
+    truth["roll_rad"] = 0.05 * np.sin(0.3 * t)
+    truth["pitch_rad"] = -0.04 + 0.02 * np.cos(0.2 * t)
+    truth["yaw_rad"] = attitude.wrap_angle(math.pi - 0.05 + 0.01 * t)
+    return truth
+
+
+def test_velocity_nees_by_hand() -> None:
+    t = np.arange(11, dtype=float)
+    truth = _moving_truth(t)
+    sol = offset_solution(truth, np.zeros(3))
+    dv = np.array([0.2, -0.1, 0.05])  # truth minus estimate
+    for c, d in zip(("vn_m_s", "ve_m_s", "vd_m_s"), dv, strict=True):
+        sol[c] = truth[c] - d
+    P = np.array([[0.04, 0.01, 0.0], [0.01, 0.09, -0.02], [0.0, -0.02, 0.01]])
+    _set_block(sol, ("dv_N", "dv_E", "dv_D"), P)
+    np.testing.assert_allclose(block_errors(sol, truth, "velocity")[["e_0", "e_1", "e_2"]],
+                               np.broadcast_to(dv, (t.size, 3)), atol=1e-12)  # fmt: skip
+    expected = float(dv @ np.linalg.solve(P, dv))
+    got = nees(sol, truth, "velocity")
+    np.testing.assert_allclose(got["nees"], expected, rtol=1e-9)
+    m = evaluate(make_result(sol, []), truth)
+    assert m.mean_nees_velocity == pytest.approx(expected, rel=1e-9)
+    assert m.nees_velocity_in_95 == float(NEES_BAND[0] <= expected <= NEES_BAND[1])
+
+
+def test_attitude_nees_with_a_known_rotation_vector() -> None:
+    """The estimate is the truth turned back by a known phi, C_nb_hat = Exp(-phi) C_nb_true,
+    i.e. C_nb_true = Exp(phi) C_nb_hat (docs/conventions.md): the attitude error is phi, not
+    -phi, and its NEES is phiᵀ P⁻¹ phi, computed here by hand."""
+    t = np.arange(0.0, 21.0, 1.0)
+    truth = _moving_truth(t)
+    sol = offset_solution(truth, np.zeros(3))
+    phi = np.array([0.004, -0.003, 0.02])  # rad, in n
+    q_back = attitude.rotvec_to_quat(-phi)
+    rows = truth[["roll_rad", "pitch_rad", "yaw_rad"]].to_numpy()
+    est = np.array([
+        attitude.quat_to_euler(attitude.quat_mult(q_back, attitude.euler_to_quat(*r)))
+        for r in rows
+    ])  # fmt: skip
+    sol["roll_rad"], sol["pitch_rad"], sol["yaw_rad"] = est[:, 0], est[:, 1], est[:, 2]
+    got_phi = block_errors(sol, truth, "attitude")[["e_0", "e_1", "e_2"]].to_numpy()
+    np.testing.assert_allclose(got_phi, np.broadcast_to(phi, got_phi.shape), atol=1e-10)
+
+    sd = np.array([0.002, 0.002, 0.01])
+    rho = np.array([[1.0, -0.4, 0.5], [-0.4, 1.0, 0.3], [0.5, 0.3, 1.0]])
+    P = rho * np.outer(sd, sd)
+    _set_block(sol, ("phi_N", "phi_E", "phi_D"), P)
+    # phiᵀ P⁻¹ phi with P⁻¹ = D⁻¹ ρ⁻¹ D⁻¹ by the adjugate of ρ
+    z = phi / sd
+    a, b, c = rho[0, 1], rho[0, 2], rho[1, 2]
+    adj = np.array(
+        [[1 - c * c, b * c - a, a * c - b], [b * c - a, 1 - b * b, a * b - c],
+         [a * c - b, a * b - c, 1 - a * a]]
+    )  # fmt: skip
+    det = 1 + 2 * a * b * c - a * a - b * b - c * c
+    expected = float(z @ adj @ z) / det
+    got = nees(sol, truth, "attitude")
+    np.testing.assert_allclose(got["nees"], expected, rtol=1e-6)
+    m = evaluate(make_result(sol, []), truth)
+    assert m.mean_nees_attitude == pytest.approx(expected, rel=1e-6)
+    assert math.isnan(m.mean_nees_velocity) is False  # the truth has velocity too
+
+
+def test_nees_needs_the_truth_group() -> None:
+    truth = straight_north().iloc[:5]
+    sol = offset_solution(truth, np.zeros(3))
+    with pytest.raises(ValueError, match="no velocity NEES"):
+        nees(sol, truth, "velocity")
+    with pytest.raises(ValueError, match="no attitude NEES"):
+        nees(sol, truth, "attitude")
+    with pytest.raises(ValueError, match="block"):
+        nees(sol, truth, "bias")  # type: ignore[arg-type]
+
+
+def test_fraction_in_band() -> None:
+    lo, hi = NEES_BAND
+    assert lo == pytest.approx(0.2157953, rel=1e-6)  # χ²(3) table values
+    assert hi == pytest.approx(9.3484036, rel=1e-6)
+    values = np.array([0.1, 0.3, 5.0, 9.3, 9.4, math.nan, lo, hi])
+    assert fraction_in_band(values) == pytest.approx(5.0 / 7.0)  # the NaN is not counted
+    assert math.isnan(fraction_in_band(np.array([math.nan])))
+    assert fraction_in_band(np.array([1.0, 2.0, 20.0]), (0.5, 10.0)) == pytest.approx(2.0 / 3.0)
+
+
+def test_distance_is_horizontal_despite_heave() -> None:
+    """1 km north at 1 m/s while heaving ±2 m with an 8-s period: the 3-D path is about 1.5
+    times longer, the scored distance is the horizontal 1 km (less the tangent line's 4 µm)."""
+    t = np.arange(1001, dtype=float)
+    heave = 2.0 * np.sin(2.0 * np.pi * t / 8.0)
+    truth = truth_from_ned(t, np.stack([t, np.zeros_like(t), -heave], axis=-1))
+    steps_3d = np.sqrt(1.0 + np.diff(heave) ** 2).sum()
+    assert steps_3d > 1400.0
+    assert travelled_distance(truth) == pytest.approx(1000.0, abs=1e-4)
+    sol = offset_solution(truth, np.array([0.0, 3.0, 0.0]))
+    m = evaluate(make_result(sol, []), truth)
+    assert m.distance_m == pytest.approx(1000.0, abs=1e-4)
+    assert m.relative_rmse_pct == pytest.approx(0.3, rel=1e-6)
 
 
 def _used(sensor: str, stat: float, dim: int) -> dict[str, object]:

@@ -13,14 +13,18 @@ computed exactly through ECEF: ``e_n = C_ne(lat_ref, lon_ref) (r_e(est) - r_e(re
 matter to any metric here.)
 
 * P-32: ``RMSE = sqrt(mean(dN² + dE² + dD²))`` in metres;
-* P-33: ``relative RMSE (%) = 100 RMSE / D`` with D the travelled distance of the reference,
-  the sum of its 3-D steps ``|r_e(k+1) - r_e(k)|`` (a chord's length is the same in every
-  Cartesian frame, so this is the local-metre step);
-* NEES of position with P's diagonal only (the engine records no correlations):
-  ``sum_i (e_i / sd_i)²`` over N, E, D, expected 3 for a consistent filter;
+* P-33: ``relative RMSE (%) = 100 RMSE / D`` with D the **horizontal** length of the reference
+  track, the sum of its horizontal (N, E) steps (:func:`travelled_distance`), so that a
+  vessel's heave, which the reference records, does not lengthen it;
+* NEES of position, velocity and attitude (:func:`nees`), each with the full 3×3 block of P
+  the engine records: ``NEES_k = e_kᵀ P_k⁻¹ e_k``, χ²(3)-distributed for a consistent filter
+  (mean 3; 95 % of the epochs inside ``[χ²₀.₀₂₅(3), χ²₀.₉₇₅(3)] ≈ [0.216, 9.348]``,
+  :data:`NEES_BAND`);
 * NIS per sensor from the ledger: the mean of the used readings' NIS, ``y' S^-1 y``; for a
   consistent filter with independent innovations ``K mean ~ chi²(sum_k d_k)``, which gives
   the two-sided 95 % bounds of the mean (spec §9).
+
+The definitions, in words and equations, are in docs/metrics.md.
 """
 
 from __future__ import annotations
@@ -28,17 +32,19 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
 from adaptnav import earth
 from adaptnav.attitude import wrap_angle
 from adaptnav.engine import MAX_DIM
-from adaptnav.results import Result, jsonable, ledger_counts
+from adaptnav.errorstate import STATE_NAMES
+from adaptnav.results import Result, covariance_block, has_covariances, jsonable, ledger_counts
 
 Array = NDArray[np.float64]
 
@@ -48,6 +54,23 @@ TRUTH_ATTITUDE = ("roll_rad", "pitch_rad", "yaw_rad")
 POSITION_SD = ("sd_dr_N", "sd_dr_E", "sd_dr_D")
 NIS_CONFIDENCE = 0.95
 """Two-sided probability of the NIS bounds."""
+NeesBlock = Literal["position", "velocity", "attitude"]
+NEES_BLOCKS: tuple[NeesBlock, ...] = get_args(NeesBlock)
+NEES_STATES: dict[NeesBlock, tuple[str, str, str]] = {
+    "position": ("dr_N", "dr_E", "dr_D"),
+    "velocity": ("dv_N", "dv_E", "dv_D"),
+    "attitude": ("phi_N", "phi_E", "phi_D"),
+}
+"""The error states (:data:`adaptnav.errorstate.STATE_NAMES`) of each NEES block."""
+NEES_DOF = 3
+NEES_CONFIDENCE = 0.95
+NEES_BAND: tuple[float, float] = (
+    float(chi2.ppf((1.0 - NEES_CONFIDENCE) / 2.0, NEES_DOF)),
+    float(chi2.ppf((1.0 + NEES_CONFIDENCE) / 2.0, NEES_DOF)),
+)
+"""Two-sided 95 % interval of one epoch's NEES for a consistent filter, χ²(3) quantiles
+0.025 and 0.975: about [0.216, 9.348]."""
+assert all(n in STATE_NAMES for names in NEES_STATES.values() for n in names)
 
 
 def _column(frame: pd.DataFrame, name: str) -> Array:
@@ -152,15 +175,20 @@ def horizontal_rmse(errors: pd.DataFrame) -> float:
 
 
 def travelled_distance(truth: pd.DataFrame) -> float:
-    """Length of the reference path, ``D = sum_k |r_e(k+1) - r_e(k)|`` (m): the sum of its
-    3-D steps, each equal to the step's length in local metres (P-33's denominator)."""
+    """Horizontal length of the reference track (m), P-33's denominator (docs/metrics.md):
+    ``D = sum_k sqrt(dN_k² + dE_k²)`` where ``[dN_k, dE_k, dD_k] = C_ne(mid_k) (r_e(k+1) -
+    r_e(k))`` is step k resolved in the local NED frame at its mid-point (lat and lon
+    averaged). The vertical part of each step is left out, so a vessel's heave (or a car's
+    climb) does not lengthen the distance the errors are scored against."""
     _check_truth(truth)
-    r = earth.geodetic_to_ecef(
-        _column(truth, "lat_rad"), _column(truth, "lon_rad"), _column(truth, "h_m")
-    ).reshape(-1, 3)
-    if r.shape[0] < 2:
+    lat, lon, h = (_column(truth, c) for c in TRUTH_POSITION[1:])
+    if lat.size < 2:
         return 0.0
-    return float(np.sum(np.linalg.norm(np.diff(r, axis=0), axis=1)))
+    lon = np.unwrap(lon)
+    r = earth.geodetic_to_ecef(lat, lon, h).reshape(-1, 3)
+    C = earth.C_ne(0.5 * (lat[1:] + lat[:-1]), 0.5 * (lon[1:] + lon[:-1]))
+    steps = np.einsum("nij,nj->ni", C.reshape(-1, 3, 3), np.diff(r, axis=0))
+    return float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
 
 
 def relative_rmse_pct(rmse_m: float, distance_m: float) -> float:
@@ -175,8 +203,9 @@ def outage_drift(
 
     For each window ``(start, length)`` (s), over the truth samples in ``(start, start +
     length]``: the horizontal error at the last one (``end_horizontal_m``, the drift), its
-    maximum, the 3-D error at the end, the distance travelled (the truth's steps) and the drift
-    as a percentage of it. Also the filter's claimed horizontal σ at the end,
+    maximum, the 3-D error at the end, the horizontal distance travelled (the truth's steps,
+    :func:`travelled_distance`) and the drift as a percentage of it (horizontal over
+    horizontal). Also the filter's claimed horizontal σ at the end,
     ``sqrt(sd_N² + sd_E²)`` (NaN if the solution has no ``sd_dr_*``), to judge its
     consistency. A window with no truth sample is an error.
     """
@@ -214,23 +243,134 @@ def outage_drift(
     return pd.DataFrame(rows)
 
 
-def nees_position(solution: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
-    """Normalised position error squared at the truth times inside the solution span.
+def _euler_rotations(roll: Array, pitch: Array, yaw: Array) -> Any:
+    """``C_nb = Rz(yaw) Ry(pitch) Rx(roll)`` row by row (docs/conventions.md) as a scipy
+    Rotation (its intrinsic "ZYX" sequence is this product)."""
+    return Rotation.from_euler("ZYX", np.stack([yaw, pitch, roll], axis=-1))
 
-    ``NEES_k = (dN/sd_N)² + (dE/sd_E)² + (dD/sd_D)²`` with the ``sd_dr_*`` columns (linearly
-    interpolated). Only P's diagonal is kept by the engine, so this ignores the correlations
-    between the N, E, D errors; for a consistent filter its mean is about 3. Columns
-    ``t_s, nees``.
+
+def block_errors(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) -> pd.DataFrame:
+    """The errors a NEES block is made of, at the truth times inside the solution span
+    (solution interpolated as in :func:`position_errors`). Columns ``t_s, e_0, e_1, e_2``:
+
+    * ``position``: the NED position errors of :func:`position_errors` (m; estimate minus
+      truth, the sign does not matter to a NEES);
+    * ``velocity``: truth minus estimate of ``vn_m_s, ve_m_s, vd_m_s`` (m/s);
+    * ``attitude``: ``phi = Log(C_nb_true C_nb_hatᵀ)`` (rad), the rotation vector in n that
+      carries the estimated attitude onto the true one, ``C_nb_true = Exp(phi) C_nb_hat``
+      (docs/conventions.md), from the Euler angles of both.
+
+    Raises ValueError if the truth lacks the block's columns (velocity and attitude are
+    optional in a reference).
     """
-    missing = [c for c in POSITION_SD if c not in solution.columns]
+    if block not in NEES_STATES:
+        raise ValueError(f"block: {block!r} is not one of {', '.join(NEES_BLOCKS)}")
+    t_truth = _check_truth(truth)
+    if block == "position":
+        errors = position_errors(solution, truth)
+        t = _column(errors, "t_s")
+        e = errors[["dN_m", "dE_m", "dD_m"]].to_numpy(dtype=float)
+    else:
+        group = TRUTH_VELOCITY if block == "velocity" else TRUTH_ATTITUDE
+        missing = [c for c in group if c not in truth.columns]
+        if missing:
+            raise ValueError(f"truth lacks columns {missing}: no {block} NEES")
+        t_sol = _solution_time(solution)
+        keep = _in_span(t_truth, t_sol)
+        t = t_truth[keep]
+        unwrap = block == "attitude"
+        est = [_interp(t, t_sol, _column(solution, c), unwrap=unwrap) for c in group]
+        ref = [_column(truth, c)[keep] for c in group]
+        if block == "velocity":
+            e = np.stack([r - x for r, x in zip(ref, est, strict=True)], axis=-1)
+        elif t.size == 0:
+            e = np.zeros((0, 3))
+        else:
+            C_true, C_hat = _euler_rotations(*ref), _euler_rotations(*est)
+            e = np.asarray((C_true * C_hat.inv()).as_rotvec(), dtype=float).reshape(-1, 3)
+    return pd.DataFrame({"t_s": t, "e_0": e[:, 0], "e_1": e[:, 1], "e_2": e[:, 2]})
+
+
+def nees_from(errors: Array, P: Array) -> Array:
+    """``NEES_k = e_kᵀ P_k⁻¹ e_k`` for errors (N, d) and covariances (N, d, d); NaN where e
+    or P has a non-finite element or P is not positive definite."""
+    e = np.asarray(errors, dtype=float)
+    Pa = np.asarray(P, dtype=float)
+    out = np.full(e.shape[0], math.nan)
+    ok = np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(Pa), axis=(1, 2))
+    if ok.any():
+        eig = np.linalg.eigvalsh(Pa[ok])
+        ok[ok] = eig[:, 0] > 1e-12 * np.maximum(eig[:, -1], 1e-300)
+    if ok.any():
+        x = np.linalg.solve(Pa[ok], e[ok][..., None])[..., 0]
+        out[ok] = np.einsum("ni,ni->n", e[ok], x)
+    return out
+
+
+def nees(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) -> pd.DataFrame:
+    """Normalised estimation error squared of one 3-dof block, at the truth times inside the
+    solution span (docs/metrics.md).
+
+    ``NEES_k = e_kᵀ P_k⁻¹ e_k`` with e_k the block's errors (:func:`block_errors`: position NED
+    m, velocity NED m/s, attitude rotation vector phi rad) and P_k its 3×3 block of the
+    filter's covariance: variances ``sd_<state>²`` and covariances ``cov_<a>_<b>`` of the
+    solution table, each element interpolated linearly in time (a convex mix of two covariances,
+    so still one). For a consistent filter NEES_k ~ χ²(3): mean 3, and inside
+    :data:`NEES_BAND` at 95 % of the epochs. A solution without the ``cov_`` columns (a run
+    folder written before they were recorded) gives the diagonal-only NEES
+    ``sum_i (e_i / sd_i)²``; ``attrs["uses_correlations"]`` of the returned table says which.
+    Columns ``t_s, nees``; NaN where the covariance is unknown or not positive definite.
+    """
+    errors = block_errors(solution, truth, block)  # checks block
+    names = NEES_STATES[block]
+    sd = [f"sd_{n}" for n in names]
+    missing = [c for c in sd if c not in solution.columns]
     if missing:
         raise ValueError(f"solution lacks columns {missing}")
-    errors = position_errors(solution, truth)
     t_sol = _solution_time(solution)
     t = _column(errors, "t_s")
-    e = errors[["dN_m", "dE_m", "dD_m"]].to_numpy(dtype=float)
-    sd = np.stack([_interp(t, t_sol, _column(solution, c)) for c in POSITION_SD], axis=-1)
-    return pd.DataFrame({"t_s": t, "nees": np.sum((e / sd) ** 2, axis=1)})
+    P_sol = covariance_block(solution, names)
+    P = np.empty((t.size, 3, 3))
+    for i in range(3):
+        for j in range(3):
+            P[:, i, j] = _interp(t, t_sol, P_sol[:, i, j])
+    e = errors[["e_0", "e_1", "e_2"]].to_numpy(dtype=float)
+    out = pd.DataFrame({"t_s": t, "nees": nees_from(e, P)})
+    out.attrs["uses_correlations"] = has_covariances(solution, names)
+    return out
+
+
+def nees_position(solution: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """:func:`nees` of the position block (columns ``t_s, nees``)."""
+    return nees(solution, truth, "position")
+
+
+def fraction_in_band(values: Array, band: tuple[float, float] = NEES_BAND) -> float:
+    """The fraction of the finite ``values`` inside ``[band[0], band[1]]`` (NaN for none):
+    for per-epoch NEES of a consistent filter with :data:`NEES_BAND`, about 0.95."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return math.nan
+    return float(np.mean((v >= band[0]) & (v <= band[1])))
+
+
+def _nees_summary(
+    solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock
+) -> tuple[float, float]:
+    """Mean NEES and its in-band fraction for ``block``, NaNs if the truth lacks the block,
+    the solution its σ's, or no epoch has a finite NEES."""
+    group = {"position": TRUTH_POSITION, "velocity": TRUTH_VELOCITY, "attitude": TRUTH_ATTITUDE}
+    sd = [f"sd_{n}" for n in NEES_STATES[block]]
+    if not all(c in truth.columns for c in group[block]) or not all(
+        c in solution.columns for c in sd
+    ):
+        return math.nan, math.nan
+    v = _column(nees(solution, truth, block), "nees")
+    finite = v[np.isfinite(v)]
+    if finite.size == 0:
+        return math.nan, math.nan
+    return float(finite.mean()), fraction_in_band(finite)
 
 
 @dataclass(frozen=True)
@@ -293,10 +433,16 @@ def nis_summary(ledger: pd.DataFrame) -> dict[str, NisSummary]:
 
 @dataclass(frozen=True)
 class Metrics:
-    """Accuracy of one run against the reference (spec §10; P-32, P-33).
+    """Accuracy and consistency of one run against the reference (spec §10; P-32, P-33;
+    docs/metrics.md).
 
     Position metrics cover the truth samples inside the solution span: ``duration_s`` and
-    ``distance_m`` are that span's and that stretch of the reference's.
+    ``distance_m`` are that span's and the horizontal length of that stretch of the
+    reference. ``mean_nees_<block>`` is the mean NEES of the position, velocity and attitude
+    errors (expected 3 for a consistent filter; NaN when the truth lacks the block) and
+    ``nees_<block>_in_95`` the fraction of epochs whose NEES lies in :data:`NEES_BAND`
+    (expected 0.95). ``nees_uses_correlations`` is False when the solution has no covariance
+    columns (an older run folder): the NEES then use P's diagonal only.
     """
 
     filter: str
@@ -311,6 +457,12 @@ class Metrics:
     duration_s: float
     samples: int
     mean_nees_position: float
+    mean_nees_velocity: float
+    mean_nees_attitude: float
+    nees_position_in_95: float
+    nees_velocity_in_95: float
+    nees_attitude_in_95: float
+    nees_uses_correlations: bool
     yaw_rmse_rad: float
     counts: dict[str, dict[str, int]]
     mean_nis: dict[str, float]
@@ -341,10 +493,7 @@ def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
     distance = travelled_distance(inside)
     t = _column(errors, "t_s")
     horizontal = _column(errors, "horizontal_m")
-    if all(c in result.solution.columns for c in POSITION_SD):
-        mean_nees = float(_column(nees_position(result.solution, truth), "nees").mean())
-    else:
-        mean_nees = math.nan
+    consistency = {b: _nees_summary(result.solution, truth, b) for b in NEES_BLOCKS}
     if "dyaw_rad" in errors.columns:
         yaw_rmse = float(np.sqrt(np.mean(_column(errors, "dyaw_rad") ** 2)))
     else:
@@ -362,7 +511,13 @@ def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
         distance_m=distance,
         duration_s=float(t[-1] - t[0]),
         samples=int(t.size),
-        mean_nees_position=mean_nees,
+        mean_nees_position=consistency["position"][0],
+        mean_nees_velocity=consistency["velocity"][0],
+        mean_nees_attitude=consistency["attitude"][0],
+        nees_position_in_95=consistency["position"][1],
+        nees_velocity_in_95=consistency["velocity"][1],
+        nees_attitude_in_95=consistency["attitude"][1],
+        nees_uses_correlations=has_covariances(result.solution, NEES_STATES["position"]),
         yaw_rmse_rad=yaw_rmse,
         counts=ledger_counts(result.ledger),
         mean_nis={k: v.mean for k, v in nis.items()},

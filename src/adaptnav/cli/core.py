@@ -105,13 +105,22 @@ def evaluate_cmd(
         Path | None, typer.Option(help="mission folder to take the reference from")
     ] = None,
 ) -> None:
-    """RMSE, relative RMSE, distance, duration, ledger counts vs the reference (P-32, P-33)."""
+    """RMSE, relative RMSE, distance, NEES, ledger counts vs the reference (P-32, P-33).
+
+    The distance is the horizontal length of the reference track (its N, E steps), so heave
+    does not lengthen it; relative RMSE = 100 RMSE / distance. NEES of position, velocity and
+    attitude with P's full 3x3 blocks: mean (3 for a consistent filter) and the share of
+    epochs inside the chi2(3) 95 % interval [0.216, 9.348]; velocity and attitude need them in
+    the reference. Definitions: docs/metrics.md.
+    """
     import json
 
     import pandas as pd
 
     from adaptnav import evaluate, results
     from adaptnav.io import MissionError, load_mission
+
+    lo, hi = evaluate.NEES_BAND
 
     try:
         result = results.load(run_dir)
@@ -138,11 +147,25 @@ def evaluate_cmd(
         ("relative_rmse_pct", "relative RMSE (%)", "{:.3f}"),
         ("horizontal_rmse_m", "horizontal RMSE (m)", "{:.3f}"),
         ("max_horizontal_error_m", "max horizontal error (m)", "{:.3f}"),
-        ("distance_m", "travelled distance (m)", "{:.1f}"),
+        ("distance_m", "horizontal distance travelled (m)", "{:.1f}"),
         ("duration_s", "duration (s)", "{:.1f}"),
+        *(
+            row
+            for block in evaluate.NEES_BLOCKS
+            for row in (
+                (f"mean_nees_{block}", f"mean NEES, {block} (χ²(3): 3)", "{:.2f}"),
+                (
+                    f"nees_{block}_in_95",
+                    f"NEES {block}, share in [{lo:.3f}, {hi:.3f}] (0.95)",
+                    "{:.3f}",
+                ),
+            )
+        ),
     ):
         value = d.get(key)
         table.add_row(label, "n/a" if value is None else fmt.format(value))
+    if not metrics.nees_uses_correlations:
+        table.caption = "NEES from P's diagonal only: the run folder has no cov_ columns"
     console.print(table)
     counts = Table(title="ledger")
     for col in ("sensor", "used", "rejected", "dropped", "mean NIS"):
