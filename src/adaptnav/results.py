@@ -168,9 +168,7 @@ def quat_to_euler_rows(q: Array) -> Array:
     return np.stack([roll, pitch, yaw], axis=-1)
 
 
-def solution_frame(
-    t: Array, x: Array, P_diag: Array, P_cross: Array | None = None
-) -> pd.DataFrame:
+def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = None) -> pd.DataFrame:
     """The ``solution`` table from times (N,), nominal states (N, 16), P's diagonal (N, 15)
     and the off-diagonal elements of its position, velocity and attitude blocks (N, 9,
     :data:`COV_COLUMNS`; None: NaN, unknown).
