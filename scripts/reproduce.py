@@ -37,6 +37,7 @@ import pandas as pd
 from adaptnav import __version__
 from adaptnav import sweep as sw
 from adaptnav.cli._app import PAPER_TABLE3
+from adaptnav.compare import NEES_BAND_TEXT
 from adaptnav.filters import DEFAULT_GATE_Q
 from adaptnav.pages import git_revision, markdown_table
 from adaptnav.sim.scenarios import PRESETS
@@ -130,8 +131,26 @@ def _seeds_text(n: int) -> str:
     return "none" if n == 0 else ("seed 1" if n == 1 else f"seeds 1-{n}")
 
 
+NEES_BLOCKS = ("position", "velocity", "attitude")
+
+
+def _nees_cells(r: dict[str, Any]) -> list[str]:
+    """Mean over the seeds of each run's mean NEES, and of its share of epochs in the band."""
+    means = " / ".join(_f(r.get(f"mean_nees_{b}_mean"), ".2f") for b in NEES_BLOCKS)
+    shares = " / ".join(_f(100.0 * float(r.get(f"nees_{b}_in_95_mean", math.nan)), ".0f")
+                        for b in NEES_BLOCKS)  # fmt: skip
+    return [means, shares]
+
+
 def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
-    out: list[str] = []
+    out: list[str] = [
+        "RMSE and relative RMSE (over the horizontal length of the reference track, so that "
+        "heave does not lengthen it); consistency: each run's mean NEES of position, velocity "
+        "and attitude with P's full 3×3 blocks, and the share of its epochs inside the χ²(3) "
+        "95 % band, both averaged over the seeds (docs/metrics.md). A consistent filter's NEES "
+        f"is {NEES_BAND_TEXT}.",
+        "",
+    ]
     summary = sw.summarize(mc)
     comparison = sw.paired_comparison(mc, "vb")
     for preset in presets:
@@ -153,6 +172,7 @@ def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
                     f"{_f(r['relative_rmse_pct_std'], '.3f')}",
                     _f(pm, ".0f"),
                     _f(pr, ".2f"),
+                    *_nees_cells(r),
                 ]
             )
         out += [f"### {preset}", ""]
@@ -167,6 +187,8 @@ def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
                     "relative RMSE %, mean ± std",
                     "paper m",
                     "paper %",
+                    "mean NEES pos / vel / att",
+                    "% epochs in band pos / vel / att",
                 ],
                 rows,
             )

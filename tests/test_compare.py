@@ -17,9 +17,12 @@ from typer.testing import CliRunner
 
 from adaptnav import api, evaluate, plots, results
 from adaptnav.cli import app
+from adaptnav.cli.compare import comparison_table
 from adaptnav.compare import (
     COMPARISON_CSV,
     COMPARISON_JSON,
+    NEES_BAND_TEXT,
+    NEES_COLUMNS,
     PAPER_TABLE3,
     Comparison,
     compare,
@@ -62,6 +65,7 @@ def test_table_has_one_row_per_filter_equal_to_evaluate_on_the_saved_runs(
             ("max_horizontal_error_m", m.max_horizontal_error_m),
             ("distance_m", m.distance_m),
             ("duration_min", m.duration_s / 60.0),
+            *((c, getattr(m, c)) for c in NEES_COLUMNS),
         ):
             assert row[col] == pytest.approx(value, rel=1e-12), (row["filter"], col)
         for sensor, counts in m.counts.items():
@@ -103,6 +107,23 @@ def test_the_alignment_runs_once(mission_dir: Path, monkeypatch: pytest.MonkeyPa
     assert set(cmp.results) == {"meskf", "vb"}
 
 
+def test_printed_table_shows_the_nees_within_100_columns(saved: tuple[Comparison, Path]) -> None:
+    from rich.console import Console
+
+    cmp, _ = saved
+    for name in ("demo", "paper-1"):  # the paper's columns too
+        console = Console(width=100, record=True)
+        console.print(comparison_table(dataclasses.replace(cmp, mission_name=name)))
+        text = console.export_text()
+        assert max(len(line) for line in text.splitlines()) <= 100
+        assert text.count("NEES") >= 3 and "(horizontal)" in text
+        assert "mean 3" in text and "[0.216, 9.348]" in text
+    for _, row in cmp.table().iterrows():  # the simulator's truth has every block
+        assert all(math.isfinite(row[c]) for c in NEES_COLUMNS), row["filter"]
+    lo, hi = evaluate.NEES_BAND
+    assert f"[{lo:.3f}, {hi:.3f}]" in NEES_BAND_TEXT
+
+
 def test_saved_folder_json_and_figures(saved: tuple[Comparison, Path]) -> None:
     cmp, out = saved
     doc = json.loads((out / COMPARISON_JSON).read_text())
@@ -113,7 +134,8 @@ def test_saved_folder_json_and_figures(saved: tuple[Comparison, Path]) -> None:
     for name in FILTERS:
         entry = doc["results"][name]
         assert {"rmse_m", "relative_rmse_pct", "distance_m", "duration_s"} <= entry.keys()
-        assert {"horizontal_rmse_m", "counts"} <= entry.keys()
+        assert {"horizontal_rmse_m", "counts", *NEES_COLUMNS} <= entry.keys()
+        assert entry["nees_uses_correlations"] is True
         assert entry["counts"]["dvl"]["used"] > 0
         assert (out / name / "truth.parquet").is_file()
     stems = {Path(f).stem for f in doc["figures"]}

@@ -45,13 +45,14 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 
 class _Page(HTMLParser):
-    """Collects the comparison table's body rows, figures, images and captions."""
+    """Collects the body rows of the tables with an id (``tables``; the comparison's are
+    ``rows``), figures, images and captions."""
 
     def __init__(self) -> None:
         super().__init__()
         self.stack: list[str] = []
-        self.in_comparison = False
-        self.rows: list[list[str]] = []
+        self.table: str | None = None
+        self.tables: dict[str, list[list[str]]] = {}
         self.figures = 0
         self.captions: list[str] = []
         self.figure_imgs: list[str] = []
@@ -61,11 +62,12 @@ class _Page(HTMLParser):
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = dict(attrs)
-        if tag == "table" and a.get("id") == "comparison":
-            self.in_comparison = True
-        if self.in_comparison and tag == "tr" and "tbody" in self.stack:
-            self.rows.append([])
-        if self.in_comparison and tag == "td":
+        if tag == "table" and a.get("id"):
+            self.table = a["id"]
+            self.tables[self.table] = []
+        if self.table and tag == "tr" and "tbody" in self.stack:
+            self.tables[self.table].append([])
+        if self.table and tag == "td":
             self._cell = []
         if tag == "figure":
             self.figures += 1
@@ -79,16 +81,20 @@ class _Page(HTMLParser):
             self.stack.append(tag)
 
     def handle_endtag(self, tag: str) -> None:
-        if tag == "table":
-            self.in_comparison = False
-        if tag == "td" and self._cell is not None and self.rows:
-            self.rows[-1].append("".join(self._cell).strip())
+        if tag == "td" and self._cell is not None and self.table and self.tables[self.table]:
+            self.tables[self.table][-1].append("".join(self._cell).strip())
             self._cell = None
+        if tag == "table":
+            self.table = None
         if tag == "figcaption" and self._caption is not None:
             self.captions.append("".join(self._caption).strip())
             self._caption = None
         if self.stack and self.stack[-1] == tag:
             self.stack.pop()
+
+    @property
+    def rows(self) -> list[list[str]]:
+        return self.tables.get("comparison", [])
 
     def handle_data(self, data: str) -> None:
         if self._cell is not None:
@@ -117,6 +123,23 @@ def test_report_has_the_table_and_every_figure(report: tuple[Path, Path]) -> Non
         head, data = src.split(",", 1)
         assert head == "data:image/png;base64"
         assert base64.b64decode(data)[:8] == PNG
+
+
+def test_report_shows_each_filters_nees(report: tuple[Path, Path]) -> None:
+    folder, path = report
+    doc = json.loads((folder / COMPARISON_JSON).read_text())
+    page = _parse(path)
+    rows = page.tables["consistency"]
+    assert [r[0] for r in rows] == [doc["labels"][n] for n in FILTERS]
+    for row, name in zip(rows, FILTERS, strict=True):
+        r = doc["results"][name]
+        for k, block in enumerate(("position", "velocity", "attitude")):
+            assert float(row[1 + 2 * k]) == pytest.approx(r[f"mean_nees_{block}"], abs=0.005)
+            share = 100.0 * r[f"nees_{block}_in_95"]
+            assert float(row[2 + 2 * k]) == pytest.approx(share, abs=0.5)
+    text = path.read_text(encoding="utf-8")
+    assert "mean 3, 95 % of epochs in [0.216, 9.348]" in text
+    assert "horizontal length of the reference track" in text
 
 
 def test_report_is_self_contained(report: tuple[Path, Path]) -> None:

@@ -139,6 +139,14 @@ def test_sweep_runs_and_caches(serial: tuple[Path, sw.SweepOutcome]) -> None:
     t = out.table
     assert np.all(t["rmse_m"] > 0) and np.all(t["relative_rmse_pct"] > 0)
     assert np.all(t["distance_m"] > 400) and np.all(t["dvl_used"] > 0)
+    for m in sw.NEES_METRICS:  # the simulator's truth has position, velocity and attitude
+        assert np.all(np.isfinite(t[m])) and np.all(t[m] > 0), m
+        assert all(record_has(cache, s, m) for s in SPECS), m
+
+
+def record_has(cache: Path, spec: sw.RunSpec, metric: str) -> bool:
+    record = json.loads((cache / "runs" / f"{spec.key()}.json").read_text())
+    return isinstance(record["metrics"].get(metric), float)
 
 
 def test_second_sweep_runs_nothing(serial: tuple[Path, sw.SweepOutcome]) -> None:
@@ -225,12 +233,25 @@ def _hand_table() -> pd.DataFrame:
 
 def test_summarize_by_hand() -> None:
     s = sw.summarize(_hand_table()).set_index("filter")
+    assert "mean_nees_position_mean" not in s.columns  # the table has no NEES
     assert s.loc["meskf", "n"] == 3 and s.loc["vb", "n"] == 3  # the failed run left out
     assert s.loc["meskf", "rmse_m_mean"] == pytest.approx(6.0)
     assert s.loc["meskf", "rmse_m_std"] == pytest.approx(2.0)  # sample std of 4, 6, 8
     assert s.loc["vb", "rmse_m_median"] == 5.0
     assert (s.loc["vb", "rmse_m_min"], s.loc["vb", "rmse_m_max"]) == (2.0, 6.0)
     assert s.loc["vb", "relative_rmse_pct_mean"] == pytest.approx(13.0 / 30.0)
+
+
+def test_summarize_nees_by_hand() -> None:
+    t = _hand_table()
+    t["mean_nees_position"] = [3.0, 4.0, 5.0, 1.0, 2.0, 3.0, 30.0, 40.0, 50.0, math.nan]
+    t["nees_attitude_in_95"] = [0.9, 0.8, 0.7, 1.0, 1.0, 1.0, math.nan, 0.5, 0.5, math.nan]
+    s = sw.summarize(t).set_index("filter")
+    assert s.loc["meskf", "mean_nees_position_mean"] == pytest.approx(4.0)
+    assert s.loc["vb", "mean_nees_position_median"] == pytest.approx(2.0)
+    assert s.loc["meskf", "nees_attitude_in_95_mean"] == pytest.approx(0.8)
+    assert math.isnan(s.loc["oracle", "nees_attitude_in_95_mean"])  # a run without it
+    assert s.loc["vb", "rmse_m_mean"] == pytest.approx(13.0 / 3.0)  # unchanged
 
 
 def test_paired_comparison_by_hand() -> None:
@@ -285,11 +306,16 @@ def test_cli_json_prints_one_object(serial: tuple[Path, sw.SweepOutcome], tmp_pa
     doc = json.loads(result.stdout)
     assert doc["sweep"] == "seeds" and doc["runs"] == 2 and doc["failed"] == 0
     assert {r["filter"] for r in doc["summary"]} == {"meskf", "vb"}
+    for r in doc["summary"]:
+        assert r["mean_nees_position_mean"] > 0 and 0 <= r["nees_attitude_in_95_mean"] <= 1
     assert doc["comparison"][0]["other"] == "meskf"
     for f in doc["files"].values():
         assert Path(f).is_file()
     again = runner.invoke(app, args)
     assert json.loads(again.stdout)["reused"] == 2
+    table = runner.invoke(app, [a for a in args if a != "--json"])
+    assert table.exit_code == 0, table.output
+    assert "Consistency: NEES" in table.stdout and "[0.216, 9.348]" in table.stdout
 
 
 @pytest.mark.parametrize(

@@ -13,7 +13,9 @@ the measurement noise R (spec §6) and gate outliers (spec §7), never in their 
   to the filters' navigation start and every row is scored over the same stretch).
 
 Each run is scored by :func:`adaptnav.evaluate.evaluate` against the mission's reference: RMSE
-(P-32), relative RMSE (P-33), horizontal errors and the ledger's per-sensor counts.
+(P-32), relative RMSE (P-33, over the horizontal length of the reference track), horizontal
+errors, the mean NEES of position, velocity and attitude with the share of epochs inside the
+χ²(3) 95 % band (docs/metrics.md) and the ledger's per-sensor counts.
 :meth:`Comparison.table` sets them beside the paper's Table 3 (:data:`PAPER_TABLE3`) when the
 mission is one of the paper presets (``paper-1``, ``paper-2``, SCENARIOS.md).
 
@@ -56,6 +58,8 @@ __all__ = [
     "DEFAULT_FILTERS",
     "FILTER_LABELS",
     "FILTER_NAMES",
+    "NEES_BAND_TEXT",
+    "NEES_COLUMNS",
     "PAPER_TABLE3",
     "Comparison",
     "compare",
@@ -71,6 +75,19 @@ PAPER_TABLE3: dict[str, dict[str, tuple[float, float]]] = {
 FILTER_NAMES: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle", "floor")
 """Every name :func:`compare` accepts, in the order tables and figures list them."""
 DEFAULT_FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle")
+NEES_COLUMNS: tuple[str, ...] = (
+    "mean_nees_position",
+    "mean_nees_velocity",
+    "mean_nees_attitude",
+    "nees_position_in_95",
+    "nees_velocity_in_95",
+    "nees_attitude_in_95",
+)
+"""The consistency metrics (:class:`adaptnav.evaluate.Metrics`) a comparison shows per filter:
+mean NEES (3 for a consistent filter) and the share of epochs inside the χ²(3) 95 % band."""
+NEES_BAND_TEXT = "χ²(3): mean 3, 95 % of epochs in [0.216, 9.348]"
+"""What a consistent filter's NEES does, for captions (:data:`adaptnav.evaluate.NEES_BAND`;
+written out so that this module need not import SciPy at start-up)."""
 FILTER_LABELS: dict[str, str] = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
@@ -159,7 +176,9 @@ class Comparison:
 
     def table(self) -> pd.DataFrame:
         """One row per filter: ``filter, label, rmse_m, relative_rmse_pct, horizontal_rmse_m,
-        max_horizontal_error_m, distance_m, duration_min``, then ``<sensor>_used``,
+        max_horizontal_error_m, distance_m, duration_min``, the consistency
+        :data:`NEES_COLUMNS` (``mean_nees_<block>``, ``nees_<block>_in_95`` for position,
+        velocity, attitude; NaN where the reference lacks the block), then ``<sensor>_used``,
         ``<sensor>_rejected``, ``<sensor>_dropped`` per sensor, then ``paper_rmse_m,
         paper_relative_rmse_pct`` (NaN where the paper has no figure)."""
         import pandas as pd
@@ -176,6 +195,7 @@ class Comparison:
                 "max_horizontal_error_m": m.max_horizontal_error_m,
                 "distance_m": m.distance_m,
                 "duration_min": m.duration_s / 60.0,
+                **{c: getattr(m, c) for c in NEES_COLUMNS},
             }
             for sensor in sensors:
                 counts = m.counts.get(sensor, {})
@@ -187,9 +207,10 @@ class Comparison:
 
     def to_json(self) -> dict[str, Any]:
         """``{filter: {label, rmse_m, relative_rmse_pct, distance_m, duration_s,
-        horizontal_rmse_m, max_horizontal_error_m, final_horizontal_error_m,
-        mean_nees_position, counts, mean_nis, paper_rmse_m, paper_relative_rmse_pct}}``, plain
-        JSON types (NaN → None)."""
+        horizontal_rmse_m, max_horizontal_error_m, final_horizontal_error_m, mean_nees_position,
+        mean_nees_velocity, mean_nees_attitude, nees_position_in_95, nees_velocity_in_95,
+        nees_attitude_in_95, nees_uses_correlations, counts, mean_nis, paper_rmse_m,
+        paper_relative_rmse_pct}}``, plain JSON types (NaN → None)."""
         from adaptnav.results import jsonable
 
         out: dict[str, Any] = {}
@@ -204,7 +225,8 @@ class Comparison:
                 "horizontal_rmse_m": m.horizontal_rmse_m,
                 "max_horizontal_error_m": m.max_horizontal_error_m,
                 "final_horizontal_error_m": m.final_horizontal_error_m,
-                "mean_nees_position": m.mean_nees_position,
+                **{c: getattr(m, c) for c in NEES_COLUMNS},
+                "nees_uses_correlations": m.nees_uses_correlations,
                 "counts": m.counts,
                 "mean_nis": m.mean_nis,
                 "paper_rmse_m": paper_rmse,

@@ -10,8 +10,11 @@ reads from top to bottom:
 1. the scenario (trajectory, duration, distance, seed, disturbances; SCENARIOS.md);
 2. the sensors and the IMU noise model;
 3. each filter's settings (gate q, VB ρ, N, α0, matching window; spec §6, §7);
-4. our RMSE and relative RMSE (P-32, P-33) beside the paper's Table 3 (``<table
-   id="comparison">``, one row per filter);
+4. our RMSE and relative RMSE (P-32, P-33; the distance is the horizontal length of the
+   reference track) beside the paper's Table 3 (``<table id="comparison">``, one row per
+   filter), then each filter's consistency: the mean NEES of position, velocity and attitude
+   and the share of epochs inside the χ²(3) 95 % band (``<table id="consistency">``,
+   docs/metrics.md);
 5. every figure (the paper's Figs. 7-10, ledger counts, NIS) as a ``<figure>`` with its PNG as a
    ``data:`` URI and a caption saying what to look at;
 6. the ledger counts (``<table id="ledger">``) and the shared initial alignment (spec §8).
@@ -36,6 +39,7 @@ from adaptnav.compare import (
     COMPARISON_JSON,
     FILTER_LABELS,
     FORMAT_NAME,
+    NEES_BAND_TEXT,
     PAPER_TABLE3,
     SIMULATION_FILE,
 )
@@ -186,7 +190,7 @@ def _scenario(
             f"{_num(_div(first.get('duration_s'), 60.0), '{:.1f}')} min",
         ),
         (
-            "distance travelled (scored)",
+            "distance travelled (scored, horizontal)",
             f"{_num(_div(first.get('distance_m'), 1000.0), '{:.3f}')} km",
         ),
     ]
@@ -437,7 +441,7 @@ def _results(doc: Mapping[str, Any]) -> str:
             "horizontal RMSE (m)",
             "max horizontal error (m)",
             "final horizontal error (m)",
-            "distance (km)",
+            "horizontal distance (km)",
             "duration (min)",
         ),
         rows,
@@ -447,12 +451,59 @@ def _results(doc: Mapping[str, Any]) -> str:
     parts.append(f"<p>{_summary(mission, doc.get('filters', []), results)}</p>")
     parts.append(
         '<p class="note">RMSE = √mean(δN² + δE² + δD²) over the reference samples within the '
-        "run (P-32); relative RMSE = 100 RMSE / distance travelled (P-33). One seed of a "
+        "run (P-32); relative RMSE = 100 RMSE / distance travelled (P-33), the distance being "
+        "the horizontal length of the reference track, so that heave does not lengthen it. "
+        "One seed of a "
         "simulation: the paper's sea trials are not these data, so compare the ordering and "
         "the size of the improvements, not the absolute numbers (SCENARIOS.md).</p>"
     )
     parts.append("</section>")
     return "\n".join(parts)
+
+
+_NEES_BLOCKS = ("position", "velocity", "attitude")
+
+
+def _consistency(doc: Mapping[str, Any]) -> str:
+    results: Mapping[str, Mapping[str, Any]] = doc.get("results", {})
+    rows = []
+    diagonal = []
+    for name in doc.get("filters", list(results)):
+        r = results.get(name, {})
+        cells = [_e(FILTER_LABELS.get(name, name))]
+        for block in _NEES_BLOCKS:
+            cells.append(_num(r.get(f"mean_nees_{block}"), "{:.2f}"))
+            cells.append(_num(_mul(r.get(f"nees_{block}_in_95"), 100.0), "{:.0f}"))
+        rows.append(cells)
+        if r.get("nees_uses_correlations") is False:
+            diagonal.append(FILTER_LABELS.get(name, name))
+    headers = ["filter"]
+    for block in _NEES_BLOCKS:
+        headers += [f"mean NEES, {block}", f"{block}: % of epochs in band"]
+    parts = [
+        '<section id="consistency"><h2>Consistency (NEES)</h2>',
+        "<p>Does each filter's covariance describe its actual errors? At every reference "
+        "sample, NEES = eᵀ P⁻¹ e for the position (m), velocity (m/s) and attitude (rotation "
+        "vector, rad) errors, each with its full 3×3 block of P. For a consistent filter "
+        f"NEES is χ²(3): {_e(NEES_BAND_TEXT)}. A mean above 3 means the filter claims more "
+        "accuracy than it has; below 3, less. Successive epochs are strongly correlated, so "
+        "one run's share in the band varies much more than a binomial count would.</p>",
+        _table(headers, rows, table_id="consistency"),
+    ]
+    if diagonal:
+        parts.append(
+            '<p class="note">No covariance columns in the run folders of '
+            f"{_e(', '.join(diagonal))}: their NEES use P's diagonal only.</p>"
+        )
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def _mul(a: Any, b: float) -> float | None:
+    try:
+        return float(a) * b
+    except (TypeError, ValueError):
+        return None
 
 
 def _reduction(better: float | None, worse: float | None) -> float | None:
@@ -707,6 +758,7 @@ def write_report(compare_dir: str | Path, out_file: str | Path | None = None) ->
         _sensors(toml),
         _filters(doc, summaries),
         _results(doc),
+        _consistency(doc),
         _figures(folder, doc, sim is not None),
         _ledger(doc),
         _initial(doc),
@@ -716,6 +768,7 @@ def write_report(compare_dir: str | Path, out_file: str | Path | None = None) ->
         ("sensors", "Sensors"),
         ("filters", "Filter settings"),
         ("results", "Results beside the paper's Table 3"),
+        ("consistency", "Consistency (NEES)"),
         ("figures", "Figures"),
         ("ledger-counts", "Ledger"),
         ("initial", "Initial alignment"),

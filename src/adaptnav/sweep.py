@@ -2,8 +2,9 @@
 
 A sweep is a list of :class:`RunSpec` (preset, seed, filter, gate coefficient q or None,
 gyro-bias process-noise scale or None, disturbances) and gives one row of metrics per spec
-(spec §10: RMSE P-32, relative RMSE P-33, travelled distance, duration, DVL used / rejected
-counts). Three sweeps of the paper are prepared here:
+(spec §10: RMSE P-32, relative RMSE P-33, horizontal distance travelled, duration, the mean NEES
+of position, velocity and attitude and the share of epochs inside the χ²(3) 95 % band
+(docs/metrics.md), DVL used / rejected counts). Three sweeps of the paper are prepared here:
 
 * **q sweep** (the paper's Fig. 4; spec §7): 25 rejection coefficients ``q`` in [200, 2600]
   (:data:`Q_VALUES`), each filter with the gate **on** at that q with the paper's
@@ -16,7 +17,8 @@ counts). Three sweeps of the paper are prepared here:
   (:func:`process_noise_specs`, :func:`scale_gyro_bias_q`);
 * **Monte Carlo over seeds** (the paper's Table 3 as a distribution): each filter at its
   defaults on many seeded missions (:func:`monte_carlo_specs`), summarised by
-  :func:`summarize` (mean, std, median, min, max) and :func:`paired_comparison` (VB-MAESKF's
+  :func:`summarize` (mean, std, median, min, max, of the NEES too) and
+  :func:`paired_comparison` (VB-MAESKF's
   win rate against each other filter, paired by seed, and its RMSE ratio, e.g. to the oracle).
 
 Cache layout (``cache`` folder)::
@@ -70,6 +72,7 @@ __all__ = [
     "DEFAULT_FILTERS",
     "LABELS",
     "METRICS",
+    "NEES_METRICS",
     "PAPER_FILTERS",
     "Q_SCALES",
     "Q_VALUES",
@@ -111,14 +114,32 @@ METRICS: tuple[str, ...] = (
     "distance_m",
     "duration_s",
     "mean_nees_position",
+    "mean_nees_velocity",
+    "mean_nees_attitude",
+    "nees_position_in_95",
+    "nees_velocity_in_95",
+    "nees_attitude_in_95",
     "dvl_used",
     "dvl_rejected",
     "dvl_dropped",
     "gate_q",
     "elapsed_s",
 )
-"""Metric columns of a sweep's table (spec §10; ``gate_q``: the DVL gate's q, NaN ungated;
-``elapsed_s``: wall time of the run and its evaluation)."""
+"""Metric columns of a sweep's table (spec §10; :class:`adaptnav.evaluate.Metrics`; ``gate_q``:
+the DVL gate's q, NaN ungated; ``elapsed_s``: wall time of the run and its evaluation). Runs
+cached before a metric existed have NaN for it."""
+NEES_METRICS: tuple[str, ...] = (
+    "mean_nees_position",
+    "mean_nees_velocity",
+    "mean_nees_attitude",
+    "nees_position_in_95",
+    "nees_velocity_in_95",
+    "nees_attitude_in_95",
+)
+"""The consistency metrics among :data:`METRICS`: mean NEES per block (3 for a consistent
+filter) and the share of epochs inside the χ²(3) 95 % band (0.95); docs/metrics.md."""
+SUMMARY_METRICS: tuple[str, ...] = ("rmse_m", "relative_rmse_pct", *NEES_METRICS)
+"""What :func:`summarize` summarises by default (those of them the table has)."""
 SPEC_COLUMNS: tuple[str, ...] = (
     "key", "preset", "seed", "filter", "q", "q_scale", "vb_dof", "disturbances", "gated",
 )  # fmt: skip
@@ -437,7 +458,7 @@ def run_one(
         "final_horizontal_error_m": m.final_horizontal_error_m,
         "distance_m": m.distance_m,
         "duration_s": m.duration_s,
-        "mean_nees_position": m.mean_nees_position,
+        **{k: float(getattr(m, k)) for k in NEES_METRICS},
         "dvl_used": float(counts["used"]),
         "dvl_rejected": float(counts["rejected"]),
         "dvl_dropped": float(dropped),
@@ -761,11 +782,18 @@ def _ok(table: pd.DataFrame) -> pd.DataFrame:
 def summarize(
     table: pd.DataFrame,
     by: Sequence[str] = ("preset", "filter"),
-    metrics: Sequence[str] = ("rmse_m", "relative_rmse_pct"),
+    metrics: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """Monte Carlo statistics per group (Table 3 over seeds): ``n`` and, per metric,
     ``<metric>_mean``, ``_std`` (sample, ddof = 1; NaN for one run), ``_median``, ``_min``,
-    ``_max``. Failed runs (error or NaN RMSE) are left out. Groups in order of appearance."""
+    ``_max``. Failed runs (error or NaN RMSE) are left out. Groups in order of appearance.
+
+    ``metrics`` defaults to those of :data:`SUMMARY_METRICS` that ``table`` has: RMSE,
+    relative RMSE, and the mean NEES of position, velocity and attitude and their shares of
+    epochs in the χ²(3) 95 % band (a statistic is NaN if any run of the group lacks the metric,
+    e.g. a reference without attitude, or a run cached before the metric existed)."""
+    if metrics is None:
+        metrics = [m for m in SUMMARY_METRICS if m in table.columns]
     ok = _ok(table)
     rows = []
     for keys, g in ok.groupby(list(by), sort=False):

@@ -5,7 +5,8 @@
 * ``adaptnav sweep process-noise PRESET...``: against a factor on the gyro-bias process noise
   (the paper's Fig. 6);
 * ``adaptnav sweep seeds PRESET...``: each filter at its defaults over many seeds (Table 3 as
-  a distribution), with VB-MAESKF's win rate against each other filter.
+  a distribution), with VB-MAESKF's win rate against each other filter and each filter's
+  consistency (mean NEES of position, velocity and attitude; docs/metrics.md).
 
 Each writes ``runs.csv`` (every run), ``summary.csv`` and a figure to ``--out``, and prints a
 table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.sweep`.
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -173,6 +175,33 @@ def _spread_table(title: str, spread: pd.DataFrame, parameter: str) -> Table:
     return table
 
 
+def _nees_table(summary: pd.DataFrame) -> Table:
+    """Mean over the runs of each filter's mean NEES and share of epochs in the band."""
+    from adaptnav.compare import NEES_BAND_TEXT
+
+    table = Table(
+        title="Consistency: NEES, mean over the runs",
+        caption=f"a consistent filter's NEES is {NEES_BAND_TEXT}",
+    )
+    blocks = ("position", "velocity", "attitude")
+    for col in ("preset", "filter", *(f"NEES {b[:3]}" for b in blocks),
+                *(f"{b[:3]} % in band" for b in blocks)):  # fmt: skip
+        table.add_column(col, justify="left" if col in ("preset", "filter") else "right")
+
+    def cell(r: Mapping[Any, Any], key: str, scale: float, fmt: str) -> str:
+        v = r.get(key)
+        return "-" if v is None or not math.isfinite(v) else fmt.format(scale * v)
+
+    for r in summary.to_dict(orient="records"):
+        table.add_row(
+            str(r["preset"]),
+            _label(str(r["filter"])),
+            *(cell(r, f"mean_nees_{b}_mean", 1.0, "{:.2f}") for b in blocks),
+            *(cell(r, f"nees_{b}_in_95_mean", 100.0, "{:.0f}") for b in blocks),
+        )
+    return table
+
+
 @sweep_app.command("q")
 def q_cmd(
     presets: Presets,
@@ -272,9 +301,10 @@ def seeds_cmd(
 ) -> None:
     """Monte Carlo over seeds: each filter at its defaults (Table 3 as a distribution).
 
-    Prints mean ± std, median and range of RMSE and relative RMSE per filter beside the
-    paper's Table 3, and VB-MAESKF's win rate (paired by seed) and RMSE ratio against each
-    other filter.
+    Prints mean ± std, median and range of RMSE and relative RMSE (over the horizontal track
+    length) per filter beside the paper's Table 3, VB-MAESKF's win rate (paired by seed) and
+    RMSE ratio against each other filter, and each filter's mean NEES of position, velocity
+    and attitude with the share of epochs in the chi2(3) 95 % band (3 and 95 % if consistent).
     """
     from adaptnav import sweep
 
@@ -305,6 +335,7 @@ def seeds_cmd(
             "-" if paper is None else f"{paper[1]:.2f}",
         )  # fmt: skip
     console.print(table)
+    console.print(_nees_table(summary))
     for c in _records(comparison):
         if not c["n"]:
             continue
