@@ -24,7 +24,7 @@ from adaptnav.io import (
     write_config,
     write_mission,
 )
-from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
+from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer, PendulumInclinometer
 from adaptnav.units import DEG, G0, UnitError
 
 DATA = Path(__file__).parent / "data" / "io"
@@ -267,6 +267,12 @@ def test_build_sensor_models() -> None:
         },
         "dep": {"kind": "depth", "file": "d.csv", "sigma": [5, "cm"], "lever_arm_m": [0, 0, 1]},
         "inc": {"kind": "inclinometer", "file": "i.csv", "sigma": [0.05, "deg"]},
+        "att": {
+            "kind": "inclinometer",
+            "file": "a.csv",
+            "sigma": [0.05, "deg"],
+            "model": "attitude",
+        },
         "hdg": {"kind": "heading", "file": "h.csv", "sigma": [0.5, "deg"]},
         "gps": {"kind": "gnss", "file": "g.csv", "sigma": [[2, 3, 5], "m"], "use_height": True},
     }
@@ -282,8 +288,13 @@ def test_build_sensor_models() -> None:
     dep = build_sensor_model("dep", cfg.sensors["dep"])
     assert isinstance(dep, Depth) and dep.sigma == pytest.approx(0.05)
     inc = build_sensor_model("inc", cfg.sensors["inc"])
-    assert isinstance(inc, Inclinometer)
+    assert isinstance(inc, PendulumInclinometer)  # the default: it reads the apparent vertical
     np.testing.assert_allclose(inc.sigma, [0.05 * DEG] * 2)
+    att = build_sensor_model("att", cfg.sensors["att"])
+    assert isinstance(att, Inclinometer)
+    np.testing.assert_allclose(att.sigma, [0.05 * DEG] * 2)
+    with pytest.raises(MissionError, match="model"):
+        parse_config({**d, "sensors": {"x": {**d["sensors"]["dep"], "model": "pendulum"}}})
     hdg = build_sensor_model("hdg", cfg.sensors["hdg"])
     assert isinstance(hdg, Heading) and hdg.sigma == pytest.approx(0.5 * DEG)
     gps = build_sensor_model("gps", cfg.sensors["gps"])

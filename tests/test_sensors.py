@@ -29,6 +29,7 @@ from adaptnav.sensors import (
     Measurement,
     MeasurementModel,
     NonHolonomic,
+    PendulumInclinometer,
     dvl,
     gnss,
 )
@@ -190,6 +191,57 @@ def test_depth_H_matches_finite_differences(x, l_b) -> None:
 def test_inclinometer_H_matches_finite_differences(x, C_sb) -> None:
     assume(abs(_pitch(x, C_sb)) < MAX_PITCH)
     _check_H(Inclinometer(1e-3, _mounting(C_sb)), x)
+
+
+@FD
+@given(states, mountings, _vec(4.0))
+def test_pendulum_inclinometer_H_matches_finite_differences(x, C_sb, a) -> None:
+    """The pendulum reads the tilt of the true specific force ``f̃ - b_a,true``: a reading made
+    at the injected state (its true b_a) from the same accelerometer output f̃."""
+    f = np.array([0.0, 0.0, -9.8]) + a
+    model = PendulumInclinometer(1e-3, _mounting(C_sb))
+    f_s = _mounting(C_sb) @ (f - x[10:13])
+    assume(abs(math.atan2(f_s[0], math.hypot(f_s[1], f_s[2]))) < MAX_PITCH)
+
+    def y_of(dx: np.ndarray) -> np.ndarray:
+        m = model.evaluate(x, model.predict(errorstate.inject(x, dx), f), None, f)
+        assert m is not None
+        return m.y
+
+    J = _fd_jacobian(y_of, STEPS)
+    m = model.evaluate(x, model.predict(x, f), None, f)
+    assert m is not None
+    err = float(np.abs(m.H - J).max())
+    assert err <= RTOL * max(1.0, float(np.abs(J).max())), f"max|H - J| = {err:.3e}"
+    assert np.all(m.H[:, :9] == 0.0) and np.all(m.H[:, 12:] == 0.0)  # it sees no attitude
+
+
+def test_pendulum_inclinometer_hand_values() -> None:
+    """At rest a pendulum reads the attitude's roll and pitch; a level vessel accelerating
+    forward by a reads a pitch of atan(a/g), one turning to starboard (centripetal acceleration
+    a to the right) a roll of -atan(a/g) (the apparent vertical leans outward)."""
+    g = 9.79
+    roll, pitch = math.radians(3.0), math.radians(-2.0)
+    x = strapdown.NavState.from_euler(0.5, 0.9, 0.0, np.zeros(3), roll, pitch, 1.0).to_array()
+    x[10:13] = 0.0
+    C_bn = attitude.euler_to_dcm(roll, pitch, 1.0).T
+    at_rest = C_bn @ np.array([0.0, 0.0, -g])
+    model = PendulumInclinometer(1e-3)
+    np.testing.assert_allclose(model.predict(x, at_rest), [roll, pitch], atol=1e-12)
+    np.testing.assert_allclose(model.predict(x, at_rest), Inclinometer(1e-3).predict(x), atol=1e-12)
+    level = strapdown.NavState.from_euler(0.5, 0.9, 0.0, np.zeros(3), 0.0, 0.0, 1.0).to_array()
+    level[10:13] = 0.0
+    a = 0.4
+    np.testing.assert_allclose(
+        model.predict(level, np.array([a, 0.0, -g])), [0.0, math.atan(a / g)], atol=1e-12
+    )
+    np.testing.assert_allclose(
+        model.predict(level, np.array([0.0, a, -g])), [-math.atan(a / g), 0.0], atol=1e-12
+    )
+    level[10:13] = [a, 0.0, 0.0]  # the bias estimate is taken out of the accelerometer's output
+    np.testing.assert_allclose(model.predict(level, np.array([a, 0.0, -g])), [0.0, 0.0], atol=1e-12)
+    with pytest.raises(ValueError, match="specific force"):
+        model.evaluate(level, np.zeros(2))
 
 
 @FD

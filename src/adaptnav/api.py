@@ -190,6 +190,8 @@ def run(
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     imu_t, imu_dt = m.imu.t[nav_from:], m.imu.dt[nav_from:]
     config = engine.EngineConfig(noise, policy, output_every=cfg.output_every())
+    if cfg.filter.specific_force_tau_s is not None:
+        config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
     out = engine.run_batch(
         config, channels, x0, P0, t0, imu_t, imu_dt,
         m.imu.dtheta[nav_from:], m.imu.dvel[nav_from:], readings,

@@ -7,7 +7,8 @@ Numba twins of the readable epoch pieces, in the style of :mod:`adaptnav.kernels
 compiled                               readable twin
 =====================================  =====================================================
 :func:`linearise` (per sensor code)    ``evaluate`` of :mod:`adaptnav.sensors` (y = z - h(x),
-                                       H): DVL, depth, inclinometer, heading, GNSS, ZUPT
+                                       H): DVL, depth, inclinometer (attitude
+                                       and pendulum), heading, GNSS, ZUPT
 :func:`correct`                        :func:`adaptnav.kalman.correct` (x⁻ = 0, Joseph form)
 :func:`stacked_update`                 ``update`` of :mod:`adaptnav.noise` (FixedNoise,
                                        CovarianceMatching IAE/RAE, VariationalBayes P-23..P-28)
@@ -74,7 +75,7 @@ from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.heading import Heading
-from adaptnav.sensors.inclinometer import Inclinometer
+from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 from adaptnav.sensors.zupt import ZeroVelocity
 
 Array = NDArray[np.float64]
@@ -89,6 +90,7 @@ MAX_DIM = 3
 LIN_PYTHON = -1
 """No compiled linearisation: the engine calls the model's ``evaluate``."""
 LIN_DVL, LIN_DEPTH, LIN_INCLINOMETER, LIN_HEADING, LIN_GNSS, LIN_ZUPT = 0, 1, 2, 3, 4, 5
+LIN_PENDULUM = 6
 N_PAR = 16
 """Packed parameters: ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
 PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
@@ -275,6 +277,24 @@ def _lin_attitude(
 
 
 @jit_inline
+def _lin_pendulum(par: Array, x: Array, z: Array, f: Array, y: Array, H: Array, r: int) -> None:
+    """Pendulum inclinometer (sensors.inclinometer.PendulumInclinometer): the tilt of
+    ``f_s = C_sb (f̃_b - b̂_a)``; H = ``-J(f_s) C_sb`` on db_a."""
+    Cs = _par_mat(par, PAR_CSB)
+    fs = _matvec(Cs, (f[0] - x[10], f[1] - x[11], f[2] - x[12]))
+    rho2 = fs[1] * fs[1] + fs[2] * fs[2]
+    rho = math.sqrt(rho2)
+    n2 = rho2 + fs[0] * fs[0]
+    y[r] = _wrap(z[0] - math.atan2(-fs[1], -fs[2]))
+    y[r + 1] = _wrap(z[1] - math.atan2(fs[0], rho))
+    j_roll = (0.0, fs[2] / rho2, -fs[1] / rho2)
+    j_pitch = (rho / n2, -fs[0] * fs[1] / (rho * n2), -fs[0] * fs[2] / (rho * n2))
+    for c in range(3):
+        H[r, 9 + c] = -(j_roll[0] * Cs[c] + j_roll[1] * Cs[3 + c] + j_roll[2] * Cs[6 + c])
+        H[r + 1, 9 + c] = -(j_pitch[0] * Cs[c] + j_pitch[1] * Cs[3 + c] + j_pitch[2] * Cs[6 + c])
+
+
+@jit_inline
 def _lin_gnss(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> None:
     """GNSS (sensors.gnss): antenna lat, lon (, h) with lever arm; residual in NED metres."""
     lat, lon, h = x[0], x[1], x[2]
@@ -301,12 +321,13 @@ def _lin_gnss(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> Non
 
 @jit
 def linearise(
-    code: int, par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, row: int
+    code: int, par: Array, x: Array, z: Array, w: Array, f: Array, y: Array, H: Array, row: int
 ) -> None:
     """Residual and H of sensor ``code`` into ``y[row:row+d]``, ``H[row:row+d]`` (zeroed first).
 
     ``par``: the packed parameters of :func:`compiled_linearisation`; ``z`` the reading (its
-    finiteness is the caller's business); ``w`` the raw gyro rate ω̃_ib_b (the DVL's lever arm).
+    finiteness is the caller's business); ``w`` the raw gyro rate ω̃_ib_b (the DVL's lever arm),
+    ``f`` the raw specific force f̃_ib_b (the pendulum inclinometer), of the current IMU interval.
     Compiled twin of the sensors' ``evaluate``.
     """
     for a in range(MAX_DIM):
@@ -323,6 +344,8 @@ def linearise(
         _lin_attitude(par, x, z, y, H, row, True)
     elif code == LIN_GNSS:
         _lin_gnss(par, x, z, y, H, row)
+    elif code == LIN_PENDULUM:
+        _lin_pendulum(par, x, z, f, y, H, row)
     elif code == LIN_ZUPT:
         for a in range(3):
             y[row + a] = z[a] - x[3 + a]
@@ -350,6 +373,7 @@ LINEARISATIONS: dict[type, Callable[[Any], LinearisationSpec]] = {
     DVL: lambda m: (LIN_DVL, _pack(m.l_b, m.C_sb)),
     Depth: lambda m: (LIN_DEPTH, _pack(m.l_b)),
     Inclinometer: lambda m: (LIN_INCLINOMETER, _pack(C_sb=m.C_sb)),
+    PendulumInclinometer: lambda m: (LIN_PENDULUM, _pack(C_sb=m.C_sb)),
     Heading: lambda m: (LIN_HEADING, _pack(C_sb=m.C_sb)),
     GNSS: lambda m: (LIN_GNSS, _pack(m.l_b, flag=1.0 if m.use_height else 0.0)),
     ZeroVelocity: lambda m: (LIN_ZUPT, _pack()),
@@ -1051,7 +1075,7 @@ def epoch(
                 if not math.isfinite(st_z[idx, j]):
                     valid = False
             if valid:
-                linearise(code, s_flt[i], x, st_z[idx], rates[R_W_CUR], y, H, D)
+                linearise(code, s_flt[i], x, st_z[idx], rates[R_W_CUR], rates[R_F_CUR], y, H, D)
                 for a in range(d):
                     for c in range(d):
                         Rb[nb, a, c] = s_flt[i, F_RNOM + 3 * a + c]

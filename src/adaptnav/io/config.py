@@ -294,6 +294,10 @@ class SensorConfig(_Model):
     """GNSS only (false is accepted and ignored elsewhere); None → false (marine: the height
     comes from the depth sensor)."""
     optional: StrictBool = False
+    model: Literal["pendulum", "attitude"] | None = None
+    """Inclinometer only: ``pendulum`` (it reads the tilt of the apparent gravity, the specific
+    force; the default) or ``attitude`` (it reads the attitude's roll and pitch, white noise):
+    docs/inclinometer.md."""
     zero_is_lost: StrictBool = False
     """DVL only: a reading of exactly zero on every axis is a lost bottom lock (drivers that
     report the loss so), dropped at load with that reason. Not for a vehicle that can sit
@@ -320,6 +324,8 @@ class SensorConfig(_Model):
 
     @model_validator(mode="after")
     def _check_kind_fields(self) -> SensorConfig:
+        if self.model is not None and self.kind != "inclinometer":
+            raise ValueError(f"model: only an inclinometer has a model choice, not a {self.kind}")
         if self.zero_is_lost and self.kind != "dvl":
             raise ValueError(f"zero_is_lost: only a dvl reports a lost lock, not a {self.kind}")
         if self.use_height and self.kind != "gnss":
@@ -440,6 +446,9 @@ class FilterConfig(_Model):
     vb_irregular: StrictBool = False
     vb_dof: Positive | None = None
     """Student-t ν of each reading for VB-MAESKF (beyond the paper); None: Gaussian."""
+    specific_force_tau_s: Annotated[float, Field(ge=0)] | None = None
+    """Time constant (s) of the low-pass on the specific force that F is evaluated with; None:
+    the engine's default (``adaptnav.engine.EngineConfig``; docs/error-model.md)."""
 
     @field_validator("gate_q")
     @classmethod

@@ -51,6 +51,7 @@ from adaptnav.sensors import (
     Inclinometer,
     MeasurementModel,
     NonHolonomic,
+    PendulumInclinometer,
 )
 from adaptnav.strapdown import rates_to_increments
 from adaptnav.units import G0
@@ -394,7 +395,9 @@ def build_sensor_model(name: str, cfg: SensorConfig) -> MeasurementModel:
     if cfg.kind == "depth":
         return Depth(float(np.asarray(sigma).reshape(-1)[0]), cfg.lever_arm(), name)
     if cfg.kind == "inclinometer":
-        return Inclinometer(sigma, cfg.sensor_from_body(), name)
+        if cfg.model == "attitude":
+            return Inclinometer(sigma, cfg.sensor_from_body(), name)
+        return PendulumInclinometer(sigma, cfg.sensor_from_body(), name)
     if cfg.kind == "nhc":
         return NonHolonomic(sigma, cfg.lever_arm(), cfg.sensor_from_body(), name)
     if cfg.kind == "heading":

@@ -12,7 +12,7 @@ from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.heading import Heading
-from adaptnav.sensors.inclinometer import Inclinometer
+from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 from adaptnav.sensors.nhc import NonHolonomic
 from adaptnav.sensors.zupt import ZeroVelocity
 
@@ -25,6 +25,7 @@ __all__ = [
     "Measurement",
     "MeasurementModel",
     "NonHolonomic",
+    "PendulumInclinometer",
     "ZeroVelocity",
     "euler_jacobian",
 ]

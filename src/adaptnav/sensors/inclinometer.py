@@ -1,6 +1,36 @@
-"""Inclinometer: roll and pitch of the sensor's axes, ZYX Euler angles (spec §4).
+"""Inclinometer: what a two-axis tilt sensor reads, in two models (docs/inclinometer.md).
 
-Model (spec §4 table; Groves (2013) ch. 16, attitude aiding)::
+**Attitude model** (:class:`Inclinometer`, ``model = "attitude"``): roll and pitch of the sensor's
+axes, ZYX Euler angles (Groves (2013) ch. 16, attitude aiding), with white noise. It is right for
+a sensor that measures the attitude itself (a gyro-stabilised reference, an INS's output); a
+pendulum read so is trusted in turns and waves where it is wrong.
+
+**Pendulum model** (:class:`PendulumInclinometer`, ``model = "pendulum"``): a pendulum or
+electrolytic tilt sensor hangs along the *apparent* vertical, the direction of the specific force
+at the sensor, so it reads the tilt of ``f_s = C_sb f_b``::
+
+    roll = atan2(-f_y, -f_z),    pitch = atan2(f_x, √(f_y² + f_z²)),
+
+exact at rest (``f_b = C_bn [0, 0, -g]`` gives the Euler roll and pitch) and tilted by
+``atan(a/g)`` by a horizontal acceleration a. The filter's best knowledge of ``f_b`` is the
+INS's own, the raw accelerometer reading of the current IMU interval less the estimated bias,
+``f̂_b = f̃_b - b̂_a``; with ``f_b = f̂_b - db_a`` (error = truth - estimate)::
+
+    y = z - tilt(C_sb f̂_b),    H_db_a = -J(f̂_s) C_sb,    H on every other state = 0,
+
+with J the 2×3 Jacobian of the tilt::
+
+    ∂roll/∂f = [0, f_z, -f_y] / (f_y² + f_z²),
+    ∂pitch/∂f = [ρ², -f_x f_y, -f_x f_z] / (ρ |f|²),    ρ = √(f_y² + f_z²).
+
+The pendulum does not see the attitude error: it tells the filter the horizontal accelerometer
+bias, which otherwise hides behind the tilt error, and the velocity aiding then fixes the tilt
+(the tilt/bias separation of docs/inclinometer.md). The sensor is taken at the IMU (no lever arm:
+``ω̇ × l`` is not known) and ideal (no swing dynamics). σ is the instrument's own noise; the
+accelerometer's noise over one IMU interval adds ``VRW² / T / g²`` per axis (0.03° for the
+paper's IMU at 100 Hz), small beside 0.1° and not added.
+
+Attitude model (spec §4 table)::
 
     z = [roll, pitch] of C_ns = C_nb C_sbᵀ    (attitude.dcm_to_euler, ZYX),
 
@@ -23,7 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from adaptnav import attitude
-from adaptnav.errorstate import ATT, N_STATES
+from adaptnav.errorstate import ATT, BA, N_STATES
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -34,7 +64,7 @@ from adaptnav.sensors.base import (
     check_state,
     euler_jacobian,
 )
-from adaptnav.strapdown import NOM_ATT
+from adaptnav.strapdown import NOM_ATT, NOM_BA
 
 DIM = 2
 
@@ -59,8 +89,8 @@ def jacobian(x: ArrayLike, C_sb: ArrayLike | None = None) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class Inclinometer:
-    """Two-axis inclinometer (roll, pitch).
+class _TwoAxis:
+    """Settings shared by both inclinometer models.
 
     Attributes:
         sigma: nominal noise σ of [roll, pitch] (rad); a scalar applies to both.
@@ -89,6 +119,11 @@ class Inclinometer:
     def R(self) -> Array:
         return np.diag(np.asarray(self.sigma, dtype=float) ** 2)
 
+
+@dataclass(frozen=True, eq=False)
+class Inclinometer(_TwoAxis):
+    """Two-axis inclinometer read as the attitude's roll and pitch (the attitude model)."""
+
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict`."""
         return predict(x, self.C_sb)
@@ -109,3 +144,83 @@ class Inclinometer:
             return None
         y = attitude.wrap_angle(zz - self.predict(x))
         return Measurement(y, self.jacobian(x), self.R, self.names)
+
+
+def tilt(f_s: ArrayLike) -> Array:
+    """[roll, pitch] (rad) of the apparent vertical of a specific force ``f_s`` (3,) or (N, 3):
+    ``roll = atan2(-f_y, -f_z)``, ``pitch = atan2(f_x, √(f_y² + f_z²))``."""
+    f = np.asarray(f_s, dtype=float)
+    roll = np.arctan2(-f[..., 1], -f[..., 2])
+    pitch = np.arctan2(f[..., 0], np.hypot(f[..., 1], f[..., 2]))
+    return np.stack([roll, pitch], axis=-1)
+
+
+def tilt_jacobian(f_s: ArrayLike) -> Array:
+    """∂[roll, pitch]/∂f (2×3) of :func:`tilt` at ``f_s`` (module docstring)."""
+    fx, fy, fz = (float(v) for v in np.asarray(f_s, dtype=float))
+    rho2 = fy * fy + fz * fz
+    rho = np.sqrt(rho2)
+    n2 = rho2 + fx * fx
+    return np.array(
+        [
+            [0.0, fz / rho2, -fy / rho2],
+            [rho / n2, -fx * fy / (rho * n2), -fx * fz / (rho * n2)],
+        ]
+    )
+
+
+def pendulum_predict(x: ArrayLike, f_ib_b: ArrayLike, C_sb: ArrayLike | None = None) -> Array:
+    """h(x) = tilt(C_sb (f̃_b - b̂_a)) (rad): what a pendulum reads (module docstring)."""
+    f_b = _need_force(f_ib_b) - check_state(x)[NOM_BA]
+    C = np.eye(3) if C_sb is None else np.asarray(C_sb, dtype=float)
+    return tilt(C @ f_b)
+
+
+def pendulum_jacobian(x: ArrayLike, f_ib_b: ArrayLike, C_sb: ArrayLike | None = None) -> Array:
+    """H (2×15): ``-J(f̂_s) C_sb`` on db_a, zero elsewhere."""
+    f_b = _need_force(f_ib_b) - check_state(x)[NOM_BA]
+    C = np.eye(3) if C_sb is None else np.asarray(C_sb, dtype=float)
+    H = np.zeros((DIM, N_STATES))
+    H[:, BA] = -tilt_jacobian(C @ f_b) @ C
+    return H
+
+
+@dataclass(frozen=True, eq=False)
+class PendulumInclinometer(_TwoAxis):
+    """Pendulum inclinometer: reads the tilt of the apparent gravity (module docstring).
+
+    ``evaluate`` needs the raw accelerometer reading ``f_ib_b`` of the IMU interval the reading
+    falls in (the engine passes it; the compiled twin is ``update_kernels._lin_pendulum``).
+    """
+
+    def predict(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
+        """See :func:`pendulum_predict`."""
+        return pendulum_predict(x, _need_force(f_ib_b), self.C_sb)
+
+    def jacobian(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
+        """See :func:`pendulum_jacobian`."""
+        return pendulum_jacobian(x, _need_force(f_ib_b), self.C_sb)
+
+    def evaluate(
+        self,
+        x: Array,
+        z: ArrayLike,
+        omega_ib_b: ArrayLike | None = None,
+        f_ib_b: ArrayLike | None = None,
+    ) -> Measurement | None:
+        """Wrapped residual ``z - tilt(C_sb (f̃_b - b̂_a))`` (rad), H and R; None if the
+        reading has a NaN/inf. ``omega_ib_b`` is not used."""
+        zz = check_reading(self.name, z, DIM)
+        if zz is None:
+            return None
+        y = attitude.wrap_angle(zz - self.predict(x, f_ib_b))
+        return Measurement(y, self.jacobian(x, f_ib_b), self.R, self.names)
+
+
+def _need_force(f_ib_b: ArrayLike | None) -> Array:
+    if f_ib_b is None:
+        raise ValueError("a pendulum inclinometer needs the accelerometer's specific force f_ib_b")
+    f = np.asarray(f_ib_b, dtype=float)
+    if f.shape != (3,):
+        raise ValueError(f"f_ib_b must have shape (3,), got {f.shape}")
+    return f

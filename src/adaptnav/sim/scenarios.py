@@ -283,6 +283,7 @@ def _config(
     static_end: float,
     heading_deg: float | None,
     description: str,
+    pendulum: bool = True,
 ) -> MissionConfig:
     initial: dict[str, Any] = {
         "mode": "alignment",
@@ -329,6 +330,8 @@ def _config(
                 "file": "inclinometer.parquet",
                 "sigma": [sc.inclinometer.sigma / DEG, "deg"],
                 "rate_hz": sc.inclinometer.rate_hz,
+                # what the simulated sensor reads: the apparent vertical, or the attitude itself
+                "model": "pendulum" if pendulum else "attitude",
                 "use": "aid",
             },
             "heading": {
@@ -483,7 +486,7 @@ def generate(
         f"{sc.description}; simulated, seed {seed}; turn-on bias: {turn_on}; "
         f"switched off: {', '.join(off) if off else 'none'}"
     )
-    config = _config(sc, model, static_end, heading_deg, description)
+    config = _config(sc, model, static_end, heading_deg, description, dist.inclinometer_pendulum)
     meta: dict[str, Any] = {
         "generator": "adaptnav.sim.scenarios",
         "preset": sc.name,

@@ -34,7 +34,9 @@ exact at rest (``f_b = C_nbᵀ [0, 0, -g]``), but a horizontal acceleration a ti
 vertical by ``atan(a/g)``: a level vessel accelerating forward by a reads a pitch of
 ``atan(a/g)``, one turning to starboard at rate χ̇ a roll of ``-atan(s χ̇/g)``. Waves (orbital
 motion), turns and speed changes thus corrupt it by physics. On top, the instrument's own
-white noise σ = 0.1°. The pendulum is modelled as ideal (no swing dynamics).
+white noise σ = 0.1°. The pendulum is modelled as ideal (no swing dynamics). The mission says
+so (``model = "pendulum"``; ``"attitude"`` with ``inclinometer_pendulum`` off), and the filter's
+pendulum model (``sensors.inclinometer.tilt``, the same function) predicts it from the IMU.
 
 Heading sensor (gyrocompass, 1 Hz, 0.5°): the yaw of ``heading.predict``; off in the paper's
 configuration (written with ``use = "off"``).
@@ -423,13 +425,6 @@ def depth(
     )  # fmt: skip
 
 
-def pendulum(f_b: Array) -> Array:
-    """Roll and pitch (N, 2) a pendulum reads from the specific force f_b (N, 3)."""
-    roll = np.arctan2(-f_b[:, 1], -f_b[:, 2])
-    pitch = np.arctan2(f_b[:, 0], np.hypot(f_b[:, 1], f_b[:, 2]))
-    return np.stack([roll, pitch], axis=1)
-
-
 def inclinometer(
     spec: InclinometerSpec,
     truth: Truth,
@@ -440,7 +435,7 @@ def inclinometer(
     acceleration error and white noise (module docstring)."""
     n = truth.t.size
     true = np.array([incl_model.predict(truth.x[i]) for i in range(n)]).reshape(n, 2)
-    accel_err = attitude.wrap_angle(pendulum(truth.f_b) - true)
+    accel_err = attitude.wrap_angle(incl_model.tilt(truth.f_b) - true)
     if not dist.inclinometer_pendulum:
         accel_err = np.zeros_like(accel_err)
     sigma = spec.sigma if dist.sensor_noise else 0.0
