@@ -62,6 +62,9 @@ def _args(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--q-values", type=int, default=25, help="q values in [200, 2600] [25]")
     p.add_argument("--pn-seeds", type=int, default=5, help="process-noise seeds 1..N [5]")
     p.add_argument("--scales", type=int, default=9, help="gyro-bias Q factors in 10^[-2,2] [9]")
+    p.add_argument(
+        "--model-seeds", type=int, default=5, help="estimator-model comparison seeds 1..N [5]"
+    )
     p.add_argument("--cache", type=Path, default=ROOT / "runs" / "reproduce-cache")
     p.add_argument("--jobs", type=int, default=None, help="worker processes [cores]")
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md")
@@ -75,7 +78,7 @@ def _args(argv: Sequence[str]) -> argparse.Namespace:
     )
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True)
     a = p.parse_args(argv)
-    for name in ("seeds", "q_seeds", "q_values", "pn_seeds", "scales"):
+    for name in ("seeds", "q_seeds", "q_values", "pn_seeds", "scales", "model_seeds"):
         if getattr(a, name) < 0:
             p.error(f"--{name.replace('_', '-')} must be >= 0")
     if a.jobs is not None and a.jobs < 1:
@@ -125,6 +128,54 @@ def _student_t(mc: pd.DataFrame, st: pd.DataFrame, presets: Sequence[str]) -> li
         rows.append([preset, str(len(common)), f"{a.mean():.3f}", f"{b.mean():.3f}",
                      f"{b.mean() / a.mean():.2f}", better])  # fmt: skip
     return [markdown_table(header, rows), ""] if rows else []
+
+
+MODEL_VARIANTS: dict[str, tuple[tuple[str, Any], ...]] = {
+    "defaults: F from the measured f, pendulum inclinometer": (),
+    "F from f low-passed 0.1 s": (("filter.specific_force_tau_s", 0.1),),
+    "F from f low-passed 1 s": (("filter.specific_force_tau_s", 1.0),),
+    "inclinometer read as the attitude": (("sensors.inclinometer.model", "attitude"),),
+    "both (the defaults before issue 11)": (
+        ("filter.specific_force_tau_s", 1.0),
+        ("sensors.inclinometer.model", "attitude"),
+    ),
+}
+"""The estimator-model choices of docs/error-model.md and docs/inclinometer.md, as mission-config
+overrides of the simulated missions."""
+MODEL_FILTERS = ("oracle", "vb", "maeskf", "meskf")
+
+
+def _model_specs(presets: Sequence[str], seeds: Sequence[int]) -> list[sw.RunSpec]:
+    return [
+        sw.RunSpec(p, s, f, config=cfg)
+        for cfg in MODEL_VARIANTS.values()
+        for p in presets
+        for s in seeds
+        for f in MODEL_FILTERS
+    ]
+
+
+def _models(table: pd.DataFrame, presets: Sequence[str]) -> list[str]:
+    """Per trajectory, variant and filter: mean relative RMSE and mean NEES over the seeds."""
+    header = ["variant", "filter", "seeds", "relative RMSE %", "RMSE m",
+              "mean NEES pos / vel / att"]  # fmt: skip
+    out: list[str] = []
+    ok = table[table["error"].isna()]
+    for preset in presets:
+        rows = []
+        for name, cfg in MODEL_VARIANTS.items():
+            tag = sw.config_tag(sorted(cfg))
+            for f in MODEL_FILTERS:
+                g = ok[(ok["preset"] == preset) & (ok["config"] == tag) & (ok["filter"] == f)]
+                if g.empty:
+                    continue
+                nees = " / ".join(_f(g[f"mean_nees_{b}"].mean(), ".2f") for b in NEES_BLOCKS)
+                rows.append([name, LABELS.get(f, f), str(len(g)),
+                             _f(g["relative_rmse_pct"].mean(), ".3f"),
+                             _f(g["rmse_m"].mean(), ".1f"), nees])  # fmt: skip
+        if rows:
+            out += [f"**{preset}**", "", markdown_table(header, rows), ""]
+    return out
 
 
 def _seeds_text(n: int) -> str:
@@ -280,12 +331,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     q_specs = sw.q_sweep_specs(presets, q_seeds, q_values) if q_values else []
     pn_specs = sw.process_noise_specs(presets, pn_seeds, scales) if scales else []
     st_specs = [sw.RunSpec(p, s, "vb", vb_dof=STUDENT_T_DOF) for p in presets for s in mc_seeds]
-    all_specs = mc_specs + q_specs + pn_specs + st_specs
+    model_specs = _model_specs(presets, list(range(1, args.model_seeds + 1)))
+    all_specs = mc_specs + q_specs + pn_specs + st_specs + model_specs
     n_unique = len({s.key() for s in all_specs})
     n_missions = len({s.mission_name for s in all_specs})
     print(
         f"reproduce: {n_unique} runs on {n_missions} missions ({len(mc_specs)} Monte Carlo, "
-        f"{len(q_specs)} q sweep, {len(pn_specs)} process noise, {len(st_specs)} Student-t VB; "
+        f"{len(q_specs)} q sweep, {len(pn_specs)} process noise, {len(st_specs)} Student-t VB, "
+        f"{len(model_specs)} estimator models; "
         "shared runs counted once); "
         f"cache {args.cache}",
         file=sys.stderr,
@@ -298,6 +351,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     qt = outcome.rows(q_specs) if q_specs else outcome.table.iloc[0:0]
     pn = outcome.rows(pn_specs) if pn_specs else outcome.table.iloc[0:0]
     st = outcome.rows(st_specs) if st_specs else outcome.table.iloc[0:0]
+    mt = outcome.rows(model_specs) if model_specs else outcome.table.iloc[0:0]
 
     figs = args.figures
     figs.mkdir(parents=True, exist_ok=True)
@@ -383,6 +437,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             *_spread_section(pn, "q_scale", presets, best_paper=False),
             f"![process noise]({rel(fig_pn)})" if fig_pn else "",
             "",
+        ]
+    if model_specs:
+        md += [
+            "## Estimator models: how F is linearised and what the inclinometer reads",
+            "",
+            f"{_seeds_text(args.model_seeds)} per trajectory, each variant a mission-config "
+            "override of the same missions and alignment; means over the seeds. F is evaluated "
+            "with the specific force of each IMU interval or a low-passed one "
+            "(`specific_force_tau_s`, docs/error-model.md); the inclinometer is read as a "
+            "pendulum (the tilt of the specific force) or as the attitude with white noise "
+            "(docs/inclinometer.md). A consistent filter's NEES is "
+            f"{NEES_BAND_TEXT}.",
+            "",
+            *_models(mt, presets),
         ]
     if st_specs:
         md += [

@@ -20,7 +20,9 @@ from typer.testing import CliRunner
 from adaptnav import sweep as sw
 from adaptnav.cli import app
 from adaptnav.imu_noise import ImuNoise
+from adaptnav.io import MissionError, parse_config, with_overrides
 from adaptnav.sim.sensors import Disturbances
+from test_io import config_dict
 
 runner = CliRunner()
 
@@ -335,3 +337,22 @@ def test_cli_bad_arguments_exit_2(args: list[str], tmp_path: Path) -> None:
     assert result.exit_code == 2, result.output
     assert "error" in result.output
     assert not (tmp_path / "c").exists()
+
+
+def test_config_overrides_are_part_of_the_spec_and_applied() -> None:
+    """A run's mission-config overrides change its key (not the paper's runs' keys) and reach
+    the mission the filter runs on."""
+    plain = sw.RunSpec("demo", 1, "vb")
+    over = sw.RunSpec("demo", 1, "vb", config=(("filter.vb_rho", 0.5),))
+    assert "config" not in plain.as_dict() and over.as_dict()["config"] == {"filter.vb_rho": 0.5}
+    assert over.key() != plain.key()
+    assert sw.RunSpec("demo", 1, "vb", config=(("b.x", 1), ("a.y", 2))).config == (
+        ("a.y", 2),
+        ("b.x", 1),
+    )
+    cfg = parse_config(config_dict())
+    assert with_overrides(cfg, over.config).filter.vb_rho == 0.5
+    with pytest.raises(MissionError, match="nowhere"):
+        with_overrides(cfg, [("nowhere.x", 1)])
+    with pytest.raises(MissionError):
+        with_overrides(cfg, [("filter.vb_rho", 2.0)])  # validated again: rho <= 1

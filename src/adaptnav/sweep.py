@@ -62,6 +62,7 @@ import pandas as pd
 from adaptnav import __version__
 from adaptnav.filters import FILTER_KINDS, FilterKind
 from adaptnav.imu_noise import ImuNoise
+from adaptnav.io import with_overrides
 from adaptnav.sim.scenarios import PRESETS
 from adaptnav.sim.sensors import Disturbances
 
@@ -141,7 +142,8 @@ filter) and the share of epochs inside the χ²(3) 95 % band (0.95); docs/metric
 SUMMARY_METRICS: tuple[str, ...] = ("rmse_m", "relative_rmse_pct", *NEES_METRICS)
 """What :func:`summarize` summarises by default (those of them the table has)."""
 SPEC_COLUMNS: tuple[str, ...] = (
-    "key", "preset", "seed", "filter", "q", "q_scale", "vb_dof", "disturbances", "gated",
+    "key", "preset", "seed", "filter", "q", "q_scale", "vb_dof", "config", "disturbances",
+    "gated",
 )  # fmt: skip
 CHUNK_SIZE = 8
 """Specs per worker task (one mission each): progress granularity vs. per-task overhead."""
@@ -154,6 +156,11 @@ _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "N
 def _disturbance_tag(d: Disturbances) -> str:
     text = json.dumps(d.as_dict(), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:8]
+
+
+def config_tag(config: Iterable[tuple[str, Any]]) -> str:
+    """``path=value`` pairs of a run's config overrides, ``;``-joined ("" for none)."""
+    return ";".join(f"{k}={v}" for k, v in config)
 
 
 @dataclass(frozen=True)
@@ -172,6 +179,9 @@ class RunSpec:
         disturbances: the simulator's switches; None (or the default): all on.
         vb_dof: VB-MAESKF only: Student-t ν of each reading (noise/vb.py, beyond the paper);
             None: the paper's Gaussian update.
+        config: mission-config overrides ``(dotted.path, value)`` applied before the run
+            (:func:`adaptnav.io.with_overrides`), e.g. ``(("filter.specific_force_tau_s",
+            1.0),)``; sorted by path. The alignment stays the mission's own.
 
     Equal runs are equal specs: ``q_scale=1`` is stored as None and the default disturbances
     as None, so they share one cache entry.
@@ -184,6 +194,7 @@ class RunSpec:
     q_scale: float | None = None
     disturbances: Disturbances | None = None
     vb_dof: float | None = None
+    config: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         if self.preset not in PRESETS:
@@ -206,6 +217,7 @@ class RunSpec:
             object.__setattr__(self, name, float(v))
         if self.q_scale == 1.0:
             object.__setattr__(self, "q_scale", None)
+        object.__setattr__(self, "config", tuple(sorted((str(k), v) for k, v in self.config)))
         if self.disturbances == Disturbances():
             object.__setattr__(self, "disturbances", None)
 
@@ -228,6 +240,7 @@ class RunSpec:
             "disturbances": None if self.disturbances is None else self.disturbances.as_dict(),
             # Only when set, so the keys of the paper's runs stay as they were.
             **({} if self.vb_dof is None else {"vb_dof": self.vb_dof}),
+            **({"config": dict(self.config)} if self.config else {}),
         }
 
     def key(self, version: str = __version__) -> str:
@@ -432,6 +445,8 @@ def run_one(
     evaluate it against the mission's truth (spec §10): the :data:`METRICS`."""
     from adaptnav import api, evaluate
 
+    if spec.config:
+        mission = replace(mission, config=with_overrides(mission.config, spec.config))
     if mission.truth is None:
         raise ValueError(f"{mission.root}: no truth table to evaluate against")
     started = time.perf_counter()
@@ -541,6 +556,7 @@ def _row(spec: RunSpec, record: Mapping[str, Any] | None, error: str | None) -> 
         "q": math.nan if spec.q is None else spec.q,
         "q_scale": 1.0 if spec.q_scale is None else spec.q_scale,
         "vb_dof": math.nan if spec.vb_dof is None else spec.vb_dof,
+        "config": config_tag(spec.config),
         "disturbances": "default"
         if spec.disturbances is None
         else _disturbance_tag(spec.disturbances),

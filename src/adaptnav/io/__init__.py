@@ -20,6 +20,7 @@ from adaptnav.io.config import (
     TruthConfig,
     load_config,
     parse_config,
+    with_overrides,
     write_config,
 )
 from adaptnav.io.mission import (
@@ -53,6 +54,7 @@ __all__ = [
     "load_config",
     "load_mission",
     "parse_config",
+    "with_overrides",
     "write_config",
     "write_mission",
 ]

@@ -13,7 +13,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
@@ -622,6 +622,25 @@ def parse_config(data: Mapping[str, Any], source: str = "mission.toml") -> Missi
         return MissionConfig.model_validate(dict(data))
     except ValidationError as exc:
         raise _explain(source, exc) from None
+
+
+def with_overrides(
+    config: MissionConfig, overrides: Iterable[tuple[str, Any]], source: str = "overrides"
+) -> MissionConfig:
+    """``config`` with each ``(dotted.path, value)`` set (e.g. ``("filter.vb_rho", 0.95)``,
+    ``("sensors.inclinometer.model", "attitude")``), validated again as a whole; a path through
+    a key that does not exist is a :class:`MissionError`."""
+    doc: dict[str, Any] = config.model_dump(mode="python", exclude_none=True)
+    for path, value in overrides:
+        *parents, leaf = path.split(".")
+        node = doc
+        for key in parents:
+            child = node.get(key)
+            if not isinstance(child, dict):
+                raise MissionError(f"{source}: {path}: no section {key!r}")
+            node = child
+        node[leaf] = value
+    return parse_config(doc, source)
 
 
 def load_config(path: str | Path) -> MissionConfig:
