@@ -4,11 +4,11 @@ It is the practical limit an adaptive filter can reach on a simulated mission (i
 same engine and models as MESKF, no gate, and per reading
 
 * ``R_k = diag(σ_k²)`` with σ_k the simulator's true standard deviation of that reading
-  (``sigma_*`` truth columns, the noise-segment factor and sea state included). Systematic
-  errors that no filter here models (the pendulum inclinometer's acceleration error) are not
-  added: they are time-correlated, and a per-reading variance of their size would make the
-  filter trust the readings where they happen to be small (it measured worse than the nominal
-  R on the demo preset);
+  (``sigma_*`` truth columns, the noise-segment factor and sea state included). The pendulum
+  inclinometer's acceleration error is not noise: the default pendulum model predicts it
+  (docs/inclinometer.md), so the instrument's σ is its true R. With ``model = "attitude"`` it
+  is a time-correlated error no per-reading variance describes, and the oracle is then no
+  bound;
 * a reading flagged ``is_outlier`` is not used: it is dropped with the reason
   :data:`OUTLIER_REASON`, so the ledger still holds it.
 
