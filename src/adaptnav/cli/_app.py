@@ -3,6 +3,7 @@ filter names and the paper's Table 3."""
 
 from __future__ import annotations
 
+import os
 from typing import NoReturn
 
 import typer
@@ -19,8 +20,20 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
-console = Console()
-err_console = Console(stderr=True)
+PIPE_WIDTH = 120
+"""Columns of output that goes to a file or pipe (rich's own default there is 80, which cuts
+the comparison table); ``COLUMNS`` in the environment still wins."""
+
+
+def _console(stderr: bool = False) -> Console:
+    c = Console(stderr=stderr)
+    if c.is_terminal or "COLUMNS" in os.environ:
+        return c
+    return Console(stderr=stderr, width=PIPE_WIDTH)
+
+
+console = _console()
+err_console = _console(stderr=True)
 
 
 def fail(message: str) -> NoReturn:
