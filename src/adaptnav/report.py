@@ -286,6 +286,12 @@ def _disturbances(sim: Mapping[str, Any]) -> str:
     return "\n".join(out)
 
 
+def _sensor_kind(s: dict[str, Any]) -> str:
+    """A sensor's kind, and for an inclinometer which model reads it (docs/inclinometer.md)."""
+    kind = str(s.get("kind", "?"))
+    return f"{kind} ({s.get('model', 'pendulum')})" if kind == "inclinometer" else kind
+
+
 def _sensors(toml: Mapping[str, Any] | None) -> str:
     parts = ['<section id="sensors"><h2>Sensors</h2>']
     if not toml:
@@ -300,7 +306,7 @@ def _sensors(toml: Mapping[str, Any] | None) -> str:
         rows.append(
             (
                 _e(name),
-                _e(s.get("kind", "?")),
+                _e(_sensor_kind(s)),
                 _e(s.get("use", "aid")),
                 _num(s.get("rate_hz"), "{:g}", "from data"),
                 _pair(s.get("sigma")),
