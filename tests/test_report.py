@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import re
 import shutil
 from html.parser import HTMLParser
 from pathlib import Path
@@ -146,6 +147,14 @@ def test_report_is_self_contained(report: tuple[Path, Path]) -> None:
     text = report[1].read_text(encoding="utf-8")
     for needle in ('src="http', "src='http", "<script", "<link", "url(", "@import", "//cdn"):
         assert needle not in text.lower(), needle
+
+
+def test_report_ids_are_unique_and_every_link_lands(report: tuple[Path, Path]) -> None:
+    text = report[1].read_text(encoding="utf-8")
+    ids = re.findall(r'\sid="([^"]+)"', text)
+    assert len(ids) == len(set(ids)), sorted(i for i in set(ids) if ids.count(i) > 1)
+    for target in re.findall(r'href="#([^"]+)"', text):
+        assert target in ids, target
 
 
 def test_report_describes_scenario_sensors_settings_and_alignment(

@@ -487,7 +487,7 @@ def _consistency(doc: Mapping[str, Any]) -> str:
     for block in _NEES_BLOCKS:
         headers += [f"mean NEES, {block}", f"{block}: % of epochs in band"]
     parts = [
-        '<section id="consistency"><h2>Consistency (NEES)</h2>',
+        '<section id="nees"><h2>Consistency (NEES)</h2>',
         "<p>Does each filter's covariance describe its actual errors? At every reference "
         "sample, NEES = eᵀ P⁻¹ e for the position (m), velocity (m/s) and attitude (rotation "
         "vector, rad) errors, each with its full 3×3 block of P. For a consistent filter "
@@ -774,7 +774,7 @@ def write_report(compare_dir: str | Path, out_file: str | Path | None = None) ->
         ("sensors", "Sensors"),
         ("filters", "Filter settings"),
         ("results", "Results beside the paper's Table 3"),
-        ("consistency", "Consistency (NEES)"),
+        ("nees", "Consistency (NEES)"),
         ("figures", "Figures"),
         ("ledger-counts", "Ledger"),
         ("initial", "Initial alignment"),
