@@ -231,7 +231,7 @@ def _paired_log_ratio(mc: pd.DataFrame, preset: str, a: str, b: str) -> str:
 def _heading_start(mc: pd.DataFrame, presets: Sequence[str], cache: Path) -> list[str]:
     """Each filter's RMSE against the drawn error of the mission's given initial heading:
     least-squares slope and intercept over the seeds, and the correlation."""
-    header = ["trajectory", "filter", "seeds", "mean |δψ0| deg", "RMSE at 0 m", "m per deg",
+    header = ["trajectory", "filter", "seeds", "mean abs(δψ0) deg", "RMSE at 0 m", "m per deg",
               "correlation"]  # fmt: skip
     rows = []
     for preset in presets:
@@ -481,7 +481,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         *_monte_carlo(mc, presets),
         "How much of each filter's RMSE the error of the given initial heading explains (each "
         "mission draws it with the quay bearing's 1° σ; `simulation.json`): a least-squares "
-        "line of RMSE on |δψ0| over the Monte Carlo seeds.",
+        "line of RMSE on abs(δψ0) over the Monte Carlo seeds.",
         "",
         *_heading_start(mc, presets, args.cache),
     ]
