@@ -1,0 +1,164 @@
+"""Bad input never gives a traceback or a silently wrong answer (issue 12, docs/robustness.md).
+
+One test per case found on the old code (each failed there), through the CLI as a user meets
+it, on a tiny simulated mission (:mod:`badinput`). The fuzz test is tests/test_fuzz_input.py.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+import badinput
+from adaptnav.cli import app
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny mission (CSV tables), written once; tests copy it."""
+    return badinput.tiny_mission(tmp_path_factory.mktemp("tiny") / "mission")
+
+
+@pytest.fixture()
+def mission(source: Path, tmp_path: Path) -> Path:
+    return badinput.copy_mission(source, tmp_path / "mission")
+
+
+def cli(*args: Any) -> Any:
+    res = runner.invoke(app, [str(a) for a in args])
+    assert "Traceback" not in res.output, res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    return res
+
+
+def error_line(res: Any) -> str:
+    """The one error line of a failed command (exit 2)."""
+    assert res.exit_code == 2, res.output
+    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, res.output
+    return str(lines[0])
+
+
+# --- output folders -------------------------------------------------------------------------
+
+
+@pytest.fixture()
+def no_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail the test if a filter runs: an output problem must be found before the work."""
+    from adaptnav import api
+
+    def refuse(*_args: Any, **_kwargs: Any) -> None:
+        raise AssertionError("the filter ran before the output folder was checked")
+
+    monkeypatch.setattr(api, "run", refuse)
+
+
+def test_out_that_is_a_file_is_refused_before_the_run(
+    mission: Path, tmp_path: Path, no_run: None
+) -> None:
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    line = error_line(cli("run", mission, "--out", blocker))
+    assert str(blocker) in line and "is a file, not a folder" in line
+    line = error_line(cli("run", mission, "--out", blocker / "sub" / "run"))
+    assert f"{blocker} is a file" in line
+    assert blocker.read_text() == "x"
+
+
+def test_out_in_a_folder_that_cannot_be_written(
+    mission: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, no_run: None
+) -> None:
+    real_mkdir = Path.mkdir
+
+    def mkdir(self: Path, *args: Any, **kwargs: Any) -> None:
+        if self.name.startswith(".run.tmp-"):  # what a read-only parent does (root ignores chmod)
+            raise PermissionError(13, "Permission denied", str(self))
+        real_mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "mkdir", mkdir)
+    line = error_line(cli("run", mission, "--out", tmp_path / "ro" / "run"))
+    assert "cannot write in" in line and "Permission denied" in line
+    assert not (tmp_path / "ro").exists()  # the parents it made are removed again
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs a non-root POSIX user")
+def test_out_in_a_read_only_folder(mission: Path, tmp_path: Path, no_run: None) -> None:
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        line = error_line(cli("run", mission, "--out", ro / "run"))
+    finally:
+        ro.chmod(0o755)
+    assert "cannot write in" in line
+
+
+def test_reused_out_is_refused_and_force_replaces_it_whole(mission: Path, tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    assert (out / "truth.parquet").is_file()
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(toml.replace('[truth]\nfile = "truth.csv"\n', ""))
+    line = error_line(cli("run", mission, "--out", out))
+    assert "not empty" in line and "--force" in line
+    assert cli("run", mission, "--out", out, "--force").exit_code == 0
+    # No file of the earlier run survives: evaluate cannot score against the old truth.
+    assert not (out / "truth.parquet").exists()
+    assert "no reference" in error_line(cli("evaluate", out))
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_a_failed_run_leaves_the_old_folder_and_no_temporary_one(
+    mission: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "keep.txt").write_text("old")
+    (mission / "mission.toml").write_text("[mission]\n")
+    assert "mission.toml" in error_line(cli("run", mission, "--out", out, "--force"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mission", "run"]
+    assert (out / "keep.txt").read_text() == "old"
+
+
+def test_force_never_replaces_the_input(mission: Path) -> None:
+    line = error_line(cli("run", mission, "--out", mission, "--force"))
+    assert "holds the input" in line
+    assert (mission / "mission.toml").is_file()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["simulate", "demo"],
+        ["compare", "{mission}"],
+        ["demo", "--preset", "demo"],
+        ["import", "akit", "-n", "1", "--src", "{tmp}"],
+        ["import", "rtklib", "--pos", "{tmp}/x.pos", "--imu", "{tmp}/x.csv"],
+        ["sweep", "seeds", "demo", "--seeds", "1", "--cache", "{tmp}/cache"],
+    ],
+    ids=lambda a: " ".join(a[:2]),
+)
+def test_every_folder_command_refuses_a_non_empty_out(
+    args: list[str], mission: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    filled = [a.format(mission=mission, tmp=tmp_path) for a in args]
+    line = error_line(cli(*filled, "--out", out))
+    assert str(out) in line and "not empty" in line
+    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
+
+
+def test_simulate_with_force_replaces_the_folder(tmp_path: Path) -> None:
+    out = tmp_path / "m"
+    out.mkdir()
+    (out / "stale.csv").write_text("t_s\n")
+    assert cli("simulate", "demo", "--out", out, "--force").exit_code == 0
+    assert (out / "mission.toml").is_file() and not (out / "stale.csv").exists()
