@@ -162,3 +162,49 @@ def test_simulate_with_force_replaces_the_folder(tmp_path: Path) -> None:
     (out / "stale.csv").write_text("t_s\n")
     assert cli("simulate", "demo", "--out", out, "--force").exit_code == 0
     assert (out / "mission.toml").is_file() and not (out / "stale.csv").exists()
+
+
+# --- table paths ------------------------------------------------------------------------------
+
+
+def _point(mission: Path, key: str, target: str) -> None:
+    """Set ``[sensors.<key>] file`` (or the IMU's, key "imu") to ``target`` in mission.toml."""
+    toml = (mission / "mission.toml").read_text()
+    old = f'file = "{key}.csv"'
+    assert old in toml
+    (mission / "mission.toml").write_text(toml.replace(old, f'file = "{target}"', 1))
+
+
+@pytest.mark.parametrize("where", ["../depth.csv", "{abs}", "sub/../../depth.csv"])
+def test_table_paths_outside_the_mission_folder_are_errors(
+    mission: Path, tmp_path: Path, where: str
+) -> None:
+    (mission / "depth.csv").rename(tmp_path / "depth.csv")
+    target = where.format(abs=tmp_path / "depth.csv")
+    _point(mission, "depth", target)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "sensors.depth.file" in line and target in line
+    assert "absolute path" in line or "out of the mission folder" in line
+
+
+def test_a_symbolic_link_out_of_the_mission_folder_is_an_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    (mission / "depth.csv").rename(tmp_path / "depth.csv")
+    (mission / "depth.csv").symlink_to(tmp_path / "depth.csv")
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: depth.csv: leads to") and "outside the mission folder" in line
+    # a link that stays inside is fine
+    (mission / "depth.csv").unlink()
+    (mission / "data").mkdir()
+    (tmp_path / "depth.csv").rename(mission / "data" / "depth.csv")
+    (mission / "depth.csv").symlink_to(mission / "data" / "depth.csv")
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+
+
+def test_a_symbolic_link_loop_is_a_clear_error(mission: Path, tmp_path: Path) -> None:
+    (mission / "loop.csv").symlink_to(mission / "loop2.csv")
+    (mission / "loop2.csv").symlink_to(mission / "loop.csv")
+    _point(mission, "depth", "loop.csv")
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "loop.csv" in line and "symbolic link loop" in line

@@ -14,7 +14,7 @@ import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
-from pathlib import Path
+from pathlib import Path, PureWindowsPath
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
@@ -266,8 +266,21 @@ class ImuConfig(_Model):
 
 
 def _check_table_file(v: str) -> str:
+    """A table's file: a relative path inside the mission folder with a known extension (the
+    loader also checks where symbolic links lead: :func:`adaptnav.io.mission.load_mission`)."""
     if not v.strip():
         raise ValueError("file name is empty")
+    path = Path(v)
+    if path.is_absolute() or PureWindowsPath(v).drive:
+        raise ValueError(
+            f"{v!r} is an absolute path; give the table's path relative to the mission folder "
+            "(tables live inside it)"
+        )
+    if ".." in path.parts or ".." in PureWindowsPath(v).parts:
+        raise ValueError(
+            f"{v!r} leads out of the mission folder ('..'); tables live inside it (copy the file "
+            "in)"
+        )
     if Path(v).suffix.lower() not in TABLE_SUFFIXES:
         raise ValueError(
             f"{v!r}: unknown table format {Path(v).suffix!r} (use {', '.join(TABLE_SUFFIXES)})"

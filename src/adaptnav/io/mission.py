@@ -133,9 +133,16 @@ def load_mission(path: str | Path) -> Mission:
     config = load_config(root / CONFIG_NAME)
     journal = Journal()
     cache: dict[Path, Table] = {}
+    inside = _resolve(root, root.name or str(root))
 
     def table(file: str) -> Table:
-        p = (root / file).resolve()
+        p = _resolve(root / file, file)
+        if not p.is_relative_to(inside):
+            raise MissionError(
+                f"{file}: leads to {p}, outside the mission folder {inside} (a symbolic link out "
+                "of it?); tables live inside the mission folder",
+                file=file,
+            )
         if p not in cache:
             cache[p] = read_table(p, file, journal)
         return cache[p]
@@ -169,6 +176,16 @@ def load_mission(path: str | Path) -> Mission:
         tuple(journal.repairs),
         tuple(journal.dropped),
     )
+
+
+def _resolve(path: Path, label: str) -> Path:
+    """``path`` with every symbolic link followed; a loop (or a path the system cannot
+    follow) is a MissionError naming ``label``."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as exc:  # RuntimeError: Python < 3.13's symlink loop
+        why = "a symbolic link loop" if "loop" in str(exc).lower() else str(exc)
+        raise MissionError(f"{label}: cannot follow the path ({why})", file=label) from None
 
 
 def _rows_equal(a: Array, b: Array) -> bool:
