@@ -208,3 +208,22 @@ def test_a_symbolic_link_loop_is_a_clear_error(mission: Path, tmp_path: Path) ->
     _point(mission, "depth", "loop.csv")
     line = error_line(cli("run", mission, "--out", tmp_path / "run"))
     assert "loop.csv" in line and "symbolic link loop" in line
+
+
+# --- column types -----------------------------------------------------------------------------
+
+
+def test_a_bool_column_is_an_error_not_zeros_and_ones(mission: Path, tmp_path: Path) -> None:
+    dvl = badinput.read(mission, "dvl")
+    dvl["vx_m_s"] = dvl["vx_m_s"] > 0.5
+    dvl.to_parquet(mission / "dvl.parquet", index=False)
+    (mission / "dvl.csv").unlink()
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(toml.replace('"dvl.csv"', '"dvl.parquet"'))
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "dvl.parquet, vx_m_s: a true/false column" in line
+    # the same in a CSV (pandas reads True/False cells as bools)
+    dvl.to_csv(mission / "dvl.csv", index=False)
+    (mission / "mission.toml").write_text(toml)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "dvl.csv, vx_m_s: a true/false column" in line

@@ -327,6 +327,19 @@ def numeric(table: Table, column: str) -> Array:
             file=table.label,
             field=column,
         )
+    if pd.api.types.is_bool_dtype(s) or _all_bool(s):
+        raise MissionError(
+            f"{table.label}, {column}: a true/false column where a number is expected (it would "
+            "read as 0 and 1); wrong column?",
+            file=table.label,
+            field=column,
+        )
+    if pd.api.types.is_complex_dtype(s):
+        raise MissionError(
+            f"{table.label}, {column}: a complex-number column where a real number is expected",
+            file=table.label,
+            field=column,
+        )
     if pd.api.types.is_numeric_dtype(s):
         return np.asarray(s.to_numpy(dtype=float, na_value=np.nan), dtype=float)
     text = s.astype("string").str.strip()
@@ -337,6 +350,14 @@ def numeric(table: Table, column: str) -> Array:
         r = int(bad[0])
         raise table.error(r, column, f"value {show(s.iloc[r])} is not a number")
     return np.asarray(conv.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+
+
+def _all_bool(s: pd.Series) -> bool:
+    """An object column whose non-missing cells are all Python/NumPy bools (nullable bools)."""
+    if s.dtype != object:
+        return False
+    cells = s.dropna()
+    return len(cells) > 0 and all(isinstance(v, bool | np.bool_) for v in cells)
 
 
 def take_columns(
