@@ -227,3 +227,41 @@ def test_a_bool_column_is_an_error_not_zeros_and_ones(mission: Path, tmp_path: P
     (mission / "mission.toml").write_text(toml)
     line = error_line(cli("run", mission, "--out", tmp_path / "run"))
     assert "dvl.csv, vx_m_s: a true/false column" in line
+
+
+# --- a file cut short -------------------------------------------------------------------------
+
+
+def test_a_number_cut_short_on_the_last_line_is_dropped_not_read(
+    mission: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import pandas as pd
+
+    dvl = badinput.read(mission, "dvl")
+    dvl = dvl[[c for c in dvl.columns if c != "vx_m_s"] + ["vx_m_s"]]  # a long number last
+    text = dvl.to_csv(index=False)
+    n_rows = len(dvl)
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    cut = text.rstrip("\n")[:-6]  # the file ends inside the last line's last number
+    assert cut.rsplit("\n", 1)[1].count(",") == last.count(",")  # all the fields are there
+    (mission / "dvl.csv").write_text(cut)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    assert f"dvl.csv line {n_rows + 1}" in caplog.text  # logged with file and line
+    repairs = pd.read_parquet(tmp_path / "run" / "repairs.parquet")
+    (r,) = repairs[repairs["file"] == "dvl.csv"].itertuples()
+    assert r.line == n_rows + 1 and r.action == "dropped truncated last line"
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    dvl = ledger[ledger["sensor"] == "dvl"]
+    assert sorted(dvl["row"]) == list(range(n_rows))  # every line has its fate
+    (fate,) = dvl[dvl["row"] == n_rows - 1].itertuples()
+    assert fate.fate == "dropped" and "truncated" in fate.reason
+
+
+def test_a_last_line_without_line_break_but_complete_is_kept(mission: Path, tmp_path: Path) -> None:
+    """A fixed-width file whose last line is whole: no line break at the end is not enough."""
+    depth = badinput.read(mission, "depth")
+    text = depth.to_csv(index=False, float_format="%.6f")
+    (mission / "depth.csv").write_text(text.rstrip("\n"))
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0 and "depth.csv" not in res.output, res.output

@@ -61,6 +61,7 @@ log = logging.getLogger("adaptnav.io")
 Array = NDArray[np.float64]
 CONFIG_NAME = "mission.toml"
 LOST_LOCK_REASON = "all-zero DVL reading: bottom lock lost (zero_is_lost)"
+TRUNCATED_REASON = "truncated last line of the file (cut short), not read"
 MAX_GYRO_RAD_S = 20.0
 """|gyro| above this (rad/s, ≈ 1150 °/s) is taken as wrong units (deg/s given as rad/s)."""
 MAX_ACCEL_M_S2 = 20.0 * G0
@@ -316,6 +317,14 @@ def _check_gaps(
 
 def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -> SensorData | None:
     """A sensor table → readings; NaN readings are kept (the engine drops them, logged)."""
+    if table.cut is not None:
+        line, t_cut = table.cut
+        journal.drop(
+            table.label,
+            f"{table.label} line {line}",
+            DroppedRow(name, len(table), t_cut, TRUNCATED_REASON),
+            logged=False,
+        )
     if len(table) == 0:
         if cfg.optional:
             journal.repair(
