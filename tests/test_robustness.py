@@ -265,3 +265,92 @@ def test_a_last_line_without_line_break_but_complete_is_kept(mission: Path, tmp_
     (mission / "depth.csv").write_text(text.rstrip("\n"))
     res = cli("run", mission, "--out", tmp_path / "run")
     assert res.exit_code == 0 and "depth.csv" not in res.output, res.output
+
+
+# --- plausibility -----------------------------------------------------------------------------
+
+
+def _ledger(run: Path) -> Any:
+    import pandas as pd
+
+    return pd.read_parquet(run / "ledger.parquet")
+
+
+def _fate(ledger: Any, sensor: str, row: int) -> tuple[str, str]:
+    (r,) = ledger[(ledger["sensor"] == sensor) & (ledger["row"] == row)].itertuples()
+    return str(r.fate), str(r.reason)
+
+
+def test_implausible_readings_are_dropped_with_the_reason(
+    mission: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    dvl, depth = badinput.read(mission, "dvl"), badinput.read(mission, "depth")
+    k_dvl, k_depth = len(dvl) - 20, len(depth) - 10  # under way, after the alignment
+    dvl.loc[k_dvl, "vx_m_s"] = 1e30
+    depth.loc[k_depth, "depth_m"] = 1e20
+    badinput.write(mission, "dvl", dvl)
+    badinput.write(mission, "depth", depth)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    ledger = _ledger(tmp_path / "run")
+    fate, reason = _fate(ledger, "dvl", k_dvl)
+    assert fate == "dropped" and reason.startswith("implausible: vx_m_s = 1e+30 outside [-20, 20]")
+    fate, reason = _fate(ledger, "depth", k_depth)
+    assert fate == "dropped" and reason.startswith("implausible: depth_m = 1e+20")
+    assert "dropped (implausible: vx_m_s" in caplog.text  # logged
+
+
+def test_a_depth_of_1e300_no_longer_breaks_the_filter(mission: Path, tmp_path: Path) -> None:
+    depth = badinput.read(mission, "depth")
+    depth.loc[len(depth) - 10, "depth_m"] = 1e300
+    badinput.write(mission, "depth", depth)
+    res = cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    assert _fate(_ledger(tmp_path / "run"), "depth", len(depth) - 10)[0] == "dropped"
+
+
+def test_a_gnss_latitude_out_of_range_does_not_reach_the_alignment(
+    mission: Path, source: Path, tmp_path: Path
+) -> None:
+    import pandas as pd
+
+    gps = badinput.read(mission, "gps")
+    gps.loc[3, "lat_rad"] = 2.0  # inside the alignment window
+    badinput.write(mission, "gps", gps)
+    assert cli("run", mission, "--out", tmp_path / "bad").exit_code == 0
+    assert _fate(_ledger(tmp_path / "bad"), "gps", 3)[1].startswith("implausible: lat_rad = 2")
+    assert cli("run", source, "--out", tmp_path / "good").exit_code == 0
+    bad = pd.read_parquet(tmp_path / "bad" / "solution.parquet")
+    good = pd.read_parquet(tmp_path / "good" / "solution.parquet")
+    # the alignment position is the mean of the other fixes: about 1/60 of 2 rad away if not
+    assert abs(bad["lat_rad"].iloc[0] - good["lat_rad"].iloc[0]) < 1e-6
+
+
+def test_a_whole_column_outside_its_range_is_an_error(mission: Path, tmp_path: Path) -> None:
+    gps = badinput.read(mission, "gps")
+    gps["lat_rad"] = gps["lat_rad"] * 180.0 / 3.141592653589793  # degrees named as radians
+    badinput.write(mission, "gps", gps)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "gps.csv line 2, lat_rad: every value of the column is outside" in line
+    assert "wrong units" in line
+
+
+def test_limits_are_set_per_sensor(mission: Path, tmp_path: Path) -> None:
+    toml = (mission / "mission.toml").read_text()
+    dvl_section = '[sensors.dvl]\nkind = "dvl"\n'
+    assert dvl_section in toml
+    (mission / "mission.toml").write_text(
+        toml.replace(dvl_section, dvl_section + "limits = { vz_m_s = [-0.05, 0.05] }\n")
+    )
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+    ledger = _ledger(tmp_path / "run")
+    reasons = ledger.loc[ledger["sensor"] == "dvl", "reason"]
+    assert reasons.str.startswith("implausible: vz_m_s").sum() > 0
+    for bad, words in (
+        ("limits = [1.0, -1.0]", "min < max"),
+        ("limits = { depth_m = [0.0, 1.0] }", "not a column of a dvl sensor"),
+        ('limits = "wide"', "sensors.dvl.limits"),
+    ):
+        (mission / "mission.toml").write_text(toml.replace(dvl_section, dvl_section + bad + "\n"))
+        line = error_line(cli("run", mission, "--out", tmp_path / "r2"))
+        assert "mission.toml" in line and words in line, line

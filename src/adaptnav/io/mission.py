@@ -335,8 +335,10 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             f"sensor {name!r} ({table.label}): no samples (set optional = true to run without it)",
             file=table.label,
         )
-    t, z, _ = take_columns(table, cfg.columns, f"sensor {name!r}", journal)
+    t, z, used = take_columns(table, cfg.columns, f"sensor {name!r}", journal)
     check_order(table, t)
+    limits = cfg.limits_si()
+    outside = _check_plausible(table, name, z, limits, used[1:])
     keep = np.ones(t.size, dtype=bool)
     for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
         keep[r] = False
@@ -353,6 +355,17 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                 table.where(int(r)),
                 DroppedRow(name, int(r), float(t[r]), LOST_LOCK_REASON),
             )
+    for r in np.flatnonzero(keep & outside.any(axis=1)):
+        keep[r] = False
+        c = int(np.flatnonzero(outside[r])[0])
+        lo, hi = limits[c]
+        reason = (
+            f"implausible: {cfg.columns[c]} = {z[r, c]:.6g} outside [{lo:.6g}, {hi:.6g}] "
+            f"{_UNIT[cfg.columns[c].rsplit('_', 1)[-1]]}"
+        )
+        journal.drop(
+            table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
+        )
     rows = np.flatnonzero(keep).astype(np.int64)
     tk = t[rows]
     if cfg.rate_hz is not None:
@@ -362,6 +375,35 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     else:
         period = math.nan
     return SensorData(name, cfg.kind, tk, z[rows], rows, period)
+
+
+_UNIT = {"s": "m/s", "m": "m", "rad": "rad"}
+"""Unit of a column by its name's last part (``vx_m_s`` → m/s, ``depth_m`` → m)."""
+
+
+def _check_plausible(
+    table: Table, name: str, z: Array, limits: Array, columns: list[str]
+) -> NDArray[np.bool_]:
+    """Which finite values lie outside ``limits`` (n, d). A column whose every finite value
+    does is an error (wrong units, or the wrong column): the readings are not just bad."""
+    finite = np.isfinite(z)
+    outside = finite & ((z < limits[:, 0]) | (z > limits[:, 1]))
+    for c in range(z.shape[1]):
+        n_finite = int(finite[:, c].sum())
+        if n_finite and bool(np.all(outside[finite[:, c], c])):
+            r = int(np.flatnonzero(finite[:, c])[0])
+            lo, hi = limits[c]
+            col = columns[c]
+            converted = " (after × π/180)" if "_deg" in col else ""
+            raise table.error(
+                r,
+                col,
+                f"every value of the column is outside the plausible range [{lo:.6g}, {hi:.6g}]"
+                f"{converted} (e.g. {show(table.df[col].iloc[r])} here, {n_finite} value(s)): "
+                f"wrong units or the wrong column? If the range is wrong, set "
+                f"[sensors.{name}] limits (docs/robustness.md)",
+            )
+    return outside
 
 
 TRUTH_OPTIONAL_GROUPS = (TRUTH_COLUMNS[3:6], TRUTH_COLUMNS[6:9])

@@ -129,7 +129,8 @@ class Journal:
         """Record a sensor row removed at load; ``logged=False`` when a repair already said so."""
         self.dropped.append(row)
         if logged:
-            self._note((file, row.reason), logging.WARNING, f"{where}: dropped ({row.reason})")
+            kind = row.reason.split(":", 1)[0]  # "implausible: <value>": one kind for the cap
+            self._note((file, kind), logging.WARNING, f"{where}: dropped ({row.reason})")
 
     def _note(self, key: tuple[str, str], level: int, text: str) -> None:
         self._counts[key] += 1
