@@ -354,3 +354,16 @@ def test_limits_are_set_per_sensor(mission: Path, tmp_path: Path) -> None:
         (mission / "mission.toml").write_text(toml.replace(dvl_section, dvl_section + bad + "\n"))
         line = error_line(cli("run", mission, "--out", tmp_path / "r2"))
         assert "mission.toml" in line and words in line, line
+
+
+# --- configuration ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("key", ["arw", "vrw"])
+def test_zero_white_noise_is_an_error(mission: Path, tmp_path: Path, key: str) -> None:
+    toml = (mission / "mission.toml").read_text()
+    start = toml.index(f"{key} = [") + len(f"{key} = [")
+    end = toml.index(",", start)
+    (mission / "mission.toml").write_text(toml[:start] + "0" + toml[end:])
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "mission.toml" in line and f"imu.noise.{key}: value 0" in line and "> 0" in line

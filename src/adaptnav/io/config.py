@@ -137,6 +137,8 @@ class MissionSection(_Model):
 
 
 _NOISE_KINDS: dict[str, Kind] = FIELD_KINDS
+_WHITE_NOISE = ("arw", "vrw")
+"""``[imu.noise]`` keys that must be > 0 (the bias terms may be 0: no bias)."""
 
 
 class ImuNoiseConfig(_Model):
@@ -160,6 +162,10 @@ class ImuNoiseConfig(_Model):
         si = _pair_si(v, _NOISE_KINDS[name], name)
         if name.endswith("_tau") and not float(si) > 0.0:
             raise UnitError(f'{name}: value {v[0]!r} must be > 0 ("inf" for a random walk)')
+        if name in _WHITE_NOISE and not float(si) > 0.0:
+            # Zero white noise: a Q with no noise at all makes the filter trust the IMU
+            # absolutely (and P singular); no real IMU has it.
+            raise UnitError(f"{name}: value {v[0]!r} must be > 0 (no IMU is noise-free)")
         return v
 
     def to_imu_noise(self) -> ImuNoise:
