@@ -367,3 +367,31 @@ def test_zero_white_noise_is_an_error(mission: Path, tmp_path: Path, key: str) -
     (mission / "mission.toml").write_text(toml[:start] + "0" + toml[end:])
     line = error_line(cli("run", mission, "--out", tmp_path / "run"))
     assert "mission.toml" in line and f"imu.noise.{key}: value 0" in line and "> 0" in line
+
+
+# --- failures inside the computation ----------------------------------------------------------
+
+
+def test_no_valid_gnss_fix_in_the_alignment_window_is_a_clear_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    gps = badinput.read(mission, "gps")
+    gps.loc[gps["t_s"] <= 25.0, ["lat_rad", "lon_rad"]] = float("nan")
+    badinput.write(mission, "gps", gps)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: gps.csv: no valid fix of sensor 'gps' inside the static")
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_filter_breakdown_is_a_clear_error_with_its_time(mission: Path, tmp_path: Path) -> None:
+    """With the limits opened, a depth of 1e300 reaches the filter: S is not positive
+    definite. That is an error naming the time, not a LinAlgError traceback."""
+    depth = badinput.read(mission, "depth")
+    depth.loc[len(depth) - 10, "depth_m"] = 1e300
+    badinput.write(mission, "depth", depth)
+    toml = (mission / "mission.toml").read_text()
+    section = '[sensors.depth]\nkind = "depth"\n'
+    (mission / "mission.toml").write_text(toml.replace(section, section + "limits = [-inf, inf]\n"))
+    line = error_line(cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run"))
+    assert "the meskf filter broke down" in line and "at t = " in line
+    assert "mission.toml" in line
