@@ -395,3 +395,49 @@ def test_a_filter_breakdown_is_a_clear_error_with_its_time(mission: Path, tmp_pa
     line = error_line(cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run"))
     assert "the meskf filter broke down" in line and "at t = " in line
     assert "mission.toml" in line
+
+
+# --- the ledger: every reading's fate ---------------------------------------------------------
+
+
+def _data_lines(path: Path) -> int:
+    """Data lines of a CSV table (blank lines and the header not counted)."""
+    return sum(1 for line in path.read_text().splitlines() if line.strip()) - 1
+
+
+def test_every_reading_read_has_one_fate(mission: Path, tmp_path: Path) -> None:
+    """For each sensor, readings in the file = used + rejected + dropped in the ledger, with
+    every kind of removal at load in play: a duplicate stamp, an implausible value, NaN, a cut
+    last line, and a sensor that is off."""
+    import pandas as pd
+
+    dvl = badinput.read(mission, "dvl")
+    dvl.loc[len(dvl) - 5, "t_s"] = dvl.loc[len(dvl) - 6, "t_s"]  # duplicate timestamp
+    dvl.loc[len(dvl) - 9, "vy_m_s"] = 99.0  # implausible
+    dvl.loc[len(dvl) - 12, "vz_m_s"] = float("nan")  # the engine drops it
+    badinput.write(mission, "dvl", dvl)
+    text = (mission / "depth.csv").read_text()
+    (mission / "depth.csv").write_text(text.rstrip("\n")[:-4])  # cut inside the last number
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    counts = ledger.groupby(["sensor", "fate"]).size().unstack(fill_value=0)
+    toml = (mission / "mission.toml").read_text()
+    names = ["dvl", "depth", "inclinometer", "heading", "gps"]
+    assert 'use = "off"' in toml and sorted(counts.index) == sorted(names)
+    for name in names:
+        read = _data_lines(mission / f"{name}.csv")
+        fates = counts.loc[name]
+        assert read == sum(int(fates.get(f, 0)) for f in ("used", "rejected", "dropped")), name
+        rows = ledger.loc[ledger["sensor"] == name, "row"]
+        assert sorted(rows) == list(range(read)), name  # each row once
+    heading = ledger[ledger["sensor"] == "heading"]
+    assert set(heading["reason"]) == {"sensor off"}
+
+
+def test_an_off_sensor_with_a_bad_table_does_not_stop_the_run(
+    mission: Path, tmp_path: Path
+) -> None:
+    (mission / "heading.csv").write_text("t_s,yaw\n1,2\n")  # no yaw_rad column
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output

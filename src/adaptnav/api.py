@@ -31,6 +31,10 @@ from adaptnav.strapdown import NOM_BA, NOM_BG, NavState
 __all__ = ["FilterError", "initial_state", "run"]
 
 
+OFF_REASON = "sensor off"
+"""Ledger reason of every reading of a sensor with ``use = "off"``."""
+
+
 class FilterError(MissionError):
     """The filter broke down numerically on this mission (e.g. an innovation covariance that
     is not positive definite): almost always a bad reading or a wrong σ; the message says
@@ -167,6 +171,11 @@ def run(
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
 
     extra: list[dict[str, Any]] = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
+    for name, data in m.off.items():
+        extra += [
+            _ledger_row(name, int(r), float(t), OFF_REASON)
+            for r, t in zip(data.rows, data.t, strict=True)
+        ]
     sensors = []
     readings: dict[str, tuple[np.ndarray, ...]] = {}
     overrides = {}
@@ -176,7 +185,7 @@ def run(
     for name, data in m.sensors.items():
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
-            why = "sensor used only for initialisation" if scfg.use == "init" else "sensor off"
+            why = "sensor used only for initialisation" if scfg.use == "init" else OFF_REASON
             extra += [
                 _ledger_row(name, int(r), float(t), why)
                 for r, t in zip(data.rows, data.t, strict=True)

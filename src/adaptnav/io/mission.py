@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -106,7 +106,8 @@ class SensorData:
 @dataclass(frozen=True, eq=False)
 class Mission:
     """A loaded mission: config, IMU, sensors with ``use`` aid or init, optional truth, every
-    table as read (keyed "imu", sensor names, "truth"), and what was repaired or dropped."""
+    table as read (keyed "imu", sensor names, "truth"), what was repaired or dropped, and the
+    readings of the sensors that are off (for the ledger)."""
 
     root: Path
     config: MissionConfig
@@ -116,6 +117,9 @@ class Mission:
     tables: dict[str, pd.DataFrame]
     repairs: tuple[Repair, ...]
     dropped: tuple[DroppedRow, ...]
+    off: dict[str, SensorData] = field(default_factory=dict)
+    """Sensors with ``use = "off"`` whose table could be read: never used, in the ledger as
+    "sensor off" (a missing or bad table of an off sensor is skipped, logged)."""
 
     def readings(self, use: tuple[str, ...] = ("aid",)) -> dict[str, tuple[Array, Array]]:
         """``{name: (t, z)}`` of the sensors whose ``use`` is in ``use`` (for the engine);
@@ -152,9 +156,12 @@ def load_mission(path: str | Path) -> Mission:
     tables: dict[str, pd.DataFrame] = {"imu": imu_table.df}
     imu = _load_imu(imu_table, config, journal)
     sensors: dict[str, SensorData] = {}
+    off: dict[str, SensorData] = {}
     for name, cfg in config.sensors.items():
         if cfg.use == "off":
-            log.info("sensor %r: use = 'off', not loaded", name)
+            data = _load_off_sensor(table, name, cfg, journal)
+            if data is not None:
+                off[name] = data
             continue
         tb = table(cfg.file)
         tables[name] = tb.df
@@ -176,7 +183,27 @@ def load_mission(path: str | Path) -> Mission:
         tables,
         tuple(journal.repairs),
         tuple(journal.dropped),
+        off,
     )
+
+
+def _load_off_sensor(
+    table: Callable[[str], Table], name: str, cfg: SensorConfig, journal: Journal
+) -> SensorData | None:
+    """A sensor with ``use = "off"``: its readings are read only to give each its fate in the
+    ledger ("sensor off"); a table that is missing or bad is skipped (logged), not an error."""
+    scratch = Journal()
+    try:
+        data = _load_sensor(table(cfg.file), name, cfg, scratch)
+    except MissionError as exc:
+        log.info("sensor %r: use = 'off', its table not read (%s)", name, exc)
+        return None
+    journal.repairs.extend(scratch.repairs)
+    journal.dropped.extend(scratch.dropped)
+    if data is None:  # an optional sensor with no rows
+        return None
+    log.info("sensor %r: use = 'off', %d reading(s) read, not used", name, len(data.t))
+    return data
 
 
 def _resolve(path: Path, label: str) -> Path:
