@@ -441,3 +441,19 @@ def test_an_off_sensor_with_a_bad_table_does_not_stop_the_run(
     (mission / "heading.csv").write_text("t_s,yaw\n1,2\n")  # no yaw_rad column
     res = cli("run", mission, "--out", tmp_path / "run")
     assert res.exit_code == 0, res.output
+
+
+def test_a_mission_with_degree_columns_runs(mission: Path, tmp_path: Path) -> None:
+    """A repair of a whole column (degrees converted) has no line: saved as missing, where
+    the run used to end in a TypeError traceback."""
+    import numpy as np
+    import pandas as pd
+
+    gps = badinput.read(mission, "gps")
+    gps["lat_deg"] = np.degrees(gps.pop("lat_rad"))
+    badinput.write(mission, "gps", gps)
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+    repairs = pd.read_parquet(tmp_path / "run" / "repairs.parquet")
+    (r,) = repairs.itertuples()
+    assert (r.file, r.field, r.action) == ("gps.csv", "lat_deg", "converted degrees")
+    assert pd.isna(r.line)
