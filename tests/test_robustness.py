@@ -457,3 +457,13 @@ def test_a_mission_with_degree_columns_runs(mission: Path, tmp_path: Path) -> No
     (r,) = repairs.itertuples()
     assert (r.file, r.field, r.action) == ("gps.csv", "lat_deg", "converted degrees")
     assert pd.isna(r.line)
+
+
+def test_a_reference_position_that_cannot_be_one_is_an_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    truth = badinput.read(mission, "truth")
+    truth.loc[40, "lat_rad"] = 7.0  # not a latitude in radians
+    badinput.write(mission, "truth", truth)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "truth.csv line 42, lat_rad: value 7.0 is outside" in line

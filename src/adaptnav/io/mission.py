@@ -20,6 +20,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.io.config import (
+    SENSOR_LIMITS,
     MissionConfig,
     MissionError,
     SensorConfig,
@@ -463,8 +464,22 @@ def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
     if len(table) == 0:
         raise MissionError(f"{table.label} (truth): no data rows", file=table.label)
     columns = _truth_columns(table)
-    t, z, _ = take_columns(table, columns, "truth", journal)
+    t, z, used = take_columns(table, columns, "truth", journal)
     check_order(table, t)
+    # The reference is not filtered: a position that cannot be one is an error (a wrong
+    # reference would score every run wrongly, without a word).
+    for i, c in enumerate(columns[:3]):
+        lo, hi = SENSOR_LIMITS["gnss"][c]
+        bad = np.flatnonzero(np.isfinite(z[:, i]) & ((z[:, i] < lo) | (z[:, i] > hi)))
+        if bad.size:
+            r = int(bad[0])
+            raise table.error(
+                r,
+                used[1 + i],
+                f"value {show(table.df[used[1 + i]].iloc[r])} is outside [{lo:.6g}, {hi:.6g}] "
+                f"{_UNIT[c.rsplit('_', 1)[-1]]}, not a position (wrong units?; "
+                f"{bad.size} row(s))",
+            )
     same = np.flatnonzero(np.diff(t) == 0.0)
     if same.size:
         k = int(same[0])
