@@ -459,11 +459,22 @@ def test_a_mission_with_degree_columns_runs(mission: Path, tmp_path: Path) -> No
     assert pd.isna(r.line)
 
 
-def test_a_reference_position_that_cannot_be_one_is_an_error(
-    mission: Path, tmp_path: Path
-) -> None:
+def test_a_reference_position_that_cannot_be_one_is_an_error(mission: Path, tmp_path: Path) -> None:
     truth = badinput.read(mission, "truth")
     truth.loc[40, "lat_rad"] = 7.0  # not a latitude in radians
     badinput.write(mission, "truth", truth)
     line = error_line(cli("run", mission, "--out", tmp_path / "run"))
     assert "truth.csv line 42, lat_rad: value 7.0 is outside" in line
+
+
+def test_evaluate_with_a_bad_reference_is_a_clear_error(mission: Path, tmp_path: Path) -> None:
+    import pandas as pd
+
+    out = tmp_path / "run"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    (out / "truth.parquet").write_text("garbage")
+    line = error_line(cli("evaluate", out))
+    assert "truth.parquet: not a readable Parquet file" in line
+    pd.DataFrame({"t_s": [1.0, 2.0]}).to_parquet(out / "truth.parquet")
+    line = error_line(cli("evaluate", out, "--json"))
+    assert "truth.parquet: truth lacks columns" in line

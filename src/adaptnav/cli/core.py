@@ -132,19 +132,27 @@ def evaluate_cmd(
 
     lo, hi = evaluate.NEES_BAND
 
+    source = mission if mission is not None else run_dir / "truth.parquet"
     try:
         result = results.load(run_dir)
         if mission is not None:
             truth = load_mission(mission).truth
-        elif (run_dir / "truth.parquet").is_file():
-            truth = pd.read_parquet(run_dir / "truth.parquet")
+        elif source.is_file():
+            try:
+                truth = pd.read_parquet(source)
+            except Exception as exc:  # pyarrow raises several types for a corrupt file
+                msg = f"{source}: not a readable Parquet file ({exc})"
+                raise results.RunFolderError(msg) from None
         else:
             truth = None
     except (results.RunFolderError, MissionError) as exc:
         _fail(str(exc))
     if truth is None:
         _fail(f"{run_dir}: no reference (truth.parquet) and no --mission with a [truth] table")
-    metrics = evaluate.evaluate(result, truth)
+    try:
+        metrics = evaluate.evaluate(result, truth)
+    except ValueError as exc:  # a reference without the columns or times it needs
+        _fail(f"{source}: {exc}")
     d = metrics.to_dict()
     if as_json:
         typer.echo(json.dumps({"filter": result.filter, **d}, default=str))
