@@ -478,3 +478,15 @@ def test_evaluate_with_a_bad_reference_is_a_clear_error(mission: Path, tmp_path:
     pd.DataFrame({"t_s": [1.0, 2.0]}).to_parquet(out / "truth.parquet")
     line = error_line(cli("evaluate", out, "--json"))
     assert "truth.parquet: truth lacks columns" in line
+
+
+def test_the_oracle_on_a_mission_without_simulated_truth(mission: Path, tmp_path: Path) -> None:
+    columns = {
+        "dvl": ["vx_m_s", "vy_m_s", "vz_m_s"],
+        "depth": ["depth_m"],
+        "inclinometer": ["roll_rad", "pitch_rad"],
+    }
+    for name, cols in columns.items():  # only what a real recording has
+        badinput.write(mission, name, badinput.read(mission, name)[["t_s", *cols]])
+    line = error_line(cli("run", mission, "--filter", "oracle", "--out", tmp_path / "run"))
+    assert "the oracle needs a simulated mission" in line

@@ -91,7 +91,8 @@ def run_cmd(
         try:
             mission = load_mission(mission_dir)
             result = api.run(mission, filter or None, epoch_policy=epoch_policy or None)  # type: ignore[arg-type]
-        except (MissionError, AlignmentError, UnitError) as exc:
+        except (MissionError, AlignmentError, UnitError, ValueError) as exc:
+            # ValueError also covers the oracle on a mission without the simulator's truth.
             _fail(str(exc))
         results.save(result, tmp)
         if mission.truth is not None:
