@@ -531,14 +531,7 @@ def check(source: Path, kinds: list[str], draw: Draw, strict: bool = True) -> No
         for k in kinds:
             try:
                 expects.append(CORRUPTIONS[k](root, draw))
-            except (
-                OSError,
-                KeyError,
-                ValueError,
-                IndexError,
-                AssertionError,
-                pd.errors.ParserError,
-            ):
+            except Exception:  # the corruption's own helper failed, not the CLI
                 assume(strict)  # an earlier corruption left nothing for this one to corrupt
                 raise
         if not strict:
@@ -590,6 +583,7 @@ FUZZ = settings(
     max_examples=3,
     deadline=None,
     derandomize=True,
+    database=None,  # the same examples on every machine: no replay of saved failures
     suppress_health_check=[
         HealthCheck.function_scoped_fixture,
         HealthCheck.too_slow,
