@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/adaptnav demo --out runs/demo --preset paper-1 --seed 1
+	$(BIN)/adaptnav demo --out runs/demo --preset paper-1 --seed 1 --force
 
 reproduce: $(STAMP)
 	$(BIN)/python scripts/reproduce.py

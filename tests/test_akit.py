@@ -180,6 +180,27 @@ def test_truncated_last_line_is_dropped_and_logged(
 
 
 @needs_data
+def test_a_number_cut_short_at_the_end_of_the_file_is_dropped(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """All the fields are there but the file ends inside the last one (-0.0478 → -0.0):
+    without a line break at the end the line is taken as cut, dropped and logged."""
+    src = _copy(tmp_path)
+    imu = src / "IMU_trajectory1.csv"
+    text = imu.read_text().rstrip("\n")
+    last = text.rsplit("\n", 1)[1]
+    imu.write_text(text[: len(text) - len(last.rsplit(",", 1)[1]) + 4])
+    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+        s = akit.read_segment(src, 1)
+    assert s.imu_t.size == 39999
+    (repair,) = s.repairs
+    assert (repair.file, repair.line) == ("IMU_trajectory1.csv", 40001)
+    assert repair.action == "dropped truncated last line" and "cut mid-number" in repair.detail
+    assert any("IMU_trajectory1.csv line 40001" in r.getMessage() for r in caplog.records)
+    np.testing.assert_array_equal(s.gyro, segment(1).gyro[:-1])
+
+
+@needs_data
 def test_truncated_line_inside_the_file_is_an_error(tmp_path: Path) -> None:
     src = _copy(tmp_path)
     _rewrite_lines(src / "DVL_trajectory1.csv", lambda ls: [*ls[:10], ls[10][:8], *ls[11:]])

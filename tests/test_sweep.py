@@ -313,9 +313,12 @@ def test_cli_json_prints_one_object(serial: tuple[Path, sw.SweepOutcome], tmp_pa
     assert doc["comparison"][0]["other"] == "meskf"
     for f in doc["files"].values():
         assert Path(f).is_file()
-    again = runner.invoke(app, args)
+    # The output folder is written whole: a second sweep into it needs --force.
+    refused = runner.invoke(app, args)
+    assert refused.exit_code == 2 and "--force" in refused.output
+    again = runner.invoke(app, [*args, "--force"])
     assert json.loads(again.stdout)["reused"] == 2
-    table = runner.invoke(app, [a for a in args if a != "--json"])
+    table = runner.invoke(app, [*(a for a in args if a != "--json"), "--force"])
     assert table.exit_code == 0, table.output
     assert "Consistency: NEES" in table.stdout and "[0.216, 9.348]" in table.stdout
 

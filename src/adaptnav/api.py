@@ -23,12 +23,22 @@ from adaptnav.align import align
 from adaptnav.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.filters import FilterKind, FilterSettings, build_channels
 from adaptnav.imu_noise import ImuNoise
-from adaptnav.io import Mission, load_mission
-from adaptnav.io.mission import build_sensor_model
+from adaptnav.io import Mission, MissionError, load_mission
+from adaptnav.io.mission import CONFIG_NAME, build_sensor_model
 from adaptnav.results import Result
 from adaptnav.strapdown import NOM_BA, NOM_BG, NavState
 
-__all__ = ["initial_state", "run"]
+__all__ = ["FilterError", "initial_state", "run"]
+
+
+OFF_REASON = "sensor off"
+"""Ledger reason of every reading of a sensor with ``use = "off"``."""
+
+
+class FilterError(MissionError):
+    """The filter broke down numerically on this mission (e.g. an innovation covariance that
+    is not positive definite): almost always a bad reading or a wrong σ; the message says
+    where in time."""
 
 
 def _ledger_row(sensor: str, row: int, t: float, reason: str) -> dict[str, Any]:
@@ -88,12 +98,24 @@ def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict
         g = mission.sensors[gnss[0]]
         inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
         if not np.any(inside):
-            raise ValueError(f"alignment: no valid {gnss[0]} fix inside the static window")
+            file = cfg.sensors[gnss[0]].file
+            n = int(np.count_nonzero(g.t <= window_end))
+            raise MissionError(
+                f"{file}: no valid fix of sensor {gnss[0]!r} inside the static alignment window "
+                f"(t <= {window_end:.6g} s; {n} row(s) there, none finite and plausible), and no "
+                "initial.lat_deg/lon_deg to align at",
+                file=file,
+                field=gnss[0],
+            )
         lat, lon = float(np.mean(g.z[inside, 0])), float(np.mean(g.z[inside, 1]))
         h = float(np.mean(g.z[inside, 2])) if g.z.shape[1] > 2 else ini.h_m
         position = (lat, lon, h)
     else:
-        raise ValueError("alignment: no position (initial.lat_deg/lon_deg or a GNSS sensor)")
+        raise MissionError(
+            f"{CONFIG_NAME}: alignment: no position to align at (initial.lat_deg/lon_deg, or a "
+            "GNSS sensor with readings)",
+            file=CONFIG_NAME,
+        )
     heading = math.radians(ini.rpy_deg[2]) if ini.rpy_deg is not None else None
     heading_sigma = float(ini.sigma_attitude_rad()[2]) if heading is not None else None
     a = align(
@@ -149,6 +171,11 @@ def run(
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
 
     extra: list[dict[str, Any]] = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
+    for name, data in m.off.items():
+        extra += [
+            _ledger_row(name, int(r), float(t), OFF_REASON)
+            for r, t in zip(data.rows, data.t, strict=True)
+        ]
     sensors = []
     readings: dict[str, tuple[np.ndarray, ...]] = {}
     overrides = {}
@@ -158,7 +185,7 @@ def run(
     for name, data in m.sensors.items():
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
-            why = "sensor used only for initialisation" if scfg.use == "init" else "sensor off"
+            why = "sensor used only for initialisation" if scfg.use == "init" else OFF_REASON
             extra += [
                 _ledger_row(name, int(r), float(t), why)
                 for r, t in zip(data.rows, data.t, strict=True)
@@ -192,10 +219,19 @@ def run(
     config = engine.EngineConfig(noise, policy, output_every=cfg.output_every())
     if cfg.filter.specific_force_tau_s is not None:
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
-    out = engine.run_batch(
-        config, channels, x0, P0, t0, imu_t, imu_dt,
-        m.imu.dtheta[nav_from:], m.imu.dvel[nav_from:], readings,
-    )  # fmt: skip
+    try:
+        out = engine.run_batch(
+            config, channels, x0, P0, t0, imu_t, imu_dt,
+            m.imu.dtheta[nav_from:], m.imu.dvel[nav_from:], readings,
+        )  # fmt: skip
+    except np.linalg.LinAlgError as exc:
+        raise FilterError(
+            f"{m.root / CONFIG_NAME}: the {s.kind} filter broke down: {exc}. A reading far from "
+            "what the filter predicts, or a sensor sigma far from the truth, near that time: "
+            "check the readings, their units and [sensors.<name>] sigma / limits "
+            "(docs/robustness.md)",
+            file=CONFIG_NAME,
+        ) from None
     elapsed = time.perf_counter() - started
     # Rows that never reached the engine are dropped, but keep their fate in the ledger; the
     # engine's own rows index its readings, so map them back to the files' data rows.

@@ -241,8 +241,15 @@ class Comparison:
 
         return plots.comparison_figures(self)
 
-    def save(self, out_dir: str | Path) -> Path:
-        """Write the comparison folder (see the module docstring); returns it."""
+    def save(self, out_dir: str | Path, *, mission_dir: str | Path | None = None) -> Path:
+        """Write the comparison folder (see the module docstring); returns it.
+
+        ``mission_dir``: the mission folder to record in comparison.json and in each run's
+        meta instead of the mission's root, e.g. where a mission written into a temporary
+        output folder will be once that is renamed into place (``adaptnav demo``).
+        """
+        from dataclasses import replace
+
         from adaptnav import results as results_mod
         from adaptnav.results import jsonable
 
@@ -250,6 +257,8 @@ class Comparison:
         out.mkdir(parents=True, exist_ok=True)
         truth = self.truth
         for name, result in self.results.items():
+            if mission_dir is not None:
+                result = replace(result, meta={**result.meta, "mission_dir": str(mission_dir)})
             run_dir = results_mod.save(result, out / name)
             truth.to_parquet(run_dir / TRUTH_FILE, index=False)
         self.table().to_csv(out / COMPARISON_CSV, index=False)
@@ -268,7 +277,7 @@ class Comparison:
             "format": FORMAT_NAME,
             "version": FORMAT_VERSION,
             "mission": self.mission_name,
-            "mission_dir": str(root),
+            "mission_dir": str(root if mission_dir is None else mission_dir),
             "preset": None if sim is None else sim.get("preset"),
             "seed": None if sim is None else sim.get("seed"),
             "paper_table3": self.mission_name in PAPER_TABLE3,

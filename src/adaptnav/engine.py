@@ -723,7 +723,9 @@ class Navigator:
             if status == NAV_DONE:
                 return
             if status == NAV_SINGULAR:
-                raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
+                raise np.linalg.LinAlgError(
+                    f"innovation covariance S is not positive definite at t = {self.t:.6g} s"
+                )
             self._epoch_python()
 
     # --- measurement epochs -------------------------------------------------------------------
@@ -744,7 +746,9 @@ class Navigator:
         self._icur[I_HEAD] = end
         if n < 0:
             self._icur[I_N_LEDGER] = -n - 1
-            raise np.linalg.LinAlgError("innovation covariance S is not positive definite")
+            raise np.linalg.LinAlgError(
+                f"innovation covariance S is not positive definite at t = {self.t:.6g} s"
+            )
         self._icur[I_N_LEDGER] = n
 
     def _evaluate_in_python(self, head: int, g: int) -> None:

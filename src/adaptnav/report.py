@@ -728,9 +728,15 @@ def _vec(values: Any, unit: str, fmt: str = "{:.3f}") -> str:
 # --- the page ------------------------------------------------------------------------------
 
 
-def write_report(compare_dir: str | Path, out_file: str | Path | None = None) -> Path:
+def write_report(
+    compare_dir: str | Path,
+    out_file: str | Path | None = None,
+    *,
+    shown_as: str | Path | None = None,
+) -> Path:
     """Write the HTML report of the comparison folder ``compare_dir``; returns its path
-    (default ``compare_dir/report.html``).
+    (default ``compare_dir/report.html``). ``shown_as``: the folder's path to print in the
+    page instead of ``compare_dir`` (a temporary folder renamed there afterwards).
 
     Raises :class:`ReportError` (a ValueError) naming the file when ``comparison.json`` or a
     figure it lists is missing or unreadable.
@@ -757,6 +763,9 @@ def write_report(compare_dir: str | Path, out_file: str | Path | None = None) ->
     if sim and sim.get("seed") is not None:
         title += f" (seed {sim['seed']})"
     filters = ", ".join(FILTER_LABELS.get(n, n) for n in doc.get("filters", []))
+    shown = folder.resolve() if shown_as is None else Path(shown_as)
+    if mission_dir is not None and shown_as is not None and mission_dir == folder / MISSION_SUBDIR:
+        mission_dir = shown / MISSION_SUBDIR
     where = f"mission folder {mission_dir}" if mission_dir else "mission folder not found"
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     sections = [
@@ -800,7 +809,7 @@ Figs. 7–10.</p>
 {chr(10).join(sections)}
 </main>
 <footer><p class="note">Written by adaptnav {_e(__version__)} on {_e(now)} from
-{_e(folder.resolve())} ({_e(where)}).</p></footer>
+{_e(shown)} ({_e(where)}).</p></footer>
 </body>
 </html>
 """

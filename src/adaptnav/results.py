@@ -20,7 +20,8 @@ units in the column names:
   measurement component: the diagonal of R the filter used at that reading (the paper's Fig. 10
   record of the estimated measurement noise). ``t_s`` is the reading's own stamp (ledger ``t``).
 * ``meta``: settings, timing, counts (JSON values only); ``repairs``: input repairs
-  ``file, line, field, action, detail`` (may be empty).
+  ``file, line, field, action, detail`` (may be empty; ``line`` missing for a repair of a
+  whole table or sensor).
 
 A run folder holds ``solution.parquet``, ``ledger.parquet``, ``noise.parquet``,
 ``repairs.parquet`` and ``summary.json`` (filter, mission, meta, ledger counts per sensor and
@@ -279,7 +280,8 @@ def empty_repairs() -> pd.DataFrame:
 
 
 def repairs_frame(repairs: pd.DataFrame | Sequence[Mapping[str, Any]] | None) -> pd.DataFrame:
-    """Input repairs ``file, line, field, action, detail`` (line an integer, the rest text)."""
+    """Input repairs ``file, line, field, action, detail`` (line a nullable integer, missing
+    when the repair concerns a whole table or sensor; the rest text)."""
     if repairs is None:
         frame = pd.DataFrame({c: [] for c in REPAIR_COLUMNS})
     elif isinstance(repairs, pd.DataFrame):
@@ -290,7 +292,8 @@ def repairs_frame(repairs: pd.DataFrame | Sequence[Mapping[str, Any]] | None) ->
     if missing:
         raise ValueError(f"repairs lack columns {missing}")
     frame = frame[list(REPAIR_COLUMNS)].reset_index(drop=True)
-    frame["line"] = frame["line"].astype("int64")
+    # missing (<NA>) for a repair of a whole table or sensor (a degree column converted)
+    frame["line"] = frame["line"].astype("Int64")
     for c in ("file", "field", "action", "detail"):
         frame[c] = frame[c].astype("str")
     return frame

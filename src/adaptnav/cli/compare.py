@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import FILTER_LABELS, app, console, err_console, fail
+from adaptnav.cli._app import FILTER_LABELS, Force, app, console, err_console, fail, output
 
 if TYPE_CHECKING:
     from adaptnav.compare import Comparison
@@ -95,6 +95,7 @@ def compare_cmd(
     as_json: Annotated[
         bool, typer.Option("--json", help="print only one JSON object (filter → metrics)")
     ] = False,
+    force: Force = False,
 ) -> None:
     """Run several filters on one mission from one shared alignment and compare them.
 
@@ -111,15 +112,16 @@ def compare_cmd(
         names = parse_filters(filters)
     except ValueError as exc:
         fail(f"--filters: {exc}")
-    try:
-        mission = load_mission(mission_dir)
-        cmp = compare(mission, names, progress=lambda line: err_console.print(line))
-    except (MissionError, UnitError, ValueError, OSError) as exc:
-        # ValueError covers the alignment, the oracle's and floor's missing columns, and a
-        # mission without a reference; OSError a missing or unreadable folder.
-        fail(str(exc))
-    err_console.print(f"writing {out}/ ...")
-    cmp.save(out)
+    with output(out, force, inputs=[mission_dir]) as tmp:
+        try:
+            mission = load_mission(mission_dir)
+            cmp = compare(mission, names, progress=lambda line: err_console.print(line))
+        except (MissionError, UnitError, ValueError, OSError) as exc:
+            # ValueError covers the alignment, the oracle's and floor's missing columns, and a
+            # mission without a reference; OSError a missing or unreadable folder.
+            fail(str(exc))
+        err_console.print(f"writing {out}/ ...")
+        cmp.save(tmp)
     if as_json:
         typer.echo(json.dumps(cmp.to_json(), allow_nan=False))
         return

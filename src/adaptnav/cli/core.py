@@ -10,8 +10,10 @@ from rich.table import Table
 
 from adaptnav.cli._app import (
     FILTER_CHOICES,
+    Force,
     app,
     console,
+    output,
 )
 from adaptnav.cli._app import fail as _fail
 from adaptnav.units import UnitError
@@ -24,6 +26,7 @@ def demo(
     ] = Path("runs/demo"),
     preset: Annotated[str, typer.Option(help="paper-1 | paper-2 | demo")] = "paper-1",
     seed: Annotated[int, typer.Option(help="simulation seed")] = 1,
+    force: Force = False,
 ) -> None:
     """The main job: simulate a paper trajectory, compare the filters, write the HTML report.
 
@@ -42,13 +45,15 @@ def demo(
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
     filters = ["meskf", "maeskf", "vb", "oracle"]
-    out.mkdir(parents=True, exist_ok=True)
-    console.print(f"simulating {preset} (seed {seed}) ...")
-    mission_dir = run_simulation(preset, seed, out / "mission")
-    cmp = compare(mission_dir, filters, progress=console.print)
-    console.print(f"writing runs, comparison and figures to {out}/ ...")
-    cmp.save(out)
-    report = write_report(out)
+    with output(out, force) as tmp:
+        console.print(f"simulating {preset} (seed {seed}) ...")
+        mission_dir = run_simulation(preset, seed, tmp / "mission")
+        cmp = compare(mission_dir, filters, progress=console.print)
+        console.print(f"writing runs, comparison and figures to {out}/ ...")
+        # Written in a temporary folder renamed to --out at the end: record the final paths.
+        cmp.save(tmp, mission_dir=out.absolute() / "mission")
+        write_report(tmp, shown_as=out.absolute())
+    report = out / "report.html"
     console.print(comparison_table(cmp, f"{preset} (seed {seed})"))
     source = {"gyrocompass": "gyrocompassing", "heading": "the mission's given heading"}
     how = source.get(str(cmp.initial.get("heading_source")), str(cmp.initial.get("initial")))
@@ -68,8 +73,12 @@ def run_cmd(
     epoch_policy: Annotated[
         str, typer.Option(help="exact (default) | grid (the paper's); default: the mission's")
     ] = "",
+    force: Force = False,
 ) -> None:
-    """Run one filter on a mission; write the solution, ledger and R-hat record to --out."""
+    """Run one filter on a mission; write the solution, ledger and R-hat record to --out.
+
+    --out is written whole at the end (a temporary folder beside it renamed into place); a
+    non-empty --out is refused unless --force, which replaces it."""
     from adaptnav import api, results
     from adaptnav.align import AlignmentError
     from adaptnav.io import MissionError, load_mission
@@ -78,14 +87,16 @@ def run_cmd(
         _fail(f"--filter: {filter!r} is not one of {', '.join(FILTER_CHOICES)}")
     if epoch_policy and epoch_policy not in ("exact", "grid"):
         _fail(f"--epoch-policy: {epoch_policy!r} is not 'exact' or 'grid'")
-    try:
-        mission = load_mission(mission_dir)
-        result = api.run(mission, filter or None, epoch_policy=epoch_policy or None)  # type: ignore[arg-type]
-    except (MissionError, AlignmentError, UnitError) as exc:
-        _fail(str(exc))
-    results.save(result, out)
-    if mission.truth is not None:
-        mission.truth.to_parquet(out / "truth.parquet", index=False)
+    with output(out, force, inputs=[mission_dir]) as tmp:
+        try:
+            mission = load_mission(mission_dir)
+            result = api.run(mission, filter or None, epoch_policy=epoch_policy or None)  # type: ignore[arg-type]
+        except (MissionError, AlignmentError, UnitError, ValueError) as exc:
+            # ValueError also covers the oracle on a mission without the simulator's truth.
+            _fail(str(exc))
+        results.save(result, tmp)
+        if mission.truth is not None:
+            mission.truth.to_parquet(tmp / "truth.parquet", index=False)
     counts = results.ledger_counts(result.ledger)
     table = Table(title=f"{result.filter} on {result.mission}")
     for col in ("sensor", "used", "rejected", "dropped"):
@@ -122,19 +133,27 @@ def evaluate_cmd(
 
     lo, hi = evaluate.NEES_BAND
 
+    source = mission if mission is not None else run_dir / "truth.parquet"
     try:
         result = results.load(run_dir)
         if mission is not None:
             truth = load_mission(mission).truth
-        elif (run_dir / "truth.parquet").is_file():
-            truth = pd.read_parquet(run_dir / "truth.parquet")
+        elif source.is_file():
+            try:
+                truth = pd.read_parquet(source)
+            except Exception as exc:  # pyarrow raises several types for a corrupt file
+                msg = f"{source}: not a readable Parquet file ({exc})"
+                raise results.RunFolderError(msg) from None
         else:
             truth = None
     except (results.RunFolderError, MissionError) as exc:
         _fail(str(exc))
     if truth is None:
         _fail(f"{run_dir}: no reference (truth.parquet) and no --mission with a [truth] table")
-    metrics = evaluate.evaluate(result, truth)
+    try:
+        metrics = evaluate.evaluate(result, truth)
+    except ValueError as exc:  # a reference without the columns or times it needs
+        _fail(f"{source}: {exc}")
     d = metrics.to_dict()
     if as_json:
         typer.echo(json.dumps({"filter": result.filter, **d}, default=str))
@@ -201,6 +220,7 @@ def simulate(
     disable: Annotated[
         list[str] | None, typer.Option("--disable", help="turn a disturbance off (repeatable)")
     ] = None,
+    force: Force = False,
 ) -> None:
     """Simulate one of the paper's sea trials (or a short demo) as a mission folder.
 
@@ -230,9 +250,10 @@ def simulate(
             if name not in known:
                 _fail(f"unknown disturbance {name!r}; known: {', '.join(sorted(known))}")
             d = replace(d, **{name: value})
-    path = run_simulation(preset, seed, out, d)
+    with output(out, force) as tmp:
+        run_simulation(preset, seed, tmp, d)
     on = [k for k, v in d.as_dict().items() if v]
-    console.print(f"mission {preset} (seed {seed}) written to {path}")
+    console.print(f"mission {preset} (seed {seed}) written to {out}")
     console.print(f"disturbances on: {', '.join(on) or 'none'}")
 
 

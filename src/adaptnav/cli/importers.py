@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import app, console, fail
+from adaptnav.cli._app import Force, app, console, fail, output
 
 import_app = typer.Typer(
     help="Import external recordings as mission folders (docs/akit.md, docs/rtklib.md).",
@@ -44,6 +44,7 @@ def akit(
         float, typer.Option(help="σ (m) of the semi-synthetic depth's noise")
     ] = 0.05,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
+    force: Force = False,
 ) -> None:
     """Import one Snapir AUV (A-KIT) segment as a mission folder.
 
@@ -58,18 +59,20 @@ def akit(
 
     if not depth_sigma_m > 0.0:
         fail(f"--depth-sigma-m: {depth_sigma_m} must be > 0")
-    try:
-        root = import_segment(
-            src,
-            trajectory,
-            out,
-            seed=seed,
-            faults=faults,
-            depth_sigma_m=depth_sigma_m,
-            fmt="csv" if csv else "parquet",
-        )
-    except (MissionError, ValueError, OSError) as exc:  # AkitError is a MissionError
-        fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    with output(out, force, inputs=[src]) as tmp:
+        try:
+            import_segment(
+                src,
+                trajectory,
+                tmp,
+                seed=seed,
+                faults=faults,
+                depth_sigma_m=depth_sigma_m,
+                fmt="csv" if csv else "parquet",
+            )
+        except (MissionError, ValueError, OSError) as exc:  # AkitError is a MissionError
+            fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    root = out
     info = json.loads((root / "import.json").read_text(encoding="utf-8"))
     table = Table(title=f"A-KIT segment {trajectory}: offsets (estimated from the data)")
     for col in ("quantity", "estimated", "README", "used"):
@@ -154,6 +157,7 @@ def rtklib(
         ),
     ] = True,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
+    force: Force = False,
 ) -> None:
     """Import an RTKLIB-logged GNSS + IMU drive as a mission folder.
 
@@ -169,20 +173,22 @@ def rtklib(
     if imu_noise not in ("measured", "driving", "published"):
         fail(f"--imu-noise: {imu_noise!r} must be measured, driving or published")
     windows = list(DEFAULT_OUTAGES_S) if outages == "default" else _parse_outages(outages)
-    try:
-        root = import_drive(
-            pos,
-            imu,
-            out,
-            tag_path=tag,
-            outages=windows,
-            time_offset_s=time_offset_s,
-            imu_noise=imu_noise,  # type: ignore[arg-type]
-            nhc_sigma_m_s=NHC_SIGMA_M_S if nhc else None,
-            fmt="csv" if csv else "parquet",
-        )
-    except (MissionError, ValueError, OSError) as exc:  # RtklibError is a MissionError
-        fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    with output(out, force, inputs=[pos, imu]) as tmp:
+        try:
+            import_drive(
+                pos,
+                imu,
+                tmp,
+                tag_path=tag,
+                outages=windows,
+                time_offset_s=time_offset_s,
+                imu_noise=imu_noise,  # type: ignore[arg-type]
+                nhc_sigma_m_s=NHC_SIGMA_M_S if nhc else None,
+                fmt="csv" if csv else "parquet",
+            )
+        except (MissionError, ValueError, OSError) as exc:  # RtklibError is a MissionError
+            fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    root = out
     info = json.loads((root / "import.json").read_text(encoding="utf-8"))
     table = Table(title="RTKLIB drive: estimates and checks")
     for col in ("quantity", "value", "published / expected"):

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, app, console, fail
+from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, Force, app, console, fail, output
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -123,20 +123,25 @@ def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
     return records
 
 
+def _write(outcome: SweepOutcome, tmp: Path, tables: dict[str, pd.DataFrame]) -> None:
+    """``runs.csv`` and one CSV per table into the (temporary) output folder."""
+    outcome.table.to_csv(tmp / "runs.csv", index=False)
+    for name, frame in tables.items():
+        frame.to_csv(tmp / f"{name}.csv", index=False)
+
+
 def _finish(
     kind: str,
     outcome: SweepOutcome,
     out: Path,
-    figure: Path,
+    figure: str,
     tables: dict[str, pd.DataFrame],
     as_json: bool,
     extra: dict[str, Any],
 ) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    outcome.table.to_csv(out / "runs.csv", index=False)
-    files = {"runs": out / "runs.csv", "figure": figure}
-    for name, frame in tables.items():
-        frame.to_csv(out / f"{name}.csv", index=False)
+    """Print what was written to ``out`` (a table, or one JSON object)."""
+    files = {"runs": out / "runs.csv", "figure": out / figure}
+    for name in tables:
         files[name] = out / f"{name}.csv"
     if outcome.failed:
         first = next(iter(outcome.errors.values()))
@@ -218,6 +223,7 @@ def q_cmd(
     as_json: AsJson = False,
     progress: ShowProgress = True,
     keep_missions: KeepMissions = True,
+    force: Force = False,
 ) -> None:
     """Relative RMSE against the gate coefficient q (the paper's Fig. 4).
 
@@ -231,13 +237,15 @@ def q_cmd(
     seed_list, names = _common(presets, seeds, filters, jobs)
     q_values = _floats(q, "--q", geometric=False)
     specs = sweep.q_sweep_specs(presets, seed_list, q_values, names)
-    outcome = _execute(specs, cache, jobs, progress, keep_missions)
     folder = out or cache / "q"
-    figure = sweep.plot_q_sweep(outcome.table, folder / "q_sweep.png")
-    c = sweep.curve(outcome.table, "q")
-    spread = sweep.curve_spread(c, "q")
-    refs = sweep.summarize(outcome.table[outcome.table["q"].isna()])
-    tables = {"summary": c, "spread": spread, "references": refs}
+    with output(folder, force) as tmp:
+        outcome = _execute(specs, cache, jobs, progress, keep_missions)
+        figure = sweep.plot_q_sweep(outcome.table, tmp / "q_sweep.png").name
+        c = sweep.curve(outcome.table, "q")
+        spread = sweep.curve_spread(c, "q")
+        refs = sweep.summarize(outcome.table[outcome.table["q"].isna()])
+        tables = {"summary": c, "spread": spread, "references": refs}
+        _write(outcome, tmp, tables)
     extra = {"presets": presets, "seeds": seed_list, "q": q_values, "filters": list(names)}
     _finish("q", outcome, folder, figure, tables, as_json, extra)
     if not as_json:
@@ -261,6 +269,7 @@ def process_noise_cmd(
     as_json: AsJson = False,
     progress: ShowProgress = True,
     keep_missions: KeepMissions = True,
+    force: Force = False,
 ) -> None:
     """Relative RMSE against the gyro-bias process noise (the paper's Fig. 6).
 
@@ -272,12 +281,14 @@ def process_noise_cmd(
     seed_list, names = _common(presets, seeds, filters, jobs)
     scale_values = _floats(scales, "--scales", geometric=True)
     specs = sweep.process_noise_specs(presets, seed_list, scale_values, names)
-    outcome = _execute(specs, cache, jobs, progress, keep_missions)
     folder = out or cache / "process-noise"
-    figure = sweep.plot_process_noise(outcome.table, folder / "process_noise.png")
-    c = sweep.curve(outcome.table, "q_scale")
-    spread = sweep.curve_spread(c, "q_scale")
-    tables = {"summary": c, "spread": spread}
+    with output(folder, force) as tmp:
+        outcome = _execute(specs, cache, jobs, progress, keep_missions)
+        figure = sweep.plot_process_noise(outcome.table, tmp / "process_noise.png").name
+        c = sweep.curve(outcome.table, "q_scale")
+        spread = sweep.curve_spread(c, "q_scale")
+        tables = {"summary": c, "spread": spread}
+        _write(outcome, tmp, tables)
     extra = {"presets": presets, "seeds": seed_list, "scales": scale_values, "filters": list(names)}
     _finish("process-noise", outcome, folder, figure, tables, as_json, extra)
     if not as_json:
@@ -298,6 +309,7 @@ def seeds_cmd(
     as_json: AsJson = False,
     progress: ShowProgress = True,
     keep_missions: KeepMissions = True,
+    force: Force = False,
 ) -> None:
     """Monte Carlo over seeds: each filter at its defaults (Table 3 as a distribution).
 
@@ -310,12 +322,14 @@ def seeds_cmd(
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     specs = sweep.monte_carlo_specs(presets, seed_list, names)
-    outcome = _execute(specs, cache, jobs, progress, keep_missions)
     folder = out or cache / "seeds"
-    figure = sweep.plot_monte_carlo(outcome.table, folder / "monte_carlo.png")
-    summary = sweep.summarize(outcome.table)
-    comparison = sweep.paired_comparison(outcome.table, "vb")
-    tables = {"summary": summary, "comparison": comparison}
+    with output(folder, force) as tmp:
+        outcome = _execute(specs, cache, jobs, progress, keep_missions)
+        figure = sweep.plot_monte_carlo(outcome.table, tmp / "monte_carlo.png").name
+        summary = sweep.summarize(outcome.table)
+        comparison = sweep.paired_comparison(outcome.table, "vb")
+        tables = {"summary": summary, "comparison": comparison}
+        _write(outcome, tmp, tables)
     extra = {"presets": presets, "seeds": seed_list, "filters": list(names)}
     _finish("seeds", outcome, folder, figure, tables, as_json, extra)
     if as_json:

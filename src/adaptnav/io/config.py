@@ -14,7 +14,7 @@ import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
-from pathlib import Path
+from pathlib import Path, PureWindowsPath
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
@@ -137,6 +137,8 @@ class MissionSection(_Model):
 
 
 _NOISE_KINDS: dict[str, Kind] = FIELD_KINDS
+_WHITE_NOISE = ("arw", "vrw")
+"""``[imu.noise]`` keys that must be > 0 (the bias terms may be 0: no bias)."""
 
 
 class ImuNoiseConfig(_Model):
@@ -160,6 +162,10 @@ class ImuNoiseConfig(_Model):
         si = _pair_si(v, _NOISE_KINDS[name], name)
         if name.endswith("_tau") and not float(si) > 0.0:
             raise UnitError(f'{name}: value {v[0]!r} must be > 0 ("inf" for a random walk)')
+        if name in _WHITE_NOISE and not float(si) > 0.0:
+            # Zero white noise: a Q with no noise at all makes the filter trust the IMU
+            # absolutely (and P singular); no real IMU has it.
+            raise UnitError(f"{name}: value {v[0]!r} must be > 0 (no IMU is noise-free)")
         return v
 
     def to_imu_noise(self) -> ImuNoise:
@@ -266,8 +272,21 @@ class ImuConfig(_Model):
 
 
 def _check_table_file(v: str) -> str:
+    """A table's file: a relative path inside the mission folder with a known extension (the
+    loader also checks where symbolic links lead: :func:`adaptnav.io.mission.load_mission`)."""
     if not v.strip():
         raise ValueError("file name is empty")
+    path = Path(v)
+    if path.is_absolute() or PureWindowsPath(v).drive:
+        raise ValueError(
+            f"{v!r} is an absolute path; give the table's path relative to the mission folder "
+            "(tables live inside it)"
+        )
+    if ".." in path.parts or ".." in PureWindowsPath(v).parts:
+        raise ValueError(
+            f"{v!r} leads out of the mission folder ('..'); tables live inside it (copy the file "
+            "in)"
+        )
     if Path(v).suffix.lower() not in TABLE_SUFFIXES:
         raise ValueError(
             f"{v!r}: unknown table format {Path(v).suffix!r} (use {', '.join(TABLE_SUFFIXES)})"
@@ -302,6 +321,11 @@ class SensorConfig(_Model):
     """DVL only: a reading of exactly zero on every axis is a lost bottom lock (drivers that
     report the loss so), dropped at load with that reason. Not for a vehicle that can sit
     still on the bottom."""
+    limits: tuple[float, float] | dict[str, tuple[float, float]] | None = None
+    """Plausible range of a reading, in the SI unit of its column: ``[min, max]`` for every
+    component, or ``{ column = [min, max] }`` per column; the rest from
+    :data:`SENSOR_LIMITS`. A reading outside is dropped at load (ledger: "implausible");
+    a column with every value outside is an error (wrong units). docs/robustness.md."""
 
     @field_validator("file")
     @classmethod
@@ -320,6 +344,25 @@ class SensorConfig(_Model):
         dims = (2, 3) if kind == "gnss" else _dims(kind, False)  # gnss: checked with use_height
         if si.size not in (1, *dims):
             raise UnitError(f"sigma: {si.size} values given, {kind} has {dims[-1]} components")
+        return v
+
+    @field_validator("limits")
+    @classmethod
+    def _check_limits(
+        cls, v: tuple[float, float] | dict[str, tuple[float, float]] | None, info: ValidationInfo
+    ) -> tuple[float, float] | dict[str, tuple[float, float]] | None:
+        if v is None:
+            return v
+        pairs = v if isinstance(v, dict) else {"": v}
+        kind = info.data.get("kind")
+        for column, (lo, hi) in pairs.items():
+            at = f"limits.{column}" if column else "limits"
+            if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+                raise ValueError(f"{at}: [{lo!r}, {hi!r}] must be [min, max] with min < max")
+            if column and kind is not None and column not in SENSOR_COLUMNS[kind]:
+                raise ValueError(
+                    f"{at}: not a column of a {kind} sensor ({', '.join(SENSOR_COLUMNS[kind])})"
+                )
         return v
 
     @model_validator(mode="after")
@@ -355,6 +398,19 @@ class SensorConfig(_Model):
         """The table's measurement columns (SI names), after ``t_s``."""
         cols = SENSOR_COLUMNS[self.kind]
         return cols[: self.dim]
+
+    def limits_si(self) -> Array:
+        """``[min, max]`` (d, 2) of each measurement column (:attr:`columns`), SI units: the
+        configured ``limits``, else :data:`SENSOR_LIMITS` of the kind."""
+        default = SENSOR_LIMITS[self.kind]
+        out = np.array([default[c] for c in self.columns], dtype=float)
+        if isinstance(self.limits, dict):
+            for i, c in enumerate(self.columns):
+                if c in self.limits:
+                    out[i] = self.limits[c]
+        elif self.limits is not None:
+            out[:] = self.limits
+        return out
 
     def sigma_si(self) -> float | Array:
         """σ in SI units (m/s, m, rad): a scalar or one value per component."""
@@ -394,6 +450,29 @@ SENSOR_COLUMNS: dict[SensorKind, tuple[str, ...]] = {
     "nhc": ("vy_m_s", "vz_m_s"),
 }
 """Measurement columns of each sensor table, after ``t_s`` (gnss ``h_m`` only with height)."""
+
+MAX_SPEED_M_S = 20.0
+"""|DVL velocity| (and NHC) above this (m/s, ~39 kn) per component is implausible."""
+SENSOR_LIMITS: dict[SensorKind, dict[str, tuple[float, float]]] = {
+    "dvl": {c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vx_m_s", "vy_m_s", "vz_m_s")},
+    "depth": {"depth_m": (-100.0, 12000.0)},
+    "inclinometer": {
+        "roll_rad": (-math.pi / 2, math.pi / 2),
+        "pitch_rad": (-math.pi / 2, math.pi / 2),
+    },
+    "heading": {"yaw_rad": (-2.0 * math.pi, 2.0 * math.pi)},
+    "gnss": {
+        "lat_rad": (-math.pi / 2, math.pi / 2),
+        "lon_rad": (-math.pi, 2.0 * math.pi),
+        "h_m": (-12000.0, 100000.0),
+    },
+    "nhc": {c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vy_m_s", "vz_m_s")},
+}
+"""Default plausible range of each sensor column (SI units; ``[sensors.<name>] limits``
+overrides them), the one place they are set: |DVL velocity| <= 20 m/s, depth in
+[-100, 12000] m (above the surface / below the deepest trench), inclinometer angles within
+±90°, heading within ±360°, GNSS latitude within ±90°, longitude in [-180°, 360°], height in
+[-12 km, 100 km]. docs/robustness.md."""
 
 
 class InitialConfig(_Model):

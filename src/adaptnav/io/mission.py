@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -20,6 +20,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.io.config import (
+    SENSOR_LIMITS,
     MissionConfig,
     MissionError,
     SensorConfig,
@@ -61,6 +62,7 @@ log = logging.getLogger("adaptnav.io")
 Array = NDArray[np.float64]
 CONFIG_NAME = "mission.toml"
 LOST_LOCK_REASON = "all-zero DVL reading: bottom lock lost (zero_is_lost)"
+TRUNCATED_REASON = "truncated last line of the file (cut short), not read"
 MAX_GYRO_RAD_S = 20.0
 """|gyro| above this (rad/s, ≈ 1150 °/s) is taken as wrong units (deg/s given as rad/s)."""
 MAX_ACCEL_M_S2 = 20.0 * G0
@@ -105,7 +107,8 @@ class SensorData:
 @dataclass(frozen=True, eq=False)
 class Mission:
     """A loaded mission: config, IMU, sensors with ``use`` aid or init, optional truth, every
-    table as read (keyed "imu", sensor names, "truth"), and what was repaired or dropped."""
+    table as read (keyed "imu", sensor names, "truth"), what was repaired or dropped, and the
+    readings of the sensors that are off (for the ledger)."""
 
     root: Path
     config: MissionConfig
@@ -115,6 +118,9 @@ class Mission:
     tables: dict[str, pd.DataFrame]
     repairs: tuple[Repair, ...]
     dropped: tuple[DroppedRow, ...]
+    off: dict[str, SensorData] = field(default_factory=dict)
+    """Sensors with ``use = "off"`` whose table could be read: never used, in the ledger as
+    "sensor off" (a missing or bad table of an off sensor is skipped, logged)."""
 
     def readings(self, use: tuple[str, ...] = ("aid",)) -> dict[str, tuple[Array, Array]]:
         """``{name: (t, z)}`` of the sensors whose ``use`` is in ``use`` (for the engine);
@@ -133,9 +139,16 @@ def load_mission(path: str | Path) -> Mission:
     config = load_config(root / CONFIG_NAME)
     journal = Journal()
     cache: dict[Path, Table] = {}
+    inside = _resolve(root, root.name or str(root))
 
     def table(file: str) -> Table:
-        p = (root / file).resolve()
+        p = _resolve(root / file, file)
+        if not p.is_relative_to(inside):
+            raise MissionError(
+                f"{file}: leads to {p}, outside the mission folder {inside} (a symbolic link out "
+                "of it?); tables live inside the mission folder",
+                file=file,
+            )
         if p not in cache:
             cache[p] = read_table(p, file, journal)
         return cache[p]
@@ -144,9 +157,12 @@ def load_mission(path: str | Path) -> Mission:
     tables: dict[str, pd.DataFrame] = {"imu": imu_table.df}
     imu = _load_imu(imu_table, config, journal)
     sensors: dict[str, SensorData] = {}
+    off: dict[str, SensorData] = {}
     for name, cfg in config.sensors.items():
         if cfg.use == "off":
-            log.info("sensor %r: use = 'off', not loaded", name)
+            data = _load_off_sensor(table, name, cfg, journal)
+            if data is not None:
+                off[name] = data
             continue
         tb = table(cfg.file)
         tables[name] = tb.df
@@ -168,7 +184,37 @@ def load_mission(path: str | Path) -> Mission:
         tables,
         tuple(journal.repairs),
         tuple(journal.dropped),
+        off,
     )
+
+
+def _load_off_sensor(
+    table: Callable[[str], Table], name: str, cfg: SensorConfig, journal: Journal
+) -> SensorData | None:
+    """A sensor with ``use = "off"``: its readings are read only to give each its fate in the
+    ledger ("sensor off"); a table that is missing or bad is skipped (logged), not an error."""
+    scratch = Journal()
+    try:
+        data = _load_sensor(table(cfg.file), name, cfg, scratch)
+    except MissionError as exc:
+        log.info("sensor %r: use = 'off', its table not read (%s)", name, exc)
+        return None
+    journal.repairs.extend(scratch.repairs)
+    journal.dropped.extend(scratch.dropped)
+    if data is None:  # an optional sensor with no rows
+        return None
+    log.info("sensor %r: use = 'off', %d reading(s) read, not used", name, len(data.t))
+    return data
+
+
+def _resolve(path: Path, label: str) -> Path:
+    """``path`` with every symbolic link followed; a loop (or a path the system cannot
+    follow) is a MissionError naming ``label``."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as exc:  # RuntimeError: Python < 3.13's symlink loop
+        why = "a symbolic link loop" if "loop" in str(exc).lower() else str(exc)
+        raise MissionError(f"{label}: cannot follow the path ({why})", file=label) from None
 
 
 def _rows_equal(a: Array, b: Array) -> bool:
@@ -299,6 +345,14 @@ def _check_gaps(
 
 def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -> SensorData | None:
     """A sensor table → readings; NaN readings are kept (the engine drops them, logged)."""
+    if table.cut is not None:
+        line, t_cut = table.cut
+        journal.drop(
+            table.label,
+            f"{table.label} line {line}",
+            DroppedRow(name, len(table), t_cut, TRUNCATED_REASON),
+            logged=False,
+        )
     if len(table) == 0:
         if cfg.optional:
             journal.repair(
@@ -309,8 +363,10 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             f"sensor {name!r} ({table.label}): no samples (set optional = true to run without it)",
             file=table.label,
         )
-    t, z, _ = take_columns(table, cfg.columns, f"sensor {name!r}", journal)
+    t, z, used = take_columns(table, cfg.columns, f"sensor {name!r}", journal)
     check_order(table, t)
+    limits = cfg.limits_si()
+    outside = _check_plausible(table, name, z, limits, used[1:])
     keep = np.ones(t.size, dtype=bool)
     for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
         keep[r] = False
@@ -327,6 +383,17 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                 table.where(int(r)),
                 DroppedRow(name, int(r), float(t[r]), LOST_LOCK_REASON),
             )
+    for r in np.flatnonzero(keep & outside.any(axis=1)):
+        keep[r] = False
+        c = int(np.flatnonzero(outside[r])[0])
+        lo, hi = limits[c]
+        reason = (
+            f"implausible: {cfg.columns[c]} = {z[r, c]:.6g} outside [{lo:.6g}, {hi:.6g}] "
+            f"{_UNIT[cfg.columns[c].rsplit('_', 1)[-1]]}"
+        )
+        journal.drop(
+            table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
+        )
     rows = np.flatnonzero(keep).astype(np.int64)
     tk = t[rows]
     if cfg.rate_hz is not None:
@@ -336,6 +403,35 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     else:
         period = math.nan
     return SensorData(name, cfg.kind, tk, z[rows], rows, period)
+
+
+_UNIT = {"s": "m/s", "m": "m", "rad": "rad"}
+"""Unit of a column by its name's last part (``vx_m_s`` → m/s, ``depth_m`` → m)."""
+
+
+def _check_plausible(
+    table: Table, name: str, z: Array, limits: Array, columns: list[str]
+) -> NDArray[np.bool_]:
+    """Which finite values lie outside ``limits`` (n, d). A column whose every finite value
+    does is an error (wrong units, or the wrong column): the readings are not just bad."""
+    finite = np.isfinite(z)
+    outside = finite & ((z < limits[:, 0]) | (z > limits[:, 1]))
+    for c in range(z.shape[1]):
+        n_finite = int(finite[:, c].sum())
+        if n_finite and bool(np.all(outside[finite[:, c], c])):
+            r = int(np.flatnonzero(finite[:, c])[0])
+            lo, hi = limits[c]
+            col = columns[c]
+            converted = " (after × π/180)" if "_deg" in col else ""
+            raise table.error(
+                r,
+                col,
+                f"every value of the column is outside the plausible range [{lo:.6g}, {hi:.6g}]"
+                f"{converted} (e.g. {show(table.df[col].iloc[r])} here, {n_finite} value(s)): "
+                f"wrong units or the wrong column? If the range is wrong, set "
+                f"[sensors.{name}] limits (docs/robustness.md)",
+            )
+    return outside
 
 
 TRUTH_OPTIONAL_GROUPS = (TRUTH_COLUMNS[3:6], TRUTH_COLUMNS[6:9])
@@ -368,8 +464,22 @@ def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
     if len(table) == 0:
         raise MissionError(f"{table.label} (truth): no data rows", file=table.label)
     columns = _truth_columns(table)
-    t, z, _ = take_columns(table, columns, "truth", journal)
+    t, z, used = take_columns(table, columns, "truth", journal)
     check_order(table, t)
+    # The reference is not filtered: a position that cannot be one is an error (a wrong
+    # reference would score every run wrongly, without a word).
+    for i, c in enumerate(columns[:3]):
+        lo, hi = SENSOR_LIMITS["gnss"][c]
+        bad = np.flatnonzero(np.isfinite(z[:, i]) & ((z[:, i] < lo) | (z[:, i] > hi)))
+        if bad.size:
+            r = int(bad[0])
+            raise table.error(
+                r,
+                used[1 + i],
+                f"value {show(table.df[used[1 + i]].iloc[r])} is outside [{lo:.6g}, {hi:.6g}] "
+                f"{_UNIT[c.rsplit('_', 1)[-1]]}, not a position (wrong units?; "
+                f"{bad.size} row(s))",
+            )
     same = np.flatnonzero(np.diff(t) == 0.0)
     if same.size:
         k = int(same[0])

@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import logging
+import math
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -68,6 +69,9 @@ STREAM_COLUMNS: dict[str, tuple[str, ...]] = {
 _OLD_PANDAS = int(pd.__version__.split(".")[0]) < 3
 """pandas < 3 parses floats exactly only when asked; pandas 3 always does (and deprecates it)."""
 _LOG_CAP = 10
+CUT_WINDOW = 100
+"""Lines before the last whose last field's length is compared with the last one's, in a CSV
+that does not end with a line break (a cut number is shorter)."""
 """Repairs of one kind logged one by one per file; the rest are summarised (all are recorded)."""
 
 
@@ -121,9 +125,12 @@ class Journal:
         self.repairs.append(r)
         self._note((file, action), level, str(r))
 
-    def drop(self, file: str, where: str, row: DroppedRow) -> None:
+    def drop(self, file: str, where: str, row: DroppedRow, *, logged: bool = True) -> None:
+        """Record a sensor row removed at load; ``logged=False`` when a repair already said so."""
         self.dropped.append(row)
-        self._note((file, row.reason), logging.WARNING, f"{where}: dropped ({row.reason})")
+        if logged:
+            kind = row.reason.split(":", 1)[0]  # "implausible: <value>": one kind for the cap
+            self._note((file, kind), logging.WARNING, f"{where}: dropped ({row.reason})")
 
     def _note(self, key: tuple[str, str], level: int, text: str) -> None:
         self._counts[key] += 1
@@ -163,6 +170,9 @@ class Table:
     df: pd.DataFrame
     lines: NDArray[np.int64]
     """Per data row: CSV line (1-based, header = 1) or Parquet row (0-based)."""
+    cut: tuple[int, float] | None = None
+    """A truncated last line dropped while reading (a CSV cut short): its line and its ``t_s``
+    (NaN if that was cut too). Its data row is ``len(self)``; a sensor's ledger gets it."""
 
     def __len__(self) -> int:
         return len(self.df)
@@ -254,11 +264,17 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     header = [h.strip() for h in next(csv.reader([lines[head]]))]
     _check_header(header, label, head + 1)
     data = keep[1:]
-    if '"' in text:
+    quoted = '"' in text
+
+    def fields(i: int) -> list[str]:
+        return next(csv.reader([lines[i]])) if quoted else lines[i].split(",")
+
+    if quoted:
         counts = [len(r) for r in csv.reader(lines[i] for i in data)]
     else:
         counts = [lines[i].count(",") + 1 for i in data]
     n = len(header)
+    cut: tuple[int, float] | None = None
     for j, (i, c) in enumerate(zip(data, counts, strict=True)):
         if c == n:
             continue
@@ -270,6 +286,7 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
                 "dropped truncated last line",
                 f"{c} of {n} fields: {lines[i][:60]!r}",
             )
+            cut = (i + 1, _time_of(fields(i)[: c - 1], header))
             data = data[:-1]
             break
         raise MissionError(
@@ -277,6 +294,24 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
             file=label,
             line=i + 1,
         )
+    if cut is None and data and not text.endswith(("\n", "\r")):
+        # No line break at the end: the file may have been cut inside the last line's last
+        # field (-0.0979034 → -0.0979). Kept only if that field is as long as the longest of
+        # its column on the lines before (a fixed-width writer); otherwise dropped.
+        last = fields(data[-1])
+        before = [len(fields(i)[-1].strip()) for i in data[-1 - CUT_WINDOW : -1]]
+        value = last[-1].strip()
+        if not before or len(value) < max(before):
+            journal.repair(
+                label,
+                data[-1] + 1,
+                header[-1],
+                "dropped truncated last line",
+                f"the file ends without a line break and the last value {value!r} is shorter "
+                f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+            )
+            cut = (data[-1] + 1, _time_of(last[:-1], header))
+            data = data[:-1]
     body = "\n".join([lines[head], *(lines[i] for i in data)])
     try:
         if _OLD_PANDAS:
@@ -293,7 +328,18 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     df.columns = pd.Index(header)
     if len(df) != len(data):  # pragma: no cover - guarded by the field count above
         raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
-    return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1)
+    return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1, cut)
+
+
+def _time_of(complete: list[str], header: list[str]) -> float:
+    """``t_s`` of a truncated line from its complete fields (NaN if it is not among them)."""
+    if TIME_COLUMN not in header:
+        return math.nan
+    k = header.index(TIME_COLUMN)
+    try:
+        return float(complete[k]) if k < len(complete) else math.nan
+    except ValueError:
+        return math.nan
 
 
 # --- columns ------------------------------------------------------------------------------------
@@ -327,6 +373,19 @@ def numeric(table: Table, column: str) -> Array:
             file=table.label,
             field=column,
         )
+    if pd.api.types.is_bool_dtype(s) or _all_bool(s):
+        raise MissionError(
+            f"{table.label}, {column}: a true/false column where a number is expected (it would "
+            "read as 0 and 1); wrong column?",
+            file=table.label,
+            field=column,
+        )
+    if pd.api.types.is_complex_dtype(s):
+        raise MissionError(
+            f"{table.label}, {column}: a complex-number column where a real number is expected",
+            file=table.label,
+            field=column,
+        )
     if pd.api.types.is_numeric_dtype(s):
         return np.asarray(s.to_numpy(dtype=float, na_value=np.nan), dtype=float)
     text = s.astype("string").str.strip()
@@ -337,6 +396,14 @@ def numeric(table: Table, column: str) -> Array:
         r = int(bad[0])
         raise table.error(r, column, f"value {show(s.iloc[r])} is not a number")
     return np.asarray(conv.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+
+
+def _all_bool(s: pd.Series) -> bool:
+    """An object column whose non-missing cells are all Python/NumPy bools (nullable bools)."""
+    if s.dtype != object:
+        return False
+    cells = s.dropna()
+    return len(cells) > 0 and all(isinstance(v, bool | np.bool_) for v in cells)
 
 
 def take_columns(

@@ -1,0 +1,492 @@
+"""Bad input never gives a traceback or a silently wrong answer (issue 12, docs/robustness.md).
+
+One test per case found on the old code (each failed there), through the CLI as a user meets
+it, on a tiny simulated mission (:mod:`badinput`). The fuzz test is tests/test_fuzz_input.py.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+import badinput
+from adaptnav.cli import app
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny mission (CSV tables), written once; tests copy it."""
+    return badinput.tiny_mission(tmp_path_factory.mktemp("tiny") / "mission")
+
+
+@pytest.fixture()
+def mission(source: Path, tmp_path: Path) -> Path:
+    return badinput.copy_mission(source, tmp_path / "mission")
+
+
+def cli(*args: Any) -> Any:
+    res = runner.invoke(app, [str(a) for a in args])
+    assert "Traceback" not in res.output, res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    return res
+
+
+def error_line(res: Any) -> str:
+    """The one error line of a failed command (exit 2)."""
+    assert res.exit_code == 2, res.output
+    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, res.output
+    return str(lines[0])
+
+
+# --- output folders -------------------------------------------------------------------------
+
+
+@pytest.fixture()
+def no_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail the test if a filter runs: an output problem must be found before the work."""
+    from adaptnav import api
+
+    def refuse(*_args: Any, **_kwargs: Any) -> None:
+        raise AssertionError("the filter ran before the output folder was checked")
+
+    monkeypatch.setattr(api, "run", refuse)
+
+
+def test_out_that_is_a_file_is_refused_before_the_run(
+    mission: Path, tmp_path: Path, no_run: None
+) -> None:
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    line = error_line(cli("run", mission, "--out", blocker))
+    assert str(blocker) in line and "is a file, not a folder" in line
+    line = error_line(cli("run", mission, "--out", blocker / "sub" / "run"))
+    assert f"{blocker} is a file" in line
+    assert blocker.read_text() == "x"
+
+
+def test_out_in_a_folder_that_cannot_be_written(
+    mission: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, no_run: None
+) -> None:
+    real_mkdir = Path.mkdir
+
+    def mkdir(self: Path, *args: Any, **kwargs: Any) -> None:
+        if self.name.startswith(".run.tmp-"):  # what a read-only parent does (root ignores chmod)
+            raise PermissionError(13, "Permission denied", str(self))
+        real_mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "mkdir", mkdir)
+    line = error_line(cli("run", mission, "--out", tmp_path / "ro" / "run"))
+    assert "cannot write in" in line and "Permission denied" in line
+    assert not (tmp_path / "ro").exists()  # the parents it made are removed again
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs a non-root POSIX user")
+def test_out_in_a_read_only_folder(mission: Path, tmp_path: Path, no_run: None) -> None:
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        line = error_line(cli("run", mission, "--out", ro / "run"))
+    finally:
+        ro.chmod(0o755)
+    assert "cannot write in" in line
+
+
+def test_reused_out_is_refused_and_force_replaces_it_whole(mission: Path, tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    assert (out / "truth.parquet").is_file()
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(toml.replace('[truth]\nfile = "truth.csv"\n', ""))
+    line = error_line(cli("run", mission, "--out", out))
+    assert "not empty" in line and "--force" in line
+    assert cli("run", mission, "--out", out, "--force").exit_code == 0
+    # No file of the earlier run survives: evaluate cannot score against the old truth.
+    assert not (out / "truth.parquet").exists()
+    assert "no reference" in error_line(cli("evaluate", out))
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_a_failed_run_leaves_the_old_folder_and_no_temporary_one(
+    mission: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "keep.txt").write_text("old")
+    (mission / "mission.toml").write_text("[mission]\n")
+    assert "mission.toml" in error_line(cli("run", mission, "--out", out, "--force"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mission", "run"]
+    assert (out / "keep.txt").read_text() == "old"
+
+
+def test_force_never_replaces_the_input(mission: Path) -> None:
+    line = error_line(cli("run", mission, "--out", mission, "--force"))
+    assert "holds the input" in line
+    assert (mission / "mission.toml").is_file()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["simulate", "demo"],
+        ["compare", "{mission}"],
+        ["demo", "--preset", "demo"],
+        ["import", "akit", "-n", "1", "--src", "{tmp}"],
+        ["import", "rtklib", "--pos", "{tmp}/x.pos", "--imu", "{tmp}/x.csv"],
+        ["sweep", "seeds", "demo", "--seeds", "1", "--cache", "{tmp}/cache"],
+    ],
+    ids=lambda a: " ".join(a[:2]),
+)
+def test_every_folder_command_refuses_a_non_empty_out(
+    args: list[str], mission: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old")
+    filled = [a.format(mission=mission, tmp=tmp_path) for a in args]
+    line = error_line(cli(*filled, "--out", out))
+    assert str(out) in line and "not empty" in line
+    assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
+
+
+def test_simulate_with_force_replaces_the_folder(tmp_path: Path) -> None:
+    out = tmp_path / "m"
+    out.mkdir()
+    (out / "stale.csv").write_text("t_s\n")
+    assert cli("simulate", "demo", "--out", out, "--force").exit_code == 0
+    assert (out / "mission.toml").is_file() and not (out / "stale.csv").exists()
+
+
+# --- table paths ------------------------------------------------------------------------------
+
+
+def _point(mission: Path, key: str, target: str) -> None:
+    """Set ``[sensors.<key>] file`` (or the IMU's, key "imu") to ``target`` in mission.toml."""
+    toml = (mission / "mission.toml").read_text()
+    old = f'file = "{key}.csv"'
+    assert old in toml
+    (mission / "mission.toml").write_text(toml.replace(old, f'file = "{target}"', 1))
+
+
+@pytest.mark.parametrize("where", ["../depth.csv", "{abs}", "sub/../../depth.csv"])
+def test_table_paths_outside_the_mission_folder_are_errors(
+    mission: Path, tmp_path: Path, where: str
+) -> None:
+    (mission / "depth.csv").rename(tmp_path / "depth.csv")
+    target = where.format(abs=tmp_path / "depth.csv")
+    _point(mission, "depth", target)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "sensors.depth.file" in line and target in line
+    assert "absolute path" in line or "out of the mission folder" in line
+
+
+def test_a_symbolic_link_out_of_the_mission_folder_is_an_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    (mission / "depth.csv").rename(tmp_path / "depth.csv")
+    (mission / "depth.csv").symlink_to(tmp_path / "depth.csv")
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: depth.csv: leads to") and "outside the mission folder" in line
+    # a link that stays inside is fine
+    (mission / "depth.csv").unlink()
+    (mission / "data").mkdir()
+    (tmp_path / "depth.csv").rename(mission / "data" / "depth.csv")
+    (mission / "depth.csv").symlink_to(mission / "data" / "depth.csv")
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+
+
+def test_a_symbolic_link_loop_is_a_clear_error(mission: Path, tmp_path: Path) -> None:
+    (mission / "loop.csv").symlink_to(mission / "loop2.csv")
+    (mission / "loop2.csv").symlink_to(mission / "loop.csv")
+    _point(mission, "depth", "loop.csv")
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "loop.csv" in line and "symbolic link loop" in line
+
+
+# --- column types -----------------------------------------------------------------------------
+
+
+def test_a_bool_column_is_an_error_not_zeros_and_ones(mission: Path, tmp_path: Path) -> None:
+    dvl = badinput.read(mission, "dvl")
+    dvl["vx_m_s"] = dvl["vx_m_s"] > 0.5
+    dvl.to_parquet(mission / "dvl.parquet", index=False)
+    (mission / "dvl.csv").unlink()
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(toml.replace('"dvl.csv"', '"dvl.parquet"'))
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "dvl.parquet, vx_m_s: a true/false column" in line
+    # the same in a CSV (pandas reads True/False cells as bools)
+    dvl.to_csv(mission / "dvl.csv", index=False)
+    (mission / "mission.toml").write_text(toml)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "dvl.csv, vx_m_s: a true/false column" in line
+
+
+# --- a file cut short -------------------------------------------------------------------------
+
+
+def test_a_number_cut_short_on_the_last_line_is_dropped_not_read(
+    mission: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import pandas as pd
+
+    dvl = badinput.read(mission, "dvl")
+    dvl = dvl[[c for c in dvl.columns if c != "vx_m_s"] + ["vx_m_s"]]  # a long number last
+    text = dvl.to_csv(index=False)
+    n_rows = len(dvl)
+    last = text.rstrip("\n").rsplit("\n", 1)[1]
+    cut = text.rstrip("\n")[:-6]  # the file ends inside the last line's last number
+    assert cut.rsplit("\n", 1)[1].count(",") == last.count(",")  # all the fields are there
+    (mission / "dvl.csv").write_text(cut)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    assert f"dvl.csv line {n_rows + 1}" in caplog.text  # logged with file and line
+    repairs = pd.read_parquet(tmp_path / "run" / "repairs.parquet")
+    (r,) = repairs[repairs["file"] == "dvl.csv"].itertuples()
+    assert r.line == n_rows + 1 and r.action == "dropped truncated last line"
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    dvl = ledger[ledger["sensor"] == "dvl"]
+    assert sorted(dvl["row"]) == list(range(n_rows))  # every line has its fate
+    (fate,) = dvl[dvl["row"] == n_rows - 1].itertuples()
+    assert fate.fate == "dropped" and "truncated" in fate.reason
+
+
+def test_a_last_line_without_line_break_but_complete_is_kept(mission: Path, tmp_path: Path) -> None:
+    """A fixed-width file whose last line is whole: no line break at the end is not enough."""
+    depth = badinput.read(mission, "depth")
+    text = depth.to_csv(index=False, float_format="%.6f")
+    (mission / "depth.csv").write_text(text.rstrip("\n"))
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0 and "depth.csv" not in res.output, res.output
+
+
+# --- plausibility -----------------------------------------------------------------------------
+
+
+def _ledger(run: Path) -> Any:
+    import pandas as pd
+
+    return pd.read_parquet(run / "ledger.parquet")
+
+
+def _fate(ledger: Any, sensor: str, row: int) -> tuple[str, str]:
+    (r,) = ledger[(ledger["sensor"] == sensor) & (ledger["row"] == row)].itertuples()
+    return str(r.fate), str(r.reason)
+
+
+def test_implausible_readings_are_dropped_with_the_reason(
+    mission: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    dvl, depth = badinput.read(mission, "dvl"), badinput.read(mission, "depth")
+    k_dvl, k_depth = len(dvl) - 20, len(depth) - 10  # under way, after the alignment
+    dvl.loc[k_dvl, "vx_m_s"] = 1e30
+    depth.loc[k_depth, "depth_m"] = 1e20
+    badinput.write(mission, "dvl", dvl)
+    badinput.write(mission, "depth", depth)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    ledger = _ledger(tmp_path / "run")
+    fate, reason = _fate(ledger, "dvl", k_dvl)
+    assert fate == "dropped" and reason.startswith("implausible: vx_m_s = 1e+30 outside [-20, 20]")
+    fate, reason = _fate(ledger, "depth", k_depth)
+    assert fate == "dropped" and reason.startswith("implausible: depth_m = 1e+20")
+    assert "dropped (implausible: vx_m_s" in caplog.text  # logged
+
+
+def test_a_depth_of_1e300_no_longer_breaks_the_filter(mission: Path, tmp_path: Path) -> None:
+    depth = badinput.read(mission, "depth")
+    depth.loc[len(depth) - 10, "depth_m"] = 1e300
+    badinput.write(mission, "depth", depth)
+    res = cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    assert _fate(_ledger(tmp_path / "run"), "depth", len(depth) - 10)[0] == "dropped"
+
+
+def test_a_gnss_latitude_out_of_range_does_not_reach_the_alignment(
+    mission: Path, source: Path, tmp_path: Path
+) -> None:
+    import pandas as pd
+
+    gps = badinput.read(mission, "gps")
+    gps.loc[3, "lat_rad"] = 2.0  # inside the alignment window
+    badinput.write(mission, "gps", gps)
+    assert cli("run", mission, "--out", tmp_path / "bad").exit_code == 0
+    assert _fate(_ledger(tmp_path / "bad"), "gps", 3)[1].startswith("implausible: lat_rad = 2")
+    assert cli("run", source, "--out", tmp_path / "good").exit_code == 0
+    bad = pd.read_parquet(tmp_path / "bad" / "solution.parquet")
+    good = pd.read_parquet(tmp_path / "good" / "solution.parquet")
+    # the alignment position is the mean of the other fixes: about 1/60 of 2 rad away if not
+    assert abs(bad["lat_rad"].iloc[0] - good["lat_rad"].iloc[0]) < 1e-6
+
+
+def test_a_whole_column_outside_its_range_is_an_error(mission: Path, tmp_path: Path) -> None:
+    gps = badinput.read(mission, "gps")
+    gps["lat_rad"] = gps["lat_rad"] * 180.0 / 3.141592653589793  # degrees named as radians
+    badinput.write(mission, "gps", gps)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "gps.csv line 2, lat_rad: every value of the column is outside" in line
+    assert "wrong units" in line
+
+
+def test_limits_are_set_per_sensor(mission: Path, tmp_path: Path) -> None:
+    toml = (mission / "mission.toml").read_text()
+    dvl_section = '[sensors.dvl]\nkind = "dvl"\n'
+    assert dvl_section in toml
+    (mission / "mission.toml").write_text(
+        toml.replace(dvl_section, dvl_section + "limits = { vz_m_s = [-0.05, 0.05] }\n")
+    )
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+    ledger = _ledger(tmp_path / "run")
+    reasons = ledger.loc[ledger["sensor"] == "dvl", "reason"]
+    assert reasons.str.startswith("implausible: vz_m_s").sum() > 0
+    for bad, words in (
+        ("limits = [1.0, -1.0]", "min < max"),
+        ("limits = { depth_m = [0.0, 1.0] }", "not a column of a dvl sensor"),
+        ('limits = "wide"', "sensors.dvl.limits"),
+    ):
+        (mission / "mission.toml").write_text(toml.replace(dvl_section, dvl_section + bad + "\n"))
+        line = error_line(cli("run", mission, "--out", tmp_path / "r2"))
+        assert "mission.toml" in line and words in line, line
+
+
+# --- configuration ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("key", ["arw", "vrw"])
+def test_zero_white_noise_is_an_error(mission: Path, tmp_path: Path, key: str) -> None:
+    toml = (mission / "mission.toml").read_text()
+    start = toml.index(f"{key} = [") + len(f"{key} = [")
+    end = toml.index(",", start)
+    (mission / "mission.toml").write_text(toml[:start] + "0" + toml[end:])
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "mission.toml" in line and f"imu.noise.{key}: value 0" in line and "> 0" in line
+
+
+# --- failures inside the computation ----------------------------------------------------------
+
+
+def test_no_valid_gnss_fix_in_the_alignment_window_is_a_clear_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    gps = badinput.read(mission, "gps")
+    gps.loc[gps["t_s"] <= 25.0, ["lat_rad", "lon_rad"]] = float("nan")
+    badinput.write(mission, "gps", gps)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: gps.csv: no valid fix of sensor 'gps' inside the static")
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_filter_breakdown_is_a_clear_error_with_its_time(mission: Path, tmp_path: Path) -> None:
+    """With the limits opened, a depth of 1e300 reaches the filter: S is not positive
+    definite. That is an error naming the time, not a LinAlgError traceback."""
+    depth = badinput.read(mission, "depth")
+    depth.loc[len(depth) - 10, "depth_m"] = 1e300
+    badinput.write(mission, "depth", depth)
+    toml = (mission / "mission.toml").read_text()
+    section = '[sensors.depth]\nkind = "depth"\n'
+    (mission / "mission.toml").write_text(toml.replace(section, section + "limits = [-inf, inf]\n"))
+    line = error_line(cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run"))
+    assert "the meskf filter broke down" in line and "at t = " in line
+    assert "mission.toml" in line
+
+
+# --- the ledger: every reading's fate ---------------------------------------------------------
+
+
+def _data_lines(path: Path) -> int:
+    """Data lines of a CSV table (blank lines and the header not counted)."""
+    return sum(1 for line in path.read_text().splitlines() if line.strip()) - 1
+
+
+def test_every_reading_read_has_one_fate(mission: Path, tmp_path: Path) -> None:
+    """For each sensor, readings in the file = used + rejected + dropped in the ledger, with
+    every kind of removal at load in play: a duplicate stamp, an implausible value, NaN, a cut
+    last line, and a sensor that is off."""
+    import pandas as pd
+
+    dvl = badinput.read(mission, "dvl")
+    dvl.loc[len(dvl) - 5, "t_s"] = dvl.loc[len(dvl) - 6, "t_s"]  # duplicate timestamp
+    dvl.loc[len(dvl) - 9, "vy_m_s"] = 99.0  # implausible
+    dvl.loc[len(dvl) - 12, "vz_m_s"] = float("nan")  # the engine drops it
+    badinput.write(mission, "dvl", dvl)
+    text = (mission / "depth.csv").read_text()
+    (mission / "depth.csv").write_text(text.rstrip("\n")[:-4])  # cut inside the last number
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    counts = ledger.groupby(["sensor", "fate"]).size().unstack(fill_value=0)
+    toml = (mission / "mission.toml").read_text()
+    names = ["dvl", "depth", "inclinometer", "heading", "gps"]
+    assert 'use = "off"' in toml and sorted(counts.index) == sorted(names)
+    for name in names:
+        read = _data_lines(mission / f"{name}.csv")
+        fates = counts.loc[name]
+        assert read == sum(int(fates.get(f, 0)) for f in ("used", "rejected", "dropped")), name
+        rows = ledger.loc[ledger["sensor"] == name, "row"]
+        assert sorted(rows) == list(range(read)), name  # each row once
+    heading = ledger[ledger["sensor"] == "heading"]
+    assert set(heading["reason"]) == {"sensor off"}
+
+
+def test_an_off_sensor_with_a_bad_table_does_not_stop_the_run(
+    mission: Path, tmp_path: Path
+) -> None:
+    (mission / "heading.csv").write_text("t_s,yaw\n1,2\n")  # no yaw_rad column
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+
+
+def test_a_mission_with_degree_columns_runs(mission: Path, tmp_path: Path) -> None:
+    """A repair of a whole column (degrees converted) has no line: saved as missing, where
+    the run used to end in a TypeError traceback."""
+    import numpy as np
+    import pandas as pd
+
+    gps = badinput.read(mission, "gps")
+    gps["lat_deg"] = np.degrees(gps.pop("lat_rad"))
+    badinput.write(mission, "gps", gps)
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+    repairs = pd.read_parquet(tmp_path / "run" / "repairs.parquet")
+    (r,) = repairs.itertuples()
+    assert (r.file, r.field, r.action) == ("gps.csv", "lat_deg", "converted degrees")
+    assert pd.isna(r.line)
+
+
+def test_a_reference_position_that_cannot_be_one_is_an_error(mission: Path, tmp_path: Path) -> None:
+    truth = badinput.read(mission, "truth")
+    truth.loc[40, "lat_rad"] = 7.0  # not a latitude in radians
+    badinput.write(mission, "truth", truth)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "truth.csv line 42, lat_rad: value 7.0 is outside" in line
+
+
+def test_evaluate_with_a_bad_reference_is_a_clear_error(mission: Path, tmp_path: Path) -> None:
+    import pandas as pd
+
+    out = tmp_path / "run"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    (out / "truth.parquet").write_text("garbage")
+    line = error_line(cli("evaluate", out))
+    assert "truth.parquet: not a readable Parquet file" in line
+    pd.DataFrame({"t_s": [1.0, 2.0]}).to_parquet(out / "truth.parquet")
+    line = error_line(cli("evaluate", out, "--json"))
+    assert "truth.parquet: truth lacks columns" in line
+
+
+def test_the_oracle_on_a_mission_without_simulated_truth(mission: Path, tmp_path: Path) -> None:
+    columns = {
+        "dvl": ["vx_m_s", "vy_m_s", "vz_m_s"],
+        "depth": ["depth_m"],
+        "inclinometer": ["roll_rad", "pitch_rad"],
+    }
+    for name, cols in columns.items():  # only what a real recording has
+        badinput.write(mission, name, badinput.read(mission, name)[["t_s", *cols]])
+    line = error_line(cli("run", mission, "--filter", "oracle", "--out", tmp_path / "run"))
+    assert "the oracle needs a simulated mission" in line
