@@ -60,6 +60,7 @@ import numpy as np
 import pandas as pd
 
 from adaptnav import __version__
+from adaptnav.compare import NEES_COLUMNS
 from adaptnav.filters import FILTER_KINDS, FilterKind
 from adaptnav.imu_noise import ImuNoise
 from adaptnav.io import with_overrides
@@ -114,12 +115,7 @@ METRICS: tuple[str, ...] = (
     "final_horizontal_error_m",
     "distance_m",
     "duration_s",
-    "mean_nees_position",
-    "mean_nees_velocity",
-    "mean_nees_attitude",
-    "nees_position_in_95",
-    "nees_velocity_in_95",
-    "nees_attitude_in_95",
+    *NEES_COLUMNS,
     "dvl_used",
     "dvl_rejected",
     "dvl_dropped",
@@ -129,14 +125,7 @@ METRICS: tuple[str, ...] = (
 """Metric columns of a sweep's table (spec §10; :class:`adaptnav.evaluate.Metrics`; ``gate_q``:
 the DVL gate's q, NaN ungated; ``elapsed_s``: wall time of the run and its evaluation). Runs
 cached before a metric existed have NaN for it."""
-NEES_METRICS: tuple[str, ...] = (
-    "mean_nees_position",
-    "mean_nees_velocity",
-    "mean_nees_attitude",
-    "nees_position_in_95",
-    "nees_velocity_in_95",
-    "nees_attitude_in_95",
-)
+NEES_METRICS: tuple[str, ...] = NEES_COLUMNS
 """The consistency metrics among :data:`METRICS`: mean NEES per block (3 for a consistent
 filter) and the share of epochs inside the χ²(3) 95 % band (0.95); docs/metrics.md."""
 SUMMARY_METRICS: tuple[str, ...] = ("rmse_m", "relative_rmse_pct", *NEES_METRICS)
