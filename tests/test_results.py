@@ -258,6 +258,9 @@ def test_load_errors(tmp_path: Path) -> None:
     empty.mkdir()
     with pytest.raises(ValueError, match=r"missing summary\.json"):
         load(empty)
+    (empty / "mission.toml").write_text("")
+    with pytest.raises(RunFolderError, match="is a mission folder, not a run folder"):
+        load(empty)
     folder = save(make_result(), tmp_path / "run")
     (folder / "noise.parquet").unlink()
     with pytest.raises(RunFolderError, match=r"missing noise\.parquet"):

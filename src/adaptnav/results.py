@@ -379,6 +379,11 @@ def load(run_dir: str | Path) -> Result:
         raise RunFolderError(f"run folder {folder} is not a directory")
     path = folder / SUMMARY_FILE
     if not path.is_file():
+        if (folder / "mission.toml").is_file():  # the commonest mix-up: a mission, not a run
+            raise RunFolderError(
+                f"{folder} is a mission folder, not a run folder: run a filter on it first "
+                f"(adaptnav run {folder} --out RUN) and give RUN"
+            )
         raise RunFolderError(f"run folder {folder}: missing {SUMMARY_FILE}")
     try:
         info = json.loads(path.read_text(encoding="utf-8"))

@@ -225,8 +225,8 @@ def simulate(
     """Simulate one of the paper's sea trials (or a short demo) as a mission folder.
 
     The vessel is alongside for 10 minutes (alignment), then under way at about 2 m/s near
-    Qeshm island with the paper's IMU (Table 2), DVL (3 Hz), depth meter and pendulum
-    inclinometer (1 Hz) and GPS (1 Hz, initialisation and reference). Every disturbance is on
+    Qeshm island with the paper's IMU (Table 2), DVL (3 Hz), depth meter (1 Hz), pendulum
+    inclinometer (5 Hz) and GPS (1 Hz, initialisation and reference). Every disturbance is on
     by default and can be switched; what was injected is saved with the mission as truth.
     Disturbance names: waves, imu_white_noise, imu_in_run_bias, imu_turn_on_bias,
     imu_uncalibrated_turn_on, imu_scale_factor, sensor_noise, dvl_noise_segments,
