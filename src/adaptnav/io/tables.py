@@ -69,10 +69,10 @@ STREAM_COLUMNS: dict[str, tuple[str, ...]] = {
 _OLD_PANDAS = int(pd.__version__.split(".")[0]) < 3
 """pandas < 3 parses floats exactly only when asked; pandas 3 always does (and deprecates it)."""
 _LOG_CAP = 10
+"""Repairs of one kind logged one by one per file; the rest are summarised (all are recorded)."""
 CUT_WINDOW = 100
 """Lines before the last whose last field's length is compared with the last one's, in a CSV
 that does not end with a line break (a cut number is shorter)."""
-"""Repairs of one kind logged one by one per file; the rest are summarised (all are recorded)."""
 
 
 @dataclass(frozen=True)
