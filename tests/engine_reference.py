@@ -4,6 +4,8 @@ A verbatim copy of ``adaptnav.engine`` before ``adaptnav.update_kernels`` (NumPy
 ``evaluate``, the strategies' ``update``, ``errorstate.inject`` / ``reset_jacobian``, a heap of
 readings, ledger dicts), with the engine's data classes imported rather than redefined.
 ``tests/test_update_kernels.py`` runs it side by side with :class:`adaptnav.engine.Navigator`.
+Since then it has the guard and the divergence guard, in :mod:`adaptnav.health`'s readable
+functions (docs/robustness.md).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import earth, errorstate, kernels
+from adaptnav import earth, errorstate, health, kernels
 from adaptnav.engine import (
     MAX_DIM,
     SAME_EPOCH_S,
@@ -27,7 +29,7 @@ from adaptnav.engine import (
     _nominal_R,
 )
 from adaptnav.errorstate import N_STATES
-from adaptnav.gate import apply_gate
+from adaptnav.gate import Gate, Guard, apply_gate
 from adaptnav.kalman import innovation_covariance
 from adaptnav.noise.base import Block
 from adaptnav.strapdown import NOM_SIZE
@@ -45,6 +47,7 @@ class _Records:
     sol_p: list[Array] = field(default_factory=list)
     sol_cross: list[Array] = field(default_factory=list)
     ledger: list[dict[str, Any]] = field(default_factory=list)
+    events: list[dict[str, Any]] = field(default_factory=list)
 
 
 class Navigator:
@@ -96,6 +99,8 @@ class Navigator:
         self._intervals_done = 0
         self._states: list[Any] = [c.strategy.initial_state(_nominal_R(c.model)) for c in channels]
         self._last_epoch = [math.nan] * len(channels)
+        self._rejected_since = [math.nan] * len(channels)  # the guard's lockout clock
+        self._nis = [(0.0, 0.0)] * len(channels)  # windowed NIS/d mean and count
         self._pending: list[tuple[float, int, int, int, Array]] = []
         self._seq = 0
         self.records = _Records()
@@ -239,6 +244,19 @@ class Navigator:
             dt_i = ch.period if math.isnan(last) else t_epoch - last
             self._states[i] = ch.strategy.predict(self._states[i], dt_i, ch.period)
             self._last_epoch[i] = t_epoch
+            if ch.guard is not None:
+                W = meas.H @ self.P @ meas.H.T
+                q = ch.guard.threshold(meas.y.size)
+                R_guard = ch.guard.headroom * meas.R
+                d = apply_gate(Gate(q, "chi2", "nominal"), meas.y, W + R_guard)
+                if not d.accepted:
+                    self._ledger(
+                        i, row, t_m, t_epoch, "rejected", "guard chi2 (nominal R)", d.statistic,
+                        q, meas.y, np.diag(meas.R),
+                    )  # fmt: skip
+                    self._lockout(ch.guard, i, row, t_epoch, d.statistic, q, W, R_guard)
+                    continue
+                self._rejected_since[i] = math.nan
             if ch.gate is not None:
                 R_now = (
                     meas.R
@@ -258,7 +276,18 @@ class Navigator:
         if not blocks:
             return
         P_prior = self.P
-        res = self.channels[meta[0][0]].strategy.update(P_prior, blocks)
+        try:
+            res = self.channels[meta[0][0]].strategy.update(P_prior, blocks)
+        except np.linalg.LinAlgError:
+            for i, row, t_m in meta:
+                self._ledger(
+                    i, row, t_m, t_epoch, "rejected", "S not positive definite: P repaired"
+                )
+            repaired = health.repair(self.P)
+            assert repaired is not None
+            self.P = repaired
+            self._event(meta[0][0], meta[0][1], t_epoch, "covariance", math.nan, math.nan, 1.0)
+            return
         dx = res.correction.dx
         self.x = errorstate.inject(self.x, dx)
         P = res.correction.P
@@ -266,6 +295,12 @@ class Navigator:
             G = errorstate.reset_jacobian(dx)
             P = G @ P @ G.T
         self.P = np.ascontiguousarray(0.5 * (P + P.T))
+        if not np.all(np.diag(self.P) > 0):
+            repaired = health.repair(self.P)
+            assert repaired is not None
+            self.P = repaired
+            self._event(meta[0][0], meta[0][1], t_epoch, "covariance", math.nan, math.nan, 1.0)
+        dg = self.config.divergence
         for (i, row, t_m), b, st, R in zip(meta, blocks, res.states, res.R_used, strict=True):
             self._states[i] = st
             S_i = innovation_covariance(P_prior, b.H, R)
@@ -273,6 +308,58 @@ class Navigator:
             self._ledger(
                 i, row, t_m, t_epoch, "used", "", nis, math.nan, b.y, np.diag(R), res.iterations
             )
+            if dg.nis_ratio > 0:
+                mean, count = health.nis_step(*self._nis[i], nis / b.y.size, dg.window)
+                self._nis[i] = (mean, count)
+                if count >= dg.window and mean > dg.nis_ratio:
+                    k = min(mean, dg.inflate_max)
+                    self.P = self.P * k
+                    self._event(i, row, t_epoch, "nis", mean, dg.nis_ratio, k)
+                    self._nis[i] = (0.0, 0.0)
+
+    def _lockout(
+        self, guard: Guard, i: int, row: int, t: float, stat: float, q: float, W: Array, R: Array
+    ) -> None:
+        """The guard rejected sensor i's reading: start its lockout clock, or inflate P if it
+        has run for ``lockout_s`` (health.py)."""
+        since = self._rejected_since[i]
+        if math.isnan(since):
+            self._rejected_since[i] = t
+            return
+        if not (guard.lockout_s > 0 and t - since >= guard.lockout_s):
+            return
+        k = health.lockout_factor(
+            stat, q, float(np.trace(W)), float(np.trace(R)), guard.lockout_max
+        )
+        self.P = self.P * k
+        self._event(i, row, t, "lockout", t - since, guard.lockout_s, k)
+        self._rejected_since[i] = math.nan
+
+    def _event(
+        self,
+        i: int,
+        row: int,
+        t: float,
+        event: str,
+        statistic: float,
+        threshold: float,
+        factor: float,
+    ) -> None:
+        from adaptnav.engine import _EVENTS
+
+        detail = {name: text for name, text in _EVENTS.values()}[event]
+        self.records.events.append(
+            {
+                "t": t,
+                "sensor": self.channels[i].name,
+                "row": row,
+                "event": event,
+                "statistic": statistic,
+                "threshold": threshold,
+                "factor": factor,
+                "detail": detail,
+            }
+        )
 
     def _ledger(
         self,
@@ -334,6 +421,7 @@ class Navigator:
             self.x.copy(),
             self.P.copy(),
             P_cross=np.asarray(r.sol_cross).reshape(-1, 9),
+            events=list(r.events),
         )
 
 

@@ -195,7 +195,8 @@ def test_save_load_round_trip(tmp_path: Path) -> None:
     folder = save(res, tmp_path / "run")
     names = sorted(p.name for p in folder.iterdir())
     assert names == [
-        "ledger.parquet", "noise.parquet", "repairs.parquet", "solution.parquet", "summary.json",
+        "events.parquet", "ledger.parquet", "noise.parquet", "repairs.parquet",
+        "solution.parquet", "summary.json",
     ]  # fmt: skip
     info = json.loads((folder / "summary.json").read_text())
     assert info["filter"] == "vb" and info["mission"] == "m1"

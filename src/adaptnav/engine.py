@@ -50,7 +50,8 @@ from numpy.typing import ArrayLike, NDArray
 from adaptnav import earth, errorstate
 from adaptnav import update_kernels as uk
 from adaptnav.errorstate import N_STATES
-from adaptnav.gate import Gate
+from adaptnav.gate import Gate, Guard
+from adaptnav.health import OFF, DivergenceGuard
 from adaptnav.imu_noise import ImuNoise
 from adaptnav.kernels import (
     _SERIES_LAT,
@@ -104,7 +105,19 @@ _FATES: dict[int, tuple[str, str]] = {
     uk.LEDGER_INVALID: ("dropped", "invalid reading (non-finite)"),
     uk.LEDGER_LATE: ("dropped", "late: stamped before the current time"),
     uk.LEDGER_AFTER_IMU: ("dropped", "after the last IMU sample"),
+    uk.LEDGER_REJECTED_GUARD: ("rejected", "guard chi2 (nominal R)"),
+    uk.LEDGER_REJECTED_SINGULAR: ("rejected", "S not positive definite: P repaired"),
 }
+EVENT_KEYS: tuple[str, ...] = (
+    "t", "sensor", "row", "event", "statistic", "threshold", "factor", "detail",
+)  # fmt: skip
+"""Keys of an event row (docs/robustness.md, divergence guard)."""
+_EVENTS: dict[int, tuple[str, str]] = {
+    uk.EVENT_NIS: ("nis", "mean NIS/d over the window above its threshold: P inflated"),
+    uk.EVENT_LOCKOUT: ("lockout", "every reading rejected by the guard for the lockout time: "
+                       "P inflated"),
+    uk.EVENT_SINGULAR: ("covariance", "P not positive definite: repaired"),
+}  # fmt: skip
 _KINDS: dict[type, int] = {
     FixedNoise: uk.KIND_FIXED,
     CovarianceMatching: uk.KIND_MATCHING,
@@ -120,6 +133,8 @@ class SensorChannel:
     period: float
     strategy: NoiseStrategy
     gate: Gate | None = None
+    guard: Guard | None = None
+    """The nominal-R χ² guard (gate.Guard), tested before ``gate``."""
 
     @property
     def name(self) -> str:
@@ -145,6 +160,8 @@ class EngineConfig:
     force at rest, ``-g_n`` at the start position, exactly (no low-pass needed). With the
     measured one, its noise and the tilt estimate's wander make heading look observable and the
     alignment claims a heading σ it does not have (tests/test_align.py)."""
+    divergence: DivergenceGuard = OFF
+    """The windowed NIS test (health.py); off here, set by the filter settings."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
@@ -167,6 +184,7 @@ class _Records:
     sol_p: Array
     ledger: list[dict[str, Any]]
     sol_cross: Array
+    events: list[dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -184,6 +202,8 @@ class EngineOutput:
     x_final: Array
     P_final: Array
     P_cross: Array = field(kw_only=True)  # (N, 9)
+    events: list[dict[str, Any]] = field(kw_only=True, default_factory=list)
+    """The divergence guard's events (keys :data:`EVENT_KEYS`, health.py), in time order."""
 
 
 def cross_terms(P: Array) -> Array:
@@ -414,7 +434,7 @@ def _navigate(
     the readings of its epoch (stamped <= the epoch, + SAME_EPOCH_S under ``exact``) and update
     with them (:func:`adaptnav.update_kernels.epoch`); until the chunk is used up (NAV_DONE).
     Returns early with NAV_PYTHON when the epoch's group ``icur[I_HEAD]..icur[I_END]`` has a
-    reading to linearise in Python, or NAV_SINGULAR if S was not positive definite."""
+    reading to linearise in Python, or NAV_SINGULAR if P was not finite (no repair possible)."""
     nq = q_t.shape[0]
     fb = np.zeros((0, uk.N_FB))  # no readings linearised in Python here
     while True:
@@ -550,6 +570,16 @@ class Navigator:
             si[uk.S_DIM] = d
             sf[uk.F_RNOM : uk.F_RNOM + 9] = _block3(R)
             sf[uk.F_PERIOD] = ch.period
+            if ch.guard is not None:
+                si[uk.S_GUARD] = 1
+                sf[uk.F_GUARD_Q] = ch.guard.threshold(d)
+                sf[uk.F_GUARD_K] = ch.guard.headroom
+                sf[uk.F_LOCKOUT_S], sf[uk.F_LOCKOUT_MAX] = ch.guard.lockout_s, ch.guard.lockout_max
+            dg = self.config.divergence
+            sf[uk.F_DIV_NIS] = dg.nis_ratio
+            sf[uk.F_DIV_WINDOW], sf[uk.F_INFLATE_MAX] = dg.window, dg.inflate_max
+            sx[uk.X_REJ_SINCE] = math.nan
+            sf[uk.F_RMIN], sf[uk.F_RMAX] = 0.0, math.inf
             if ch.gate is not None:
                 rule = uk.GATE_COMPONENT if ch.gate.rule == "component" else uk.GATE_CHI2
                 si[uk.S_GATE] = rule
@@ -563,11 +593,13 @@ class Navigator:
                 sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
                 sf[uk.F_IRREGULAR] = float(st.irregular)
                 sf[uk.F_DOF] = st.dof if st.dof is not None else 0.0
+                sf[uk.F_RMIN], sf[uk.F_RMAX] = st.r_floor, st.r_ceiling
                 sx[uk.X_ALPHA : uk.X_ALPHA + d] = state0.alpha
                 sx[uk.X_BETA : uk.X_BETA + d] = state0.beta
             elif isinstance(st, CovarianceMatching):
                 si[uk.S_WINDOW] = st.window
                 sf[uk.F_FLOOR], sf[uk.F_RAE] = st.floor, float(st.residual_based)
+                sf[uk.F_RMAX] = st.ceiling
                 self._rings[i, 0, : st.window, :d] = state0.squares
                 self._rings[i, 1, : st.window, :d] = state0.hph
                 si[uk.S_COUNT] = state0.count
@@ -724,7 +756,7 @@ class Navigator:
                 return
             if status == NAV_SINGULAR:
                 raise np.linalg.LinAlgError(
-                    f"innovation covariance S is not positive definite at t = {self.t:.6g} s"
+                    f"the error covariance P is not finite at t = {self.t:.6g} s"
                 )
             self._epoch_python()
 
@@ -747,7 +779,7 @@ class Navigator:
         if n < 0:
             self._icur[I_N_LEDGER] = -n - 1
             raise np.linalg.LinAlgError(
-                f"innovation covariance S is not positive definite at t = {self.t:.6g} s"
+                f"the error covariance P is not finite at t = {self.t:.6g} s"
             )
         self._icur[I_N_LEDGER] = n
 
@@ -774,14 +806,46 @@ class Navigator:
             row[uk.FB_R : uk.FB_R + 9] = _block3(meas.R)
 
     def _reserve_ledger(self, n: int) -> None:
-        need = int(self._icur[I_N_LEDGER]) + n + 1
+        # A reading has one fate row and may trigger an event (lockout or NIS); an epoch
+        # adds at most one covariance event: three rows per reading at most.
+        need = int(self._icur[I_N_LEDGER]) + 3 * n + 1
         self._lg_int = _grow(self._lg_int, need)
         self._lg_flt = _grow(self._lg_flt, need)
 
-    def _ledger(self) -> list[dict[str, Any]]:
-        """The ledger rows so far as dicts (keys :data:`LEDGER_KEYS`, in that order)."""
+    def _events(self) -> list[dict[str, Any]]:
+        """The event rows so far as dicts (keys :data:`EVENT_KEYS`)."""
         n = int(self._icur[I_N_LEDGER])
         li, lf = self._lg_int[:n], self._lg_flt[:n]
+        out = []
+        for r in np.flatnonzero(li[:, uk.L_CODE] >= uk.EVENT_NIS).tolist():
+            idx = int(li[r, uk.L_STORE])
+            event, detail = _EVENTS[int(li[r, uk.L_CODE])]
+            out.append(
+                dict(
+                    zip(
+                        EVENT_KEYS,
+                        (
+                            float(lf[r, uk.L_T_EPOCH]),
+                            self.channels[int(self._st_sensor[idx])].name,
+                            int(self._st_row[idx]),
+                            event,
+                            float(lf[r, uk.L_STAT]),
+                            float(lf[r, uk.L_THRESHOLD]),
+                            float(lf[r, uk.L_FACTOR]),
+                            detail,
+                        ),
+                        strict=True,
+                    )
+                )
+            )
+        return out
+
+    def _ledger(self) -> list[dict[str, Any]]:
+        """The ledger rows so far as dicts (keys :data:`LEDGER_KEYS`, in that order); events
+        (:meth:`_events`) are not readings' fates and are left out."""
+        n = int(self._icur[I_N_LEDGER])
+        fates_only = self._lg_int[:n, uk.L_CODE] < uk.EVENT_NIS
+        li, lf = self._lg_int[:n][fates_only], self._lg_flt[:n][fates_only]
         idx = li[:, uk.L_STORE]
         names = [c.name for c in self.channels]
         fates = [_FATES[c] for c in li[:, uk.L_CODE].tolist()]
@@ -845,6 +909,7 @@ class Navigator:
             self._out_p[:n, :N_STATES].copy(),
             self._ledger(),
             self._out_p[:n, N_STATES:].copy(),
+            self._events(),
         )
 
     def adaptation_state(self, sensor: str) -> Any:
@@ -898,6 +963,7 @@ class Navigator:
             self.x.copy(),
             self.P.copy(),
             P_cross=self._out_p[:n, N_STATES:].copy(),
+            events=self._events(),
         )
 
 

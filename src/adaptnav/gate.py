@@ -21,11 +21,13 @@ Which R goes into S is the gate's ``reference``:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.stats import chi2
 
 Array = NDArray[np.float64]
 GateRule = Literal["component", "chi2"]
@@ -49,6 +51,58 @@ class Gate:
             raise ValueError(
                 f"gate reference: value {self.reference!r} must be 'adapted' or 'nominal'"
             )
+
+
+DEFAULT_HEADROOM = 100.0
+"""The guard's κ: a sensor up to 10× noisier (in σ) than its nominal σ is still normal."""
+DEFAULT_LOCKOUT_S = 30.0
+"""A sensor the guard has rejected for this long makes the filter inflate P (health.py)."""
+DEFAULT_LOCKOUT_MAX = 100.0
+"""At most this factor of P per lockout; a larger divergence takes several."""
+
+
+@dataclass(frozen=True)
+class Guard:
+    """The guard: a χ² gate on the whole innovation with ``S = H P Hᵀ + κ R_nominal``, on every
+    sensor, whatever the filter kind (docs/robustness.md).
+
+    A reading ν of dimension d is rejected if ``νᵀ S⁻¹ ν > χ²_d⁻¹(1 - p)``: the value that a
+    consistent filter exceeds with probability ``p`` (``probability``) if the sensor were κ
+    times noisier in variance than nominal (``headroom``). S holds the sensor's *nominal* R,
+    so no noise adaptation can widen it. It is meant for gross errors (a depth 1000 m off,
+    a DVL spike of metres per second), not for a sensor that is merely noisier than its
+    datasheet, which is the noise strategy's business: κ = 100 leaves a sensor 10× noisier
+    in σ alone (the most the paper's noise segments reach), and with p = 1e-6 a scalar reading
+    is rejected beyond ≈ 49 nominal σ (√(100 × 23.9)). The paper's gate (:class:`Gate`) stays
+    as it was, after it.
+
+    A guard that rejects everything a sensor says for ``lockout_s`` seconds has most likely
+    locked the filter out of its own correction (P too small, the state gone wrong): the
+    filter then inflates P, at most ``lockout_max`` times per lockout (the lockout of
+    :mod:`adaptnav.health`; 0 s: never).
+    """
+
+    probability: float
+    headroom: float = DEFAULT_HEADROOM
+    lockout_s: float = DEFAULT_LOCKOUT_S
+    lockout_max: float = DEFAULT_LOCKOUT_MAX
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.probability) and 0.0 < self.probability < 1.0):
+            raise ValueError(
+                f"guard probability: value {self.probability!r} must be in (0, 1) "
+                "(0 in a configuration turns the guard off)"
+            )
+        if not (math.isfinite(self.headroom) and self.headroom >= 1.0):
+            raise ValueError(f"guard headroom: value {self.headroom!r} must be >= 1")
+        if not (math.isfinite(self.lockout_s) and self.lockout_s >= 0.0):
+            raise ValueError(f"guard lockout_s: value {self.lockout_s!r} must be >= 0")
+        if not (math.isfinite(self.lockout_max) and self.lockout_max >= 2.0):
+            raise ValueError(f"guard lockout_max: value {self.lockout_max!r} must be >= 2")
+
+    def threshold(self, dim: int) -> float:
+        """``χ²_d⁻¹(1 - p)`` for an innovation of dimension ``dim``."""
+        return float(chi2.isf(self.probability, dim))
 
 
 @dataclass(frozen=True)

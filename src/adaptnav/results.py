@@ -19,13 +19,17 @@ units in the column names:
 * ``noise``: long table ``t_s, sensor, component, r_hat``, one row per used reading and
   measurement component: the diagonal of R the filter used at that reading (the paper's Fig. 10
   record of the estimated measurement noise). ``t_s`` is the reading's own stamp (ledger ``t``).
+* ``events``: the divergence guard's events ``t, sensor, row, event, statistic, threshold,
+  factor, detail`` (``event``: ``lockout``, ``nis`` or ``covariance``; ``factor``: what P was
+  multiplied by; docs/robustness.md). Run folders written before it load with none.
 * ``meta``: settings, timing, counts (JSON values only); ``repairs``: input repairs
   ``file, line, field, action, detail`` (may be empty; ``line`` missing for a repair of a
   whole table or sensor).
 
 A run folder holds ``solution.parquet``, ``ledger.parquet``, ``noise.parquet``,
-``repairs.parquet`` and ``summary.json`` (filter, mission, meta, ledger counts per sensor and
-fate); :func:`save` writes it and :func:`load` reads it back.
+``repairs.parquet``, ``events.parquet`` and ``summary.json`` (filter, mission, meta, ledger
+counts per sensor and fate, event counts); :func:`save` writes it and :func:`load` reads it
+back.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav.engine import MAX_DIM, P_CROSS_PAIRS, EngineOutput
+from adaptnav.engine import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput
 from adaptnav.errorstate import N_STATES, STATE_NAMES
 from adaptnav.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_POS, NOM_SIZE, NOM_VEL
 
@@ -77,6 +81,7 @@ LEDGER_COLUMNS: tuple[str, ...] = (
 )  # fmt: skip
 NOISE_COLUMNS: tuple[str, ...] = ("t_s", "sensor", "component", "r_hat")
 REPAIR_COLUMNS: tuple[str, ...] = ("file", "line", "field", "action", "detail")
+EVENT_COLUMNS: tuple[str, ...] = EVENT_KEYS
 FATES: tuple[str, ...] = ("used", "rejected", "dropped")
 
 SUMMARY_FILE = "summary.json"
@@ -85,12 +90,16 @@ TABLE_FILES: dict[str, str] = {
     "ledger": "ledger.parquet",
     "noise": "noise.parquet",
     "repairs": "repairs.parquet",
+    "events": "events.parquet",
 }
+OPTIONAL_TABLES = ("events",)
+"""Tables a run folder written by an older version may lack (read as empty)."""
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "solution": REQUIRED_SOLUTION_COLUMNS,
     "ledger": LEDGER_COLUMNS,
     "noise": NOISE_COLUMNS,
     "repairs": REPAIR_COLUMNS,
+    "events": EVENT_COLUMNS,
 }
 _LEDGER_INT = ("row", "iterations")
 _LEDGER_STR = ("sensor", "fate", "reason")
@@ -111,6 +120,7 @@ class Result:
     noise: pd.DataFrame
     meta: dict[str, Any] = field(default_factory=dict)
     repairs: pd.DataFrame = field(default_factory=lambda: empty_repairs())
+    events: pd.DataFrame = field(default_factory=lambda: events_frame([]))
 
     def __post_init__(self) -> None:
         for name, required in _REQUIRED.items():
@@ -143,6 +153,7 @@ class Result:
             noise=noise_frame(ledger),
             meta=dict(meta or {}),
             repairs=repairs_frame(repairs),
+            events=events_frame(output.events),
         )
 
 
@@ -167,6 +178,19 @@ def quat_to_euler_rows(q: Array) -> Array:
     pitch = -np.arcsin(np.clip(c20, -1.0, 1.0))
     yaw = np.arctan2(c10, c00)
     return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def events_frame(rows: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+    """The ``events`` table from the engine's event rows (keys :data:`EVENT_COLUMNS`)."""
+    df = pd.DataFrame(list(rows), columns=list(EVENT_COLUMNS))
+    types: dict[str, Any] = {"row": "int64", "sensor": str, "event": str, "detail": str}
+    types.update({k: float for k in ("t", "statistic", "threshold", "factor")})
+    return df.astype(types)
+
+
+def event_counts(events: pd.DataFrame) -> dict[str, int]:
+    """How many events of each kind (``lockout``, ``nis``, ``covariance``), sorted by name."""
+    return {str(k): int(v) for k, v in sorted(events["event"].value_counts().items())}
 
 
 def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = None) -> pd.DataFrame:
@@ -351,6 +375,7 @@ def summary(result: Result) -> dict[str, Any]:
         "mission": result.mission,
         "meta": result.meta,
         "counts": ledger_counts(result.ledger),
+        "events": event_counts(result.events),
     }
 
 
@@ -401,6 +426,9 @@ def load(run_dir: str | Path) -> Result:
     tables: dict[str, pd.DataFrame] = {}
     for name, filename in TABLE_FILES.items():
         table_path = folder / filename
+        if not table_path.is_file() and name in OPTIONAL_TABLES:
+            tables[name] = events_frame([])
+            continue
         if not table_path.is_file():
             raise RunFolderError(f"run folder {folder}: missing {filename}")
         try:
@@ -419,4 +447,5 @@ def load(run_dir: str | Path) -> Result:
         noise=tables["noise"],
         meta=info["meta"],
         repairs=tables["repairs"],
+        events=tables["events"],
     )

@@ -53,6 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptnav.earth import E2, A
+from adaptnav.health import EIG_FLOOR, MIN_LOCKOUT_FACTOR
 from adaptnav.kernels import (
     LatRef,
     Mat3,
@@ -99,14 +100,20 @@ PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
 
 # s_int: int64 settings and counters
 S_CODE, S_DIM, S_GATE, S_ITER, S_WINDOW, S_COUNT, S_VERSION, S_GATE_REF = 0, 1, 2, 3, 4, 5, 6, 7
-N_SINT = 8
+S_GUARD = 8  # 1: the nominal-R χ² guard is on (gate.Guard)
+N_SINT = 9
 # s_flt: float64 settings; columns 0..N_PAR-1 are the linearisation parameters
 F_RNOM, F_GATE_Q, F_PERIOD = 16, 25, 26  # nominal R (3×3 row-major), gate q, period
 F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE, F_DOF = 27, 28, 29, 30, 31, 32  # strategy settings
-N_SFLT = 33
+F_RMIN, F_RMAX = 33, 34  # bounds on the adapted R̂ as factors of the nominal variance
+F_GUARD_Q, F_LOCKOUT_S = 35, 36  # the guard's χ² threshold; lockout time (0: no lockout reset)
+F_DIV_NIS, F_DIV_WINDOW, F_INFLATE_MAX = 37, 38, 39  # the windowed NIS test (health.py)
+F_GUARD_K, F_LOCKOUT_MAX = 40, 41  # the guard's headroom κ on the nominal R; lockout's cap
+N_SFLT = 42
 # s_state: float64 adaptation state: last epoch, VB α and β, matching R̂ (3×3 row-major)
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
-N_SSTATE = 16
+X_NIS, X_NIS_N, X_REJ_SINCE = 16, 17, 18  # mean NIS/d over the window, its count; lockout start
+N_SSTATE = 19
 # rings (sensors, 2, W_max, 3): [.., 0] squared innovations/residuals, [.., 1] diag(H P⁺ Hᵀ)
 
 GATE_NONE, GATE_COMPONENT, GATE_CHI2 = 0, 1, 2
@@ -121,12 +128,16 @@ N_FB = 58
 
 L_STORE, L_CODE, L_ITER = 0, 1, 2
 N_LINT = 3
-L_T_EPOCH, L_STAT, L_THRESHOLD, L_NU, L_R = 0, 1, 2, 3, 6
-N_LFLT = 9
+L_T_EPOCH, L_STAT, L_THRESHOLD, L_NU, L_R, L_FACTOR = 0, 1, 2, 3, 6, 9
+N_LFLT = 10
 LEDGER_USED = 0
 LEDGER_REJECTED_COMPONENT = GATE_COMPONENT
 LEDGER_REJECTED_CHI2 = GATE_CHI2
 LEDGER_DUPLICATE, LEDGER_INVALID, LEDGER_LATE, LEDGER_AFTER_IMU = 3, 4, 5, 6
+LEDGER_REJECTED_GUARD, LEDGER_REJECTED_SINGULAR = 7, 8
+EVENT_NIS, EVENT_LOCKOUT, EVENT_SINGULAR = 20, 21, 22
+"""Codes >= EVENT_NIS are filter events (health.py), not readings' fates: their row holds the
+reading that triggered them, the test statistic, its threshold and the factor P was inflated by."""
 
 # --- the engine's propagation cursor (rates: previous and current interval's raw mean rates) ---
 
@@ -560,7 +571,8 @@ WS_H, WS_Y, WS_RB, WS_UT, WS_KT, WS_ET, WS_W, WS_S, WS_L, WS_GT, WS_R_USED = ran
 WS_VEC, WS_DX, WS_P_NEW, WS_R_NOW, WS_ROWS3, WS_SMALL3, WS_M3, WS_B3 = range(11, 19)
 WS_COLS, WS_BLK, WS_SEEN = range(19, 22)
 V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST, V_LAM, V_B = range(10)
-N_VEC = 10
+V_LO, V_HI = 10, 11  # bounds on R̂ per component (variances)
+N_VEC = 12
 """Rows of ``ws[WS_VEC]``."""
 
 
@@ -685,11 +697,11 @@ def _vb_iterate(
     ``dof``; ``dof`` <= 0: λ = 1, the paper's update). Returns the iterations done, -1 if an S
     was not positive definite."""
     alpha, beta_prior, beta, r_hat, Gy = V[V_ALPHA], V[V_BETA_PRIOR], V[V_BETA], V[V_R_HAT], V[V_GY]
-    lam, B = V[V_LAM], V[V_B]
+    lam, B, lo, hi = V[V_LAM], V[V_B], V[V_LO], V[V_HI]
     for j in range(D):
         beta[j] = beta_prior[j]
         lam[j] = 1.0
-        r_hat[j] = beta[j] / alpha[j]
+        r_hat[j] = min(max(beta[j] / alpha[j], lo[j]), hi[j])
     done = 0
     while True:
         done += 1
@@ -726,12 +738,15 @@ def _vb_iterate(
                     lam[j] = lb
         for j in range(D):
             beta[j] = beta_prior[j] + 0.5 * lam[j] * B[j]
-            if not abs(beta[j] / alpha[j] / lam[j] - r_hat[j]) <= tol * r_hat[j]:
+            r_next = min(max(beta[j] / alpha[j] / lam[j], lo[j]), hi[j])
+            if not abs(r_next - r_hat[j]) <= tol * r_hat[j]:
                 converged = False
         if done >= iterations or converged:
+            for j in range(D):  # the state's R̂ = β/α within its bounds too
+                beta[j] = min(max(beta[j], lo[j] * alpha[j]), hi[j] * alpha[j])
             return done
         for j in range(D):
-            r_hat[j] = beta[j] / alpha[j] / lam[j]
+            r_hat[j] = min(max(beta[j] / alpha[j] / lam[j], lo[j]), hi[j])
 
 
 @jit
@@ -747,6 +762,7 @@ def _matching_r(
     full: bool,
     residual_based: bool,
     floor: float,
+    ceiling: float,
     Rnom: Array,
     R: Array,
     o: int,
@@ -755,7 +771,8 @@ def _matching_r(
 
     IAE: the mean over the window that ends with the new ``ν² = push[p0:p0+d]²`` (ring rows
     1..W-1, then the new one), minus ``diag(H P⁻ Hᵀ) = hph_now[h0:h0+d]``; RAE: mean of the
-    ring plus mean of the hph ring. Floored at ``floor * diag(R_nominal)``; the nominal R
+    ring plus mean of the hph ring. Floored at ``floor * diag(R_nominal)``, capped at
+    ``ceiling * diag(R_nominal)`` (inf: none, the paper); the nominal R
     (full) until the window is full.
     """
     for a in range(d):
@@ -778,7 +795,7 @@ def _matching_r(
                 s += ring[k, j]
             s += push[p0 + j] * push[p0 + j]
             r = s / W_i - hph_now[h0 + j]
-        R[o + j, o + j] = max(r, floor * Rnom[j, j])
+        R[o + j, o + j] = min(max(r, floor * Rnom[j, j]), ceiling * Rnom[j, j])
 
 
 @jit_inline
@@ -837,6 +854,8 @@ def stacked_update(
             for j in range(blk_off[b + 1] - o):
                 V[V_ALPHA, o + j] = s_state[i, X_ALPHA + j] + 0.5
                 V[V_BETA_PRIOR, o + j] = s_state[i, X_BETA + j]
+                V[V_LO, o + j] = s_flt[first, F_RMIN] * Rb[b, j, j]
+                V[V_HI, o + j] = s_flt[first, F_RMAX] * Rb[b, j, j]
         iterations = _vb_iterate(
             W, y, D, V, s_int[first, S_ITER], s_flt[first, F_TOL], ws[WS_S], ws[WS_L],
             ws[WS_GT], nb, blk_off, s_flt[first, F_DOF],
@@ -855,7 +874,8 @@ def stacked_update(
             full = count >= window if rae else min(count + 1, window) >= window
             _matching_r(
                 rings[i, 0], s_int[i, S_WINDOW], blk_off[b + 1] - o, y, o, rings[i, 1],
-                V[V_HPH], o, full, rae, s_flt[first, F_FLOOR], Rb[b], R_used, o,
+                V[V_HPH], o, full, rae, s_flt[first, F_FLOOR], s_flt[first, F_RMAX], Rb[b], R_used,
+                o,
             )  # fmt: skip
     else:
         for b in range(nb):
@@ -983,9 +1003,37 @@ def _ledger(
     lg_flt[n, L_T_EPOCH] = t_epoch
     lg_flt[n, L_STAT] = stat
     lg_flt[n, L_THRESHOLD] = threshold
+    lg_flt[n, L_FACTOR] = math.nan
     for j in range(MAX_DIM):
         lg_flt[n, L_NU + j] = nu[n0 + j] if j < d else math.nan
         lg_flt[n, L_R + j] = R[o + j, o + j] if j < d else math.nan
+
+
+@jit_inline
+def _event(
+    lg_int: IntArray,
+    lg_flt: Array,
+    n: int,
+    idx: int,
+    code: int,
+    t: float,
+    stat: float,
+    threshold: float,
+    factor: float,
+) -> None:
+    """Ledger row n for a filter event (``code`` >= EVENT_NIS) triggered by reading ``idx``:
+    the test statistic, its threshold and the factor P was inflated by (health.py)."""
+    _ledger(lg_int, lg_flt, n, idx, code, t, stat, threshold, 0, lg_flt[n], 0, lg_flt, 0, 0)
+    lg_flt[n, L_FACTOR] = factor
+
+
+@jit_inline
+def _inflate(P: Array, k: float) -> None:
+    """P ← k P (k >= 1): every variance and covariance scaled, so P stays positive definite
+    and its correlations are kept (docs/robustness.md, divergence guard)."""
+    for a in range(N_STATES):
+        for c in range(N_STATES):
+            P[a, c] *= k
 
 
 @jit_inline
@@ -1042,8 +1090,16 @@ def epoch(
     symmetrised. Every reading's fate goes to the ledger tables from row ``n_ledger`` on
     (dropped and rejected as met, then the used ones with their NIS ``yᵀ S_i⁻¹ y``, S_i with
     the prior P and the R used). ``ws``: :func:`workspace` for at least ``len(s_int)``
-    sensors. Returns the new ledger length, or ``-(length + 1)`` if S was not positive definite
-    (x and P then unchanged).
+    sensors.
+
+    The divergence guard (docs/robustness.md; readable twin in :mod:`adaptnav.health`): before
+    the gate, the guard (if on) tests the reading against ``S = H P Hᵀ + κ R_nominal`` and
+    rejects it above its χ² threshold; a sensor rejected by it for ``F_LOCKOUT_S`` inflates P
+    (:func:`_lockout`); each used reading feeds its sensor's windowed NIS test
+    (:func:`_nis_window`); an S that is not positive definite rejects the epoch's readings and
+    repairs P (:func:`_repair`), as does a non-positive variance after the update. Each of
+    these writes an event row (code >= EVENT_NIS). Returns the new ledger length, or
+    ``-(length + 1)`` if P was not finite (x and P then unchanged).
     """
     H, y, Rb, R_now, Ut3, S3 = (
         ws[WS_H],
@@ -1108,6 +1164,29 @@ def epoch(
                 s_state[i, X_BETA + j] *= rho
             s_int[i, S_VERSION] += 1
         s_state[i, X_LAST] = t_epoch
+        if s_int[i, S_GUARD] != 0:  # χ² on S = H P Hᵀ + κ R_nominal: adaptation cannot open it
+            Hb = H[D : D + d]
+            nc = _active_columns(Hb, d, cols)
+            _h_p(P, Hb, d, cols, nc, Ut3)
+            _h_p_ht(Hb, Ut3, d, cols, nc, S3)
+            kappa = s_flt[i, F_GUARD_K]
+            w_tr = 0.0
+            r_tr = 0.0
+            for a in range(d):
+                w_tr += S3[a, a]
+                r_tr += kappa * Rb[nb, a, a]
+                for c in range(d):
+                    S3[a, c] += 0.5 * kappa * (Rb[nb, a, c] + Rb[nb, c, a])
+            stat = _gate_statistic(GATE_CHI2, y, D, S3, d, M3, b3)
+            q = s_flt[i, F_GUARD_Q]
+            if not stat <= q:
+                _ledger(lg_int, lg_flt, n_ledger, idx, LEDGER_REJECTED_GUARD, t_epoch, stat, q,
+                        0, y, D, Rb[nb], 0, d)  # fmt: skip
+                n_ledger += 1
+                n_ledger = _lockout(P, s_flt[i], s_state[i], t_epoch, stat, q, w_tr, r_tr,
+                                    lg_int, lg_flt, n_ledger, idx)  # fmt: skip
+                continue
+            s_state[i, X_REJ_SINCE] = math.nan
         rule = s_int[i, S_GATE]
         if rule != GATE_NONE:
             nominal = kind == KIND_FIXED or s_int[i, S_GATE_REF] == GATE_REF_NOMINAL
@@ -1145,8 +1224,16 @@ def epoch(
     iterations = stacked_update(
         kind, P, H, y, D, nb, blk[0], blk[2], Rb, s_int, s_flt, s_state, rings, ws
     )
-    if iterations < 0:
-        return -(n_ledger + 1)
+    if iterations < 0:  # P has lost positive definiteness: no update, P repaired
+        for b in range(nb):
+            _ledger(lg_int, lg_flt, n_ledger, blk[1, b], LEDGER_REJECTED_SINGULAR, t_epoch,
+                    math.nan, math.nan, 0, y, 0, R_now, 0, 0)  # fmt: skip
+            n_ledger += 1
+        if not _repair(P):
+            return -(n_ledger + 1)
+        _event(lg_int, lg_flt, n_ledger, blk[1, 0], EVENT_SINGULAR, t_epoch, math.nan,
+               math.nan, 1.0)  # fmt: skip
+        return n_ledger + 1
     dx, P_new, R_used, W = ws[WS_DX], ws[WS_P_NEW], ws[WS_R_USED], ws[WS_W]
     inject(x, dx)
     if reset_covariance:
@@ -1154,6 +1241,16 @@ def epoch(
     for i in range(N_STATES):  # P⁺ and its reset are exactly symmetric
         for j in range(N_STATES):
             P[i, j] = P_new[i, j]
+    healthy = True
+    for i in range(N_STATES):  # the Joseph form keeps P PD; rounding at extreme ranges may not
+        if not P[i, i] > 0.0:
+            healthy = False
+    if not healthy:
+        if not _repair(P):
+            return -(n_ledger + 1)
+        _event(lg_int, lg_flt, n_ledger, blk[1, 0], EVENT_SINGULAR, t_epoch, math.nan,
+               math.nan, 1.0)  # fmt: skip
+        n_ledger += 1
     for r in range(D):  # S with the prior P and the R used, for the NIS
         for c in range(D):
             W[r, c] += 0.5 * (R_used[r, c] + R_used[c, r])
@@ -1164,7 +1261,118 @@ def epoch(
         _ledger(lg_int, lg_flt, n_ledger, blk[1, b], LEDGER_USED, t_epoch, nis, math.nan,
                 iterations, y, o, R_used, o, d)  # fmt: skip
         n_ledger += 1
+        i = blk[0, b]
+        n_ledger = _nis_window(P, s_flt[i], s_state[i], t_epoch, nis / d, lg_int, lg_flt,
+                               n_ledger, blk[1, b])  # fmt: skip
     return n_ledger
+
+
+# --- the divergence guard (twins in adaptnav.health) --------------------------------------------
+
+
+@jit
+def _repair(P: Array) -> bool:
+    """P ← the nearest symmetric positive definite matrix by eigenvalues clipped at
+    ``EIG_FLOOR`` × the largest (twin of health.repair); False if P is not finite."""
+    for a in range(N_STATES):
+        for c in range(N_STATES):
+            if not math.isfinite(P[a, c]):
+                return False
+    Ps = 0.5 * (P + P.T)
+    w, V = np.linalg.eigh(Ps)
+    floor = max(w[-1], 0.0) * EIG_FLOOR
+    if not floor > 0.0:
+        return False
+    for k in range(N_STATES):
+        w[k] = max(w[k], floor)
+    for a in range(N_STATES):
+        for c in range(N_STATES):
+            t = 0.0
+            for k in range(N_STATES):
+                t += V[a, k] * w[k] * V[c, k]
+            P[a, c] = t
+    for a in range(N_STATES):
+        for c in range(a + 1, N_STATES):
+            P[c, a] = P[a, c]
+    return True
+
+
+@jit_inline
+def lockout_factor(stat: float, q: float, w_tr: float, r_tr: float, k_max: float) -> float:
+    """The factor k of P that brings a reading rejected with statistic ``stat`` > q back to
+    the threshold, with S's traces W = tr(H P Hᵀ), R = tr(R) standing for its size
+    (``stat (W + R) / (k W + R) = q``), at least MIN_LOCKOUT_FACTOR and at most ``k_max`` (twin of
+    health.lockout_factor; docs/robustness.md)."""
+    k = (stat * (w_tr + r_tr) / q - r_tr) / max(w_tr, 1e-300)
+    return min(max(k, MIN_LOCKOUT_FACTOR), k_max)
+
+
+@jit_inline
+def _lockout(
+    P: Array,
+    sf: Array,
+    sx: Array,
+    t: float,
+    stat: float,
+    q: float,
+    w_tr: float,
+    r_tr: float,
+    lg_int: IntArray,
+    lg_flt: Array,
+    n_ledger: int,
+    idx: int,
+) -> int:
+    """After a guard rejection: a sensor rejected at every epoch for ``F_LOCKOUT_S`` or more
+    means the filter, not the sensor, has most likely gone wrong (a sensor fault that long is
+    what stuck-reading and plausibility checks catch): P is inflated so that this reading
+    would pass (:func:`lockout_factor`), an EVENT_LOCKOUT row written and the count restarted.
+    Returns the ledger length."""
+    since = sx[X_REJ_SINCE]
+    if math.isnan(since):
+        sx[X_REJ_SINCE] = t
+        return n_ledger
+    lockout = sf[F_LOCKOUT_S]
+    if not (lockout > 0.0 and t - since >= lockout):
+        return n_ledger
+    k = lockout_factor(stat, q, w_tr, r_tr, sf[F_LOCKOUT_MAX])
+    _inflate(P, k)
+    _event(lg_int, lg_flt, n_ledger, idx, EVENT_LOCKOUT, t, t - since, lockout, k)
+    sx[X_REJ_SINCE] = math.nan
+    return n_ledger + 1
+
+
+@jit_inline
+def _nis_window(
+    P: Array,
+    sf: Array,
+    sx: Array,
+    t: float,
+    ratio: float,
+    lg_int: IntArray,
+    lg_flt: Array,
+    n_ledger: int,
+    idx: int,
+) -> int:
+    """The windowed NIS test after a used reading with ``ratio = NIS/d``: the mean of the
+    ratios over the sensor's last ``F_DIV_WINDOW`` used readings (a running mean until the
+    window is full, then an exponential one of that length) above ``F_DIV_NIS`` means P is too
+    small for what the sensor sees: P ← k P with k the mean ratio (at most ``F_INFLATE_MAX``),
+    an EVENT_NIS row, the window restarted (twin of health.NisWindow). Returns the ledger
+    length."""
+    threshold = sf[F_DIV_NIS]
+    if not threshold > 0.0:
+        return n_ledger
+    count = sx[X_NIS_N] + 1.0
+    sx[X_NIS] += (ratio - sx[X_NIS]) / min(count, sf[F_DIV_WINDOW])
+    sx[X_NIS_N] = count
+    if count < sf[F_DIV_WINDOW] or not sx[X_NIS] > threshold:
+        return n_ledger
+    k = min(sx[X_NIS], sf[F_INFLATE_MAX])
+    _inflate(P, k)
+    _event(lg_int, lg_flt, n_ledger, idx, EVENT_NIS, t, sx[X_NIS], threshold, k)
+    sx[X_NIS] = 0.0
+    sx[X_NIS_N] = 0.0
+    return n_ledger + 1
 
 
 # --- one propagation (sub)step, for the engine's compiled loop --------------------------------

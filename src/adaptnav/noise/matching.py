@@ -5,14 +5,16 @@ last W accepted innovations ν (x⁻ = 0, so ν = y),
 
     C_ν = (1/W) Σ ν νᵀ,     R_i = diag(C_ν) - diag(H_i P⁻ H_iᵀ),
 
-floored at ``r_min = floor * nominal variance`` to stay positive definite. The window ends with
-the current innovation. Until the window is full the nominal R is used.
+floored at ``r_min = floor * nominal variance`` to stay positive definite and, beyond the
+paper, capped at ``ceiling * nominal variance`` (default inf: no cap; why a cap, noise/vb.py).
+The window ends with the current innovation. Until the window is full the nominal R is used.
 Residual-based variant (RAE): ``R_i = diag(C_ε) + diag(H_i P⁺ H_iᵀ)`` with residuals
 ``ε = y - H dx⁺`` of the previous W updates.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -39,6 +41,8 @@ class CovarianceMatching:
     window: int = 20
     floor: float = 1e-2
     residual_based: bool = False
+    ceiling: float = math.inf
+    """Upper bound on R̂ as a factor of the nominal variance (module docstring)."""
     name: str = "matching"
 
     def __post_init__(self) -> None:
@@ -46,6 +50,10 @@ class CovarianceMatching:
             raise ValueError(f"matching window: value {self.window!r} must be >= 1")
         if not 0 < self.floor <= 1:
             raise ValueError(f"matching floor: value {self.floor!r} must be in (0, 1]")
+        if not self.ceiling > self.floor:
+            raise ValueError(
+                f"matching ceiling: value {self.ceiling!r} must be > the floor {self.floor!r}"
+            )
 
     def initial_state(self, R_nominal: Array) -> MatchingState:
         d = R_nominal.shape[0]
@@ -61,8 +69,8 @@ class CovarianceMatching:
     def _estimate(self, squares: Array, hph: Array, hph_now: Array, R_nominal: Array) -> Array:
         mean_sq = squares.mean(axis=0)
         r = mean_sq + hph.mean(axis=0) if self.residual_based else mean_sq - hph_now
-        r_min = self.floor * np.diag(R_nominal)
-        return np.diag(np.maximum(r, r_min))
+        var = np.diag(R_nominal)
+        return np.diag(np.clip(r, self.floor * var, self.ceiling * var))
 
     def update(self, P: Array, blocks: Sequence[Block]) -> StackedResult:
         Rs: list[Array] = []

@@ -32,10 +32,19 @@ becomes, with ``B_j = (y - H x⁺)²_j + diag(H P⁺ Hᵀ)_j`` and ``E[1/σ²_j]
 so a reading far off its R̂ gets a small λ: it moves the state little and raises β little,
 where the Gaussian update would raise β by ½ B and so R̂ for the next 1/(1 - ρ) epochs.
 ``dof = None`` (the default) is the paper's Gaussian update (λ = 1).
+
+**Beyond the paper: bounds on R̂.** With ``r_floor`` / ``r_ceiling`` set, every R̂ of the
+iteration is clipped to ``[r_floor, r_ceiling] × σ²_nominal`` and so is the state's β/α at the
+end (β clipped to ``[r_floor, r_ceiling] α σ²_nominal``). When Q is too small for the real
+motion, the innovations exceed what P predicts and an unbounded R̂ takes the excess for sensor
+noise: the filter trusts its sensors less, drifts more, and R̂ grows again (measured on the
+RTKLIB drive, docs/robustness.md). A ceiling stops that loop; the windowed NIS test
+(health.py) then sees the excess and inflates P instead. Defaults 0 and inf: the paper.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -63,6 +72,10 @@ class VariationalBayes:
     """Use ``ρ^(dt/T)`` instead of ρ (for sensors with jitter and gaps)."""
     dof: float | None = None
     """Student-t degrees of freedom ν of each reading (module docstring); None: Gaussian."""
+    r_floor: float = 0.0
+    """Lower bound on R̂ as a factor of the nominal variance (module docstring)."""
+    r_ceiling: float = math.inf
+    """Upper bound on R̂ as a factor of the nominal variance (module docstring)."""
     name: str = "vb"
 
     def __post_init__(self) -> None:
@@ -74,6 +87,11 @@ class VariationalBayes:
             raise ValueError(f"vb iterations: value {self.iterations!r} must be >= 1")
         if self.dof is not None and not (np.isfinite(self.dof) and self.dof > 0):
             raise ValueError(f"vb dof: value {self.dof!r} must be a finite number > 0 (or none)")
+        if not 0.0 <= self.r_floor < self.r_ceiling:
+            raise ValueError(
+                f"vb R̂ bounds: [{self.r_floor!r}, {self.r_ceiling!r}] must have 0 <= floor "
+                "< ceiling"
+            )
 
     def initial_state(self, R_nominal: Array) -> VBState:
         var = np.diag(R_nominal).copy()
@@ -93,7 +111,9 @@ class VariationalBayes:
         alpha = alpha_prior + 0.5
         beta = beta_prior.copy()
         lam = np.ones(y.size)  # λ of each component's reading
-        r_hat = beta / alpha / lam  # the R of the correction
+        var = np.concatenate([np.diag(b.R_nominal) for b in blocks])
+        lo, hi = self.r_floor * var, self.r_ceiling * var
+        r_hat = np.clip(beta / alpha / lam, lo, hi)  # the R of the correction
         done = 0
         while True:
             done += 1
@@ -105,8 +125,9 @@ class VariationalBayes:
                     d = sl.stop - sl.start
                     lam[sl] = (self.dof + d) / (self.dof + np.sum(B[sl] * alpha[sl] / beta[sl]))
             beta = beta_prior + 0.5 * lam * B
-            r_next = beta / alpha / lam
+            r_next = np.clip(beta / alpha / lam, lo, hi)
             if done >= self.iterations or np.all(np.abs(r_next - r_hat) <= self.tol * r_hat):
+                beta = np.clip(beta, lo * alpha, hi * alpha)
                 break
             r_hat = r_next
         states = tuple(VBState(alpha[sl], beta[sl]) for sl in slices(blocks))
