@@ -35,14 +35,14 @@ from adaptnav.compare import NEES_BAND_TEXT
 from adaptnav.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
-RUN_FILTERS = ("meskf", "maeskf", "vb", "oracle", "floor")
+RUN_FILTERS = ("meskf", "maeskf", "vb", "robust", "oracle", "floor")
 """What :func:`adaptnav.compare.compare` runs at the filters' defaults."""
 VB_GATE_Q = 2600.0
 """The paper's best q for VB-MAESKF (Fig. 4, "insensitive"): the gated VB rows ``vb_q`` (S with
 VB's own R̂, the paper's gate) and ``vb_n`` (S with the nominal R, gate.py)."""
 VB_DOF = 4.0
 """Student-t ν of the heavy-tailed VB-MAESKF row ``vb_t`` (noise/vb.py; no gate)."""
-FILTERS = ("meskf", "maeskf", "vb", "vb_q", "vb_n", "vb_t", "oracle", "floor")
+FILTERS = ("meskf", "maeskf", "vb", "vb_q", "vb_n", "vb_t", "robust", "oracle", "floor")
 LABELS = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
@@ -50,6 +50,7 @@ LABELS = {
     "vb_q": f"VB-MAESKF q={VB_GATE_Q:.0f}",
     "vb_n": f"VB-MAESKF q={VB_GATE_Q:.0f} nominal-R gate",
     "vb_t": f"VB-MAESKF Student-t ν={VB_DOF:g}",
+    "robust": "robust",
     "oracle": "oracle",
     "floor": "floor (DVL DR)",
 }
@@ -243,6 +244,12 @@ def _targets(df: pd.DataFrame) -> list[tuple[str, float, float, bool]]:
             (f"{lab} faulted / {lab} clean", f / c, 1.2, f / c <= 1.2),
             (f"{lab} clean / MESKF clean", c / meskf_c, 1.0, c / meskf_c <= 1.0),
         ]
+    # Issue 12's targets for the recommended filter.
+    c, f, vb_c = mean[("clean", "robust")], mean[("faulted", "robust")], mean[("clean", "vb")]
+    out += [
+        ("robust faulted / robust clean", f / c, 1.10, f / c <= 1.10),
+        ("robust clean / VB-MAESKF clean", c / vb_c, 1.0, c / vb_c <= 1.0),
+    ]
     return out
 
 
@@ -254,9 +261,9 @@ def _figure_bars(df: pd.DataFrame, path: Path) -> None:
     import matplotlib.ticker
 
     colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2", "vb_q": "C8", "vb_n": "C1",
-              "vb_t": "C6", "oracle": "C4", "floor": "0.4"}  # fmt: skip
+              "vb_t": "C6", "robust": "C5", "oracle": "C4", "floor": "0.4"}  # fmt: skip
     hatch = {"meskf": "//", "maeskf": "..", "vb": "", "vb_q": "\\\\", "vb_n": "++",
-             "vb_t": "oo", "oracle": "xx", "floor": "--"}  # fmt: skip
+             "vb_t": "oo", "robust": "**", "oracle": "xx", "floor": "--"}  # fmt: skip
     fig, axes = plt.subplots(2, 1, figsize=(11, 7), sharex=True, constrained_layout=True)
     for ax, case in zip(axes, ("clean", "faulted"), strict=True):
         sub = df[df["case"] == case].pivot(
@@ -356,8 +363,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "is drawn from the seed; the other draws, seeds "
         f"{', '.join(f'{b}+N' for b in args.seed_bases[1:]) or 'none'}, are summarised in "
         "their own table);",
-        "- filters: MESKF (q = 600 on the DVL), MAESKF (q = 1800), VB-MAESKF (no gate, the "
-        f"paper's method as specified), VB-MAESKF with the component gate at q = {VB_GATE_Q:.0f} "
+        "- filters, each with the guard every filter has by default (a χ² test on 100 × the "
+        "nominal R, docs/robustness.md): MESKF (q = 600 on the DVL), MAESKF (q = 1800), "
+        "VB-MAESKF (no gate of its own, the paper's method), the **robust** filter (VB-MAESKF "
+        "with R̂ bounded to [0.1, 100] × nominal and the windowed NIS test, the default of "
+        "`adaptnav run`), "
+        f"VB-MAESKF with the component gate at q = {VB_GATE_Q:.0f} "
         "(the paper's best q for it in Fig. 4) whose S holds VB's own R̂ (the paper's gate), the "
         'same gate with S on the nominal R (`gate_reference = "nominal"`, adaptation cannot '
         f"open it), VB-MAESKF with Student-t readings (ν = {VB_DOF:g}, `vb_dof`, no gate: a "

@@ -32,7 +32,7 @@ from adaptnav.sim.scenarios import simulate
 
 runner = CliRunner()
 
-FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle")
+FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
 SEED = 3
 
 

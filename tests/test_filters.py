@@ -239,9 +239,11 @@ def test_grid_policy_matches_the_papers_update_written_plainly() -> None:
 
 def _static_nav(kind: str, policy: str = "exact") -> tuple[engine.Navigator, np.ndarray]:
     ds = synthetic.make(0, duration=2.0, sensors=())
+    # No guard: the hand-fed readings below are far off this moving mission's state on purpose.
     chans = build_channels(
-        FilterSettings(kind=kind), [(DVL(sigma=0.02), 1 / 3), (Depth(sigma=0.1), 1.0)]
-    )  # type: ignore[arg-type]
+        FilterSettings(kind=kind, guard_probability=0.0),  # type: ignore[arg-type]
+        [(DVL(sigma=0.02), 1 / 3), (Depth(sigma=0.1), 1.0)],
+    )
     # F from the measured specific force, as the hand-built propagation below (tau_f = 0).
     cfg = engine.EngineConfig(synthetic.NOISE, epoch_policy=policy, specific_force_tau_s=0.0)  # type: ignore[arg-type]
     return engine.Navigator(cfg, chans, ds.x0_hat, ds.P0, 0.0), ds
@@ -321,10 +323,11 @@ def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
     still reach the filter and its R̂.
     """
     ds, noisy, lost = _sustained_fault()
-    runs = {
-        ref: _run_batch("vb", ds, gate_q={"vb": 600.0}, gate_reference=ref)
+    runs = {  # the paper's gate alone (no guard), on either R
+        ref: _run_batch("vb", ds, gate_q={"vb": 600.0}, gate_reference=ref, guard_probability=0.0)
         for ref in ("adapted", "nominal")
     }
+    runs["guard"] = _run_batch("vb", ds)  # the defaults: no paper gate, the guard
     lost_rows = set(np.nonzero(lost)[0].tolist())
     noisy_rows = set(np.nonzero(noisy)[0].tolist())
     fate = {
@@ -339,6 +342,10 @@ def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
     assert used_zeros["nominal"] == 0
     assert used_noisy["nominal"] >= 0.95 * len(noisy_rows)
     assert e["nominal"] < e["adapted"]
+    # The guard (100 × the nominal R in S) holds the zeros too and lets the ×5 noise through.
+    assert used_zeros["guard"] == 0
+    assert used_noisy["guard"] == len(noisy_rows)
+    assert e["guard"] < e["adapted"]
 
 
 def _dvl_r(out: engine.EngineOutput) -> tuple[np.ndarray, np.ndarray]:
@@ -349,17 +356,18 @@ def _dvl_r(out: engine.EngineOutput) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_student_t_vb_rides_out_a_sustained_fault_without_a_gate() -> None:
-    """The same ×5 noise and 20-s loss of zeros, ungated. The paper's Gaussian VB raises β by
-    ½ B for every zero, so R̂ after the loss is many times its value before and the zeros
-    pull the state. With Student-t readings (ν = 4) each zero, 100 σ off, gets λ ≈ ν / B·E[1/σ²]
-    ≪ 1. With R̂ ≈ 4e-3 m²/s² and 2 m/s errors on three axes, λ ≈ 7 / (4 + 12 / 4e-3) ≈ 2e-3:
+    """The same ×5 noise and 20-s loss of zeros, ungated (no guard either). The paper's
+    Gaussian VB raises β by ½ B for every zero, so R̂ after the loss is many times its value
+    before and the zeros pull the state. With Student-t readings (ν = 4) each zero, 100 σ
+    off, gets λ ≈ ν / B·E[1/σ²] ≪ 1. With R̂ ≈ 4e-3 m²/s² and 2 m/s errors on three axes,
+    λ ≈ 7 / (4 + 12 / 4e-3) ≈ 2e-3:
     each zero is used with an R hundreds of times R̂ (more than 20 times even once the state
     has moved half-way to it), and β, so R̂ for the readings after the loss, hardly moves. A
     heavy tail still lets each reading pull a little (the t influence falls as 1/error, not to
     zero as a gate's), so the position is better than the Gaussian VB's, not as good as a
     gate's."""
     ds, noisy, lost = _sustained_fault()
-    runs = {dof: _run_batch("vb", ds, vb_dof=dof) for dof in (None, 4.0)}
+    runs = {dof: _run_batch("vb", ds, vb_dof=dof, guard_probability=0.0) for dof in (None, 4.0)}
     t_dvl = ds.readings["dvl"][0]
     r = {}
     for dof, out in runs.items():

@@ -149,7 +149,7 @@ def test_docs_example_is_valid() -> None:
 def test_defaults_of_a_minimal_config() -> None:
     cfg = parse_config(config_dict())
     assert cfg.imu.format == "rates" and cfg.imu.gap_limit_s == pytest.approx(0.05)
-    assert cfg.filter.kind == "vb" and cfg.initial.mode == "alignment"
+    assert cfg.filter.kind == "robust" and cfg.initial.mode == "alignment"
     assert cfg.gated_sensors() == ("dvl",)
     assert cfg.filter_settings().gate_reference == "adapted"  # the paper's gate
     assert cfg.truth.file is None

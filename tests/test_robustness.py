@@ -10,6 +10,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -383,16 +384,32 @@ def test_no_valid_gnss_fix_in_the_alignment_window_is_a_clear_error(
     assert not (tmp_path / "run").exists()
 
 
-def test_a_filter_breakdown_is_a_clear_error_with_its_time(mission: Path, tmp_path: Path) -> None:
-    """With the limits opened, a depth of 1e300 reaches the filter: S is not positive
-    definite. That is an error naming the time, not a LinAlgError traceback."""
+def test_a_reading_that_would_break_the_filter_is_rejected_or_a_clear_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    """With the limits opened, a depth of 1e300 reaches the filter (it used to end in a
+    LinAlgError traceback). The guard rejects it; with the guard off, the filter's state goes
+    non-finite and the run stops with an error naming the filter and the time."""
     depth = badinput.read(mission, "depth")
-    depth.loc[len(depth) - 10, "depth_m"] = 1e300
+    row = len(depth) - 10
+    depth.loc[row, "depth_m"] = 1e300
     badinput.write(mission, "depth", depth)
     toml = (mission / "mission.toml").read_text()
     section = '[sensors.depth]\nkind = "depth"\n'
     (mission / "mission.toml").write_text(toml.replace(section, section + "limits = [-inf, inf]\n"))
-    line = error_line(cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run"))
+    res = cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    fate = ledger[(ledger["sensor"] == "depth") & (ledger["row"] == row)].iloc[0]
+    assert (fate["fate"], fate["reason"]) == ("rejected", "guard chi2 (nominal R)")
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(
+        toml.replace("[filter]\n", "[filter]\nguard_probability = 0.0\n")
+        if "[filter]" in toml
+        else toml + "\n[filter]\nguard_probability = 0.0\n"
+    )
+    res = cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run2")
+    line = error_line(res)
     assert "the meskf filter broke down" in line and "at t = " in line
     assert "mission.toml" in line
 

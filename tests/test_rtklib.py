@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import struct
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -288,7 +289,10 @@ def test_import_writes_a_mission_that_loads_runs_and_scores_its_outages(drive: D
     # Aided by 2-cm fixes the error is centimetres, and below a metre before every outage
     # (after the 60-s outage at 300 s and a stop, the last one starts 0.6 m off).
     x0, P0, t0, _ = api.initial_state(m)
-    run = api.run(m, "vb", initial=(x0, P0, t0))
+    # The paper's VB-MAESKF without the guard: this checks the import, not the guard (which
+    # rejects the first fixes after an outage while P is too small, docs/robustness.md).
+    paper = replace(m.config.filter_settings(), guard_probability=0.0)
+    run = api.run(m, "vb", settings=paper, initial=(x0, P0, t0))
     e = evaluate.position_errors(run.solution, m.truth)
     aided = ~np.isin(e["t_s"].to_numpy(), m.truth["t_s"].to_numpy()[withheld])
     assert float(np.median(e["horizontal_m"][aided])) < 0.1

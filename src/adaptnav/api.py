@@ -147,8 +147,9 @@ def run(
 
     Args:
         mission: a loaded :class:`~adaptnav.io.Mission` or its folder.
-        filter: ``"meskf"``, ``"maeskf"``, ``"vb"`` or ``"oracle"`` (a simulated mission's
-            limit: true per-reading R, known outliers dropped; :mod:`adaptnav.oracle`);
+        filter: ``"robust"``, ``"meskf"``, ``"maeskf"``, ``"vb"`` or ``"oracle"`` (a
+            simulated mission's limit: true per-reading R, known outliers dropped;
+            :mod:`adaptnav.oracle`);
             default: the mission's ``filter.kind``.
         settings: filter settings overriding the mission's ``[filter]`` section.
         epoch_policy: ``"exact"`` or ``"grid"``; default: the mission's.
@@ -216,7 +217,9 @@ def run(
 
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     imu_t, imu_dt = m.imu.t[nav_from:], m.imu.dt[nav_from:]
-    config = engine.EngineConfig(noise, policy, output_every=cfg.output_every())
+    config = engine.EngineConfig(
+        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard()
+    )
     if cfg.filter.specific_force_tau_s is not None:
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
     try:
@@ -245,7 +248,7 @@ def run(
     out = replace(out, ledger=ledger + extra)
     meta: dict[str, Any] = {
         "mission_dir": str(m.root),
-        "filter_settings": {k: v for k, v in s.__dict__.items()},
+        "filter_settings": s.as_dict(),
         "epoch_policy": policy,
         **(
             {"oracle_nominal_R": [n for n, o in known.items() if o.r_diag is None]}

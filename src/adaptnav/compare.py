@@ -72,9 +72,9 @@ PAPER_TABLE3: dict[str, dict[str, tuple[float, float]]] = {
 }
 """The paper's Table 3: RMSE (m) and relative RMSE (%) per trajectory (preset) and filter."""
 
-FILTER_NAMES: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle", "floor")
+FILTER_NAMES: tuple[str, ...] = ("meskf", "maeskf", "vb", "robust", "oracle", "floor")
 """Every name :func:`compare` accepts, in the order tables and figures list them."""
-DEFAULT_FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "oracle")
+DEFAULT_FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
 NEES_COLUMNS: tuple[str, ...] = (
     "mean_nees_position",
     "mean_nees_velocity",
@@ -92,6 +92,7 @@ FILTER_LABELS: dict[str, str] = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
     "vb": "VB-MAESKF",
+    "robust": "robust (VB, guarded)",
     "oracle": "oracle ESKF (true R)",
     "floor": "DVL dead reckoning",
 }

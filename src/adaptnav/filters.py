@@ -1,11 +1,25 @@
-"""The three filter kinds of the paper as settings for one engine (spec §6, §7).
+"""The filter kinds as settings for one engine (docs/filters.md, docs/robustness.md).
+
+The paper's three:
 
 * ``meskf``: fixed nominal R (:class:`~adaptnav.noise.FixedNoise`), outlier gate on;
 * ``maeskf``: R by innovation covariance matching (:class:`~adaptnav.noise.CovarianceMatching`),
   gate on;
 * ``vb``: VB-MAESKF, R by variational Bayes (:class:`~adaptnav.noise.VariationalBayes`), no gate;
+
+beyond it:
+
+* ``robust``: the recommended filter for real data, the default of ``adaptnav run``: VB-MAESKF
+  whose R̂ is bounded relative to the nominal R (``r_bounds``), with the windowed NIS test of
+  the divergence guard on (:mod:`adaptnav.health`);
 * ``oracle``: not a filter a user can run on real data, a baseline: fixed R, no gate, each
   reading given its true variance and known outliers removed (:mod:`adaptnav.oracle`).
+
+Every kind has the **guard** (:class:`~adaptnav.gate.Guard`) on every sensor by default: a χ²
+test on the whole innovation with the nominal R (times a headroom), for gross errors, with its
+lockout (P inflated when it has rejected a sensor for ``guard_lockout_s``);
+``guard_probability = 0`` turns it off, and the paper's three filters are then exactly the
+paper's.
 
 Default gate coefficients are the paper's best on its trajectory No. 1 (q = 600 for MESKF,
 1800 for MAESKF; Fig. 4); the paper gives no ρ, N or α0, so ours are stated choices: ρ = 0.99
@@ -14,18 +28,38 @@ Default gate coefficients are the paper's best on its trajectory No. 1 (q = 600 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
-from typing import Literal
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Literal
 
 from adaptnav.engine import SensorChannel
-from adaptnav.gate import Gate, GateReference, GateRule
+from adaptnav.gate import (
+    DEFAULT_HEADROOM,
+    DEFAULT_LOCKOUT_S,
+    Gate,
+    GateReference,
+    GateRule,
+    Guard,
+)
+from adaptnav.health import OFF, DivergenceGuard
 from adaptnav.noise import CovarianceMatching, FixedNoise, NoiseStrategy, VariationalBayes
 from adaptnav.sensors.base import MeasurementModel
 
-FilterKind = Literal["meskf", "maeskf", "vb", "oracle"]
-FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "oracle")
+FilterKind = Literal["meskf", "maeskf", "vb", "robust", "oracle"]
+FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
+PAPER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb")
+DEFAULT_KIND: FilterKind = "robust"
+"""What ``adaptnav run`` and a mission without ``[filter] kind`` use."""
 DEFAULT_GATE_Q: dict[str, float] = {"meskf": 600.0, "maeskf": 1800.0}
+DEFAULT_GUARD_PROBABILITY = 1e-6
+"""The guard's false-alarm probability per reading for a consistent filter (gate.Guard)."""
+DEFAULT_R_BOUNDS: dict[str, tuple[float, float]] = {"robust": (0.1, 100.0)}
+"""[floor, ceiling] of R̂ as factors of the nominal variance, per kind (noise/vb.py)."""
+DEFAULT_DIVERGENCE: dict[str, DivergenceGuard] = {
+    "robust": DivergenceGuard(nis_ratio=5.0, window=30, inflate_max=100.0)
+}
+"""The divergence guard per kind (health.py); a kind absent here runs without it."""
 
 
 @dataclass(frozen=True)
@@ -35,6 +69,7 @@ class SensorOverrides:
     gate_q: float | None = None
     vb_rho: float | None = None
     matching_window: int | None = None
+    guard_probability: float | None = None
 
 
 @dataclass(frozen=True)
@@ -59,6 +94,15 @@ class FilterSettings:
     vb_dof: float | None = None
     """Student-t ν of each reading for VB-MAESKF (noise/vb.py, beyond the paper); None:
     Gaussian, the paper's update."""
+    guard_probability: float = DEFAULT_GUARD_PROBABILITY
+    """The guard's p on every sensor (gate.Guard); 0: no guard."""
+    guard_headroom: float = DEFAULT_HEADROOM
+    """The guard's κ: its S holds κ × the nominal R (gate.Guard)."""
+    guard_lockout_s: float = DEFAULT_LOCKOUT_S
+    """The guard's lockout time (gate.Guard); 0: no lockout."""
+    r_bounds: dict[str, tuple[float, float]] = field(default_factory=lambda: dict(DEFAULT_R_BOUNDS))
+    """Bounds on R̂ per kind (maeskf: its ceiling only, the floor is ``matching_floor``)."""
+    divergence: dict[str, DivergenceGuard] = field(default_factory=lambda: dict(DEFAULT_DIVERGENCE))
 
     def __post_init__(self) -> None:
         if self.kind not in FILTER_KINDS:
@@ -69,15 +113,35 @@ class FilterSettings:
 
     def strategy(self, overrides: SensorOverrides = SensorOverrides()) -> NoiseStrategy:
         """The R strategy of this filter kind for one sensor."""
+        floor, ceiling = self.r_bounds.get(self.kind, (0.0, math.inf))
         if self.kind in ("meskf", "oracle"):
             return FixedNoise()
         if self.kind == "maeskf":
             window = overrides.matching_window or self.matching_window
-            return CovarianceMatching(window, self.matching_floor, self.matching_residual_based)
+            return CovarianceMatching(
+                window, self.matching_floor, self.matching_residual_based, ceiling
+            )
         rho = overrides.vb_rho if overrides.vb_rho is not None else self.vb_rho
         return VariationalBayes(
-            self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular, self.vb_dof
-        )
+            self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular,
+            self.vb_dof, floor, ceiling,
+        )  # fmt: skip
+
+    def guard(self, overrides: SensorOverrides = SensorOverrides()) -> Guard | None:
+        """The nominal-R guard of one sensor, or None (p = 0)."""
+        p = overrides.guard_probability
+        p = self.guard_probability if p is None else p
+        return Guard(p, self.guard_headroom, self.guard_lockout_s) if p > 0 else None
+
+    def as_dict(self) -> dict[str, Any]:
+        """These settings as JSON values (a run's ``meta.filter_settings``)."""
+        out = {k: v for k, v in self.__dict__.items() if k != "divergence"}
+        out["divergence"] = {k: asdict(v) for k, v in self.divergence.items()}
+        return out
+
+    def divergence_guard(self) -> DivergenceGuard:
+        """The windowed NIS test of this kind (health.OFF if none)."""
+        return self.divergence.get(self.kind, OFF)
 
     def gate(self, sensor: str, overrides: SensorOverrides = SensorOverrides()) -> Gate | None:
         """The outlier gate for ``sensor`` under this filter kind, or None."""
@@ -97,5 +161,10 @@ def build_channels(
     out = []
     for model, period in sensors:
         o = ov.get(model.name, SensorOverrides())
-        out.append(SensorChannel(model, period, settings.strategy(o), settings.gate(model.name, o)))
+        out.append(
+            SensorChannel(
+                model, period, settings.strategy(o), settings.gate(model.name, o),
+                settings.guard(o),
+            )
+        )  # fmt: skip
     return out

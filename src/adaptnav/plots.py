@@ -58,6 +58,7 @@ STYLES: dict[str, tuple[str, Any]] = {
     "meskf": ("tab:red", "--"),
     "maeskf": ("tab:blue", "-."),
     "vb": ("tab:green", "-"),
+    "robust": ("tab:olive", (0, (8, 2))),
     "oracle": ("tab:purple", ":"),
     "floor": ("tab:orange", (0, (6, 1.5, 1, 1.5, 1, 1.5))),
 }
@@ -68,10 +69,11 @@ _LABELS = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
     "vb": "VB-MAESKF",
+    "robust": "robust (VB, guarded)",
     "oracle": "oracle ESKF (true R)",
     "floor": "DVL dead reckoning",
 }
-_ADAPTIVE = ("maeskf", "vb")
+_ADAPTIVE = ("maeskf", "vb", "robust")
 """Filters whose R̂ Fig. 10 shows (MESKF's is the nominal R, the oracle's the true σ²)."""
 _HATCHES = ("", "//", "..", "xx", "\\\\", "oo")
 

@@ -365,16 +365,31 @@ def _filters(doc: Mapping[str, Any], summaries: Mapping[str, Mapping[str, Any]])
             if q is not None
             else "none"
         )
+        p_guard = fs.get("guard_probability")
+        if isinstance(p_guard, int | float) and p_guard > 0:
+            gate += (
+                f"; guard χ² on {_e(fs.get('guard_headroom'))} × the nominal R, p = "
+                f"{p_guard:g}, every sensor, lockout {_e(fs.get('guard_lockout_s'))} s"
+            )
         if kind == "maeskf":
             r = (
                 f"covariance matching, window {_e(fs.get('matching_window'))}, "
                 f"floor {_e(fs.get('matching_floor'))}"
             )
-        elif kind == "vb":
+        elif kind in ("vb", "robust"):
             r = (
                 f"variational Bayes, ρ = {_e(fs.get('vb_rho'))}, N = "
                 f"{_e(fs.get('vb_iterations'))}, α0 = {_e(fs.get('vb_alpha0'))}"
             )
+            bounds = (fs.get("r_bounds") or {}).get(kind)
+            if bounds:
+                r += f", R̂ in [{_e(bounds[0])}, {_e(bounds[1])}] × nominal"
+            dg = (fs.get("divergence") or {}).get(kind)
+            if isinstance(dg, dict) and dg.get("nis_ratio"):
+                r += (
+                    f"; windowed NIS test: NIS/d > {_e(dg.get('nis_ratio'))} over "
+                    f"{_e(dg.get('window'))} readings inflates P"
+                )
         elif kind == "oracle":
             r = "the simulator's true σ per reading, outliers flagged"
         else:
@@ -672,6 +687,50 @@ def _ledger(doc: Mapping[str, Any]) -> str:
     )
 
 
+EVENTS_SHOWN = 12
+"""Most events listed per filter in the report (all are in the run's events.parquet)."""
+
+
+def _events(folder: Path, doc: Mapping[str, Any]) -> str:
+    """Each filter's divergence guard events (health.py): counts, then the first ones."""
+    import pandas as pd
+
+    rows: list[tuple[str, ...]] = []
+    for name in doc.get("filters", []):
+        path = folder / str(name) / "events.parquet"
+        try:
+            ev = pd.read_parquet(path) if path.is_file() else None
+        except Exception:  # an unreadable table is shown as such, the report still written
+            ev = None
+        label = _e(FILTER_LABELS.get(name, name))
+        if ev is None:
+            rows.append((label, "–", "–", "–", "no events table"))
+            continue
+        n = {k: int((ev["event"] == k).sum()) for k in ("lockout", "nis", "covariance")}
+        first = "; ".join(
+            f"{r.t:.1f} s {_e(r.sensor)} {_e(r.event)} ×{r.factor:.3g}"
+            for r in ev.head(EVENTS_SHOWN).itertuples()
+        )
+        more = f" (+{len(ev) - EVENTS_SHOWN} more)" if len(ev) > EVENTS_SHOWN else ""
+        rows.append((label, *(str(v) for v in n.values()), (first or "none") + more))
+    table = _table(
+        ("filter", "lockout", "NIS", "covariance", "first events (time, sensor, P ×)"),
+        rows,
+        table_id="events-table",
+        text_columns=1,
+    )
+    return (
+        '<section id="events"><h2>Divergence guard events</h2>\n'
+        "<p>When a filter found itself inconsistent and inflated or repaired its covariance "
+        "P: <em>lockout</em> (the guard rejected every reading of a sensor for the lockout "
+        "time), <em>NIS</em> (the mean NIS/d of a sensor's recent readings above its "
+        "threshold), <em>covariance</em> (P lost positive definiteness and was repaired). "
+        "The windowed NIS test is the robust filter's only. The run folders' "
+        "<code>events.parquet</code> lists every event.</p>\n"
+        f"{table}\n</section>"
+    )
+
+
 def _initial(doc: Mapping[str, Any]) -> str:
     ini = doc.get("initial") or {}
     if not ini:
@@ -776,6 +835,7 @@ def write_report(
         _consistency(doc),
         _figures(folder, doc, sim is not None),
         _ledger(doc),
+        _events(folder, doc),
         _initial(doc),
     ]
     toc = [
@@ -786,6 +846,7 @@ def write_report(
         ("nees", "Consistency (NEES)"),
         ("figures", "Figures"),
         ("ledger-counts", "Ledger"),
+        ("events", "Divergence guard events"),
         ("initial", "Initial alignment"),
     ]
     nav = "".join(f'<li><a href="#{a}">{_e(t)}</a></li>' for a, t in toc)

@@ -102,8 +102,9 @@ logger = logging.getLogger(__name__)
 
 PAPER_FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb")
 """The paper's three filters (spec §6)."""
-DEFAULT_FILTERS: tuple[str, ...] = (*PAPER_FILTERS, "oracle")
-"""The paper's filters and the oracle baseline (:mod:`adaptnav.oracle`), where available."""
+DEFAULT_FILTERS: tuple[str, ...] = (*PAPER_FILTERS, "robust", "oracle")
+"""The paper's filters, the recommended ``robust`` one (docs/robustness.md) and the oracle
+baseline (:mod:`adaptnav.oracle`), where available."""
 Q_VALUES: tuple[float, ...] = tuple(float(v) for v in np.linspace(200.0, 2600.0, 25))
 """The paper's Fig. 4: 25 rejection coefficients in [200, 2600] (step 100)."""
 Q_SCALES: tuple[float, ...] = tuple(float(v) for v in np.logspace(-2.0, 2.0, 9))

@@ -16,7 +16,7 @@ from rich.markup import escape
 from adaptnav.compare import FILTER_LABELS as FILTER_LABELS  # single sources, re-exported
 from adaptnav.compare import PAPER_TABLE3 as PAPER_TABLE3
 
-FILTER_CHOICES = ("meskf", "maeskf", "vb", "oracle")
+FILTER_CHOICES = ("meskf", "maeskf", "vb", "robust", "oracle")
 """Filters ``adaptnav run`` runs (the engine's kinds; the floor is not a filter)."""
 
 app = typer.Typer(

@@ -31,7 +31,7 @@ def demo(
     """The main job: simulate a paper trajectory, compare the filters, write the HTML report.
 
     Simulates the preset with every disturbance on (seeded) into --out/mission, aligns once
-    over the static window and runs MESKF, MAESKF, VB-MAESKF and the oracle from that same
+    over the static window and runs MESKF, MAESKF, VB-MAESKF, robust and the oracle from that same
     start (:func:`adaptnav.compare.compare`), writes the comparison folder to --out (runs,
     comparison.csv/json, figures) and the HTML report --out/report.html, and prints the table
     beside the paper's Table 3 and the report's path.
@@ -44,7 +44,7 @@ def demo(
 
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
-    filters = ["meskf", "maeskf", "vb", "oracle"]
+    filters = ["meskf", "maeskf", "vb", "robust", "oracle"]
     with output(out, force) as tmp:
         console.print(f"simulating {preset} (seed {seed}) ...")
         mission_dir = run_simulation(preset, seed, tmp / "mission")
@@ -65,7 +65,12 @@ def demo(
 def run_cmd(
     mission_dir: Annotated[Path, typer.Argument(help="mission folder (mission.toml + tables)")],
     filter: Annotated[
-        str, typer.Option("--filter", "-f", help="meskf | maeskf | vb (default: the mission's)")
+        str,
+        typer.Option(
+            "--filter",
+            "-f",
+            help="robust | meskf | maeskf | vb | oracle (default: the mission's kind, robust)",
+        ),
     ] = "",
     out: Annotated[Path, typer.Option("--out", "-o", help="run folder to write")] = Path(
         "runs/run"

@@ -39,7 +39,9 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
-FILTER_KINDS = ("meskf", "maeskf", "vb")
+FILTER_KINDS = ("meskf", "maeskf", "vb", "robust")
+"""The kinds a mission may name (the oracle is a baseline of simulated missions, not a
+setting); the same as :data:`adaptnav.filters.FILTER_KINDS` without it."""
 SensorKind = Literal["dvl", "depth", "inclinometer", "heading", "gnss", "nhc"]
 SENSOR_KINDS: tuple[SensorKind, ...] = ("dvl", "depth", "inclinometer", "heading", "gnss", "nhc")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
@@ -309,6 +311,9 @@ class SensorConfig(_Model):
     gate_q: Positive | None = None
     vb_rho: Annotated[float, Field(gt=0, le=1)] | None = None
     matching_window: Annotated[int, Field(ge=1)] | None = None
+    guard_probability: Annotated[float, Field(ge=0, lt=1)] | None = None
+    """This sensor's guard p (gate.Guard, docs/robustness.md); 0: no guard on it; None: the
+    filter's ``guard_probability``."""
     use_height: StrictBool | None = None
     """GNSS only (false is accepted and ignored elsewhere); None → false (marine: the height
     comes from the depth sensor)."""
@@ -432,7 +437,9 @@ class SensorConfig(_Model):
         """Per-sensor filter overrides (gate q, VB ρ, matching window)."""
         from adaptnav.filters import SensorOverrides
 
-        return SensorOverrides(self.gate_q, self.vb_rho, self.matching_window)
+        return SensorOverrides(
+            self.gate_q, self.vb_rho, self.matching_window, self.guard_probability
+        )
 
 
 def _dims(kind: str, use_height: bool) -> tuple[int, ...]:
@@ -502,10 +509,26 @@ class InitialConfig(_Model):
         return np.broadcast_to(np.asarray(self.sigma_attitude_deg, dtype=float) * DEG, (3,)).copy()
 
 
-class FilterConfig(_Model):
-    """``[filter]``: the fields of :class:`adaptnav.filters.FilterSettings` plus output rate."""
+class DivergenceConfig(_Model):
+    """One kind's divergence guard (:class:`adaptnav.health.DivergenceGuard`)."""
 
-    kind: Literal["meskf", "maeskf", "vb"] = "vb"
+    nis_ratio: Annotated[float, Field(ge=0)] = 0.0
+    """Windowed mean of NIS/d above which P is inflated; 0: off (else > 1)."""
+    window: Annotated[int, Field(ge=1)] = 30
+    inflate_max: Annotated[float, Field(ge=2)] = 100.0
+
+    @model_validator(mode="after")
+    def _check_ratio(self) -> DivergenceConfig:
+        if 0.0 < self.nis_ratio <= 1.0:
+            raise ValueError(f"nis_ratio: value {self.nis_ratio!r} must be 0 (off) or > 1")
+        return self
+
+
+class FilterConfig(_Model):
+    """``[filter]``: the fields of :class:`adaptnav.filters.FilterSettings` plus output rate.
+    A field left out (None) takes its default from :mod:`adaptnav.filters`."""
+
+    kind: Literal["meskf", "maeskf", "vb", "robust"] = "robust"
     epoch_policy: Literal["exact", "grid"] = "exact"
     output_rate_hz: Positive = 10.0
     gate_rule: Literal["component", "chi2"] = "component"
@@ -528,6 +551,27 @@ class FilterConfig(_Model):
     specific_force_tau_s: Annotated[float, Field(ge=0)] | None = None
     """Time constant (s) of the low-pass on the specific force that F is evaluated with; None:
     the engine's default (``adaptnav.engine.EngineConfig``; docs/error-model.md)."""
+    guard_probability: Annotated[float, Field(ge=0, lt=1)] | None = None
+    """The guard's p on every sensor (gate.Guard); 0: no guard (the paper's filters exactly)."""
+    guard_headroom: Annotated[float, Field(ge=1)] | None = None
+    """The guard's κ: its S holds κ × the nominal R (gate.Guard)."""
+    guard_lockout_s: Annotated[float, Field(ge=0)] | None = None
+    """A sensor the guard has rejected this long makes the filter inflate P; 0: never."""
+    r_bounds: dict[str, tuple[Annotated[float, Field(ge=0)], Positive]] | None = None
+    """``{kind = [floor, ceiling]}``: bounds on R̂ as factors of the nominal variance."""
+    divergence: dict[str, DivergenceConfig] | None = None
+    """``{kind = {nis_ratio, window, inflate_max}}``: the windowed NIS test (health.py)."""
+
+    @field_validator("r_bounds", "divergence")
+    @classmethod
+    def _check_kinds(cls, v: dict[str, Any] | None) -> dict[str, Any] | None:
+        unknown = [k for k in v or {} if k not in FILTER_KINDS]
+        if unknown:
+            raise ValueError(f"unknown filter kind(s) {unknown} (use {', '.join(FILTER_KINDS)})")
+        for k, b in (v or {}).items():
+            if isinstance(b, tuple) and not b[0] < b[1]:
+                raise ValueError(f"{k}: [floor, ceiling] = {list(b)} must have floor < ceiling")
+        return v
 
     @field_validator("gate_q")
     @classmethod
@@ -604,11 +648,27 @@ class MissionConfig(_Model):
 
     def filter_settings(self) -> FilterSettings:
         """The engine's :class:`adaptnav.filters.FilterSettings` of ``[filter]``."""
-        from adaptnav.filters import FilterSettings
+        from adaptnav.filters import (
+            DEFAULT_DIVERGENCE,
+            DEFAULT_GUARD_PROBABILITY,
+            DEFAULT_R_BOUNDS,
+            FilterSettings,
+        )
+        from adaptnav.gate import DEFAULT_HEADROOM, DEFAULT_LOCKOUT_S
+        from adaptnav.health import DivergenceGuard
 
         f = self.filter
+        divergence = dict(DEFAULT_DIVERGENCE)
+        for k, d in (f.divergence or {}).items():
+            divergence[k] = DivergenceGuard(d.nis_ratio, d.window, d.inflate_max)
+        guard_p = f.guard_probability
         return FilterSettings(
             kind=f.kind,
+            guard_probability=DEFAULT_GUARD_PROBABILITY if guard_p is None else guard_p,
+            guard_headroom=f.guard_headroom or DEFAULT_HEADROOM,
+            guard_lockout_s=(DEFAULT_LOCKOUT_S if f.guard_lockout_s is None else f.guard_lockout_s),
+            r_bounds={**DEFAULT_R_BOUNDS, **(f.r_bounds or {})},
+            divergence=divergence,
             gate_rule=f.gate_rule,
             gate_q=dict(f.gate_q),
             gate_reference=f.gate_reference,
