@@ -8,6 +8,7 @@ the ledger with their reason, the rest is used.
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -201,11 +202,33 @@ def test_defaults_per_kind_and_overrides() -> None:
         assert all(0.0 < v < 1e-3 for v in res.values()), kind
 
 
-def test_an_nhc_stream_of_zeros_is_not_caught_by_default(tmp_path: Path) -> None:
+def test_nhc_is_off_by_default_its_zeros_would_all_be_caught() -> None:
     cfg = SensorConfig(kind="nhc", file="nhc.csv", sigma=(0.1, "m/s"))
     assert cfg.stuck_duration_s() == 0.0
     t = np.arange(0.0, 600.0, 0.1)
     assert stuck_mask(t, np.zeros((t.size, 2)), cfg.resolution_si(), 60.0).sum() == t.size - 1
+
+
+def _doc(**dvl: Any) -> dict[str, Any]:
+    """A minimal mission.toml document with a DVL carrying ``dvl``'s keys."""
+    return {
+        "mission": {"name": "m"},
+        "imu": {
+            "file": "imu.csv",
+            "rate_hz": 100.0,
+            "noise": {"arw": [0.1, "deg/sqrt(h)"], "vrw": [50, "ug/sqrt(Hz)"]},
+        },
+        "sensors": {"dvl": {"kind": "dvl", "file": "dvl.csv", "sigma": [0.02, "m/s"], **dvl}},
+        "initial": {"lat_deg": 26.8, "lon_deg": 56.0},
+    }
+
+
+def test_settings_are_written_and_read_back() -> None:
+    cfg = parse_config(_doc(stuck_s=20.0, resolution={"vz_m_s": 1e-3}))
+    assert parse_config(tomllib.loads(cfg.dump_toml())) == cfg
+    dvl = cfg.sensors["dvl"]
+    assert dvl.stuck_duration_s() == 20.0
+    assert dvl.resolution_si().tolist() == [STUCK_DEFAULTS["dvl"].resolution["vx_m_s"]] * 2 + [1e-3]
 
 
 @pytest.mark.parametrize(
@@ -220,18 +243,8 @@ def test_an_nhc_stream_of_zeros_is_not_caught_by_default(tmp_path: Path) -> None
     ],
 )
 def test_bad_settings_are_errors_naming_the_key(extra: dict[str, Any], words: str) -> None:
-    doc = {
-        "mission": {"name": "m"},
-        "imu": {
-            "file": "imu.csv",
-            "rate_hz": 100.0,
-            "noise": {"arw": [0.1, "deg/sqrt(h)"], "vrw": [50, "ug/sqrt(Hz)"]},
-        },
-        "sensors": {"dvl": {"kind": "dvl", "file": "dvl.csv", "sigma": [0.02, "m/s"], **extra}},
-        "initial": {"lat_deg": 26.8, "lon_deg": 56.0},
-    }
     with pytest.raises(MissionError) as err:
-        parse_config(doc)
+        parse_config(_doc(**extra))
     assert words in str(err.value)
 
 
