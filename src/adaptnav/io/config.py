@@ -15,7 +15,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PureWindowsPath
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -331,6 +331,15 @@ class SensorConfig(_Model):
     component, or ``{ column = [min, max] }`` per column; the rest from
     :data:`SENSOR_LIMITS`. A reading outside is dropped at load (ledger: "implausible");
     a column with every value outside is an error (wrong units). docs/robustness.md."""
+    stuck_s: NonNegative | None = None
+    """Shortest time (s) a reading must stay unchanged, within :attr:`resolution`, to be
+    taken as stuck (a frozen sensor or driver): the readings of such a run after its first are
+    dropped at load (ledger: "stuck"). 0: no detection; None: the kind's default,
+    :data:`STUCK_DEFAULTS`. docs/robustness.md."""
+    resolution: NonNegative | dict[str, NonNegative] | None = None
+    """How far, in the SI unit of its column, a component may move from the run's first
+    reading and still count as unchanged for :attr:`stuck_s`: one value for every component, or
+    ``{ column = value }`` per column; the rest from :data:`STUCK_DEFAULTS`."""
 
     @field_validator("file")
     @classmethod
@@ -368,6 +377,21 @@ class SensorConfig(_Model):
                 raise ValueError(
                     f"{at}: not a column of a {kind} sensor ({', '.join(SENSOR_COLUMNS[kind])})"
                 )
+        return v
+
+    @field_validator("resolution")
+    @classmethod
+    def _check_resolution(
+        cls, v: float | dict[str, float] | None, info: ValidationInfo
+    ) -> float | dict[str, float] | None:
+        kind = info.data.get("kind")
+        if isinstance(v, dict) and kind is not None:
+            for column in v:
+                if column not in SENSOR_COLUMNS[kind]:
+                    raise ValueError(
+                        f"resolution.{column}: not a column of a {kind} sensor "
+                        f"({', '.join(SENSOR_COLUMNS[kind])})"
+                    )
         return v
 
     @model_validator(mode="after")
@@ -415,6 +439,24 @@ class SensorConfig(_Model):
                     out[i] = self.limits[c]
         elif self.limits is not None:
             out[:] = self.limits
+        return out
+
+    def stuck_duration_s(self) -> float:
+        """Minimum duration (s) of a stuck run: ``stuck_s``, else the kind's default
+        (:data:`STUCK_DEFAULTS`); 0 means no detection."""
+        return STUCK_DEFAULTS[self.kind].stuck_s if self.stuck_s is None else self.stuck_s
+
+    def resolution_si(self) -> Array:
+        """Resolution (d,) of each measurement column (:attr:`columns`), SI units: the
+        configured ``resolution``, else :data:`STUCK_DEFAULTS` of the kind."""
+        default = STUCK_DEFAULTS[self.kind].resolution
+        out = np.array([default[c] for c in self.columns], dtype=float)
+        if isinstance(self.resolution, dict):
+            for i, c in enumerate(self.columns):
+                if c in self.resolution:
+                    out[i] = self.resolution[c]
+        elif self.resolution is not None:
+            out[:] = self.resolution
         return out
 
     def sigma_si(self) -> float | Array:
@@ -480,6 +522,64 @@ overrides them), the one place they are set: |DVL velocity| <= 20 m/s, depth in
 [-100, 12000] m (above the surface / below the deepest trench), inclinometer angles within
 ±90°, heading within ±360°, GNSS latitude within ±90°, longitude in [-180°, 360°], height in
 [-12 km, 100 km]. docs/robustness.md."""
+
+
+class StuckDefault(NamedTuple):
+    """A kind's default stuck-reading settings (``[sensors.<name>] stuck_s`` and
+    ``resolution``)."""
+
+    stuck_s: float
+    """Minimum duration (s) of a stuck run; 0: no detection."""
+    resolution: dict[str, float]
+    """Per column, in its SI unit: a tenth or less of the finest output step of that kind of
+    sensor, so that two readings one step apart never count as unchanged."""
+
+
+DVL_STUCK_S = 10.0
+"""A DVL's noise (mm/s per ping, even at rest) spans its output step, so ten seconds of one
+vector is a frozen driver; it is longer than a ping interval, even in deep water (a driver that
+holds the last ping until the next one repeats it that long)."""
+SLOW_STUCK_S = 60.0
+"""Depth, roll, pitch and heading can be still for a while legitimately (a vessel alongside in
+a calm harbour, a parked vehicle): a minute unchanged, not less, is taken as stuck."""
+SPEED_RESOLUTION_M_S = 1e-5
+"""0.01 mm/s: a hundredth of the 1 mm/s step of a Teledyne DVL's PD0 record, a tenth of the
+0.1 mm/s of finer outputs; far above float32 round-off at DVL speeds (1e-6 m/s at 20 m/s)."""
+DEPTH_RESOLUTION_M = 1e-4
+"""0.1 mm: a tenth of the 1 mm step of a fine depth meter's output."""
+ANGLE_RESOLUTION_RAD = 1e-6
+"""0.00006°: below the finest step of inclinometer and heading outputs, 0.001° (1.7e-5 rad)."""
+LATLON_RESOLUTION_RAD = 1e-11
+"""0.06 mm on the earth: below the steps of RTKLIB's output (1e-7° = 1.7e-9 rad in the car
+data of docs/rtklib.md, 1e-9° at its finest)."""
+HEIGHT_RESOLUTION_M = 1e-5
+"""0.01 mm: below RTKLIB's height steps (1 mm in the car data, 0.1 mm at its finest)."""
+STUCK_DEFAULTS: dict[SensorKind, StuckDefault] = {
+    "dvl": StuckDefault(
+        DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in ("vx_m_s", "vy_m_s", "vz_m_s")}
+    ),
+    "depth": StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
+    "inclinometer": StuckDefault(
+        SLOW_STUCK_S, {c: ANGLE_RESOLUTION_RAD for c in ("roll_rad", "pitch_rad")}
+    ),
+    "heading": StuckDefault(SLOW_STUCK_S, {"yaw_rad": ANGLE_RESOLUTION_RAD}),
+    # Off: a receiver's static hold, or a coarse output on a moored or parked vehicle, repeats
+    # a position legitimately, and dropping those fixes would leave the INS unaided.
+    "gnss": StuckDefault(
+        0.0,
+        {
+            "lat_rad": LATLON_RESOLUTION_RAD,
+            "lon_rad": LATLON_RESOLUTION_RAD,
+            "h_m": HEIGHT_RESOLUTION_M,
+        },
+    ),
+    # Off: the constraint's readings are zero by construction, every one "unchanged".
+    "nhc": StuckDefault(0.0, {c: SPEED_RESOLUTION_M_S for c in ("vy_m_s", "vz_m_s")}),
+}
+"""Default stuck-reading detection of each sensor kind (``[sensors.<name>] stuck_s`` and
+``resolution`` override it), the one place it is set: DVL 10 s, depth, inclinometer and
+heading 60 s, GNSS and NHC off; resolutions below the sensors' output steps (0.01 mm/s, 0.1 mm,
+1e-6 rad). The reasons are in docs/robustness.md ("Stuck readings")."""
 
 
 class InitialConfig(_Model):

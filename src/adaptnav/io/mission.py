@@ -28,6 +28,7 @@ from adaptnav.io.config import (
     load_config,
     write_config,
 )
+from adaptnav.io.screening import stuck_runs
 from adaptnav.io.tables import (
     IMU_INCREMENT_COLUMNS,
     IMU_RATE_COLUMNS,
@@ -394,6 +395,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
         journal.drop(
             table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
         )
+    _drop_stuck(table, name, cfg, t, z, keep, journal)
     rows = np.flatnonzero(keep).astype(np.int64)
     tk = t[rows]
     if cfg.rate_hz is not None:
@@ -407,6 +409,48 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
 
 _UNIT = {"s": "m/s", "m": "m", "rad": "rad"}
 """Unit of a column by its name's last part (``vx_m_s`` → m/s, ``depth_m`` → m)."""
+
+
+def _drop_stuck(
+    table: Table,
+    name: str,
+    cfg: SensorConfig,
+    t: Array,
+    z: Array,
+    keep: NDArray[np.bool_],
+    journal: Journal,
+) -> None:
+    """Drop (``keep`` set False, ledger "stuck: ...") the readings still kept that
+    :func:`adaptnav.io.screening.stuck_runs` catches: a run unchanged within
+    ``resolution`` for ``stuck_s`` or longer, all but its first reading (docs/robustness.md)."""
+    stuck_s = cfg.stuck_duration_s()
+    if stuck_s <= 0.0:
+        return
+    kept = np.flatnonzero(keep)
+    zk = z[kept]
+    if cfg.kind == "dvl":
+        # An all-zero vector is zero_is_lost's business (a lost bottom lock, or a vehicle
+        # resting on the bottom: the user says which), so it breaks a run, like NaN.
+        zk = np.where(np.all(zk == 0.0, axis=1)[:, None], np.nan, zk)
+    resolution = cfg.resolution_si()
+    for a, b in stuck_runs(t[kept], zk, resolution, stuck_s).tolist():
+        t_a, t_b = float(t[kept[a]]), float(t[kept[b]])
+        reason = (
+            f"stuck: {', '.join(cfg.columns)} unchanged within {_within(cfg, resolution)} for "
+            f"{t_b - t_a:.1f} s (t = {t_a:.3f} .. {t_b:.3f} s)"
+        )
+        for r in kept[a + 1 : b + 1].tolist():
+            keep[r] = False
+            journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
+
+
+def _within(cfg: SensorConfig, resolution: Array) -> str:
+    """``1e-05 m/s`` if every column has the same resolution and unit, else one per column."""
+    parts = [
+        f"{v:g} {_UNIT[c.rsplit('_', 1)[-1]]}"
+        for v, c in zip(resolution.tolist(), cfg.columns, strict=True)
+    ]
+    return parts[0] if len(set(parts)) == 1 else "(" + ", ".join(parts) + ")"
 
 
 def _check_plausible(

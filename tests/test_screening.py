@@ -1,0 +1,355 @@
+"""Stuck-reading detection at load (issue 12; docs/robustness.md, "Stuck readings").
+
+The rule (:mod:`adaptnav.io.screening`) on hand-built series and against a plain reference
+walk, its settings in ``mission.toml``, and a run whose DVL freezes: the frozen readings are in
+the ledger with their reason, the rest is used.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+import badinput
+from adaptnav.cli import app
+from adaptnav.io import MissionError, load_mission
+from adaptnav.io.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
+from adaptnav.io.screening import STUCK_MIN_READINGS, stuck_mask, stuck_runs
+
+SEED = 12
+DVL_COLUMNS = ["vx_m_s", "vy_m_s", "vz_m_s"]
+
+
+def _reference_runs(
+    t: np.ndarray, z: np.ndarray, res: np.ndarray, stuck_s: float, need: int
+) -> list[tuple[int, int]]:
+    """The rule walked reading by reading, as written in docs/robustness.md."""
+    runs, a, n = [], 0, len(t)
+    while a < n:
+        if not np.all(np.isfinite(z[a])):
+            a += 1
+            continue
+        b = a
+        while (
+            b + 1 < n and np.all(np.isfinite(z[b + 1])) and np.all(np.abs(z[b + 1] - z[a]) <= res)
+        ):
+            b += 1
+        if b - a + 1 >= max(need, 2) and t[b] - t[a] >= stuck_s:
+            runs.append((a, b))
+        a = b + 1
+    return runs
+
+
+def _noisy(n: int, d: int = 3, sigma: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(SEED)
+    return np.arange(n, dtype=float), rng.normal(0.0, sigma, (n, d))
+
+
+# --- the rule ---------------------------------------------------------------------------------
+
+
+def test_a_run_just_shorter_than_the_limit_is_not_caught_a_longer_one_is() -> None:
+    t, z = _noisy(100)
+    z[20:30] = z[20]  # 20..29: 9 s at 1 Hz
+    assert not stuck_mask(t, z, 1e-5, 9.5).any()
+    mask = stuck_mask(t, z, 1e-5, 9.0)  # the limit is inclusive
+    assert np.flatnonzero(mask).tolist() == list(range(21, 30))
+    assert stuck_runs(t, z, 1e-5, 9.0).tolist() == [[20, 29]]
+
+
+def test_the_first_reading_of_a_run_is_kept() -> None:
+    """The freeze repeats the last good value: that first one is genuine."""
+    t, z = _noisy(50)
+    z[10:40] = z[10]
+    mask = stuck_mask(t, z, 1e-5, 10.0)
+    assert not mask[10] and mask[11:40].all() and mask.sum() == 29
+
+
+def test_a_nan_breaks_a_run() -> None:
+    t, z = _noisy(60)
+    z[10:40] = z[10]
+    z[25, 1] = math.nan  # 29 s frozen, in two halves of 14 and 13 s
+    assert stuck_runs(t, z, 1e-5, 13.0).tolist() == [[10, 24], [26, 39]]
+    assert stuck_runs(t, z, 1e-5, 14.0).tolist() == [[10, 24]]
+    assert not stuck_mask(t, z, 1e-5, 15.0).any()
+    z[25, 1] = math.inf
+    assert not stuck_mask(t, z, 1e-5, 15.0).any()
+
+
+def test_the_resolution_is_per_column() -> None:
+    t, z = _noisy(60, d=2)
+    z[10:40, 0] = 5.0
+    z[10:40, 1] = 2.0 + 0.009 * np.sin(np.arange(30))  # moves by < 0.01, > 0.001
+    assert np.flatnonzero(stuck_mask(t, z, [1e-6, 0.01], 20.0)).tolist() == list(range(11, 40))
+    assert not stuck_mask(t, z, [1e-6, 0.001], 20.0).any()
+    assert not stuck_mask(t, z, 1e-6, 20.0).any()
+
+
+def test_every_component_must_stay_put() -> None:
+    t, z = _noisy(60)
+    z[10:40, :2] = z[10, :2]  # x and y frozen, z still moving
+    assert not stuck_mask(t, z, 1e-5, 10.0).any()
+
+
+def test_the_run_is_anchored_at_its_first_reading_not_a_drift() -> None:
+    """Steps within the resolution that add up beyond it are a slow change, not a freeze."""
+    t = np.arange(100, dtype=float)
+    z = (0.4 * np.arange(100))[:, None]  # 0.4 per step, resolution 1
+    runs = stuck_runs(t, z, 1.0, 1.0, min_readings=2)
+    assert runs.tolist() == [[3 * k, 3 * k + 2] for k in range(33)]
+    assert not stuck_mask(t, z, 1.0, 3.0).any()
+
+
+def test_too_few_readings_make_no_run() -> None:
+    t = np.array([0.0, 100.0, 101.0, 300.0])
+    z = np.array([[1.0], [1.0], [2.0], [2.0]])  # equal pairs across data gaps
+    assert not stuck_mask(t, z, 0.0, 60.0).any()
+    assert STUCK_MIN_READINGS == 3
+    assert stuck_mask(t, z, 0.0, 60.0, min_readings=2).tolist() == [False, True, False, True]
+
+
+def test_zero_duration_finds_nothing_and_bad_arguments_are_refused() -> None:
+    t, z = _noisy(20)
+    z[:] = 1.0
+    assert not stuck_mask(t, z, 1e-5, 0.0).any()
+    assert stuck_runs(t, z, 1e-5, 0.0).shape == (0, 2)
+    with pytest.raises(ValueError, match="resolution"):
+        stuck_runs(t, z, -1.0, 5.0)
+    with pytest.raises(ValueError, match="increase"):
+        stuck_runs(np.zeros(20), z, 1e-5, 5.0)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    st.integers(10, 400),
+    st.integers(1, 3),
+    st.floats(1e-4, 10.0),
+    st.floats(0.1, 100.0),
+    st.integers(0, 2**32 - 1),
+)
+def test_a_noisy_signal_is_never_caught(
+    n: int, d: int, sigma: float, stuck_s: float, seed: int
+) -> None:
+    """Noise well above the resolution: no two readings stay within it for long."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 2.0, n))
+    z = rng.normal(0.0, sigma, (n, d)) + rng.uniform(-100.0, 100.0, d)
+    assert not stuck_mask(t, z, 1e-3 * sigma, stuck_s).any()
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(
+    st.integers(1, 250),
+    st.integers(1, 3),
+    st.sampled_from([0.0, 0.5, 1.0]),
+    st.sampled_from([0.0, 0.25, 1.0, 1.5, 2.5]),
+    st.sampled_from([0.5, 3.0, 20.0]),
+    st.integers(1, 5),
+    st.integers(0, 2**32 - 1),
+)
+def test_the_vectorised_rule_is_the_plain_walk(
+    n: int, d: int, level: float, res: float, stuck_s: float, need: int, seed: int
+) -> None:
+    """Piecewise-constant levels, jitter of about the resolution, NaNs, irregular times."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.1, 2.0, n))
+    z = rng.integers(0, 4, (n, d)) * level
+    for i in np.flatnonzero(rng.random(n) < rng.uniform(0.0, 0.95)):
+        if i:
+            z[i] = z[i - 1]
+    z = z + rng.choice([0.0, 0.3 * res, 0.9 * res]) * rng.uniform(-1.0, 1.0, (n, d))
+    z[rng.random(n) < 0.03] = math.nan
+    resolution = np.full(d, res)
+    got = stuck_runs(t, z, resolution, stuck_s, need)
+    assert [tuple(r) for r in got.tolist()] == _reference_runs(t, z, resolution, stuck_s, need)
+    mask = stuck_mask(t, z, resolution, stuck_s, need)
+    expected = np.zeros(n, dtype=bool)
+    for a, b in got.tolist():
+        expected[a + 1 : b + 1] = True
+    assert mask.tolist() == expected.tolist()
+
+
+# --- settings ---------------------------------------------------------------------------------
+
+
+def _sensor(**extra: Any) -> SensorConfig:
+    return SensorConfig(kind="dvl", file="dvl.csv", sigma=(0.02, "m/s"), **extra)
+
+
+def test_defaults_per_kind_and_overrides() -> None:
+    assert set(STUCK_DEFAULTS) == set(SENSOR_KINDS)
+    dvl = _sensor()
+    assert dvl.stuck_duration_s() == STUCK_DEFAULTS["dvl"].stuck_s > 0.0
+    default = STUCK_DEFAULTS["dvl"].resolution
+    assert dvl.resolution_si().tolist() == [default[c] for c in DVL_COLUMNS]
+    assert _sensor(stuck_s=0.0).stuck_duration_s() == 0.0
+    assert _sensor(resolution=1e-3).resolution_si().tolist() == [1e-3] * 3
+    per = _sensor(resolution={"vz_m_s": 0.01}).resolution_si()
+    assert per.tolist() == [STUCK_DEFAULTS["dvl"].resolution["vx_m_s"]] * 2 + [0.01]
+    for kind in ("gnss", "nhc"):  # off: legitimately constant (static hold; zero by design)
+        assert STUCK_DEFAULTS[kind].stuck_s == 0.0
+    for kind in SENSOR_KINDS:
+        res = STUCK_DEFAULTS[kind].resolution
+        assert all(0.0 < v < 1e-3 for v in res.values()), kind
+
+
+def test_nhc_is_off_by_default_its_zeros_would_all_be_caught() -> None:
+    cfg = SensorConfig(kind="nhc", file="nhc.csv", sigma=(0.1, "m/s"))
+    assert cfg.stuck_duration_s() == 0.0
+    t = np.arange(0.0, 600.0, 0.1)
+    assert stuck_mask(t, np.zeros((t.size, 2)), cfg.resolution_si(), 60.0).sum() == t.size - 1
+
+
+def _doc(**dvl: Any) -> dict[str, Any]:
+    """A minimal mission.toml document with a DVL carrying ``dvl``'s keys."""
+    return {
+        "mission": {"name": "m"},
+        "imu": {
+            "file": "imu.csv",
+            "rate_hz": 100.0,
+            "noise": {"arw": [0.1, "deg/sqrt(h)"], "vrw": [50, "ug/sqrt(Hz)"]},
+        },
+        "sensors": {"dvl": {"kind": "dvl", "file": "dvl.csv", "sigma": [0.02, "m/s"], **dvl}},
+        "initial": {"lat_deg": 26.8, "lon_deg": 56.0},
+    }
+
+
+def test_settings_are_written_and_read_back() -> None:
+    cfg = parse_config(_doc(stuck_s=20.0, resolution={"vz_m_s": 1e-3}))
+    assert parse_config(tomllib.loads(cfg.dump_toml())) == cfg
+    dvl = cfg.sensors["dvl"]
+    assert dvl.stuck_duration_s() == 20.0
+    assert dvl.resolution_si().tolist() == [STUCK_DEFAULTS["dvl"].resolution["vx_m_s"]] * 2 + [1e-3]
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        ({"stuck_s": -1.0}, "sensors.dvl.stuck_s"),
+        ({"stuck_s": math.nan}, "sensors.dvl.stuck_s"),
+        ({"resolution": -0.1}, "sensors.dvl.resolution"),
+        ({"resolution": {"depth_m": 0.01}}, "resolution.depth_m: not a column of a dvl sensor"),
+        ({"resolution": {"vx_m_s": -0.01}}, "sensors.dvl.resolution.vx_m_s"),
+        ({"resolution": "fine"}, "sensors.dvl.resolution"),
+    ],
+)
+def test_bad_settings_are_errors_naming_the_key(extra: dict[str, Any], words: str) -> None:
+    with pytest.raises(MissionError) as err:
+        parse_config(_doc(**extra))
+    assert words in str(err.value)
+
+
+# --- a run whose DVL freezes --------------------------------------------------------------------
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny mission of the bad-input tests (CSV tables), written once; tests copy it."""
+    return badinput.tiny_mission(tmp_path_factory.mktemp("tiny") / "mission")
+
+
+@pytest.fixture()
+def mission(source: Path, tmp_path: Path) -> Path:
+    return badinput.copy_mission(source, tmp_path / "mission")
+
+
+FREEZE_FROM_S = 35.0
+"""Under way (the alignment ends at 20 s), DVL at 3 Hz."""
+FROZEN = 45
+"""DVL readings frozen: about 15 s, longer than the DVL default."""
+
+
+def _freeze_dvl(mission: Path, value: list[float] | None = None) -> list[int]:
+    """Repeat one DVL reading (or ``value``) FROZEN times; returns the frozen rows."""
+    dvl = badinput.read(mission, "dvl")
+    k = int(np.flatnonzero(dvl["t_s"].to_numpy() > FREEZE_FROM_S)[0])
+    rows = list(range(k, k + FROZEN))
+    dvl.loc[rows, DVL_COLUMNS] = value if value is not None else dvl.loc[k, DVL_COLUMNS].to_numpy()
+    badinput.write(mission, "dvl", dvl)
+    return rows
+
+
+def _set(mission: Path, line: str) -> None:
+    """Set ``key = value`` in ``[sensors.dvl]`` (replacing the key's line if it has one)."""
+    toml = (mission / "mission.toml").read_text()
+    section = '[sensors.dvl]\nkind = "dvl"\n'
+    assert section in toml
+    head, _, rest = toml.partition(section)
+    body, sep, tail = rest.partition("\n\n")
+    key = line.split("=")[0].strip()
+    body = "\n".join(k for k in body.splitlines() if k.split("=")[0].strip() != key)
+    (mission / "mission.toml").write_text(f"{head}{section}{line}\n{body}{sep}{tail}")
+
+
+def _run(mission: Path, out: Path) -> pd.DataFrame:
+    res = runner.invoke(app, ["run", str(mission), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    ledger = pd.read_parquet(out / "ledger.parquet")
+    return ledger[ledger["sensor"] == "dvl"].set_index("row")
+
+
+def test_a_frozen_dvl_is_dropped_with_its_reason_and_the_rest_used(
+    mission: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """On the code before the detection every frozen reading was used."""
+    rows = _freeze_dvl(mission)
+    dvl = _run(mission, tmp_path / "run")
+    t = badinput.read(mission, "dvl")["t_s"]
+    stuck = dvl["reason"].fillna("").str.startswith("stuck: ")
+    assert sorted(dvl.index[stuck]) == rows[1:]  # the first of the run is kept
+    span = t[rows[-1]] - t[rows[0]]
+    assert set(dvl.loc[rows[1:], "reason"]) == {
+        f"stuck: vx_m_s, vy_m_s, vz_m_s unchanged within 1e-05 m/s for {span:.1f} s "
+        f"(t = {t[rows[0]]:.3f} .. {t[rows[-1]]:.3f} s)"
+    }
+    assert (dvl.loc[rows[1:], "fate"] == "dropped").all()
+    assert dvl.loc[rows[0], "fate"] == "used"
+    others = dvl[(dvl["t"] > 20.5) & ~dvl.index.isin(rows[1:])]  # under way: used
+    fates = set(others["fate"] + ": " + others["reason"].fillna(""))
+    assert fates == {"used: ", "dropped: invalid reading (non-finite)"}  # a simulated dropout
+    assert sorted(dvl.index) == list(range(len(t)))  # every reading has one fate
+    assert "dropped (stuck: vx_m_s" in caplog.text
+    assert f"{len(rows) - 1 - 10} more: stuck" in caplog.text  # 10 logged, then a summary
+
+
+def test_stuck_s_zero_switches_the_detection_off(mission: Path, tmp_path: Path) -> None:
+    rows = _freeze_dvl(mission)
+    _set(mission, "stuck_s = 0.0")
+    dvl = _run(mission, tmp_path / "run")
+    assert not dvl["reason"].fillna("").str.startswith("stuck").any()
+    assert (dvl.loc[rows, "fate"] == "used").all()
+
+
+def test_stuck_settings_from_mission_toml(mission: Path) -> None:
+    rows = _freeze_dvl(mission)
+    _set(mission, "stuck_s = 30.0")  # longer than the freeze
+    assert not any(d.reason.startswith("stuck") for d in load_mission(mission).dropped)
+    _set(mission, "resolution = { vx_m_s = 0.5 }")  # toml now has both keys
+    dropped = [d for d in load_mission(mission).dropped if d.reason.startswith("stuck")]
+    assert not dropped
+    toml = (mission / "mission.toml").read_text().replace("stuck_s = 30.0\n", "")
+    (mission / "mission.toml").write_text(toml)
+    dropped = [d for d in load_mission(mission).dropped if d.reason.startswith("stuck")]
+    assert [d.row for d in dropped] == rows[1:]
+    assert "within (0.5 m/s, 1e-05 m/s, 1e-05 m/s)" in dropped[0].reason
+
+
+def test_an_all_zero_dvl_is_left_to_zero_is_lost(mission: Path) -> None:
+    """Zeros on every axis are a lost lock or a vehicle resting on the bottom: the user says
+    which with ``zero_is_lost``, the stuck rule does not decide it."""
+    rows = _freeze_dvl(mission, [0.0, 0.0, 0.0])
+    assert not any(d.reason.startswith("stuck") for d in load_mission(mission).dropped)
+    _set(mission, "zero_is_lost = true")
+    lost = [d.row for d in load_mission(mission).dropped if "bottom lock lost" in d.reason]
+    assert lost == rows
