@@ -572,10 +572,11 @@ def _convert(
 ) -> list[NDArray[Any]] | None:
     """Stream the batches into columns of ``rows`` values; None if the count differs, if a
     cell reads as NaN that pandas would not (``NAN``, ``+nan``: not missing-value spellings), or
-    if a value is beyond int64 (pandas may read such integers as uint64 or text)."""
+    if a float column may be integers beyond int64 (pandas: uint64 or text, pyarrow: float)."""
     out: list[NDArray[Any]] = [
         np.empty(rows, np.int64 if pa.types.is_int64(types[h]) else np.float64) for h in header
     ]
+    huge = [False] * len(header)
     at = 0
     with _Head(path, limit) as src:
         reader = _open_csv(src, header, types)
@@ -589,19 +590,26 @@ def _convert(
                     if values.dtype.kind == "f":
                         if int(np.count_nonzero(np.isnan(values))) != column.null_count:
                             return None
-                        if np.any(np.isfinite(values) & (np.abs(values) >= _INT64_END)):
-                            return None
+                        huge[i] = huge[i] or bool(np.any(np.abs(values) >= _INT64_END))
                         if out[i].dtype != np.float64:  # an int64 column with a missing cell
                             out[i] = out[i].astype(np.float64)
                     out[i][at : at + m] = values
                 at += m
         finally:
             reader.close()
-    return out if at == rows else None
+    if at != rows:
+        return None
+    for column, big in zip(out, huge, strict=True):
+        # Every double beyond 2**63 is a whole number; the column could be integers only if
+        # every other value is one too (no NaN: a missing cell makes pandas read floats).
+        if big and np.all(np.isfinite(column)) and np.all(column == np.trunc(column)):
+            return None
+    return out
 
 
 _INT64_END = 2.0**63
-"""Magnitude from which an integer no longer fits an int64."""
+"""Magnitude from which an integer no longer fits an int64 (inf included: it rules nothing
+out, the whole column is looked at)."""
 _INT_FAILED = re.compile(
     r"In CSV column #(\d+): (?:Row #\d+: )?CSV conversion error to int64: invalid value '(.*)'$",
     re.DOTALL,
