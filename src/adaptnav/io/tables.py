@@ -82,7 +82,8 @@ CUT_WINDOW = 100
 that does not end with a line break (a cut number is shorter)."""
 CSV_BLOCK_BYTES = 1 << 20
 """CSV text pyarrow parses per batch (its default). Measured on a 138 MB IMU file: 4 MiB
-blocks were no faster and doubled the memory in flight (readahead holds several blocks)."""
+blocks were no faster and raised the peak above baseline from 100 to 213 MB (the reader holds
+several blocks in flight)."""
 SCAN_BYTES = 1 << 22
 """CSV bytes read at a time by the pass that finds the lines (then dropped)."""
 TAIL_BYTES = 1 << 16
@@ -277,7 +278,7 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
 
     Both ways give the same DataFrame, lines, repairs and errors (docs/robustness.md, "Memory");
     the typed reader leaves to the exact one every file it cannot read the same way, and every
-    file with something to report but a cut last line.
+    file with an error to report (a cut last line it repairs itself, from the file's tail).
     """
     table = _read_csv_typed(path, label, journal)
     return table if table is not None else _read_csv_exact(path, label, journal)
@@ -289,7 +290,7 @@ class _Layout:
 
     header: list[str]
     size: int
-    """File size (bytes)."""
+    """Bytes the scan read: the file's size then (a file still growing is read up to it)."""
     data_start: int
     """Byte offset of line 2, the first after the header."""
     n_lines: int
