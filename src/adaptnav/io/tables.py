@@ -5,6 +5,10 @@ where it is in the file: the 1-based CSV line (header = line 1; blank lines are 
 counted) or the 0-based Parquet row. Values are turned into float arrays column by column, so
 a bad cell is reported as ``imu.csv line 7, gyro_x_rad_s: 'abc' is not a number`` and never as
 a traceback from NumPy or pandas. Policy (error or logged repair) is docs/data-format.md.
+
+A CSV of numbers is streamed by pyarrow into NumPy columns (its peak memory a fraction of the
+file); any other CSV, and any that has something to report, is read by the exact, text-based
+reader, which locates every problem. Both give the same table: docs/robustness.md, "Memory".
 """
 
 from __future__ import annotations
@@ -13,14 +17,17 @@ import csv
 import io
 import logging
 import math
+import re
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, BinaryIO, Literal
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa  # type: ignore[import-untyped]
+import pyarrow.csv as pa_csv  # type: ignore[import-untyped]
 from numpy.typing import NDArray
 
 from adaptnav.io.config import SENSOR_COLUMNS, MissionError
@@ -73,6 +80,31 @@ _LOG_CAP = 10
 CUT_WINDOW = 100
 """Lines before the last whose last field's length is compared with the last one's, in a CSV
 that does not end with a line break (a cut number is shorter)."""
+CSV_BLOCK_BYTES = 1 << 20
+"""CSV text pyarrow parses per batch (its default). Measured on a 138 MB IMU file: 4 MiB
+blocks were no faster and raised the peak above baseline from 100 to 213 MB (the reader holds
+several blocks in flight)."""
+SCAN_BYTES = 1 << 22
+"""CSV bytes read at a time by the pass that finds the lines (then dropped)."""
+TAIL_BYTES = 1 << 16
+"""CSV bytes read at a time, backwards from the end, for the last CUT_WINDOW + 1 lines."""
+TAIL_MAX_BYTES = 1 << 22
+"""A tail longer than this without CUT_WINDOW + 1 data lines (blank lines, very long lines)
+is left to the exact reader."""
+BOM = b"\xef\xbb\xbf"
+"""UTF-8 byte-order mark (read as ``utf-8-sig``: ignored)."""
+PANDAS_NA = (
+    "", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN",
+    "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null",
+)  # fmt: skip
+"""Cells ``pandas.read_csv`` reads as missing (its default ``na_values``), given to pyarrow so
+that both CSV readers read the same cells as NaN."""
+_NUMBER_BYTES = bytes(
+    sorted(set(b"0123456789+-.eE ,\t\r\n" + b"infinityINFINITY" + "".join(PANDAS_NA).encode()))
+)
+"""Bytes a CSV of numbers is made of: digits, signs, point, exponent, separators, infinity and
+the missing-value spellings. A file with any other byte (a letter of a word, a quote, ``x`` of
+a hexadecimal number, non-ASCII) goes to the exact reader."""
 
 
 @dataclass(frozen=True)
@@ -242,6 +274,393 @@ def _check_header(names: list[str], label: str, line: int | None) -> None:
 
 
 def _read_csv(path: Path, label: str, journal: Journal) -> Table:
+    """A CSV table: typed and streamed when the file allows it, else read exactly as text.
+
+    Both ways give the same DataFrame, lines, repairs and errors (docs/robustness.md, "Memory");
+    the typed reader leaves to the exact one every file it cannot read the same way, and every
+    file with an error to report (a cut last line it repairs itself, from the file's tail).
+    """
+    table = _read_csv_typed(path, label, journal)
+    return table if table is not None else _read_csv_exact(path, label, journal)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where a CSV's lines are, from one pass over its bytes (nothing kept but this)."""
+
+    header: list[str]
+    size: int
+    """Bytes the scan read: the file's size then (a file still growing is read up to it)."""
+    data_start: int
+    """Byte offset of line 2, the first after the header."""
+    n_lines: int
+    """Lines as ``text.split("\\n")`` counts them (an empty one after a final line break)."""
+    blank: NDArray[np.int64]
+    """1-based numbers of the empty lines after the header (CRLF ones too)."""
+    ends_with_break: bool
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What to read of a CSV whose layout is known, and what to say about its last line."""
+
+    limit: int
+    """Bytes to parse: the whole file, or up to the start of a cut last line."""
+    lines: NDArray[np.int64]
+    """File line of each data row to read."""
+    cut: tuple[int, float] | None
+    repair: tuple[int, str, str] | None
+    """(line, field, detail) of the "dropped truncated last line" repair."""
+
+
+def _read_csv_typed(path: Path, label: str, journal: Journal) -> Table | None:
+    """Read a CSV with pyarrow's streaming reader straight into NumPy columns, or None.
+
+    One pass over the bytes finds the header, the blank lines (for the line numbers) and
+    anything this reader would read differently from pandas (quotes, a lone CR, a character
+    that cannot be part of a number or a missing-value spelling); the file's tail decides on a
+    cut last line; then pyarrow parses the file (up to that line) in blocks of
+    :data:`CSV_BLOCK_BYTES` into columns allocated once. None whenever the exact reader has
+    to speak: a cell that is not a number, a wrong field count, a text, date or true/false
+    column, an empty table.
+    """
+    try:
+        with path.open("rb") as f:
+            layout = _scan(f)
+            if layout is None or not _header_ok(layout.header, label):
+                return None
+            plan = _plan_last_line(f, layout)
+    except OSError:
+        return None
+    if plan is None:
+        return None
+    columns = _read_columns(path, plan.limit, layout.header, plan.lines.size)
+    if columns is None:
+        return None
+    if plan.repair is not None:
+        line, fld, detail = plan.repair
+        journal.repair(label, line, fld, "dropped truncated last line", detail)
+    # copy=False: one block per column, no consolidation into a second 2-D copy of the data.
+    df = pd.DataFrame(dict(zip(layout.header, columns, strict=True)), copy=False)
+    df.columns = pd.Index(layout.header)
+    return Table(label, path, "csv", df, plan.lines, plan.cut)
+
+
+def _header_ok(header: list[str], label: str) -> bool:
+    """Whether the header passes :func:`_check_header` (the exact reader gives the error)."""
+    try:
+        _check_header(header, label, 1)
+    except MissionError:
+        return False
+    return True
+
+
+def _scan(f: BinaryIO) -> _Layout | None:
+    """The layout of an open CSV, or None if it is not a plain table of numbers.
+
+    Plain: a header on line 1 with at least two names (no quotes); after it, only the bytes of
+    :data:`_NUMBER_BYTES`, no ``+`` but an exponent's, line breaks LF or CRLF (a lone CR is a
+    line break to pyarrow, not to the exact reader) and at least one line. Read in pieces of
+    :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
+    The size is what was read: a file still being written is read as it was then.
+    """
+    first = f.read(SCAN_BYTES)
+    size = len(first)
+    end = first.find(b"\n")
+    if end < 0:
+        return None  # no line after the header, or a header longer than a piece
+    head = first[:end].removeprefix(BOM).removesuffix(b"\r")
+    if any(c in head for c in (b'"', b"\r", b"\x00")):
+        return None
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    header = [h.strip() for h in text.split(",")]
+    if not text.strip() or len(header) < 2:
+        return None
+    data_start = end + 1
+    blank: list[int] = []
+    breaks = 0  # line breaks after the header's
+    last = b"\n"  # the file's last byte so far: the header's line break
+    carry = b""
+    chunk = first[data_start:]
+    while True:
+        buf = carry + chunk  # carry: the start of a line, short
+        cut = buf.rfind(b"\n") + 1 if chunk else len(buf)
+        piece, carry = buf[:cut], buf[cut:]
+        if piece:
+            crs = piece.count(b"\r")
+            if piece.translate(None, _NUMBER_BYTES) or (crs and crs != piece.count(b"\r\n")):
+                return None
+            if _leading_plus(piece):
+                return None
+            _blank_lines(piece, 2 + breaks, blank, crlf=crs > 0)
+            breaks += piece.count(b"\n")
+            last = piece[-1:]
+        if not chunk:
+            break
+        chunk = f.read(SCAN_BYTES)
+        size += len(chunk)
+    n_lines = breaks + 2
+    ends_with_break = last == b"\n"
+    if ends_with_break:
+        blank.append(n_lines)  # the empty string after the final line break
+    if n_lines - 1 - len(blank) < 1:
+        return None  # no data line: the exact reader gives the table its empty columns
+    return _Layout(header, size, data_start, n_lines, np.asarray(blank, np.int64), ends_with_break)
+
+
+def _leading_plus(piece: bytes) -> bool:
+    """Whether a ``+`` of ``piece`` starts a number (``+7``) rather than an exponent
+    (``1e+16``): pandas reads ``+7`` as an integer, pyarrow only as a float."""
+    pluses = piece.count(b"+")
+    return pluses > 0 and pluses != piece.count(b"e+") + piece.count(b"E+")
+
+
+def _blank_lines(piece: bytes, first_line: int, out: list[int], *, crlf: bool) -> None:
+    """Append to ``out`` the numbers of the empty lines (LF, or CRLF if ``crlf``, alone) of
+    ``piece``, which starts at the start of line ``first_line``."""
+    starts = [0] if piece.startswith((b"\n", b"\r\n")) else []
+    for pattern in (b"\n\n", b"\n\r\n") if crlf else (b"\n\n",):
+        p = piece.find(pattern)
+        while p >= 0:
+            starts.append(p + 1)
+            p = piece.find(pattern, p + 1)
+    line, at = first_line, 0
+    for q in sorted(starts):
+        line += piece.count(b"\n", at, q)
+        at = q
+        out.append(line)
+
+
+def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
+    """Rows to read and what to do with the last line, as the exact reader decides it.
+
+    Only the tail is read: the last data line and the :data:`CUT_WINDOW` before it. A last
+    line with fewer fields, or cut inside its last number (docs/robustness.md), is left out
+    and reported; more fields, or nothing left to read, is the exact reader's to report.
+    """
+    tail = _tail_lines(f, layout)
+    if not tail:  # None, or only lines of spaces (blank to the exact reader, not to the scan)
+        return None
+    lines = np.arange(2, layout.n_lines + 1, dtype=np.int64)
+    if layout.blank.size:
+        lines = np.delete(lines, layout.blank - 2)
+    (line, offset, text) = tail[-1]
+    if int(lines[-1]) != line:  # lines of spaces at the end: blank to the exact reader only
+        return None
+    header = layout.header
+    n = len(header)
+    fields = text.split(",")
+    c = len(fields)
+    if c > n:
+        return None
+    repair: tuple[int, str, str] | None = None
+    cut: tuple[int, float] | None = None
+    if c < n:
+        repair = (line, "", f"{c} of {n} fields: {text[:60]!r}")
+        cut = (line, _time_of(fields[: c - 1], header))
+    elif not layout.ends_with_break:
+        before = [len(t.rsplit(",", 1)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
+        value = fields[-1].strip()
+        if not before or len(value) < max(before):
+            repair = (
+                line,
+                header[-1],
+                f"the file ends without a line break and the last value {value!r} is shorter "
+                f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+            )
+            cut = (line, _time_of(fields[:-1], header))
+    if cut is None:
+        return _Plan(layout.size, lines, None, None)
+    if lines.size < 2:
+        return None
+    return _Plan(offset, lines[:-1], cut, repair)
+
+
+def _tail_lines(f: BinaryIO, layout: _Layout) -> list[tuple[int, int, str]] | None:
+    """(line, byte offset, text without CR) of the last data lines, up to CUT_WINDOW + 1,
+    oldest first; read backwards from the end in steps of :data:`TAIL_BYTES`."""
+    want = CUT_WINDOW + 1
+    pos = layout.size
+    buf = b""
+    while True:
+        step = min(TAIL_BYTES, pos - layout.data_start)
+        pos -= step
+        f.seek(pos)
+        buf = f.read(step) + buf
+        parts = buf.split(b"\n")
+        whole = 0 if pos == layout.data_start else 1  # the first part may be a line's end
+        if sum(1 for p in parts[whole:] if p.strip()) >= want or pos == layout.data_start:
+            break
+        if len(buf) > TAIL_MAX_BYTES:
+            return None  # a tail of blank lines: not worth a special case
+    found: list[tuple[int, int, str]] = []
+    offset = pos + len(buf)
+    line = layout.n_lines
+    for part in reversed(parts[whole:]):
+        offset -= len(part)
+        if part.strip():
+            found.append((line, offset, part.decode("ascii").rstrip("\r")))
+            if len(found) == want:
+                break
+        offset -= 1  # its line break
+        line -= 1
+    return found[::-1]
+
+
+def _read_columns(
+    path: Path, limit: int, header: list[str], rows: int
+) -> list[NDArray[Any]] | None:
+    """The first ``limit`` bytes of a CSV parsed into one array per column, or None.
+
+    Types as pandas would infer them: pyarrow's inference on the first block says int64
+    (kept, float64 once a cell is missing, as in pandas) or float64 (also for a block of
+    missing cells); any other type is the exact reader's. An int64 column that turns out to
+    hold non-integers later is read again as float64.
+    """
+    types = _probe_types(path, limit, header)
+    if types is None:
+        return None
+    for _ in range(len(header) + 1):  # each retry turns one int64 column into float64
+        try:
+            return _convert(path, limit, header, types, rows)
+        except pa.ArrowInvalid as exc:
+            name = _widened(str(exc), types)
+            if name is None:
+                return None
+            types[name] = pa.float64()
+        except (pa.ArrowException, OSError):
+            return None
+    return None  # pragma: no cover - every column widened at most once
+
+
+def _open_csv(src: _Head, header: list[str], types: dict[str, Any] | None) -> Any:
+    """pyarrow's streaming CSV reader over ``src``: the header line skipped (its names are
+    ours, stripped), pandas' missing-value spellings, ``types`` or inference from block 1."""
+    return pa_csv.open_csv(
+        src,
+        read_options=pa_csv.ReadOptions(
+            skip_rows=1, column_names=header, block_size=CSV_BLOCK_BYTES
+        ),
+        convert_options=pa_csv.ConvertOptions(column_types=types, null_values=list(PANDAS_NA)),
+    )
+
+
+def _probe_types(path: Path, limit: int, header: list[str]) -> dict[str, Any] | None:
+    """Per column, pa.int64() or pa.float64() from the first block; None for another type."""
+    try:
+        with _Head(path, limit) as src:
+            reader = _open_csv(src, header, None)
+            schema = reader.schema
+            reader.close()
+    except (pa.ArrowException, OSError):
+        return None
+    types: dict[str, Any] = {}
+    for name, kind in zip(header, schema.types, strict=True):
+        if pa.types.is_int64(kind):
+            types[name] = pa.int64()
+        elif pa.types.is_float64(kind) or pa.types.is_null(kind):
+            types[name] = pa.float64()
+        else:
+            return None
+    return types
+
+
+def _convert(
+    path: Path, limit: int, header: list[str], types: dict[str, Any], rows: int
+) -> list[NDArray[Any]] | None:
+    """Stream the batches into columns of ``rows`` values; None if the count differs, if a
+    cell reads as NaN that pandas would not (``NAN``, ``+nan``: not missing-value spellings), or
+    if a float column may be integers beyond int64 (pandas: uint64 or text, pyarrow: float)."""
+    out: list[NDArray[Any]] = [
+        np.empty(rows, np.int64 if pa.types.is_int64(types[h]) else np.float64) for h in header
+    ]
+    huge = [False] * len(header)
+    at = 0
+    with _Head(path, limit) as src:
+        reader = _open_csv(src, header, types)
+        try:
+            for batch in reader:
+                m = int(batch.num_rows)
+                if at + m > rows:
+                    return None
+                for i, column in enumerate(batch.columns):
+                    values = column.to_numpy(zero_copy_only=False)  # missing → NaN (float64)
+                    if values.dtype.kind == "f":
+                        if int(np.count_nonzero(np.isnan(values))) != column.null_count:
+                            return None
+                        huge[i] = huge[i] or bool(np.any(np.abs(values) >= _INT64_END))
+                        if out[i].dtype != np.float64:  # an int64 column with a missing cell
+                            out[i] = out[i].astype(np.float64)
+                    out[i][at : at + m] = values
+                at += m
+        finally:
+            reader.close()
+    if at != rows:
+        return None
+    for column, big in zip(out, huge, strict=True):
+        # Every double beyond 2**63 is a whole number; the column could be integers only if
+        # every other value is one too (no NaN: a missing cell makes pandas read floats).
+        if big and np.all(np.isfinite(column)) and np.all(column == np.trunc(column)):
+            return None
+    return out
+
+
+_INT64_END = 2.0**63
+"""Magnitude from which an integer no longer fits an int64 (inf included: it rules nothing
+out, the whole column is looked at)."""
+_INT_FAILED = re.compile(
+    r"In CSV column #(\d+): (?:Row #\d+: )?CSV conversion error to int64: invalid value '(.*)'$",
+    re.DOTALL,
+)
+_INT_TEXT = re.compile(r"\s*[+-]?\d+\s*")
+
+
+def _widened(message: str, types: dict[str, Any]) -> str | None:
+    """The int64 column to read as float64 after pyarrow's conversion error ``message``, or
+    None: another error, or an integer pyarrow refuses and pandas reads (``+7``, 2**63)."""
+    m = _INT_FAILED.match(message)
+    if m is None or _INT_TEXT.fullmatch(m.group(2)):
+        return None
+    names = list(types)
+    k = int(m.group(1))
+    if k >= len(names) or not pa.types.is_int64(types[names[k]]):
+        return None  # pragma: no cover - pyarrow names the int64 column it was converting
+    return names[k]
+
+
+class _Head(io.RawIOBase):
+    """The first ``limit`` bytes of a file, as pyarrow reads a Python file object."""
+
+    def __init__(self, path: Path, limit: int) -> None:
+        super().__init__()
+        self._file = path.open("rb", buffering=0)
+        self._left = limit
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        n = min(len(buffer), self._left)
+        if n <= 0:
+            return 0
+        got = self._file.readinto(memoryview(buffer)[:n]) or 0
+        self._left -= got
+        return got
+
+    def close(self) -> None:
+        self._file.close()
+        super().close()
+
+
+def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
+    """The whole file as text, line by line: every error and repair located exactly.
+
+    Slow and memory-hungry (about 11× the file at its peak, docs/robustness.md, "Memory"): only
+    for the files :func:`_read_csv_typed` leaves to it.
+    """
     try:
         raw = path.read_bytes()
     except OSError as exc:

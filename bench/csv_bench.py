@@ -1,0 +1,168 @@
+"""CSV memory benchmark: ``.venv/bin/python bench/csv_bench.py`` (part of ``make bench``).
+
+Writes an IMU-like CSV (1 M rows at 200 Hz, ``t_s`` and six increment columns, as pandas
+writes them: Python's shortest repr, about 140 MB) into a temporary folder and measures, each
+in a fresh subprocess, the peak resident memory above that process's own baseline (interpreter
+and imports, measured just before) and the wall time (best of :data:`REPEATS`) of:
+
+- ``adaptnav.io.tables.read_table`` (the typed, streaming reader for such a file);
+- ``pandas.read_csv`` on the same file (the baseline the issue names);
+- the exact, text-based reader (``_read_csv_exact``: how every CSV was read before the typed
+  reader, now only for the files it declines);
+- ``adaptnav.io.load_mission`` on a mission whose ``imu.csv`` is that file (format
+  ``increments``, plus a DVL table): reading, column checks and the IMU's intervals.
+
+The file is written in a subprocess too, so that this process stays small: on Linux a child
+inherits its parent's ``ru_maxrss``, hence the peak is read from ``VmHWM`` where there is one.
+
+Issue 12 asks for a CSV's peak ≤ 3× its size. Figures: docs/robustness.md, "Memory".
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROWS = 1_000_000
+"""IMU samples in the file: 83 min at 200 Hz, about 140 MB of CSV."""
+RATE_HZ = 200.0
+MB = 2**20
+READERS = ("read_table", "pandas", "exact", "load_mission")
+"""What is measured, one subprocess each (see the module docstring)."""
+REPEATS = 2
+"""Runs of each reader, round-robin: the shortest time is kept (the peak hardly varies: the
+largest is kept)."""
+
+
+def _peak_rss_mb() -> float:
+    """This process's peak resident memory (MB): ``VmHWM`` (Linux), else ``ru_maxrss``."""
+    status = Path("/proc/self/status")
+    if status.is_file():
+        for line in status.read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 2**10  # kB
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / MB if sys.platform == "darwin" else rss / 2**10  # bytes on macOS, else KiB
+
+
+def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
+    """A mission folder: ``imu.csv`` (``rows`` increments of a vessel at rest, with noise), a
+    3 Hz ``dvl.csv`` over the same time and ``mission.toml``; returns the IMU file."""
+    import numpy as np
+    import pandas as pd
+
+    from adaptnav.io import parse_config, write_config
+
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / RATE_HZ
+    t = dt * np.arange(1, rows + 1)
+    imu = pd.DataFrame(
+        {
+            "t_s": t,
+            **{f"dtheta_{a}_rad": rng.normal(0.0, 1e-5, rows) for a in "xyz"},
+            "dvel_x_m_s": rng.normal(0.0, 1e-3, rows),
+            "dvel_y_m_s": rng.normal(0.0, 1e-3, rows),
+            "dvel_z_m_s": -9.81 * dt + rng.normal(0.0, 1e-3, rows),
+        }
+    )
+    root.mkdir(parents=True, exist_ok=True)
+    imu.to_csv(root / "imu.csv", index=False)
+    n_dvl = int(t[-1] * 3.0)
+    dvl = pd.DataFrame(
+        {
+            "t_s": np.arange(1, n_dvl + 1) / 3.0,
+            "vx_m_s": rng.normal(0.0, 0.01, n_dvl),
+            "vy_m_s": rng.normal(0.0, 0.01, n_dvl),
+            "vz_m_s": rng.normal(0.0, 0.01, n_dvl),
+        }
+    )
+    dvl.to_csv(root / "dvl.csv", index=False)
+    config = {
+        "mission": {"name": "csv-bench"},
+        "imu": {
+            "file": "imu.csv",
+            "format": "increments",
+            "rate_hz": RATE_HZ,
+            "noise": {"arw": [0.0667, "deg/sqrt(h)"], "vrw": [55, "ug/sqrt(Hz)"]},
+        },
+        "sensors": {"dvl": {"kind": "dvl", "file": "dvl.csv", "sigma": [0.02, "m/s"]}},
+        "initial": {"lat_deg": 26.8, "lon_deg": 56.0},
+    }
+    write_config(parse_config(config), root / "mission.toml")
+    return root / "imu.csv"
+
+
+def measure(reader: str, imu_csv: Path) -> dict[str, float]:
+    """Peak RSS above this process's baseline (MB) and seconds of one ``reader`` run."""
+    import pandas as pd
+
+    from adaptnav.io import load_mission
+    from adaptnav.io import tables as tb
+
+    base = _peak_rss_mb()
+    t0 = time.perf_counter()
+    if reader == "read_table":
+        tb.read_table(imu_csv, imu_csv.name, tb.Journal())
+    elif reader == "pandas":
+        pd.read_csv(imu_csv)
+    elif reader == "exact":
+        tb._read_csv_exact(imu_csv, imu_csv.name, tb.Journal())
+    else:
+        load_mission(imu_csv.parent)
+    return {"peak_mb": _peak_rss_mb() - base, "seconds": time.perf_counter() - t0}
+
+
+def _in_subprocess(*args: str) -> dict[str, float]:
+    """Run this file with ``args`` in a fresh interpreter; its last output line, as JSON."""
+    out = subprocess.run(
+        [sys.executable, __file__, *args], check=True, capture_output=True, text=True
+    ).stdout
+    return dict(json.loads(out.strip().splitlines()[-1]))
+
+
+def bench_csv_memory() -> list[str]:
+    """Print and return the ``csv memory:`` lines."""
+    with tempfile.TemporaryDirectory() as tmp:
+        imu_csv = Path(tmp) / "mission" / "imu.csv"
+        written = _in_subprocess("write", str(imu_csv.parent))["seconds"]
+        os.sync()  # the file's pages written out now, not while a reader is timed
+        size = imu_csv.stat().st_size / MB
+        got = {r: {"peak_mb": 0.0, "seconds": math.inf} for r in READERS}
+        for _ in range(REPEATS):
+            for r in READERS:
+                run = _in_subprocess("measure", r, str(imu_csv))
+                got[r]["peak_mb"] = max(got[r]["peak_mb"], run["peak_mb"])
+                got[r]["seconds"] = min(got[r]["seconds"], run["seconds"])
+
+    def peak(r: str) -> str:
+        mb, seconds = got[r]["peak_mb"], got[r]["seconds"]
+        return f"{mb:.0f} MB above baseline ({mb / size:.2f}× the file), {seconds:.1f} s"
+
+    lines = [
+        f"csv memory: {size:.0f} MB file ({ROWS:,} rows × 7, written in {written:.0f} s) → "
+        f"read_table peak {peak('read_table')}; pandas.read_csv {peak('pandas')}",
+        f"csv memory: exact reader (the old way; now only for files the typed one declines) "
+        f"peak {peak('exact')}",
+        f"csv memory: load_mission with that imu.csv (increments) peak {peak('load_mission')}",
+    ]
+    for line in lines:
+        print(line, flush=True)
+    return lines
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "measure":
+        print(json.dumps(measure(sys.argv[2], Path(sys.argv[3]))))
+    elif len(sys.argv) == 3 and sys.argv[1] == "write":
+        t0 = time.perf_counter()
+        write_mission(Path(sys.argv[2]))
+        print(json.dumps({"seconds": time.perf_counter() - t0}))
+    else:
+        bench_csv_memory()

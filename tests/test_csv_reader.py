@@ -1,0 +1,368 @@
+"""CSV tables: the typed, streaming reader and the exact one give the same table (issue 12).
+
+docs/robustness.md, "Memory": a CSV of numbers is streamed by pyarrow into NumPy columns; any
+other CSV, and any with something to report, is read by the exact, text-based reader. These
+tests hold the typed reader to the exact one (values bit for bit, dtypes, lines, repairs,
+errors) and check that a clean file takes the typed way. Most shrink the block and scan sizes
+so that a few kilobytes cross several blocks; memory is measured by ``make bench``, not here.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.io import MissionError
+from adaptnav.io import tables as tb
+
+EXACT = tb._read_csv_exact
+"""The exact reader, for comparison where :func:`typed_only` replaces it in the module."""
+SMALL = {"CSV_BLOCK_BYTES": 4096, "SCAN_BYTES": 1000, "TAIL_BYTES": 300}
+"""Block, scan and tail sizes that make a file of a few hundred lines cross several of each."""
+PANDAS_LIKE = {"skipinitialspace": True, "low_memory": False}
+"""How the exact reader calls pandas.read_csv (pandas 3 parses floats exactly by default)."""
+
+
+@pytest.fixture()
+def small(monkeypatch: pytest.MonkeyPatch) -> None:
+    for name, value in SMALL.items():
+        monkeypatch.setattr(tb, name, value)
+
+
+@pytest.fixture()
+def typed_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail if the exact reader runs: the file must be read by the typed one."""
+
+    def refuse(*_args: Any) -> tb.Table:
+        raise AssertionError("the exact reader was used")
+
+    monkeypatch.setattr(tb, "_read_csv_exact", refuse)
+
+
+@pytest.fixture()
+def declined(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
+    """Records, per read, whether the typed reader declined the file (left it to the exact)."""
+    calls: list[bool] = []
+    typed = tb._read_csv_typed
+
+    def spy(path: Path, label: str, journal: tb.Journal) -> tb.Table | None:
+        table = typed(path, label, journal)
+        calls.append(table is None)
+        return table
+
+    monkeypatch.setattr(tb, "_read_csv_typed", spy)
+    return calls
+
+
+def read(path: Path) -> tuple[tb.Table, list[tb.Repair]]:
+    journal = tb.Journal()
+    return tb.read_table(path, path.name, journal), journal.repairs
+
+
+def outcome(reader: Any, path: Path) -> tuple[tb.Table | None, list[tb.Repair], str | None]:
+    journal = tb.Journal()
+    try:
+        return reader(path, path.name, journal), journal.repairs, None
+    except MissionError as exc:
+        return None, journal.repairs, str(exc)
+
+
+def assert_same_table(a: tb.Table, b: tb.Table) -> None:
+    """Same columns, dtypes and values (NaN where NaN, the sign of zero), lines and cut."""
+    pd.testing.assert_frame_equal(a.df, b.df, check_exact=True)
+    for c in a.df.columns:
+        x, y = a.df[c].to_numpy(), b.df[c].to_numpy()
+        if x.dtype.kind == "f":
+            np.testing.assert_array_equal(np.signbit(x), np.signbit(y), err_msg=c)
+    np.testing.assert_array_equal(a.lines, b.lines)
+    assert (a.cut is None) == (b.cut is None)
+    if a.cut is not None and b.cut is not None:
+        assert a.cut[0] == b.cut[0]
+        assert a.cut[1] == b.cut[1] or (math.isnan(a.cut[1]) and math.isnan(b.cut[1]))
+
+
+def test_missing_value_spellings_are_pandas_defaults() -> None:
+    from pandas._libs.parsers import STR_NA_VALUES
+
+    assert set(tb.PANDAS_NA) == set(STR_NA_VALUES)
+
+
+# --- a clean file: the typed reader, values as pandas reads them ------------------------------
+
+
+def _numbers(rng: np.random.Generator, n: int) -> list[str]:
+    """Cells as writers write them: repr floats over 40 decades, negative zero, integers without
+    a point, long and exponent forms, leading spaces, empty cells, infinities."""
+    x = rng.normal(size=n) * 10.0 ** rng.integers(-20, 20, n)
+    cells = [repr(float(v)) for v in x]
+    kind = rng.integers(0, 20, n)
+    for i in np.flatnonzero(kind == 0):
+        cells[i] = "-0.0" if i % 2 else "-0"
+    for i in np.flatnonzero(kind == 1):
+        cells[i] = str(int(x[i] * 1e3) % 100000)
+    for i in np.flatnonzero(kind == 2):
+        cells[i] = f"{x[i]:.25e}" if i % 2 else f"{x[i]:.12E}"
+    for i in np.flatnonzero(kind == 3):
+        cells[i] = "  " + cells[i]
+    for i in np.flatnonzero(kind == 4):
+        cells[i] = ("", "NaN", "inf", "-inf", "nan", "NA")[i % 6]
+    return cells
+
+
+def test_a_clean_file_is_read_by_the_typed_reader_as_pandas_reads_it(
+    tmp_path: Path, typed_only: None
+) -> None:
+    rng = np.random.default_rng(12)
+    n = 200_000  # several blocks at the real sizes
+    columns = {
+        "t_s": [repr(float(v)) for v in 0.005 * np.arange(1, n + 1)],
+        "gyro_x_rad_s": _numbers(rng, n),
+        "accel_z_m_s2": _numbers(rng, n),
+        "count": [str(v) for v in rng.integers(-(2**62), 2**62, n)],
+    }
+    path = tmp_path / "imu.csv"
+    rows = (",".join(cells) for cells in zip(*columns.values(), strict=True))
+    path.write_text(", ".join(columns) + "\n" + "\n".join(rows) + "\n")
+    table, repairs = read(path)
+    assert repairs == [] and table.cut is None
+    np.testing.assert_array_equal(table.lines, np.arange(2, n + 2))
+    expected = pd.read_csv(path, **PANDAS_LIKE)
+    expected.columns = pd.Index([c.strip() for c in expected.columns])
+    pd.testing.assert_frame_equal(table.df, expected, check_exact=True)
+    assert dict(table.df.dtypes) == {
+        "t_s": np.float64,
+        "gyro_x_rad_s": np.float64,
+        "accel_z_m_s2": np.float64,
+        "count": np.int64,
+    }
+    for c in ("gyro_x_rad_s", "accel_z_m_s2"):  # bit for bit, as Python reads each cell
+        cells = [s.strip() for s in columns[c]]
+        value = np.array([float(s) if s not in tb.PANDAS_NA else math.nan for s in cells])
+        got = table.df[c].to_numpy()
+        nan = np.isnan(value)
+        np.testing.assert_array_equal(np.isnan(got), nan)
+        np.testing.assert_array_equal(got[~nan].view(np.int64), value[~nan].view(np.int64))
+
+
+def test_blank_lines_crlf_and_bom_keep_their_line_numbers(
+    tmp_path: Path, small: None, typed_only: None
+) -> None:
+    lines = ["t_s,v_m_s"] + [f"{0.1 * k!r},{k / 7!r}" for k in range(1, 400)]
+    for k in (350, 200, 199, 57, 1):  # two in a row too; 1: right after the header
+        lines.insert(k, "")
+    path = tmp_path / "dvl.csv"
+    path.write_bytes(("\ufeff" + "\r\n".join(lines) + "\r\n\r\n").encode())
+    table, _ = read(path)
+    exact, _, _ = outcome(EXACT, path)
+    assert exact is not None
+    assert_same_table(table, exact)
+    assert table.where(0) == "dvl.csv line 3" and len(table) == 399
+
+
+# --- errors: the typed reader declines, the exact one locates ----------------------------------
+
+
+def _clean_lines(n: int) -> list[str]:
+    return ["t_s,vx_m_s,vy_m_s,vz_m_s"] + [
+        f"{0.3 * k!r},{math.sin(k)!r},{math.cos(k)!r},{k / 9!r}" for k in range(1, n + 1)
+    ]
+
+
+@pytest.mark.parametrize("cell", ["abc", "1.2.3", "NAN", "0x1F", "+nan", "True", "--"])
+@pytest.mark.parametrize("row", [3, 700])  # in the first block (type inference), or far after
+def test_a_bad_cell_anywhere_is_an_error_naming_file_line_and_field(
+    tmp_path: Path, small: None, declined: list[bool], cell: str, row: int
+) -> None:
+    lines = _clean_lines(800)
+    lines.insert(100, "")  # a blank line before: counted
+    k = row + (row >= 100)
+    fields = lines[k].split(",")
+    fields[2] = cell
+    lines[k] = ",".join(fields)
+    path = tmp_path / "dvl.csv"
+    path.write_text("\n".join(lines) + "\n")
+    table, _ = read(path)
+    assert declined == [True]
+    with pytest.raises(MissionError) as err:
+        tb.numeric(table, "vy_m_s")
+    line = k + 1
+    assert str(err.value).startswith(f"dvl.csv line {line}, vy_m_s: value {cell!r} is not a")
+    assert (err.value.file, err.value.line, err.value.field) == ("dvl.csv", line, "vy_m_s")
+
+
+@pytest.mark.parametrize("fields", [2, 5])
+def test_a_wrong_field_count_inside_is_an_error_naming_the_line(
+    tmp_path: Path, small: None, declined: list[bool], fields: int
+) -> None:
+    lines = _clean_lines(800)
+    lines[600] = ",".join([*lines[600].split(","), "1.0"][:fields])
+    path = tmp_path / "dvl.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(MissionError) as err:
+        read(path)
+    assert str(err.value) == f"dvl.csv line 601: {fields} fields, the header (line 1) has 4"
+    assert declined == [True]
+
+
+def test_a_line_of_spaces_is_a_blank_line(
+    tmp_path: Path, small: None, declined: list[bool]
+) -> None:
+    """To the exact reader (skipped, counted); pyarrow would see a row of one field."""
+    lines = _clean_lines(800)
+    lines[600] = "   "
+    path = tmp_path / "dvl.csv"
+    path.write_text("\n".join(lines) + "\n")
+    table, _ = read(path)
+    assert table.where(598) == "dvl.csv line 600" and table.where(599) == "dvl.csv line 602"
+    assert declined == [True]
+
+
+# --- the last line cut short: repaired from the tail ------------------------------------------
+
+
+@pytest.mark.parametrize("keep", [5, 25, -3])  # fewer fields (t_s cut or whole); last number cut
+def test_a_cut_last_line_is_dropped_by_the_typed_reader(
+    tmp_path: Path, small: None, typed_only: None, keep: int
+) -> None:
+    lines = _clean_lines(800)
+    text = "\n".join(lines)
+    last = lines[-1]
+    path = tmp_path / "dvl.csv"
+    path.write_text(text[: len(text) - len(last) + keep] if keep > 0 else text[:keep])
+    table, repairs = read(path)
+    assert len(table) == 799 and table.cut is not None and table.cut[0] == 801
+    (r,) = repairs
+    assert (r.line, r.action) == (801, "dropped truncated last line")
+    if keep == 25:  # t_s whole
+        assert table.cut[1] == 0.3 * 800
+    exact, exact_repairs, _ = outcome(EXACT, tmp_path / "dvl.csv")
+    assert exact is not None
+    assert_same_table(table, exact)
+    assert repairs == exact_repairs
+
+
+def test_a_whole_fixed_width_last_line_without_line_break_is_kept(
+    tmp_path: Path, small: None, typed_only: None
+) -> None:
+    lines = ["t_s,depth_m"] + [f"{k:.3f},{1 + math.sin(k):.6f}" for k in range(1, 500)]
+    path = tmp_path / "depth.csv"
+    path.write_text("\n".join(lines))
+    table, repairs = read(path)
+    assert len(table) == 499 and table.cut is None and repairs == []
+
+
+# --- dtypes: as pandas infers them over the whole column ---------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("late", "dtype"),
+    [("7", np.int64), ("7.5", np.float64), ("", np.float64), ("1e3", np.float64)],
+)
+def test_an_integer_column_keeps_the_dtype_pandas_gives_it(
+    tmp_path: Path, small: None, typed_only: None, late: str, dtype: Any
+) -> None:
+    """Integers in the first block, ``late`` in a later one (0/1 flags, counters)."""
+    rows = [f"{0.2 * k!r},{k % 2},{k}" for k in range(1, 1000)]
+    rows[900] = rows[900].rsplit(",", 1)[0] + "," + late
+    path = tmp_path / "dvl.csv"
+    path.write_text("t_s,is_outlier,count\n" + "\n".join(rows) + "\n")
+    table, _ = read(path)
+    assert table.df["is_outlier"].dtype == np.int64
+    assert table.df["count"].dtype == dtype
+    pd.testing.assert_frame_equal(table.df, pd.read_csv(path, **PANDAS_LIKE), check_exact=True)
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        '1.0,"2.5"\n',  # quotes
+        "1.0,True\n2.0,False\n",  # a true/false column
+        "1.0,abc\n",  # a text column
+        "1.0,2.0\r3.0,4.0\n",  # a lone CR: a line break to pyarrow only
+        "1.0,+7\n",  # pandas: an integer
+        "1.0,0x1F\n",  # pyarrow: an integer
+        "1.0,NAN\n",  # pyarrow: NaN; pandas: text
+        "1.0,12345678901234567890\n",  # pandas: uint64
+        "1.0,2.0\n3.0,4.0,5.0\n",  # a long last line
+        "1.0,2.0\n\x00\n",  # binary
+        "1.0,2.5 \u00b0\n",  # not ASCII
+        "",  # no data line
+        "   \n",  # only a line of spaces
+    ],
+)
+def test_what_the_typed_reader_leaves_to_the_exact_one(tmp_path: Path, body: str) -> None:
+    path = tmp_path / "x.csv"
+    path.write_bytes(("t_s,v\n" + body).encode())
+    assert tb._read_csv_typed(path, "x.csv", tb.Journal()) is None
+
+
+# --- the two readers agree, on files of every shape -------------------------------------------
+
+
+CELLS = (
+    "1.5", "-0", "-0.0", "0", "7", " 1.5", "1.5 ", "\t2", "1e5", "1E-3", "inf", "-Infinity",
+    "nan", "NaN", "NAN", "NA", " NA", "", "  ", "None", "<NA>", "#N/A", "abc", "True", "1.",
+    ".5", "1,5", "1.2.3", "+7", "1e400", "4.9e-324", "12345678901234567890", "1d5",
+)  # fmt: skip
+"""Cells dropped here and there into numeric columns: fine, missing, or not numbers."""
+
+
+def _random_csv(rng: np.random.Generator) -> bytes:
+    """A small CSV of random shape: columns of floats, integers, integers turning into floats,
+    odd cells; blank lines and lines of spaces; CRLF; a BOM; a short line; a cut end."""
+    n_cols = int(rng.choice([2, 3, 5]))
+    n_rows = int(rng.choice([1, 2, 3, 40, 300]))
+    kinds = rng.choice(["float", "int", "int then float", "odd"], n_cols)
+    body: list[str] = []
+    for r in range(n_rows):
+        row = []
+        for kind in kinds:
+            if kind == "float":
+                row.append(repr(float(rng.normal() * 10.0 ** rng.integers(-8, 8))))
+            elif kind == "int" or (kind == "int then float" and r < n_rows - 3):
+                row.append(str(int(rng.integers(-100, 100))))
+            elif kind == "odd" and rng.random() < 0.1:
+                row.append(str(rng.choice(CELLS)))
+            else:
+                row.append(repr(float(rng.random())))
+        body.append(",".join(row))
+    lines = [", ".join(f"c{i}" for i in range(n_cols)), *body]
+    for _ in range(int(rng.choice([0, 0, 1, 3]))):
+        lines.insert(int(rng.integers(1, len(lines) + 1)), str(rng.choice(["", "", "  "])))
+    if rng.random() < 0.15 and len(lines) > 2:
+        k = int(rng.integers(1, len(lines)))
+        lines[k] = ",".join(lines[k].split(",")[:-1])
+    newline = "\r\n" if rng.random() < 0.3 else "\n"
+    text = newline.join(lines) + (newline if rng.random() < 0.6 else "")
+    if rng.random() < 0.3:
+        text = text[: len(text) - int(rng.integers(1, 9))]
+    return (("\ufeff" if rng.random() < 0.1 else "") + text).encode()
+
+
+def test_the_typed_and_the_exact_reader_agree(tmp_path: Path, small: None) -> None:
+    """Whenever the typed reader reads a file, the exact one reads the same table, with the
+    same repairs; it reads a fair share of these odd files, not none."""
+    rng = np.random.default_rng(2024)
+    path = tmp_path / "x.csv"
+    typed = 0
+    logging.disable(logging.WARNING)
+    try:
+        for _ in range(400):
+            path.write_bytes(_random_csv(rng))
+            a, repairs_a, _ = outcome(tb._read_csv_typed, path)
+            if a is None:
+                continue
+            typed += 1
+            b, repairs_b, error = outcome(EXACT, path)
+            assert error is None and b is not None, (path.read_bytes(), error)
+            assert_same_table(a, b)
+            assert repairs_a == repairs_b
+    finally:
+        logging.disable(logging.NOTSET)
+    assert typed >= 100, typed
