@@ -317,7 +317,13 @@ def test_a_frozen_dvl_is_dropped_with_its_reason_and_the_rest_used(
     assert dvl.loc[rows[0], "fate"] == "used"
     others = dvl[(dvl["t"] > 20.5) & ~dvl.index.isin(rows[1:])]  # under way: used
     fates = set(others["fate"] + ": " + others["reason"].fillna(""))
-    assert fates == {"used: ", "dropped: invalid reading (non-finite)"}  # a simulated dropout
+    # a simulated dropout; the simulator's outliers the guard rejects (docs/robustness.md)
+    assert "used: " in fates
+    assert fates <= {
+        "used: ",
+        "dropped: invalid reading (non-finite)",
+        "rejected: guard chi2 (nominal R)",
+    }
     assert sorted(dvl.index) == list(range(len(t)))  # every reading has one fate
     assert "dropped (stuck: vx_m_s" in caplog.text
     assert f"{len(rows) - 1 - 10} more: stuck" in caplog.text  # 10 logged, then a summary
