@@ -200,7 +200,8 @@ def _dropout_table(summary: pd.DataFrame, preset: str, cases: Sequence[str]) -> 
     filters = list(dict.fromkeys(summary["filter"]))
     header = ["filter", "clean run, same window: error / σ"]
     for c in cases:
-        header += [f"{CASE_LABELS[c]}: error / σ, mean / worst", "≤ 3"]
+        header += [f"{CASE_LABELS[c]}: error / σ, mean / worst", "≤ 3",
+                   "Mahalanobis, mean / worst"]  # fmt: skip
     rows = []
     for f in filters:
         present = [c for c in cases if (f, c) in s.index]
@@ -208,12 +209,14 @@ def _dropout_table(summary: pd.DataFrame, preset: str, cases: Sequence[str]) -> 
         cells = [_label(f), _f(clean, ".2f")]
         for c in cases:
             if (f, c) not in s.index:
-                cells += ["-", "-"]
+                cells += ["-", "-", "-"]
                 continue
             r = s.loc[(f, c)]
+            m_mean, m_worst = r["dropout_mahalanobis_mean"], r["dropout_mahalanobis_worst"]
             cells += [
                 f"{_f(r['dropout_ratio_mean'], '.2f')} / {_f(r['dropout_ratio_worst'], '.2f')}",
                 _verdict(float(r["dropout_ratio_worst"]), fb.DROPOUT_SIGMA_TARGET),
+                f"{_f(m_mean, '.2f')} / {_f(m_worst, '.2f')}",
             ]
         rows.append(cells)
     return markdown_table(header, rows)
@@ -314,7 +317,9 @@ def page(
         f"- the horizontal error at the end of the dropout over the horizontal σ the filter "
         f"claims there (`sqrt(sd_N² + sd_E²)`, docs/metrics.md), target ≤ "
         f"{fb.DROPOUT_SIGMA_TARGET:g}, judged on the worst seed; the clean run at the same "
-        "instant is given beside it;",
+        "instant is given beside it, and the Mahalanobis distance of the horizontal error "
+        "with P's north-east block and its correlation (`cov_dr_N_dr_E`; > 3 for 1 % of "
+        "the epochs of a consistent filter);",
         "- footprint: `max_t |e_faulted(t) - e_clean(t)|`, the fault's own effect on the "
         "position error: on these missions the RMSE is dominated by the error of the initial "
         "heading, which the faults do not touch, so the RMSE ratio can stay near 1 (or fall "

@@ -299,6 +299,7 @@ def test_benchmark_end_to_end(source: Path, tmp_path: Path) -> None:
     (row,) = summary.to_dict("records")
     assert math.isfinite(row["ratio_mean"]) and row["ratio_mean"] > 0.0
     assert math.isfinite(row["dropout_ratio_worst"]) and row["dvl_dropout_n"] > 0
+    assert math.isfinite(row["dropout_mahalanobis_worst"])
     assert row["delta_max_m"] > 0.0  # the dropout moves the solution
     text = load_script("faults_eval").page(
         table, summary, ["tiny"], ["clean", "dvl_dropout"], "header", "x"

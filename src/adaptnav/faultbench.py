@@ -34,7 +34,7 @@ import pandas as pd
 from adaptnav import api, evaluate
 from adaptnav.filters import FILTER_KINDS, FilterKind
 from adaptnav.io import load_mission
-from adaptnav.results import Result
+from adaptnav.results import Result, covariance_block
 from adaptnav.sim.faults import (
     ALL,
     FAULT_KINDS,
@@ -103,6 +103,17 @@ def _fates(result: Result, log: FaultLog | None) -> dict[str, Any]:
     return out
 
 
+def _horizontal_mahalanobis(solution: pd.DataFrame, t: float, e_ne: np.ndarray) -> float:
+    """``sqrt(e_hᵀ P_h⁻¹ e_h)`` at time ``t``: the horizontal error against P's north-east
+    block with its correlation (``cov_dr_N_dr_E``, docs/metrics.md), each element interpolated
+    linearly in time as the metrics do. A 2-D Gaussian error exceeds 3 of these with
+    probability exp(-9/2) ≈ 1 %."""
+    block = covariance_block(solution, ("dr_N", "dr_E"))
+    t_sol = solution["t_s"].to_numpy(dtype=float)
+    P = np.array([[np.interp(t, t_sol, block[:, i, j]) for j in range(2)] for i in range(2)])
+    return float(np.sqrt(evaluate.nees_from(e_ne[None, :], P[None])[0]))
+
+
 def score(
     result: Result,
     truth: pd.DataFrame,
@@ -112,9 +123,10 @@ def score(
 ) -> dict[str, Any]:
     """One run's figures (module docstring): ``rmse_m``, ``horizontal_rmse_m``,
     ``mean_nees_position``, ``delta_max_m`` (NaN without ``clean_errors``, the clean run's
-    :func:`adaptnav.evaluate.position_errors`), ``dropout_end_m``, ``dropout_sigma_m`` and
-    ``dropout_ratio`` at the end of ``dropout_window_s`` (scored on every run, the clean one
-    too, as a reference), and the fates of the injected readings of ``log``."""
+    :func:`adaptnav.evaluate.position_errors`), ``dropout_end_m``, ``dropout_sigma_m``,
+    ``dropout_ratio`` and ``dropout_mahalanobis`` (:func:`_horizontal_mahalanobis`) at the end
+    of ``dropout_window_s`` (scored on every run, the clean one too, as a reference), and the
+    fates of the injected readings of ``log``."""
     m = evaluate.evaluate(result, truth)
     errors = evaluate.position_errors(result.solution, truth)
     delta = math.nan
@@ -129,6 +141,11 @@ def score(
     drift = evaluate.outage_drift(result.solution, truth, [(start, end - start)]).iloc[0]
     sigma = float(drift["claimed_sd_horizontal_m"])
     end_m = float(drift["end_horizontal_m"])
+    t_err = errors["t_s"].to_numpy(dtype=float)
+    k = int(np.flatnonzero((t_err > start) & (t_err <= end))[-1])  # outage_drift's sample
+    mahalanobis = _horizontal_mahalanobis(
+        result.solution, float(t_err[k]), errors[["dN_m", "dE_m"]].to_numpy(dtype=float)[k]
+    )
     return {
         "rmse_m": m.rmse_m,
         "horizontal_rmse_m": m.horizontal_rmse_m,
@@ -138,6 +155,7 @@ def score(
         "dropout_end_m": end_m,
         "dropout_sigma_m": sigma,
         "dropout_ratio": end_m / sigma if sigma > 0.0 else math.nan,
+        "dropout_mahalanobis": mahalanobis,
         **_fates(result, log),
     }
 
@@ -231,8 +249,9 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
     ``rmse_clean_m`` and ``rmse_m`` (means), ``ratio_mean`` and ``ratio_worst`` of RMSE faulted
     / clean paired by seed, ``delta_max_m`` (mean), ``nees_clean`` and ``nees`` (mean position
     NEES), ``dropout_ratio_mean``/``_worst`` and ``dropout_ratio_clean`` (the clean runs at
-    the same window), and the fates summed over seeds (``<kind>_used``... of the case's
-    kinds, ``<kind>_reasons`` joined). Groups in order of appearance."""
+    the same window), ``dropout_mahalanobis_mean``/``_worst``, and the fates summed over
+    seeds (``<kind>_used``... of the case's kinds, ``<kind>_reasons`` joined). Groups in
+    order of appearance."""
     key = ["preset", "seed", "filter"]
     clean = table[table["case"] == CLEAN].set_index(key)
     rows: list[dict[str, Any]] = []
@@ -256,6 +275,8 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
             "dropout_ratio_mean": float(np.mean(drop)),
             "dropout_ratio_worst": float(np.max(drop)),
             "dropout_ratio_clean": float(np.mean(base["dropout_ratio"])),
+            "dropout_mahalanobis_mean": float(np.mean(g["dropout_mahalanobis"])),
+            "dropout_mahalanobis_worst": float(np.max(g["dropout_mahalanobis"])),
         }
         kinds = FAULT_KINDS if case == ALL else (case,)
         for kind in kinds:
