@@ -166,7 +166,9 @@ def _f(v: Any, fmt: str) -> str:
     return "-" if not math.isfinite(x) else format(x, fmt)
 
 
-def _verdict(worst: float, target: float) -> str:
+def _verdict(worst: float, target: float, failed: int = 0) -> str:
+    if failed:
+        return f"**no** ({failed} failed)"
     if not math.isfinite(worst):
         return "-"
     return "yes" if worst <= target else "**no**"
@@ -188,7 +190,7 @@ def _ratio_table(summary: pd.DataFrame, preset: str, cases: Sequence[str]) -> st
                 cells.append("-")
                 continue
             r = s.loc[(f, c)]
-            verdict = _verdict(float(r["ratio_worst"]), fb.RMSE_RATIO_TARGET)
+            verdict = _verdict(float(r["ratio_worst"]), fb.RMSE_RATIO_TARGET, int(r["failed"]))
             cells.append(f"{_f(r['ratio_mean'], '.2f')} / {_f(r['ratio_worst'], '.2f')} {verdict}")
         clean = s.loc[(f, cases[0]), "rmse_clean_m"] if (f, cases[0]) in s.index else math.nan
         rows.append([_label(f), _f(clean, ".1f"), *cells])
@@ -215,7 +217,9 @@ def _dropout_table(summary: pd.DataFrame, preset: str, cases: Sequence[str]) -> 
             m_mean, m_worst = r["dropout_mahalanobis_mean"], r["dropout_mahalanobis_worst"]
             cells += [
                 f"{_f(r['dropout_ratio_mean'], '.2f')} / {_f(r['dropout_ratio_worst'], '.2f')}",
-                _verdict(float(r["dropout_ratio_worst"]), fb.DROPOUT_SIGMA_TARGET),
+                _verdict(
+                    float(r["dropout_ratio_worst"]), fb.DROPOUT_SIGMA_TARGET, int(r["failed"])
+                ),
                 f"{_f(m_mean, '.2f')} / {_f(m_worst, '.2f')}",
             ]
         rows.append(cells)
@@ -361,20 +365,27 @@ def page(
         _clean_table(table),
         "",
     ]
+    failed = table[table["error"].notna()]
+    if len(failed):
+        lines += ["## Runs that failed", "", markdown_table(
+            ["preset", "seed", "case", "filter", "error"],
+            [[str(r.preset), str(r.seed), str(r.case), _label(str(r.filter)), str(r.error)]
+             for r in failed.itertuples()],
+        ), ""]  # fmt: skip
     return "\n".join(lines)
 
 
 def _targets(summary: pd.DataFrame) -> list[str]:
     out = []
     for _, r in summary.iterrows():
-        ok = float(r["ratio_worst"]) <= fb.RMSE_RATIO_TARGET
+        ok = float(r["ratio_worst"]) <= fb.RMSE_RATIO_TARGET and not r["failed"]
         line = (
             f"{r['preset']:8s} {_label(str(r['filter'])):10s} {CASE_LABELS[str(r['case'])]:20s} "
             f"RMSE x{_f(r['ratio_mean'], '.2f')} (worst x{_f(r['ratio_worst'], '.2f')}) "
             f"{'met' if ok else 'NOT met'}"
         )
         if r["case"] in DROPOUT_CASES:
-            ok_d = float(r["dropout_ratio_worst"]) <= fb.DROPOUT_SIGMA_TARGET
+            ok_d = float(r["dropout_ratio_worst"]) <= fb.DROPOUT_SIGMA_TARGET and not r["failed"]
             line += (
                 f"; dropout error/sigma {_f(r['dropout_ratio_mean'], '.2f')} (worst "
                 f"{_f(r['dropout_ratio_worst'], '.2f')}) {'met' if ok_d else 'NOT met'}"

@@ -12,6 +12,7 @@ import itertools
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -305,3 +306,28 @@ def test_benchmark_end_to_end(source: Path, tmp_path: Path) -> None:
         table, summary, ["tiny"], ["clean", "dvl_dropout"], "header", "x"
     )
     assert "RMSE faulted / RMSE clean" in text and "End of the DVL dropout" in text
+
+
+def test_a_run_that_raises_fails_its_target_only(
+    source: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    real = fb.api.run
+
+    def breaks_on_faults(mission: Any, *args: Any, **kwargs: Any) -> Any:
+        if mission.root.name != source.name:
+            raise ValueError("the filter broke down")
+        return real(mission, *args, **kwargs)
+
+    monkeypatch.setattr(fb.api, "run", breaks_on_faults)
+    rows = fb.evaluate_mission(
+        source, tmp_path / "work", SEED, filters=("meskf",), cases=("clean", "depth_spike"),
+        params=SMALL,
+    )  # fmt: skip
+    assert rows[0]["error"] is None and rows[1]["error"] == "ValueError: the filter broke down"
+    table = pd.DataFrame(rows).assign(preset="tiny")
+    (row,) = fb.summarize(table).to_dict("records")
+    assert row["failed"] == 1 and math.isnan(row["ratio_mean"])
+    text = load_script("faults_eval").page(
+        table, fb.summarize(table), ["tiny"], ["clean", "depth_spike"], "header", "x"
+    )
+    assert "**no** (1 failed)" in text and "the filter broke down" in text

@@ -77,11 +77,10 @@ def fault_rng(seed: int) -> np.random.Generator:
     return np.random.default_rng([seed, FAULT_SEED_TAG])
 
 
-def _fates(result: Result, log: FaultLog | None) -> dict[str, Any]:
+def _fates(result: Result | None, log: FaultLog | None) -> dict[str, Any]:
     """Per fault kind: readings injected (removed ones for a dropout) and the ledger fate of the
-    changed ones, with the reasons (``reason ×n; ...``)."""
+    changed ones, with the reasons (``reason ×n; ...``); NaN without a result."""
     out: dict[str, Any] = {}
-    ledger = result.ledger
     for kind in FAULT_KINDS:
         fault = None
         if log is not None:
@@ -90,8 +89,12 @@ def _fates(result: Result, log: FaultLog | None) -> dict[str, Any]:
         for fate in ("used", "rejected", "dropped"):
             out[f"{kind}_{fate}"] = math.nan if fault is None else 0
         out[f"{kind}_reasons"] = ""
-        if fault is None or not fault.rows:
+        if result is None:
+            for fate in ("used", "rejected", "dropped"):
+                out[f"{kind}_{fate}"] = math.nan
+        if result is None or fault is None or not fault.rows:
             continue
+        ledger = result.ledger
         mine = ledger[(ledger["sensor"] == fault.sensor) & ledger["row"].isin(fault.rows)]
         for fate, n in Counter(mine["fate"].astype(str)).items():
             out[f"{kind}_{fate}"] = n
@@ -160,6 +163,19 @@ def score(
     }
 
 
+_FIGURES = (
+    "rmse_m", "horizontal_rmse_m", "max_error_m", "mean_nees_position", "delta_max_m",
+    "dropout_end_m", "dropout_sigma_m", "dropout_ratio", "dropout_mahalanobis",
+)  # fmt: skip
+
+
+def _failed() -> dict[str, Any]:
+    """The figures of a run that raised: NaN, no fates."""
+    out: dict[str, Any] = dict.fromkeys(_FIGURES, math.nan)
+    out.update(_fates(None, None))
+    return out
+
+
 def evaluate_mission(
     clean: str | Path,
     work: str | Path,
@@ -204,15 +220,20 @@ def evaluate_mission(
         assert m.truth is not None  # the copy keeps the clean mission's truth
         for f in filters:
             started = time.perf_counter()
-            result = api.run(m, cast(FilterKind, f), initial=start)
-            figures = score(result, m.truth, log, dropout, clean_errors.get(f))
-            if case == CLEAN:
+            error = None
+            try:
+                result = api.run(m, cast(FilterKind, f), initial=start)
+                figures = score(result, m.truth, log, dropout, clean_errors.get(f))
+            except Exception as exc:  # a filter that breaks down fails its run, not the bench
+                error = f"{type(exc).__name__}: {exc}"
+                figures = _failed()
+            if case == CLEAN and error is None:
                 clean_errors[f] = evaluate.position_errors(result.solution, m.truth)
                 figures["delta_max_m"] = 0.0
             if case in cases:
                 elapsed = time.perf_counter() - started
                 rows.append({"seed": seed, "case": case, "filter": f, **figures,
-                             "elapsed_s": elapsed})  # fmt: skip
+                             "elapsed_s": elapsed, "error": error})  # fmt: skip
         if case != CLEAN and not keep:
             shutil.rmtree(root, ignore_errors=True)
     return rows
@@ -245,7 +266,8 @@ def run_seed(
 
 
 def summarize(table: pd.DataFrame) -> pd.DataFrame:
-    """Per (preset, filter, case) of the faulted cases, over the seeds: ``n``,
+    """Per (preset, filter, case) of the faulted cases, over the seeds: ``n``, ``failed``
+    (runs that raised, or whose clean run did: left out of the figures, and a failed target),
     ``rmse_clean_m`` and ``rmse_m`` (means), ``ratio_mean`` and ``ratio_worst`` of RMSE faulted
     / clean paired by seed, ``delta_max_m`` (mean), ``nees_clean`` and ``nees`` (mean position
     NEES), ``dropout_ratio_mean``/``_worst`` and ``dropout_ratio_clean`` (the clean runs at
@@ -258,25 +280,28 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
     faulted = table[table["case"] != CLEAN]
     for (preset, filt, case), g in faulted.groupby(["preset", "filter", "case"], sort=False):
         base = clean.reindex(pd.MultiIndex.from_frame(g[key]))
-        ratio = g["rmse_m"].to_numpy(dtype=float) / base["rmse_m"].to_numpy(dtype=float)
-        drop = g["dropout_ratio"].to_numpy(dtype=float)
+        ok = g["error"].isna().to_numpy() & base["error"].isna().to_numpy()
+        ok &= np.isfinite(base["rmse_m"].to_numpy(dtype=float))
+        g_ok, base_ok = g[ok], base[ok]
+        ratio = g_ok["rmse_m"].to_numpy(dtype=float) / base_ok["rmse_m"].to_numpy(dtype=float)
         row: dict[str, Any] = {
             "preset": preset,
             "filter": filt,
             "case": case,
             "n": len(g),
-            "rmse_clean_m": float(np.mean(base["rmse_m"])),
-            "rmse_m": float(np.mean(g["rmse_m"])),
-            "ratio_mean": float(np.mean(ratio)),
-            "ratio_worst": float(np.max(ratio)),
-            "delta_max_m": float(np.mean(g["delta_max_m"])),
-            "nees_clean": float(np.mean(base["mean_nees_position"])),
-            "nees": float(np.mean(g["mean_nees_position"])),
-            "dropout_ratio_mean": float(np.mean(drop)),
-            "dropout_ratio_worst": float(np.max(drop)),
-            "dropout_ratio_clean": float(np.mean(base["dropout_ratio"])),
-            "dropout_mahalanobis_mean": float(np.mean(g["dropout_mahalanobis"])),
-            "dropout_mahalanobis_worst": float(np.max(g["dropout_mahalanobis"])),
+            "failed": int(np.count_nonzero(~ok)),
+            "rmse_clean_m": _mean(base_ok["rmse_m"]),
+            "rmse_m": _mean(g_ok["rmse_m"]),
+            "ratio_mean": _mean(ratio),
+            "ratio_worst": _max(ratio),
+            "delta_max_m": _mean(g_ok["delta_max_m"]),
+            "nees_clean": _mean(base_ok["mean_nees_position"]),
+            "nees": _mean(g_ok["mean_nees_position"]),
+            "dropout_ratio_mean": _mean(g_ok["dropout_ratio"]),
+            "dropout_ratio_worst": _max(g_ok["dropout_ratio"]),
+            "dropout_ratio_clean": _mean(base_ok["dropout_ratio"]),
+            "dropout_mahalanobis_mean": _mean(g_ok["dropout_mahalanobis"]),
+            "dropout_mahalanobis_worst": _max(g_ok["dropout_mahalanobis"]),
         }
         kinds = FAULT_KINDS if case == ALL else (case,)
         for kind in kinds:
@@ -285,6 +310,16 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
             row[f"{kind}_reasons"] = merge_reasons(g[f"{kind}_reasons"])
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _mean(values: Any) -> float:
+    v = np.asarray(values, dtype=float)
+    return float(np.mean(v)) if v.size else math.nan
+
+
+def _max(values: Any) -> float:
+    v = np.asarray(values, dtype=float)
+    return float(np.max(v)) if v.size else math.nan
 
 
 def merge_reasons(texts: Iterable[str]) -> str:
