@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo reproduce akit rtklib test lint bench clean
+.PHONY: demo reproduce akit faults rtklib test lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -21,6 +21,10 @@ reproduce: $(STAMP)
 # Issue 6: the filters on the nine Snapir AUV segments, clean and with DVL faults.
 akit: $(STAMP)
 	$(BIN)/python scripts/akit_eval.py
+
+# Issue 12: every filter on paper-1/2 with simulated sensor faults -> docs/results-faults.md.
+faults: $(STAMP)
+	$(BIN)/python scripts/faults_eval.py
 
 # The filters over GNSS outages on the RTKLIB car drive (real MEMS IMU + RTK).
 rtklib: $(STAMP)

@@ -54,6 +54,7 @@ from adaptnav.io.config import MissionError, parse_config
 from adaptnav.io.mission import write_mission
 from adaptnav.io.tables import Journal, Repair, Table, numeric, read_table
 from adaptnav.io.timing import minimise_lag
+from adaptnav.sim.faults import spike_vectors
 from adaptnav.strapdown import NOM_ATT, NOM_VEL, NavState
 
 log = logging.getLogger("adaptnav.io.akit")
@@ -672,13 +673,7 @@ def inject_dvl_faults(
     n_spikes = max(1, round(spike_fraction * n))
     rows = np.sort(rng.choice(candidates, size=n_spikes, replace=False))
     spikes = np.zeros((n, 3))
-    for r in rows:
-        axes = np.zeros(3, dtype=bool)
-        while not axes.any():
-            axes = rng.random(3) < 0.5
-        magnitude = rng.uniform(*spike_range_m_s, size=3)
-        sign = rng.choice([-1.0, 1.0], size=3)
-        spikes[r] = np.where(axes, sign * magnitude, 0.0)
+    spikes[rows] = spike_vectors(rng, rows.size, spike_range_m_s)  # shared with sim.faults
     out += spikes
     outlier = lock.copy()
     outlier[rows] = True
