@@ -922,8 +922,13 @@ def curve_spread(curve_table: pd.DataFrame, parameter: str) -> pd.DataFrame:
 
 # --- figures -----------------------------------------------------------------------------------
 
-LABELS = {"meskf": "MESKF", "maeskf": "MAESKF", "vb": "VB-MAESKF", "oracle": "oracle"}
-_COLORS = {"meskf": "tab:red", "maeskf": "tab:orange", "vb": "tab:blue", "oracle": "tab:gray"}
+LABELS = {
+    "meskf": "MESKF", "maeskf": "MAESKF", "vb": "VB-MAESKF", "robust": "robust", "oracle": "oracle",
+}  # fmt: skip
+_COLORS = {
+    "meskf": "tab:red", "maeskf": "tab:orange", "vb": "tab:blue", "robust": "tab:olive",
+    "oracle": "tab:gray",
+}  # fmt: skip
 
 
 def _axes(n: int, title: str) -> tuple[Any, list[Any]]:
