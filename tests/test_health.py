@@ -232,3 +232,18 @@ def test_a_covariance_that_is_not_positive_definite_is_repaired_not_raised() -> 
     assert np.all(np.isfinite(out.x_final))
     np.linalg.cholesky(out.P_final)
     assert sum(r["fate"] == "used" for r in out.ledger) > 0.9 * len(out.ledger)
+
+
+def test_matching_window_restarts_after_a_gap() -> None:
+    """MAESKF's window of squares before a gap is of another P: after more than gap_periods
+    periods without a reading it restarts (the nominal R until it is full again)."""
+    m = CovarianceMatching(window=3, gap_periods=10.0)
+    st0 = m.initial_state(np.eye(1) * 0.01)
+    full = type(st0)(st0.squares + 1.0, st0.hph, 3, np.eye(1) * 0.5)
+    assert m.predict(full, dt=0.5, period=1 / 3).count == 3  # 1.5 periods: kept
+    restarted = m.predict(full, dt=4.0, period=1 / 3)  # 12 periods
+    assert restarted.count == 0
+    b = _block(0.3, 0.01, m)
+    res = m.update(np.eye(15) * 1e-4, [Block(b.sensor, b.y, b.H, b.R_nominal, restarted)])
+    assert res.R_used[0][0, 0] == pytest.approx(0.01)  # nominal again
+    assert CovarianceMatching(window=3).predict(full, dt=4.0, period=1 / 3).count == 3

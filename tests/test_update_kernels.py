@@ -420,13 +420,13 @@ def _strategy(kind: str) -> Any:
     if kind == "maeskf":
         return CovarianceMatching(window=6)
     if kind == "rae":
-        return CovarianceMatching(window=4, residual_based=True)
+        return CovarianceMatching(window=4, residual_based=True, gap_periods=1.5)
     if kind == "vbt":
         return VariationalBayes(rho=0.95, iterations=4, tol=1e-8, irregular=True, dof=4.0)
     if kind == "vbb":  # R̂ bounds tight enough to bind both ways on this mission
         return VariationalBayes(rho=0.95, iterations=4, tol=1e-8, r_floor=0.8, r_ceiling=3.0)
     if kind == "maeb":
-        return CovarianceMatching(window=6, ceiling=2.0)
+        return CovarianceMatching(window=6, ceiling=2.0, gap_periods=1.5)
     return VariationalBayes(rho=0.95, iterations=4, tol=1e-8, irregular=True)
 
 

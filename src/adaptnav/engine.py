@@ -599,7 +599,7 @@ class Navigator:
             elif isinstance(st, CovarianceMatching):
                 si[uk.S_WINDOW] = st.window
                 sf[uk.F_FLOOR], sf[uk.F_RAE] = st.floor, float(st.residual_based)
-                sf[uk.F_RMAX] = st.ceiling
+                sf[uk.F_RMAX], sf[uk.F_GAP] = st.ceiling, st.gap_periods
                 self._rings[i, 0, : st.window, :d] = state0.squares
                 self._rings[i, 1, : st.window, :d] = state0.hph
                 si[uk.S_COUNT] = state0.count

@@ -52,6 +52,9 @@ PAPER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb")
 DEFAULT_KIND: FilterKind = "robust"
 """What ``adaptnav run`` and a mission without ``[filter] kind`` use."""
 DEFAULT_GATE_Q: dict[str, float] = {"meskf": 600.0, "maeskf": 1800.0}
+DEFAULT_MATCHING_GAP_PERIODS = 0.0
+"""MAESKF's window restarts after a sensor gap of more than this many periods (0: never, the
+paper; the measured trade-off in noise/matching.py)."""
 DEFAULT_GUARD_PROBABILITY = 1e-6
 """The guard's false-alarm probability per reading for a consistent filter (gate.Guard)."""
 DEFAULT_R_BOUNDS: dict[str, tuple[float, float]] = {"robust": (0.1, 100.0)}
@@ -86,6 +89,9 @@ class FilterSettings:
     matching_window: int = 20
     matching_floor: float = 1e-2
     matching_residual_based: bool = False
+    matching_gap_periods: float = DEFAULT_MATCHING_GAP_PERIODS
+    """MAESKF's window restarts after a gap of more than this many periods (noise/matching.py);
+    0: never, the paper."""
     vb_alpha0: float = 1.0
     vb_rho: float = 0.99
     vb_iterations: int = 5
@@ -119,8 +125,9 @@ class FilterSettings:
         if self.kind == "maeskf":
             window = overrides.matching_window or self.matching_window
             return CovarianceMatching(
-                window, self.matching_floor, self.matching_residual_based, ceiling
-            )
+                window, self.matching_floor, self.matching_residual_based, ceiling,
+                self.matching_gap_periods,
+            )  # fmt: skip
         rho = overrides.vb_rho if overrides.vb_rho is not None else self.vb_rho
         return VariationalBayes(
             self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular,

@@ -109,7 +109,8 @@ F_RMIN, F_RMAX = 33, 34  # bounds on the adapted R̂ as factors of the nominal v
 F_GUARD_Q, F_LOCKOUT_S = 35, 36  # the guard's χ² threshold; lockout time (0: no lockout reset)
 F_DIV_NIS, F_DIV_WINDOW, F_INFLATE_MAX = 37, 38, 39  # the windowed NIS test (health.py)
 F_GUARD_K, F_LOCKOUT_MAX = 40, 41  # the guard's headroom κ on the nominal R; lockout's cap
-N_SFLT = 42
+F_GAP = 42  # matching: restart the window after a gap of this many periods (0: never)
+N_SFLT = 43
 # s_state: float64 adaptation state: last epoch, VB α and β, matching R̂ (3×3 row-major)
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
 X_NIS, X_NIS_N, X_REJ_SINCE = 16, 17, 18  # mean NIS/d over the window, its count; lockout start
@@ -1163,6 +1164,12 @@ def epoch(
                 s_state[i, X_ALPHA + j] *= rho
                 s_state[i, X_BETA + j] *= rho
             s_int[i, S_VERSION] += 1
+        elif kind == KIND_MATCHING and not math.isnan(last):  # CovarianceMatching.predict
+            period = s_flt[i, F_PERIOD]
+            gap = s_flt[i, F_GAP]
+            if gap > 0.0 and period > 0.0 and t_epoch - last > gap * period:
+                s_int[i, S_COUNT] = 0
+                s_int[i, S_VERSION] += 1
         s_state[i, X_LAST] = t_epoch
         if s_int[i, S_GUARD] != 0:  # χ² on S = H P Hᵀ + κ R_nominal: adaptation cannot open it
             Hb = H[D : D + d]

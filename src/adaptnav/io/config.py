@@ -641,6 +641,8 @@ class FilterConfig(_Model):
     matching_window: Annotated[int, Field(ge=1)] = 20
     matching_floor: Positive = 0.01
     matching_residual_based: StrictBool = False
+    matching_gap_periods: Annotated[float, Field(ge=0)] | None = None
+    """MAESKF's window restarts after a sensor gap of more than this many periods; 0: never."""
     vb_alpha0: Positive = 1.0
     vb_rho: Annotated[float, Field(gt=0, le=1)] = 0.99
     vb_iterations: Annotated[int, Field(ge=1)] = 5
@@ -751,6 +753,7 @@ class MissionConfig(_Model):
         from adaptnav.filters import (
             DEFAULT_DIVERGENCE,
             DEFAULT_GUARD_PROBABILITY,
+            DEFAULT_MATCHING_GAP_PERIODS,
             DEFAULT_R_BOUNDS,
             FilterSettings,
         )
@@ -776,6 +779,11 @@ class MissionConfig(_Model):
             matching_window=f.matching_window,
             matching_floor=f.matching_floor,
             matching_residual_based=f.matching_residual_based,
+            matching_gap_periods=(
+                DEFAULT_MATCHING_GAP_PERIODS
+                if f.matching_gap_periods is None
+                else f.matching_gap_periods
+            ),
             vb_alpha0=f.vb_alpha0,
             vb_rho=f.vb_rho,
             vb_iterations=f.vb_iterations,

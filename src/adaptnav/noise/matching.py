@@ -7,7 +7,18 @@ last W accepted innovations ν (x⁻ = 0, so ν = y),
 
 floored at ``r_min = floor * nominal variance`` to stay positive definite and, beyond the
 paper, capped at ``ceiling * nominal variance`` (default inf: no cap; why a cap, noise/vb.py).
-The window ends with the current innovation. Until the window is full the nominal R is used.
+The window ends with the current innovation.
+
+Beyond the paper, an option: the window restarts after a gap in the sensor's readings longer
+than ``gap_periods`` of its nominal periods (0, the default: never, the paper). The innovations
+after a gap come with a P that has grown through it, and a window that mixes them with the
+squares from before the gap estimates R from two different filters. Until the window is full
+again the nominal R is used, as at the start. Measured with ``gap_periods = 10`` on the fault
+benchmark (3 seeds): MAESKF's RMSE ratio after a 300-s DVL dropout went from 1.19 / 1.72 to
+1.00 / 0.95 (paper-1 / paper-2) and after a 60-s frozen DVL from 1.39 / 1.38 to 1.00 / 1.03,
+but with 1 % DVL spikes on paper-2 from 0.88 to 1.87 (every simulated dropout restarts the
+window on the nominal R, too small in the noisy segments): not a clear gain, so it stays off
+(docs/robustness.md). Until the window is full the nominal R is used.
 Residual-based variant (RAE): ``R_i = diag(C_ε) + diag(H_i P⁺ H_iᵀ)`` with residuals
 ``ε = y - H dx⁺`` of the previous W updates.
 """
@@ -43,6 +54,8 @@ class CovarianceMatching:
     residual_based: bool = False
     ceiling: float = math.inf
     """Upper bound on R̂ as a factor of the nominal variance (module docstring)."""
+    gap_periods: float = 0.0
+    """Restart the window after a gap of more than this many periods; 0: never."""
     name: str = "matching"
 
     def __post_init__(self) -> None:
@@ -61,6 +74,8 @@ class CovarianceMatching:
         return MatchingState(z, z.copy(), 0, R_nominal.copy())
 
     def predict(self, state: MatchingState, dt: float, period: float) -> MatchingState:
+        if self.gap_periods > 0 and period > 0 and dt > self.gap_periods * period:
+            return MatchingState(state.squares, state.hph, 0, state.R)
         return state
 
     def current_R(self, state: MatchingState, R_nominal: Array) -> Array:
