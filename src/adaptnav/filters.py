@@ -1,4 +1,4 @@
-"""The filter kinds as settings for one engine (docs/filters.md, docs/robustness.md).
+"""The filter kinds as settings for one engine (README, docs/robustness.md).
 
 The paper's three:
 
