@@ -276,7 +276,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"σ {info['nhc']['sigma_m_s'][0]:g} and {info['nhc']['sigma_m_s'][1]:g} m/s, a model "
         "of the car rather than a recorded sensor; it also holds in the outages);",
         "- MESKF, MAESKF, VB-MAESKF and the **robust** filter (VB-MAESKF with R̂ bounded to "
-        "[0.1, 100] × nominal and the windowed NIS test, the default of `adaptnav run`) at "
+        "[0.1, 100] × nominal, the default of `adaptnav run`) at "
         "their defaults (no paper gate on GNSS; the guard every filter has, a χ² test on "
         "100 × the nominal R with its 30-s lockout, docs/robustness.md), from one initial "
         "state (parked: levelled, gyro bias from the static mean, heading carried back from "

@@ -20,17 +20,6 @@ from adaptnav.cli import app
 runner = CliRunner()
 
 
-@pytest.fixture(scope="module")
-def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The tiny mission (CSV tables), written once; tests copy it."""
-    return badinput.tiny_mission(tmp_path_factory.mktemp("tiny") / "mission")
-
-
-@pytest.fixture()
-def mission(source: Path, tmp_path: Path) -> Path:
-    return badinput.copy_mission(source, tmp_path / "mission")
-
-
 def cli(*args: Any) -> Any:
     res = runner.invoke(app, [str(a) for a in args])
     assert "Traceback" not in res.output, res.output
@@ -507,3 +496,29 @@ def test_the_oracle_on_a_mission_without_simulated_truth(mission: Path, tmp_path
         badinput.write(mission, name, badinput.read(mission, name)[["t_s", *cols]])
     line = error_line(cli("run", mission, "--filter", "oracle", "--out", tmp_path / "run"))
     assert "the oracle needs a simulated mission" in line
+
+
+def test_an_event_names_the_file_row_of_the_reading_that_triggered_it(
+    mission: Path, tmp_path: Path
+) -> None:
+    """Events index the reading that triggered them by its data row in the file, as the ledger
+    does (readings of the alignment window never reach the engine, so the engine's own index
+    is off by that many). A guard on 1 × the nominal R at p = 0.2 with a 0.5-s lockout fires
+    on this mission."""
+    toml = (mission / "mission.toml").read_text()
+    extra = "guard_probability = 0.2\nguard_headroom = 1.0\nguard_lockout_s = 0.5\n"
+    if "[filter]\n" in toml:
+        toml = toml.replace("[filter]\n", "[filter]\n" + extra)
+    else:
+        toml += "\n[filter]\n" + extra
+    (mission / "mission.toml").write_text(toml)
+    res = cli("run", mission, "--filter", "meskf", "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    events = pd.read_parquet(tmp_path / "run" / "events.parquet")
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    lockouts = events[events["event"] == "lockout"]
+    assert len(lockouts) > 0
+    for ev in lockouts.itertuples():
+        row = ledger[(ledger["sensor"] == ev.sensor) & (ledger["row"] == ev.row)]
+        assert len(row) == 1
+        assert row.iloc[0]["fate"] == "rejected" and row.iloc[0]["t_epoch"] == ev.t

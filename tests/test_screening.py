@@ -253,17 +253,6 @@ def test_bad_settings_are_errors_naming_the_key(extra: dict[str, Any], words: st
 runner = CliRunner()
 
 
-@pytest.fixture(scope="module")
-def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The tiny mission of the bad-input tests (CSV tables), written once; tests copy it."""
-    return badinput.tiny_mission(tmp_path_factory.mktemp("tiny") / "mission")
-
-
-@pytest.fixture()
-def mission(source: Path, tmp_path: Path) -> Path:
-    return badinput.copy_mission(source, tmp_path / "mission")
-
-
 FREEZE_FROM_S = 35.0
 """Under way (the alignment ends at 20 s), DVL at 3 Hz."""
 FROZEN = 45

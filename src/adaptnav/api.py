@@ -245,7 +245,13 @@ def run(
         if r["sensor"] in rows_of and r["row"] >= 0:
             r["row"] = int(rows_of[r["sensor"]][r["row"]])
         ledger.append(r)
-    out = replace(out, ledger=ledger + extra)
+    events = []
+    for ev in out.events:  # the same mapping for the reading that triggered each event
+        e = dict(ev)
+        if e["sensor"] in rows_of and e["row"] >= 0:
+            e["row"] = int(rows_of[e["sensor"]][e["row"]])
+        events.append(e)
+    out = replace(out, ledger=ledger + extra, events=events)
     meta: dict[str, Any] = {
         "mission_dir": str(m.root),
         "filter_settings": s.as_dict(),

@@ -10,8 +10,8 @@ The paper's three:
 beyond it:
 
 * ``robust``: the recommended filter for real data, the default of ``adaptnav run``: VB-MAESKF
-  whose R̂ is bounded relative to the nominal R (``r_bounds``), with the windowed NIS test of
-  the divergence guard on (:mod:`adaptnav.health`);
+  whose R̂ is bounded relative to the nominal R (``r_bounds``); the windowed NIS test of the
+  divergence guard (:mod:`adaptnav.health`) is an option (``divergence``);
 * ``oracle``: not a filter a user can run on real data, a baseline: fixed R, no gate, each
   reading given its true variance and known outliers removed (:mod:`adaptnav.oracle`).
 
@@ -59,10 +59,12 @@ DEFAULT_GUARD_PROBABILITY = 1e-6
 """The guard's false-alarm probability per reading for a consistent filter (gate.Guard)."""
 DEFAULT_R_BOUNDS: dict[str, tuple[float, float]] = {"robust": (0.1, 100.0)}
 """[floor, ceiling] of R̂ as factors of the nominal variance, per kind (noise/vb.py)."""
-DEFAULT_DIVERGENCE: dict[str, DivergenceGuard] = {
-    "robust": DivergenceGuard(nis_ratio=5.0, window=30, inflate_max=100.0)
-}
-"""The divergence guard per kind (health.py); a kind absent here runs without it."""
+DEFAULT_DIVERGENCE: dict[str, DivergenceGuard] = {}
+"""The windowed NIS test per kind (health.py); a kind absent here runs without it. None by
+default: on the adapted R it fires in the simulated trials' noise segments (robust with
+``nis_ratio = 5``: mean relative RMSE over 20 seeds 0.630 / 1.530 % against 0.541 / 1.008 %
+without, paper-1 / paper-2), though it is what holds the RTKLIB drive with a too-small Q (mean
+outage drift 345 m against 2569 m); docs/robustness.md."""
 
 
 @dataclass(frozen=True)

@@ -725,7 +725,7 @@ def _events(folder: Path, doc: Mapping[str, Any]) -> str:
         "P: <em>lockout</em> (the guard rejected every reading of a sensor for the lockout "
         "time), <em>NIS</em> (the mean NIS/d of a sensor's recent readings above its "
         "threshold), <em>covariance</em> (P lost positive definiteness and was repaired). "
-        "The windowed NIS test is the robust filter's only. The run folders' "
+        "The windowed NIS test is off unless configured. The run folders' "
         "<code>events.parquet</code> lists every event.</p>\n"
         f"{table}\n</section>"
     )

@@ -38,8 +38,9 @@ iteration is clipped to ``[r_floor, r_ceiling] × σ²_nominal`` and so is the s
 end (β clipped to ``[r_floor, r_ceiling] α σ²_nominal``). When Q is too small for the real
 motion, the innovations exceed what P predicts and an unbounded R̂ takes the excess for sensor
 noise: the filter trusts its sensors less, drifts more, and R̂ grows again (measured on the
-RTKLIB drive, docs/robustness.md). A ceiling stops that loop; the windowed NIS test
-(health.py) then sees the excess and inflates P instead. Defaults 0 and inf: the paper.
+RTKLIB drive, docs/robustness.md). A ceiling stops R̂'s part of that loop; the windowed NIS
+test (health.py), if on, then sees the excess and inflates P instead. Defaults 0 and inf: the
+paper.
 """
 
 from __future__ import annotations
