@@ -92,7 +92,7 @@ FILTER_LABELS: dict[str, str] = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
     "vb": "VB-MAESKF",
-    "robust": "robust (VB, guarded)",
+    "robust": "robust (VB, bounded R̂)",
     "oracle": "oracle ESKF (true R)",
     "floor": "DVL dead reckoning",
 }

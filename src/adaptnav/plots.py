@@ -69,7 +69,7 @@ _LABELS = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
     "vb": "VB-MAESKF",
-    "robust": "robust (VB, guarded)",
+    "robust": "robust (VB, bounded R̂)",
     "oracle": "oracle ESKF (true R)",
     "floor": "DVL dead reckoning",
 }
