@@ -22,8 +22,9 @@ from adaptnav.propagation import propagate_numpy
 from adaptnav.sensors import DVL, Depth, Inclinometer, MeasurementModel
 from adaptnav.sim import kinematics as kin
 
-PAPER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb")
-"""The paper's filters (the oracle is MESKF with known R: no speed of its own)."""
+PAPER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "robust")
+"""The paper's filters and the default one (the oracle is MESKF with known R: no speed of its
+own)."""
 TAU_F = engine.EngineConfig.specific_force_tau_s
 """F's specific-force low-pass, as the engine runs it."""
 

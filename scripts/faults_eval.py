@@ -26,8 +26,7 @@ import multiprocessing
 import os
 import sys
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,15 +35,15 @@ import pandas as pd
 from adaptnav import __version__
 from adaptnav import faultbench as fb
 from adaptnav.filters import FILTER_KINDS
+from adaptnav.pages import fmt_number as _f
 from adaptnav.pages import git_revision, markdown_table
 from adaptnav.sim.faults import ALL, FAULT_KINDS
 from adaptnav.sim.scenarios import PRESETS
-from adaptnav.sweep import LABELS
+from adaptnav.sweep import LABELS, single_threaded_children
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_JOBS = 2
 """Workers: the machine this was written for has two cores, each worker runs one filter."""
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 CASE_LABELS = {
     "depth_spike": "depth spike",
     "depth_offset": "depth +1000 m 10 s",
@@ -99,22 +98,6 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     return a
 
 
-@contextmanager
-def _single_threaded_children() -> Iterator[None]:
-    """Workers inherit one thread each for BLAS/OpenMP/Numba: one worker per core."""
-    saved = {k: os.environ.get(k) for k in THREAD_VARS}
-    for k in THREAD_VARS:
-        os.environ.setdefault(k, "1")
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def run_all(
     cache: Path,
     tasks: Sequence[tuple[str, int]],
@@ -142,7 +125,7 @@ def run_all(
             report(preset, seed, fb.run_seed(cache, preset, seed, filters, cases, keep))
         return rows
     ctx = multiprocessing.get_context("spawn")
-    with _single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+    with single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
         futures = {
             pool.submit(fb.run_seed, str(cache), preset, seed, list(filters), list(cases), keep): (
                 preset,
@@ -156,14 +139,6 @@ def run_all(
 
 
 # --- the page ----------------------------------------------------------------------------------
-
-
-def _f(v: Any, fmt: str) -> str:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return "-"
-    return "-" if not math.isfinite(x) else format(x, fmt)
 
 
 def _verdict(worst: float, target: float, failed: int = 0) -> str:

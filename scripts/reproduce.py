@@ -40,7 +40,7 @@ from adaptnav import sweep as sw
 from adaptnav.cli._app import PAPER_TABLE3
 from adaptnav.compare import NEES_BAND_TEXT
 from adaptnav.filters import DEFAULT_GATE_Q
-from adaptnav.pages import git_revision, markdown_table
+from adaptnav.pages import fmt_number, git_revision, markdown_table
 from adaptnav.sim.scenarios import PRESETS
 from adaptnav.sim.sensors import Disturbances
 
@@ -98,14 +98,6 @@ def _du(path: Path) -> int:
             with contextlib.suppress(OSError):
                 total += (Path(base) / f).stat().st_size
     return total
-
-
-def _f(v: Any, fmt: str) -> str:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return "-"
-    return "-" if not math.isfinite(x) else format(x, fmt)
 
 
 STUDENT_T_DOF = 4.0
@@ -183,19 +175,21 @@ def _models(table: pd.DataFrame, presets: Sequence[str]) -> list[str]:
                 g = ok[(ok["preset"] == preset) & (ok["config"] == tag) & (ok["filter"] == f)]
                 if g.empty:
                     continue
-                nees = " / ".join(_f(g[f"mean_nees_{b}"].mean(), ".2f") for b in NEES_BLOCKS)
+                nees = " / ".join(
+                    fmt_number(g[f"mean_nees_{b}"].mean(), ".2f") for b in NEES_BLOCKS
+                )
                 rows.append([name, LABELS.get(f, f), str(len(g)),
-                             _f(g["relative_rmse_pct"].mean(), ".3f"),
-                             _f(g["rmse_m"].mean(), ".1f"), nees])  # fmt: skip
+                             fmt_number(g["relative_rmse_pct"].mean(), ".3f"),
+                             fmt_number(g["rmse_m"].mean(), ".1f"), nees])  # fmt: skip
         g = ok[(ok["preset"] == preset) & (ok["disturbances"] != "default")]
         for f in MODEL_FILTERS:
             h = g[g["filter"] == f]
             if h.empty:
                 continue
-            nees = " / ".join(_f(h[f"mean_nees_{b}"].mean(), ".2f") for b in NEES_BLOCKS)
+            nees = " / ".join(fmt_number(h[f"mean_nees_{b}"].mean(), ".2f") for b in NEES_BLOCKS)
             rows.append(["defaults, on missions with the nominal R true", LABELS.get(f, f),
-                         str(len(h)), _f(h["relative_rmse_pct"].mean(), ".3f"),
-                         _f(h["rmse_m"].mean(), ".1f"), nees])  # fmt: skip
+                         str(len(h)), fmt_number(h["relative_rmse_pct"].mean(), ".3f"),
+                         fmt_number(h["rmse_m"].mean(), ".1f"), nees])  # fmt: skip
         if rows:
             out += [f"**{preset}**", "", markdown_table(header, rows), ""]
     return out
@@ -210,8 +204,8 @@ NEES_BLOCKS = ("position", "velocity", "attitude")
 
 def _nees_cells(r: dict[str, Any]) -> list[str]:
     """Mean over the seeds of each run's mean NEES, and of its share of epochs in the band."""
-    means = " / ".join(_f(r.get(f"mean_nees_{b}_mean"), ".2f") for b in NEES_BLOCKS)
-    shares = " / ".join(_f(100.0 * float(r.get(f"nees_{b}_in_95_mean", math.nan)), ".0f")
+    means = " / ".join(fmt_number(r.get(f"mean_nees_{b}_mean"), ".2f") for b in NEES_BLOCKS)
+    shares = " / ".join(fmt_number(100.0 * float(r.get(f"nees_{b}_in_95_mean", math.nan)), ".0f")
                         for b in NEES_BLOCKS)  # fmt: skip
     return [means, shares]
 
@@ -278,13 +272,13 @@ def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
                 [
                     LABELS.get(str(r["filter"]), str(r["filter"])),
                     str(r["n"]),
-                    f"{_f(r['rmse_m_mean'], '.1f')} ± {_f(r['rmse_m_std'], '.1f')}",
-                    _f(r["rmse_m_median"], ".1f"),
-                    f"{_f(r['rmse_m_min'], '.1f')}-{_f(r['rmse_m_max'], '.1f')}",
-                    f"{_f(r['relative_rmse_pct_mean'], '.3f')} ± "
-                    f"{_f(r['relative_rmse_pct_std'], '.3f')}",
-                    _f(pm, ".0f"),
-                    _f(pr, ".2f"),
+                    f"{fmt_number(r['rmse_m_mean'], '.1f')} ± {fmt_number(r['rmse_m_std'], '.1f')}",
+                    fmt_number(r["rmse_m_median"], ".1f"),
+                    f"{fmt_number(r['rmse_m_min'], '.1f')}-{fmt_number(r['rmse_m_max'], '.1f')}",
+                    f"{fmt_number(r['relative_rmse_pct_mean'], '.3f')} ± "
+                    f"{fmt_number(r['relative_rmse_pct_std'], '.3f')}",
+                    fmt_number(pm, ".0f"),
+                    fmt_number(pr, ".2f"),
                     *_nees_cells(r),
                 ]
             )
@@ -314,16 +308,16 @@ def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
             other = str(r["other"])
             text = (
                 f"- VB-MAESKF vs {LABELS.get(other, other)}: lower RMSE on {r['wins']:g} of "
-                f"{r['n']} seeds (win rate {_f(100 * r['win_rate'], '.0f')} %); RMSE ratio "
-                f"VB / {LABELS.get(other, other)}: median {_f(r['ratio_median'], '.2f')}, "
-                f"ratio of means {_f(r['ratio_of_means'], '.2f')}"
+                f"{r['n']} seeds (win rate {fmt_number(100 * r['win_rate'], '.0f')} %); RMSE ratio "
+                f"VB / {LABELS.get(other, other)}: median {fmt_number(r['ratio_median'], '.2f')}, "
+                f"ratio of means {fmt_number(r['ratio_of_means'], '.2f')}"
             )
             if other == "oracle":
                 text += "; " + _paired_log_ratio(mc, preset, "vb", "oracle")
             if other in means and "vb" in means and other != "oracle":
                 ours = 100.0 * (1.0 - means["vb"] / means[other])
                 word = "lower" if ours >= 0 else "higher"
-                text += f"; VB's mean relative RMSE {_f(abs(ours), '.0f')} % {word}"
+                text += f"; VB's mean relative RMSE {fmt_number(abs(ours), '.0f')} % {word}"
                 if other in paper and "vb" in paper:
                     theirs = 100.0 * (1.0 - paper["vb"][1] / paper[other][1])
                     text += f" (paper: {theirs:.0f} % lower)"
@@ -353,14 +347,14 @@ def _spread_section(
             row = [
                 LABELS.get(str(r["filter"]), str(r["filter"])) + (", gated" if best_paper else ""),
                 str(r["values"]),
-                _f(r["best_at"], "g"),
-                _f(r["best"], ".3f"),
-                _f(r["worst_at"], "g"),
-                _f(r["worst"], ".3f"),
-                _f(r["worst_over_best"], ".2f"),
+                fmt_number(r["best_at"], "g"),
+                fmt_number(r["best"], ".3f"),
+                fmt_number(r["worst_at"], "g"),
+                fmt_number(r["worst"], ".3f"),
+                fmt_number(r["worst_over_best"], ".2f"),
             ]
             if best_paper:
-                row.append(_f(PAPER_BEST_Q.get(preset, {}).get(str(r["filter"])), "g"))
+                row.append(fmt_number(PAPER_BEST_Q.get(preset, {}).get(str(r["filter"])), "g"))
             rows.append(row)
         out += [
             f"**{preset}** (relative RMSE, mean over seeds)",
@@ -374,7 +368,7 @@ def _spread_section(
             for filt, v in refs:
                 name = LABELS.get(str(filt), str(filt))
                 name += ", no gate (its default)" if filt == "vb" else " (reference)"
-                out.append(f"- {name}: {_f(v.mean(), '.3f')} % (mean of {v.size} seeds)")
+                out.append(f"- {name}: {fmt_number(v.mean(), '.3f')} % (mean of {v.size} seeds)")
             out.append("")
     return out
 

@@ -3,6 +3,7 @@ Markdown tables and the revision a page was made at."""
 
 from __future__ import annotations
 
+import math
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
@@ -13,6 +14,16 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     out += ["| " + " | ".join(r) + " |" for r in rows]
     return "\n".join(out)
+
+
+def fmt_number(value: object, fmt: str) -> str:
+    """``value`` formatted with ``fmt``, or ``-`` if it is not a finite number (a missing or
+    failed figure in a generated table)."""
+    try:
+        x = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return "-"
+    return "-" if not math.isfinite(x) else format(x, fmt)
 
 
 def git_revision(root: str | Path) -> str:

@@ -565,7 +565,7 @@ def _chunks(specs: Sequence[RunSpec], size: int) -> list[list[RunSpec]]:
 
 
 @contextmanager
-def _single_threaded_children() -> Iterator[None]:
+def single_threaded_children() -> Iterator[None]:
     """Children inherit one-thread settings for BLAS/OpenMP/Numba (one worker per core)."""
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
     for k in _THREAD_VARS:
@@ -686,7 +686,7 @@ def _run_parallel(
     waiting = list(groups)
     left = {name: len(g) for name, g in groups.items()}
     ctx = multiprocessing.get_context("spawn")
-    with _single_threaded_children(), cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+    with single_threaded_children(), cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
         pending: dict[cf.Future[Any], tuple[str, str, list[RunSpec]]] = {}
 
         def queue_runs(name: str) -> None:
