@@ -55,7 +55,7 @@ def _hashes(folder: Path) -> dict[str, str]:
 
 
 def _inject(source: Path, out: Path, case: str, seed: int = SEED) -> faults.FaultLog:
-    return faults.INJECTORS[case](source, out, np.random.default_rng(seed), SMALL)
+    return faults.inject(source, out, case, np.random.default_rng(seed), SMALL)
 
 
 def _unchanged_files(source: Path, out: Path, changed: set[str]) -> None:

@@ -239,19 +239,18 @@ def run(
     # Rows that never reached the engine are dropped, but keep their fate in the ledger; the
     # engine's own rows index its readings, so map them back to the files' data rows.
     rows_of = {name: m.sensors[name].rows[kept[name]] for name in readings}
-    ledger = []
-    for rec in out.ledger:
-        r = dict(rec)
-        if r["sensor"] in rows_of and r["row"] >= 0:
-            r["row"] = int(rows_of[r["sensor"]][r["row"]])
-        ledger.append(r)
-    events = []
-    for ev in out.events:  # the same mapping for the reading that triggered each event
-        e = dict(ev)
-        if e["sensor"] in rows_of and e["row"] >= 0:
-            e["row"] = int(rows_of[e["sensor"]][e["row"]])
-        events.append(e)
-    out = replace(out, ledger=ledger + extra, events=events)
+
+    def file_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        mapped = []
+        for rec in records:
+            r = dict(rec)
+            if r["sensor"] in rows_of and r["row"] >= 0:
+                r["row"] = int(rows_of[r["sensor"]][r["row"]])
+            mapped.append(r)
+        return mapped
+
+    # Events name the reading that triggered them: the same mapping.
+    out = replace(out, ledger=file_rows(out.ledger) + extra, events=file_rows(out.events))
     meta: dict[str, Any] = {
         "mission_dir": str(m.root),
         "filter_settings": s.as_dict(),

@@ -48,9 +48,6 @@ from adaptnav.sensors.base import MeasurementModel
 
 FilterKind = Literal["meskf", "maeskf", "vb", "robust", "oracle"]
 FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
-PAPER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb")
-DEFAULT_KIND: FilterKind = "robust"
-"""What ``adaptnav run`` and a mission without ``[filter] kind`` use."""
 DEFAULT_GATE_Q: dict[str, float] = {"meskf": 600.0, "maeskf": 1800.0}
 DEFAULT_MATCHING_GAP_PERIODS = 0.0
 """MAESKF's window restarts after a sensor gap of more than this many periods (0: never, the

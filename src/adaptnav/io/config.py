@@ -750,26 +750,24 @@ class MissionConfig(_Model):
 
     def filter_settings(self) -> FilterSettings:
         """The engine's :class:`adaptnav.filters.FilterSettings` of ``[filter]``."""
-        from adaptnav.filters import (
-            DEFAULT_DIVERGENCE,
-            DEFAULT_GUARD_PROBABILITY,
-            DEFAULT_MATCHING_GAP_PERIODS,
-            DEFAULT_R_BOUNDS,
-            FilterSettings,
-        )
-        from adaptnav.gate import DEFAULT_HEADROOM, DEFAULT_LOCKOUT_S
+        from adaptnav.filters import DEFAULT_DIVERGENCE, DEFAULT_R_BOUNDS, FilterSettings
         from adaptnav.health import DivergenceGuard
 
         f = self.filter
         divergence = dict(DEFAULT_DIVERGENCE)
         for k, d in (f.divergence or {}).items():
             divergence[k] = DivergenceGuard(d.nis_ratio, d.window, d.inflate_max)
-        guard_p = f.guard_probability
+        # Keys left out of [filter] keep FilterSettings' own defaults.
+        optional = (
+            "guard_probability",
+            "guard_headroom",
+            "guard_lockout_s",
+            "matching_gap_periods",
+        )
+        given = {k: v for k in optional if (v := getattr(f, k)) is not None}
         return FilterSettings(
             kind=f.kind,
-            guard_probability=DEFAULT_GUARD_PROBABILITY if guard_p is None else guard_p,
-            guard_headroom=f.guard_headroom or DEFAULT_HEADROOM,
-            guard_lockout_s=(DEFAULT_LOCKOUT_S if f.guard_lockout_s is None else f.guard_lockout_s),
+            **given,
             r_bounds={**DEFAULT_R_BOUNDS, **(f.r_bounds or {})},
             divergence=divergence,
             gate_rule=f.gate_rule,
@@ -779,11 +777,6 @@ class MissionConfig(_Model):
             matching_window=f.matching_window,
             matching_floor=f.matching_floor,
             matching_residual_based=f.matching_residual_based,
-            matching_gap_periods=(
-                DEFAULT_MATCHING_GAP_PERIODS
-                if f.matching_gap_periods is None
-                else f.matching_gap_periods
-            ),
             vb_alpha0=f.vb_alpha0,
             vb_rho=f.vb_rho,
             vb_iterations=f.vb_iterations,

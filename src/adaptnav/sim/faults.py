@@ -1,6 +1,6 @@
 """Sensor faults injected into a simulated mission: the benchmark of issue 12 (docs/faults.md).
 
-Each injector takes a mission folder (as written by ``adaptnav simulate``, or any mission with a
+:func:`inject` takes a mission folder (as written by ``adaptnav simulate``, or any mission with a
 DVL and a depth sensor, CSV or Parquet) and writes a **faulted copy** to a new folder: every file
 copied as it is, except the tables of the faulted sensors, and a ``faults.json`` that says what
 was injected where. The IMU, the truth and ``mission.toml`` are untouched, so a faulted run is
@@ -38,7 +38,7 @@ import json
 import math
 import os
 import shutil
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
@@ -63,12 +63,6 @@ __all__ = [
     "FaultLog",
     "FaultParams",
     "Injected",
-    "all_faults",
-    "depth_offset",
-    "depth_spike",
-    "dvl_dropout",
-    "dvl_spikes",
-    "dvl_stuck",
     "inject",
     "layout",
     "plan",
@@ -574,61 +568,3 @@ def _write_copy(src: Path, dst: Path, changed: Mapping[str, pd.DataFrame], log: 
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-
-
-# --- one function per fault --------------------------------------------------------------------
-
-Injector = Callable[..., FaultLog]
-
-
-def depth_spike(
-    source: str | Path, out: str | Path, rng: np.random.Generator, params: FaultParams | None = None
-) -> FaultLog:
-    """One depth reading + ``depth_spike_m`` (1000 m): :func:`inject` with ``depth_spike``."""
-    return inject(source, out, "depth_spike", rng, params)
-
-
-def depth_offset(
-    source: str | Path, out: str | Path, rng: np.random.Generator, params: FaultParams | None = None
-) -> FaultLog:
-    """``depth_offset_s`` (10 s) of depth + ``depth_offset_m`` (1000 m): :func:`inject`."""
-    return inject(source, out, "depth_offset", rng, params)
-
-
-def dvl_stuck(
-    source: str | Path, out: str | Path, rng: np.random.Generator, params: FaultParams | None = None
-) -> FaultLog:
-    """``dvl_stuck_s`` (60 s) of DVL readings equal to the window's first: :func:`inject`."""
-    return inject(source, out, "dvl_stuck", rng, params)
-
-
-def dvl_dropout(
-    source: str | Path, out: str | Path, rng: np.random.Generator, params: FaultParams | None = None
-) -> FaultLog:
-    """``dvl_dropout_s`` (300 s) of DVL rows removed: :func:`inject` with ``dvl_dropout``."""
-    return inject(source, out, "dvl_dropout", rng, params)
-
-
-def dvl_spikes(
-    source: str | Path, out: str | Path, rng: np.random.Generator, params: FaultParams | None = None
-) -> FaultLog:
-    """Spikes of ± U(1, 3) m/s on 1 % of the DVL readings: :func:`inject` with ``dvl_spikes``."""
-    return inject(source, out, "dvl_spikes", rng, params)
-
-
-def all_faults(
-    source: str | Path, out: str | Path, rng: np.random.Generator, params: FaultParams | None = None
-) -> FaultLog:
-    """Every fault at once, in disjoint windows: :func:`inject` with ``all``."""
-    return inject(source, out, ALL, rng, params)
-
-
-INJECTORS: dict[str, Injector] = {
-    "depth_spike": depth_spike,
-    "depth_offset": depth_offset,
-    "dvl_stuck": dvl_stuck,
-    "dvl_dropout": dvl_dropout,
-    "dvl_spikes": dvl_spikes,
-    ALL: all_faults,
-}
-"""Case name → its injector."""
