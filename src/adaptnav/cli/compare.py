@@ -27,9 +27,9 @@ from adaptnav.cli._app import FILTER_LABELS, Force, app, console, err_console, f
 if TYPE_CHECKING:
     from adaptnav.compare import Comparison
 
-DEFAULT_CLI_FILTERS = "meskf,maeskf,vb"
-"""The paper's three; ``oracle`` needs a simulated mission and ``floor`` a reference attitude,
-so both are asked for by name."""
+DEFAULT_CLI_FILTERS = "meskf,maeskf,vb,robust"
+"""The paper's three and the default one; ``oracle`` needs a simulated mission and ``floor`` a
+reference attitude, so both are asked for by name."""
 
 
 def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
@@ -87,7 +87,9 @@ def compare_cmd(
     mission_dir: Annotated[Path, typer.Argument(help="mission folder (mission.toml + tables)")],
     filters: Annotated[
         str,
-        typer.Option("--filters", "-f", help="comma-separated: meskf, maeskf, vb, oracle, floor"),
+        typer.Option(
+            "--filters", "-f", help="comma-separated: meskf, maeskf, vb, robust, oracle, floor"
+        ),
     ] = DEFAULT_CLI_FILTERS,
     out: Annotated[Path, typer.Option("--out", "-o", help="comparison folder to write")] = Path(
         "runs/compare"

@@ -302,7 +302,7 @@ def seeds_cmd(
     seeds: Annotated[str, typer.Option(help="seeds: 1-20, 1,3,8 or 1-3,10")] = "1-20",
     filters: Annotated[
         str, typer.Option(help="filters, comma-separated (oracle: where available)")
-    ] = "meskf,maeskf,vb,oracle",
+    ] = "meskf,maeskf,vb,robust,oracle",
     cache: Cache = DEFAULT_CACHE,
     out: Out = None,
     jobs: Jobs = None,
