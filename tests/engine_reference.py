@@ -31,6 +31,7 @@ from adaptnav.engine import (
 from adaptnav.errorstate import N_STATES
 from adaptnav.gate import Gate, Guard, apply_gate
 from adaptnav.kalman import innovation_covariance
+from adaptnav.noise import process
 from adaptnav.noise.base import Block
 from adaptnav.strapdown import NOM_SIZE
 
@@ -79,7 +80,10 @@ class Navigator:
         if self.x.shape != (NOM_SIZE,) or self.P.shape != (N_STATES, N_STATES):
             raise ValueError(f"x0 must be ({NOM_SIZE},), P0 ({N_STATES}, {N_STATES})")
         self.t = float(t0)
-        self._q = errorstate.noise_psd(config.imu_noise)
+        self._q_nominal = errorstate.noise_psd(config.imu_noise)
+        self._q = self._q_nominal.copy()
+        self._beta = self._beta_event = 1.0  # Q's scale, and at the last q_scale event
+        self._white = [process.WhitenessState()] * len(channels)
         self._tau_a = float(config.imu_noise.accel_bias_tau)
         self._tau_g = float(config.imu_noise.gyro_bias_tau)
         # The current IMU interval: [t_start, t_start + dt], rates, and how far we are into it.
@@ -316,12 +320,31 @@ class Navigator:
                     self.P = self.P * k
                     self._event(i, row, t_epoch, "nis", mean, dg.nis_ratio, k)
                     self._nis[i] = (0.0, 0.0)
+            if self.config.q_adaptation is not None:
+                self._adapt_q(i, row, t_epoch, b.y, np.diag(S_i))
+
+    def _adapt_q(self, i: int, row: int, t: float, y: Array, S_diag: Array) -> None:
+        """Q adaptation after a used reading of sensor i (noise/process.py)."""
+        qa = self.config.q_adaptation
+        assert qa is not None
+        self._white[i], beta = process.whiteness_step(
+            qa, self._white[i], self._beta, t, self.channels[i].period, y, S_diag
+        )
+        if beta != self._beta:
+            self._beta = beta
+            self._q = self._q_nominal.copy()
+            self._q[:6] *= beta
+        last = self._beta_event
+        if beta >= process.EVENT_STEP * last or beta * process.EVENT_STEP <= last:
+            self._beta_event = beta
+            w = self._white[i]
+            self._event(i, row, t, "q_scale", w.c1 / w.c0, qa.target, beta)
 
     def _lockout(
         self, guard: Guard, i: int, row: int, t: float, stat: float, q: float, W: Array, R: Array
     ) -> None:
         """The guard rejected sensor i's reading: start its lockout clock, or inflate P if it
-        has run for ``lockout_s`` (health.py)."""
+        has run for ``lockout_s``; the clock runs on until a reading passes (health.py)."""
         since = self._rejected_since[i]
         if math.isnan(since):
             self._rejected_since[i] = t
@@ -333,7 +356,6 @@ class Navigator:
         )
         self.P = self.P * k
         self._event(i, row, t, "lockout", t - since, guard.lockout_s, k)
-        self._rejected_since[i] = math.nan
 
     def _event(
         self,
@@ -422,6 +444,7 @@ class Navigator:
             self.P.copy(),
             P_cross=np.asarray(r.sol_cross).reshape(-1, 9),
             events=list(r.events),
+            q_scale=self._beta,
         )
 
 

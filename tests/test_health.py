@@ -218,6 +218,25 @@ def test_a_locked_out_filter_inflates_its_covariance_and_recovers() -> None:
     assert sum(r["fate"] == "rejected" for r in dvl) > 0.5 * len(dvl)
 
 
+def test_a_lockout_lasts_until_a_reading_passes() -> None:
+    """A divergence larger than one lockout step (cap 3 here) is caught up at the sensor's
+    rate, not one step per lockout_s: on the RTKLIB drive with the published IMU noise, one
+    step per 30 s left MESKF 5 km off at the end of an outage (docs/robustness.md). Before
+    this, the second step came 5 s after the first and the DVL was back after ~11 s."""
+    ds = synthetic.make(24, duration=30.0, sensors=("dvl", "depth"))
+    x0, P0 = _overconfident(ds)
+    out = _run(ds, ds.readings, FixedNoise(), Guard(1e-6, lockout_s=5.0, lockout_max=3.0),
+               P0=P0, x0=x0)  # fmt: skip
+    steps = [e["t"] - ds.t0 for e in out.events if e["event"] == "lockout"]
+    assert len(steps) >= 2 and 5.0 <= steps[0] < 6.0
+    period = synthetic.periods()["dvl"]
+    assert np.allclose(np.diff(steps), period, rtol=0.05)  # one step per rejected reading
+    dvl = [r for r in out.ledger if r["sensor"] == "dvl"]
+    back = min(r["t"] for r in dvl if r["fate"] == "used") - ds.t0
+    assert back < steps[-1] + 1.05 * period  # the reading after the last step
+    assert all(r["fate"] == "used" for r in dvl if r["t"] - ds.t0 > back)
+
+
 def test_a_covariance_that_is_not_positive_definite_is_repaired_not_raised() -> None:
     """Issue 12: depth 1e300 ended in a LinAlgError traceback. Here P0 is indefinite in the
     velocity block, so the first DVL update's S is not positive definite."""

@@ -35,6 +35,7 @@ from adaptnav.noise import (
     VariationalBayes,
     VBState,
 )
+from adaptnav.noise.process import QAdaptation
 from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
 from adaptnav.sensors.base import Measurement
 from adaptnav.sensors.inclinometer import PendulumInclinometer
@@ -575,3 +576,22 @@ def test_engine_refuses_a_strategy_without_compiled_update() -> None:
     chans = [engine.SensorChannel(Depth(0.1), 1.0, Custom())]
     with pytest.raises(TypeError, match="no compiled update"):
         engine.Navigator(engine.EngineConfig(synthetic.NOISE), chans, np.zeros(16), np.eye(15), 0.0)
+
+
+@pytest.mark.parametrize("kind", ["meskf", "vbt"])
+def test_q_adaptation_equals_the_readable_engine(kind: str) -> None:
+    """The IMU noisier than Q says (30× in σ) so that β moves and q_scale events fire."""
+    ds, readings = _mission(17)
+    rng = np.random.default_rng(17)
+    sd = np.sqrt(np.broadcast_to(ds.dt, ds.dvel.shape[:1]))[:, None]
+    dvel = ds.dvel + rng.normal(0.0, 30 * synthetic.NOISE.vrw * sd, ds.dvel.shape)
+    dth = ds.dtheta + rng.normal(0.0, 30 * synthetic.NOISE.arw * sd, ds.dtheta.shape)
+    qa = QAdaptation(gain=0.5, target=0.2, window=5)
+    cfg = engine.EngineConfig(synthetic.NOISE, output_every=7, q_adaptation=qa)
+    args = (ds.x0_hat, ds.P0, ds.t0, ds.imu_t, ds.dt, dth, dvel, readings)
+    out = engine.run_batch(cfg, _channels(kind, ds, kind == "vbt"), *args)
+    ref = engine_reference.run_batch(cfg, _channels(kind, ds, kind == "vbt"), *args)
+    assert ref.q_scale > 2.0
+    assert "q_scale" in {e["event"] for e in ref.events}
+    _assert_rel(np.array([out.q_scale]), np.array([ref.q_scale]), 1e-9)
+    _compare(out, ref)

@@ -218,8 +218,9 @@ def run(
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     imu_t, imu_dt = m.imu.t[nav_from:], m.imu.dt[nav_from:]
     config = engine.EngineConfig(
-        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard()
-    )
+        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
+        q_adaptation=s.q_adaptation,
+    )  # fmt: skip
     if cfg.filter.specific_force_tau_s is not None:
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
     try:
@@ -261,6 +262,7 @@ def run(
             else {}
         ),
         "imu_samples": int(imu_t.size),
+        "q_scale_final": out.q_scale,
         "elapsed_s": elapsed,
         "imu_samples_per_s": imu_t.size / elapsed if elapsed > 0 else math.nan,
         **init_info,

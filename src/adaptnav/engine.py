@@ -73,6 +73,7 @@ from adaptnav.noise import (
     VBState,
 )
 from adaptnav.noise.base import NoiseStrategy
+from adaptnav.noise.process import QAdaptation
 from adaptnav.sensors.base import MeasurementModel
 from adaptnav.strapdown import NOM_SIZE
 
@@ -117,6 +118,8 @@ _EVENTS: dict[int, tuple[str, str]] = {
     uk.EVENT_LOCKOUT: ("lockout", "every reading rejected by the guard for the lockout time: "
                        "P inflated"),
     uk.EVENT_SINGULAR: ("covariance", "P not positive definite: repaired"),
+    uk.EVENT_Q: ("q_scale", "innovations correlated: the IMU white noise in Q scaled by "
+                 "the factor"),
 }  # fmt: skip
 _KINDS: dict[type, int] = {
     FixedNoise: uk.KIND_FIXED,
@@ -162,6 +165,9 @@ class EngineConfig:
     alignment claims a heading σ it does not have (tests/test_align.py)."""
     divergence: DivergenceGuard = OFF
     """The windowed NIS test (health.py); off here, set by the filter settings."""
+    q_adaptation: QAdaptation | None = None
+    """Q scaled by the whiteness of the innovations (noise/process.py); None: the
+    configured Q throughout (here; the filter settings turn it on)."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
@@ -204,6 +210,8 @@ class EngineOutput:
     P_cross: Array = field(kw_only=True)  # (N, 9)
     events: list[dict[str, Any]] = field(kw_only=True, default_factory=list)
     """The divergence guard's events (keys :data:`EVENT_KEYS`, health.py), in time order."""
+    q_scale: float = field(kw_only=True, default=1.0)
+    """β at the end: the factor on the IMU white-noise PSDs of Q (noise/process.py)."""
 
 
 def cross_terms(P: Array) -> Array:
@@ -303,6 +311,11 @@ def _advance(
     inv_tau = (1.0 / tau_a, 1.0 / tau_g)
     T_last, decay = -1.0, (1.0, 1.0, 0.0)
     f_lp = rates[uk.R_F_LP]
+    beta = rates[uk.R_Q, 0]
+    if beta != 1.0:  # Q adaptation (noise/process.py): β on the white-noise PSDs
+        q_psd = q_psd.copy()
+        for c in range(6):
+            q_psd[c] *= beta
     status = _ADVANCE_DONE
     last = -1  # end of the run of whole intervals under way (-1: none)
     while True:
@@ -519,6 +532,7 @@ class Navigator:
         self._cur[uk.C_T] = self._cur[uk.C_T_START] = float(t0)
         self._rates = np.zeros((uk.N_RATES, 3))
         self._rates[uk.R_F_LP] = math.nan  # starts at the first step's specific force
+        self._rates[uk.R_Q, :2] = 1.0  # β and β at the last q_scale event
         self._tau_f = config.specific_force_tau_s
         if config.at_rest:  # held at -g_n: decay exp(-T/inf) = 1
             self._rates[uk.R_F_LP] = -earth.gravity_n(self.x[0], self.x[2])
@@ -578,6 +592,11 @@ class Navigator:
             dg = self.config.divergence
             sf[uk.F_DIV_NIS] = dg.nis_ratio
             sf[uk.F_DIV_WINDOW], sf[uk.F_INFLATE_MAX] = dg.window, dg.inflate_max
+            sx[uk.X_WT] = math.nan
+            qa = self.config.q_adaptation
+            if qa is not None:
+                sf[uk.F_QA_GAIN], sf[uk.F_QA_TARGET] = qa.gain, qa.target
+                sf[uk.F_QA_MAX], sf[uk.F_QA_WINDOW] = qa.beta_max, qa.window
             sx[uk.X_REJ_SINCE] = math.nan
             sf[uk.F_RMIN], sf[uk.F_RMAX] = 0.0, math.inf
             if ch.gate is not None:
@@ -964,6 +983,7 @@ class Navigator:
             self.P.copy(),
             P_cross=self._out_p[:n, N_STATES:].copy(),
             events=self._events(),
+            q_scale=float(self._rates[uk.R_Q, 0]),
         )
 
 

@@ -17,9 +17,11 @@ beyond it:
 
 Every kind has the **guard** (:class:`~adaptnav.gate.Guard`) on every sensor by default: a χ²
 test on the whole innovation with the nominal R (times a headroom), for gross errors, with its
-lockout (P inflated when it has rejected a sensor for ``guard_lockout_s``);
-``guard_probability = 0`` turns it off, and the paper's three filters are then exactly the
-paper's.
+lockout (P inflated when it has rejected a sensor for ``guard_lockout_s``), and **Q
+adaptation** (:mod:`adaptnav.noise.process`): the IMU white noise in Q scaled up when the
+innovations are correlated, the sign of a Q too small. ``guard_probability = 0`` and
+``q_adaptation = None`` (``q_adaptation = false`` in a mission) turn them off, and the paper's
+three filters are then exactly the paper's.
 
 Default gate coefficients are the paper's best on its trajectory No. 1 (q = 600 for MESKF,
 1800 for MAESKF; Fig. 4); the paper gives no ρ, N or α0, so ours are stated choices: ρ = 0.99
@@ -44,6 +46,7 @@ from adaptnav.gate import (
 )
 from adaptnav.health import OFF, DivergenceGuard
 from adaptnav.noise import CovarianceMatching, FixedNoise, NoiseStrategy, VariationalBayes
+from adaptnav.noise.process import QAdaptation
 from adaptnav.sensors.base import MeasurementModel
 
 FilterKind = Literal["meskf", "maeskf", "vb", "robust", "oracle"]
@@ -108,6 +111,9 @@ class FilterSettings:
     r_bounds: dict[str, tuple[float, float]] = field(default_factory=lambda: dict(DEFAULT_R_BOUNDS))
     """Bounds on R̂ per kind (maeskf: its ceiling only, the floor is ``matching_floor``)."""
     divergence: dict[str, DivergenceGuard] = field(default_factory=lambda: dict(DEFAULT_DIVERGENCE))
+    q_adaptation: QAdaptation | None = field(default_factory=QAdaptation)
+    """Q scaled by the whiteness of the innovations (noise/process.py), every kind; None:
+    the configured Q throughout (the paper)."""
 
     def __post_init__(self) -> None:
         if self.kind not in FILTER_KINDS:
@@ -141,8 +147,10 @@ class FilterSettings:
 
     def as_dict(self) -> dict[str, Any]:
         """These settings as JSON values (a run's ``meta.filter_settings``)."""
-        out = {k: v for k, v in self.__dict__.items() if k != "divergence"}
+        out = {k: v for k, v in self.__dict__.items() if k not in ("divergence", "q_adaptation")}
         out["divergence"] = {k: asdict(v) for k, v in self.divergence.items()}
+        qa = self.q_adaptation
+        out["q_adaptation"] = asdict(qa) if qa is not None else None
         return out
 
     def divergence_guard(self) -> DivergenceGuard:

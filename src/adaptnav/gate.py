@@ -78,8 +78,8 @@ class Guard:
 
     A guard that rejects everything a sensor says for ``lockout_s`` seconds has most likely
     locked the filter out of its own correction (P too small, the state gone wrong): the
-    filter then inflates P, at most ``lockout_max`` times per lockout (the lockout of
-    :mod:`adaptnav.health`; 0 s: never).
+    filter then inflates P, at most ``lockout_max`` times per rejected reading, until a
+    reading passes (the lockout of :mod:`adaptnav.health`; 0 s: never).
     """
 
     probability: float

@@ -11,7 +11,9 @@ exception or silence:
   that long is what the load-time checks catch (plausibility limits, stuck readings, lost
   bottom lock), so the filter is the likelier culprit: P ← k P with k from
   :func:`lockout_factor` (at most the guard's ``lockout_max``), the reading that triggered it
-  still rejected, the count restarted.
+  still rejected. The sensor stays locked out until one of its readings passes: each further
+  rejection inflates P again, so a drift larger than one step's cap is caught up within a few
+  readings (not one cap per ``lockout_s``, which left a car 10 km off after a GNSS outage).
 * **Windowed NIS**: per sensor, the mean of ``NIS/d`` over its last ``window`` used readings
   (``NIS = yᵀ S⁻¹ y`` with the R used; its mean is 1 for a consistent filter). Above
   ``nis_ratio``: P ← k P with k the mean (at most ``inflate_max``). With an adaptive R this

@@ -72,6 +72,7 @@ from adaptnav.kernels import (
     jit,
     jit_inline,
 )
+from adaptnav.noise.process import EVENT_STEP, GAP_PERIODS
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
@@ -110,11 +111,13 @@ F_GUARD_Q, F_LOCKOUT_S = 35, 36  # the guard's χ² threshold; lockout time (0: 
 F_DIV_NIS, F_DIV_WINDOW, F_INFLATE_MAX = 37, 38, 39  # the windowed NIS test (health.py)
 F_GUARD_K, F_LOCKOUT_MAX = 40, 41  # the guard's headroom κ on the nominal R; lockout's cap
 F_GAP = 42  # matching: restart the window after a gap of this many periods (0: never)
-N_SFLT = 43
+F_QA_GAIN, F_QA_TARGET, F_QA_MAX, F_QA_WINDOW = 43, 44, 45, 46  # Q adaptation (noise/process)
+N_SFLT = 47
 # s_state: float64 adaptation state: last epoch, VB α and β, matching R̂ (3×3 row-major)
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
 X_NIS, X_NIS_N, X_REJ_SINCE = 16, 17, 18  # mean NIS/d over the window, its count; lockout start
-N_SSTATE = 19
+X_WC0, X_WC1, X_WPREV, X_WT, X_WN = 19, 20, 21, 24, 25  # whiteness: c0, c1, last ν̃, its t, pairs
+N_SSTATE = 26
 # rings (sensors, 2, W_max, 3): [.., 0] squared innovations/residuals, [.., 1] diag(H P⁺ Hᵀ)
 
 GATE_NONE, GATE_COMPONENT, GATE_CHI2 = 0, 1, 2
@@ -136,7 +139,7 @@ LEDGER_REJECTED_COMPONENT = GATE_COMPONENT
 LEDGER_REJECTED_CHI2 = GATE_CHI2
 LEDGER_DUPLICATE, LEDGER_INVALID, LEDGER_LATE, LEDGER_AFTER_IMU = 3, 4, 5, 6
 LEDGER_REJECTED_GUARD, LEDGER_REJECTED_SINGULAR = 7, 8
-EVENT_NIS, EVENT_LOCKOUT, EVENT_SINGULAR = 20, 21, 22
+EVENT_NIS, EVENT_LOCKOUT, EVENT_SINGULAR, EVENT_Q = 20, 21, 22, 23
 """Codes >= EVENT_NIS are filter events (health.py), not readings' fates: their row holds the
 reading that triggered them, the test statistic, its threshold and the factor P was inflated by."""
 
@@ -145,7 +148,8 @@ reading that triggered them, the test statistic, its threshold and the factor P 
 C_T, C_T_START, C_DT, C_OFFSET = 0, 1, 2, 3
 N_CUR = 4
 R_W_PREV, R_F_PREV, R_W_CUR, R_F_CUR, R_F_LP = 0, 1, 2, 3, 4
-N_RATES = 5
+R_Q = 5  # [β, β at the last EVENT_Q, -]: the scale of the white-noise PSDs in Q (noise/process)
+N_RATES = 6
 """Rows of ``rates``: the raw mean rates, and the low-passed specific force of F."""
 
 
@@ -1271,6 +1275,9 @@ def epoch(
         i = blk[0, b]
         n_ledger = _nis_window(P, s_flt[i], s_state[i], t_epoch, nis / d, lg_int, lg_flt,
                                n_ledger, blk[1, b])  # fmt: skip
+        if s_flt[i, F_QA_GAIN] > 0.0:
+            n_ledger = _whiteness(rates, s_flt[i], s_state[i], t_epoch, W, y, o, d, lg_int,
+                                  lg_flt, n_ledger, blk[1, b])  # fmt: skip
     return n_ledger
 
 
@@ -1332,8 +1339,10 @@ def _lockout(
     """After a guard rejection: a sensor rejected at every epoch for ``F_LOCKOUT_S`` or more
     means the filter, not the sensor, has most likely gone wrong (a sensor fault that long is
     what stuck-reading and plausibility checks catch): P is inflated so that this reading
-    would pass (:func:`lockout_factor`), an EVENT_LOCKOUT row written and the count restarted.
-    Returns the ledger length."""
+    would pass (:func:`lockout_factor`) and an EVENT_LOCKOUT row written. The sensor stays
+    locked out until one of its readings passes (which clears ``X_REJ_SINCE``): each further
+    rejection inflates P again, so a divergence larger than one step's cap is caught up at the
+    sensor's rate, not one cap per ``F_LOCKOUT_S``. Returns the ledger length."""
     since = sx[X_REJ_SINCE]
     if math.isnan(since):
         sx[X_REJ_SINCE] = t
@@ -1344,7 +1353,6 @@ def _lockout(
     k = lockout_factor(stat, q, w_tr, r_tr, sf[F_LOCKOUT_MAX])
     _inflate(P, k)
     _event(lg_int, lg_flt, n_ledger, idx, EVENT_LOCKOUT, t, t - since, lockout, k)
-    sx[X_REJ_SINCE] = math.nan
     return n_ledger + 1
 
 
@@ -1380,6 +1388,56 @@ def _nis_window(
     sx[X_NIS] = 0.0
     sx[X_NIS_N] = 0.0
     return n_ledger + 1
+
+
+@jit_inline
+def _whiteness(
+    rates: Array,
+    sf: Array,
+    sx: Array,
+    t: float,
+    W: Array,
+    y: Array,
+    o: int,
+    d: int,
+    lg_int: IntArray,
+    lg_flt: Array,
+    n_ledger: int,
+    idx: int,
+) -> int:
+    """Q adaptation after a used reading (twin of noise.process.whiteness_step): the running
+    means c0, c1 of the normalised innovation ``y_j / sqrt(W_jj)`` (W: S with the prior P and
+    the R used, rows ``o..o+d``) over consecutive readings, then ``β ← clip(β exp(g (c1/c0 -
+    ρ₀)), 1, β_max)`` in ``rates[R_Q, 0]``; an EVENT_Q row when β has moved by EVENT_STEP
+    since the last one. Returns the ledger length."""
+    paired = not math.isnan(sx[X_WT]) and t - sx[X_WT] <= GAP_PERIODS * sf[F_PERIOD]
+    c0 = 0.0
+    c1 = 0.0
+    for j in range(d):
+        v = y[o + j] / math.sqrt(W[o + j, o + j])
+        c0 += v * v
+        c1 += v * sx[X_WPREV + j]
+        sx[X_WPREV + j] = v
+    sx[X_WT] = t
+    if not paired:
+        return n_ledger
+    pairs = sx[X_WN] + 1.0
+    sx[X_WN] = pairs
+    m = min(pairs, sf[F_QA_WINDOW])
+    sx[X_WC0] += (c0 - sx[X_WC0]) / m
+    sx[X_WC1] += (c1 - sx[X_WC1]) / m
+    if pairs < sf[F_QA_WINDOW] or not sx[X_WC0] > 0.0:
+        return n_ledger
+    rho = sx[X_WC1] / sx[X_WC0]
+    beta = rates[R_Q, 0] * math.exp(sf[F_QA_GAIN] * (rho - sf[F_QA_TARGET]))
+    beta = min(max(beta, 1.0), sf[F_QA_MAX])
+    rates[R_Q, 0] = beta
+    last = rates[R_Q, 1]
+    if beta >= EVENT_STEP * last or beta * EVENT_STEP <= last:
+        rates[R_Q, 1] = beta
+        _event(lg_int, lg_flt, n_ledger, idx, EVENT_Q, t, rho, sf[F_QA_TARGET], beta)
+        return n_ledger + 1
+    return n_ledger
 
 
 # --- one propagation (sub)step, for the engine's compiled loop --------------------------------

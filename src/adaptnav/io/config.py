@@ -32,6 +32,7 @@ from pydantic import (
 
 from adaptnav.attitude import euler_to_dcm
 from adaptnav.imu_noise import FIELD_KINDS, ImuNoise
+from adaptnav.noise.process import QAdaptation
 from adaptnav.units import DEG, Kind, UnitError, to_si
 
 if TYPE_CHECKING:
@@ -624,6 +625,20 @@ class DivergenceConfig(_Model):
         return self
 
 
+class QAdaptationConfig(_Model):
+    """``[filter] q_adaptation = { ... }``: :class:`adaptnav.noise.process.QAdaptation`; a
+    key left out keeps its default there."""
+
+    gain: Positive | None = None
+    target: Annotated[float, Field(ge=0, lt=1)] | None = None
+    beta_max: Annotated[float, Field(ge=1)] | None = None
+    window: Annotated[int, Field(ge=2)] | None = None
+
+    def settings(self) -> QAdaptation:
+        given = {k: v for k, v in self.model_dump().items() if v is not None}
+        return QAdaptation(**given)
+
+
 class FilterConfig(_Model):
     """``[filter]``: the fields of :class:`adaptnav.filters.FilterSettings` plus output rate.
     A field left out (None) takes its default from :mod:`adaptnav.filters`."""
@@ -663,6 +678,10 @@ class FilterConfig(_Model):
     """``{kind = [floor, ceiling]}``: bounds on R̂ as factors of the nominal variance."""
     divergence: dict[str, DivergenceConfig] | None = None
     """``{kind = {nis_ratio, window, inflate_max}}``: the windowed NIS test (health.py)."""
+    q_adaptation: StrictBool | QAdaptationConfig | None = None
+    """Q scaled by the whiteness of the innovations (noise/process.py): ``false`` off (the
+    paper's filters), ``true`` or left out: on with its defaults, ``{gain, target, beta_max,
+    window}``: on with these."""
 
     @field_validator("r_bounds", "divergence")
     @classmethod
@@ -765,6 +784,10 @@ class MissionConfig(_Model):
             "matching_gap_periods",
         )
         given = {k: v for k in optional if (v := getattr(f, k)) is not None}
+        if f.q_adaptation is False:
+            given["q_adaptation"] = None
+        elif isinstance(f.q_adaptation, QAdaptationConfig):
+            given["q_adaptation"] = f.q_adaptation.settings()
         return FilterSettings(
             kind=f.kind,
             **given,
