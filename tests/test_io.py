@@ -650,6 +650,53 @@ def test_dvl_zero_reading_is_a_lost_lock_when_asked(tmp_path: Path) -> None:
     assert "only a dvl" in str(_config_error(lambda c: c.update(d)))
 
 
+@pytest.mark.parametrize(
+    ("cells", "fmt"),
+    [([1, 1, 0, 1, 0], "csv"), (["true", "true", "false", "true", "false"], "csv"),
+     ([True, True, False, True, False], "parquet"), ([1.0, 1.0, 0.0, 1.0, 0.0], "parquet")],
+)  # fmt: skip
+def test_dvl_status_column_drops_lost_lock_readings(
+    tmp_path: Path, cells: list[Any], fmt: str
+) -> None:
+    """A DVL's own bottom-lock flag (status_column): each reading flagged lost is dropped
+    with that reason and its fate reaches the run's ledger; a status that is neither 1/0 nor
+    true/false, or missing, is an error naming the line and the field."""
+    dvl = dvl_table()
+    dvl["bottom_lock"] = cells
+    d = config_dict()
+    d["sensors"]["dvl"]["file"] = f"dvl.{fmt}"
+    d["sensors"]["dvl"]["status_column"] = "bottom_lock"
+    d["initial"] = {"mode": "state", "lat_deg": 10.0, "lon_deg": 20.0, "rpy_deg": [0, 0, 0]}
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), f"dvl.{fmt}": dvl})
+    m = load_mission(root)
+    np.testing.assert_array_equal(m.sensors["dvl"].rows, [0, 1, 3])
+    assert [(x.row, x.reason) for x in m.dropped] == [
+        (r, "DVL bottom lock lost: bottom_lock = 0 (status_column)") for r in (2, 4)
+    ]
+    ledger = api.run(m, "meskf").ledger
+    fates = ledger[ledger["sensor"] == "dvl"].set_index("row")["fate"]
+    assert fates[2] == "dropped" and fates[4] == "dropped"
+
+
+def test_dvl_status_column_errors(tmp_path: Path) -> None:
+    dvl = dvl_table()
+    dvl["bottom_lock"] = ["1", "1", "2", "1", "0"]
+    d = config_dict()
+    d["sensors"]["dvl"]["status_column"] = "bottom_lock"
+    root = write_dir(tmp_path, d, {"imu.csv": imu_rates(), "dvl.csv": dvl})
+    msg = load_error(root)
+    assert "dvl.csv line 4" in msg and "bottom_lock" in msg and "status 2" in msg
+    dvl["bottom_lock"] = ["1", "1", "", "1", "0"]
+    write_dir(tmp_path, d, {"dvl.csv": dvl})
+    assert "dvl.csv line 4" in load_error(root)
+    d["sensors"]["dvl"]["status_column"] = "lock"
+    write_dir(tmp_path, d, {})
+    assert "status column 'lock' not found" in load_error(root)
+    d["sensors"]["depth"] = {"kind": "depth", "file": "z.csv", "sigma": [1, "m"],
+                             "status_column": "x"}  # fmt: skip
+    assert "only a dvl" in str(_config_error(lambda c: c.update(d)))
+
+
 def test_imu_gap_names_lines_and_times(tmp_path: Path) -> None:
     imu = imu_rates()
     imu.loc[20:, "t_s"] += 0.5

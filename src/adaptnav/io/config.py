@@ -327,6 +327,10 @@ class SensorConfig(_Model):
     """DVL only: a reading of exactly zero on every axis is a lost bottom lock (drivers that
     report the loss so), dropped at load with that reason. Not for a vehicle that can sit
     still on the bottom."""
+    status_column: str | None = None
+    """DVL only: the table's column holding the DVL's own bottom-lock flag (1 or true: locked,
+    0 or false: lost), as DVL drivers report it; a reading flagged lost is dropped at load
+    with that reason."""
     limits: tuple[float, float] | dict[str, tuple[float, float]] | None = None
     """Plausible range of a reading, in the SI unit of its column: ``[min, max]`` for every
     component, or ``{ column = [min, max] }`` per column; the rest from
@@ -401,6 +405,8 @@ class SensorConfig(_Model):
             raise ValueError(f"model: only an inclinometer has a model choice, not a {self.kind}")
         if self.zero_is_lost and self.kind != "dvl":
             raise ValueError(f"zero_is_lost: only a dvl reports a lost lock, not a {self.kind}")
+        if self.status_column is not None and self.kind != "dvl":
+            raise ValueError(f"status_column: only a dvl reports a lost lock, not a {self.kind}")
         if self.use_height and self.kind != "gnss":
             raise ValueError(f"use_height: only a gnss sensor measures height, not a {self.kind}")
         if self.kind == "gnss":

@@ -39,6 +39,7 @@ from adaptnav.io.tables import (
     Repair,
     Table,
     check_order,
+    flag,
     present,
     read_table,
     show,
@@ -376,6 +377,14 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             table.where(int(r)),
             DroppedRow(name, int(r), float(t[r]), "duplicate timestamp"),
         )
+    if cfg.status_column is not None:
+        lost = ~flag(table, cfg.status_column)
+        reason = f"DVL bottom lock lost: {cfg.status_column} = 0 (status_column)"
+        for r in np.flatnonzero(keep & lost):
+            keep[r] = False
+            journal.drop(
+                table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
+            )
     if cfg.zero_is_lost:
         for r in np.flatnonzero(keep & np.all(z == 0.0, axis=1)):
             keep[r] = False

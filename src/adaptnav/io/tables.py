@@ -817,6 +817,29 @@ def numeric(table: Table, column: str) -> Array:
     return np.asarray(conv.to_numpy(dtype=float, na_value=np.nan), dtype=float)
 
 
+def flag(table: Table, column: str) -> NDArray[np.bool_]:
+    """A status column as booleans: true/false, or the numbers 1 and 0; anything else (a
+    missing cell too: a status the driver did not give is not a "locked") is an error naming
+    line and field."""
+    if column not in table.df.columns:
+        raise MissionError(
+            f"{table.label}: status column {column!r} not found; found {list(table.df.columns)}",
+            file=table.label,
+            field=column,
+        )
+    s = table.df[column]
+    if pd.api.types.is_bool_dtype(s):
+        return np.asarray(s.to_numpy(dtype=bool))
+    if _all_bool(s) and not s.isna().any():
+        return np.asarray(s.to_numpy(dtype=bool))
+    text = s.astype("string").str.strip().str.lower()
+    ok = text.isin(["1", "0", "1.0", "0.0", "true", "false"]).to_numpy(dtype=bool)
+    if not ok.all():
+        r = int(np.flatnonzero(~ok)[0])
+        raise table.error(r, column, f"status {show(s.iloc[r])} is not 1/0 or true/false")
+    return np.asarray(text.isin(["1", "1.0", "true"]).to_numpy(dtype=bool))
+
+
 def _all_bool(s: pd.Series) -> bool:
     """An object column whose non-missing cells are all Python/NumPy bools (nullable bools)."""
     if s.dtype != object:
