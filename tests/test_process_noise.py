@@ -119,8 +119,8 @@ def _velocity_rms(out: engine.EngineOutput, ds: synthetic.Dataset) -> float:
 
 
 def test_q_too_small_is_scaled_up_and_the_error_falls() -> None:
-    """The IMU 30× noisier in σ than Q says. Measured (seeds 31-33): β 3-30, velocity RMS
-    0.080-0.105 m/s without the adaptation, 0.072-0.079 with it."""
+    """The IMU 30× noisier in σ than Q says. Measured (seeds 31-33): β 3-28, velocity RMS
+    0.080-0.105 m/s without the adaptation, 0.072-0.078 with it."""
     without, adapted = [], []
     for seed in (31, 32, 33):
         ds = _noisy_imu(seed, 30.0)

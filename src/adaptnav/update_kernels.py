@@ -1406,8 +1406,9 @@ def _whiteness(
     idx: int,
 ) -> int:
     """Q adaptation after a used reading (twin of noise.process.whiteness_step): the running
-    means c0, c1 of the normalised innovation ``y_j / sqrt(W_jj)`` (W: S with the prior P and
-    the R used, rows ``o..o+d``) over consecutive readings, then ``β ← clip(β exp(g (c1/c0 -
+    means c0 (of ``(ν̃_j(k)² + ν̃_j(k-1)²)/2``) and c1 (of ``ν̃_j(k) ν̃_j(k-1)``), summed over j,
+    of the normalised innovation ``ν̃_j = y_j / sqrt(W_jj)`` (W: S with the prior P and the R
+    used, rows ``o..o+d``) over consecutive readings, then ``β ← clip(β exp(g (c1/c0 -
     ρ₀)), 1, β_max)`` in ``rates[R_Q, 0]``; an EVENT_Q row when β has moved by EVENT_STEP
     since the last one. Returns the ledger length."""
     paired = not math.isnan(sx[X_WT]) and t - sx[X_WT] <= GAP_PERIODS * sf[F_PERIOD]
@@ -1415,8 +1416,9 @@ def _whiteness(
     c1 = 0.0
     for j in range(d):
         v = y[o + j] / math.sqrt(W[o + j, o + j])
-        c0 += v * v
-        c1 += v * sx[X_WPREV + j]
+        prev = sx[X_WPREV + j]
+        c0 += 0.5 * (v * v + prev * prev)
+        c1 += v * prev
         sx[X_WPREV + j] = v
     sx[X_WT] = t
     if not paired:

@@ -19,10 +19,11 @@ The rule (our own, after Mehra's test): per sensor, over consecutive readings (n
 ``GAP_PERIODS`` periods apart), the normalised innovation ``ν̃_j = y_j / sqrt(S_jj)`` (S with
 the prior P and the R used) feeds running means, over the last ``window`` pairs, of
 
-    c0 = Σ_j ν̃_j(k)²        and        c1 = Σ_j ν̃_j(k) ν̃_j(k-1),
+    c0 = Σ_j (ν̃_j(k)² + ν̃_j(k-1)²) / 2        and        c1 = Σ_j ν̃_j(k) ν̃_j(k-1),
 
-and once the window is full their ratio ``ρ = c1 / c0`` moves the scale β of the IMU's
-white-noise PSDs in Q (angle and velocity random walk; the bias walks keep theirs):
+and once the window is full their ratio ``ρ = c1 / c0`` (in [-1, 1]: the two means weigh the
+pairs alike, and |ab| ≤ (a² + b²)/2) moves the scale β of the IMU's white-noise PSDs in Q
+(angle and velocity random walk; the bias walks keep theirs):
 
     β ← clip(β exp(g (ρ - ρ₀)), 1, β_max).
 
@@ -106,8 +107,9 @@ def whiteness_step(
         return WhitenessState(state.c0, state.c1, state.pairs, tuple(v), t), beta
     pairs = state.pairs + 1
     m = min(pairs, qa.window)
-    c0 = state.c0 + (float(v @ v) - state.c0) / m
-    c1 = state.c1 + (float(v @ np.asarray(state.last)) - state.c1) / m
+    last = np.asarray(state.last)
+    c0 = state.c0 + (0.5 * float(v @ v + last @ last) - state.c0) / m
+    c1 = state.c1 + (float(v @ last) - state.c1) / m
     new = WhitenessState(c0, c1, pairs, tuple(v), t)
     if pairs < qa.window or not c0 > 0.0:
         return new, beta
