@@ -164,7 +164,7 @@ def test_report_describes_scenario_sensors_settings_and_alignment(
     for needle in (
         "Disturbances injected", "dvl_outliers", "seed", "lever arm", "0.048 m/s",
         "ρ = 0.99", "q = 600", "q = 1800", "window 20", 'id="ledger"', "Initial alignment",
-        "heading from",
+        "heading from", "Q adaptation above lag-1 correlation 0.5", "Q scale β at the end",
     ):  # fmt: skip
         assert needle in text, needle
 

@@ -371,6 +371,9 @@ def _filters(doc: Mapping[str, Any], summaries: Mapping[str, Mapping[str, Any]])
                 f"; guard χ² on {_e(fs.get('guard_headroom'))} × the nominal R, p = "
                 f"{p_guard:g}, every sensor, lockout {_e(fs.get('guard_lockout_s'))} s"
             )
+        qa = fs.get("q_adaptation")
+        if isinstance(qa, Mapping):
+            gate += f"; Q adaptation above lag-1 correlation {_e(qa.get('target'))}"
         if kind == "maeskf":
             r = (
                 f"covariance matching, window {_e(fs.get('matching_window'))}, "
@@ -704,17 +707,28 @@ def _events(folder: Path, doc: Mapping[str, Any]) -> str:
             ev = None
         label = _e(FILTER_LABELS.get(name, name))
         if ev is None:
-            rows.append((label, "–", "–", "–", "no events table"))
+            rows.append((label, "–", "–", "–", "–", "no events table"))
             continue
-        n = {k: int((ev["event"] == k).sum()) for k in ("lockout", "nis", "covariance")}
+        n: dict[str, str] = {
+            k: str(int((ev["event"] == k).sum())) for k in ("lockout", "nis", "covariance")
+        }
+        q = ev[ev["event"] == "q_scale"]
+        n["q_scale"] = f"{q['factor'].iloc[-1]:.3g}" if len(q) else "1"
         first = "; ".join(
             f"{r.t:.1f} s {_e(r.sensor)} {_e(r.event)} ×{r.factor:.3g}"
             for r in ev.head(EVENTS_SHOWN).itertuples()
         )
         more = f" (+{len(ev) - EVENTS_SHOWN} more)" if len(ev) > EVENTS_SHOWN else ""
-        rows.append((label, *(str(v) for v in n.values()), (first or "none") + more))
+        rows.append((label, *n.values(), (first or "none") + more))
     table = _table(
-        ("filter", "lockout", "NIS", "covariance", "first events (time, sensor, P ×)"),
+        (
+            "filter",
+            "lockout",
+            "NIS",
+            "covariance",
+            "Q scale β at the end",
+            "first events (time, sensor, event, factor)",
+        ),
         rows,
         table_id="events-table",
         text_columns=1,
@@ -724,7 +738,9 @@ def _events(folder: Path, doc: Mapping[str, Any]) -> str:
         "<p>When a filter found itself inconsistent and inflated or repaired its covariance "
         "P: <em>lockout</em> (the guard rejected every reading of a sensor for the lockout "
         "time), <em>NIS</em> (the mean NIS/d of a sensor's recent readings above its "
-        "threshold), <em>covariance</em> (P lost positive definiteness and was repaired). "
+        "threshold), <em>covariance</em> (P lost positive definiteness and was repaired); "
+        "and the Q adaptation's scale β of the IMU white noise in Q (raised when successive "
+        "innovations are correlated; 1: Q as configured). "
         "The windowed NIS test is off unless configured. The run folders' "
         "<code>events.parquet</code> lists every event.</p>\n"
         f"{table}\n</section>"
