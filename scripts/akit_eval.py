@@ -378,7 +378,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "- every filter starts from the reference state at the segment's first reference "
         "sample (no static alignment exists in these segments) and is scored against the "
         "post-processed reference over the same stretch: RMSE (m) and relative RMSE (% of the "
-        "distance travelled), spec §10.",
+        "distance travelled), docs/metrics.md.",
         "",
         "The reference is an INS post-processed with position fixes no filter here has: the "
         "floor shows how much error the DVL alone brings with a perfect attitude.",

@@ -451,7 +451,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"- q sweep (Fig. 4): {len(q_values)} values of q in [200, 2600] on "
         f"{_seeds_text(args.q_seeds)} per trajectory (fewer seeds than the Monte Carlo, to fit "
         "the time), every filter with the DVL gate on at that q (the paper's per-component "
-        "rule, spec §7), VB-MAESKF included; VB-MAESKF ungated"
+        "rule, docs/filters.md, 'Gate'), VB-MAESKF included; VB-MAESKF ungated"
         + " and the oracle as reference lines.",
         f"- Gyro-bias process noise (Fig. 6): the gyro bias's driving-noise PSD in the "
         f"filter's Q times {len(scales)} factors in 10^[-2, 2] on {_seeds_text(args.pn_seeds)} "

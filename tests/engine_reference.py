@@ -224,7 +224,8 @@ class Navigator:
         self._ledger(i, row, t_m, self.t, "dropped", "late: stamped before the current time")
 
     def _epoch(self, t_epoch: float, t_until: float) -> None:
-        """Stacked update with every queued reading stamped <= t_until (spec §5)."""
+        """Stacked update with every queued reading stamped <= t_until (docs/filters.md,
+        'Stacked update')."""
         group: list[tuple[float, int, int, Array]] = []
         while self._pending and self._pending[0][0] <= t_until:
             t_m, i, _, row, z = heapq.heappop(self._pending)

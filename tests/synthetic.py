@@ -2,7 +2,8 @@
 
 The IMU error model is the filter's own (white noise of the configured PSDs, first-order
 Gauss-Markov biases with their σ and τ, turn-on biases and the initial error drawn from P0),
-so with R_true = R_nominal the filter should be consistent (NEES/NIS, spec §9).
+so with R_true = R_nominal the filter should be consistent (NEES/NIS; docs/filters.md,
+'Verification').
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Static alignment (spec §8): ZUPT model, coarse levelling and gyrocompassing, fine alignment.
+"""Static alignment (docs/alignment.md): ZUPT model, coarse levelling and gyrocompassing, fine
+alignment.
 
 The IMU at rest is exact (``kinematics.stationary``) plus, where stated, the paper's noise
 (Table 2: ARW 0.0667 deg/√h, VRW 55 µg/√Hz, in-run gyro bias 1 deg/h and accel bias 0.25 mg as

@@ -1,4 +1,6 @@
-"""F, Φ, G/Q and feedback of the 15-state error model against finite differences (spec §3, §9).
+"""F, Φ, G/Q and feedback of the 15-state error model against finite differences.
+
+docs/filters.md, 'Error-state model', 'Propagation', 'Feedback and reset' and 'Verification'.
 
 Two independent checks:
 

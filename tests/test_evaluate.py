@@ -1,4 +1,5 @@
-"""Metrics (spec §10, P-32, P-33) on hand-made cases with independently known answers."""
+"""Metrics (docs/metrics.md; paper eqs. (32), (33)) on hand-made cases with independently known
+answers."""
 
 from __future__ import annotations
 

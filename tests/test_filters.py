@@ -163,7 +163,8 @@ def test_vb_follows_a_noise_jump_and_resists_outliers() -> None:
 def _paper_reference(
     ds: synthetic.Dataset, rho: float, iterations: int
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """P-10..P-30 literally: grid epochs, stacked VB iterations, P⁺ = P⁻ - K S Kᵀ, no gate."""
+    """Paper eqs. (10)-(30) literally (docs/filters.md, 'Verification'): grid epochs, stacked VB
+    iterations, P⁺ = P⁻ - K S Kᵀ, no gate."""
     q = errorstate.noise_psd(synthetic.NOISE)
     tau_a, tau_g = synthetic.NOISE.accel_bias_tau, synthetic.NOISE.gyro_bias_tau
     names = list(ds.readings)
@@ -186,25 +187,25 @@ def _paper_reference(
             m = ds.models[n].evaluate(x, ds.readings[n][1][row], wp)  # type: ignore[attr-defined]
             H.append(m.H)
             y.append(m.y)
-            a_prior.append(rho * alpha[n])  # P-12
-            b_prior.append(rho * beta[n])  # P-13
+            a_prior.append(rho * alpha[n])  # paper eq. (12)
+            b_prior.append(rho * beta[n])  # paper eq. (13)
         H, y = np.vstack(H), np.concatenate(y)
-        a = np.concatenate(a_prior) + 0.5  # P-23
+        a = np.concatenate(a_prior) + 0.5  # paper eq. (23)
         bm = np.concatenate(b_prior)
         b = bm.copy()
         for _ in range(iterations):
-            R = np.diag(b / a)  # P-24
+            R = np.diag(b / a)  # paper eq. (24)
             S = H @ P @ H.T + R
-            K = P @ H.T @ np.linalg.inv(S)  # P-25
-            dx = K @ y  # P-26
-            Pp = P - K @ S @ K.T  # P-27
-            b = bm + 0.5 * (y - H @ dx) ** 2 + 0.5 * np.diag(H @ Pp @ H.T)  # P-28
+            K = P @ H.T @ np.linalg.inv(S)  # paper eq. (25)
+            dx = K @ y  # paper eq. (26)
+            Pp = P - K @ S @ K.T  # paper eq. (27)
+            b = bm + 0.5 * (y - H @ dx) ** 2 + 0.5 * np.diag(H @ Pp @ H.T)  # paper eq. (28)
         x = errorstate.inject(x, dx)
         P = Pp
         i = 0
         for n, _ in got:
             d = ds.models[n].dim  # type: ignore[attr-defined]
-            alpha[n], beta[n] = a[i : i + d], b[i : i + d]  # P-29, P-30 for the others
+            alpha[n], beta[n] = a[i : i + d], b[i : i + d]  # eqs. (29), (30): others keep theirs
             i += d
     return x, P, beta
 
@@ -217,7 +218,7 @@ def test_grid_policy_matches_the_papers_update_written_plainly() -> None:
     periods = synthetic.periods()
     strat = VariationalBayes(rho=rho, iterations=iterations, tol=0.0)
     chans = [engine.SensorChannel(ds.models[n], periods[n], strat) for n in ds.readings]  # type: ignore[arg-type]
-    # The paper linearises F with the measured specific force (no low-pass, P-10).
+    # The paper linearises F with the measured specific force (no low-pass, its eq. (10)).
     cfg = engine.EngineConfig(
         synthetic.NOISE, epoch_policy="grid", reset_covariance=False, specific_force_tau_s=0.0
     )
@@ -251,7 +252,8 @@ def _static_nav(kind: str, policy: str = "exact") -> tuple[engine.Navigator, np.
 
 def test_two_sensors_at_one_epoch_are_one_stacked_update() -> None:
     """DVL and depth stamped at the same instant: one update with stacked H, y and
-    blockdiag(R) (P-20..P-22), computed here by hand, then feedback and reset."""
+    blockdiag(R) (paper eqs. (20)-(22); docs/filters.md, 'Stacked update'), computed here by
+    hand, then feedback and reset."""
     nav, ds = _static_nav("meskf")
     z_dvl, z_depth = np.array([1.0, 0.1, -0.05]), np.array([0.3])
     nav.feed_imu(ds.imu_t[:50], ds.dt, ds.dtheta[:50], ds.dvel[:50])
@@ -291,7 +293,7 @@ def test_a_sensor_absent_at_an_epoch_keeps_its_alpha_beta() -> None:
     depth_before = nav.adaptation_state("depth")
     nav.feed_imu(ds.imu_t[25:40], ds.dt, ds.dtheta[25:40], ds.dvel[25:40])  # the DVL epoch only
     depth_after = nav.adaptation_state("depth")
-    assert depth_after is depth_before  # untouched, not even ρ-predicted (P-29, P-30)
+    assert depth_after is depth_before  # untouched, not even ρ-predicted (paper eqs. (29), (30))
     dvl = nav.adaptation_state("dvl")
     assert np.all(dvl.alpha == pytest.approx(0.99 * 1.0 + 0.5))
 

@@ -1,4 +1,4 @@
-"""Strapdown mechanization against exactly known motion (spec §2, §9).
+"""Strapdown mechanization against exactly known motion (docs/mechanization.md, 'Verification').
 
 The IMU signals come from :mod:`adaptnav.sim.kinematics`, which inverts the mechanization
 equations for a closed-form motion, so every error measured here is the integration error of
@@ -218,7 +218,7 @@ def test_perfect_imu_at_rest_stays_put_for_an_hour() -> None:
     assert att < 1e-9
 
 
-# Bounds: the spec's (1 m, 0.01°) for both inputs; for exact increments also an
+# Bounds: docs/mechanization.md's (1 m, 0.01°) for both inputs; for exact increments also an
 # integration-error-level bound, ~60× the measured figures, so that a regression shows.
 # Measured, 600 s @100 Hz: rates 0.56 m / 9.6e-7 rad, increments 1.7e-5 m / 1.4e-10 rad.
 # The rate-input error is the trapezoid conversion's: its attitude error sums to

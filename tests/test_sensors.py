@@ -1,4 +1,6 @@
-"""Measurement models (spec §4, §9): H against finite differences, residual signs, hand values.
+"""Measurement models: H against finite differences, residual signs, hand values.
+
+docs/filters.md, 'Measurement models' and 'Verification'.
 
 The Jacobian check: for every sensor, J = ∂/∂dx of the residual of the reading a truth
 ``x_hat ⊕ dx`` would give, ``y(dx) = z(x_hat ⊕ dx) - h(x_hat)``, at dx = 0, by central differences

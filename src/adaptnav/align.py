@@ -1,5 +1,5 @@
-"""Static alignment and initialisation (spec §8): coarse levelling and gyrocompassing, then a
-zero-velocity fine alignment by the filter itself.
+"""Static alignment and initialisation: coarse levelling and gyrocompassing, then a
+zero-velocity fine alignment by the filter itself (docs/alignment.md).
 
 The vehicle is at rest for a window of T seconds (the paper: 10 min alongside). Conventions of
 ``docs/conventions.md``: NED n-frame, FRD body, ``C_nb = Rz(ψ) Ry(θ) Rx(φ)``, error state
@@ -60,7 +60,7 @@ against an actual RMS of 4.5°. With ``-g_n`` it claims 3.9° against 3.7° (tes
 
 Sources: Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*,
 2nd ed. (2013), §5.6 (initialisation and alignment), §14.4 (fine alignment), §15.3.1 (ZUPT);
-spec ALGORITHMS.md §8.
+the procedure in words: docs/alignment.md.
 """
 
 from __future__ import annotations
@@ -583,7 +583,7 @@ def align(
     max_heading_sigma: float = MAX_HEADING_SIGMA,
     tolerances: StaticTolerances = StaticTolerances(),
 ) -> Alignment:
-    """Static alignment over the first ``window`` seconds of the IMU data (spec §8).
+    """Static alignment over the first ``window`` seconds of the IMU data (docs/alignment.md).
 
     Coarse alignment (:func:`coarse_align`) on the window's mean increments, then fine alignment
     (:func:`fine_align`) over the same window from the coarse attitude, zero velocity, the given

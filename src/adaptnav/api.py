@@ -61,7 +61,7 @@ def _ledger_row(sensor: str, row: int, t: float, reason: str) -> dict[str, Any]:
 
 
 def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict[str, Any]]:
-    """(x0, P0, t0, info) from the mission's ``[initial]`` section (spec §8).
+    """(x0, P0, t0, info) from the mission's ``[initial]`` section (docs/alignment.md).
 
     ``alignment``: coarse + fine static alignment over the first ``alignment_s`` seconds, at the
     configured position (or the mean of GNSS fixes in the window); navigation starts at its end.
@@ -155,10 +155,10 @@ def run(
         epoch_policy: ``"exact"`` or ``"grid"``; default: the mission's.
         initial: (x0, P0, t0) to start from instead of the mission's ``[initial]`` (e.g. to
             share one alignment between filters).
-        imu_noise: the IMU noise model for the engine's process noise Q (spec §3) instead of
-            the mission's ``[imu.noise]`` (e.g. to scale the gyro-bias Q, the paper's Fig. 6,
-            without touching the mission); the alignment of ``initial_state`` keeps the
-            mission's.
+        imu_noise: the IMU noise model for the engine's process noise Q (docs/filters.md,
+            'Error-state model') instead of the mission's ``[imu.noise]`` (e.g. to scale the
+            gyro-bias Q, the paper's Fig. 6, without touching the mission); the alignment of
+            ``initial_state`` keeps the mission's.
     """
     m = mission if isinstance(mission, Mission) else load_mission(mission)
     cfg = m.config

@@ -1,8 +1,9 @@
 """Several filters on one mission, from one shared start, tabulated beside the paper's Table 3.
 
-:func:`compare` aligns **once** (:func:`adaptnav.api.initial_state`, spec §8) and runs every
-requested filter from that same ``(x0, P0, t0)``, so the filters differ only in how they choose
-the measurement noise R (spec §6) and gate outliers (spec §7), never in their start:
+:func:`compare` aligns **once** (:func:`adaptnav.api.initial_state`, docs/alignment.md) and runs
+every requested filter from that same ``(x0, P0, t0)``, so the filters differ only in how they
+choose the measurement noise R (docs/filters.md, the sections on MESKF, MAESKF and VB-MAESKF)
+and gate outliers (docs/filters.md, 'Gate'), never in their start:
 
 * ``meskf``, ``maeskf``, ``vb``: the paper's three filters (MESKF, MAESKF, VB-MAESKF);
 * ``oracle``: the same ESKF given the simulator's true per-reading σ and told which readings are
@@ -13,11 +14,12 @@ the measurement noise R (spec §6) and gate outliers (spec §7), never in their 
   to the filters' navigation start and every row is scored over the same stretch).
 
 Each run is scored by :func:`adaptnav.evaluate.evaluate` against the mission's reference: RMSE
-(P-32), relative RMSE (P-33, over the horizontal length of the reference track), horizontal
-errors, the mean NEES of position, velocity and attitude with the share of epochs inside the
-χ²(3) 95 % band (docs/metrics.md) and the ledger's per-sensor counts.
+(paper eq. (32)), relative RMSE (paper eq. (33), over the horizontal length of the reference track;
+both docs/metrics.md, 'Accuracy'), horizontal errors, the mean NEES of position, velocity and
+attitude with the share of epochs inside the χ²(3) 95 % band (docs/metrics.md) and the ledger's
+per-sensor counts.
 :meth:`Comparison.table` sets them beside the paper's Table 3 (:data:`PAPER_TABLE3`) when the
-mission is one of the paper presets (``paper-1``, ``paper-2``, SCENARIOS.md).
+mission is one of the paper presets (``paper-1``, ``paper-2``, docs/simulation.md).
 
 :meth:`Comparison.save` writes a comparison folder::
 

@@ -1,7 +1,7 @@
 """WGS84 earth model: radii of curvature, normal gravity, earth and transport rate, geodetic/NED.
 
 Sources: Groves (2013) ch. 2 (eqs. 2.105-2.106 radii, 2.134 Somigliana gravity, 2.139 height
-correction, 2.123 earth rate, 5.44 transport rate); spec ALGORITHMS.md §1.
+correction, 2.123 earth rate, 5.44 transport rate); docs/mechanization.md, 'Earth model'.
 
 All functions take scalars or NumPy arrays (broadcast), SI units, radians.
 """

@@ -1,18 +1,21 @@
-"""Asynchronous multirate fusion engine (spec §5; P-9, P-14..P-22): the only module that knows time.
+"""Asynchronous multirate fusion engine: the only module that knows time.
 
-IMU intervals ``(t_k - dt_k, t_k]`` carry increments; sensor i delivers readings at its own
-epochs ``t^i``. A :class:`Navigator` consumes both in time order:
+docs/filters.md, 'Epochs' and 'Stacked update' (paper eqs. (9), (14), (18)-(22)). IMU intervals
+``(t_k - dt_k, t_k]`` carry increments; sensor i delivers readings at its own epochs ``t^i``. A
+:class:`Navigator` consumes both in time order:
 
 * between sensor epochs the nominal state and P are propagated IMU interval by interval by the
-  compiled kernel (:mod:`adaptnav.kernels`, P-10, P-11);
+  compiled kernel (:mod:`adaptnav.kernels`; docs/filters.md, 'Propagation', paper eqs. (10) and
+  (11));
 * epoch policy ``exact`` (default) splits the interval that contains a reading's stamp and
   updates at the stamp itself; ``grid`` (the paper) updates at the end ``t_k`` of the interval
   containing the stamp, i.e. a reading stamped in ``(t_{k-1}, t_k]`` is used at ``t_k``;
 * readings sharing an epoch are stacked into one update: received mask S, stacked H, y and
-  ``R = blockdiag(R_i)`` (P-14, P-20..P-22); a sensor's adaptation state changes only at its own
-  epochs (P-18, P-19, P-29, P-30);
-* before the update each reading may pass an outlier gate (spec §7); after it the error estimate
-  is fed back into the nominal state and reset to zero (closed loop, spec §3).
+  ``R = blockdiag(R_i)`` (paper eqs. (14), (20)-(22)); a sensor's adaptation state changes only
+  at its own epochs (paper eqs. (18), (19), (29), (30));
+* before the update each reading may pass an outlier gate (docs/filters.md, 'Gate'); after it
+  the error estimate is fed back into the nominal state and reset to zero (closed loop;
+  docs/filters.md, 'Feedback and reset').
 
 Every reading's fate is written to the ledger: ``used``, ``rejected`` (rule, statistic,
 threshold) or ``dropped`` (why). The batch runner :func:`run_batch` feeds whole tables through

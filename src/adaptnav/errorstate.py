@@ -1,13 +1,13 @@
-"""15-state error model: layout, F, G, Q, discretization, closed-loop feedback (spec §3).
+"""15-state error model: layout, F, G, Q, discretization, closed-loop feedback.
 
 Sign convention (docs/conventions.md): **dx = x_true ⊖ x_hat**, truth minus estimate, with
 position error in NED metres at the estimate, ``dr = [(R_M + h) δL, (R_N + h) cos L δλ, -δh]``,
 and the attitude error phi defined by ``C_nb_true = Exp(phi) C_nb_hat`` (resolved in n).
 
-Continuous model ``dx' = F dx + G w`` with ``w = [w_a, w_g, w_ba, w_bg]`` (VRW, ARW, bias
-driving noises; the paper's 12 noise inputs, P-3). Derived for this convention from the full
-local-navigation-frame model of Groves (2013) §14.2.4 (his δψ = -phi and δv = -dv), written with
-δL = dr_N / (R_M + h) and δh = -dr_D:
+Continuous model ``dx' = F dx + G w`` with ``w = [w_a, w_g, w_ba, w_bg]`` (VRW, ARW, bias driving
+noises; the paper's 12 noise inputs, its eq. (3); docs/filters.md, 'Error-state model'). Derived for
+this convention from the full local-navigation-frame model of Groves (2013) §14.2.4 (his δψ = -phi
+and δv = -dv), written with δL = dr_N / (R_M + h) and δh = -dr_D:
 
 * position: ``dr_N' = dv_N - v_D dr_N/R_M' + v_N dr_D/R_M'`` (R_M' = R_M + h), ``dr_D' = dv_D``,
   ``dr_E' = dv_E + (...) dr_N + (...) dr_E + v_E dr_D / R_N'`` (see :func:`system_matrix`);
@@ -75,7 +75,8 @@ def system_matrix(
     tau_a: float = np.inf,
     tau_g: float = np.inf,
 ) -> Array:
-    """Continuous-time error dynamics matrix F (15×15) at a nominal point (spec §3, P-3).
+    """Continuous-time error dynamics matrix F (15×15) at a nominal point (docs/filters.md,
+    'Error-state model'; paper eq. (3) in continuous form; Groves §14.2.4).
 
     ``f_n`` is the bias-corrected specific force resolved in n. Block rows follow the module
     docstring; the dr_E column is zero outside the position block (longitude drives nothing).
@@ -121,7 +122,10 @@ def system_matrix(
 
 
 def noise_input_matrix(C_nb: ArrayLike) -> Array:
-    """G (15×12): ``dv' ∋ -C_nb w_a``, ``phi' ∋ -C_nb w_g``, ``db' ∋ w_b`` (spec §3)."""
+    """G (15×12): ``dv' ∋ -C_nb w_a``, ``phi' ∋ -C_nb w_g``, ``db' ∋ w_b``.
+
+    docs/filters.md, 'Error-state model'.
+    """
     C = np.asarray(C_nb, dtype=float)
     G = np.zeros((N_STATES, N_NOISE))
     G[VEL, W_A] = -C
@@ -148,13 +152,14 @@ def noise_psd(noise: ImuNoise) -> Array:
 
 
 def transition(F: ArrayLike, dt: float) -> Array:
-    """``Phi = I + F dt + (F dt)² / 2`` (spec §3; second-order truncation of exp(F dt))."""
+    """``Phi = I + F dt + (F dt)² / 2``, exp(F dt) to second order (docs/filters.md,
+    'Propagation')."""
     A = np.asarray(F, dtype=float) * dt
     return np.asarray(np.eye(A.shape[0]) + A + 0.5 * (A @ A), dtype=float)
 
 
 def discrete_noise(Phi: ArrayLike, G: ArrayLike, q_psd: ArrayLike, dt: float) -> Array:
-    """``Qd = ½ (Phi G Q Gᵀ Phiᵀ + G Q Gᵀ) dt`` (spec §3, trapezoidal)."""
+    """``Qd = ½ (Phi G Q Gᵀ Phiᵀ + G Q Gᵀ) dt``, trapezoidal (docs/filters.md, 'Propagation')."""
     Gm = np.asarray(G, dtype=float)
     GQG = (Gm * np.asarray(q_psd, dtype=float)) @ Gm.T
     P = np.asarray(Phi, dtype=float)
@@ -164,7 +169,7 @@ def discrete_noise(Phi: ArrayLike, G: ArrayLike, q_psd: ArrayLike, dt: float) ->
 
 
 def predict_covariance(P: ArrayLike, Phi: ArrayLike, Qd: ArrayLike) -> Array:
-    """``P⁻ = Phi P⁺ Phiᵀ + Qd`` (P-11)."""
+    """``P⁻ = Phi P⁺ Phiᵀ + Qd`` (docs/filters.md, 'Propagation'; paper eq. (11))."""
     Pm = np.asarray(Phi, dtype=float)
     return np.asarray(
         Pm @ np.asarray(P, dtype=float) @ Pm.T + np.asarray(Qd, dtype=float), dtype=float
@@ -172,7 +177,8 @@ def predict_covariance(P: ArrayLike, Phi: ArrayLike, Qd: ArrayLike) -> Array:
 
 
 def inject(x: ArrayLike, dx: ArrayLike) -> Array:
-    """Closed-loop feedback ``x_hat ⊕ dx`` (the convention's definition, spec §3).
+    """Closed-loop feedback ``x_hat ⊕ dx`` (docs/conventions.md, 'Error state'; docs/filters.md,
+    'Feedback and reset').
 
     lat += dr_N/(R_M + h), lon += dr_E/((R_N + h) cos lat), h -= dr_D (radii at the estimate),
     v += dv, ``q ← Exp(phi) ⊗ q``, b += db.
@@ -215,7 +221,8 @@ def difference(x_true: ArrayLike, x_hat: ArrayLike) -> Array:
 
 
 def reset_jacobian(dx: ArrayLike) -> Array:
-    """Jacobian of the error reset after feedback: ``P ← G_r P G_rᵀ`` (Solà 2017 §6.3).
+    """Jacobian of the error reset after feedback: ``P ← G_r P G_rᵀ`` (Solà 2017 §6.3;
+    docs/filters.md, 'Feedback and reset').
 
     With the left (n-frame) attitude error, the new error after injecting phi_hat is
     ``phi' = Log(Exp(phi) Exp(-phi_hat)) ≈ phi - phi_hat + ½ phi_hat × phi``, so the attitude

@@ -1,4 +1,4 @@
-"""Accuracy and consistency metrics of a run against a reference trajectory (spec §10).
+"""Accuracy and consistency metrics of a run against a reference trajectory (docs/metrics.md).
 
 The reference ("truth") is a table with ``t_s, lat_rad, lon_rad, h_m`` and optionally
 ``vn_m_s, ve_m_s, vd_m_s`` and ``roll_rad, pitch_rad, yaw_rad``, times non-decreasing.
@@ -12,17 +12,17 @@ computed exactly through ECEF: ``e_n = C_ne(lat_ref, lon_ref) (r_e(est) - r_e(re
 (Groves 2.112, 2.150). (The filter's own error state is truth minus estimate; the sign does not
 matter to any metric here.)
 
-* P-32: ``RMSE = sqrt(mean(dN² + dE² + dD²))`` in metres;
-* P-33: ``relative RMSE (%) = 100 RMSE / D`` with D the **horizontal** length of the reference
-  track, the sum of its horizontal (N, E) steps (:func:`travelled_distance`), so that a
-  vessel's heave, which the reference records, does not lengthen it;
+* paper eq. (32): ``RMSE = sqrt(mean(dN² + dE² + dD²))`` in metres;
+* paper eq. (33): ``relative RMSE (%) = 100 RMSE / D`` with D the **horizontal** length of the
+  reference track, the sum of its horizontal (N, E) steps (:func:`travelled_distance`), so that
+  a vessel's heave, which the reference records, does not lengthen it;
 * NEES of position, velocity and attitude (:func:`nees`), each with the full 3×3 block of P
   the engine records: ``NEES_k = e_kᵀ P_k⁻¹ e_k``, χ²(3)-distributed for a consistent filter
   (mean 3; 95 % of the epochs inside ``[χ²₀.₀₂₅(3), χ²₀.₉₇₅(3)] ≈ [0.216, 9.348]``,
   :data:`NEES_BAND`);
 * NIS per sensor from the ledger: the mean of the used readings' NIS, ``y' S^-1 y``; for a
   consistent filter with independent innovations ``K mean ~ chi²(sum_k d_k)``, which gives
-  the two-sided 95 % bounds of the mean (spec §9).
+  the two-sided 95 % bounds of the mean.
 
 The definitions, in words and equations, are in docs/metrics.md.
 """
@@ -159,7 +159,8 @@ def position_errors(solution: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame
 
 
 def rmse(errors: pd.DataFrame) -> float:
-    """P-32: ``RMSE = sqrt(mean(dN² + dE² + dD²))`` (m); NaN for no samples."""
+    """``RMSE = sqrt(mean(dN² + dE² + dD²))`` (m), paper eq. (32) (docs/metrics.md, 'Accuracy');
+    NaN for no samples."""
     e = errors[["dN_m", "dE_m", "dD_m"]].to_numpy(dtype=float)
     if e.shape[0] == 0:
         return math.nan
@@ -175,11 +176,12 @@ def horizontal_rmse(errors: pd.DataFrame) -> float:
 
 
 def travelled_distance(truth: pd.DataFrame) -> float:
-    """Horizontal length of the reference track (m), P-33's denominator (docs/metrics.md):
-    ``D = sum_k sqrt(dN_k² + dE_k²)`` where ``[dN_k, dE_k, dD_k] = C_ne(mid_k) (r_e(k+1) -
-    r_e(k))`` is step k resolved in the local NED frame at its mid-point (lat and lon
-    averaged). The vertical part of each step is left out, so a vessel's heave (or a car's
-    climb) does not lengthen the distance the errors are scored against."""
+    """Horizontal length of the reference track (m), the denominator of paper eq. (33)
+    (docs/metrics.md, 'Accuracy'): ``D = sum_k sqrt(dN_k² + dE_k²)`` where
+    ``[dN_k, dE_k, dD_k] = C_ne(mid_k) (r_e(k+1) - r_e(k))`` is step k resolved in the local NED
+    frame at its mid-point (lat and lon averaged). The vertical part of each step is left out, so a
+    vessel's heave (or a car's climb) does not lengthen the distance the errors are scored
+    against."""
     _check_truth(truth)
     lat, lon, h = (_column(truth, c) for c in TRUTH_POSITION[1:])
     if lat.size < 2:
@@ -192,7 +194,8 @@ def travelled_distance(truth: pd.DataFrame) -> float:
 
 
 def relative_rmse_pct(rmse_m: float, distance_m: float) -> float:
-    """P-33: ``100 RMSE / D`` (%); NaN when the distance is zero."""
+    """``100 RMSE / D`` (%), paper eq. (33) (docs/metrics.md, 'Accuracy'); NaN when the distance
+    is zero."""
     return 100.0 * rmse_m / distance_m if distance_m > 0.0 else math.nan
 
 
@@ -375,7 +378,7 @@ def _nees_summary(
 
 @dataclass(frozen=True)
 class NisSummary:
-    """Mean NIS of one sensor's used readings with its chi-square bounds (spec §9).
+    """Mean NIS of one sensor's used readings with its chi-square bounds (docs/metrics.md, 'NIS').
 
     ``count`` readings of ``dof = sum_k d_k`` components in all; ``dim = dof / count`` is the
     reading dimension (the expected mean). With independent innovations and a consistent
@@ -433,8 +436,8 @@ def nis_summary(ledger: pd.DataFrame) -> dict[str, NisSummary]:
 
 @dataclass(frozen=True)
 class Metrics:
-    """Accuracy and consistency of one run against the reference (spec §10; P-32, P-33;
-    docs/metrics.md).
+    """Accuracy and consistency of one run against the reference (docs/metrics.md; paper eqs.
+    (32), (33)).
 
     Position metrics cover the truth samples inside the solution span: ``duration_s`` and
     ``distance_m`` are that span's and the horizontal length of that stretch of the

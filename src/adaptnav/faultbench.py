@@ -1,13 +1,13 @@
 """The simulated-fault benchmark of issue 12: every filter on a clean mission and on faulted
 copies of it (:mod:`adaptnav.sim.faults`), scored against the same truth (docs/faults.md).
 
-Per run (:func:`score`): the RMSE (spec §10, P-32; docs/metrics.md), the mean position NEES,
-the **footprint** of the fault, ``max_t |e_faulted(t) - e_clean(t)|`` (the two runs share every
-random draw but the fault, so the difference is the fault's own effect, which the RMSE of a
-run dominated by its heading error hides), the horizontal error at the end of the DVL dropout's
-window over the horizontal σ the filter claims there (:func:`adaptnav.evaluate.outage_drift`:
-``sqrt(sd_N² + sd_E²)``), and the ledger fate of every injected reading (used, rejected,
-dropped, with the reasons).
+Per run (:func:`score`): the RMSE (paper eq. (32); docs/metrics.md, 'Accuracy'), the mean
+position NEES, the **footprint** of the fault, ``max_t |e_faulted(t) - e_clean(t)|`` (the two
+runs share every random draw but the fault, so the difference is the fault's own effect, which
+the RMSE of a run dominated by its heading error hides), the horizontal error at the end of the
+DVL dropout's window over the horizontal σ the filter claims there
+(:func:`adaptnav.evaluate.outage_drift`: ``sqrt(sd_N² + sd_E²)``), and the ledger fate of every
+injected reading (used, rejected, dropped, with the reasons).
 
 Per (preset, filter, fault) over seeds (:func:`summarize`): the ratio RMSE faulted / RMSE clean
 paired by seed (mean and worst), the dropout ratio (mean and worst), the mean NEES and the

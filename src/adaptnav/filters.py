@@ -69,7 +69,8 @@ outage drift 345 m against 2569 m); docs/robustness.md."""
 
 @dataclass(frozen=True)
 class SensorOverrides:
-    """Per-sensor settings that differ from the filter's (spec §6: ρ_i, W_i; §7: q per sensor)."""
+    """Per-sensor settings that differ from the filter's: VB's ρ_i, the matching window W_i and
+    the gate's q (docs/filters.md, 'VB prediction', 'MAESKF: covariance matching', 'Gate')."""
 
     gate_q: float | None = None
     vb_rho: float | None = None

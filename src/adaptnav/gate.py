@@ -1,4 +1,4 @@
-"""Outlier gate with rejection coefficient q (spec §7).
+"""Outlier gate with rejection coefficient q (docs/filters.md, 'Gate').
 
 For one sensor's innovation ν with ``S = H P⁻ Hᵀ + R``:
 
@@ -115,7 +115,7 @@ class GateDecision:
 
 
 def apply_gate(gate: Gate, nu: Array, S: Array) -> GateDecision:
-    """Apply ``gate`` to innovation ``nu`` with covariance ``S`` (spec §7)."""
+    """Apply ``gate`` to innovation ``nu`` with covariance ``S`` (docs/filters.md, 'Gate')."""
     if gate.rule == "component":
         stat = float(np.max(nu * nu / np.diag(S)))
     else:

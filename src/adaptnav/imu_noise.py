@@ -1,8 +1,9 @@
 """IMU noise specification: white noise and bias processes, SI inside, datasheet units at the edge.
 
-The error model (spec §3) needs, per sensor triad: white-noise root-PSD (ARW for gyros, VRW for
-accelerometers) and a first-order Gauss-Markov bias with steady-state σ and correlation time τ
-(τ = inf makes it a random walk with the given rate-random-walk root-PSD instead).
+The error model (docs/filters.md, 'Error-state model') needs, per sensor triad: white-noise
+root-PSD (ARW for gyros, VRW for accelerometers) and a first-order Gauss-Markov bias with
+steady-state σ and correlation time τ (τ = inf makes it a random walk with the given
+rate-random-walk root-PSD instead).
 Datasheet "bias stability/instability" is taken as the Gauss-Markov σ (Groves §4.4.3).
 """
 

@@ -1,6 +1,7 @@
-"""Plain Kalman correction functions (spec §5-6; P-25..P-27). Pure: they return new values.
+"""Plain Kalman correction functions. Pure: they return new values.
 
-Closed loop: the prior error estimate is zero (x⁻ = 0, spec §3), so the innovation is the
+docs/filters.md, 'Kalman correction' (paper eqs. (25)-(27)). Closed loop: the prior error
+estimate is zero (x⁻ = 0; docs/filters.md, 'Feedback and reset'), so the innovation is the
 measurement residual itself, ``ν = y - H x⁻ = y``.
 """
 
@@ -33,7 +34,7 @@ def innovation_covariance(P: Array, H: Array, R: Array) -> Array:
 
 
 def correct(P: Array, H: Array, y: Array, R: Array) -> Correction:
-    """Kalman update with x⁻ = 0 (P-25..P-27), covariance in Joseph form.
+    """Kalman update with x⁻ = 0 (paper eqs. (25)-(27)), covariance in Joseph form.
 
     ``K = P⁻ Hᵀ S⁻¹``, ``dx⁺ = K y``, ``P⁺ = (I - K H) P⁻ (I - K H)ᵀ + K R Kᵀ`` — equal to
     ``P⁻ - K S Kᵀ`` for the optimal K, but symmetric and positive semi-definite in floating point.

@@ -1,7 +1,8 @@
-"""Compiled IMU-rate propagation: nominal state and 15×15 covariance (spec §2-3, P-10, P-11).
+"""Compiled IMU-rate propagation: nominal state and 15×15 covariance.
 
 Numba twins of :mod:`adaptnav.strapdown` (mechanization) and :mod:`adaptnav.errorstate`
-(F, Φ = I + F T + (F T)²/2, Qd = ½ (Φ S Φᵀ + S) T with S = G Q Gᵀ, P ← Φ P Φᵀ + Qd);
+(F, Φ = I + F T + (F T)²/2, Qd = ½ (Φ S Φᵀ + S) T with S = G Q Gᵀ, P ← Φ P Φᵀ + Qd;
+docs/mechanization.md and docs/filters.md, 'Propagation', paper eqs. (10), (11));
 :mod:`adaptnav.propagation` holds the readable NumPy loop and copying wrappers, and
 ``tests/test_kernels.py`` holds the two equal to 1e-9. The same equations, no term dropped,
 evaluated faster:

@@ -8,7 +8,7 @@
   and, for a simulated mission, the true σ² (Fig. 10);
 * :func:`ledger_counts`: readings used, rejected by the gate and dropped per sensor and filter;
 * :func:`nis`: a running mean of the normalised innovation squared per reading dimension
-  (spec §9: about 1 for a consistent filter);
+  (about 1 for a consistent filter; docs/metrics.md, 'NIS');
 * :func:`comparison_figures`: all of them for a :class:`~adaptnav.compare.Comparison`.
 
 Figures are built as :class:`matplotlib.figure.Figure` objects without pyplot, so nothing is
@@ -393,10 +393,10 @@ def ledger_counts(
     *,
     t0: float | None = None,
 ) -> Figure:
-    """Readings per aided sensor and filter: used, rejected by the outlier gate (spec §7), and
-    dropped after the navigation start (invalid or missing readings; the alignment window and
-    initialisation-only sensors are left out). ``metrics`` is accepted for symmetry and unused:
-    its counts are totals over the whole mission, alignment window included."""
+    """Readings per aided sensor and filter: used, rejected by the outlier gate (docs/filters.md,
+    'Gate'), and dropped after the navigation start (invalid or missing readings; the alignment
+    window and initialisation-only sensors are left out). ``metrics`` is accepted for symmetry and
+    unused: its counts are totals over the whole mission, alignment window included."""
     del metrics
     start = _start_time(results, t0)
     # A baseline without a ledger (the DVL dead reckoning) has no readings to count.
@@ -442,7 +442,8 @@ NIS_WINDOW = 100
 
 def nis(results: Mapping[str, Result], *, t0: float | None = None) -> Figure:
     """Running mean (over :data:`NIS_WINDOW` used readings) of each reading's NIS divided by
-    its dimension, per aided sensor and filter; 1 is what a consistent filter gives (spec §9)."""
+    its dimension, per aided sensor and filter; 1 is what a consistent filter gives
+    (docs/metrics.md, 'NIS')."""
     start = _start_time(results, t0)
     per_sensor: dict[str, dict[str, tuple[Array, Array]]] = {}
     r_cols = [c for c in next(iter(results.values())).ledger.columns if c.startswith("r_")]

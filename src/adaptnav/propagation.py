@@ -1,14 +1,16 @@
-"""IMU-rate propagation of the nominal state and the error covariance (spec §2-3, P-10, P-11).
+"""IMU-rate propagation of the nominal state and the error covariance.
 
 Per IMU interval k (length dt_k, raw mean rates ω̃_k = dθ_k/dt_k, f̃_k = dv_k/dt_k, with the
 previous interval's rates carried along; for a mission's first sample the caller passes the
 current rates as the previous ones):
 
 1. nominal state: ``x_k = strapdown.propagate(x_{k-1}, ω̃_{k-1}, f̃_{k-1}, ω̃_k, f̃_k, dt_k)``
-   (spec §2, P-10), which also returns the step's midpoint values;
-2. error dynamics at that midpoint: ``F = errorstate.system_matrix(...)``, ``G`` (spec §3);
+   (docs/mechanization.md, 'Mechanization step'), which also returns the step's midpoint
+   values;
+2. error dynamics at that midpoint: ``F = errorstate.system_matrix(...)``, ``G``
+   (docs/filters.md, 'Error-state model');
 3. ``Φ = I + F T + (F T)²/2``, ``Qd = ½ (Φ G Q Gᵀ Φᵀ + G Q Gᵀ) T`` (T = dt_k);
-4. ``P_k = Φ P_{k-1} Φᵀ + Qd`` (P-11).
+4. ``P_k = Φ P_{k-1} Φᵀ + Qd`` (docs/filters.md, 'Propagation'; paper eq. (11)).
 
 :func:`propagate_numpy` and :func:`propagate_partial_numpy` are the readable NumPy twins;
 :func:`propagate` and :func:`propagate_partial` run the same equations compiled
@@ -126,12 +128,12 @@ def propagate_numpy(
 
     ``dtheta``, ``dvel``: (N, 3) increments (rad, m/s); ``dt``: scalar or (N,); ``w_prev``,
     ``f_prev``: raw mean rates of the interval before the first one; ``q_psd``: the 12 PSDs of
-    :func:`errorstate.noise_psd`; ``tau_a``, ``tau_g``: bias correlation times (inf: random
-    walk). Per sample the four steps of the module docstring (spec §2-3, P-10, P-11), F with the
-    specific force low-passed with time constant ``tau_f`` (:func:`low_pass`; its state
-    ``f_lp`` (3), NaN to start, is the one argument updated in place, so that a run can go on in
-    the next call). Returns new ``(x, P, w_prev, f_prev)``, the last two being the last
-    interval's rates for the next call.
+    :func:`errorstate.noise_psd`; ``tau_a``, ``tau_g``: bias correlation times (inf: random walk).
+    Per sample the four steps of the module docstring (docs/filters.md, 'Propagation'; paper eqs.
+    (10), (11)), F with the specific force low-passed with time constant ``tau_f``
+    (:func:`low_pass`; its state ``f_lp`` (3), NaN to start, is the one argument updated in place,
+    so that a run can go on in the next call). Returns new ``(x, P, w_prev, f_prev)``, the last two
+    being the last interval's rates for the next call.
     """
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     dth, dv, dts = _imu_inputs(dtheta, dvel, dt)
@@ -167,10 +169,11 @@ def propagate_partial_numpy(
 
     Used to stop at a measurement's own time inside an interval: ``0 <= ta < tb <= dt`` are
     offsets from the interval's start, ``w_*``/``f_*`` the raw mean rates of the previous and
-    current interval (the linear-rate model of :mod:`adaptnav.strapdown`). The state follows
-    ``strapdown.propagate(..., dt, ta, tb)``; Φ and Qd are taken over T = tb - ta at that
-    sub-step's midpoint (spec §2-3, P-10, P-11), F's specific force as in
-    :func:`propagate_numpy` (``f_lp`` in place). Returns new ``(x, P)``.
+    current interval (the linear-rate model of :mod:`adaptnav.strapdown`; docs/mechanization.md,
+    'Splitting an interval'). The state follows ``strapdown.propagate(..., dt, ta, tb)``; Φ and
+    Qd are taken over T = tb - ta at that sub-step's midpoint (docs/filters.md, 'Propagation';
+    paper eqs. (10), (11)), F's specific force as in :func:`propagate_numpy` (``f_lp`` in
+    place). Returns new ``(x, P)``.
     """
     _check_interval(dt, ta, tb)
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)

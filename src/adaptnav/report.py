@@ -7,17 +7,19 @@ settings, speed), the figures under ``figures/`` and, when it can find the missi
 ``simulation.json`` (seed, disturbances injected, timeline). It writes one HTML file a person
 reads from top to bottom:
 
-1. the scenario (trajectory, duration, distance, seed, disturbances; SCENARIOS.md);
+1. the scenario (trajectory, duration, distance, seed, disturbances; docs/simulation.md);
 2. the sensors and the IMU noise model;
-3. each filter's settings (gate q, VB ρ, N, α0, matching window; spec §6, §7);
-4. our RMSE and relative RMSE (P-32, P-33; the distance is the horizontal length of the
-   reference track) beside the paper's Table 3 (``<table id="comparison">``, one row per
-   filter), then each filter's consistency: the mean NEES of position, velocity and attitude
-   and the share of epochs inside the χ²(3) 95 % band (``<table id="consistency">``,
-   docs/metrics.md);
+3. each filter's settings (gate q, VB ρ, N, α0, matching window; docs/filters.md, 'Gate' and
+   the sections on the three filters);
+4. our RMSE and relative RMSE (docs/metrics.md, 'Accuracy'; paper eqs. (32), (33); the distance is
+   the horizontal length of the reference track) beside the paper's Table 3
+   (``<table id="comparison">``, one row per filter), then each filter's consistency: the mean
+   NEES of position, velocity and attitude and the share of epochs inside the χ²(3) 95 % band
+   (``<table id="consistency">``, docs/metrics.md);
 5. every figure (the paper's Figs. 7-10, ledger counts, NIS) as a ``<figure>`` with its PNG as a
    ``data:`` URI and a caption saying what to look at;
-6. the ledger counts (``<table id="ledger">``) and the shared initial alignment (spec §8).
+6. the ledger counts (``<table id="ledger">``) and the shared initial alignment
+   (docs/alignment.md).
 
 The page needs nothing else: no scripts, no external style sheets, fonts or images, and every
 string from the files is escaped (:func:`html.escape`).
@@ -425,7 +427,10 @@ def _filters(doc: Mapping[str, Any], summaries: Mapping[str, Mapping[str, Any]])
         '<section id="filters"><h2>Filter settings</h2>\n'
         "<p>All filters share one engine and one start (the alignment below, "
         "<em>start = given</em>); they differ only in how R is chosen and whether readings "
-        "are gated (spec §6, §7). The gate's q is the paper's rejection coefficient (Fig. 4).</p>\n"
+        "are gated. The gate rejects a reading when the square of its innovation exceeds q "
+        "times the innovation's predicted variance (component by component for the "
+        "<em>component</em> rule, as one χ² statistic for <em>chi2</em>); q is the paper's "
+        "rejection coefficient (Fig. 4).</p>\n"
         f"{table}\n</section>"
     )
 
@@ -475,11 +480,10 @@ def _results(doc: Mapping[str, Any]) -> str:
     parts.append(f"<p>{_summary(mission, doc.get('filters', []), results)}</p>")
     parts.append(
         '<p class="note">RMSE = √mean(δN² + δE² + δD²) over the reference samples within the '
-        "run (P-32); relative RMSE = 100 RMSE / distance travelled (P-33), the distance being "
-        "the horizontal length of the reference track, so that heave does not lengthen it. "
-        "One seed of a "
-        "simulation: the paper's sea trials are not these data, so compare the ordering and "
-        "the size of the improvements, not the absolute numbers (SCENARIOS.md).</p>"
+        "run (the paper's eq. 32); relative RMSE = 100 RMSE / distance travelled (eq. 33), the "
+        "distance being the horizontal length of the reference track, so that heave does not "
+        "lengthen it. One seed of a simulation: the paper's sea trials are not these data, so "
+        "compare the ordering and the size of the improvements, not the absolute numbers.</p>"
     )
     parts.append("</section>")
     return "\n".join(parts)
@@ -780,7 +784,7 @@ def _initial(doc: Mapping[str, Any]) -> str:
     return (
         '<section id="initial"><h2>Initial alignment (shared by every filter)</h2>\n'
         "<p>One static alignment over the start of the mission (levelling, heading, ZUPT fine "
-        "alignment; spec §8); every filter starts from its state and covariance, so their "
+        "alignment); every filter starts from its state and covariance, so their "
         "differences come from the filters alone. The DVL dead-reckoning baseline, if "
         "present, starts on its own.</p>\n"
         + _table(("quantity", "value"), rows, text_columns=2)

@@ -1,8 +1,9 @@
-"""Strapdown mechanization of the nominal state in the local-level NED frame (spec §2).
+"""Strapdown mechanization of the nominal state in the local-level NED frame.
 
 Readable NumPy version; ``adaptnav.kernels`` compiles the same equations and the tests hold the
-two equal. Sources: Groves (2013) §5.4-5.5 (precision local-navigation-frame mechanization),
-§5.5.4 (coning and sculling), Savage (1998) for the two-sample algorithms.
+two equal. The equations in words: docs/mechanization.md. Sources: Groves (2013) §5.4-5.5
+(precision local-navigation-frame mechanization), §5.5.4 (coning and sculling), Savage (1998)
+for the two-sample algorithms.
 
 IMU model. Interval k = (t_{k-1}, t_k] of length dt carries increments dθ_k, dv_k (or rates
 converted to increments by :func:`rates_to_increments`). Their mean rates ω̄_k = dθ_k/dt,
@@ -192,7 +193,8 @@ class StepMidpoint:
 
 
 def mechanize(x: Array, alpha: Array, nu: Array, T: float) -> tuple[Array, StepMidpoint]:
-    """One mechanization step of the navigation part of the nominal state (spec §2).
+    """One mechanization step of the navigation part of the nominal state (docs/mechanization.md,
+    'Mechanization step').
 
     Velocity (Groves 5.54 with 5.86): ``v⁺ = v⁻ + (I - ½[ω_in×]T) C_nb⁻ ν
     + (g - (2ω_ie + ω_en) × v) T``; position by the trapezoid (Groves 5.56); attitude

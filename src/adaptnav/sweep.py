@@ -2,19 +2,19 @@
 
 A sweep is a list of :class:`RunSpec` (preset, seed, filter, gate coefficient q or None,
 gyro-bias process-noise scale or None, disturbances) and gives one row of metrics per spec
-(spec §10: RMSE P-32, relative RMSE P-33, horizontal distance travelled, duration, the mean NEES
-of position, velocity and attitude and the share of epochs inside the χ²(3) 95 % band
-(docs/metrics.md), DVL used / rejected counts). Three sweeps of the paper are prepared here:
+(docs/metrics.md: RMSE and relative RMSE, paper eqs. (32), (33), horizontal distance travelled,
+duration, the mean NEES of position, velocity and attitude and the share of epochs inside the
+χ²(3) 95 % band, DVL used / rejected counts). Three sweeps of the paper are prepared here:
 
-* **q sweep** (the paper's Fig. 4; spec §7): 25 rejection coefficients ``q`` in [200, 2600]
-  (:data:`Q_VALUES`), each filter with the gate **on** at that q with the paper's
+* **q sweep** (the paper's Fig. 4; docs/filters.md, 'Gate'): 25 rejection coefficients ``q`` in
+  [200, 2600] (:data:`Q_VALUES`), each filter with the gate **on** at that q with the paper's
   per-component rule ``nu_j² > q S_jj`` (VB-MAESKF too: the paper says it is "not sensitive
   to q"), plus VB-MAESKF ungated (its default) and the oracle as reference lines
   (:func:`q_sweep_specs`);
 * **gyro-bias process-noise sweep** (the paper's Fig. 6): the driving-noise PSD of the gyro
-  bias in the filter's Q (:attr:`adaptnav.imu_noise.ImuNoise.gyro_bias_psd`, spec §3) times a
-  factor in 10^[-2, 2] (:data:`Q_SCALES`), each filter at its default q
-  (:func:`process_noise_specs`, :func:`scale_gyro_bias_q`);
+  bias in the filter's Q (:attr:`adaptnav.imu_noise.ImuNoise.gyro_bias_psd`; docs/filters.md,
+  'Error-state model') times a factor in 10^[-2, 2] (:data:`Q_SCALES`), each filter at its
+  default q (:func:`process_noise_specs`, :func:`scale_gyro_bias_q`);
 * **Monte Carlo over seeds** (the paper's Table 3 as a distribution): each filter at its
   defaults on many seeded missions (:func:`monte_carlo_specs`), summarised by
   :func:`summarize` (mean, std, median, min, max, of the NEES too) and
@@ -101,7 +101,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 PAPER_FILTERS: tuple[str, ...] = ("meskf", "maeskf", "vb")
-"""The paper's three filters (spec §6)."""
+"""The paper's three filters (docs/filters.md: MESKF, MAESKF, VB-MAESKF)."""
 DEFAULT_FILTERS: tuple[str, ...] = (*PAPER_FILTERS, "robust", "oracle")
 """The paper's filters, the recommended ``robust`` one (docs/robustness.md) and the oracle
 baseline (:mod:`adaptnav.oracle`), where available."""
@@ -123,9 +123,9 @@ METRICS: tuple[str, ...] = (
     "gate_q",
     "elapsed_s",
 )
-"""Metric columns of a sweep's table (spec §10; :class:`adaptnav.evaluate.Metrics`; ``gate_q``:
-the DVL gate's q, NaN ungated; ``elapsed_s``: wall time of the run and its evaluation). Runs
-cached before a metric existed have NaN for it."""
+"""Metric columns of a sweep's table (docs/metrics.md; :class:`adaptnav.evaluate.Metrics`;
+``gate_q``: the DVL gate's q, NaN ungated; ``elapsed_s``: wall time of the run and its
+evaluation). Runs cached before a metric existed have NaN for it."""
 NEES_METRICS: tuple[str, ...] = NEES_COLUMNS
 """The consistency metrics among :data:`METRICS`: mean NEES per block (3 for a consistent
 filter) and the share of epochs inside the χ²(3) 95 % band (0.95); docs/metrics.md."""
@@ -161,9 +161,9 @@ class RunSpec:
         preset: simulation preset (``adaptnav.sim.scenarios.PRESETS``).
         seed: simulation seed (every error source's random stream).
         filter: a kind of :data:`adaptnav.filters.FILTER_KINDS`.
-        q: DVL gate coefficient: the gate is **on** for this filter with this q (spec §7,
-            the mission's gate rule, by default per component); None: the filter's default
-            (MESKF 600, MAESKF 1800 gated; VB-MAESKF and the oracle ungated).
+        q: DVL gate coefficient: the gate is **on** for this filter with this q (docs/filters.md,
+            'Gate'; the mission's gate rule, by default per component); None: the filter's
+            default (MESKF 600, MAESKF 1800 gated; VB-MAESKF and the oracle ungated).
         q_scale: factor on the gyro-bias process-noise PSD in the filter's Q
             (:func:`scale_gyro_bias_q`); None (or 1): the mission's Q.
         disturbances: the simulator's switches; None (or the default): all on.
@@ -310,9 +310,10 @@ def process_noise_specs(
 
 
 def scale_gyro_bias_q(noise: ImuNoise, scale: float) -> ImuNoise:
-    """``noise`` with the gyro-bias driving-noise PSD (spec §3's Q block of ``db_g``) times
-    ``scale``: the Gauss-Markov σ times √scale at the same τ (PSD = 2σ²/τ), or, for a random
-    walk (τ = inf), the rate random walk times √scale (PSD = RRW²). Nothing else changes."""
+    """``noise`` with the gyro-bias driving-noise PSD (the Q block of ``db_g``; docs/filters.md,
+    'Error-state model') times ``scale``: the Gauss-Markov σ times √scale at the same τ
+    (PSD = 2σ²/τ), or, for a random walk (τ = inf), the rate random walk times √scale
+    (PSD = RRW²). Nothing else changes."""
     if not (math.isfinite(scale) and scale > 0):
         raise ValueError(f"scale: {scale!r} must be a finite number > 0")
     root = math.sqrt(scale)
@@ -432,7 +433,7 @@ def run_one(
     mission: Mission, initial: tuple[np.ndarray, np.ndarray, float], spec: RunSpec
 ) -> dict[str, float]:
     """Run ``spec``'s filter on a loaded ``mission`` from the shared ``initial`` state and
-    evaluate it against the mission's truth (spec §10): the :data:`METRICS`."""
+    evaluate it against the mission's truth (docs/metrics.md): the :data:`METRICS`."""
     from adaptnav import api, evaluate
 
     if spec.config:

@@ -1,4 +1,6 @@
-"""Compiled measurement epochs: linearisation, stacked update, gate, feedback (spec §4-7).
+"""Compiled measurement epochs: linearisation, stacked update, gate, feedback.
+
+The equations: docs/filters.md, from 'Measurement models' to 'VB-MAESKF: variational Bayes'.
 
 Numba twins of the readable epoch pieces, in the style of :mod:`adaptnav.kernels` (small
 ``@jit`` helpers, ``cache=True``, work in place on preallocated arrays, no shape checks):
@@ -11,7 +13,8 @@ compiled                               readable twin
                                        and pendulum), heading, GNSS, ZUPT
 :func:`correct`                        :func:`adaptnav.kalman.correct` (x⁻ = 0, Joseph form)
 :func:`stacked_update`                 ``update`` of :mod:`adaptnav.noise` (FixedNoise,
-                                       CovarianceMatching IAE/RAE, VariationalBayes P-23..P-28)
+                                       CovarianceMatching IAE/RAE, VariationalBayes
+                                       paper eqs. (23)-(28))
 :func:`gate_statistic`                 :func:`adaptnav.gate.apply_gate`
 :func:`inject`, :func:`reset`          :func:`adaptnav.errorstate.inject`, ``reset_jacobian``
 :func:`epoch`                          one epoch of the engine (the strategies' ``predict``,
@@ -696,10 +699,11 @@ def _vb_iterate(
     blk_off: IntArray,
     dof: float,
 ) -> int:
-    """VB fixed point (P-24..P-28) in measurement space, on the rows of V: α (already α⁻ + ½)
-    and β⁻ given; leaves in R̂ the R of the last correction and in β its β. With ``dof`` > 0,
-    each block's reading has a Student-t scale λ (twin of VariationalBayes.update with its
-    ``dof``; ``dof`` <= 0: λ = 1, the paper's update). Returns the iterations done, -1 if an S
+    """VB fixed point (paper eqs. (24)-(28); docs/filters.md, 'VB update') in measurement space,
+    on the rows of V: α (already α⁻ + ½) and β⁻ given; leaves in R̂ the R of the last correction
+    and in β its β. With ``dof`` > 0, each block's reading has a Student-t scale λ (twin of
+    VariationalBayes.update with its ``dof``; ``dof`` <= 0: λ = 1, the paper's update). Returns
+    the iterations done, -1 if an S
     was not positive definite."""
     alpha, beta_prior, beta, r_hat, Gy = V[V_ALPHA], V[V_BETA_PRIOR], V[V_BETA], V[V_R_HAT], V[V_GY]
     lam, B, lo, hi = V[V_LAM], V[V_B], V[V_LO], V[V_HI]
@@ -835,9 +839,9 @@ def stacked_update(
 
     Block b is sensor ``blk_sensor[b]`` at rows ``blk_off[b]:blk_off[b+1]`` of H (D×15) and
     y, with nominal R ``Rb[b]``. ``kind``: KIND_FIXED (R = blockdiag(R_nominal)),
-    KIND_MATCHING (innovation- or residual-based covariance matching) or KIND_VB
-    (variational Bayes, P-23..P-28); the settings that shape the stacked update (VB N and
-    tol; matching window, floor, IAE/RAE) are the first block's sensor's, as in the readable
+    KIND_MATCHING (innovation- or residual-based covariance matching) or KIND_VB (variational
+    Bayes, paper eqs. (23)-(28)); the settings that shape the stacked update (VB N and tol;
+    matching window, floor, IAE/RAE) are the first block's sensor's, as in the readable
     strategies. Writes dx, P⁺ (before reset), the stacked R used and ``W = H P⁻ Hᵀ`` into
     ``ws`` (WS_DX, WS_P_NEW, WS_R_USED, WS_W) and the blocks' new adaptation states into the
     tables; returns the iterations, -1 if S was not positive definite (states then unchanged).
@@ -1085,12 +1089,13 @@ def epoch(
     """One stacked update at ``t_epoch`` with the g readings ``queue[head:head+g]`` (in queue
     order), in place.
 
-    Per reading, in order (spec §5-7): a second reading of a sensor already at this epoch is
-    dropped (duplicate); the reading is linearised at x (compiled, or the Python ``evaluate``
-    result in ``fb[k]``) and dropped if non-finite; its nominal R is the sensor's, or its own
-    where the store row carries one (:func:`_reading_R`); the sensor's adaptation state is predicted
-    over the time since its previous epoch (VB: ``ρ`` or ``ρ^(dt/T)``, P-12, P-13); the gate,
-    if any, tests it against ``S = H P Hᵀ + R_now``. The accepted blocks are stacked into one
+    Per reading, in order (docs/filters.md, 'Epochs' to 'Gate'): a second reading of a sensor
+    already at this epoch is dropped (duplicate); the reading is linearised at x (compiled, or
+    the Python ``evaluate`` result in ``fb[k]``) and dropped if non-finite; its nominal R is the
+    sensor's, or its own where the store row carries one (:func:`_reading_R`); the sensor's
+    adaptation state is predicted over the time since its previous epoch (VB: ``ρ`` or
+    ``ρ^(dt/T)``, paper eqs. (12), (13)); the gate, if any, tests it against
+    ``S = H P Hᵀ + R_now``. The accepted blocks are stacked into one
     update (:func:`stacked_update`); x ← x ⊕ dx, P ← G P⁺ Gᵀ (if ``reset_covariance``),
     symmetrised. Every reading's fate goes to the ledger tables from row ``n_ledger`` on
     (dropped and rejected as met, then the used ones with their NIS ``yᵀ S_i⁻¹ y``, S_i with
@@ -1158,7 +1163,7 @@ def epoch(
             continue
         seen[i] = 1
         last = s_state[i, X_LAST]
-        if kind == KIND_VB:  # P-12, P-13 at the sensor's own epoch
+        if kind == KIND_VB:  # paper eqs. (12), (13) at the sensor's own epoch
             period = s_flt[i, F_PERIOD]
             dt_i = period if math.isnan(last) else t_epoch - last
             rho = s_flt[i, F_RHO]

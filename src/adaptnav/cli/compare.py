@@ -101,10 +101,10 @@ def compare_cmd(
 ) -> None:
     """Run several filters on one mission from one shared alignment and compare them.
 
-    Writes each run (``adaptnav evaluate OUT/<filter>`` works), comparison.csv/json and the
+    Writes each run (`adaptnav evaluate OUT/<filter>` works), comparison.csv/json and the
     figures to --out, and prints RMSE and relative RMSE beside the paper's Table 3 when the
     mission is one of its trajectories (paper-1, paper-2). Make the HTML page with
-    ``adaptnav report OUT``.
+    `adaptnav report OUT`.
     """
     from adaptnav.compare import compare, parse_filters
     from adaptnav.io import MissionError, load_mission

@@ -31,8 +31,8 @@ def demo(
     """The main job: simulate a paper trajectory, compare the filters, write the HTML report.
 
     Simulates the preset with every disturbance on (seeded) into --out/mission, aligns once
-    over the static window and runs MESKF, MAESKF, VB-MAESKF, robust and the oracle from that same
-    start (:func:`adaptnav.compare.compare`), writes the comparison folder to --out (runs,
+    over the static window and runs MESKF, MAESKF, VB-MAESKF, robust and the oracle from that
+    same start (as `adaptnav compare` does), writes the comparison folder to --out (runs,
     comparison.csv/json, figures) and the HTML report --out/report.html, and prints the table
     beside the paper's Table 3 and the report's path.
     """
@@ -80,10 +80,13 @@ def run_cmd(
     ] = "",
     force: Force = False,
 ) -> None:
-    """Run one filter on a mission; write the solution, ledger and R-hat record to --out.
+    """Run one filter on a mission; write the solution, every reading's fate and R to --out.
 
-    --out is written whole at the end (a temporary folder beside it renamed into place); a
-    non-empty --out is refused unless --force, which replaces it."""
+    The run folder holds the navigation solution with its standard deviations, one row per
+    sensor reading saying whether it was used, rejected (and by which test) or dropped (and
+    why), and the measurement noise variance R the filter used at each reading. --out is
+    written whole at the end (a temporary folder beside it renamed into place); a non-empty
+    --out is refused unless --force, which replaces it."""
     from adaptnav import api, results
     from adaptnav.align import AlignmentError
     from adaptnav.io import MissionError, load_mission
@@ -121,13 +124,15 @@ def evaluate_cmd(
         Path | None, typer.Option(help="mission folder to take the reference from")
     ] = None,
 ) -> None:
-    """RMSE, relative RMSE, distance, NEES, ledger counts vs the reference (P-32, P-33).
+    """RMSE, relative RMSE, distance, NEES and reading counts of a run against the reference.
 
-    The distance is the horizontal length of the reference track (its N, E steps), so heave
-    does not lengthen it; relative RMSE = 100 RMSE / distance. NEES of position, velocity and
-    attitude with P's full 3x3 blocks: mean (3 for a consistent filter) and the share of
-    epochs inside the chi2(3) 95 % interval [0.216, 9.348]; velocity and attitude need them in
-    the reference. Definitions: docs/metrics.md.
+    RMSE is the root mean square of the 3-D position error over the reference samples, as in
+    the paper. The distance is the horizontal length of the reference track (its N, E steps),
+    so heave does not lengthen it; relative RMSE = 100 RMSE / distance. NEES (normalised
+    estimation error squared) of position, velocity and attitude, with the full 3x3
+    covariance blocks: its mean is 3 for a filter whose covariance matches its errors, and
+    95 % of the epochs should lie in [0.216, 9.348]; velocity and attitude need them in the
+    reference. Definitions: docs/metrics.md.
     """
     import json
 

@@ -227,7 +227,8 @@ def q_cmd(
 ) -> None:
     """Relative RMSE against the gate coefficient q (the paper's Fig. 4).
 
-    Every filter runs with the DVL gate on at each q (the per-component rule of spec §7;
+    Every filter runs with the DVL gate on at each q (a DVL reading is rejected when the square
+    of any of its innovation's components exceeds q times that component's predicted variance;
     VB-MAESKF gated too), plus VB-MAESKF ungated and the oracle at their defaults as
     reference lines. Prints each filter's spread over q (best, worst, worst/best of the mean
     over seeds).
@@ -316,7 +317,8 @@ def seeds_cmd(
     Prints mean ± std, median and range of RMSE and relative RMSE (over the horizontal track
     length) per filter beside the paper's Table 3, VB-MAESKF's win rate (paired by seed) and
     RMSE ratio against each other filter, and each filter's mean NEES of position, velocity
-    and attitude with the share of epochs in the chi2(3) 95 % band (3 and 95 % if consistent).
+    and attitude with the share of epochs inside the band a consistent filter's NEES stays in
+    95 % of the time (mean 3 and 95 % when the filter's covariance matches its errors).
     """
     from adaptnav import sweep
 

@@ -590,7 +590,8 @@ heading 60 s, GNSS and NHC off; resolutions below the sensors' output steps (0.0
 
 
 class InitialConfig(_Model):
-    """``[initial]``: alignment (static window at the start) or an explicit state (spec §8)."""
+    """``[initial]``: alignment (static window at the start) or an explicit state
+    (docs/alignment.md)."""
 
     mode: Literal["alignment", "state"] = "alignment"
     alignment_s: Positive = 600.0

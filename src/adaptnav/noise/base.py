@@ -1,10 +1,11 @@
-"""One interface for measurement-noise adaptation (spec §6), three strategies implement it.
+"""One interface for measurement-noise adaptation; three strategies implement it.
 
 A filter kind fixes the strategy; each sensor has its own settings and its own adaptation state.
 At an epoch the engine hands the strategy the received sensors' blocks (y_i, H_i, nominal R_i,
 state_i); the strategy chooses R (fixed, matched, or variational) and performs the stacked
-update (P-20..P-22), returning the new per-sensor states. Sensors not received are not passed
-and so keep their state (P-18, P-19, P-29, P-30).
+update (paper eqs. (20)-(22)), returning the new per-sensor states. Sensors not received are
+not passed and so keep their state (paper eqs. (18), (19), (29), (30)). docs/filters.md,
+'Stacked update' and the sections on the three filters.
 """
 
 from __future__ import annotations
@@ -67,12 +68,12 @@ class NoiseStrategy(Protocol):
 
 
 def stack(blocks: Sequence[Block]) -> tuple[Array, Array]:
-    """Stacked H (D×15) and y (D) over the received blocks (P-20, P-21)."""
+    """Stacked H (D×15) and y (D) over the received blocks (paper eqs. (20), (21))."""
     return np.vstack([b.H for b in blocks]), np.concatenate([b.y for b in blocks])
 
 
 def stacked_R(Rs: Sequence[Array]) -> Array:
-    """``R = blockdiag(R_i)`` over received sensors (P-22)."""
+    """``R = blockdiag(R_i)`` over received sensors (paper eq. (22))."""
     return np.asarray(block_diag(*Rs), dtype=float)
 
 

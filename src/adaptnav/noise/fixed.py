@@ -1,4 +1,4 @@
-"""MESKF: fixed, hand-tuned nominal measurement noise (spec §6.1)."""
+"""MESKF: fixed, hand-tuned nominal measurement noise (docs/filters.md, 'MESKF: fixed R')."""
 
 from __future__ import annotations
 

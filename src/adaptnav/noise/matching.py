@@ -1,4 +1,6 @@
-"""MAESKF: measurement noise by innovation covariance matching (spec §6.2).
+"""MAESKF: measurement noise by innovation covariance matching.
+
+The equations in words: docs/filters.md, 'MAESKF: covariance matching'.
 
 Mohamed & Schwarz (1999), adaptive estimation by innovation (IAE): over a sensor's window of its
 last W accepted innovations ν (x⁻ = 0, so ν = y),

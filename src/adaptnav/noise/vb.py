@@ -1,12 +1,17 @@
-"""VB-MAESKF: per-component noise variances by variational Bayes (spec §6.3, the paper's method).
+"""VB-MAESKF: per-component noise variances by variational Bayes (the paper's method).
 
-Each measurement component j of sensor i has ``σ²_ij ~ InvGamma(α_ij, β_ij)`` (P-8), R_i diagonal
-(Särkkä & Nummenmaa 2009). Initialisation ``α = α0``, ``β = α0 σ²_nominal``.
+The equations in words: docs/filters.md, 'VB-MAESKF: variational Bayes'.
 
-Prediction, only for sensor i at its own epoch (P-12, P-13): ``α⁻ = ρ_i α⁺``, ``β⁻ = ρ_i β⁺``
-(variant for irregular data: ``ρ_i^(dt/T_i)``).
+Each measurement component j of sensor i has ``σ²_ij ~ InvGamma(α_ij, β_ij)`` (paper eq. (8);
+docs/filters.md, 'VB prior'), R_i diagonal (Särkkä & Nummenmaa 2009). Initialisation
+``α = α0``, ``β = α0 σ²_nominal``.
 
-Update over the received components, x⁻ = 0 (P-23..P-28)::
+Prediction, only for sensor i at its own epoch (paper eqs. (12), (13); docs/filters.md,
+'VB prediction'): ``α⁻ = ρ_i α⁺``, ``β⁻ = ρ_i β⁺`` (variant for irregular data:
+``ρ_i^(dt/T_i)``).
+
+Update over the received components, x⁻ = 0 (paper eqs. (23)-(28); docs/filters.md,
+'VB update')::
 
     α = α⁻ + 1/2
     β = β⁻
@@ -16,7 +21,8 @@ Update over the received components, x⁻ = 0 (P-23..P-28)::
         x⁺ = K y;  P⁺ = P⁻ - K S Kᵀ
         β = β⁻ + ½ (y - H x⁺)² + ½ diag(H P⁺ Hᵀ)
 
-Components not received keep α, β (P-29, P-30): the engine passes only received sensors.
+Components not received keep α, β (paper eqs. (29), (30)): the engine passes only received
+sensors.
 
 **Beyond the paper: a heavy-tailed (Student-t) reading.** With ``dof = ν`` set, each sensor's
 reading b gets its own scale ``λ_b ~ Gamma(ν/2, ν/2)``, its noise ``N(0, R_b / λ_b)``: the

@@ -1,4 +1,6 @@
-"""Aiding-sensor measurement models, one module per sensor (spec §4, paper eq. P-4).
+"""Aiding-sensor measurement models, one module per sensor (paper eq. (4)).
+
+The table of sensors and what each H touches: docs/filters.md, 'Measurement models'.
 
 Each sensor is a small frozen, validated config (nominal σ in SI units, lever arm ``l_b`` from
 the IMU in body FRD, mounting rotation ``C_sb`` where it matters) with

@@ -1,6 +1,7 @@
-"""The contract between a sensor and the filter: one residual, its H and its nominal R (spec §4).
+"""The contract between a sensor and the filter: one residual, its H and its nominal R.
 
-Every aiding sensor is linearised as (paper eq. P-4, with M_i = I)
+Every aiding sensor is linearised as (paper eq. (4), with M_i = I; docs/filters.md,
+'Measurement models')
 
     y_i = z_i - h_i(x_hat) ≈ H_i dx + r_i,    r_i ~ N(0, R_i),
     H_i = ∂h_i(x_hat ⊕ dx) / ∂dx at dx = 0,

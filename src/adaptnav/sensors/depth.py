@@ -1,6 +1,7 @@
-"""Depth meter (pressure sensor): depth of the sensor point, depth = -height (spec §4).
+"""Depth meter (pressure sensor): depth of the sensor point, depth = -height.
 
-Model (spec §4 table; Groves (2013) ch. 16, height/depth aiding with lever arm)::
+Model (docs/filters.md, 'Measurement models'; Groves (2013) ch. 16, height/depth aiding with
+lever arm)::
 
     z = -h + (C_nb l_b)_D,
 

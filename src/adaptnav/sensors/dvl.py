@@ -1,12 +1,13 @@
-"""Doppler velocity log: velocity over ground of the DVL, resolved in the DVL frame (spec §4).
+"""Doppler velocity log: velocity over ground of the DVL, resolved in the DVL frame.
 
-Model (spec §4 table; Groves (2013) ch. 16, DVL aiding with lever arm)::
+Model (docs/filters.md, 'Measurement models'; Groves (2013) ch. 16, DVL aiding with lever
+arm)::
 
     z = C_sb (C_nbᵀ v_n + ω_ib_b × l_b),    ω_ib_b = ω̃_ib_b - b_g,
 
 with v_n the IMU's NED velocity, l_b the lever arm from the IMU to the DVL (body FRD, m), C_sb
 the mounting rotation (DVL from body) and ω̃_ib_b the raw gyro rate. The earth-rate part of
-ω_ib_b (Ω |l_b| ≈ 2e-4 m/s at 3 m) is kept, as in the spec, rather than using ω_eb_b.
+ω_ib_b (Ω |l_b| ≈ 2e-4 m/s at 3 m) is kept, as that page states, rather than using ω_eb_b.
 
 Linearisation for ``dx = x_true ⊖ x_hat``, ``C_true = Exp(phi) C`` so ``C_trueᵀ ≈ Cᵀ (I - [phi×])``,
 and ``b_g,true = b_g + db_g``::

@@ -1,8 +1,8 @@
-"""GNSS (or USBL) position fix of the antenna: latitude, longitude and optionally height (spec §4).
+"""GNSS (or USBL) position fix of the antenna: latitude, longitude and optionally height.
 
-Model (spec §4 table; Groves (2013) ch. 14, loosely coupled position with lever arm): the
-antenna is at ``r_n + a``, ``a = C_nb l_b`` (NED, m), whose geodetic coordinates are, to
-O(|a|²/R) (≈ 1e-6 m for a few metres of lever arm)::
+Model (docs/filters.md, 'Measurement models'; Groves (2013) ch. 14, loosely coupled position
+with lever arm): the antenna is at ``r_n + a``, ``a = C_nb l_b`` (NED, m), whose geodetic
+coordinates are, to O(|a|²/R) (≈ 1e-6 m for a few metres of lever arm)::
 
     lat_a = lat + a_N / (R_M(lat) + h),
     lon_a = lon + a_E / ((R_N(lat) + h) cos lat),

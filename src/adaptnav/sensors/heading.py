@@ -1,6 +1,6 @@
-"""Heading sensor / gyrocompass / magnetic compass (after declination): yaw (spec §4).
+"""Heading sensor / gyrocompass / magnetic compass (after declination): yaw.
 
-Model (spec §4 table; Groves (2013) ch. 16, heading aiding)::
+Model (docs/filters.md, 'Measurement models'; Groves (2013) ch. 16, heading aiding)::
 
     z = yaw of C_ns = C_nb C_sbᵀ    (ZYX, attitude.dcm_to_euler, true north),
 

@@ -30,7 +30,7 @@ bias, which otherwise hides behind the tilt error, and the velocity aiding then 
 accelerometer's noise over one IMU interval adds ``VRW² / T / g²`` per axis (0.03° for the
 paper's IMU at 100 Hz), small beside 0.1° and not added.
 
-Attitude model (spec §4 table)::
+Attitude model (docs/filters.md, 'Measurement models')::
 
     z = [roll, pitch] of C_ns = C_nb C_sbᵀ    (attitude.dcm_to_euler, ZYX),
 

@@ -1,8 +1,9 @@
-"""Zero-velocity update (ZUPT): a stationary vehicle's NED velocity is zero (spec §8).
+"""Zero-velocity update (ZUPT): a stationary vehicle's NED velocity is zero.
 
-A pseudo-measurement used during static alignment (Groves (2013) §15.3.1 zero-velocity update,
-§14.4 fine alignment): the vehicle is known to be at rest, so its velocity "reads" z = 0. The
-model is more generally a direct NED velocity observation of the IMU point::
+A pseudo-measurement used during static alignment (docs/alignment.md, 'Fine alignment'; Groves
+(2013) §15.3.1 zero-velocity update, §14.4 fine alignment): the vehicle is known to be at rest,
+so its velocity "reads" z = 0. The model is more generally a direct NED velocity observation of
+the IMU point::
 
     h(x) = v_n,    z = 0 (at rest),    y = z - h(x_hat) = -v_n_hat.
 

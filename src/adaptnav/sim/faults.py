@@ -266,7 +266,8 @@ def spike_vectors(
     seven sets equally likely), ± U(magnitude) m/s per axis with a random sign, 0 elsewhere.
 
     The same draws, in the same order, as the spikes of
-    :func:`adaptnav.io.akit.inject_dvl_faults` (SCENARIOS.md's "drastic and unreal changes").
+    :func:`adaptnav.io.akit.inject_dvl_faults` (the paper's "drastic and unreal changes";
+    docs/simulation.md, 'What makes adaptation matter').
     """
     out = np.zeros((count, 3))
     for i in range(count):

@@ -1,4 +1,6 @@
-"""Exact IMU signals of an analytically defined motion (inverse strapdown; spec §2, §9).
+"""Exact IMU signals of an analytically defined motion (inverse strapdown).
+
+They test the mechanization (docs/mechanization.md, 'Verification').
 
 A :class:`Motion` gives, as vectorised closed-form functions of time t (s), the geodetic
 position ``p = [L, λ, h]`` (rad, rad, m) with ``ṗ`` and ``p̈``, and the ZYX Euler angles

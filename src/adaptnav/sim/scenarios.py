@@ -1,6 +1,6 @@
 """The paper's sea trials as simulated missions, and :func:`simulate` that writes them.
 
-Presets (SCENARIOS.md; Davari & Gholami 2019, §5 and Table 3), near Qeshm island (26.8° N,
+Presets (docs/simulation.md; Davari & Gholami 2019, §3 and Table 3), near Qeshm island (26.8° N,
 56.0° E, sea level), each starting with 10 minutes alongside (static, calm: the alignment):
 
 * ``paper-1``: a round trip of ≈ 23 km in ≈ 183 min (the mission length, static window

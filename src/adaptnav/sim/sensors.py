@@ -2,7 +2,7 @@
 
 Every clean reading is the sensor model's ``predict`` (:mod:`adaptnav.sensors`) at the true
 state, so the simulator and the filter share one convention for every frame, lever arm and
-angle. What is added on top (SCENARIOS.md, "What makes adaptation matter"):
+angle. What is added on top (docs/simulation.md, 'What makes adaptation matter'):
 
 DVL (3 Hz), per axis of the DVL frame::
 
