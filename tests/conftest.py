@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-import badinput
+from helpers import badinput
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,7 @@ from adaptnav.io.akit import (
     AkitError,
     RawSegment,
 )
-from script_loader import load_script
+from helpers.script_loader import load_script
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "akit-snapir-auv"
 needs_data = pytest.mark.skipif(

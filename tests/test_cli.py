@@ -11,10 +11,10 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-import synthetic
 from adaptnav import attitude
 from adaptnav.cli import app
 from adaptnav.io import parse_config, write_mission
+from helpers import synthetic
 
 runner = CliRunner()
 

@@ -2,8 +2,8 @@
 scripts/faults_eval.py): each injector changes its rows and nothing else, writes faults.json,
 is seeded and deterministic, `all` keeps its windows disjoint; one tiny end-to-end run.
 
-The tiny simulated mission of :mod:`badinput` (20 s alignment, then about 40 s under way) with
-every fault shrunk to fit it (:data:`SMALL`)."""
+The tiny simulated mission of :mod:`helpers.badinput` (20 s alignment, then about 40 s under
+way) with every fault shrunk to fit it (:data:`SMALL`)."""
 
 from __future__ import annotations
 
@@ -21,8 +21,8 @@ import pytest
 from adaptnav import faultbench as fb
 from adaptnav.io import akit, load_mission
 from adaptnav.sim import faults
-from badinput import read, tiny_mission
-from script_loader import load_script
+from helpers.badinput import read, tiny_mission
+from helpers.script_loader import load_script
 
 SMALL = faults.FaultParams(
     depth_offset_s=3.0,

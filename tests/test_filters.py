@@ -1,6 +1,6 @@
 """Three filters, one engine: consistency, agreement, robustness, the paper's update, stacking.
 
-Data are made here from known motion (tests/synthetic.py), not by the simulator.
+Data are made here from known motion (tests/helpers/synthetic.py), not by the simulator.
 """
 
 from __future__ import annotations
@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-import synthetic
 from adaptnav import engine, errorstate, propagation
 from adaptnav.filters import FilterSettings, build_channels
 from adaptnav.noise import VariationalBayes
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
+from helpers import synthetic
 
 N_RUNS = 50
 CHECK_EVERY_S = 10.0

@@ -1,7 +1,7 @@
 """Fuzz: a small mission corrupted in many ways never makes the CLI print a traceback.
 
 Each corruption (at least 30 kinds: the cases of issue 12 and more) is applied to a copy of
-the tiny simulated mission (:mod:`badinput`, CSV tables) with its details (sensor, row,
+the tiny simulated mission (:mod:`helpers.badinput`, CSV tables) with its details (sensor, row,
 value ...) drawn by hypothesis, then ``adaptnav run`` goes through the CLI. Either it exits 2
 with one error line naming the file (or mission.toml), or it exits 0 and the corruption shows
 in the run: a repair naming the file, or the corrupted readings dropped in the ledger (or the
@@ -26,8 +26,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-import badinput
 from adaptnav.cli import app
+from helpers import badinput
 
 runner = CliRunner()
 SENSORS = ("dvl", "depth", "inclinometer", "gps")

@@ -1,8 +1,9 @@
-"""Every filter kind on the golden mission reproduces the pinned run to 1e-9 (tests/golden.py).
+"""Every filter kind on the golden mission reproduces the pinned run to 1e-9.
 
-This is the test a behaviour-preserving change (the redesign, a faster kernel) must pass. If a
-change is meant to alter the numbers, rewrite the golden run with ``tests/golden.py --write``
-and say why in the commit.
+The golden run is :mod:`helpers.golden` (tests/helpers/golden.py). This is the test a
+behaviour-preserving change (the redesign, a faster kernel) must pass. If a change is meant to
+alter the numbers, rewrite the golden run with ``tests/helpers/golden.py --write`` (from the
+repository root) and say why in the commit.
 """
 
 from __future__ import annotations
@@ -12,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import golden
+from helpers import golden
 
-REWRITE = "the pinned run differs; if this change is meant to, run tests/golden.py --write"
+REWRITE = "the pinned run differs; if this change is meant to, run tests/helpers/golden.py --write"
 
 
 @pytest.fixture(scope="module")

@@ -16,12 +16,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import synthetic
 from adaptnav import engine, errorstate, health
 from adaptnav.gate import Guard
 from adaptnav.health import DivergenceGuard
 from adaptnav.noise import CovarianceMatching, FixedNoise, VariationalBayes
 from adaptnav.noise.base import Block
+from helpers import synthetic
 
 # --- the guard's threshold --------------------------------------------------------------------
 

@@ -9,13 +9,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import synthetic
 from adaptnav import api, engine, errorstate
 from adaptnav.filters import FilterSettings, build_channels
 from adaptnav.io import load_mission
 from adaptnav.oracle import OUTLIER_REASON, mission_noise
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sim.scenarios import simulate
+from helpers import synthetic
 
 
 def _run(

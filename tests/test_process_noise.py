@@ -15,11 +15,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import synthetic
 from adaptnav import engine, errorstate
 from adaptnav.io import MissionError, parse_config
 from adaptnav.noise import FixedNoise
 from adaptnav.noise.process import QAdaptation, WhitenessState, whiteness_step
+from helpers import synthetic
 from test_io import config_dict
 
 

@@ -1,7 +1,8 @@
 """Bad input never gives a traceback or a silently wrong answer (issue 12, docs/robustness.md).
 
 One test per case found on the old code (each failed there), through the CLI as a user meets
-it, on a tiny simulated mission (:mod:`badinput`). The fuzz test is tests/test_fuzz_input.py.
+it, on a tiny simulated mission (:mod:`helpers.badinput`). The fuzz test is
+tests/test_fuzz_input.py.
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-import badinput
 from adaptnav.cli import app
+from helpers import badinput
 
 runner = CliRunner()
 

@@ -20,7 +20,7 @@ from adaptnav.cli import app
 from adaptnav.io import load_mission, rtklib
 from adaptnav.io.rtklib import RtklibError
 from adaptnav.units import G0
-from script_loader import load_script
+from helpers.script_loader import load_script
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "rtklibexplorer-gnss-imu"
 DRIVE = DATA / "drive_0708"

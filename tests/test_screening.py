@@ -19,11 +19,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-import badinput
 from adaptnav.cli import app
 from adaptnav.io import MissionError, load_mission
 from adaptnav.io.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
 from adaptnav.io.screening import STUCK_MIN_READINGS, stuck_mask, stuck_runs
+from helpers import badinput
 
 SEED = 12
 DVL_COLUMNS = ["vx_m_s", "vy_m_s", "vz_m_s"]

@@ -6,8 +6,8 @@
   CovarianceMatching (innovation- and residual-based, windows not yet full, just full, full),
   VariationalBayes (stacked sensors, several iterations, with and without early stop);
   ``gate_statistic`` == gate.apply_gate; ``inject``/``reset`` == errorstate;
-* the engine == the previous, readable engine (tests/engine_reference.py) over whole missions:
-  the three filters, both epoch policies, batch and streaming, outliers and gates, NaN,
+* the engine == the previous, readable engine (tests/helpers/engine_reference.py) over whole
+  missions: the three filters, both epoch policies, batch and streaming, outliers and gates, NaN,
   duplicate and late readings, a sensor linearised by its Python ``evaluate``.
 
 All to 1e-9 relative (positions: 1e-6 m; covariances: 1e-9 of sqrt(P_ii P_jj)).
@@ -21,8 +21,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-import engine_reference
-import synthetic
 from adaptnav import attitude, engine, errorstate, kalman, strapdown
 from adaptnav import update_kernels as uk
 from adaptnav.gate import Gate, Guard, apply_gate
@@ -40,6 +38,7 @@ from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
 from adaptnav.sensors.base import Measurement
 from adaptnav.sensors.inclinometer import PendulumInclinometer
 from adaptnav.sensors.zupt import ZeroVelocity
+from helpers import engine_reference, synthetic
 
 _F0 = np.array([0.3, -0.2, -9.8])
 """A specific force for the pendulum inclinometer's linearisation (m/s²)."""

@@ -2,9 +2,9 @@
 
 A refactoring that should not change behaviour (issue 13's redesign, a kernel made faster)
 is checked against it by tests/test_golden.py to 1e-9. A change that *should* change the
-numbers rewrites it on purpose, with the reason in the commit:
+numbers rewrites it on purpose, with the reason in the commit (from the repository root):
 
-    .venv/bin/python tests/golden.py --write
+    .venv/bin/python tests/helpers/golden.py --write
 
 The mission: the simulator's demo scenario (every disturbance on: DVL outliers and noise
 segments, currents, sea state) on a 5-minute track, 60 s alongside for the static alignment,
@@ -29,7 +29,8 @@ from adaptnav.units import DEG
 
 SEED = 11
 KINDS = ("meskf", "maeskf", "vb", "robust", "oracle")
-FILE = Path(__file__).parent / "data" / "golden.npz"
+FILE = Path(__file__).resolve().parents[1] / "data" / "golden.npz"
+"""tests/data/golden.npz (this file also runs as a script, so it cannot import :mod:`helpers`)."""
 EVERY = 10
 """Solution rows kept (10 Hz output → 1 Hz)."""
 
