@@ -20,7 +20,7 @@ from adaptnav.io import MissionError, parse_config
 from adaptnav.noise import FixedNoise
 from adaptnav.noise.process import QAdaptation, WhitenessState, whiteness_step
 from helpers import synthetic
-from test_io import config_dict
+from helpers.missions import config_dict
 
 
 def _feed(qa: QAdaptation, seq: np.ndarray, period: float = 1.0) -> tuple[WhitenessState, float]:

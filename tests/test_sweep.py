@@ -22,7 +22,7 @@ from adaptnav.cli import app
 from adaptnav.imu_noise import ImuNoise
 from adaptnav.io import MissionError, parse_config, with_overrides
 from adaptnav.sim.sensors import Disturbances
-from test_io import config_dict
+from helpers.missions import config_dict
 
 runner = CliRunner()
 
