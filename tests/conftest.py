@@ -1,4 +1,9 @@
-"""Fixtures shared by the bad-input tests (tests/test_robustness.py, tests/test_screening.py)."""
+"""Fixtures shared across the test folders (unit/, kernels/, integration/).
+
+The tiny mission of the bad-input tests (tests/integration/test_robustness.py,
+tests/unit/test_screening.py), from :mod:`helpers.badinput`. Helpers that are not fixtures live
+in the :mod:`helpers` package (tests/helpers/), imported as ``from helpers import ...``.
+"""
 
 from __future__ import annotations
 

@@ -3,7 +3,8 @@
 A verbatim copy of ``adaptnav.engine`` before ``adaptnav.update_kernels`` (NumPy sensors'
 ``evaluate``, the strategies' ``update``, ``errorstate.inject`` / ``reset_jacobian``, a heap of
 readings, ledger dicts), with the engine's data classes imported rather than redefined.
-``tests/test_update_kernels.py`` runs it side by side with :class:`adaptnav.engine.Navigator`.
+``tests/kernels/test_update_kernels.py`` runs it side by side with
+:class:`adaptnav.engine.Navigator`.
 Since then it has the guard and the divergence guard, in :mod:`adaptnav.health`'s readable
 functions (docs/robustness.md).
 """

@@ -1,7 +1,7 @@
 """The golden run: a short simulated mission's solution under every filter kind, pinned.
 
 A refactoring that should not change behaviour (issue 13's redesign, a kernel made faster)
-is checked against it by tests/test_golden.py to 1e-9. A change that *should* change the
+is checked against it by tests/integration/test_golden.py to 1e-9. A change that *should* change the
 numbers rewrites it on purpose, with the reason in the commit (from the repository root):
 
     .venv/bin/python tests/helpers/golden.py --write

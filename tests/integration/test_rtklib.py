@@ -20,9 +20,10 @@ from adaptnav.cli import app
 from adaptnav.io import load_mission, rtklib
 from adaptnav.io.rtklib import RtklibError
 from adaptnav.units import G0
+from helpers import SHARED_DATA
 from helpers.script_loader import load_script
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "rtklibexplorer-gnss-imu"
+DATA = SHARED_DATA / "rtklibexplorer-gnss-imu"
 DRIVE = DATA / "drive_0708"
 POS, IMU, TAG = DRIVE / "gnss_1934_sf.pos", DRIVE / "imu_1934.csv", DRIVE / "imu_1934.csv.tag"
 needs_data = pytest.mark.skipif(

@@ -14,8 +14,9 @@ from adaptnav.attitude import euler_to_dcm
 from adaptnav.io import load_mission, parse_config, write_mission
 from adaptnav.sensors import dvl as dvl_model
 from adaptnav.sim import kinematics as kin
+from helpers import SHARED_DATA
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "akit-snapir-auv"
+DATA = SHARED_DATA / "akit-snapir-auv"
 
 LEVER_ARM = (1.0, -0.3, 1.5)
 MOUNTING_RPY_DEG = (0.0, 0.0, 30.0)

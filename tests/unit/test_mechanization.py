@@ -173,7 +173,7 @@ def _fly(m: kin.Motion, duration: float, dt: float, source: str, check_every: in
     t = dt * np.arange(-1, n + 1)
     W, F = _mean_rates(m, t, dt, source)
     truth = kin.true_states(m, t[1:])
-    # The compiled kernel runs the mechanization (tests/test_kernels.py holds it equal to
+    # The compiled kernel runs the mechanization (tests/kernels/test_kernels.py holds it equal to
     # strapdown.propagate to 1e-9); the NumPy twin would take ~2 min per flight here.
     x, P, wp, fp = truth[0].copy(), np.zeros((15, 15)), W[0], F[0]
     max_p = max_a = 0.0

@@ -25,9 +25,10 @@ from adaptnav.io.akit import (
     AkitError,
     RawSegment,
 )
+from helpers import SHARED_DATA
 from helpers.script_loader import load_script
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "akit-snapir-auv"
+DATA = SHARED_DATA / "akit-snapir-auv"
 needs_data = pytest.mark.skipif(
     not DATA.is_dir(), reason=f"A-KIT recordings not found at {DATA} (shared/data missing)"
 )

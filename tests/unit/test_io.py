@@ -25,9 +25,11 @@ from adaptnav.io import (
 )
 from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer, PendulumInclinometer
 from adaptnav.units import DEG, G0, UnitError
+from helpers import DATA as TEST_DATA
+from helpers import REPO
 from helpers.missions import T, config_dict, csv_text, dvl_table, imu_rates, write_dir
 
-DATA = Path(__file__).parent / "data" / "io"
+DATA = TEST_DATA / "io"
 
 
 # --- builders (mission folders: helpers.missions) -------------------------------------------------
@@ -79,7 +81,7 @@ def test_gate_reference_reaches_every_gate() -> None:
 
 
 def test_docs_example_is_valid() -> None:
-    text = (Path(__file__).parents[1] / "docs" / "data-format.md").read_text()
+    text = (REPO / "docs" / "data-format.md").read_text()
     block = text.split("```toml\n", 1)[1].split("```", 1)[0]
     cfg = parse_config(tomllib.loads(block))
     assert cfg.mission.name == "paper-1" and cfg.gated_sensors() == ("dvl",)

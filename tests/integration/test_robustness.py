@@ -2,7 +2,7 @@
 
 One test per case found on the old code (each failed there), through the CLI as a user meets
 it, on a tiny simulated mission (:mod:`helpers.badinput`). The fuzz test is
-tests/test_fuzz_input.py.
+tests/integration/test_fuzz_input.py.
 """
 
 from __future__ import annotations
