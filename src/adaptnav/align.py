@@ -56,7 +56,8 @@ at rest, ``-g_n``, not the measured ``f_hat = C_hat (f̃ - b_a_hat)``. At rest t
 of f_hat is accelerometer noise and the tilt estimate's wander; in ``-[f_hat×] phi`` it made the
 heading look observable (the true error dynamics have the true, vertical f), a classic EKF
 inconsistency: over 24 seeds with the paper's IMU the alignment claimed a heading σ of 3.3°
-against an actual RMS of 4.5°. With ``-g_n`` it claims 3.9° against 3.7° (tests/test_align.py).
+against an actual RMS of 4.5°. With ``-g_n`` it claims 3.9° against 3.7°
+(tests/unit/test_align.py).
 
 Sources: Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*,
 2nd ed. (2013), §5.6 (initialisation and alignment), §14.4 (fine alignment), §15.3.1 (ZUPT);

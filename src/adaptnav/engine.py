@@ -35,8 +35,9 @@ compiled linearisation (:func:`~adaptnav.update_kernels.compiled_linearisation` 
 linearised by its ``evaluate`` in Python: the loop returns at its epochs, which then go through
 the same compiled update. The noise strategy must be :class:`~adaptnav.noise.FixedNoise`,
 :class:`~adaptnav.noise.CovarianceMatching` or :class:`~adaptnav.noise.VariationalBayes`, whose
-``update`` methods are the readable twins of the compiled update; ``tests/engine_reference.py``
-keeps the engine as it was (a Python loop, NumPy epochs) and the tests hold the two equal.
+``update`` methods are the readable twins of the compiled update;
+``tests/helpers/engine_reference.py`` keeps the engine as it was (a Python loop, NumPy epochs) and
+the tests hold the two equal.
 """
 
 from __future__ import annotations
@@ -165,7 +166,7 @@ class EngineConfig:
     """The vehicle is known to be at rest (static alignment): F is evaluated with the specific
     force at rest, ``-g_n`` at the start position, exactly (no low-pass needed). With the
     measured one, its noise and the tilt estimate's wander make heading look observable and the
-    alignment claims a heading σ it does not have (tests/test_align.py)."""
+    alignment claims a heading σ it does not have (tests/unit/test_align.py)."""
     divergence: DivergenceGuard = OFF
     """The windowed NIS test (health.py); off here, set by the filter settings."""
     q_adaptation: QAdaptation | None = None

@@ -17,7 +17,7 @@ and δv = -dv), written with δL = dr_N / (R_M + h) and δh = -dr_D:
 * biases: first-order Gauss-Markov ``db' = -db/τ + w_b`` (τ = inf: random walk).
 
 Every block is checked against finite differences of the nonlinear mechanization
-(tests/test_errorstate.py).
+(tests/unit/test_errorstate.py).
 """
 
 from __future__ import annotations

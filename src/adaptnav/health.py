@@ -28,7 +28,7 @@ error may be k times larger in every direction", the honest statement when the f
 know which direction went wrong.
 
 The compiled twins are ``_lockout``, ``_nis_window`` and ``_repair`` in
-:mod:`adaptnav.update_kernels`; ``tests/engine_reference.py`` uses these.
+:mod:`adaptnav.update_kernels`; ``tests/helpers/engine_reference.py`` uses these.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Numba twins of :mod:`adaptnav.strapdown` (mechanization) and :mod:`adaptnav.erro
 (F, Φ = I + F T + (F T)²/2, Qd = ½ (Φ S Φᵀ + S) T with S = G Q Gᵀ, P ← Φ P Φᵀ + Qd;
 docs/mechanization.md and docs/filters.md, 'Propagation', paper eqs. (10), (11));
 :mod:`adaptnav.propagation` holds the readable NumPy loop and copying wrappers, and
-``tests/test_kernels.py`` holds the two equal to 1e-9. The same equations, no term dropped,
+``tests/kernels/test_kernels.py`` holds the two equal to 1e-9. The same equations, no term dropped,
 evaluated faster:
 
 * 3-vectors, quaternions and 3×3 matrices are tuples of floats (registers, no allocation);
@@ -596,7 +596,7 @@ def _low_pass(f_lp: Array, f: Vec3, decay: float) -> Vec3:
 
     Why: F multiplies the attitude error by ``[f_n×]`` (Groves 14.64). With the *measured* f,
     its white noise makes the heading error look observable at rest (the filter then claims a
-    heading σ it does not have; tests/test_align.py); the motion F must see is slow, the noise
+    heading σ it does not have; tests/unit/test_align.py); the motion F must see is slow, the noise
     is not. Twin: :func:`adaptnav.propagation.low_pass`.
     """
     if math.isnan(f_lp[0]):

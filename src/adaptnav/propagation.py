@@ -80,7 +80,7 @@ def low_pass(f_lp: Array, f: Array, T: float, tau_f: float) -> Array:
 
     F's ``[f_n×]`` couples attitude into velocity error (Groves 14.64). Evaluated with the
     *measured* f, its white noise makes the heading error look observable at rest and the filter
-    claims a heading σ it does not have (tests/test_align.py); the motion F must see is slow.
+    claims a heading σ it does not have (tests/unit/test_align.py); the motion F must see is slow.
     Twin of :func:`adaptnav.kernels._low_pass`.
     """
     if np.isnan(f_lp[0]):

@@ -19,13 +19,13 @@ compiled                               readable twin
 :func:`inject`, :func:`reset`          :func:`adaptnav.errorstate.inject`, ``reset_jacobian``
 :func:`epoch`                          one epoch of the engine (the strategies' ``predict``,
                                        ``current_R``, the gate, the update, the feedback, the
-                                       ledger rows), as ``tests/engine_reference.py`` has it
+                                       ledger rows), as ``tests/helpers/engine_reference.py`` has it
 :func:`step`                           one (sub)step of kernels.propagate_run / _partial
 =====================================  =====================================================
 
-``tests/test_update_kernels.py`` holds each equal to its twin to 1e-9, and the engine equal to
-the previous, readable one (``tests/engine_reference.py``). What happens when (time ordering,
-epoch policy, propagation between epochs) stays in :mod:`adaptnav.engine`.
+``tests/kernels/test_update_kernels.py`` holds each equal to its twin to 1e-9, and the engine
+equal to the previous, readable one (``tests/helpers/engine_reference.py``). What happens when
+(time ordering, epoch policy, propagation between epochs) stays in :mod:`adaptnav.engine`.
 
 The linear algebra is written out for the tiny stacked systems (D ≤ 3 per sensor): Cholesky of
 S, K = P Hᵀ S⁻¹ by its triangular solves, the products with H summed over H's nonzero columns

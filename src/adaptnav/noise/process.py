@@ -33,7 +33,7 @@ below 1: the configured Q is a floor, the datasheet's promise. Every sensor's re
 the one β of the filter.
 
 The compiled twin is ``update_kernels._whiteness`` (the engine's propagation scales Q by β,
-``engine._advance``); ``tests/engine_reference.py`` uses this module.
+``engine._advance``); ``tests/helpers/engine_reference.py`` uses this module.
 """
 
 from __future__ import annotations

@@ -78,7 +78,7 @@ class Motion:
     * ``euler_rate``: their time derivatives (rad/s).
 
     The derivatives must be the exact derivatives of the values: nothing checks it here
-    (``tests/test_mechanization.py`` checks the ready-made motions against finite differences).
+    (``tests/unit/test_mechanization.py`` checks the ready-made motions against finite differences).
     """
 
     position: TimeFunction
