@@ -10,7 +10,9 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
 - the exact, text-based reader (``_read_csv_exact``: how every CSV was read before the typed
   reader, now only for the files it declines);
 - ``adaptnav.io.load_mission`` on a mission whose ``imu.csv`` is that file (format
-  ``increments``, plus a DVL table): reading, column checks and the IMU's intervals.
+  ``increments``, plus a DVL table): reading, column checks and the IMU's intervals;
+- ``read_table`` on the same table with a true/false column added (``flagged.csv``: a
+  status column, as a DVL's bottom-lock flag).
 
 The file is written in a subprocess too, so that this process stays small: on Linux a child
 inherits its parent's ``ru_maxrss``, hence the peak is read from ``VmHWM`` where there is one.
@@ -34,7 +36,7 @@ ROWS = 1_000_000
 """IMU samples in the file: 83 min at 200 Hz, about 140 MB of CSV."""
 RATE_HZ = 200.0
 MB = 2**20
-READERS = ("read_table", "pandas", "exact", "load_mission")
+READERS = ("read_table", "pandas", "exact", "load_mission", "read_table_bool")
 """What is measured, one subprocess each (see the module docstring)."""
 REPEATS = 2
 """Runs of each reader, round-robin: the shortest time is kept (the peak hardly varies: the
@@ -74,6 +76,8 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     )
     root.mkdir(parents=True, exist_ok=True)
     imu.to_csv(root / "imu.csv", index=False)
+    imu["valid"] = rng.random(rows) > 0.01
+    imu.to_csv(root / "flagged.csv", index=False)
     n_dvl = int(t[-1] * 3.0)
     dvl = pd.DataFrame(
         {
@@ -110,6 +114,9 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     t0 = time.perf_counter()
     if reader == "read_table":
         tb.read_table(imu_csv, imu_csv.name, tb.Journal())
+    elif reader == "read_table_bool":
+        flagged = imu_csv.parent / "flagged.csv"
+        tb.read_table(flagged, flagged.name, tb.Journal())
     elif reader == "pandas":
         pd.read_csv(imu_csv)
     elif reader == "exact":
@@ -134,6 +141,7 @@ def bench_csv_memory() -> list[str]:
         written = _in_subprocess("write", str(imu_csv.parent))["seconds"]
         os.sync()  # the file's pages written out now, not while a reader is timed
         size = imu_csv.stat().st_size / MB
+        size_flagged = (imu_csv.parent / "flagged.csv").stat().st_size / MB
         got = {r: {"peak_mb": 0.0, "seconds": math.inf} for r in READERS}
         for _ in range(REPEATS):
             for r in READERS:
@@ -141,9 +149,9 @@ def bench_csv_memory() -> list[str]:
                 got[r]["peak_mb"] = max(got[r]["peak_mb"], run["peak_mb"])
                 got[r]["seconds"] = min(got[r]["seconds"], run["seconds"])
 
-    def peak(r: str) -> str:
+    def peak(r: str, of: float = size) -> str:
         mb, seconds = got[r]["peak_mb"], got[r]["seconds"]
-        return f"{mb:.0f} MB above baseline ({mb / size:.2f}× the file), {seconds:.1f} s"
+        return f"{mb:.0f} MB above baseline ({mb / of:.2f}× the file), {seconds:.1f} s"
 
     lines = [
         f"csv memory: {size:.0f} MB file ({ROWS:,} rows × 7, written in {written:.0f} s) → "
@@ -151,6 +159,8 @@ def bench_csv_memory() -> list[str]:
         f"csv memory: exact reader (the old way; now only for files the typed one declines) "
         f"peak {peak('exact')}",
         f"csv memory: load_mission with that imu.csv (increments) peak {peak('load_mission')}",
+        f"csv memory: the same with a true/false column ({size_flagged:.0f} MB) → read_table "
+        f"peak {peak('read_table_bool', size_flagged)}",
     ]
     for line in lines:
         print(line, flush=True)

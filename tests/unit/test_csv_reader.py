@@ -125,6 +125,7 @@ def test_a_clean_file_is_read_by_the_typed_reader_as_pandas_reads_it(
         "gyro_x_rad_s": _numbers(rng, n),
         "accel_z_m_s2": _numbers(rng, n),
         "count": [str(v) for v in rng.integers(-(2**62), 2**62, n)],
+        "bottom_lock": [("true", "False", "TRUE")[v] for v in rng.integers(0, 3, n)],
     }
     path = tmp_path / "imu.csv"
     rows = (",".join(cells) for cells in zip(*columns.values(), strict=True))
@@ -140,6 +141,7 @@ def test_a_clean_file_is_read_by_the_typed_reader_as_pandas_reads_it(
         "gyro_x_rad_s": np.float64,
         "accel_z_m_s2": np.float64,
         "count": np.int64,
+        "bottom_lock": np.bool_,
     }
     for c in ("gyro_x_rad_s", "accel_z_m_s2"):  # bit for bit, as Python reads each cell
         cells = [s.strip() for s in columns[c]]
@@ -282,7 +284,9 @@ def test_an_integer_column_keeps_the_dtype_pandas_gives_it(
     "body",
     [
         '1.0,"2.5"\n',  # quotes
-        "1.0,True\n2.0,False\n",  # a true/false column
+        "1.0,True\n2.0,\n",  # a true/false column with a missing cell (pandas: object)
+        "1.0,True\n2.0,1\n",  # true/false and a number (pandas: text)
+        "1.0,yes\n2.0,no\n",  # not pandas' spellings of true/false
         "1.0,abc\n",  # a text column
         "1.0,2.0\r3.0,4.0\n",  # a lone CR: a line break to pyarrow only
         "1.0,+7\n",  # pandas: an integer
@@ -318,7 +322,7 @@ def _random_csv(rng: np.random.Generator) -> bytes:
     odd cells; blank lines and lines of spaces; CRLF; a BOM; a short line; a cut end."""
     n_cols = int(rng.choice([2, 3, 5]))
     n_rows = int(rng.choice([1, 2, 3, 40, 300]))
-    kinds = rng.choice(["float", "int", "int then float", "odd"], n_cols)
+    kinds = rng.choice(["float", "int", "int then float", "odd", "bool"], n_cols)
     body: list[str] = []
     for r in range(n_rows):
         row = []
@@ -329,6 +333,9 @@ def _random_csv(rng: np.random.Generator) -> bytes:
                 row.append(str(int(rng.integers(-100, 100))))
             elif kind == "odd" and rng.random() < 0.1:
                 row.append(str(rng.choice(CELLS)))
+            elif kind == "bool":  # pandas' spellings, now and then another cell
+                cells = ("True", "false", "TRUE", "False", "true", "FALSE")
+                row.append(str(rng.choice(CELLS if rng.random() < 0.02 else cells)))
             else:
                 row.append(repr(float(rng.random())))
         body.append(",".join(row))

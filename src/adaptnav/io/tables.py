@@ -99,8 +99,17 @@ PANDAS_NA = (
 )  # fmt: skip
 """Cells ``pandas.read_csv`` reads as missing (its default ``na_values``), given to pyarrow so
 that both CSV readers read the same cells as NaN."""
+PANDAS_TRUE, PANDAS_FALSE = ("True", "TRUE", "true"), ("False", "FALSE", "false")
+"""The cells ``pandas.read_csv`` reads as booleans (a column of nothing else is a bool column);
+given to pyarrow so that both readers agree."""
 _NUMBER_BYTES = bytes(
-    sorted(set(b"0123456789+-.eE ,\t\r\n" + b"infinityINFINITY" + "".join(PANDAS_NA).encode()))
+    sorted(
+        set(
+            b"0123456789+-.eE ,\t\r\n"
+            + b"infinityINFINITY"
+            + "".join(PANDAS_NA + PANDAS_TRUE + PANDAS_FALSE).encode()
+        )
+    )
 )
 """Bytes a CSV of numbers is made of: digits, signs, point, exponent, separators, infinity and
 the missing-value spellings. A file with any other byte (a letter of a word, a quote, ``x`` of
@@ -544,12 +553,18 @@ def _open_csv(src: _Head, header: list[str], types: dict[str, Any] | None) -> An
         read_options=pa_csv.ReadOptions(
             skip_rows=1, column_names=header, block_size=CSV_BLOCK_BYTES
         ),
-        convert_options=pa_csv.ConvertOptions(column_types=types, null_values=list(PANDAS_NA)),
+        convert_options=pa_csv.ConvertOptions(
+            column_types=types,
+            null_values=list(PANDAS_NA),
+            true_values=list(PANDAS_TRUE),
+            false_values=list(PANDAS_FALSE),
+        ),
     )
 
 
 def _probe_types(path: Path, limit: int, header: list[str]) -> dict[str, Any] | None:
-    """Per column, pa.int64() or pa.float64() from the first block; None for another type."""
+    """Per column, pa.int64(), pa.float64() or pa.bool_() from the first block; None for
+    another type."""
     try:
         with _Head(path, limit) as src:
             reader = _open_csv(src, header, None)
@@ -563,6 +578,8 @@ def _probe_types(path: Path, limit: int, header: list[str]) -> dict[str, Any] | 
             types[name] = pa.int64()
         elif pa.types.is_float64(kind) or pa.types.is_null(kind):
             types[name] = pa.float64()
+        elif pa.types.is_boolean(kind):
+            types[name] = pa.bool_()
         else:
             return None
     return types
@@ -574,8 +591,9 @@ def _convert(
     """Stream the batches into columns of ``rows`` values; None if the count differs, if a
     cell reads as NaN that pandas would not (``NAN``, ``+nan``: not missing-value spellings), or
     if a float column may be integers beyond int64 (pandas: uint64 or text, pyarrow: float)."""
+    dtypes = {"int64": np.int64, "bool": np.bool_}
     out: list[NDArray[Any]] = [
-        np.empty(rows, np.int64 if pa.types.is_int64(types[h]) else np.float64) for h in header
+        np.empty(rows, dtypes.get(str(types[h]), np.float64)) for h in header
     ]
     huge = [False] * len(header)
     at = 0
@@ -587,6 +605,8 @@ def _convert(
                 if at + m > rows:
                     return None
                 for i, column in enumerate(batch.columns):
+                    if out[i].dtype == np.bool_ and column.null_count:
+                        return None  # pandas: an object column of bools and NaN
                     values = column.to_numpy(zero_copy_only=False)  # missing → NaN (float64)
                     if values.dtype.kind == "f":
                         if int(np.count_nonzero(np.isnan(values))) != column.null_count:
