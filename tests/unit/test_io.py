@@ -631,6 +631,11 @@ def test_dvl_status_column_errors(tmp_path: Path) -> None:
     dvl["bottom_lock"] = ["1", "1", "", "1", "0"]
     write_dir(tmp_path, d, {"dvl.csv": dvl})
     assert "dvl.csv line 4" in load_error(root)
+    d["sensors"]["dvl"]["file"] = "dvl.parquet"  # a nullable bool with a missing cell
+    dvl["bottom_lock"] = pd.array([True, True, None, True, False], dtype="boolean")
+    write_dir(tmp_path, d, {"dvl.parquet": dvl})
+    assert "dvl.parquet row 2, bottom_lock: status missing" in load_error(root)
+    d["sensors"]["dvl"]["file"] = "dvl.csv"
     d["sensors"]["dvl"]["status_column"] = "lock"
     write_dir(tmp_path, d, {})
     assert "status column 'lock' not found" in load_error(root)

@@ -848,9 +848,10 @@ def flag(table: Table, column: str) -> NDArray[np.bool_]:
             field=column,
         )
     s = table.df[column]
-    if pd.api.types.is_bool_dtype(s):
-        return np.asarray(s.to_numpy(dtype=bool))
-    if _all_bool(s) and not s.isna().any():
+    if pd.api.types.is_bool_dtype(s) or _all_bool(s):
+        missing = np.flatnonzero(s.isna().to_numpy(dtype=bool))
+        if missing.size:
+            raise table.error(int(missing[0]), column, "status missing (not 1/0 or true/false)")
         return np.asarray(s.to_numpy(dtype=bool))
     text = s.astype("string").str.strip().str.lower()
     ok = text.isin(["1", "0", "1.0", "0.0", "true", "false"]).to_numpy(dtype=bool)
