@@ -5,11 +5,11 @@ writes them: Python's shortest repr, about 140 MB) into a temporary folder and m
 in a fresh subprocess, the peak resident memory above that process's own baseline (interpreter
 and imports, measured just before) and the wall time (best of :data:`REPEATS`) of:
 
-- ``adaptnav.io.tables.read_table`` (the typed, streaming reader for such a file);
+- ``adaptnav.mission.tables.read_table`` (the typed, streaming reader for such a file);
 - ``pandas.read_csv`` on the same file (the baseline the issue names);
 - the exact, text-based reader (``_read_csv_exact``: how every CSV was read before the typed
   reader, now only for the files it declines);
-- ``adaptnav.io.load_mission`` on a mission whose ``imu.csv`` is that file (format
+- ``adaptnav.mission.load_mission`` on a mission whose ``imu.csv`` is that file (format
   ``increments``, plus a DVL table): reading, column checks and the IMU's intervals;
 - ``read_table`` on the same table with a true/false column added (``flagged.csv``: a
   status column, as a DVL's bottom-lock flag).
@@ -60,7 +60,7 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     import numpy as np
     import pandas as pd
 
-    from adaptnav.io import parse_config, write_config
+    from adaptnav.mission import parse_config, write_config
 
     rng = np.random.default_rng(seed)
     dt = 1.0 / RATE_HZ
@@ -107,8 +107,8 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     """Peak RSS above this process's baseline (MB) and seconds of one ``reader`` run."""
     import pandas as pd
 
-    from adaptnav.io import load_mission
-    from adaptnav.io import tables as tb
+    from adaptnav.mission import load_mission
+    from adaptnav.mission import tables as tb
 
     base = _peak_rss_mb()
     t0 = time.perf_counter()

@@ -15,10 +15,14 @@ from functools import partial
 
 import numpy as np
 
-from adaptnav import attitude, engine, errorstate, kernels, strapdown
-from adaptnav.filters import FilterKind, FilterSettings, build_channels
-from adaptnav.imu_noise import ImuNoise
-from adaptnav.propagation import propagate_numpy
+from adaptnav.compiled import propagation as kernels
+from adaptnav.core import attitude
+from adaptnav.engine import batch as engine
+from adaptnav.engine.channels import build_channels
+from adaptnav.engine.propagation import propagate_numpy
+from adaptnav.estimation.settings import FilterKind, FilterSettings
+from adaptnav.models import errorstate, strapdown
+from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.sensors import DVL, Depth, Inclinometer, MeasurementModel
 from adaptnav.sim import kinematics as kin
 
@@ -97,7 +101,7 @@ FILTER_NOISE = ImuNoise(
 
 @dataclass(frozen=True)
 class FilterMission:
-    """Inputs of :func:`adaptnav.engine.run_batch` for one mission."""
+    """Inputs of :func:`adaptnav.engine.batch.run_batch` for one mission."""
 
     x0: np.ndarray
     P0: np.ndarray

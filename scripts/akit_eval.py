@@ -1,13 +1,13 @@
 """Evaluate the filters on the Snapir AUV recordings (issue 6) and write docs/results-akit.md.
 
 ``make akit`` runs this with its defaults: for each of trajectories 1-9 of
-``../shared/data/akit-snapir-auv`` it imports the segment twice (``adaptnav.io.akit``), clean and
-with seeded DVL faults (1 % spikes of 1-3 m/s, a 20-s bottom-lock loss reading zeros, 60 s of
-×5 noise), runs MESKF, MAESKF, VB-MAESKF (ungated, behind the paper's gate and behind a gate on
-the nominal R), the oracle (told the injected faults) and the floor (DVL dead reckoning with the
-reference's attitude) from the same start through :func:`adaptnav.compare.compare`, and writes
-per-trajectory tables, the means, the issue's targets with their verdicts, the same means over
-other fault draws, two figures and the command that made them.
+``../shared/data/akit-snapir-auv`` it imports the segment twice (``adaptnav.importers.akit``), clean
+and with seeded DVL faults (1 % spikes of 1-3 m/s, a 20-s bottom-lock loss reading zeros, 60 s of ×5
+noise), runs MESKF, MAESKF, VB-MAESKF (ungated, behind the paper's gate and behind a gate on the
+nominal R), the oracle (told the injected faults) and the floor (DVL dead reckoning with the
+reference's attitude) from the same start through :func:`adaptnav.analysis.compare.compare`, and
+writes per-trajectory tables, the means, the issue's targets with their verdicts, the same means
+over other fault draws, two figures and the command that made them.
 
 Every number in the page comes from this run; nothing is typed in by hand.
 
@@ -31,17 +31,18 @@ import numpy as np
 import pandas as pd
 
 from adaptnav import __version__
-from adaptnav.compare import NEES_BAND_TEXT
-from adaptnav.pages import git_revision, markdown_table
+from adaptnav.analysis.compare import NEES_BAND_TEXT
+from adaptnav.viz import plots
+from adaptnav.viz.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 RUN_FILTERS = ("meskf", "maeskf", "vb", "robust", "oracle", "floor")
-"""What :func:`adaptnav.compare.compare` runs at the filters' defaults."""
+"""What :func:`adaptnav.analysis.compare.compare` runs at the filters' defaults."""
 VB_GATE_Q = 2600.0
 """The paper's best q for VB-MAESKF (Fig. 4, "insensitive"): the gated VB rows ``vb_q`` (S with
-VB's own R̂, the paper's gate) and ``vb_n`` (S with the nominal R, gate.py)."""
+VB's own R̂, the paper's gate) and ``vb_n`` (S with the nominal R, estimation/gate.py)."""
 VB_DOF = 4.0
-"""Student-t ν of the heavy-tailed VB-MAESKF row ``vb_t`` (noise/vb.py; no gate)."""
+"""Student-t ν of the heavy-tailed VB-MAESKF row ``vb_t`` (estimation/noise/vb.py; no gate)."""
 FILTERS = ("meskf", "maeskf", "vb", "vb_q", "vb_n", "vb_t", "robust", "oracle", "floor")
 LABELS = {
     "meskf": "MESKF",
@@ -110,10 +111,11 @@ def _parse_segments(spec: str) -> list[int]:
 def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str, Any]:
     """Import segment n (clean for seed_base 0, else faulted with seed seed_base + n), compare
     every filter, save the comparison folder; ``keep``: return the comparison (for figures)."""
-    from adaptnav import api, evaluate
-    from adaptnav.compare import compare
-    from adaptnav.filters import DEFAULT_GATE_Q, FilterSettings
-    from adaptnav.io import akit
+    from adaptnav import api
+    from adaptnav.analysis import evaluate
+    from adaptnav.analysis.compare import compare
+    from adaptnav.estimation.settings import DEFAULT_GATE_Q, FilterSettings
+    from adaptnav.importers import akit
 
     faults = seed_base > 0
     case = "faulted" if faults else "clean"
@@ -333,7 +335,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for o in outs:
         cmp = o["comparison"]
         if cmp is not None:
-            for stem, fig in cmp.figures().items():
+            for stem, fig in plots.comparison_figures(cmp).items():
                 if stem in ("position_error", "noise_dvl", "trajectory"):
                     fig.savefig(args.figures / f"traj{keep_n}_faulted_{stem}.png", dpi=90)
                     figs.append(stem)

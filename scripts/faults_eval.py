@@ -1,16 +1,17 @@
 """Run the simulated-fault benchmark (issue 12) and write docs/results-faults.md.
 
 ``make faults`` runs this with its defaults: for ``paper-1`` and ``paper-2`` and seeds 1..3, the
-mission is simulated and aligned once (cached by :func:`adaptnav.sweep.prepare_mission`), then
-every filter of :data:`adaptnav.filters.FILTER_KINDS` (a kind added there is picked up) runs on
-the clean mission and on one faulted copy per fault of :mod:`adaptnav.sim.faults` (a 1000-m depth
-spike, 10 s of depth at +1000 m, the DVL stuck 60 s, a 300-s DVL dropout, 1 % DVL spikes of
-1-3 m/s, and all of them at once), from the same start, and each run is scored by
-:mod:`adaptnav.faultbench`. The page gives the ratio RMSE faulted / RMSE clean against the
-issue's 1.2, the error at the end of the dropout over the claimed σ against its 3, the fault's
+mission is simulated and aligned once (cached by
+:func:`adaptnav.experiments.sweep.prepare_mission`), then every filter of
+:data:`adaptnav.estimation.settings.FILTER_KINDS` (a kind added there is picked up) runs on the
+clean mission and on one faulted copy per fault of :mod:`adaptnav.sim.faults` (a 1000-m depth spike,
+10 s of depth at +1000 m, the DVL stuck 60 s, a 300-s DVL dropout, 1 % DVL spikes of 1-3 m/s, and
+all of them at once), from the same start, and each run is scored by
+:mod:`adaptnav.experiments.faultbench`. The page gives the ratio RMSE faulted / RMSE clean against
+the issue's 1.2, the error at the end of the dropout over the claimed σ against its 3, the fault's
 footprint, the NEES and where each injected reading went (the ledger), and the command, date and
-wall time. The filters always run (only the missions are cached), so the page judges the code
-as it is.
+wall time. The filters always run (only the missions are cached), so the page judges the code as it
+is.
 
 Smoke test: ``python scripts/faults_eval.py --presets paper-2 --seeds 1 --filters meskf
 --out /tmp/f.md --csv /tmp/f``.
@@ -33,13 +34,13 @@ from typing import Any
 import pandas as pd
 
 from adaptnav import __version__
-from adaptnav import faultbench as fb
-from adaptnav.filters import FILTER_KINDS
-from adaptnav.pages import fmt_number as _f
-from adaptnav.pages import git_revision, markdown_table
+from adaptnav.estimation.settings import FILTER_KINDS
+from adaptnav.experiments import faultbench as fb
+from adaptnav.experiments.sweep import LABELS, single_threaded_children
 from adaptnav.sim.faults import ALL, FAULT_KINDS
 from adaptnav.sim.scenarios import PRESETS
-from adaptnav.sweep import LABELS, single_threaded_children
+from adaptnav.viz.pages import fmt_number as _f
+from adaptnav.viz.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_JOBS = 2
@@ -106,7 +107,8 @@ def run_all(
     jobs: int,
     keep: bool,
 ) -> list[dict[str, Any]]:
-    """Every (preset, seed) task through :func:`adaptnav.faultbench.run_seed`, ``jobs`` at a
+    """Every (preset, seed) task through :func:`adaptnav.experiments.faultbench.run_seed`, ``jobs``
+    at a
     time (spawned workers); progress on stderr."""
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()

@@ -9,7 +9,7 @@
 * the gyro-bias process-noise sweep of the paper's Fig. 6 (factors 10^[-2, 2], 9 values) on
   seeds 1..5;
 
-all through the cached, resumable sweep of :mod:`adaptnav.sweep` (rerun it after an
+all through the cached, resumable sweep of :mod:`adaptnav.experiments.sweep` (rerun it after an
 interruption: finished runs are kept), then writes ``docs/results.md``, its figures and the
 table of every run under ``docs/results/``. The section "Where we disagree with the paper and
 why" is ``docs/results-discussion.md`` included verbatim (a marked placeholder until written).
@@ -36,13 +36,13 @@ import numpy as np
 import pandas as pd
 
 from adaptnav import __version__
-from adaptnav import sweep as sw
+from adaptnav.analysis.compare import NEES_BAND_TEXT
 from adaptnav.cli._app import PAPER_TABLE3
-from adaptnav.compare import NEES_BAND_TEXT
-from adaptnav.filters import DEFAULT_GATE_Q
-from adaptnav.pages import fmt_number, git_revision, markdown_table
+from adaptnav.estimation.settings import DEFAULT_GATE_Q
+from adaptnav.experiments import sweep as sw
 from adaptnav.sim.scenarios import PRESETS
 from adaptnav.sim.sensors import Disturbances
+from adaptnav.viz.pages import fmt_number, git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 LABELS = sw.LABELS
@@ -101,7 +101,8 @@ def _du(path: Path) -> int:
 
 
 STUDENT_T_DOF = 4.0
-"""ν of the beyond-the-paper VB-MAESKF with Student-t readings (noise/vb.py), on the Monte Carlo
+"""ν of the beyond-the-paper VB-MAESKF with Student-t readings (estimation/noise/vb.py), on the
+Monte Carlo
 seeds."""
 
 
@@ -522,7 +523,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"## Beyond the paper: VB-MAESKF with Student-t readings (ν = {STUDENT_T_DOF:g})",
             "",
             "The same Monte Carlo seeds, VB-MAESKF ungated with a per-reading Student-t scale on "
-            "top of its inverse-Gamma variances (`vb_dof`, `noise/vb.py`); mean relative RMSE. "
+            "top of its inverse-Gamma variances (`vb_dof`, `estimation/noise/vb.py`); mean "
+            "relative "
+            "RMSE. "
             "On the real AUV data with DVL faults it meets the robustness target without a gate "
             "(`docs/results-akit.md`).",
             "",

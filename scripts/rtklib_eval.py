@@ -1,7 +1,7 @@
 """Score the filters over GNSS outages on the RTKLIB car drive and write docs/results-rtklib.md.
 
 ``make rtklib`` runs this with its defaults: it imports ``drive_0708`` of
-``../shared/data/rtklibexplorer-gnss-imu`` (``adaptnav.io.rtklib``) once per IMU white-noise
+``../shared/data/rtklibexplorer-gnss-imu`` (``adaptnav.importers.rtklib``) once per IMU white-noise
 model of the filters' Q (measured parked, driving vibration taken as white, and the published
 figures) and per aiding set (the RTK fixes alone, and with the non-holonomic constraint), runs
 MESKF, MAESKF and VB-MAESKF on each with the fixes withheld in the five outage windows, and
@@ -28,8 +28,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from adaptnav import __version__, earth
-from adaptnav.pages import git_revision, markdown_table
+from adaptnav import __version__
+from adaptnav.core import earth
+from adaptnav.viz import plots
+from adaptnav.viz.pages import git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 FILTERS = ("meskf", "maeskf", "vb", "robust")
@@ -65,8 +67,10 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 
 def _run(src: Path, work: Path, noise: str, nhc: bool) -> dict[str, Any]:
-    from adaptnav import api, evaluate
-    from adaptnav.io import load_mission, rtklib
+    from adaptnav import api
+    from adaptnav.analysis import evaluate
+    from adaptnav.importers import rtklib
+    from adaptnav.mission import load_mission
 
     root = rtklib.import_drive(
         src / "gnss_1934_sf.pos",
@@ -153,7 +157,7 @@ def _figures(df: pd.DataFrame, res: dict[str, Any], folder: Path, noise: str) ->
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from adaptnav.io.rtklib import DEFAULT_OUTAGES_S
+    from adaptnav.importers.rtklib import DEFAULT_OUTAGES_S
 
     colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2", "robust": "C5"}
     names = []
@@ -239,9 +243,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     shown = results[(main_noise, True)]
     shown["label"] = f"GNSS + NHC, IMU noise in Q: {main_noise}"
     figs = _figures(df, shown, args.figures, main_noise)
-    from adaptnav.compare import compare
+    from adaptnav.analysis.compare import compare
 
-    for stem, fig in compare(shown["root"], FILTERS).figures().items():
+    for stem, fig in plots.comparison_figures(compare(shown["root"], FILTERS)).items():
         if stem in ("noise_nhc", "noise_gnss"):  # R̂ of each filter over the drive
             fig.savefig(args.figures / f"{stem}.png", dpi=90)
             figs.append(stem)

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from adaptnav import api
-from adaptnav.io import load_mission
-from adaptnav.pages import markdown_table
+from adaptnav.mission import load_mission
+from adaptnav.viz.pages import markdown_table
 
 VARIANTS: dict[str, dict[str, Any]] = {
     "VB-MAESKF (the paper's)": {},

@@ -9,7 +9,7 @@ Conventions (the full contract is ``docs/conventions.md``):
 
 * Frames: ``n`` = local-level NED, ``b`` = body FRD, ``e`` = ECEF (WGS84).
   ``vec_a`` is resolved in frame a; ``C_ab``/``q_ab`` rotates frame-b vectors into frame a.
-* Units: SI and radians inside; human units only at I/O edges (``adaptnav.units``).
+* Units: SI and radians inside; human units only at I/O edges (``adaptnav.core.units``).
 * Quaternions are ``[w, x, y, z]``, Hamilton product; Euler angles are ZYX (yaw, pitch, roll).
 * Nominal state: ``[lat, lon, h, v_NED, q_nb, b_a, b_g]`` (16 numbers).
 * Error state: ``dx = [dr_NED, dv_NED, phi, db_a, db_g]`` (15), **truth minus estimate**;

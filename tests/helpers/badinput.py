@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from adaptnav.io import write_mission
+from adaptnav.core.units import DEG
+from adaptnav.mission import write_mission
 from adaptnav.sim import scenarios
 from adaptnav.sim import trajectory as tr
-from adaptnav.units import DEG
 
 SEED = 7
 

@@ -1,12 +1,11 @@
 """The engine as it was before the compiled epochs: the readable reference for the tests.
 
-A verbatim copy of ``adaptnav.engine`` before ``adaptnav.update_kernels`` (NumPy sensors'
+A verbatim copy of ``adaptnav.engine.batch`` before ``adaptnav.compiled.update`` (NumPy sensors'
 ``evaluate``, the strategies' ``update``, ``errorstate.inject`` / ``reset_jacobian``, a heap of
 readings, ledger dicts), with the engine's data classes imported rather than redefined.
 ``tests/kernels/test_update_kernels.py`` runs it side by side with
-:class:`adaptnav.engine.Navigator`.
-Since then it has the guard and the divergence guard, in :mod:`adaptnav.health`'s readable
-functions (docs/robustness.md).
+:class:`adaptnav.engine.batch.Navigator`. Since then it has the guard and the divergence guard, in
+:mod:`adaptnav.estimation.health`'s readable functions (docs/robustness.md).
 """
 
 from __future__ import annotations
@@ -20,8 +19,9 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import earth, errorstate, health, kernels
-from adaptnav.engine import (
+from adaptnav.compiled import propagation as kernels
+from adaptnav.core import earth
+from adaptnav.engine.batch import (
     MAX_DIM,
     SAME_EPOCH_S,
     EngineConfig,
@@ -29,12 +29,14 @@ from adaptnav.engine import (
     SensorChannel,
     _nominal_R,
 )
-from adaptnav.errorstate import N_STATES
-from adaptnav.gate import Gate, Guard, apply_gate
-from adaptnav.kalman import innovation_covariance
-from adaptnav.noise import process
-from adaptnav.noise.base import Block
-from adaptnav.strapdown import NOM_SIZE
+from adaptnav.estimation import health
+from adaptnav.estimation.gate import Gate, Guard, apply_gate
+from adaptnav.estimation.kalman import innovation_covariance
+from adaptnav.estimation.noise import process
+from adaptnav.estimation.noise.base import Block
+from adaptnav.models import errorstate
+from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.strapdown import NOM_SIZE
 
 Array = NDArray[np.float64]
 EpochPolicy = Literal["exact", "grid"]
@@ -326,7 +328,7 @@ class Navigator:
                 self._adapt_q(i, row, t_epoch, b.y, np.diag(S_i))
 
     def _adapt_q(self, i: int, row: int, t: float, y: Array, S_diag: Array) -> None:
-        """Q adaptation after a used reading of sensor i (noise/process.py)."""
+        """Q adaptation after a used reading of sensor i (estimation/noise/process.py)."""
         qa = self.config.q_adaptation
         assert qa is not None
         self._white[i], beta = process.whiteness_step(
@@ -346,7 +348,8 @@ class Navigator:
         self, guard: Guard, i: int, row: int, t: float, stat: float, q: float, W: Array, R: Array
     ) -> None:
         """The guard rejected sensor i's reading: start its lockout clock, or inflate P if it
-        has run for ``lockout_s``; the clock runs on until a reading passes (health.py)."""
+        has run for ``lockout_s``; the clock runs on until a reading passes
+        (estimation/health.py)."""
         since = self._rejected_since[i]
         if math.isnan(since):
             self._rejected_since[i] = t
@@ -369,7 +372,7 @@ class Navigator:
         threshold: float,
         factor: float,
     ) -> None:
-        from adaptnav.engine import _EVENTS
+        from adaptnav.engine.batch import _EVENTS
 
         detail = {name: text for name, text in _EVENTS.values()}[event]
         self.records.events.append(

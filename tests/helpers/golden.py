@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from adaptnav import api
-from adaptnav.io import load_mission, write_mission
+from adaptnav.core.units import DEG
+from adaptnav.mission import load_mission, write_mission
 from adaptnav.sim import scenarios
 from adaptnav.sim import trajectory as tr
-from adaptnav.units import DEG
 
 SEED = 11
 KINDS = ("meskf", "maeskf", "vb", "robust", "oracle")

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from adaptnav.io import parse_config, write_config
-from adaptnav.units import G0
+from adaptnav.core.units import G0
+from adaptnav.mission import parse_config, write_config
 
 RATE = 100.0
 """The IMU rate of ``config_dict`` and ``imu_rates`` (Hz)."""

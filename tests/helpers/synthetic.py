@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptnav import earth, errorstate
-from adaptnav.imu_noise import ImuNoise
+from adaptnav.core import earth
+from adaptnav.models import errorstate
+from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS

@@ -1,6 +1,6 @@
 """The Snapir AUV (A-KIT) importer: each correction is needed, L and the DVL offset come from
 the data, malformed files fail clearly or are repaired, faults are injected as stated, and the
-written mission loads and runs (adaptnav.io.akit, docs/akit.md)."""
+written mission loads and runs (adaptnav.importers.akit, docs/akit.md)."""
 
 from __future__ import annotations
 
@@ -16,15 +16,17 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from adaptnav import api, evaluate
+from adaptnav import api
+from adaptnav.analysis import evaluate
 from adaptnav.cli import app
-from adaptnav.io import MissionError, akit, load_mission
-from adaptnav.io.akit import (
+from adaptnav.importers import akit
+from adaptnav.importers.akit import (
     DVL_LEVER_ARM_M,
     README_REFERENCE_OFFSET_S,
     AkitError,
     RawSegment,
 )
+from adaptnav.mission import MissionError, load_mission
 from helpers import SHARED_DATA
 from helpers.script_loader import load_script
 
@@ -170,7 +172,7 @@ def test_truncated_last_line_is_dropped_and_logged(
     src = _copy(tmp_path)
     imu = src / "IMU_trajectory1.csv"
     _rewrite_lines(imu, lambda lines: [*lines[:-1], lines[-1][: len(lines[-1]) // 2]])
-    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         s = akit.read_segment(src, 1)
     assert s.imu_t.size == 39999
     (repair,) = s.repairs
@@ -191,7 +193,7 @@ def test_a_number_cut_short_at_the_end_of_the_file_is_dropped(
     text = imu.read_text().rstrip("\n")
     last = text.rsplit("\n", 1)[1]
     imu.write_text(text[: len(text) - len(last.rsplit(",", 1)[1]) + 4])
-    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         s = akit.read_segment(src, 1)
     assert s.imu_t.size == 39999
     (repair,) = s.repairs

@@ -11,9 +11,9 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from adaptnav import attitude
 from adaptnav.cli import app
-from adaptnav.io import parse_config, write_mission
+from adaptnav.core import attitude
+from adaptnav.mission import parse_config, write_mission
 from helpers import synthetic
 
 runner = CliRunner()
@@ -115,7 +115,7 @@ def test_run_then_evaluate_json(tmp_path: Path, kind: str) -> None:
 
 
 def test_every_reading_has_a_fate(tmp_path: Path) -> None:
-    from adaptnav import results
+    from adaptnav.api import results
 
     mission = _mission(tmp_path, duration=20.0)
     out = tmp_path / "run"

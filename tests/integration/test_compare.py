@@ -15,10 +15,9 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from adaptnav import api, evaluate, plots, results
-from adaptnav.cli import app
-from adaptnav.cli.compare import comparison_table
-from adaptnav.compare import (
+from adaptnav import api
+from adaptnav.analysis import evaluate
+from adaptnav.analysis.compare import (
     COMPARISON_CSV,
     COMPARISON_JSON,
     NEES_BAND_TEXT,
@@ -28,7 +27,11 @@ from adaptnav.compare import (
     compare,
     parse_filters,
 )
+from adaptnav.api import results
+from adaptnav.cli import app
+from adaptnav.cli.compare import comparison_table
 from adaptnav.sim.scenarios import simulate
+from adaptnav.viz import plots
 
 runner = CliRunner()
 
@@ -45,7 +48,7 @@ def mission_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def saved(mission_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Comparison, Path]:
     cmp = compare(mission_dir, FILTERS)
     out = tmp_path_factory.mktemp("compare-out")
-    cmp.save(out)
+    cmp.save(out, figures=plots.comparison_figures(cmp))
     return cmp, out
 
 
@@ -149,7 +152,7 @@ def test_figures_leave_no_pyplot_state(saved: tuple[Comparison, Path]) -> None:
     import matplotlib.pyplot as plt
 
     before = plt.get_fignums()
-    figs = saved[0].figures()
+    figs = plots.comparison_figures(saved[0])
     assert figs and plt.get_fignums() == before
 
 
@@ -261,6 +264,6 @@ def test_figures_do_not_modify_the_mission_tables(saved: tuple[Comparison, Path]
     tables["dvl"] = dvl
     mission = dataclasses.replace(cmp.mission, tables=tables)
     before = dvl.copy()
-    figs = dataclasses.replace(cmp, mission=mission).figures()
+    figs = plots.comparison_figures(dataclasses.replace(cmp, mission=mission))
     assert "noise_dvl" in figs
     pd.testing.assert_frame_equal(mission.tables["dvl"], before)

@@ -2,7 +2,7 @@
 
 The paper's sea trial No. 2 (``paper-2``: no GNSS aiding, every disturbance of the simulator
 on, the engine's defaults) is simulated for a few seeds; the oracle (true per-reading R, known
-outliers dropped: :mod:`adaptnav.oracle`) runs from each mission's own static alignment. Its
+outliers dropped: :mod:`adaptnav.api.oracle`) runs from each mission's own static alignment. Its
 mean position and attitude NEES over the seeds must lie in a band around the χ²(3) mean of 3
 (docs/metrics.md). GNSS aiding would hide a heading the filter only claims to know, so there is
 none.
@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 import adaptnav.api as api
-from adaptnav import evaluate
-from adaptnav.io import load_mission
+from adaptnav.analysis import evaluate
+from adaptnav.mission import load_mission
 from adaptnav.sim.scenarios import simulate
 
 SEEDS = (31, 32, 33)

@@ -1,6 +1,7 @@
-"""Injected sensor faults (adaptnav.sim.faults) and the fault benchmark (adaptnav.faultbench,
-scripts/faults_eval.py): each injector changes its rows and nothing else, writes faults.json,
-is seeded and deterministic, `all` keeps its windows disjoint; one tiny end-to-end run.
+"""Injected sensor faults (adaptnav.sim.faults) and the fault benchmark
+(adaptnav.experiments.faultbench, scripts/faults_eval.py): each injector changes its rows and
+nothing else, writes faults.json, is seeded and deterministic, `all` keeps its windows disjoint; one
+tiny end-to-end run.
 
 The tiny simulated mission of :mod:`helpers.badinput` (20 s alignment, then about 40 s under
 way) with every fault shrunk to fit it (:data:`SMALL`)."""
@@ -18,8 +19,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav import faultbench as fb
-from adaptnav.io import akit, load_mission
+from adaptnav.experiments import faultbench as fb
+from adaptnav.importers import akit
+from adaptnav.mission import load_mission
 from adaptnav.sim import faults
 from helpers.badinput import read, tiny_mission
 from helpers.script_loader import load_script
@@ -271,7 +273,7 @@ def test_refusals(source: Path, tmp_path: Path) -> None:
 def test_the_oracle_drops_the_injected_readings(source: Path, tmp_path: Path) -> None:
     log = _inject(source, tmp_path / "f", faults.ALL)
     m = load_mission(tmp_path / "f")
-    from adaptnav import oracle
+    from adaptnav.api import oracle
 
     known = oracle.mission_noise(m, ["dvl", "depth"])
     for fault in log.faults:

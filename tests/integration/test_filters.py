@@ -11,9 +11,12 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from adaptnav import engine, errorstate, propagation
-from adaptnav.filters import FilterSettings, build_channels
-from adaptnav.noise import VariationalBayes
+from adaptnav.engine import batch as engine
+from adaptnav.engine import propagation
+from adaptnav.engine.channels import build_channels
+from adaptnav.estimation.noise import VariationalBayes
+from adaptnav.estimation.settings import FilterSettings
+from adaptnav.models import errorstate
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from helpers import synthetic
@@ -318,10 +321,10 @@ def test_a_nominal_gate_stays_shut_when_adaptation_would_open_it() -> None:
     """40 s of ×5 DVL noise, then a 20-s bottom-lock loss reading zeros (the A-KIT faults).
 
     VB-MAESKF's R̂ grows with the ×5 noise; a gate on that R̂ (the paper's) then lets the zeros
-    through. A gate on the nominal R (gate.py, ``reference = "nominal"``) cannot be opened by
-    adaptation: each zero is off by the vehicle's speed (2 m/s, 100 nominal σ), and is rejected
-    for as long as H P Hᵀ stays below 4/q - σ² (here q = 600, MESKF's; at q = 2600 this IMU's
-    P grows past that bound in the last second of the loss). The ×5 readings (within 5 σ·√q)
+    through. A gate on the nominal R (estimation/gate.py, ``reference = "nominal"``) cannot be
+    opened by adaptation: each zero is off by the vehicle's speed (2 m/s, 100 nominal σ), and is
+    rejected for as long as H P Hᵀ stays below 4/q - σ² (here q = 600, MESKF's; at q = 2600 this
+    IMU's P grows past that bound in the last second of the loss). The ×5 readings (within 5 σ·√q)
     still reach the filter and its R̂.
     """
     ds, noisy, lost = _sustained_fault()

@@ -1,4 +1,4 @@
-"""The floor baseline: DVL dead reckoning with the reference attitude (adaptnav.floor)."""
+"""The floor baseline: DVL dead reckoning with the reference attitude (adaptnav.analysis.floor)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav import evaluate, floor, results
-from adaptnav.attitude import euler_to_dcm
-from adaptnav.io import load_mission, parse_config, write_mission
+from adaptnav.analysis import evaluate, floor
+from adaptnav.api import results
+from adaptnav.core.attitude import euler_to_dcm
+from adaptnav.mission import load_mission, parse_config, write_mission
 from adaptnav.sensors import dvl as dvl_model
 from adaptnav.sim import kinematics as kin
 from helpers import SHARED_DATA
@@ -145,7 +146,7 @@ def test_floor_on_real_segments(tmp_path: Path, trajectory: int) -> None:
     """Bound: the README's DVL-minus-reference residual is 0.016-0.024 m/s per axis; a
     residual bias of a few mm/s (measured: 1-9 mm/s) over 400 s is 1-4 m on 650-900 m, i.e.
     up to 0.5 %. Measured: 0.20 % (segment 1) and 0.17 % (segment 5), 0.235 % over 1-9."""
-    from adaptnav.io.akit import import_segment
+    from adaptnav.importers.akit import import_segment
 
     mission = load_mission(import_segment(DATA, trajectory, tmp_path / "m", seed=1))
     assert mission.truth is not None

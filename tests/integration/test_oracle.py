@@ -9,10 +9,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav import api, engine, errorstate
-from adaptnav.filters import FilterSettings, build_channels
-from adaptnav.io import load_mission
-from adaptnav.oracle import OUTLIER_REASON, mission_noise
+from adaptnav import api
+from adaptnav.api.oracle import OUTLIER_REASON, mission_noise
+from adaptnav.engine import batch as engine
+from adaptnav.engine.channels import build_channels
+from adaptnav.estimation.settings import FilterSettings
+from adaptnav.mission import load_mission
+from adaptnav.models import errorstate
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sim.scenarios import simulate
 from helpers import synthetic

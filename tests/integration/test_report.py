@@ -20,10 +20,11 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from adaptnav.analysis.compare import COMPARISON_JSON, compare
 from adaptnav.cli import app
-from adaptnav.compare import COMPARISON_JSON, compare
-from adaptnav.report import ReportError, write_report
 from adaptnav.sim.scenarios import simulate
+from adaptnav.viz import plots
+from adaptnav.viz.report import ReportError, write_report
 
 runner = CliRunner()
 
@@ -41,7 +42,8 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """(comparison folder, report file) of the demo preset, mission inside the folder."""
     out = tmp_path_factory.mktemp("report")
     mission = simulate("demo", 4, out / "mission")
-    compare(mission, FILTERS).save(out)
+    cmp = compare(mission, FILTERS)
+    cmp.save(out, figures=plots.comparison_figures(cmp))
     return out, write_report(out)
 
 

@@ -1,6 +1,6 @@
 """The RTKLIB drive importer: the readers take the real files and refuse or repair broken ones,
 each correction is needed, and the mission loads, runs and is scored over its outages
-(adaptnav.io.rtklib, docs/rtklib.md)."""
+(adaptnav.importers.rtklib, docs/rtklib.md)."""
 
 from __future__ import annotations
 
@@ -15,11 +15,13 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from adaptnav import api, evaluate
+from adaptnav import api
+from adaptnav.analysis import evaluate
 from adaptnav.cli import app
-from adaptnav.io import load_mission, rtklib
-from adaptnav.io.rtklib import RtklibError
-from adaptnav.units import G0
+from adaptnav.core.units import G0
+from adaptnav.importers import rtklib
+from adaptnav.importers.rtklib import RtklibError
+from adaptnav.mission import load_mission
 from helpers import SHARED_DATA
 from helpers.script_loader import load_script
 

@@ -1,5 +1,5 @@
-"""Sweeps and Monte Carlo (adaptnav.sweep, `adaptnav sweep`): cache keys, resume, parallel =
-serial, q reaching the gate, the gyro-bias scale reaching Q, statistics by hand, the CLI.
+"""Sweeps and Monte Carlo (adaptnav.experiments.sweep, `adaptnav sweep`): cache keys, resume,
+parallel = serial, q reaching the gate, the gyro-bias scale reaching Q, statistics by hand, the CLI.
 
 One short ``demo`` mission (seed 1, every disturbance on: it has DVL outliers) is simulated
 once for the module and shared through copies of its cache folder.
@@ -17,10 +17,10 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from adaptnav import sweep as sw
 from adaptnav.cli import app
-from adaptnav.imu_noise import ImuNoise
-from adaptnav.io import MissionError, parse_config, with_overrides
+from adaptnav.experiments import sweep as sw
+from adaptnav.mission import MissionError, parse_config, with_overrides
+from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.sim.sensors import Disturbances
 from helpers.missions import config_dict
 

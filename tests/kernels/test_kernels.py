@@ -1,4 +1,5 @@
-"""The compiled propagation (adaptnav.kernels) against its NumPy twin (adaptnav.propagation).
+"""The compiled propagation (adaptnav.compiled.propagation) against its NumPy twin
+(adaptnav.engine.propagation).
 
 * compiled == twin to 1e-9 over 10 000 random 100 Hz steps, compared at intermediate points
   (each side runs on from its own state, so differences would accumulate), Gauss-Markov and
@@ -15,14 +16,16 @@ import math
 import numpy as np
 import pytest
 
-from adaptnav import attitude, errorstate, kernels, strapdown
-from adaptnav.propagation import (
+from adaptnav.compiled import propagation as kernels
+from adaptnav.core import attitude
+from adaptnav.engine.propagation import (
     low_pass,
     propagate,
     propagate_numpy,
     propagate_partial,
     propagate_partial_numpy,
 )
+from adaptnav.models import errorstate, strapdown
 
 R_EARTH = 6.4e6  # m per rad, for position differences
 

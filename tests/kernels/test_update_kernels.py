@@ -1,4 +1,4 @@
-"""Compiled epochs (adaptnav.update_kernels and the engine's compiled loop) against their twins.
+"""Compiled epochs (adaptnav.compiled.update and the engine's compiled loop) against their twins.
 
 * every sensor's compiled linearisation == its ``evaluate`` (y and H) at random states, lever
   arms and mounting rotations, wrapped residuals included; the registry and its hook;
@@ -21,11 +21,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from adaptnav import attitude, engine, errorstate, kalman, strapdown
-from adaptnav import update_kernels as uk
-from adaptnav.gate import Gate, Guard, apply_gate
-from adaptnav.health import DivergenceGuard
-from adaptnav.noise import (
+from adaptnav.compiled import update as uk
+from adaptnav.core import attitude
+from adaptnav.engine import batch as engine
+from adaptnav.estimation import kalman
+from adaptnav.estimation.gate import Gate, Guard, apply_gate
+from adaptnav.estimation.health import DivergenceGuard
+from adaptnav.estimation.noise import (
     Block,
     CovarianceMatching,
     FixedNoise,
@@ -33,7 +35,8 @@ from adaptnav.noise import (
     VariationalBayes,
     VBState,
 )
-from adaptnav.noise.process import QAdaptation
+from adaptnav.estimation.noise.process import QAdaptation
+from adaptnav.models import errorstate, strapdown
 from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
 from adaptnav.sensors.base import Measurement
 from adaptnav.sensors.inclinometer import PendulumInclinometer

@@ -5,7 +5,7 @@ The IMU at rest is exact (``kinematics.stationary``) plus, where stated, the pap
 (Table 2: ARW 0.0667 deg/√h, VRW 55 µg/√Hz, in-run gyro bias 1 deg/h and accel bias 0.25 mg as
 first-order Gauss-Markov with τ = 1 h) and random turn-on biases drawn with a fixed seed.
 
-Predicted σ at 26.8° N over 600 s (module docstring of ``adaptnav.align``), turn-on biases of
+Predicted σ at 26.8° N over 600 s (module docstring of ``adaptnav.engine.align``), turn-on biases of
 σ 1 deg/h and 0.25 mg (the in-run figures; the paper's 20 deg/h turn-on offset would make
 gyrocompassing impossible, see ``test_papers_turn_on_gyro_offset_rules_out_gyrocompassing``):
 
@@ -24,9 +24,11 @@ import pytest
 from scipy.signal import lfilter
 from scipy.stats import chi2
 
-from adaptnav import align, attitude, earth, errorstate, strapdown
-from adaptnav.errorstate import ATT, N_STATES, VEL
-from adaptnav.imu_noise import ImuNoise
+from adaptnav.core import attitude, earth
+from adaptnav.engine import align
+from adaptnav.models import errorstate, strapdown
+from adaptnav.models.errorstate import ATT, N_STATES, VEL
+from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.zupt import ZeroVelocity
 from adaptnav.sim import kinematics as kin

@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav.io import MissionError
-from adaptnav.io import tables as tb
+from adaptnav.mission import MissionError
+from adaptnav.mission import tables as tb
 
 EXACT = tb._read_csv_exact
 """The exact reader, for comparison where :func:`typed_only` replaces it in the module."""

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adaptnav import earth
+from adaptnav.core import earth
 
 lats = st.floats(-math.radians(89.0), math.radians(89.0))
 

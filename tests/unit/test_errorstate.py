@@ -21,9 +21,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adaptnav import attitude, earth, errorstate, strapdown
-from adaptnav.errorstate import ATT, BA, BG, POS, VEL
-from adaptnav.imu_noise import ImuNoise
+from adaptnav.core import attitude, earth
+from adaptnav.models import errorstate, strapdown
+from adaptnav.models.errorstate import ATT, BA, BG, POS, VEL
+from adaptnav.models.imu_noise import ImuNoise
 
 BLOCKS = {"r": POS, "v": VEL, "phi": ATT, "ba": BA, "bg": BG}
 

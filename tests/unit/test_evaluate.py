@@ -10,8 +10,7 @@ import pandas as pd
 import pytest
 from scipy.stats import chi2
 
-from adaptnav import attitude, earth
-from adaptnav.evaluate import (
+from adaptnav.analysis.evaluate import (
     NEES_BAND,
     Metrics,
     block_errors,
@@ -27,7 +26,7 @@ from adaptnav.evaluate import (
     rmse,
     travelled_distance,
 )
-from adaptnav.results import (
+from adaptnav.api.results import (
     COV_COLUMNS,
     REQUIRED_SOLUTION_COLUMNS,
     SD_COLUMNS,
@@ -37,6 +36,7 @@ from adaptnav.results import (
     ledger_frame,
     noise_frame,
 )
+from adaptnav.core import attitude, earth
 
 LAT0, LON0, H0 = math.radians(43.0), math.radians(5.5), -20.0
 

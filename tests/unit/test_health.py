@@ -1,4 +1,5 @@
-"""The guard, bounded R̂ and the divergence guard (docs/robustness.md, gate.Guard, health.py).
+"""The guard, bounded R̂ and the divergence guard (docs/robustness.md, gate.Guard,
+estimation/health.py).
 
 Unit checks of the readable pieces against independent values, then the engine on synthetic
 missions built to fail the way issue 12 measured: a reading 1000 m off taken as used, an
@@ -16,11 +17,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adaptnav import engine, errorstate, health
-from adaptnav.gate import Guard
-from adaptnav.health import DivergenceGuard
-from adaptnav.noise import CovarianceMatching, FixedNoise, VariationalBayes
-from adaptnav.noise.base import Block
+from adaptnav.engine import batch as engine
+from adaptnav.estimation import health
+from adaptnav.estimation.gate import Guard
+from adaptnav.estimation.health import DivergenceGuard
+from adaptnav.estimation.noise import CovarianceMatching, FixedNoise, VariationalBayes
+from adaptnav.estimation.noise.base import Block
+from adaptnav.models import errorstate
 from helpers import synthetic
 
 # --- the guard's threshold --------------------------------------------------------------------

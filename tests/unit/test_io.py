@@ -1,4 +1,4 @@
-"""Mission input format (adaptnav.io): round trips, conversions and every bad-input case."""
+"""Mission input format (adaptnav.mission): round trips, conversions and every bad-input case."""
 
 from __future__ import annotations
 
@@ -13,8 +13,9 @@ import pandas as pd
 import pytest
 
 from adaptnav import api
-from adaptnav.attitude import euler_to_dcm
-from adaptnav.io import (
+from adaptnav.core.attitude import euler_to_dcm
+from adaptnav.core.units import DEG, G0, UnitError
+from adaptnav.mission import (
     MissionConfig,
     MissionError,
     build_sensor_model,
@@ -24,7 +25,6 @@ from adaptnav.io import (
     write_mission,
 )
 from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer, PendulumInclinometer
-from adaptnav.units import DEG, G0, UnitError
 from helpers import DATA as TEST_DATA
 from helpers import REPO
 from helpers.missions import T, config_dict, csv_text, dvl_table, imu_rates, write_dir
@@ -421,7 +421,7 @@ def test_truncated_last_line_is_dropped(tmp_path: Path, caplog: pytest.LogCaptur
     text = csv_text(imu_rates(n=20))
     text = text[: text.rstrip("\n").rfind(",")]  # cut the last row in its last field
     root = write_dir(tmp_path, config_dict(), {"imu.csv": text, "dvl.csv": dvl_table()})
-    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         m = load_mission(root)
     assert len(m.imu) == 18  # 19 complete samples → 18 intervals
     (r,) = m.repairs
@@ -498,7 +498,7 @@ def test_imu_nan_row_dropped_then_gap_checked(
     imu = imu_rates()
     imu.loc[7, "gyro_y_rad_s"] = np.nan
     root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
-    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         m = load_mission(root)
     assert len(m.imu) == 48 and m.imu.dt[6] == pytest.approx(2 * T)
     (r,) = m.repairs
@@ -664,7 +664,7 @@ def test_sensor_without_samples(tmp_path: Path, caplog: pytest.LogCaptureFixture
     d = config_dict()
     d["sensors"]["dvl"]["optional"] = True
     write_dir(tmp_path, d, {})
-    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         m = load_mission(tmp_path)
     assert m.sensors == {}
     (r,) = m.repairs
@@ -732,7 +732,7 @@ def test_many_repairs_are_all_recorded_but_logged_briefly(
     t[1::2] = t[0::2]  # every other stamp repeated
     dvl["t_s"] = t
     root = write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": dvl})
-    with caplog.at_level(logging.WARNING, logger="adaptnav.io"):
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         m = load_mission(root)
     assert len(m.dropped) == 15 and len(m.sensors["dvl"].t) == 15
     assert "5 more: duplicate timestamp" in caplog.text

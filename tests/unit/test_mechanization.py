@@ -2,8 +2,8 @@
 
 The IMU signals come from :mod:`adaptnav.sim.kinematics`, which inverts the mechanization
 equations for a closed-form motion, so every error measured here is the integration error of
-:func:`adaptnav.strapdown.propagate` (plus, for rate input, of the trapezoid conversion
-:func:`~adaptnav.strapdown.rates_to_increments`). The generator itself is checked first,
+:func:`adaptnav.models.strapdown.propagate` (plus, for rate input, of the trapezoid conversion
+:func:`~adaptnav.models.strapdown.rates_to_increments`). The generator itself is checked first,
 against finite differences and quadrature.
 
 IMU stream used throughout: instants ``t_j = j dt`` for j = -1 .. n. Interval j = (t_{j-1}, t_j]
@@ -21,7 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from adaptnav import attitude, earth, propagation, strapdown
+from adaptnav.core import attitude, earth
+from adaptnav.engine import propagation
+from adaptnav.models import strapdown
 from adaptnav.sim import kinematics as kin
 
 Array = np.ndarray
@@ -94,7 +96,7 @@ def test_body_rate_is_consistent_with_the_attitude() -> None:
 
 
 def test_imu_signals_match_the_scalar_earth_model() -> None:
-    """ω_ib^b and f^b recomputed point by point with the scalar functions of adaptnav.earth."""
+    """ω_ib^b and f^b recomputed point by point with the scalar functions of adaptnav.core.earth."""
     for m in (kin.turn_with_waves(), kin.stationary(LAT0, LON0, -20.0, 0.1, -0.2, 2.5)):
         k = kin.true_kinematics(m, SAMPLE_TIMES)
         x = kin.true_states(m, SAMPLE_TIMES)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from adaptnav.pages import git_revision, markdown_table
+from adaptnav.viz.pages import git_revision, markdown_table
 
 
 def test_markdown_table() -> None:

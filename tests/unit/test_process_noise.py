@@ -1,4 +1,5 @@
-"""Q adaptation by the whiteness of the innovations (noise/process.py, docs/robustness.md).
+"""Q adaptation by the whiteness of the innovations (estimation/noise/process.py,
+docs/robustness.md).
 
 The estimator against an AR(1) sequence, whose lag-1 autocorrelation is its coefficient;
 the engine on synthetic missions whose IMU is noisier than Q says (β grows, the velocity
@@ -15,10 +16,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adaptnav import engine, errorstate
-from adaptnav.io import MissionError, parse_config
-from adaptnav.noise import FixedNoise
-from adaptnav.noise.process import QAdaptation, WhitenessState, whiteness_step
+from adaptnav.engine import batch as engine
+from adaptnav.estimation.noise import FixedNoise
+from adaptnav.estimation.noise.process import QAdaptation, WhitenessState, whiteness_step
+from adaptnav.mission import MissionError, parse_config
+from adaptnav.models import errorstate
 from helpers import synthetic
 from helpers.missions import config_dict
 

@@ -10,10 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav import attitude
-from adaptnav.engine import EngineOutput
-from adaptnav.errorstate import STATE_NAMES
-from adaptnav.results import (
+from adaptnav.api.results import (
     COV_COLUMNS,
     REQUIRED_SOLUTION_COLUMNS,
     SOLUTION_COLUMNS,
@@ -26,6 +23,9 @@ from adaptnav.results import (
     quat_to_euler_rows,
     save,
 )
+from adaptnav.core import attitude
+from adaptnav.engine.batch import EngineOutput
+from adaptnav.models.errorstate import STATE_NAMES
 
 EULER = np.array(
     [[0.1, -0.2, 0.3], [0.0, 0.0, 3.1], [-0.3, 0.4, -3.0], [0.05, 1.2, 1.0], [1.0, -0.7, -1.5]]

@@ -1,6 +1,6 @@
 """Stuck-reading detection at load (issue 12; docs/robustness.md, "Stuck readings").
 
-The rule (:mod:`adaptnav.io.screening`) on hand-built series and against a plain reference
+The rule (:mod:`adaptnav.mission.screening`) on hand-built series and against a plain reference
 walk, its settings in ``mission.toml``, and a run whose DVL freezes: the frozen readings are in
 the ledger with their reason, the rest is used.
 """
@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from adaptnav.cli import app
-from adaptnav.io import MissionError, load_mission
-from adaptnav.io.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
-from adaptnav.io.screening import STUCK_MIN_READINGS, stuck_mask, stuck_runs
+from adaptnav.mission import MissionError, load_mission
+from adaptnav.mission.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
+from adaptnav.mission.screening import STUCK_MIN_READINGS, stuck_mask, stuck_runs
 from helpers import badinput
 
 SEED = 12

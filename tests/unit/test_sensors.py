@@ -20,8 +20,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from adaptnav import attitude, earth, errorstate, strapdown
-from adaptnav.errorstate import ATT, BG, N_STATES, POS, VEL
+from adaptnav.core import attitude, earth
+from adaptnav.models import errorstate, strapdown
+from adaptnav.models.errorstate import ATT, BG, N_STATES, POS, VEL
 from adaptnav.sensors import (
     DVL,
     GNSS,

@@ -17,12 +17,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav import earth, propagation
-from adaptnav.io import load_mission
+from adaptnav.core import earth
+from adaptnav.core.units import DEG
+from adaptnav.engine import propagation
+from adaptnav.mission import load_mission
 from adaptnav.sim import allan, imu_model, scenarios, sensors
 from adaptnav.sim import kinematics as kin
 from adaptnav.sim import trajectory as tr
-from adaptnav.units import DEG
 
 Array = np.ndarray
 SEED = 7

@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from adaptnav.imu_noise import ImuNoise
-from adaptnav.units import Kind, UnitError, to_si
+from adaptnav.core.units import Kind, UnitError, to_si
+from adaptnav.models.imu_noise import ImuNoise
 
 
 @pytest.mark.parametrize(

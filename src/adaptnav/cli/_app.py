@@ -13,8 +13,8 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from adaptnav.compare import FILTER_LABELS as FILTER_LABELS  # single sources, re-exported
-from adaptnav.compare import PAPER_TABLE3 as PAPER_TABLE3
+from adaptnav.analysis.compare import FILTER_LABELS as FILTER_LABELS  # single sources, re-exported
+from adaptnav.analysis.compare import PAPER_TABLE3 as PAPER_TABLE3
 
 FILTER_CHOICES = ("meskf", "maeskf", "vb", "robust", "oracle")
 """Filters ``adaptnav run`` runs (the engine's kinds; the floor is not a filter)."""
@@ -69,9 +69,9 @@ Force = Annotated[
 @contextmanager
 def output(out: Path, force: bool, inputs: Iterable[Path] = ()) -> Iterator[Path]:
     """``with output(out, force) as tmp:``: write the command's folder into ``tmp``; it is
-    renamed to ``out`` at the end (:func:`adaptnav.outdir.output_folder`). A path that cannot
+    renamed to ``out`` at the end (:func:`adaptnav.api.outdir.output_folder`). A path that cannot
     be written, or a non-empty ``out`` without ``--force``, fails here before any work."""
-    from adaptnav.outdir import OutputError, output_folder
+    from adaptnav.api.outdir import OutputError, output_folder
 
     try:
         with output_folder(out, force=force, inputs=inputs) as tmp:

@@ -1,12 +1,12 @@
 """``adaptnav compare`` and ``adaptnav report``: several filters on one mission, and its page.
 
 * ``adaptnav compare MISSION_DIR --filters meskf,maeskf,vb[,oracle][,floor] --out DIR``: one
-  alignment, every filter from it (:func:`adaptnav.compare.compare`), the comparison folder
+  alignment, every filter from it (:func:`adaptnav.analysis.compare.compare`), the comparison folder
   written to ``--out`` (runs, ``comparison.csv/json``, figures) and a table of ours beside the
   paper's Table 3; with ``--json`` only one JSON object on stdout (filter → metrics), progress
   on stderr.
 * ``adaptnav report COMPARE_DIR [--out FILE]``: the self-contained HTML report of a comparison
-  folder (:func:`adaptnav.report.write_report`); prints its path.
+  folder (:func:`adaptnav.viz.report.write_report`); prints its path.
 
 A user's mistake (unknown filter, a mission without a reference, a bad mission) exits with
 status 2 and one line on stderr (:func:`adaptnav.cli._app.fail`).
@@ -23,9 +23,10 @@ import typer
 from rich.table import Table
 
 from adaptnav.cli._app import FILTER_LABELS, Force, app, console, err_console, fail, output
+from adaptnav.viz import plots
 
 if TYPE_CHECKING:
-    from adaptnav.compare import Comparison
+    from adaptnav.analysis.compare import Comparison
 
 DEFAULT_CLI_FILTERS = "meskf,maeskf,vb,robust"
 """The paper's three and the default one; ``oracle`` needs a simulated mission and ``floor`` a
@@ -38,7 +39,7 @@ def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
     position, velocity and attitude (docs/metrics.md), and the readings each gated sensor's
     gate rejected; the caption gives the horizontal distance and the duration scored and what
     a consistent filter's NEES does. ``name`` stands for the mission's name in the title."""
-    from adaptnav.compare import NEES_BAND_TEXT, PAPER_TABLE3
+    from adaptnav.analysis.compare import NEES_BAND_TEXT, PAPER_TABLE3
 
     frame = cmp.table()
     paper = cmp.mission_name in PAPER_TABLE3
@@ -106,9 +107,9 @@ def compare_cmd(
     mission is one of its trajectories (paper-1, paper-2). Make the HTML page with
     `adaptnav report OUT`.
     """
-    from adaptnav.compare import compare, parse_filters
-    from adaptnav.io import MissionError, load_mission
-    from adaptnav.units import UnitError
+    from adaptnav.analysis.compare import compare, parse_filters
+    from adaptnav.core.units import UnitError
+    from adaptnav.mission import MissionError, load_mission
 
     try:
         names = parse_filters(filters)
@@ -123,7 +124,7 @@ def compare_cmd(
             # mission without a reference; OSError a missing or unreadable folder.
             fail(str(exc))
         err_console.print(f"writing {out}/ ...")
-        cmp.save(tmp)
+        cmp.save(tmp, figures=plots.comparison_figures(cmp))
     if as_json:
         typer.echo(json.dumps(cmp.to_json(), allow_nan=False))
         return
@@ -141,7 +142,7 @@ def report_cmd(
     ] = None,
 ) -> None:
     """Write one self-contained HTML report of a comparison folder and print its path."""
-    from adaptnav.report import ReportError, write_report
+    from adaptnav.viz.report import ReportError, write_report
 
     try:
         path = write_report(compare_dir, out)

@@ -16,7 +16,8 @@ from adaptnav.cli._app import (
     output,
 )
 from adaptnav.cli._app import fail as _fail
-from adaptnav.units import UnitError
+from adaptnav.core.units import UnitError
+from adaptnav.viz import plots
 
 
 @app.command()
@@ -36,11 +37,11 @@ def demo(
     comparison.csv/json, figures) and the HTML report --out/report.html, and prints the table
     beside the paper's Table 3 and the report's path.
     """
+    from adaptnav.analysis.compare import compare
     from adaptnav.cli.compare import comparison_table
-    from adaptnav.compare import compare
-    from adaptnav.report import write_report
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
+    from adaptnav.viz.report import write_report
 
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
@@ -51,7 +52,11 @@ def demo(
         cmp = compare(mission_dir, filters, progress=console.print)
         console.print(f"writing runs, comparison and figures to {out}/ ...")
         # Written in a temporary folder renamed to --out at the end: record the final paths.
-        cmp.save(tmp, mission_dir=out.absolute() / "mission")
+        cmp.save(
+            tmp,
+            mission_dir=out.absolute() / "mission",
+            figures=plots.comparison_figures(cmp),
+        )
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"
     console.print(comparison_table(cmp, f"{preset} (seed {seed})"))
@@ -87,9 +92,10 @@ def run_cmd(
     why), and the measurement noise variance R the filter used at each reading. --out is
     written whole at the end (a temporary folder beside it renamed into place); a non-empty
     --out is refused unless --force, which replaces it."""
-    from adaptnav import api, results
-    from adaptnav.align import AlignmentError
-    from adaptnav.io import MissionError, load_mission
+    from adaptnav import api
+    from adaptnav.api import results
+    from adaptnav.engine.align import AlignmentError
+    from adaptnav.mission import MissionError, load_mission
 
     if filter and filter not in FILTER_CHOICES:
         _fail(f"--filter: {filter!r} is not one of {', '.join(FILTER_CHOICES)}")
@@ -138,8 +144,9 @@ def evaluate_cmd(
 
     import pandas as pd
 
-    from adaptnav import evaluate, results
-    from adaptnav.io import MissionError, load_mission
+    from adaptnav.analysis import evaluate
+    from adaptnav.api import results
+    from adaptnav.mission import MissionError, load_mission
 
     lo, hi = evaluate.NEES_BAND
 

@@ -54,8 +54,8 @@ def akit(
     --faults, seeded DVL faults. Prints the estimated offsets beside the README's values;
     import.json in the mission folder records them.
     """
-    from adaptnav.io import MissionError
-    from adaptnav.io.akit import import_segment
+    from adaptnav.importers.akit import import_segment
+    from adaptnav.mission import MissionError
 
     if not depth_sigma_m > 0.0:
         fail(f"--depth-sigma-m: {depth_sigma_m} must be > 0")
@@ -167,8 +167,8 @@ def rtklib(
     withholds the RTK fixes in the outage windows (they stay in the truth, to score the drift).
     import.json in the mission folder records every estimate, check and left-out fix.
     """
-    from adaptnav.io import MissionError
-    from adaptnav.io.rtklib import DEFAULT_OUTAGES_S, NHC_SIGMA_M_S, import_drive
+    from adaptnav.importers.rtklib import DEFAULT_OUTAGES_S, NHC_SIGMA_M_S, import_drive
+    from adaptnav.mission import MissionError
 
     if imu_noise not in ("measured", "driving", "published"):
         fail(f"--imu-noise: {imu_noise!r} must be measured, driving or published")

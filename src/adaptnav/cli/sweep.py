@@ -9,7 +9,7 @@
   consistency (mean NEES of position, velocity and attitude; docs/metrics.md).
 
 Each writes ``runs.csv`` (every run), ``summary.csv`` and a figure to ``--out``, and prints a
-table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.sweep`.
+table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.experiments.sweep`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, Force, app, console, 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from adaptnav.sweep import RunSpec, SweepOutcome
+    from adaptnav.experiments.sweep import RunSpec, SweepOutcome
 
 sweep_app = typer.Typer(
     help="Sweeps (q, gyro-bias process noise) and Monte Carlo over seeds, cached and parallel.",
@@ -84,8 +84,8 @@ def _floats(text: str, option: str, geometric: bool) -> list[float]:
 def _common(
     presets: list[str], seeds: str, filters: str, jobs: int | None
 ) -> tuple[list[int], tuple[str, ...]]:
+    from adaptnav.experiments.sweep import available_filters, parse_seeds
     from adaptnav.sim.scenarios import PRESETS
-    from adaptnav.sweep import available_filters, parse_seeds
 
     for p in presets:
         if p not in PRESETS:
@@ -108,7 +108,7 @@ def _common(
 def _execute(
     specs: list[RunSpec], cache: Path, jobs: int | None, progress: bool, keep: bool
 ) -> SweepOutcome:
-    from adaptnav.sweep import run_sweep
+    from adaptnav.experiments.sweep import run_sweep
 
     try:
         return run_sweep(specs, cache, jobs=jobs, progress=progress, keep_missions=keep)
@@ -117,7 +117,7 @@ def _execute(
 
 
 def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
-    from adaptnav.results import jsonable
+    from adaptnav.api.results import jsonable
 
     records: list[dict[str, Any]] = jsonable(frame.to_dict(orient="records"), "table")
     return records
@@ -182,7 +182,7 @@ def _spread_table(title: str, spread: pd.DataFrame, parameter: str) -> Table:
 
 def _nees_table(summary: pd.DataFrame) -> Table:
     """Mean over the runs of each filter's mean NEES and share of epochs in the band."""
-    from adaptnav.compare import NEES_BAND_TEXT
+    from adaptnav.analysis.compare import NEES_BAND_TEXT
 
     table = Table(
         title="Consistency: NEES, mean over the runs",
@@ -233,7 +233,7 @@ def q_cmd(
     reference lines. Prints each filter's spread over q (best, worst, worst/best of the mean
     over seeds).
     """
-    from adaptnav import sweep
+    from adaptnav.experiments import sweep
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     q_values = _floats(q, "--q", geometric=False)
@@ -277,7 +277,7 @@ def process_noise_cmd(
     The gyro bias's driving-noise PSD in the filter's Q is multiplied by each factor (the
     mission and its alignment are unchanged); every filter at its default q.
     """
-    from adaptnav import sweep
+    from adaptnav.experiments import sweep
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     scale_values = _floats(scales, "--scales", geometric=True)
@@ -320,7 +320,7 @@ def seeds_cmd(
     and attitude with the share of epochs inside the band a consistent filter's NEES stays in
     95 % of the time (mean 3 and 95 % when the filter's covariance matches its errors).
     """
-    from adaptnav import sweep
+    from adaptnav.experiments import sweep
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     specs = sweep.monte_carlo_specs(presets, seed_list, names)

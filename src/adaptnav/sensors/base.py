@@ -23,8 +23,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav.errorstate import N_STATES
-from adaptnav.strapdown import NOM_SIZE
+from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.strapdown import NOM_SIZE
 
 Array = NDArray[np.float64]
 

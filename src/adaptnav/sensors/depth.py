@@ -21,8 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav import attitude
-from adaptnav.errorstate import ATT, N_STATES, POS
+from adaptnav.core import attitude
+from adaptnav.models.errorstate import ATT, N_STATES, POS
+from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -32,7 +33,6 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.strapdown import NOM_ATT
 
 DIM = 1
 

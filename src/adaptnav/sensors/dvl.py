@@ -24,8 +24,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav import attitude
-from adaptnav.errorstate import ATT, BG, N_STATES, VEL
+from adaptnav.core import attitude
+from adaptnav.models.errorstate import ATT, BG, N_STATES, VEL
+from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_VEL
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -36,7 +37,6 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.strapdown import NOM_ATT, NOM_BG, NOM_VEL
 
 DIM = 3
 

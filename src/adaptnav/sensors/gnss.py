@@ -33,8 +33,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav import attitude, earth
-from adaptnav.errorstate import ATT, N_STATES, POS
+from adaptnav.core import attitude, earth
+from adaptnav.models.errorstate import ATT, N_STATES, POS
+from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -44,7 +45,6 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.strapdown import NOM_ATT
 
 
 def _lever_n(x: Array, l_b: ArrayLike) -> Array:

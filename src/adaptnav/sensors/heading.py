@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav import attitude
-from adaptnav.errorstate import ATT, N_STATES
+from adaptnav.core import attitude
+from adaptnav.models.errorstate import ATT, N_STATES
+from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -31,7 +32,6 @@ from adaptnav.sensors.base import (
     check_state,
     euler_jacobian,
 )
-from adaptnav.strapdown import NOM_ATT
 
 DIM = 1
 

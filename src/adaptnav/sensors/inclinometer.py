@@ -52,8 +52,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav import attitude
-from adaptnav.errorstate import ATT, BA, N_STATES
+from adaptnav.core import attitude
+from adaptnav.models.errorstate import ATT, BA, N_STATES
+from adaptnav.models.strapdown import NOM_ATT, NOM_BA
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -64,7 +65,6 @@ from adaptnav.sensors.base import (
     check_state,
     euler_jacobian,
 )
-from adaptnav.strapdown import NOM_ATT, NOM_BA
 
 DIM = 2
 

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav.errorstate import N_STATES, VEL
+from adaptnav.models.errorstate import N_STATES, VEL
+from adaptnav.models.strapdown import NOM_VEL
 from adaptnav.sensors.base import (
     Array,
     Measurement,
@@ -31,7 +32,6 @@ from adaptnav.sensors.base import (
     check_scalar_sigma,
     check_state,
 )
-from adaptnav.strapdown import NOM_VEL
 
 DIM = 3
 

@@ -14,7 +14,7 @@ The fault models (the issue's, :class:`FaultParams` holds their sizes):
   first one is genuine; the repeats are the fault);
 * ``dvl_dropout``: 300 s of DVL rows removed from the table (no reading at all, not NaN rows);
 * ``dvl_spikes``: 1 % of the DVL readings get ± U(1, 3) m/s on a random non-empty set of axes
-  (:func:`spike_vectors`, the draw of :func:`adaptnav.io.akit.inject_dvl_faults`);
+  (:func:`spike_vectors`, the draw of :func:`adaptnav.importers.akit.inject_dvl_faults`);
 * ``all``: every one of them at once, in disjoint windows.
 
 **Placement.** One seeded layout places the four windows (depth spike, depth offset, DVL stuck,
@@ -24,7 +24,7 @@ The layout and the spikes are drawn for every kind whichever is injected, so wit
 generator state a fault sits at the same place alone and inside ``all``.
 
 **The oracle.** Every changed reading is flagged ``is_outlier = 1`` in its table (a column the
-depth table gains), so the oracle (:mod:`adaptnav.oracle`) drops it as a known outlier and stays
+depth table gains), so the oracle (:mod:`adaptnav.api.oracle`) drops it as a known outlier and stays
 the bound it is on the clean mission: what a filter told about the fault could do. A removed
 reading needs no flag.
 
@@ -47,9 +47,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav.io import MissionConfig, load_config
-from adaptnav.io.mission import CONFIG_NAME
-from adaptnav.io.tables import table_format, write_table
+from adaptnav.mission import MissionConfig, load_config
+from adaptnav.mission.loader import CONFIG_NAME
+from adaptnav.mission.tables import table_format, write_table
 from adaptnav.sim.sensors import in_intervals, place_intervals
 
 Array = NDArray[np.float64]
@@ -81,7 +81,7 @@ FAULTS_FILE = "faults.json"
 FORMAT_NAME = "adaptnav-faults"
 FORMAT_VERSION = 1
 OUTLIER_COLUMN = "is_outlier"
-"""The simulator's per-reading outlier flag, which the oracle drops (:mod:`adaptnav.oracle`)."""
+"""The simulator's per-reading outlier flag, which the oracle drops (:mod:`adaptnav.api.oracle`)."""
 DVL_COLUMNS = ("vx_m_s", "vy_m_s", "vz_m_s")
 DEPTH_COLUMN = "depth_m"
 
@@ -266,7 +266,7 @@ def spike_vectors(
     seven sets equally likely), ± U(magnitude) m/s per axis with a random sign, 0 elsewhere.
 
     The same draws, in the same order, as the spikes of
-    :func:`adaptnav.io.akit.inject_dvl_faults` (the paper's "drastic and unreal changes";
+    :func:`adaptnav.importers.akit.inject_dvl_faults` (the paper's "drastic and unreal changes";
     docs/simulation.md, 'What makes adaptation matter').
     """
     out = np.zeros((count, 3))

@@ -24,11 +24,12 @@ gives ``σ_A²(τ) = (σ² T²/τ²) (2τ/T - 3 + 4 e^{-τ/T} - e^{-2τ/T})``, a
 The paper's IMU (:data:`PAPER_IMU`, its Table 2): gyro in-run 1 deg/h, ARW 0.0667 deg/√h,
 turn-on 20 deg/h; accelerometer in-run 0.25 mg, 55 µg/√Hz, turn-on 50 mg. Table 2 gives no
 correlation time: τ = 1 h is assumed for both, and the datasheet "bias stability" is taken as
-the Gauss-Markov σ, as :class:`adaptnav.imu_noise.ImuNoise` does (Groves §4.4.3).
+the Gauss-Markov σ, as :class:`adaptnav.models.imu_noise.ImuNoise` does (Groves §4.4.3).
 
 What the 10-minute static alignment calibrates (and so what the simulator applies)
 ----------------------------------------------------------------------------------
-At rest a ZUPT/levelling/gyrocompass alignment (``adaptnav.align``) observes (Groves §5.6, §14.4):
+At rest a ZUPT/levelling/gyrocompass alignment (``adaptnav.engine.align``) observes (Groves §5.6,
+§14.4):
 
 * the vertical accelerometer bias (|f̄| against g): to ``VRW/√T`` ≈ 2 µg in 600 s;
 * the *north* gyro bias (it tilts the platform, which the ZUPTs see growing as ``g b t²/2``);
@@ -64,8 +65,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
-from adaptnav.imu_noise import FIELD_KINDS, ImuNoise
-from adaptnav.units import DEG, G0, Kind, UnitError, to_si
+from adaptnav.core.units import DEG, G0, Kind, UnitError, to_si
+from adaptnav.models.imu_noise import FIELD_KINDS, ImuNoise
 
 Array = NDArray[np.float64]
 
@@ -118,7 +119,7 @@ class ImuErrorModel:
         accel_scale_sigma: float = 0.0,
         **pairs: tuple[float | str, str],
     ) -> ImuErrorModel:
-        """From ``name=(value, unit)`` pairs in datasheet units (:mod:`adaptnav.units`);
+        """From ``name=(value, unit)`` pairs in datasheet units (:mod:`adaptnav.core.units`);
         ``"inf"`` is accepted for the τ's; scale factors are plain numbers (1e-4 = 100 ppm)."""
         si: dict[str, Any] = {}
         for name, pair in pairs.items():

@@ -5,7 +5,7 @@ They test the mechanization (docs/mechanization.md, 'Verification').
 A :class:`Motion` gives, as vectorised closed-form functions of time t (s), the geodetic
 position ``p = [L, λ, h]`` (rad, rad, m) with ``ṗ`` and ``p̈``, and the ZYX Euler angles
 ``e = [φ, θ, ψ]`` (roll, pitch, yaw) with ``ė``. Everything else follows exactly, with the WGS84
-model of :mod:`adaptnav.earth` (conventions: ``docs/conventions.md``):
+model of :mod:`adaptnav.core.earth` (conventions: ``docs/conventions.md``):
 
 1. NED velocity from the curvilinear position rates (Groves 2013 §2.4.3; the continuous form
    of the position update, Groves 5.56)::
@@ -32,10 +32,10 @@ model of :mod:`adaptnav.earth` (conventions: ``docs/conventions.md``):
        f^b    = C_nbᵀ (v̇_n - g_n + (2 ω_ie^n + ω_en^n) × v_n)
 
    with ``ω_ie^n`` (Groves 2.123), ``ω_en^n`` (Groves 5.44) and normal gravity ``g_n`` (which
-   contains the centrifugal term) exactly as :mod:`adaptnav.earth` defines them, so a perfect
+   contains the centrifugal term) exactly as :mod:`adaptnav.core.earth` defines them, so a perfect
    mechanization fed with these signals reproduces the motion up to its integration error.
 
-IMU model (``adaptnav.strapdown``): interval k = (t_{k-1}, t_k] carries the raw body-frame
+IMU model (``adaptnav.models.strapdown``): interval k = (t_{k-1}, t_k] carries the raw body-frame
 increments ``Δθ_k = ∫ ω_ib^b dt`` and ``Δv_k = ∫ f^b dt`` (no coning or sculling applied, as a
 real IMU outputs them). They are integrated here by m-point Gauss-Legendre quadrature per
 interval, whose error is ``dt^{2m+1} (m!)^4 / ((2m+1) ((2m)!)^3) g^{(2m)}(ξ)`` (Abramowitz &
@@ -52,7 +52,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import earth
+from adaptnav.core import earth
 
 Array = NDArray[np.float64]
 
@@ -117,7 +117,7 @@ def _times(t: ArrayLike) -> Array:
 def _euler_to_dcm(e: Array) -> Array:
     """``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` for an (N, 3) array of ``[φ, θ, ψ]`` → (N, 3, 3).
 
-    The vectorised twin of :func:`adaptnav.attitude.euler_to_dcm`.
+    The vectorised twin of :func:`adaptnav.core.attitude.euler_to_dcm`.
     """
     sr, cr = np.sin(e[:, 0]), np.cos(e[:, 0])
     sp, cp = np.sin(e[:, 1]), np.cos(e[:, 1])
@@ -133,7 +133,7 @@ def _euler_to_dcm(e: Array) -> Array:
 def _euler_to_quat(e: Array) -> Array:
     """``q_nb = q_z(ψ) ⊗ q_y(θ) ⊗ q_x(φ)`` for (N, 3) Euler angles → (N, 4), w ≥ 0.
 
-    Half-angle closed form; the sign is chosen as :func:`adaptnav.attitude.euler_to_quat`
+    Half-angle closed form; the sign is chosen as :func:`adaptnav.core.attitude.euler_to_quat`
     (``dcm_to_quat``) chooses it, so the two agree to rounding.
     """
     sr, cr = np.sin(0.5 * e[:, 0]), np.cos(0.5 * e[:, 0])
@@ -156,8 +156,8 @@ def true_kinematics(motion: Motion, t: ArrayLike) -> Kinematics:
     """All true kinematic quantities of ``motion`` at the instants ``t`` (module docstring).
 
     Earth rate, transport rate and gravity are the vectorised forms of
-    :func:`adaptnav.earth.earth_rate_n`, :func:`~adaptnav.earth.transport_rate_n` and
-    :func:`~adaptnav.earth.gravity_n`.
+    :func:`adaptnav.core.earth.earth_rate_n`, :func:`~adaptnav.core.earth.transport_rate_n` and
+    :func:`~adaptnav.core.earth.gravity_n`.
     """
     tt = _times(t)
     p, pd, pdd = motion.position(tt), motion.position_rate(tt), motion.position_accel(tt)
@@ -220,7 +220,7 @@ def imu_increments(motion: Motion, t: ArrayLike, nodes: int = GAUSS_NODES) -> tu
     ``Δθ_k = ∫ ω_ib^b dt`` (rad) and ``Δv_k = ∫ f^b dt`` (m/s), the raw body-frame integrals,
     each by ``nodes``-point Gauss-Legendre quadrature per interval (exact to double precision
     for the smooth motions used here; module docstring). N instants give N-1 increments,
-    like :func:`adaptnav.strapdown.rates_to_increments`.
+    like :func:`adaptnav.models.strapdown.rates_to_increments`.
     """
     tt = _times(t)
     if tt.size < 2:
@@ -244,8 +244,8 @@ def imu_increments(motion: Motion, t: ArrayLike, nodes: int = GAUSS_NODES) -> tu
 def true_states(motion: Motion, t: ArrayLike) -> Array:
     """True nominal states (N, 16) at the instants t: ``[lat, lon, h, v_n, q_nb, 0 (6)]``.
 
-    Layout of :mod:`adaptnav.strapdown` (``NOM_*``); the bias slots are zero (a perfect IMU).
-    ``q_nb`` equals :func:`adaptnav.attitude.euler_to_quat` of the Euler angles (w ≥ 0).
+    Layout of :mod:`adaptnav.models.strapdown` (``NOM_*``); the bias slots are zero (a perfect IMU).
+    ``q_nb`` equals :func:`adaptnav.core.attitude.euler_to_quat` of the Euler angles (w ≥ 0).
     """
     tt = _times(t)
     k = true_kinematics(motion, tt)

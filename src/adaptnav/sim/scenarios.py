@@ -45,8 +45,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav import attitude
-from adaptnav.io import MissionConfig, parse_config, write_mission
+from adaptnav.core import attitude
+from adaptnav.core.units import DEG, G0
+from adaptnav.mission import MissionConfig, parse_config, write_mission
 from adaptnav.sim import imu_model, kinematics, sensors
 from adaptnav.sim import trajectory as tr
 from adaptnav.sim.imu_model import PAPER_IMU, ImuErrorModel, ImuErrors
@@ -59,7 +60,6 @@ from adaptnav.sim.sensors import (
     InclinometerSpec,
     Truth,
 )
-from adaptnav.units import DEG, G0
 
 Array = NDArray[np.float64]
 

@@ -63,13 +63,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav import attitude, earth
+from adaptnav.core import attitude, earth
+from adaptnav.core.units import DEG
 from adaptnav.sensors import depth as depth_model
 from adaptnav.sensors import dvl as dvl_model
 from adaptnav.sensors import gnss as gnss_model
 from adaptnav.sensors import heading as heading_model
 from adaptnav.sensors import inclinometer as incl_model
-from adaptnav.units import DEG
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]

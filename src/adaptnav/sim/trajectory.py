@@ -69,9 +69,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav import earth
+from adaptnav.core import earth
+from adaptnav.core.units import G0
 from adaptnav.sim.kinematics import Motion
-from adaptnav.units import G0
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.intp]

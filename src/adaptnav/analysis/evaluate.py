@@ -1,0 +1,528 @@
+"""Accuracy and consistency metrics of a run against a reference trajectory (docs/metrics.md).
+
+The reference ("truth") is a table with ``t_s, lat_rad, lon_rad, h_m`` and optionally
+``vn_m_s, ve_m_s, vd_m_s`` and ``roll_rad, pitch_rad, yaw_rad``, times non-decreasing.
+
+Every metric is computed over the truth samples that lie inside the solution's time span
+``[t_first, t_last]``; the estimate is interpolated linearly in time to those samples
+(lat, lon unwrapped, h, velocity, Euler angles unwrapped, standard deviations).
+
+Errors are **estimate minus truth**, resolved in the local NED frame **at each truth point**,
+computed exactly through ECEF: ``e_n = C_ne(lat_ref, lon_ref) (r_e(est) - r_e(ref))``
+(Groves 2.112, 2.150). (The filter's own error state is truth minus estimate; the sign does not
+matter to any metric here.)
+
+* paper eq. (32): ``RMSE = sqrt(mean(dN² + dE² + dD²))`` in metres;
+* paper eq. (33): ``relative RMSE (%) = 100 RMSE / D`` with D the **horizontal** length of the
+  reference track, the sum of its horizontal (N, E) steps (:func:`travelled_distance`), so that
+  a vessel's heave, which the reference records, does not lengthen it;
+* NEES of position, velocity and attitude (:func:`nees`), each with the full 3×3 block of P
+  the engine records: ``NEES_k = e_kᵀ P_k⁻¹ e_k``, χ²(3)-distributed for a consistent filter
+  (mean 3; 95 % of the epochs inside ``[χ²₀.₀₂₅(3), χ²₀.₉₇₅(3)] ≈ [0.216, 9.348]``,
+  :data:`NEES_BAND`);
+* NIS per sensor from the ledger: the mean of the used readings' NIS, ``y' S^-1 y``; for a
+  consistent filter with independent innovations ``K mean ~ chi²(sum_k d_k)``, which gives
+  the two-sided 95 % bounds of the mean.
+
+The definitions, in words and equations, are in docs/metrics.md.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any, Literal, get_args
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+from scipy.stats import chi2
+
+from adaptnav.api.results import Result, covariance_block, has_covariances, jsonable, ledger_counts
+from adaptnav.core import earth
+from adaptnav.core.attitude import wrap_angle
+from adaptnav.engine.batch import MAX_DIM
+from adaptnav.models.errorstate import STATE_NAMES
+
+Array = NDArray[np.float64]
+
+TRUTH_POSITION = ("t_s", "lat_rad", "lon_rad", "h_m")
+TRUTH_VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
+TRUTH_ATTITUDE = ("roll_rad", "pitch_rad", "yaw_rad")
+POSITION_SD = ("sd_dr_N", "sd_dr_E", "sd_dr_D")
+NIS_CONFIDENCE = 0.95
+"""Two-sided probability of the NIS bounds."""
+NeesBlock = Literal["position", "velocity", "attitude"]
+NEES_BLOCKS: tuple[NeesBlock, ...] = get_args(NeesBlock)
+NEES_STATES: dict[NeesBlock, tuple[str, str, str]] = {
+    "position": ("dr_N", "dr_E", "dr_D"),
+    "velocity": ("dv_N", "dv_E", "dv_D"),
+    "attitude": ("phi_N", "phi_E", "phi_D"),
+}
+"""The error states (:data:`adaptnav.models.errorstate.STATE_NAMES`) of each NEES block."""
+NEES_DOF = 3
+NEES_CONFIDENCE = 0.95
+NEES_BAND: tuple[float, float] = (
+    float(chi2.ppf((1.0 - NEES_CONFIDENCE) / 2.0, NEES_DOF)),
+    float(chi2.ppf((1.0 + NEES_CONFIDENCE) / 2.0, NEES_DOF)),
+)
+"""Two-sided 95 % interval of one epoch's NEES for a consistent filter, χ²(3) quantiles
+0.025 and 0.975: about [0.216, 9.348]."""
+assert all(n in STATE_NAMES for names in NEES_STATES.values() for n in names)
+
+
+def _column(frame: pd.DataFrame, name: str) -> Array:
+    return np.asarray(frame[name].to_numpy(dtype=float), dtype=float)
+
+
+def _check_truth(truth: pd.DataFrame) -> Array:
+    missing = [c for c in TRUTH_POSITION if c not in truth.columns]
+    if missing:
+        raise ValueError(f"truth lacks columns {missing}")
+    t = _column(truth, "t_s")
+    if t.size and (not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0.0)):
+        raise ValueError("truth: t_s must be finite and non-decreasing")
+    return t
+
+
+def _solution_time(solution: pd.DataFrame) -> Array:
+    if "t_s" not in solution.columns:
+        raise ValueError("solution lacks column 't_s'")
+    t = _column(solution, "t_s")
+    if t.size == 0:
+        raise ValueError("solution has no rows")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0.0):
+        raise ValueError("solution: t_s must be finite and non-decreasing")
+    return t
+
+
+def _in_span(t_truth: Array, t_sol: Array) -> NDArray[np.bool_]:
+    return np.asarray((t_truth >= t_sol[0]) & (t_truth <= t_sol[-1]), dtype=bool)
+
+
+def _interp(t: Array, t_sol: Array, values: Array, unwrap: bool = False) -> Array:
+    v = np.unwrap(values) if unwrap else values
+    return np.asarray(np.interp(t, t_sol, v), dtype=float)
+
+
+def ned_errors(
+    lat: Array, lon: Array, h: Array, lat_ref: Array, lon_ref: Array, h_ref: Array
+) -> Array:
+    """Exact NED vectors (N, 3) from each reference point to its estimate point, resolved at
+    the reference: ``C_ne(lat_ref, lon_ref) (r_e(est) - r_e(ref))``."""
+    d = earth.geodetic_to_ecef(lat, lon, h) - earth.geodetic_to_ecef(lat_ref, lon_ref, h_ref)
+    C = earth.C_ne(lat_ref, lon_ref)
+    return np.asarray(np.einsum("nij,nj->ni", C, d.reshape(-1, 3)), dtype=float)
+
+
+def position_errors(solution: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """Estimate-minus-truth errors at the truth times inside the solution span.
+
+    Columns ``t_s, dN_m, dE_m, dD_m, horizontal_m = sqrt(dN² + dE²), error_m = |e|``; with
+    truth velocity also ``dvN_m_s, dvE_m_s, dvD_m_s``; with truth attitude also ``droll_rad,
+    dpitch_rad, dyaw_rad`` (Euler-angle differences wrapped to (-π, π]). Position errors are in
+    NED at each truth point, exact (see the module docstring).
+    """
+    t_truth = _check_truth(truth)
+    t_sol = _solution_time(solution)
+    keep = _in_span(t_truth, t_sol)
+    t = t_truth[keep]
+    lat = _interp(t, t_sol, _column(solution, "lat_rad"))
+    lon = _interp(t, t_sol, _column(solution, "lon_rad"), unwrap=True)
+    h = _interp(t, t_sol, _column(solution, "h_m"))
+    e = ned_errors(
+        lat,
+        lon,
+        h,
+        _column(truth, "lat_rad")[keep],
+        _column(truth, "lon_rad")[keep],
+        _column(truth, "h_m")[keep],
+    )
+    out: dict[str, Array] = {
+        "t_s": t,
+        "dN_m": e[:, 0],
+        "dE_m": e[:, 1],
+        "dD_m": e[:, 2],
+        "horizontal_m": np.hypot(e[:, 0], e[:, 1]),
+        "error_m": np.sqrt(np.sum(e * e, axis=1)),
+    }
+    if all(c in truth.columns for c in TRUTH_VELOCITY):
+        for c, name in zip(TRUTH_VELOCITY, ("dvN_m_s", "dvE_m_s", "dvD_m_s"), strict=True):
+            out[name] = _interp(t, t_sol, _column(solution, c)) - _column(truth, c)[keep]
+    if all(c in truth.columns for c in TRUTH_ATTITUDE):
+        for c in TRUTH_ATTITUDE:
+            est = _interp(t, t_sol, _column(solution, c), unwrap=True)
+            out[f"d{c}"] = wrap_angle(est - _column(truth, c)[keep])
+    return pd.DataFrame(out)
+
+
+def rmse(errors: pd.DataFrame) -> float:
+    """``RMSE = sqrt(mean(dN² + dE² + dD²))`` (m), paper eq. (32) (docs/metrics.md, 'Accuracy');
+    NaN for no samples."""
+    e = errors[["dN_m", "dE_m", "dD_m"]].to_numpy(dtype=float)
+    if e.shape[0] == 0:
+        return math.nan
+    return float(np.sqrt(np.mean(np.sum(e * e, axis=1))))
+
+
+def horizontal_rmse(errors: pd.DataFrame) -> float:
+    """``sqrt(mean(dN² + dE²))`` (m); NaN for no samples."""
+    e = errors[["dN_m", "dE_m"]].to_numpy(dtype=float)
+    if e.shape[0] == 0:
+        return math.nan
+    return float(np.sqrt(np.mean(np.sum(e * e, axis=1))))
+
+
+def travelled_distance(truth: pd.DataFrame) -> float:
+    """Horizontal length of the reference track (m), the denominator of paper eq. (33)
+    (docs/metrics.md, 'Accuracy'): ``D = sum_k sqrt(dN_k² + dE_k²)`` where
+    ``[dN_k, dE_k, dD_k] = C_ne(mid_k) (r_e(k+1) - r_e(k))`` is step k resolved in the local NED
+    frame at its mid-point (lat and lon averaged). The vertical part of each step is left out, so a
+    vessel's heave (or a car's climb) does not lengthen the distance the errors are scored
+    against."""
+    _check_truth(truth)
+    lat, lon, h = (_column(truth, c) for c in TRUTH_POSITION[1:])
+    if lat.size < 2:
+        return 0.0
+    lon = np.unwrap(lon)
+    r = earth.geodetic_to_ecef(lat, lon, h).reshape(-1, 3)
+    C = earth.C_ne(0.5 * (lat[1:] + lat[:-1]), 0.5 * (lon[1:] + lon[:-1]))
+    steps = np.einsum("nij,nj->ni", C.reshape(-1, 3, 3), np.diff(r, axis=0))
+    return float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
+
+
+def relative_rmse_pct(rmse_m: float, distance_m: float) -> float:
+    """``100 RMSE / D`` (%), paper eq. (33) (docs/metrics.md, 'Accuracy'); NaN when the distance
+    is zero."""
+    return 100.0 * rmse_m / distance_m if distance_m > 0.0 else math.nan
+
+
+def outage_drift(
+    solution: pd.DataFrame, truth: pd.DataFrame, windows: Sequence[tuple[float, float]]
+) -> pd.DataFrame:
+    """The inertial drift over aiding outages, scored against the withheld reference.
+
+    For each window ``(start, length)`` (s), over the truth samples in ``(start, start +
+    length]``: the horizontal error at the last one (``end_horizontal_m``, the drift), its
+    maximum, the 3-D error at the end, the horizontal distance travelled (the truth's steps,
+    :func:`travelled_distance`) and the drift as a percentage of it (horizontal over
+    horizontal). Also the filter's claimed horizontal σ at the end,
+    ``sqrt(sd_N² + sd_E²)`` (NaN if the solution has no ``sd_dr_*``), to judge its
+    consistency. A window with no truth sample is an error.
+    """
+    errors = position_errors(solution, truth)
+    t_e = _column(errors, "t_s")
+    horizontal, error = _column(errors, "horizontal_m"), _column(errors, "error_m")
+    if all(c in solution.columns for c in POSITION_SD[:2]):
+        t_sol = _solution_time(solution)
+        sd_n, sd_e = (_interp(t_e, t_sol, _column(solution, c)) for c in POSITION_SD[:2])
+        sd_h = np.hypot(sd_n, sd_e)
+    else:
+        sd_h = np.full(t_e.size, math.nan)
+    t_truth = _column(truth, "t_s")
+    rows = []
+    for i, (start, length) in enumerate(windows):
+        inside = (t_e > start) & (t_e <= start + length)
+        if not inside.any():
+            raise ValueError(f"outage {i} ({start:g} s + {length:g} s): no truth sample inside")
+        k = int(np.flatnonzero(inside)[-1])
+        in_truth = (t_truth >= start) & (t_truth <= start + length)
+        dist = travelled_distance(truth[in_truth]) if in_truth.sum() > 1 else 0.0
+        rows.append(
+            {
+                "outage": i,
+                "start_s": float(start),
+                "length_s": float(length),
+                "end_horizontal_m": float(horizontal[k]),
+                "max_horizontal_m": float(horizontal[inside].max()),
+                "end_error_m": float(error[k]),
+                "distance_m": dist,
+                "drift_pct": 100.0 * horizontal[k] / dist if dist > 0.0 else math.nan,
+                "claimed_sd_horizontal_m": float(sd_h[k]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _euler_rotations(roll: Array, pitch: Array, yaw: Array) -> Any:
+    """``C_nb = Rz(yaw) Ry(pitch) Rx(roll)`` row by row (docs/conventions.md) as a scipy
+    Rotation (its intrinsic "ZYX" sequence is this product)."""
+    return Rotation.from_euler("ZYX", np.stack([yaw, pitch, roll], axis=-1))
+
+
+def block_errors(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) -> pd.DataFrame:
+    """The errors a NEES block is made of, at the truth times inside the solution span
+    (solution interpolated as in :func:`position_errors`). Columns ``t_s, e_0, e_1, e_2``:
+
+    * ``position``: the NED position errors of :func:`position_errors` (m; estimate minus
+      truth, the sign does not matter to a NEES);
+    * ``velocity``: truth minus estimate of ``vn_m_s, ve_m_s, vd_m_s`` (m/s);
+    * ``attitude``: ``phi = Log(C_nb_true C_nb_hatᵀ)`` (rad), the rotation vector in n that
+      carries the estimated attitude onto the true one, ``C_nb_true = Exp(phi) C_nb_hat``
+      (docs/conventions.md), from the Euler angles of both.
+
+    Raises ValueError if the truth lacks the block's columns (velocity and attitude are
+    optional in a reference).
+    """
+    if block not in NEES_STATES:
+        raise ValueError(f"block: {block!r} is not one of {', '.join(NEES_BLOCKS)}")
+    t_truth = _check_truth(truth)
+    if block == "position":
+        errors = position_errors(solution, truth)
+        t = _column(errors, "t_s")
+        e = errors[["dN_m", "dE_m", "dD_m"]].to_numpy(dtype=float)
+    else:
+        group = TRUTH_VELOCITY if block == "velocity" else TRUTH_ATTITUDE
+        missing = [c for c in group if c not in truth.columns]
+        if missing:
+            raise ValueError(f"truth lacks columns {missing}: no {block} NEES")
+        t_sol = _solution_time(solution)
+        keep = _in_span(t_truth, t_sol)
+        t = t_truth[keep]
+        unwrap = block == "attitude"
+        est = [_interp(t, t_sol, _column(solution, c), unwrap=unwrap) for c in group]
+        ref = [_column(truth, c)[keep] for c in group]
+        if block == "velocity":
+            e = np.stack([r - x for r, x in zip(ref, est, strict=True)], axis=-1)
+        elif t.size == 0:
+            e = np.zeros((0, 3))
+        else:
+            C_true, C_hat = _euler_rotations(*ref), _euler_rotations(*est)
+            e = np.asarray((C_true * C_hat.inv()).as_rotvec(), dtype=float).reshape(-1, 3)
+    return pd.DataFrame({"t_s": t, "e_0": e[:, 0], "e_1": e[:, 1], "e_2": e[:, 2]})
+
+
+def nees_from(errors: Array, P: Array) -> Array:
+    """``NEES_k = e_kᵀ P_k⁻¹ e_k`` for errors (N, d) and covariances (N, d, d); NaN where e
+    or P has a non-finite element or P is not positive definite."""
+    e = np.asarray(errors, dtype=float)
+    Pa = np.asarray(P, dtype=float)
+    out = np.full(e.shape[0], math.nan)
+    ok = np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(Pa), axis=(1, 2))
+    if ok.any():
+        eig = np.linalg.eigvalsh(Pa[ok])
+        ok[ok] = eig[:, 0] > 1e-12 * np.maximum(eig[:, -1], 1e-300)
+    if ok.any():
+        x = np.linalg.solve(Pa[ok], e[ok][..., None])[..., 0]
+        out[ok] = np.einsum("ni,ni->n", e[ok], x)
+    return out
+
+
+def nees(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) -> pd.DataFrame:
+    """Normalised estimation error squared of one 3-dof block, at the truth times inside the
+    solution span (docs/metrics.md).
+
+    ``NEES_k = e_kᵀ P_k⁻¹ e_k`` with e_k the block's errors (:func:`block_errors`: position NED
+    m, velocity NED m/s, attitude rotation vector phi rad) and P_k its 3×3 block of the
+    filter's covariance: variances ``sd_<state>²`` and covariances ``cov_<a>_<b>`` of the
+    solution table, each element interpolated linearly in time (a convex mix of two covariances,
+    so still one). For a consistent filter NEES_k ~ χ²(3): mean 3, and inside
+    :data:`NEES_BAND` at 95 % of the epochs. A solution without the ``cov_`` columns (a run
+    folder written before they were recorded) gives the diagonal-only NEES
+    ``sum_i (e_i / sd_i)²``; ``attrs["uses_correlations"]`` of the returned table says which.
+    Columns ``t_s, nees``; NaN where the covariance is unknown or not positive definite.
+    """
+    errors = block_errors(solution, truth, block)  # checks block
+    names = NEES_STATES[block]
+    sd = [f"sd_{n}" for n in names]
+    missing = [c for c in sd if c not in solution.columns]
+    if missing:
+        raise ValueError(f"solution lacks columns {missing}")
+    t_sol = _solution_time(solution)
+    t = _column(errors, "t_s")
+    P_sol = covariance_block(solution, names)
+    P = np.empty((t.size, 3, 3))
+    for i in range(3):
+        for j in range(3):
+            P[:, i, j] = _interp(t, t_sol, P_sol[:, i, j])
+    e = errors[["e_0", "e_1", "e_2"]].to_numpy(dtype=float)
+    out = pd.DataFrame({"t_s": t, "nees": nees_from(e, P)})
+    out.attrs["uses_correlations"] = has_covariances(solution, names)
+    return out
+
+
+def nees_position(solution: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """:func:`nees` of the position block (columns ``t_s, nees``)."""
+    return nees(solution, truth, "position")
+
+
+def fraction_in_band(values: Array, band: tuple[float, float] = NEES_BAND) -> float:
+    """The fraction of the finite ``values`` inside ``[band[0], band[1]]`` (NaN for none):
+    for per-epoch NEES of a consistent filter with :data:`NEES_BAND`, about 0.95."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return math.nan
+    return float(np.mean((v >= band[0]) & (v <= band[1])))
+
+
+def _nees_summary(
+    solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock
+) -> tuple[float, float]:
+    """Mean NEES and its in-band fraction for ``block``, NaNs if the truth lacks the block,
+    the solution its σ's, or no epoch has a finite NEES."""
+    group = {"position": TRUTH_POSITION, "velocity": TRUTH_VELOCITY, "attitude": TRUTH_ATTITUDE}
+    sd = [f"sd_{n}" for n in NEES_STATES[block]]
+    if not all(c in truth.columns for c in group[block]) or not all(
+        c in solution.columns for c in sd
+    ):
+        return math.nan, math.nan
+    v = _column(nees(solution, truth, block), "nees")
+    finite = v[np.isfinite(v)]
+    if finite.size == 0:
+        return math.nan, math.nan
+    return float(finite.mean()), fraction_in_band(finite)
+
+
+@dataclass(frozen=True)
+class NisSummary:
+    """Mean NIS of one sensor's used readings with its chi-square bounds (docs/metrics.md, 'NIS').
+
+    ``count`` readings of ``dof = sum_k d_k`` components in all; ``dim = dof / count`` is the
+    reading dimension (the expected mean). With independent innovations and a consistent
+    filter ``count * mean ~ chi²(dof)``, so ``[lower, upper] = chi2.ppf([a/2, 1 - a/2], dof) /
+    count`` holds the mean with probability ``1 - a`` (:data:`NIS_CONFIDENCE`).
+    """
+
+    sensor: str
+    count: int
+    dim: float
+    dof: int
+    mean: float
+    lower: float
+    upper: float
+
+    @property
+    def consistent(self) -> bool:
+        return self.lower <= self.mean <= self.upper
+
+
+def nis_bounds(count: int, dof: int, confidence: float = NIS_CONFIDENCE) -> tuple[float, float]:
+    """Two-sided bounds of the mean of ``count`` NIS values with ``dof`` degrees of freedom in
+    all: ``chi2.ppf((1 ∓ confidence) / 2, dof) / count``."""
+    if count < 1 or dof < 1:
+        raise ValueError(f"nis_bounds: count {count} and dof {dof} must be >= 1")
+    a = 1.0 - confidence
+    return float(chi2.ppf(a / 2.0, dof)) / count, float(chi2.ppf(1.0 - a / 2.0, dof)) / count
+
+
+def nis_summary(ledger: pd.DataFrame) -> dict[str, NisSummary]:
+    """Per sensor (sorted), the mean NIS (ledger ``statistic``) of its ``used`` rows with a
+    finite statistic; the dimension of a row is its number of finite ``r_j``. Sensors without
+    such rows are left out."""
+    used = ledger[(ledger["fate"] == "used") & np.isfinite(ledger["statistic"].astype(float))]
+    r_cols = [f"r_{j}" for j in range(MAX_DIM)]
+    out: dict[str, NisSummary] = {}
+    for sensor in sorted(set(used["sensor"])):
+        rows = used[used["sensor"] == sensor]
+        count = len(rows)
+        dof = int(np.isfinite(rows[r_cols].to_numpy(dtype=float)).sum())
+        if dof < 1:
+            continue
+        lower, upper = nis_bounds(count, dof)
+        out[str(sensor)] = NisSummary(
+            sensor=str(sensor),
+            count=count,
+            dim=dof / count,
+            dof=dof,
+            mean=float(rows["statistic"].astype(float).mean()),
+            lower=lower,
+            upper=upper,
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class Metrics:
+    """Accuracy and consistency of one run against the reference (docs/metrics.md; paper eqs.
+    (32), (33)).
+
+    Position metrics cover the truth samples inside the solution span: ``duration_s`` and
+    ``distance_m`` are that span's and the horizontal length of that stretch of the
+    reference. ``mean_nees_<block>`` is the mean NEES of the position, velocity and attitude
+    errors (expected 3 for a consistent filter; NaN when the truth lacks the block) and
+    ``nees_<block>_in_95`` the fraction of epochs whose NEES lies in :data:`NEES_BAND`
+    (expected 0.95). ``nees_uses_correlations`` is False when the solution has no covariance
+    columns (an older run folder): the NEES then use P's diagonal only.
+    """
+
+    filter: str
+    mission: str
+    rmse_m: float
+    relative_rmse_pct: float
+    horizontal_rmse_m: float
+    max_horizontal_error_m: float
+    max_error_m: float
+    final_horizontal_error_m: float
+    distance_m: float
+    duration_s: float
+    samples: int
+    mean_nees_position: float
+    mean_nees_velocity: float
+    mean_nees_attitude: float
+    nees_position_in_95: float
+    nees_velocity_in_95: float
+    nees_attitude_in_95: float
+    nees_uses_correlations: bool
+    yaw_rmse_rad: float
+    counts: dict[str, dict[str, int]]
+    mean_nis: dict[str, float]
+    nis: dict[str, NisSummary]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly: plain types, NaN → None, NIS summaries as dicts (with
+        ``consistent``)."""
+        d = asdict(self)
+        d["nis"] = {k: {**asdict(v), "consistent": v.consistent} for k, v in self.nis.items()}
+        result: dict[str, Any] = jsonable(d, "metrics")
+        return result
+
+
+def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
+    """Metrics of ``result`` against the reference ``truth`` (see the module docstring).
+
+    Raises ValueError if no truth sample lies within the solution's time span.
+    """
+    errors = position_errors(result.solution, truth)
+    if errors.empty:
+        raise ValueError(
+            f"no truth sample within the solution span of {result.filter!r} on {result.mission!r}"
+        )
+    t_truth = _check_truth(truth)
+    inside = truth[_in_span(t_truth, _solution_time(result.solution))]
+    r = rmse(errors)
+    distance = travelled_distance(inside)
+    t = _column(errors, "t_s")
+    horizontal = _column(errors, "horizontal_m")
+    consistency = {b: _nees_summary(result.solution, truth, b) for b in NEES_BLOCKS}
+    if "dyaw_rad" in errors.columns:
+        yaw_rmse = float(np.sqrt(np.mean(_column(errors, "dyaw_rad") ** 2)))
+    else:
+        yaw_rmse = math.nan
+    nis = nis_summary(result.ledger)
+    return Metrics(
+        filter=result.filter,
+        mission=result.mission,
+        rmse_m=r,
+        relative_rmse_pct=relative_rmse_pct(r, distance),
+        horizontal_rmse_m=horizontal_rmse(errors),
+        max_horizontal_error_m=float(horizontal.max()),
+        max_error_m=float(_column(errors, "error_m").max()),
+        final_horizontal_error_m=float(horizontal[-1]),
+        distance_m=distance,
+        duration_s=float(t[-1] - t[0]),
+        samples=int(t.size),
+        mean_nees_position=consistency["position"][0],
+        mean_nees_velocity=consistency["velocity"][0],
+        mean_nees_attitude=consistency["attitude"][0],
+        nees_position_in_95=consistency["position"][1],
+        nees_velocity_in_95=consistency["velocity"][1],
+        nees_attitude_in_95=consistency["attitude"][1],
+        nees_uses_correlations=has_covariances(result.solution, NEES_STATES["position"]),
+        yaw_rmse_rad=yaw_rmse,
+        counts=ledger_counts(result.ledger),
+        mean_nis={k: v.mean for k, v in nis.items()},
+        nis=nis,
+    )

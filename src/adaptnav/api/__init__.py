@@ -1,0 +1,10 @@
+"""The Python API: load a mission, run a filter, get a :class:`~adaptnav.api.results.Result`.
+
+``adaptnav.api.run(mission, kind)`` (:mod:`~adaptnav.api.runner`) is what the command line runs;
+:mod:`~adaptnav.api.results` is a run's data model and folder format, :mod:`~adaptnav.api.oracle`
+the oracle baseline's true noise, :mod:`~adaptnav.api.outdir` the atomic output folders.
+"""
+
+from adaptnav.api.runner import OFF_REASON, FilterError, initial_state, run
+
+__all__ = ["OFF_REASON", "FilterError", "initial_state", "run"]

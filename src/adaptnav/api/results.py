@@ -1,0 +1,451 @@
+"""The result of one filter run as tables, and its run folder on disk.
+
+A :class:`Result` holds what :func:`adaptnav.engine.batch.run_batch` produced, as pandas tables with
+units in the column names:
+
+* ``solution``: one row per recorded epoch: time, nominal state (lat/lon in rad, ellipsoidal
+  height, NED velocity, ZYX Euler angles of ``q_nb``, IMU biases), one standard deviation
+  ``sd_<name>`` per error state (:data:`adaptnav.models.errorstate.STATE_NAMES`), the square root of
+  P's diagonal, and the covariances inside the position, velocity and attitude error blocks,
+  ``cov_<a>_<b> = P[a, b]`` (:data:`COV_COLUMNS`: ``cov_dr_N_dr_E``, ``cov_dr_N_dr_D``,
+  ``cov_dr_E_dr_D`` in m², the same for dv in m²/s² and phi in rad²). With the ``sd_`` columns
+  they give each 3×3 block of P in full (:func:`covariance_block`), which the NEES needs
+  (:mod:`adaptnav.analysis.evaluate`, docs/metrics.md); the correlations between blocks and with the
+  biases are not kept. Run folders written before these columns existed load without them
+  (they are not required).
+* ``ledger``: the engine's per-reading rows as they are (``t, t_epoch, sensor, row, fate, reason,
+  statistic, threshold, iterations, nu_j, r_j``), plus a ``kind`` column when sensor kinds are
+  given.
+* ``noise``: long table ``t_s, sensor, component, r_hat``, one row per used reading and
+  measurement component: the diagonal of R the filter used at that reading (the paper's Fig. 10
+  record of the estimated measurement noise). ``t_s`` is the reading's own stamp (ledger ``t``).
+* ``events``: the divergence guard's events ``t, sensor, row, event, statistic, threshold,
+  factor, detail`` (``event``: ``lockout``, ``nis`` or ``covariance``; ``factor``: what P was
+  multiplied by; docs/robustness.md). Run folders written before it load with none.
+* ``meta``: settings, timing, counts (JSON values only); ``repairs``: input repairs
+  ``file, line, field, action, detail`` (may be empty; ``line`` missing for a repair of a
+  whole table or sensor).
+
+A run folder holds ``solution.parquet``, ``ledger.parquet``, ``noise.parquet``,
+``repairs.parquet``, ``events.parquet`` and ``summary.json`` (filter, mission, meta, ledger
+counts per sensor and fate, event counts); :func:`save` writes it and :func:`load` reads it
+back.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput
+from adaptnav.models.errorstate import N_STATES, STATE_NAMES
+from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_POS, NOM_SIZE, NOM_VEL
+
+Array = NDArray[np.float64]
+
+FORMAT_NAME = "adaptnav-run"
+FORMAT_VERSION = 1
+
+STATE_COLUMNS: tuple[str, ...] = (
+    "lat_rad", "lon_rad", "h_m", "vn_m_s", "ve_m_s", "vd_m_s", "roll_rad", "pitch_rad", "yaw_rad",
+    "ba_x_m_s2", "ba_y_m_s2", "ba_z_m_s2", "bg_x_rad_s", "bg_y_rad_s", "bg_z_rad_s",
+)  # fmt: skip
+SD_COLUMNS: tuple[str, ...] = tuple(f"sd_{name}" for name in STATE_NAMES)
+
+
+def cov_column(a: str, b: str) -> str:
+    """The solution column of ``P[a, b]`` for error-state names a, b (``cov_dr_N_dr_E``)."""
+    return f"cov_{a}_{b}"
+
+
+COV_COLUMNS: tuple[str, ...] = tuple(
+    cov_column(STATE_NAMES[i], STATE_NAMES[j]) for i, j in P_CROSS_PAIRS
+)
+"""Off-diagonal elements of P's position, velocity and attitude blocks, in the order of
+:data:`adaptnav.engine.batch.P_CROSS_PAIRS` (units m², m²/s², rad²)."""
+SOLUTION_COLUMNS: tuple[str, ...] = ("t_s", *STATE_COLUMNS, *SD_COLUMNS, *COV_COLUMNS)
+"""Every column of a solution table as written now."""
+REQUIRED_SOLUTION_COLUMNS: tuple[str, ...] = ("t_s", *STATE_COLUMNS, *SD_COLUMNS)
+"""The columns a solution must have (older run folders have no :data:`COV_COLUMNS`)."""
+LEDGER_COLUMNS: tuple[str, ...] = (
+    "t", "t_epoch", "sensor", "row", "fate", "reason", "statistic", "threshold", "iterations",
+    *(f"nu_{j}" for j in range(MAX_DIM)), *(f"r_{j}" for j in range(MAX_DIM)),
+)  # fmt: skip
+NOISE_COLUMNS: tuple[str, ...] = ("t_s", "sensor", "component", "r_hat")
+REPAIR_COLUMNS: tuple[str, ...] = ("file", "line", "field", "action", "detail")
+EVENT_COLUMNS: tuple[str, ...] = EVENT_KEYS
+FATES: tuple[str, ...] = ("used", "rejected", "dropped")
+
+SUMMARY_FILE = "summary.json"
+TABLE_FILES: dict[str, str] = {
+    "solution": "solution.parquet",
+    "ledger": "ledger.parquet",
+    "noise": "noise.parquet",
+    "repairs": "repairs.parquet",
+    "events": "events.parquet",
+}
+OPTIONAL_TABLES = ("events",)
+"""Tables a run folder written by an older version may lack (read as empty)."""
+_REQUIRED: dict[str, tuple[str, ...]] = {
+    "solution": REQUIRED_SOLUTION_COLUMNS,
+    "ledger": LEDGER_COLUMNS,
+    "noise": NOISE_COLUMNS,
+    "repairs": REPAIR_COLUMNS,
+    "events": EVENT_COLUMNS,
+}
+_LEDGER_INT = ("row", "iterations")
+_LEDGER_STR = ("sensor", "fate", "reason")
+
+
+class RunFolderError(ValueError):
+    """A run folder is missing, incomplete or unreadable; the message names the file."""
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """One filter run on one mission (see the module docstring for the tables' columns)."""
+
+    filter: str
+    mission: str
+    solution: pd.DataFrame
+    ledger: pd.DataFrame
+    noise: pd.DataFrame
+    meta: dict[str, Any] = field(default_factory=dict)
+    repairs: pd.DataFrame = field(default_factory=lambda: empty_repairs())
+    events: pd.DataFrame = field(default_factory=lambda: events_frame([]))
+
+    def __post_init__(self) -> None:
+        for name, required in _REQUIRED.items():
+            table = getattr(self, name)
+            if not isinstance(table, pd.DataFrame):
+                raise TypeError(f"Result.{name} must be a pandas DataFrame, got {type(table)}")
+            missing = [c for c in required if c not in table.columns]
+            if missing:
+                raise ValueError(f"Result.{name} lacks columns {missing}")
+        object.__setattr__(self, "meta", jsonable(self.meta, "meta"))
+
+    @classmethod
+    def from_engine(
+        cls,
+        output: EngineOutput,
+        filter: str,
+        mission: str,
+        meta: Mapping[str, Any] | None = None,
+        repairs: pd.DataFrame | Sequence[Mapping[str, Any]] | None = None,
+        kinds: Mapping[str, str] | None = None,
+    ) -> Result:
+        """Tables from an engine run. ``kinds`` maps sensor name → kind (adds ``ledger.kind``);
+        ``repairs`` is a DataFrame or a list of ``{file, line, field, action, detail}`` rows."""
+        ledger = ledger_frame(output.ledger, kinds)
+        return cls(
+            filter=filter,
+            mission=mission,
+            solution=solution_frame(output.t, output.x, output.P_diag, output.P_cross),
+            ledger=ledger,
+            noise=noise_frame(ledger),
+            meta=dict(meta or {}),
+            repairs=repairs_frame(repairs),
+            events=events_frame(output.events),
+        )
+
+
+# --- building the tables -------------------------------------------------------------------
+
+
+def quat_to_euler_rows(q: Array) -> Array:
+    """ZYX Euler angles ``[roll, pitch, yaw]`` (N, 3) of quaternions ``q_nb`` (N, 4).
+
+    Row-wise twin of :func:`adaptnav.core.attitude.quat_to_euler`, the same DCM elements
+    (Groves 2.34) and angles: ``roll = atan2(C32, C33)``, ``pitch = -asin(C31)``,
+    ``yaw = atan2(C21, C11)``.
+    """
+    qa = np.asarray(q, dtype=float).reshape(-1, 4)
+    w, x, y, z = qa[:, 0], qa[:, 1], qa[:, 2], qa[:, 3]
+    c00 = w * w + x * x - y * y - z * z
+    c10 = 2 * (x * y + w * z)
+    c20 = 2 * (x * z - w * y)
+    c21 = 2 * (y * z + w * x)
+    c22 = w * w - x * x - y * y + z * z
+    roll = np.arctan2(c21, c22)
+    pitch = -np.arcsin(np.clip(c20, -1.0, 1.0))
+    yaw = np.arctan2(c10, c00)
+    return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def events_frame(rows: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
+    """The ``events`` table from the engine's event rows (keys :data:`EVENT_COLUMNS`)."""
+    df = pd.DataFrame(list(rows), columns=list(EVENT_COLUMNS))
+    types: dict[str, Any] = {"row": "int64", "sensor": str, "event": str, "detail": str}
+    types.update({k: float for k in ("t", "statistic", "threshold", "factor")})
+    return df.astype(types)
+
+
+def event_counts(events: pd.DataFrame) -> dict[str, int]:
+    """How many events of each kind (``lockout``, ``nis``, ``covariance``), sorted by name."""
+    return {str(k): int(v) for k, v in sorted(events["event"].value_counts().items())}
+
+
+def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = None) -> pd.DataFrame:
+    """The ``solution`` table from times (N,), nominal states (N, 16), P's diagonal (N, 15)
+    and the off-diagonal elements of its position, velocity and attitude blocks (N, 9,
+    :data:`COV_COLUMNS`; None: NaN, unknown).
+
+    ``sd_<name> = sqrt(P_ii)``; a negative diagonal element (a broken covariance) gives NaN.
+    """
+    ts = np.asarray(t, dtype=float).reshape(-1)
+    xs = np.asarray(x, dtype=float).reshape(-1, NOM_SIZE)
+    ps = np.asarray(P_diag, dtype=float).reshape(-1, N_STATES)
+    n_cov = len(COV_COLUMNS)
+    if P_cross is None:
+        cs = np.full((ts.size, n_cov), np.nan)
+    else:
+        cs = np.asarray(P_cross, dtype=float).reshape(-1, n_cov)
+    if not (ts.size == xs.shape[0] == ps.shape[0] == cs.shape[0]):
+        raise ValueError(
+            f"solution: t {ts.shape}, x {xs.shape}, P_diag {ps.shape} and P_cross {cs.shape} "
+            "differ in rows"
+        )
+    sd = np.sqrt(np.where(ps >= 0.0, ps, np.nan))
+    blocks = [
+        ts[:, None],
+        xs[:, NOM_POS],
+        xs[:, NOM_VEL],
+        quat_to_euler_rows(xs[:, NOM_ATT]),
+        xs[:, NOM_BA],
+        xs[:, NOM_BG],
+        sd,
+        cs,
+    ]
+    return pd.DataFrame(np.hstack(blocks), columns=list(SOLUTION_COLUMNS))
+
+
+def has_covariances(solution: pd.DataFrame, names: Sequence[str]) -> bool:
+    """Whether ``solution`` holds the covariances between the error states ``names`` (every
+    pair's :func:`cov_column` present and not all NaN). Tables of older run folders do not."""
+    columns = [cov_column(a, b) for k, a in enumerate(names) for b in names[k + 1 :]]
+    return all(c in solution.columns for c in columns) and bool(
+        np.isfinite(solution[columns].to_numpy(dtype=float)).any()
+    )
+
+
+def covariance_block(solution: pd.DataFrame, names: Sequence[str]) -> Array:
+    """P's block (N, k, k) over the error states ``names`` (e.g. ``("dr_N", "dr_E",
+    "dr_D")``) at every row: ``sd_<a>²`` on the diagonal, ``cov_<a>_<b>`` off it, and zero off
+    it when the table has no covariances (:func:`has_covariances`, e.g. an older run folder).
+    The pairs must be in the order of :data:`adaptnav.models.errorstate.STATE_NAMES`."""
+    k = len(names)
+    P = np.zeros((len(solution), k, k))
+    for i, a in enumerate(names):
+        P[:, i, i] = solution[f"sd_{a}"].to_numpy(dtype=float) ** 2
+    if has_covariances(solution, names):
+        for i, a in enumerate(names):
+            for j in range(i + 1, k):
+                v = solution[cov_column(a, names[j])].to_numpy(dtype=float)
+                P[:, i, j] = P[:, j, i] = v
+    return P
+
+
+def ledger_frame(
+    rows: Sequence[Mapping[str, Any]], kinds: Mapping[str, str] | None = None
+) -> pd.DataFrame:
+    """The engine's ledger rows as a table (known columns first, typed; extra keys kept).
+
+    With ``kinds`` (sensor name → kind) a ``kind`` column follows ``sensor``; every sensor in
+    the ledger must have a kind.
+    """
+    extra = sorted({k for r in rows for k in r} - set(LEDGER_COLUMNS))
+    columns = [*LEDGER_COLUMNS, *extra]
+    data = {c: [r.get(c, math.nan) for r in rows] for c in columns}
+    frame = pd.DataFrame(data, columns=columns)
+    for c in columns:
+        if c in _LEDGER_INT:
+            frame[c] = frame[c].astype("int64")
+        elif c in _LEDGER_STR:
+            frame[c] = frame[c].astype("str")
+        elif c in LEDGER_COLUMNS:
+            frame[c] = frame[c].astype("float64")
+    if kinds is not None:
+        unknown = sorted(set(frame["sensor"]) - set(kinds))
+        if unknown:
+            raise ValueError(f"kinds: no kind given for sensors {unknown}")
+        kind = frame["sensor"].map(dict(kinds)).astype("str")
+        frame.insert(list(frame.columns).index("sensor") + 1, "kind", kind)
+    return frame
+
+
+def noise_frame(ledger: pd.DataFrame) -> pd.DataFrame:
+    """The ``noise`` table: for each ``used`` ledger row and component j with a finite ``r_j``,
+    ``(t_s = t, sensor, component = j, r_hat = r_j)``, in ledger order then component order."""
+    used = ledger[ledger["fate"] == "used"]
+    r = used[[f"r_{j}" for j in range(MAX_DIM)]].to_numpy(dtype=float)
+    rows, comps = np.nonzero(np.isfinite(r))  # row-major: ledger order, then component
+    return pd.DataFrame(
+        {
+            "t_s": used["t"].to_numpy(dtype=float)[rows],
+            "sensor": pd.Series(used["sensor"].to_numpy()[rows], dtype="str"),
+            "component": comps.astype("int64"),
+            "r_hat": r[rows, comps],
+        },
+        columns=list(NOISE_COLUMNS),
+    )
+
+
+def empty_repairs() -> pd.DataFrame:
+    """A repairs table with no rows."""
+    return repairs_frame(None)
+
+
+def repairs_frame(repairs: pd.DataFrame | Sequence[Mapping[str, Any]] | None) -> pd.DataFrame:
+    """Input repairs ``file, line, field, action, detail`` (line a nullable integer, missing
+    when the repair concerns a whole table or sensor; the rest text)."""
+    if repairs is None:
+        frame = pd.DataFrame({c: [] for c in REPAIR_COLUMNS})
+    elif isinstance(repairs, pd.DataFrame):
+        frame = repairs.copy()
+    else:
+        frame = pd.DataFrame(list(repairs), columns=list(REPAIR_COLUMNS))
+    missing = [c for c in REPAIR_COLUMNS if c not in frame.columns]
+    if missing:
+        raise ValueError(f"repairs lack columns {missing}")
+    frame = frame[list(REPAIR_COLUMNS)].reset_index(drop=True)
+    # missing (<NA>) for a repair of a whole table or sensor (a degree column converted)
+    frame["line"] = frame["line"].astype("Int64")
+    for c in ("file", "field", "action", "detail"):
+        frame[c] = frame[c].astype("str")
+    return frame
+
+
+def ledger_counts(ledger: pd.DataFrame) -> dict[str, dict[str, int]]:
+    """Readings per sensor and fate: ``{sensor: {"used": n, "rejected": n, "dropped": n}}``.
+
+    Every sensor in the ledger appears (sorted by name) with all three fates, zeros included;
+    any other fate found in the ledger is counted too.
+    """
+    counts: dict[str, dict[str, int]] = {}
+    if ledger.empty:
+        return counts
+    table = ledger.groupby(["sensor", "fate"]).size().reset_index(name="n")
+    for sensor in sorted(set(ledger["sensor"])):
+        counts[str(sensor)] = {fate: 0 for fate in FATES}
+    for sensor, fate, n in zip(table["sensor"], table["fate"], table["n"], strict=True):
+        counts[str(sensor)][str(fate)] = int(n)
+    return counts
+
+
+# --- JSON ----------------------------------------------------------------------------------
+
+
+def jsonable(value: Any, where: str = "value") -> Any:
+    """``value`` with only JSON types: NumPy scalars/arrays → Python, tuples → lists, paths →
+    str, non-finite floats → None. Raises TypeError (naming ``where``) for anything else."""
+    if value is None or isinstance(value, bool | str | int):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, np.generic):
+        return jsonable(value.item(), where)
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist(), where)
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v, f"{where}.{k}") for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    raise TypeError(f"{where}: {type(value).__name__} is not JSON-serialisable")
+
+
+# --- the run folder ------------------------------------------------------------------------
+
+
+def summary(result: Result) -> dict[str, Any]:
+    """The ``summary.json`` content: format, filter, mission, meta, ledger counts."""
+    return {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "filter": result.filter,
+        "mission": result.mission,
+        "meta": result.meta,
+        "counts": ledger_counts(result.ledger),
+        "events": event_counts(result.events),
+    }
+
+
+def save(result: Result, run_dir: str | Path) -> Path:
+    """Write the run folder (created if needed; files of the same names are replaced)."""
+    folder = Path(run_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, filename in TABLE_FILES.items():
+        table: pd.DataFrame = getattr(result, name)
+        table.to_parquet(folder / filename, index=False)
+    text = json.dumps(summary(result), indent=2, allow_nan=False)
+    (folder / SUMMARY_FILE).write_text(text + "\n", encoding="utf-8")
+    return folder
+
+
+def load(run_dir: str | Path) -> Result:
+    """Read a run folder written by :func:`save`.
+
+    Raises :class:`RunFolderError` (a ValueError) naming the folder or the file that is
+    missing, unreadable or lacks required content.
+    """
+    folder = Path(run_dir)
+    if not folder.exists():
+        raise RunFolderError(f"run folder {folder} does not exist")
+    if not folder.is_dir():
+        raise RunFolderError(f"run folder {folder} is not a directory")
+    path = folder / SUMMARY_FILE
+    if not path.is_file():
+        if (folder / "mission.toml").is_file():  # the commonest mix-up: a mission, not a run
+            raise RunFolderError(
+                f"{folder} is a mission folder, not a run folder: run a filter on it first "
+                f"(adaptnav run {folder} --out RUN) and give RUN"
+            )
+        raise RunFolderError(f"run folder {folder}: missing {SUMMARY_FILE}")
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise RunFolderError(f"{path}: not readable JSON ({exc})") from exc
+    if not isinstance(info, dict):
+        raise RunFolderError(f"{path}: expected a JSON object")
+    if info.get("format", FORMAT_NAME) != FORMAT_NAME:
+        raise RunFolderError(f"{path}: format {info.get('format')!r} is not {FORMAT_NAME!r}")
+    missing_keys = [k for k in ("filter", "mission", "meta") if k not in info]
+    if missing_keys:
+        raise RunFolderError(f"{path}: missing keys {missing_keys}")
+    if not isinstance(info["meta"], dict):
+        raise RunFolderError(f"{path}: 'meta' must be a JSON object")
+    tables: dict[str, pd.DataFrame] = {}
+    for name, filename in TABLE_FILES.items():
+        table_path = folder / filename
+        if not table_path.is_file() and name in OPTIONAL_TABLES:
+            tables[name] = events_frame([])
+            continue
+        if not table_path.is_file():
+            raise RunFolderError(f"run folder {folder}: missing {filename}")
+        try:
+            table = pd.read_parquet(table_path)
+        except Exception as exc:  # pyarrow raises several types for a corrupt file
+            raise RunFolderError(f"{table_path}: not a readable parquet file ({exc})") from exc
+        missing = [c for c in _REQUIRED[name] if c not in table.columns]
+        if missing:
+            raise RunFolderError(f"{table_path}: missing columns {missing}")
+        tables[name] = table
+    return Result(
+        filter=str(info["filter"]),
+        mission=str(info["mission"]),
+        solution=tables["solution"],
+        ledger=tables["ledger"],
+        noise=tables["noise"],
+        meta=info["meta"],
+        repairs=tables["repairs"],
+        events=tables["events"],
+    )

@@ -1,0 +1,274 @@
+"""Run a filter on a mission: the library's front door (``adaptnav.run``).
+
+Mission (``adaptnav.mission``) → sensor models and channels (``adaptnav.estimation.settings``) →
+initial state (static alignment, ``adaptnav.engine.align``, or the configured state) → the multirate
+engine (``adaptnav.engine.batch``) → a :class:`~adaptnav.api.results.Result`. Readings that never
+reach the engine (removed at load, inside the alignment window, or of a sensor used only for
+initialisation) are written to the ledger with their reason, so no reading disappears.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adaptnav.api import oracle
+from adaptnav.api.results import Result
+from adaptnav.core import attitude
+from adaptnav.engine import batch as engine
+from adaptnav.engine.align import align
+from adaptnav.engine.channels import build_channels
+from adaptnav.estimation.settings import FilterKind, FilterSettings
+from adaptnav.mission import Mission, MissionError, load_mission
+from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
+from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
+from adaptnav.models.imu_noise import ImuNoise
+from adaptnav.models.strapdown import NOM_BA, NOM_BG, NavState
+
+__all__ = ["FilterError", "initial_state", "run"]
+
+
+OFF_REASON = "sensor off"
+"""Ledger reason of every reading of a sensor with ``use = "off"``."""
+
+
+class FilterError(MissionError):
+    """The filter broke down numerically on this mission (e.g. an innovation covariance that
+    is not positive definite): almost always a bad reading or a wrong σ; the message says
+    where in time."""
+
+
+def _ledger_row(sensor: str, row: int, t: float, reason: str) -> dict[str, Any]:
+    """A ledger row for a reading dropped before the engine (same keys as the engine's)."""
+    rec: dict[str, Any] = {
+        "t": t,
+        "t_epoch": math.nan,
+        "sensor": sensor,
+        "row": row,
+        "fate": "dropped",
+        "reason": reason,
+        "statistic": math.nan,
+        "threshold": math.nan,
+        "iterations": 0,
+    }
+    for j in range(engine.MAX_DIM):
+        rec[f"nu_{j}"] = math.nan
+        rec[f"r_{j}"] = math.nan
+    return rec
+
+
+def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict[str, Any]]:
+    """(x0, P0, t0, info) from the mission's ``[initial]`` section (docs/alignment.md).
+
+    ``alignment``: coarse + fine static alignment over the first ``alignment_s`` seconds, at the
+    configured position (or the mean of GNSS fixes in the window); navigation starts at its end.
+    ``state``: the configured state and σ's (biases from ``[imu.initial_bias]``, else zero),
+    from the IMU's first interval start.
+    """
+    cfg = mission.config
+    imu = mission.imu
+    noise = cfg.imu.noise.to_imu_noise()
+    gyro_sigma, accel_sigma = cfg.imu.initial_bias_sigma.si(noise)
+    ini = cfg.initial
+    t_start = float(imu.t[0] - imu.dt[0])
+    if ini.mode == "state":
+        assert ini.lat_deg is not None and ini.lon_deg is not None and ini.rpy_deg is not None
+        roll, pitch, yaw = np.radians(ini.rpy_deg)
+        x0 = NavState.from_euler(
+            math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m, ini.v_ned_m_s,
+            roll, pitch, yaw,
+        ).to_array()  # fmt: skip
+        x0[NOM_BG], x0[NOM_BA] = cfg.imu.initial_bias.si()
+        sig = np.zeros(N_STATES)
+        sig[POS] = ini.sigma_position_m
+        sig[VEL] = ini.sigma_velocity_m_s
+        sig[ATT] = ini.sigma_attitude_rad()
+        sig[BA] = accel_sigma
+        sig[BG] = gyro_sigma
+        return x0, np.diag(sig**2), t_start, {"initial": "state"}
+
+    gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
+    window_end = t_start + ini.alignment_s
+    if ini.lat_deg is not None and ini.lon_deg is not None:
+        position = (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
+    elif gnss and gnss[0] in mission.sensors:
+        g = mission.sensors[gnss[0]]
+        inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
+        if not np.any(inside):
+            file = cfg.sensors[gnss[0]].file
+            n = int(np.count_nonzero(g.t <= window_end))
+            raise MissionError(
+                f"{file}: no valid fix of sensor {gnss[0]!r} inside the static alignment window "
+                f"(t <= {window_end:.6g} s; {n} row(s) there, none finite and plausible), and no "
+                "initial.lat_deg/lon_deg to align at",
+                file=file,
+                field=gnss[0],
+            )
+        lat, lon = float(np.mean(g.z[inside, 0])), float(np.mean(g.z[inside, 1]))
+        h = float(np.mean(g.z[inside, 2])) if g.z.shape[1] > 2 else ini.h_m
+        position = (lat, lon, h)
+    else:
+        raise MissionError(
+            f"{CONFIG_NAME}: alignment: no position to align at (initial.lat_deg/lon_deg, or a "
+            "GNSS sensor with readings)",
+            file=CONFIG_NAME,
+        )
+    heading = math.radians(ini.rpy_deg[2]) if ini.rpy_deg is not None else None
+    heading_sigma = float(ini.sigma_attitude_rad()[2]) if heading is not None else None
+    a = align(
+        imu.t, imu.dt, imu.dtheta, imu.dvel, ini.alignment_s, position, noise,
+        accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
+        position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
+    )  # fmt: skip
+    info = {
+        "initial": "alignment",
+        "alignment_s": ini.alignment_s,
+        "heading_source": a.heading_source,
+        "coarse_rpy_deg": [math.degrees(v) for v in (a.roll, a.pitch, a.yaw)],
+        "aligned_rpy_deg": list(np.degrees(attitude.quat_to_euler(a.x0[6:10]))),
+        "sigma_attitude_deg": list(np.degrees(a.std[ATT])),
+    }
+    return a.x0, a.P0, a.t_end, info
+
+
+def run(
+    mission: Mission | str | Path,
+    filter: FilterKind | None = None,
+    *,
+    settings: FilterSettings | None = None,
+    epoch_policy: engine.EpochPolicy | None = None,
+    initial: tuple[np.ndarray, np.ndarray, float] | None = None,
+    imu_noise: ImuNoise | None = None,
+) -> Result:
+    """Run one filter on a mission and return its :class:`~adaptnav.api.results.Result`.
+
+    Args:
+        mission: a loaded :class:`~adaptnav.mission.Mission` or its folder.
+        filter: ``"robust"``, ``"meskf"``, ``"maeskf"``, ``"vb"`` or ``"oracle"`` (a
+            simulated mission's limit: true per-reading R, known outliers dropped;
+            :mod:`adaptnav.api.oracle`); default: the mission's ``filter.kind``.
+        settings: filter settings overriding the mission's ``[filter]`` section.
+        epoch_policy: ``"exact"`` or ``"grid"``; default: the mission's.
+        initial: (x0, P0, t0) to start from instead of the mission's ``[initial]`` (e.g. to
+            share one alignment between filters).
+        imu_noise: the IMU noise model for the engine's process noise Q (docs/filters.md,
+            'Error-state model') instead of the mission's ``[imu.noise]`` (e.g. to scale the
+            gyro-bias Q, the paper's Fig. 6, without touching the mission); the alignment of
+            ``initial_state`` keeps the mission's.
+    """
+    m = mission if isinstance(mission, Mission) else load_mission(mission)
+    cfg = m.config
+    s = settings if settings is not None else cfg.filter_settings()
+    if filter is not None:
+        s = s.with_kind(filter)
+    policy = epoch_policy or cfg.filter.epoch_policy
+    noise = imu_noise if imu_noise is not None else cfg.imu.noise.to_imu_noise()
+
+    started = time.perf_counter()
+    x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
+
+    extra: list[dict[str, Any]] = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
+    for name, data in m.off.items():
+        extra += [
+            _ledger_row(name, int(r), float(t), OFF_REASON)
+            for r, t in zip(data.rows, data.t, strict=True)
+        ]
+    sensors = []
+    readings: dict[str, tuple[np.ndarray, ...]] = {}
+    overrides = {}
+    aiding = [n for n in m.sensors if cfg.sensors[n].use == "aid"]
+    known = oracle.mission_noise(m, aiding) if s.kind == "oracle" else {}
+    kept: dict[str, np.ndarray] = {}
+    for name, data in m.sensors.items():
+        scfg = cfg.sensors[name]
+        if scfg.use != "aid":
+            why = "sensor used only for initialisation" if scfg.use == "init" else OFF_REASON
+            extra += [
+                _ledger_row(name, int(r), float(t), why)
+                for r, t in zip(data.rows, data.t, strict=True)
+            ]
+            continue
+        before = data.t <= t0
+        for r, t in zip(data.rows[before], data.t[before], strict=True):
+            extra.append(_ledger_row(name, int(r), float(t), "before navigation start (alignment)"))
+        keep = ~before
+        if name in known:
+            outlier = known[name].outlier
+            for r, t in zip(data.rows[keep & outlier], data.t[keep & outlier], strict=True):
+                extra.append(_ledger_row(name, int(r), float(t), oracle.OUTLIER_REASON))
+            keep &= ~outlier
+        kept[name] = keep
+        r_diag = known[name].r_diag if name in known else None
+        readings[name] = (
+            (data.t[keep], data.z[keep])
+            if r_diag is None
+            else (data.t[keep], data.z[keep], r_diag[keep])
+        )
+        # A single-sample table has no median interval; its period matters only to VB's
+        # irregular-rate variant, where one sample makes it moot.
+        period = data.period if math.isfinite(data.period) else 1.0
+        sensors.append((build_sensor_model(name, scfg), period))
+        overrides[name] = scfg.overrides()
+    channels = build_channels(s, sensors, overrides)
+
+    nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
+    imu_t, imu_dt = m.imu.t[nav_from:], m.imu.dt[nav_from:]
+    config = engine.EngineConfig(
+        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
+        q_adaptation=s.q_adaptation,
+    )  # fmt: skip
+    if cfg.filter.specific_force_tau_s is not None:
+        config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
+    try:
+        out = engine.run_batch(
+            config, channels, x0, P0, t0, imu_t, imu_dt,
+            m.imu.dtheta[nav_from:], m.imu.dvel[nav_from:], readings,
+        )  # fmt: skip
+    except np.linalg.LinAlgError as exc:
+        raise FilterError(
+            f"{m.root / CONFIG_NAME}: the {s.kind} filter broke down: {exc}. A reading far from "
+            "what the filter predicts, or a sensor sigma far from the truth, near that time: "
+            "check the readings, their units and [sensors.<name>] sigma / limits "
+            "(docs/robustness.md)",
+            file=CONFIG_NAME,
+        ) from None
+    elapsed = time.perf_counter() - started
+    # Rows that never reached the engine are dropped, but keep their fate in the ledger; the
+    # engine's own rows index its readings, so map them back to the files' data rows.
+    rows_of = {name: m.sensors[name].rows[kept[name]] for name in readings}
+
+    def file_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        mapped = []
+        for rec in records:
+            r = dict(rec)
+            if r["sensor"] in rows_of and r["row"] >= 0:
+                r["row"] = int(rows_of[r["sensor"]][r["row"]])
+            mapped.append(r)
+        return mapped
+
+    # Events name the reading that triggered them: the same mapping.
+    out = replace(out, ledger=file_rows(out.ledger) + extra, events=file_rows(out.events))
+    meta: dict[str, Any] = {
+        "mission_dir": str(m.root),
+        "filter_settings": s.as_dict(),
+        "epoch_policy": policy,
+        **(
+            {"oracle_nominal_R": [n for n, o in known.items() if o.r_diag is None]}
+            if s.kind == "oracle"
+            else {}
+        ),
+        "imu_samples": int(imu_t.size),
+        "q_scale_final": out.q_scale,
+        "elapsed_s": elapsed,
+        "imu_samples_per_s": imu_t.size / elapsed if elapsed > 0 else math.nan,
+        **init_info,
+    }
+    kinds: Mapping[str, str] = {n: c.kind for n, c in cfg.sensors.items()}
+    repairs = [r.__dict__ for r in m.repairs]
+    return Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds)

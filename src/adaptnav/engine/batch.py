@@ -1,0 +1,1033 @@
+"""Asynchronous multirate fusion engine: the only module that knows time.
+
+docs/filters.md, 'Epochs' and 'Stacked update' (paper eqs. (9), (14), (18)-(22)). IMU intervals
+``(t_k - dt_k, t_k]`` carry increments; sensor i delivers readings at its own epochs ``t^i``. A
+:class:`Navigator` consumes both in time order:
+
+* between sensor epochs the nominal state and P are propagated IMU interval by interval by the
+  compiled kernel (:mod:`adaptnav.compiled.propagation`; docs/filters.md, 'Propagation', paper eqs.
+  (10) and (11));
+* epoch policy ``exact`` (default) splits the interval that contains a reading's stamp and
+  updates at the stamp itself; ``grid`` (the paper) updates at the end ``t_k`` of the interval
+  containing the stamp, i.e. a reading stamped in ``(t_{k-1}, t_k]`` is used at ``t_k``;
+* readings sharing an epoch are stacked into one update: received mask S, stacked H, y and
+  ``R = blockdiag(R_i)`` (paper eqs. (14), (20)-(22)); a sensor's adaptation state changes only
+  at its own epochs (paper eqs. (18), (19), (29), (30));
+* before the update each reading may pass an outlier gate (docs/filters.md, 'Gate'); after it
+  the error estimate is fed back into the nominal state and reset to zero (closed loop;
+  docs/filters.md, 'Feedback and reset').
+
+Every reading's fate is written to the ledger: ``used``, ``rejected`` (rule, statistic,
+threshold) or ``dropped`` (why). The batch runner :func:`run_batch` feeds whole tables through
+the same :class:`Navigator` that a live system feeds sample by sample.
+
+Speed: the engine runs compiled. Readings go to a store of arrays and a queue sorted by (stamp,
+sensor, arrival), the order a heap would give them; :meth:`Navigator.feed_imu` hands an IMU chunk
+and the queue to :func:`_navigate`, the compiled form of the time ordering above: it propagates to
+the next reading (:func:`_advance`: whole intervals, an output row every ``output_every``, split
+intervals; the steps of :mod:`adaptnav.compiled.propagation`), drops late readings, gathers an
+epoch's readings and updates with them (:func:`adaptnav.compiled.update.epoch`: linearise, predict
+the adaptation states, gate, stacked update, feedback, reset, ledger rows), until the chunk is used
+up. Python sees a chunk once, not an epoch. Per-sensor settings and adaptation states are packed
+into tables built once; ledger and output rows go to arrays that grow by doubling and become dicts /
+arrays in :meth:`Navigator.output`. A sensor without a compiled linearisation
+(:func:`~adaptnav.compiled.update.compiled_linearisation` is None) is linearised by its ``evaluate``
+in Python: the loop returns at its epochs, which then go through the same compiled update. The noise
+strategy must be :class:`~adaptnav.estimation.noise.FixedNoise`,
+:class:`~adaptnav.estimation.noise.CovarianceMatching` or
+:class:`~adaptnav.estimation.noise.VariationalBayes`, whose ``update`` methods are the readable
+twins of the compiled update; ``tests/helpers/engine_reference.py`` keeps the engine as it was (a
+Python loop, NumPy epochs) and the tests hold the two equal.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav.compiled import update as uk
+from adaptnav.compiled.propagation import (
+    _SERIES_LAT,
+    State,
+    Vec3,
+    _lat_ref,
+    _load,
+    _store,
+    _unpad,
+    _work,
+    jit,
+    jit_inline,
+)
+from adaptnav.core import earth
+from adaptnav.estimation.gate import Gate, Guard
+from adaptnav.estimation.health import OFF, DivergenceGuard
+from adaptnav.estimation.noise import (
+    CovarianceMatching,
+    FixedNoise,
+    MatchingState,
+    VariationalBayes,
+    VBState,
+)
+from adaptnav.estimation.noise.base import NoiseStrategy
+from adaptnav.estimation.noise.process import QAdaptation
+from adaptnav.models import errorstate
+from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.imu_noise import ImuNoise
+from adaptnav.models.strapdown import NOM_SIZE
+from adaptnav.sensors.base import MeasurementModel
+
+Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+EpochPolicy = Literal["exact", "grid"]
+MAX_DIM = uk.MAX_DIM
+"""Largest sensor dimension; the ledger keeps this many innovation / R columns."""
+SAME_EPOCH_S = 1e-9
+"""Stamps closer than this are one epoch under the ``exact`` policy (float rounding)."""
+P_CROSS_PAIRS: tuple[tuple[int, int], ...] = tuple(
+    (b + i, b + j) for b in (0, 3, 6) for i, j in ((0, 1), (0, 2), (1, 2))
+)
+"""The off-diagonal elements ``P[i, j]`` of the position, velocity and attitude error blocks
+recorded at every output row (:attr:`EngineOutput.P_cross`), in this order: dr_N·dr_E,
+dr_N·dr_D, dr_E·dr_D, then the same for dv and phi."""
+N_CROSS = len(P_CROSS_PAIRS)
+
+LEDGER_KEYS: tuple[str, ...] = (
+    "t", "t_epoch", "sensor", "row", "fate", "reason", "statistic", "threshold", "iterations",
+    *(key for j in range(MAX_DIM) for key in (f"nu_{j}", f"r_{j}")),
+)  # fmt: skip
+"""Keys of a ledger row, in order."""
+assert MAX_DIM == 3, "Navigator._ledger spells out the nu_j, r_j keys"
+_FATES: dict[int, tuple[str, str]] = {
+    uk.LEDGER_USED: ("used", ""),
+    uk.LEDGER_REJECTED_COMPONENT: ("rejected", "gate component"),
+    uk.LEDGER_REJECTED_CHI2: ("rejected", "gate chi2"),
+    uk.LEDGER_DUPLICATE: ("dropped", "duplicate: sensor already at this epoch"),
+    uk.LEDGER_INVALID: ("dropped", "invalid reading (non-finite)"),
+    uk.LEDGER_LATE: ("dropped", "late: stamped before the current time"),
+    uk.LEDGER_AFTER_IMU: ("dropped", "after the last IMU sample"),
+    uk.LEDGER_REJECTED_GUARD: ("rejected", "guard chi2 (nominal R)"),
+    uk.LEDGER_REJECTED_SINGULAR: ("rejected", "S not positive definite: P repaired"),
+}
+EVENT_KEYS: tuple[str, ...] = (
+    "t", "sensor", "row", "event", "statistic", "threshold", "factor", "detail",
+)  # fmt: skip
+"""Keys of an event row (docs/robustness.md, divergence guard)."""
+_EVENTS: dict[int, tuple[str, str]] = {
+    uk.EVENT_NIS: ("nis", "mean NIS/d over the window above its threshold: P inflated"),
+    uk.EVENT_LOCKOUT: ("lockout", "every reading rejected by the guard for the lockout time: "
+                       "P inflated"),
+    uk.EVENT_SINGULAR: ("covariance", "P not positive definite: repaired"),
+    uk.EVENT_Q: ("q_scale", "innovations correlated: the IMU white noise in Q scaled by "
+                 "the factor"),
+}  # fmt: skip
+_KINDS: dict[type, int] = {
+    FixedNoise: uk.KIND_FIXED,
+    CovarianceMatching: uk.KIND_MATCHING,
+    VariationalBayes: uk.KIND_VB,
+}
+
+
+@dataclass(frozen=True)
+class SensorChannel:
+    """One aiding sensor as the engine sees it: its model, nominal period, R strategy, gate."""
+
+    model: MeasurementModel
+    period: float
+    strategy: NoiseStrategy
+    gate: Gate | None = None
+    guard: Guard | None = None
+    """The nominal-R χ² guard (gate.Guard), tested before ``gate``."""
+
+    @property
+    def name(self) -> str:
+        return self.model.name
+
+
+@dataclass(frozen=True)
+class EngineConfig:
+    """Filter-wide settings: IMU noise, epoch policy, covariance reset, output decimation."""
+
+    imu_noise: ImuNoise
+    epoch_policy: EpochPolicy = "exact"
+    reset_covariance: bool = True
+    output_every: int = 10
+    """Record the solution every this many IMU intervals (10 → 10 Hz at 100 Hz)."""
+    specific_force_tau_s: float = 0.0
+    """Time constant of the low-pass filter on the specific force that F is evaluated with
+    (kernels._low_pass; 0: the measured one of each IMU interval, the default). A 1-s low-pass
+    lags turns and waves, so F's ``[f×]`` differs from the true one and the filter claims a
+    heading it does not have: Monte Carlo NEES and RMSE in docs/error-model.md."""
+    at_rest: bool = False
+    """The vehicle is known to be at rest (static alignment): F is evaluated with the specific
+    force at rest, ``-g_n`` at the start position, exactly (no low-pass needed). With the
+    measured one, its noise and the tilt estimate's wander make heading look observable and the
+    alignment claims a heading σ it does not have (tests/unit/test_align.py)."""
+    divergence: DivergenceGuard = OFF
+    """The windowed NIS test (estimation/health.py); off here, set by the filter settings."""
+    q_adaptation: QAdaptation | None = None
+    """Q scaled by the whiteness of the innovations (estimation/noise/process.py); None: the
+    configured Q throughout (here; the filter settings turn it on)."""
+
+    def __post_init__(self) -> None:
+        if self.epoch_policy not in ("exact", "grid"):
+            raise ValueError(f"epoch_policy: value {self.epoch_policy!r} must be 'exact' or 'grid'")
+        if self.output_every < 1:
+            raise ValueError(f"output_every: value {self.output_every!r} must be >= 1")
+        if not self.specific_force_tau_s >= 0.0:  # NaN too
+            raise ValueError(
+                f"specific_force_tau_s: value {self.specific_force_tau_s!r} must be >= 0"
+            )
+
+
+@dataclass(frozen=True)
+class _Records:
+    """The outputs so far: solution samples (t, x, diag P, the 3×3 blocks' off-diagonal
+    elements :data:`P_CROSS_PAIRS`) and the ledger rows."""
+
+    sol_t: Array
+    sol_x: Array
+    sol_p: Array
+    ledger: list[dict[str, Any]]
+    sol_cross: Array
+    events: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class EngineOutput:
+    """What a run produced: solution samples, per-reading ledger rows, final state.
+
+    ``P_cross`` (N, 9): at each solution sample, the off-diagonal elements of P's position,
+    velocity and attitude error blocks, ``P[i, j]`` for ``(i, j)`` in :data:`P_CROSS_PAIRS`
+    (keyword only)."""
+
+    t: Array
+    x: Array  # (N, 16) nominal states
+    P_diag: Array  # (N, 15)
+    ledger: list[dict[str, Any]]
+    x_final: Array
+    P_final: Array
+    P_cross: Array = field(kw_only=True)  # (N, 9)
+    events: list[dict[str, Any]] = field(kw_only=True, default_factory=list)
+    """The divergence guard's events (keys :data:`EVENT_KEYS`, estimation/health.py), in time
+    order."""
+    q_scale: float = field(kw_only=True, default=1.0)
+    """β at the end: the factor on the IMU white-noise PSDs of Q (estimation/noise/process.py)."""
+
+
+def cross_terms(P: Array) -> Array:
+    """The 9 off-diagonal elements of P's position, velocity and attitude blocks
+    (:data:`P_CROSS_PAIRS`), as :attr:`EngineOutput.P_cross` records them."""
+    Pa = np.asarray(P, dtype=float)
+    return np.array([Pa[i, j] for i, j in P_CROSS_PAIRS])
+
+
+def _grow(a: NDArray[Any], need: int) -> NDArray[Any]:
+    """``a`` with at least ``need`` rows (doubling), the old rows kept."""
+    if need <= a.shape[0]:
+        return a
+    out = np.zeros((max(need, 2 * a.shape[0]), *a.shape[1:]), dtype=a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+# --- the compiled time-ordering loop ------------------------------------------------------------
+# The Navigator's state lives in small arrays that these functions update in place: the cursor
+# ``cur`` (uk.C_*: time, start, length of and offset into the current IMU interval), the raw mean
+# rates of the previous and current interval ``rates`` (uk.R_*), and the counters ``icur``.
+
+I_START, I_DONE, I_HAVE_RATES, I_CLOSE, I_N_OUT, I_EVERY, I_HEAD, I_END, I_N_LEDGER = range(9)
+"""``icur``: next interval of the chunk, intervals completed, rates known, an epoch completed the
+interval, output rows, output decimation, first queued reading, end of the epoch's group,
+ledger rows."""
+N_ICUR = 9
+_ADVANCE_DONE, _ADVANCE_LATE, _ADVANCE_EPOCH = 0, 1, 2
+NAV_DONE, NAV_PYTHON, NAV_SINGULAR = 0, 1, 2
+
+
+@jit_inline
+def _row(rates: Array, r: int) -> Vec3:
+    return (rates[r, 0], rates[r, 1], rates[r, 2])
+
+
+@jit_inline
+def _interval_done(
+    t: float, state: State, Pw: Array, icur: IntArray, out_t: Array, out_x: Array, out_p: Array
+) -> None:
+    """Count a completed interval; every ``output_every``-th, an output row: t, x, and in
+    ``out_p`` P's diagonal (15) then the off-diagonal elements of its position, velocity and
+    attitude blocks (9, :data:`P_CROSS_PAIRS`)."""
+    icur[I_DONE] += 1
+    if icur[I_DONE] % icur[I_EVERY] == 0:
+        o = icur[I_N_OUT]
+        out_t[o] = t
+        _store(out_x[o], state)
+        for i in range(N_STATES):
+            out_p[o, i] = Pw[i * 16 + i]
+        for b in range(3):  # P_CROSS_PAIRS, spelt out
+            a = 3 * b
+            out_p[o, N_STATES + a] = Pw[a * 16 + a + 1]
+            out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
+            out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
+        icur[I_N_OUT] = o + 1
+
+
+@jit
+def _advance(
+    x: Array,
+    P: Array,
+    tk: Array,
+    dts: Array,
+    dth: Array,
+    dv: Array,
+    t_next: float,
+    grid: bool,
+    cur: Array,
+    rates: Array,
+    icur: IntArray,
+    q_psd: Array,
+    tau_a: float,
+    tau_g: float,
+    tau_f: float,
+    out_t: Array,
+    out_x: Array,
+    out_p: Array,
+) -> int:
+    """Propagate through the IMU intervals ``(tk - dts, tk]`` from ``icur[I_START]`` on until
+    the earliest queued reading, stamped ``t_next`` (inf: none), must be acted on.
+
+    Whole intervals one after the other (the steps of kernels.propagate_run), an output row
+    after every ``output_every``-th completed one; the interval that contains t_next is begun
+    (its rates; the previous ones carried) and propagated to t_next (``exact``, the steps of
+    kernels.propagate_partial) or to its end (``grid``). Returns _ADVANCE_EPOCH (update now,
+    at ``cur[C_T]``; an interval the update ends is completed on the next call),
+    _ADVANCE_LATE (t_next is not after the current time) or _ADVANCE_DONE (chunk used up).
+    Each loop turn chooses one (sub)step, so that the step is compiled once.
+    """
+    n = tk.shape[0]
+    wk = _work(P)
+    Pw = wk[3]
+    state = _load(x)
+    ref = _lat_ref(state[0])
+    inv_tau = (1.0 / tau_a, 1.0 / tau_g)
+    T_last, decay = -1.0, (1.0, 1.0, 0.0)
+    f_lp = rates[uk.R_F_LP]
+    beta = rates[uk.R_Q, 0]
+    if beta != 1.0:  # Q adaptation (estimation/noise/process.py): β on the white-noise PSDs
+        q_psd = q_psd.copy()
+        for c in range(6):
+            q_psd[c] *= beta
+    status = _ADVANCE_DONE
+    last = -1  # end of the run of whole intervals under way (-1: none)
+    while True:
+        if icur[I_CLOSE] != 0:  # an epoch at the end of its interval completed it
+            icur[I_CLOSE] = 0
+            _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p)
+        k = icur[I_START]
+        t_start, dt, offset = cur[uk.C_T_START], cur[uk.C_DT], cur[uk.C_OFFSET]
+        whole = offset >= dt
+        if not whole:  # an interval split by an exact-time update is open: on to tau
+            tau = dt
+            if t_next <= t_start + dt:
+                if t_next <= cur[uk.C_T]:
+                    status = _ADVANCE_LATE
+                    break
+                status = _ADVANCE_EPOCH
+                if not grid:
+                    tau = t_next - t_start
+            tau = min(max(tau, offset), dt)
+            ta, tb = offset, tau
+            wp, fp = _row(rates, uk.R_W_PREV), _row(rates, uk.R_F_PREV)
+            wc, fc = _row(rates, uk.R_W_CUR), _row(rates, uk.R_F_CUR)
+        else:
+            if last < 0:  # where does the next run of whole intervals end?
+                if k >= n:
+                    break
+                last = int(np.searchsorted(tk, t_next)) if t_next <= tk[n - 1] else n
+                if last < n and t_next <= cur[uk.C_T]:
+                    status = _ADVANCE_LATE
+                    break
+                if last > k and icur[I_HAVE_RATES] == 0:
+                    for c in range(3):
+                        rates[uk.R_W_CUR, c] = dth[k, c] / dts[k]
+                        rates[uk.R_F_CUR, c] = dv[k, c] / dts[k]
+                    icur[I_HAVE_RATES] = 1
+            if k >= last:  # the run is done: stop at the chunk's end, or begin the interval
+                if last == n:  # that contains t_next
+                    icur[I_START] = n
+                    break
+                dt = dts[last]
+                if icur[I_HAVE_RATES] == 0:
+                    for c in range(3):
+                        rates[uk.R_W_CUR, c] = dth[last, c] / dt
+                        rates[uk.R_F_CUR, c] = dv[last, c] / dt
+                    icur[I_HAVE_RATES] = 1
+                for c in range(3):
+                    rates[uk.R_W_PREV, c] = rates[uk.R_W_CUR, c]
+                    rates[uk.R_F_PREV, c] = rates[uk.R_F_CUR, c]
+                    rates[uk.R_W_CUR, c] = dth[last, c] / dt
+                    rates[uk.R_F_CUR, c] = dv[last, c] / dt
+                cur[uk.C_T_START] = tk[last] - dt
+                cur[uk.C_DT] = dt
+                cur[uk.C_OFFSET] = 0.0
+                cur[uk.C_T] = cur[uk.C_T_START]
+                icur[I_START] = last + 1
+                last = -1
+                continue
+            dt = dts[k]
+            ta, tb = 0.0, dt
+            tau = dt
+            wp, fp = _row(rates, uk.R_W_CUR), _row(rates, uk.R_F_CUR)
+            wc = (dth[k, 0] / dt, dth[k, 1] / dt, dth[k, 2] / dt)
+            fc = (dv[k, 0] / dt, dv[k, 1] / dt, dv[k, 2] / dt)
+        if whole or tb > ta:  # one (sub)step [ta, tb] of an interval of length dt
+            T = tb - ta
+            if T_last != T:
+                decay_f = math.exp(-T / tau_f) if tau_f > 0.0 else 0.0
+                decay, T_last = (math.exp(-T / tau_a), math.exp(-T / tau_g), decay_f), T
+            if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
+                ref = _lat_ref(state[0])
+            state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
+        if whole:
+            for c in range(3):
+                rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
+            cur[uk.C_DT] = cur[uk.C_OFFSET] = dt
+            cur[uk.C_T] = tk[k]
+            cur[uk.C_T_START] = tk[k] - dt
+            icur[I_START] = k + 1
+            _interval_done(tk[k], state, Pw, icur, out_t, out_x, out_p)
+            continue
+        cur[uk.C_OFFSET] = tau
+        cur[uk.C_T] = t_start + tau if tau < dt else t_start + dt
+        if status == _ADVANCE_EPOCH:
+            if tau >= dt:
+                icur[I_CLOSE] = 1
+            break
+        _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p)
+    _store(x, state)
+    _unpad(Pw, P)
+    return status
+
+
+@jit
+def _navigate(
+    x: Array,
+    P: Array,
+    tk: Array,
+    dts: Array,
+    dth: Array,
+    dv: Array,
+    q_t: Array,
+    q_idx: IntArray,
+    grid: bool,
+    cur: Array,
+    rates: Array,
+    icur: IntArray,
+    q_psd: Array,
+    tau_a: float,
+    tau_g: float,
+    tau_f: float,
+    out_t: Array,
+    out_x: Array,
+    out_p: Array,
+    st_sensor: IntArray,
+    st_z: Array,
+    s_int: IntArray,
+    s_flt: Array,
+    s_state: Array,
+    rings: Array,
+    kind: int,
+    reset_covariance: bool,
+    python_lin: bool,
+    lg_int: IntArray,
+    lg_flt: Array,
+    ws: uk.Workspace,
+) -> int:
+    """Run the IMU chunk against the queue (stamps q_t, readings q_idx, sorted; the first
+    pending is ``icur[I_HEAD]``): propagate to the next reading; drop it if late; else gather
+    the readings of its epoch (stamped <= the epoch, + SAME_EPOCH_S under ``exact``) and update
+    with them (:func:`adaptnav.compiled.update.epoch`); until the chunk is used up (NAV_DONE).
+    Returns early with NAV_PYTHON when the epoch's group ``icur[I_HEAD]..icur[I_END]`` has a
+    reading to linearise in Python, or NAV_SINGULAR if P was not finite (no repair possible)."""
+    nq = q_t.shape[0]
+    fb = np.zeros((0, uk.N_FB))  # no readings linearised in Python here
+    while True:
+        head = icur[I_HEAD]
+        t_next = q_t[head] if head < nq else math.inf
+        status = _advance(
+            x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, tau_f,
+            out_t, out_x, out_p,
+        )  # fmt: skip
+        if status == _ADVANCE_DONE:
+            return NAV_DONE
+        n = icur[I_N_LEDGER]
+        if status == _ADVANCE_LATE:
+            uk.ledger_drop(lg_int, lg_flt, n, q_idx[head], uk.LEDGER_LATE, cur[uk.C_T])
+            icur[I_N_LEDGER] = n + 1
+            icur[I_HEAD] = head + 1
+            continue
+        t_until = cur[uk.C_T] if grid else cur[uk.C_T] + SAME_EPOCH_S
+        end = head
+        while end < nq and q_t[end] <= t_until:
+            end += 1
+        icur[I_END] = end
+        if python_lin:
+            for k in range(head, end):
+                if s_int[st_sensor[q_idx[k]], uk.S_CODE] == uk.LIN_PYTHON:
+                    return NAV_PYTHON
+        n = uk.epoch(
+            x, P, rates, cur[uk.C_T], q_idx, head, end - head, st_sensor, st_z, fb, s_int,
+            s_flt, s_state, rings, kind, reset_covariance, lg_int, lg_flt, n, ws,
+        )  # fmt: skip
+        icur[I_HEAD] = end
+        if n < 0:
+            icur[I_N_LEDGER] = -n - 1
+            return NAV_SINGULAR
+        icur[I_N_LEDGER] = n
+
+
+class Navigator:
+    """Streaming multirate ESKF: feed IMU intervals and sensor readings; read the solution.
+
+    Readings may be fed ahead of the IMU (they wait in a time-ordered queue until the IMU covers
+    their stamp); a reading stamped before the navigator's current time is dropped as ``late``.
+    """
+
+    def __init__(
+        self,
+        config: EngineConfig,
+        channels: Sequence[SensorChannel],
+        x0: ArrayLike,
+        P0: ArrayLike,
+        t0: float,
+    ) -> None:
+        names = [c.name for c in channels]
+        if len(set(names)) != len(names):
+            raise ValueError(f"sensor names must be unique, got {names}")
+        kinds = {type(c.strategy) for c in channels}
+        if len(kinds) > 1:
+            raise ValueError("all sensors of one filter must use the same noise strategy class")
+        self._kind = uk.KIND_FIXED
+        if kinds:
+            cls = kinds.pop()
+            if cls not in _KINDS:
+                raise TypeError(
+                    f"noise strategy {cls.__name__} has no compiled update; the engine runs "
+                    "FixedNoise, CovarianceMatching and VariationalBayes"
+                )
+            self._kind = _KINDS[cls]
+        self.config = config
+        self.channels = tuple(channels)
+        self._index = {c.name: i for i, c in enumerate(channels)}
+        self.x = np.array(x0, dtype=float)
+        self.P = np.array(P0, dtype=float)
+        if self.x.shape != (NOM_SIZE,) or self.P.shape != (N_STATES, N_STATES):
+            raise ValueError(f"x0 must be ({NOM_SIZE},), P0 ({N_STATES}, {N_STATES})")
+        self._q = errorstate.noise_psd(config.imu_noise)
+        self._tau_a = float(config.imu_noise.accel_bias_tau)
+        self._tau_g = float(config.imu_noise.gyro_bias_tau)
+        self._grid = config.epoch_policy == "grid"
+        # The propagation cursor: the current IMU interval [t_start, t_start + dt] and how far
+        # we are into it (offset), the previous and current interval's rates, counters.
+        self._cur = np.zeros(uk.N_CUR)
+        self._cur[uk.C_T] = self._cur[uk.C_T_START] = float(t0)
+        self._rates = np.zeros((uk.N_RATES, 3))
+        self._rates[uk.R_F_LP] = math.nan  # starts at the first step's specific force
+        self._rates[uk.R_Q, :2] = 1.0  # β and β at the last q_scale event
+        self._tau_f = config.specific_force_tau_s
+        if config.at_rest:  # held at -g_n: decay exp(-T/inf) = 1
+            self._rates[uk.R_F_LP] = -earth.gravity_n(self.x[0], self.x[2])
+            self._tau_f = math.inf
+        self._icur = np.zeros(N_ICUR, dtype=np.int64)
+        self._icur[I_EVERY] = config.output_every
+        self._build_tables()
+        # Readings (the store), the queue of their indices, the ledger and the output rows.
+        self._st_t = np.zeros(64)
+        self._st_sensor = np.zeros(64, dtype=np.int64)
+        self._st_row = np.zeros(64, dtype=np.int64)
+        # A store row: the reading (MAX_DIM) then its own R diagonal (MAX_DIM; NaN: none).
+        self._st_z = np.full((64, 2 * MAX_DIM), math.nan)
+        self._n_store = 0
+        self._python_z: dict[int, Array] = {}
+        # The queue: store indices of the readings sorted by (t, sensor, arrival) and their
+        # stamps, from the first pending one (icur[I_HEAD]) on; how many stored readings it has.
+        self._q_idx = np.zeros(0, dtype=np.int64)
+        self._q_t = np.zeros(0)
+        self._n_queued = 0
+        self._fb = np.zeros((8, uk.N_FB))
+        self._lg_int = np.zeros((64, uk.N_LINT), dtype=np.int64)
+        self._lg_flt = np.zeros((64, uk.N_LFLT))
+        self._out_t = np.zeros(64)
+        self._out_x = np.zeros((64, NOM_SIZE))
+        self._out_p = np.zeros((64, N_STATES + N_CROSS))  # diag P, then P_CROSS_PAIRS
+        self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
+        self._record()
+
+    def _build_tables(self) -> None:
+        """Per-sensor settings, linearisations and initial adaptation states, packed."""
+        n = len(self.channels)
+        windows = [getattr(c.strategy, "window", 1) for c in self.channels]
+        self._s_int = np.zeros((n, uk.N_SINT), dtype=np.int64)
+        self._s_flt = np.zeros((n, uk.N_SFLT))
+        self._s_state = np.zeros((n, uk.N_SSTATE))
+        self._s_state[:, uk.X_LAST] = math.nan
+        self._rings = np.zeros((n, 2, max(windows, default=1), MAX_DIM))
+        for i, ch in enumerate(self.channels):
+            d = int(ch.model.dim)
+            if not 1 <= d <= MAX_DIM:
+                raise ValueError(f"sensor {ch.name!r}: dimension {d} is not in 1..{MAX_DIM}")
+            R = _nominal_R(ch.model)
+            spec = uk.compiled_linearisation(ch.model)
+            si, sf, sx = self._s_int[i], self._s_flt[i], self._s_state[i]
+            si[uk.S_CODE] = uk.LIN_PYTHON if spec is None else spec[0]
+            if spec is not None:
+                sf[: uk.N_PAR] = spec[1]
+            si[uk.S_DIM] = d
+            sf[uk.F_RNOM : uk.F_RNOM + 9] = _block3(R)
+            sf[uk.F_PERIOD] = ch.period
+            if ch.guard is not None:
+                si[uk.S_GUARD] = 1
+                sf[uk.F_GUARD_Q] = ch.guard.threshold(d)
+                sf[uk.F_GUARD_K] = ch.guard.headroom
+                sf[uk.F_LOCKOUT_S], sf[uk.F_LOCKOUT_MAX] = ch.guard.lockout_s, ch.guard.lockout_max
+            dg = self.config.divergence
+            sf[uk.F_DIV_NIS] = dg.nis_ratio
+            sf[uk.F_DIV_WINDOW], sf[uk.F_INFLATE_MAX] = dg.window, dg.inflate_max
+            sx[uk.X_WT] = math.nan
+            qa = self.config.q_adaptation
+            if qa is not None:
+                sf[uk.F_QA_GAIN], sf[uk.F_QA_TARGET] = qa.gain, qa.target
+                sf[uk.F_QA_MAX], sf[uk.F_QA_WINDOW] = qa.beta_max, qa.window
+            sx[uk.X_REJ_SINCE] = math.nan
+            sf[uk.F_RMIN], sf[uk.F_RMAX] = 0.0, math.inf
+            if ch.gate is not None:
+                rule = uk.GATE_COMPONENT if ch.gate.rule == "component" else uk.GATE_CHI2
+                si[uk.S_GATE] = rule
+                nominal = ch.gate.reference == "nominal"
+                si[uk.S_GATE_REF] = uk.GATE_REF_NOMINAL if nominal else uk.GATE_REF_ADAPTED
+                sf[uk.F_GATE_Q] = ch.gate.q
+            st = ch.strategy
+            state0 = st.initial_state(R)
+            if isinstance(st, VariationalBayes):
+                si[uk.S_ITER] = st.iterations
+                sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
+                sf[uk.F_IRREGULAR] = float(st.irregular)
+                sf[uk.F_DOF] = st.dof if st.dof is not None else 0.0
+                sf[uk.F_RMIN], sf[uk.F_RMAX] = st.r_floor, st.r_ceiling
+                sx[uk.X_ALPHA : uk.X_ALPHA + d] = state0.alpha
+                sx[uk.X_BETA : uk.X_BETA + d] = state0.beta
+            elif isinstance(st, CovarianceMatching):
+                si[uk.S_WINDOW] = st.window
+                sf[uk.F_FLOOR], sf[uk.F_RAE] = st.floor, float(st.residual_based)
+                sf[uk.F_RMAX], sf[uk.F_GAP] = st.ceiling, st.gap_periods
+                self._rings[i, 0, : st.window, :d] = state0.squares
+                self._rings[i, 1, : st.window, :d] = state0.hph
+                si[uk.S_COUNT] = state0.count
+                sx[uk.X_MR : uk.X_MR + 9] = _block3(state0.R)
+        self._python_lin = bool(np.any(self._s_int[:, uk.S_CODE] == uk.LIN_PYTHON))
+        self._ws = uk.workspace(n)
+
+    @property
+    def t(self) -> float:
+        """The navigator's current time (s)."""
+        return float(self._cur[uk.C_T])
+
+    # --- feeding ------------------------------------------------------------------------------
+
+    def _check_reading(self, i: int, z: ArrayLike) -> Array:
+        zz = np.atleast_1d(np.asarray(z, dtype=float))
+        d = int(self._s_int[i, uk.S_DIM])
+        if zz.shape != (d,):
+            raise ValueError(
+                f"{self.channels[i].name} reading must have shape ({d},), got {zz.shape}"
+            )
+        return zz
+
+    def feed_measurement(
+        self,
+        sensor: str,
+        t: float,
+        z: ArrayLike,
+        row: int = -1,
+        r_diag: ArrayLike | None = None,
+    ) -> None:
+        """Queue a reading of ``sensor`` stamped ``t``; it is processed once the IMU covers t.
+
+        ``r_diag`` (d,): this reading's own measurement variances, replacing the sensor's nominal
+        R for it (the oracle baseline's known per-reading noise); default: the sensor's.
+        """
+        if sensor not in self._index:
+            raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
+        i = self._index[sensor]
+        k = self._reserve_store(1)
+        self._st_t[k], self._st_sensor[k], self._st_row[k] = t, i, row
+        self._st_z[k] = math.nan
+        if r_diag is not None:
+            self._st_z[k, MAX_DIM : MAX_DIM + int(self._s_int[i, uk.S_DIM])] = self._r_diag(
+                i, r_diag, 1
+            )[0]
+        if self._s_int[i, uk.S_CODE] == uk.LIN_PYTHON:
+            self._python_z[k] = np.asarray(z, dtype=float)
+        else:
+            zz = self._check_reading(i, z)
+            self._st_z[k, : zz.size] = zz
+        self._n_store = k + 1
+
+    def feed_measurements(
+        self,
+        sensor: str,
+        t: ArrayLike,
+        z: ArrayLike,
+        rows: ArrayLike | None = None,
+        r_diag: ArrayLike | None = None,
+    ) -> None:
+        """Queue many readings of ``sensor`` at once: stamps ``t`` (n,), readings ``z`` (n, d),
+        ledger row numbers ``rows`` (default 0..n-1), own variances ``r_diag`` (n, d) or None;
+        as n calls of :meth:`feed_measurement`."""
+        if sensor not in self._index:
+            raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._index)}")
+        i = self._index[sensor]
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        n = ts.size
+        if n == 0:
+            return
+        zs = np.asarray(z, dtype=float).reshape(n, -1)
+        rw = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64).reshape(n)
+        k0 = self._reserve_store(n)
+        self._st_t[k0 : k0 + n] = ts
+        self._st_sensor[k0 : k0 + n] = i
+        self._st_row[k0 : k0 + n] = rw
+        self._st_z[k0 : k0 + n] = math.nan
+        if r_diag is not None:
+            d = int(self._s_int[i, uk.S_DIM])
+            self._st_z[k0 : k0 + n, MAX_DIM : MAX_DIM + d] = self._r_diag(i, r_diag, n)
+        if self._s_int[i, uk.S_CODE] == uk.LIN_PYTHON:
+            for r in range(n):
+                self._python_z[k0 + r] = zs[r]
+        else:
+            self._check_reading(i, zs[0])
+            self._st_z[k0 : k0 + n, : zs.shape[1]] = zs
+        self._n_store = k0 + n
+
+    def _r_diag(self, i: int, r_diag: ArrayLike, n: int) -> Array:
+        """Per-reading variances (n, d) of sensor i, checked: finite and positive."""
+        d = int(self._s_int[i, uk.S_DIM])
+        r = np.asarray(r_diag, dtype=float)
+        if r.size != n * d:
+            raise ValueError(f"{self.channels[i].name}: r_diag must have {n} x {d} values")
+        r = r.reshape(n, d)
+        if not np.all(np.isfinite(r) & (r > 0.0)):
+            raise ValueError(f"{self.channels[i].name}: r_diag must be finite and positive")
+        return r
+
+    def _sort_queue(self) -> None:
+        """Merge the readings fed since the last call into the queue, in the order (t, sensor,
+        arrival): the order in which they are taken (ties at one stamp: sensor order)."""
+        if self._n_queued == self._n_store:
+            return
+        head = int(self._icur[I_HEAD])
+        idx = np.concatenate(
+            [self._q_idx[head:], np.arange(self._n_queued, self._n_store, dtype=np.int64)]
+        )
+        t = self._st_t[idx]
+        order = np.lexsort((idx, self._st_sensor[idx], t))
+        self._q_idx = idx[order]
+        self._q_t = t[order]
+        self._icur[I_HEAD] = 0
+        self._n_queued = self._n_store
+
+    def _reserve_store(self, n: int) -> int:
+        k = self._n_store
+        if k + n > self._st_t.shape[0]:
+            self._st_t = _grow(self._st_t, k + n)
+            self._st_sensor = _grow(self._st_sensor, k + n)
+            self._st_row = _grow(self._st_row, k + n)
+            self._st_z = _grow(self._st_z, k + n)
+        return k
+
+    def feed_imu(self, t: ArrayLike, dt: ArrayLike, dtheta: ArrayLike, dvel: ArrayLike) -> None:
+        """Integrate IMU intervals ``(t_k - dt_k, t_k]`` with increments, processing every queued
+        reading they cover, in time order."""
+        tk = np.require(np.atleast_1d(np.asarray(t, dtype=float)), np.float64, ["C", "W"])
+        dts = np.broadcast_to(np.asarray(dt, dtype=float), tk.shape).copy()
+        dth = np.require(np.atleast_2d(np.asarray(dtheta, dtype=float)), np.float64, ["C", "W"])
+        dv = np.require(np.atleast_2d(np.asarray(dvel, dtype=float)), np.float64, ["C", "W"])
+        n = tk.size
+        if tk.ndim != 1 or dth.shape != (n, 3) or dv.shape != (n, 3):
+            raise ValueError(
+                f"IMU: t must be (N,), dtheta and dvel (N, 3); got {tk.shape}, {dth.shape}, "
+                f"{dv.shape}"
+            )
+        self._icur[I_START] = 0
+        self._reserve_output(n // self.config.output_every + 2)
+        self._sort_queue()
+        while True:
+            self._reserve_ledger(self._q_idx.size - int(self._icur[I_HEAD]))
+            status = _navigate(
+                self.x, self.P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
+                self._rates, self._icur, self._q, self._tau_a, self._tau_g,
+                self._tau_f, self._out_t,
+                self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
+                self._s_flt, self._s_state, self._rings, self._kind,
+                self.config.reset_covariance, self._python_lin, self._lg_int, self._lg_flt,
+                self._ws,
+            )  # fmt: skip
+            if status == NAV_DONE:
+                return
+            if status == NAV_SINGULAR:
+                raise np.linalg.LinAlgError(
+                    f"the error covariance P is not finite at t = {self.t:.6g} s"
+                )
+            self._epoch_python()
+
+    # --- measurement epochs -------------------------------------------------------------------
+
+    def _epoch_python(self) -> None:
+        """The epoch of the group icur[I_HEAD]..icur[I_END] when it has readings of sensors
+        linearised by their ``evaluate``: those in Python, then the same compiled update."""
+        head, end = int(self._icur[I_HEAD]), int(self._icur[I_END])
+        g = end - head
+        self._fb = _grow(self._fb, g)
+        self._evaluate_in_python(head, g)
+        n = uk.epoch(
+            self.x, self.P, self._rates, self.t, self._q_idx, head, g, self._st_sensor,
+            self._st_z, self._fb, self._s_int, self._s_flt, self._s_state, self._rings,
+            self._kind, self.config.reset_covariance, self._lg_int, self._lg_flt,
+            int(self._icur[I_N_LEDGER]), self._ws,
+        )  # fmt: skip
+        self._icur[I_HEAD] = end
+        if n < 0:
+            self._icur[I_N_LEDGER] = -n - 1
+            raise np.linalg.LinAlgError(
+                f"the error covariance P is not finite at t = {self.t:.6g} s"
+            )
+        self._icur[I_N_LEDGER] = n
+
+    def _evaluate_in_python(self, head: int, g: int) -> None:
+        """Linearise the group's readings of sensors without a compiled linearisation by their
+        ``evaluate`` into the fallback rows (a sensor's later readings are duplicates)."""
+        seen: set[int] = set()
+        w = self._rates[uk.R_W_CUR].copy()
+        for k in range(g):
+            idx = int(self._q_idx[head + k])
+            i = int(self._st_sensor[idx])
+            if self._s_int[i, uk.S_CODE] != uk.LIN_PYTHON or i in seen:
+                continue
+            meas = self.channels[i].model.evaluate(self.x, self._python_z[idx], w)
+            row = self._fb[k]
+            row[:] = 0.0
+            if meas is None:
+                continue
+            seen.add(i)
+            d = meas.y.size
+            row[uk.FB_VALID] = 1.0
+            row[uk.FB_Y : uk.FB_Y + d] = meas.y
+            row[uk.FB_H : uk.FB_H + N_STATES * d] = np.asarray(meas.H, dtype=float).ravel()
+            row[uk.FB_R : uk.FB_R + 9] = _block3(meas.R)
+
+    def _reserve_ledger(self, n: int) -> None:
+        # A reading has one fate row and may trigger an event (lockout or NIS); an epoch
+        # adds at most one covariance event: three rows per reading at most.
+        need = int(self._icur[I_N_LEDGER]) + 3 * n + 1
+        self._lg_int = _grow(self._lg_int, need)
+        self._lg_flt = _grow(self._lg_flt, need)
+
+    def _events(self) -> list[dict[str, Any]]:
+        """The event rows so far as dicts (keys :data:`EVENT_KEYS`)."""
+        n = int(self._icur[I_N_LEDGER])
+        li, lf = self._lg_int[:n], self._lg_flt[:n]
+        out = []
+        for r in np.flatnonzero(li[:, uk.L_CODE] >= uk.EVENT_NIS).tolist():
+            idx = int(li[r, uk.L_STORE])
+            event, detail = _EVENTS[int(li[r, uk.L_CODE])]
+            out.append(
+                dict(
+                    zip(
+                        EVENT_KEYS,
+                        (
+                            float(lf[r, uk.L_T_EPOCH]),
+                            self.channels[int(self._st_sensor[idx])].name,
+                            int(self._st_row[idx]),
+                            event,
+                            float(lf[r, uk.L_STAT]),
+                            float(lf[r, uk.L_THRESHOLD]),
+                            float(lf[r, uk.L_FACTOR]),
+                            detail,
+                        ),
+                        strict=True,
+                    )
+                )
+            )
+        return out
+
+    def _ledger(self) -> list[dict[str, Any]]:
+        """The ledger rows so far as dicts (keys :data:`LEDGER_KEYS`, in that order); events
+        (:meth:`_events`) are not readings' fates and are left out."""
+        n = int(self._icur[I_N_LEDGER])
+        fates_only = self._lg_int[:n, uk.L_CODE] < uk.EVENT_NIS
+        li, lf = self._lg_int[:n][fates_only], self._lg_flt[:n][fates_only]
+        idx = li[:, uk.L_STORE]
+        names = [c.name for c in self.channels]
+        fates = [_FATES[c] for c in li[:, uk.L_CODE].tolist()]
+        nu = [lf[:, uk.L_NU + j].tolist() for j in range(MAX_DIM)]
+        r = [lf[:, uk.L_R + j].tolist() for j in range(MAX_DIM)]
+        columns = zip(
+            self._st_t[idx].tolist(), lf[:, uk.L_T_EPOCH].tolist(), self._st_sensor[idx].tolist(),
+            self._st_row[idx].tolist(), fates, lf[:, uk.L_STAT].tolist(),
+            lf[:, uk.L_THRESHOLD].tolist(), li[:, uk.L_ITER].tolist(), nu[0], r[0], nu[1], r[1],
+            nu[2], r[2], strict=True,
+        )  # fmt: skip
+        gc_was_on = gc.isenabled()
+        gc.disable()  # tens of thousands of new dicts: no cyclic garbage, no need to scan
+        try:
+            return [
+                {
+                    "t": t,
+                    "t_epoch": te,
+                    "sensor": names[i],
+                    "row": rw,
+                    "fate": fr[0],
+                    "reason": fr[1],
+                    "statistic": st,
+                    "threshold": th,
+                    "iterations": it,
+                    "nu_0": n0,
+                    "r_0": r0,
+                    "nu_1": n1,
+                    "r_1": r1,
+                    "nu_2": n2,
+                    "r_2": r2,
+                }
+                for t, te, i, rw, fr, st, th, it, n0, r0, n1, r1, n2, r2 in columns
+            ]
+        finally:
+            if gc_was_on:
+                gc.enable()
+
+    def _reserve_output(self, n: int) -> None:
+        need = int(self._icur[I_N_OUT]) + n
+        self._out_t = _grow(self._out_t, need)
+        self._out_x = _grow(self._out_x, need)
+        self._out_p = _grow(self._out_p, need)
+
+    def _record(self) -> None:
+        self._reserve_output(1)
+        n = int(self._icur[I_N_OUT])
+        self._out_t[n] = self.t
+        self._out_x[n] = self.x
+        self._out_p[n, :N_STATES] = np.diag(self.P)
+        self._out_p[n, N_STATES:] = cross_terms(self.P)
+        self._icur[I_N_OUT] = n + 1
+
+    @property
+    def records(self) -> _Records:
+        """The solution samples and ledger rows so far (copies)."""
+        n = int(self._icur[I_N_OUT])
+        return _Records(
+            self._out_t[:n].copy(),
+            self._out_x[:n].copy(),
+            self._out_p[:n, :N_STATES].copy(),
+            self._ledger(),
+            self._out_p[:n, N_STATES:].copy(),
+            self._events(),
+        )
+
+    def adaptation_state(self, sensor: str) -> Any:
+        """The current noise-adaptation state of ``sensor`` (VB α, β; matching window; ...).
+
+        The same object is returned until the sensor's state changes."""
+        i = self._index[sensor]
+        version = int(self._s_int[i, uk.S_VERSION])
+        cached = self._state_cache[i]
+        if cached is not None and cached[0] == version:
+            return cached[1]
+        d = int(self._s_int[i, uk.S_DIM])
+        sx = self._s_state[i]
+        state: Any = None
+        if self._kind == uk.KIND_VB:
+            state = VBState(
+                sx[uk.X_ALPHA : uk.X_ALPHA + d].copy(), sx[uk.X_BETA : uk.X_BETA + d].copy()
+            )
+        elif self._kind == uk.KIND_MATCHING:
+            w = int(self._s_int[i, uk.S_WINDOW])
+            R = sx[uk.X_MR : uk.X_MR + 9].reshape(3, 3)[:d, :d].copy()
+            state = MatchingState(
+                self._rings[i, 0, :w, :d].copy(),
+                self._rings[i, 1, :w, :d].copy(),
+                int(self._s_int[i, uk.S_COUNT]),
+                R,
+            )
+        self._state_cache[i] = (version, state)
+        return state
+
+    def flush(self) -> None:
+        """Drop every reading still queued (the IMU ended before its stamp), with a reason."""
+        self._sort_queue()
+        head, n = int(self._icur[I_HEAD]), int(self._icur[I_N_LEDGER])
+        rest = self._q_idx[head:]
+        self._reserve_ledger(rest.size)
+        self._lg_int[n : n + rest.size] = 0
+        self._lg_int[n : n + rest.size, uk.L_STORE] = rest
+        self._lg_int[n : n + rest.size, uk.L_CODE] = uk.LEDGER_AFTER_IMU
+        self._lg_flt[n : n + rest.size] = math.nan
+        self._icur[I_N_LEDGER] = n + rest.size
+        self._icur[I_HEAD] = self._q_idx.size
+
+    def output(self) -> EngineOutput:
+        n = int(self._icur[I_N_OUT])
+        return EngineOutput(
+            self._out_t[:n].copy(),
+            self._out_x[:n].copy(),
+            self._out_p[:n, :N_STATES].copy(),
+            self._ledger(),
+            self.x.copy(),
+            self.P.copy(),
+            P_cross=self._out_p[:n, N_STATES:].copy(),
+            events=self._events(),
+            q_scale=float(self._rates[uk.R_Q, 0]),
+        )
+
+
+def _block3(R: ArrayLike) -> Array:
+    """A d×d matrix (d ≤ 3) in the top-left of a 3×3 one, flattened row-major."""
+    Ra = np.asarray(R, dtype=float)
+    out = np.zeros((MAX_DIM, MAX_DIM))
+    out[: Ra.shape[0], : Ra.shape[1]] = Ra
+    return out.ravel()
+
+
+def _nominal_R(model: MeasurementModel) -> Array:
+    R = getattr(model, "R", None)
+    if R is None:
+        raise TypeError(f"sensor {model.name!r} exposes no nominal R")
+    return np.asarray(R() if callable(R) else R, dtype=float)
+
+
+def run_batch(
+    config: EngineConfig,
+    channels: Sequence[SensorChannel],
+    x0: ArrayLike,
+    P0: ArrayLike,
+    t0: float,
+    imu_t: ArrayLike,
+    imu_dt: ArrayLike,
+    dtheta: ArrayLike,
+    dvel: ArrayLike,
+    readings: Mapping[str, tuple[ArrayLike, ...]],
+) -> EngineOutput:
+    """Run a whole mission: every reading queued, then the IMU fed through one Navigator.
+
+    ``readings[name] = (t (n,), z (n, d))`` or ``(t, z, r_diag (n, d))`` with each reading's
+    own variances; row numbers in the ledger index those arrays.
+    """
+    nav = Navigator(config, channels, x0, P0, t0)
+    for name, (t, z, *r_diag) in readings.items():
+        nav.feed_measurements(name, t, z, r_diag=r_diag[0] if r_diag else None)
+    nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
+    nav.flush()
+    return nav.output()

@@ -1,0 +1,128 @@
+"""MAESKF: measurement noise by innovation covariance matching.
+
+The equations in words: docs/filters.md, 'MAESKF: covariance matching'.
+
+Mohamed & Schwarz (1999), adaptive estimation by innovation (IAE): over a sensor's window of its
+last W accepted innovations ν (x⁻ = 0, so ν = y),
+
+    C_ν = (1/W) Σ ν νᵀ,     R_i = diag(C_ν) - diag(H_i P⁻ H_iᵀ),
+
+floored at ``r_min = floor * nominal variance`` to stay positive definite and, beyond the paper,
+capped at ``ceiling * nominal variance`` (default inf: no cap; why a cap, estimation/noise/vb.py).
+The window ends with the current innovation.
+
+Beyond the paper, an option: the window restarts after a gap in the sensor's readings longer
+than ``gap_periods`` of its nominal periods (0, the default: never, the paper). The innovations
+after a gap come with a P that has grown through it, and a window that mixes them with the
+squares from before the gap estimates R from two different filters. Until the window is full
+again the nominal R is used, as at the start. Measured with ``gap_periods = 10`` on the fault
+benchmark (3 seeds): MAESKF's RMSE ratio after a 300-s DVL dropout went from 1.19 / 1.72 to
+1.00 / 0.95 (paper-1 / paper-2) and after a 60-s frozen DVL from 1.39 / 1.38 to 1.00 / 1.03,
+but with 1 % DVL spikes on paper-2 from 0.88 to 1.87 (every simulated dropout restarts the
+window on the nominal R, too small in the noisy segments): not a clear gain, so it stays off
+(docs/robustness.md). Until the window is full the nominal R is used.
+Residual-based variant (RAE): ``R_i = diag(C_ε) + diag(H_i P⁺ H_iᵀ)`` with residuals
+``ε = y - H dx⁺`` of the previous W updates.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from adaptnav.estimation import kalman
+from adaptnav.estimation.noise.base import Array, Block, StackedResult, slices, stack, stacked_R
+
+
+@dataclass(frozen=True)
+class MatchingState:
+    """Ring of the last W squared innovations (or residuals) per component, and R̂ in use."""
+
+    squares: Array  # (W, d): ν_j² (IAE) or ε_j² (RAE)
+    hph: Array  # (W, d): diag(H P⁺ Hᵀ) for RAE (zeros for IAE)
+    count: int
+    R: Array  # (d, d) diagonal
+
+
+@dataclass(frozen=True)
+class CovarianceMatching:
+    """Settings: window W, floor as a fraction of the nominal variance, IAE or RAE."""
+
+    window: int = 20
+    floor: float = 1e-2
+    residual_based: bool = False
+    ceiling: float = math.inf
+    """Upper bound on R̂ as a factor of the nominal variance (module docstring)."""
+    gap_periods: float = 0.0
+    """Restart the window after a gap of more than this many periods; 0: never."""
+    name: str = "matching"
+
+    def __post_init__(self) -> None:
+        if self.window < 1:
+            raise ValueError(f"matching window: value {self.window!r} must be >= 1")
+        if not 0 < self.floor <= 1:
+            raise ValueError(f"matching floor: value {self.floor!r} must be in (0, 1]")
+        if not self.ceiling > self.floor:
+            raise ValueError(
+                f"matching ceiling: value {self.ceiling!r} must be > the floor {self.floor!r}"
+            )
+
+    def initial_state(self, R_nominal: Array) -> MatchingState:
+        d = R_nominal.shape[0]
+        z = np.zeros((self.window, d))
+        return MatchingState(z, z.copy(), 0, R_nominal.copy())
+
+    def predict(self, state: MatchingState, dt: float, period: float) -> MatchingState:
+        if self.gap_periods > 0 and period > 0 and dt > self.gap_periods * period:
+            return MatchingState(state.squares, state.hph, 0, state.R)
+        return state
+
+    def current_R(self, state: MatchingState, R_nominal: Array) -> Array:
+        return state.R
+
+    def _estimate(self, squares: Array, hph: Array, hph_now: Array, R_nominal: Array) -> Array:
+        mean_sq = squares.mean(axis=0)
+        r = mean_sq + hph.mean(axis=0) if self.residual_based else mean_sq - hph_now
+        var = np.diag(R_nominal)
+        return np.diag(np.clip(r, self.floor * var, self.ceiling * var))
+
+    def update(self, P: Array, blocks: Sequence[Block]) -> StackedResult:
+        Rs: list[Array] = []
+        pushed: list[tuple[Array, int]] = []
+        for b in blocks:
+            st: MatchingState = b.state
+            if self.residual_based:
+                full = st.count >= self.window
+                R = (
+                    self._estimate(st.squares, st.hph, np.zeros(0), b.R_nominal)
+                    if full
+                    else b.R_nominal
+                )
+                pushed.append((st.squares, st.count))
+            else:
+                sq = np.roll(st.squares, -1, axis=0)
+                sq[-1] = b.y * b.y
+                count = min(st.count + 1, self.window)
+                hph_now = np.einsum("ij,jk,ik->i", b.H, P, b.H)
+                full = count >= self.window
+                R = self._estimate(sq, st.hph, hph_now, b.R_nominal) if full else b.R_nominal
+                pushed.append((sq, count))
+            Rs.append(R)
+        H, y = stack(blocks)
+        corr = kalman.correct(P, H, y, stacked_R(Rs))
+        states: list[MatchingState] = []
+        for b, sl, R, (sq, count) in zip(blocks, slices(blocks), Rs, pushed, strict=True):
+            st = b.state
+            if self.residual_based:
+                eps = y[sl] - H[sl] @ corr.dx
+                sq = np.roll(st.squares, -1, axis=0)
+                sq[-1] = eps * eps
+                hph = np.roll(st.hph, -1, axis=0)
+                hph[-1] = np.einsum("ij,jk,ik->i", H[sl], corr.P, H[sl])
+                states.append(MatchingState(sq, hph, min(st.count + 1, self.window), R))
+            else:
+                states.append(MatchingState(sq, st.hph, count, R))
+        return StackedResult(corr, tuple(states), tuple(Rs), 1)

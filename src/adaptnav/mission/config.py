@@ -1,0 +1,1001 @@
+"""``mission.toml``: the validated mission configuration (docs/data-format.md).
+
+Pydantic v2 models, all ``extra="forbid"`` and frozen, so an unknown key is refused with its
+path (``sensors.dvl.sigmaa``). Quantities with units are ``[value, "unit"]`` pairs converted by
+:mod:`adaptnav.core.units`; keys ending in ``_m``, ``_s``, ``_hz``, ``_deg``, ``_m_s`` are in those
+units. Every error of a loaded file comes out as one :class:`MissionError` naming the file and
+the key path; unit errors are also :class:`~adaptnav.core.units.UnitError`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from collections.abc import Iterable, Mapping
+from pathlib import Path, PureWindowsPath
+from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictBool,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from adaptnav.core.attitude import euler_to_dcm
+from adaptnav.core.units import DEG, Kind, UnitError, to_si
+from adaptnav.estimation.noise.process import QAdaptation
+from adaptnav.models.imu_noise import FIELD_KINDS, ImuNoise
+
+if TYPE_CHECKING:
+    from adaptnav.estimation.settings import FilterSettings, SensorOverrides
+
+Array = NDArray[np.float64]
+
+FILTER_KINDS = ("meskf", "maeskf", "vb", "robust")
+"""The kinds a mission may name (the oracle is a baseline of simulated missions, not a
+setting); the same as :data:`adaptnav.estimation.settings.FILTER_KINDS` without it."""
+SensorKind = Literal["dvl", "depth", "inclinometer", "heading", "gnss", "nhc"]
+SENSOR_KINDS: tuple[SensorKind, ...] = ("dvl", "depth", "inclinometer", "heading", "gnss", "nhc")
+TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
+RESERVED_NAMES = ("imu", "truth")
+"""Stream names taken by the IMU and the reference; a sensor may not use them."""
+DEFAULT_GAP_PERIODS = 5.0
+"""Default ``imu.max_gap_s``: this many nominal IMU periods (0.05 s at 100 Hz)."""
+FALLBACK_GYRO_BIAS_SIGMA = 10.0 * DEG / 3600.0
+"""Initial gyro-bias σ (rad/s, 10 °/h) when neither the config nor the noise model gives one."""
+FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
+"""Initial accelerometer-bias σ (m/s², 1 mg) when neither the config nor the noise model does."""
+
+# Residual units of each sensor's sigma (the sensors' docstrings).
+SIGMA_KIND: dict[SensorKind, Kind] = {
+    "dvl": Kind.SPEED,
+    "depth": Kind.LENGTH,
+    "inclinometer": Kind.ANGLE,
+    "heading": Kind.ANGLE,
+    "gnss": Kind.LENGTH,
+    "nhc": Kind.SPEED,
+}
+_HAS_LEVER_ARM = frozenset({"dvl", "depth", "gnss", "nhc"})
+_HAS_MOUNTING = frozenset({"dvl", "inclinometer", "heading", "nhc"})
+_NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
+
+
+class MissionError(ValueError):
+    """Bad mission input; the message names the file, the line (or row) and the field.
+
+    ``file``, ``line`` and ``field`` repeat them for programs (None where not applicable).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        line: int | None = None,
+        field: str | None = None,
+    ) -> None:
+        super().__init__(message)
+        self.file = file
+        self.line = line
+        self.field = field
+
+
+class MissionUnitError(MissionError, UnitError):
+    """A wrong unit or an unconvertible value in ``mission.toml`` (both error kinds at once)."""
+
+
+# --- field types --------------------------------------------------------------------------------
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Vec3 = tuple[Finite, Finite, Finite]
+Pair = tuple[float | str, str]
+"""``[value, "unit"]``; the value may be the string ``"inf"`` for correlation times."""
+VecPair = tuple[float | list[float], str]
+"""``[value, "unit"]`` or ``[[v1, v2, ...], "unit"]`` (one value per component)."""
+
+
+def _pair_si(
+    pair: tuple[Any, str], kind: Kind, field: str, allow_negative: bool = False
+) -> float | Array:
+    """SI value of a ``[value, unit]`` pair; "inf" is allowed for times (random-walk biases)."""
+    value, unit = pair
+    if kind is Kind.TIME and (
+        (isinstance(value, str) and value.strip().lower() == "inf")
+        or (isinstance(value, float) and value == math.inf)
+    ):
+        to_si(1.0, unit, kind, field)  # the unit must still be a time
+        return math.inf
+    if isinstance(value, list):
+        if not value:
+            raise UnitError(f"{field}: empty list of values")
+        return np.array([to_si(v, unit, kind, field, allow_negative) for v in value])
+    if isinstance(value, str):
+        raise UnitError(f"{field}: value {value!r} is not a number")
+    return to_si(value, unit, kind, field, allow_negative)
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# --- sections -----------------------------------------------------------------------------------
+
+
+class MissionSection(_Model):
+    """``[mission]``: a name (required) and a free description."""
+
+    name: Annotated[str, Field(min_length=1)]
+    description: str = ""
+
+
+_NOISE_KINDS: dict[str, Kind] = FIELD_KINDS
+_WHITE_NOISE = ("arw", "vrw")
+"""``[imu.noise]`` keys that must be > 0 (the bias terms may be 0: no bias)."""
+
+
+class ImuNoiseConfig(_Model):
+    """``[imu.noise]``: the fields of :meth:`ImuNoise.from_datasheet`, each ``[value, "unit"]``."""
+
+    arw: Pair
+    vrw: Pair
+    gyro_bias_sigma: Pair | None = None
+    gyro_bias_tau: Pair | None = None
+    accel_bias_sigma: Pair | None = None
+    accel_bias_tau: Pair | None = None
+    gyro_bias_rrw: Pair | None = None
+    accel_bias_arw: Pair | None = None
+
+    @field_validator("*")
+    @classmethod
+    def _check_unit(cls, v: Pair | None, info: ValidationInfo) -> Pair | None:
+        if v is None:
+            return v
+        name = str(info.field_name)
+        si = _pair_si(v, _NOISE_KINDS[name], name)
+        if name.endswith("_tau") and not float(si) > 0.0:
+            raise UnitError(f'{name}: value {v[0]!r} must be > 0 ("inf" for a random walk)')
+        if name in _WHITE_NOISE and not float(si) > 0.0:
+            # Zero white noise: a Q with no noise at all makes the filter trust the IMU
+            # absolutely (and P singular); no real IMU has it.
+            raise UnitError(f"{name}: value {v[0]!r} must be > 0 (no IMU is noise-free)")
+        return v
+
+    def to_imu_noise(self) -> ImuNoise:
+        """The SI noise model (``ImuNoise.from_datasheet`` of the given pairs)."""
+        pairs: dict[str, tuple[Any, str]] = {}
+        for name in _NOISE_KINDS:
+            pair = getattr(self, name)
+            if pair is None:
+                continue
+            value, unit = pair
+            kind = _NOISE_KINDS[name]
+            if kind is Kind.TIME and math.isinf(float(_pair_si(pair, kind, name))):
+                pairs[name] = ("inf", unit)  # from_datasheet's spelling of a random walk
+            else:
+                pairs[name] = (value, unit)
+        return ImuNoise.from_datasheet(**pairs)
+
+
+class InitialBiasSigma(_Model):
+    """``[imu.initial_bias_sigma]``: bias σ after alignment (initial P); None → see ``si``."""
+
+    gyro: Pair | None = None
+    accel: Pair | None = None
+
+    @field_validator("gyro", "accel")
+    @classmethod
+    def _check_unit(cls, v: Pair | None, info: ValidationInfo) -> Pair | None:
+        if v is not None:
+            kind = Kind.ANGULAR_RATE if info.field_name == "gyro" else Kind.ACCELERATION
+            _pair_si(v, kind, str(info.field_name))
+        return v
+
+    def si(self, noise: ImuNoise) -> tuple[float, float]:
+        """(gyro rad/s, accel m/s²): the given values, else the noise model's in-run bias σ,
+        else 10 °/h and 1 mg."""
+        if self.gyro is not None:
+            g = float(_pair_si(self.gyro, Kind.ANGULAR_RATE, "gyro"))
+        else:
+            g = noise.gyro_bias_sigma or FALLBACK_GYRO_BIAS_SIGMA
+        if self.accel is not None:
+            a = float(_pair_si(self.accel, Kind.ACCELERATION, "accel"))
+        else:
+            a = noise.accel_bias_sigma or FALLBACK_ACCEL_BIAS_SIGMA
+        return g, a
+
+
+class InitialBias(_Model):
+    """``[imu.initial_bias]``: bias estimates to start from (a calibration, or a static mean
+    taken by an importer), each ``[[x, y, z], "unit"]`` in body axes; zero where absent. Used
+    with ``initial.mode = "state"`` (an alignment estimates its own)."""
+
+    gyro: VecPair | None = None
+    accel: VecPair | None = None
+
+    @field_validator("gyro", "accel")
+    @classmethod
+    def _check_vector(cls, v: VecPair | None, info: ValidationInfo) -> VecPair | None:
+        if v is not None:
+            name = str(info.field_name)
+            kind = Kind.ANGULAR_RATE if name == "gyro" else Kind.ACCELERATION
+            si = np.asarray(_pair_si(v, kind, name, allow_negative=True), dtype=float)
+            if si.shape != (3,):
+                raise UnitError(f"{name}: give three values [[x, y, z], unit], got {v[0]!r}")
+        return v
+
+    def given(self) -> bool:
+        return self.gyro is not None or self.accel is not None
+
+    def si(self) -> tuple[Array, Array]:
+        """(gyro rad/s (3,), accel m/s² (3,))."""
+
+        def vector(pair: VecPair | None, kind: Kind, name: str) -> Array:
+            if pair is None:
+                return np.zeros(3)
+            return np.asarray(_pair_si(pair, kind, name, allow_negative=True), dtype=float)
+
+        return (
+            vector(self.gyro, Kind.ANGULAR_RATE, "gyro"),
+            vector(self.accel, Kind.ACCELERATION, "accel"),
+        )
+
+
+class ImuConfig(_Model):
+    """``[imu]``: the IMU table, its format and rate, the gap limit and the noise model."""
+
+    file: str
+    noise: ImuNoiseConfig
+    format: Literal["rates", "increments"] = "rates"
+    rate_hz: Positive = 100.0
+    max_gap_s: Positive | None = None
+    """Largest accepted interval between IMU samples; None → 5 nominal periods."""
+    initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
+    initial_bias: InitialBias = InitialBias()
+
+    @field_validator("file")
+    @classmethod
+    def _check_file(cls, v: str) -> str:
+        return _check_table_file(v)
+
+    @property
+    def gap_limit_s(self) -> float:
+        """``max_gap_s`` or, if not given, 5 nominal periods."""
+        return self.max_gap_s if self.max_gap_s is not None else DEFAULT_GAP_PERIODS / self.rate_hz
+
+
+def _check_table_file(v: str) -> str:
+    """A table's file: a relative path inside the mission folder with a known extension (the
+    loader also checks where symbolic links lead: :func:`adaptnav.mission.loader.load_mission`)."""
+    if not v.strip():
+        raise ValueError("file name is empty")
+    path = Path(v)
+    if path.is_absolute() or PureWindowsPath(v).drive:
+        raise ValueError(
+            f"{v!r} is an absolute path; give the table's path relative to the mission folder "
+            "(tables live inside it)"
+        )
+    if ".." in path.parts or ".." in PureWindowsPath(v).parts:
+        raise ValueError(
+            f"{v!r} leads out of the mission folder ('..'); tables live inside it (copy the file "
+            "in)"
+        )
+    if Path(v).suffix.lower() not in TABLE_SUFFIXES:
+        raise ValueError(
+            f"{v!r}: unknown table format {Path(v).suffix!r} (use {', '.join(TABLE_SUFFIXES)})"
+        )
+    return v
+
+
+class SensorConfig(_Model):
+    """``[sensors.<name>]``: one aiding sensor; ``kind`` picks the model (adaptnav.sensors)."""
+
+    kind: SensorKind
+    file: str
+    sigma: VecPair
+    rate_hz: Positive | None = None
+    """Nominal rate; None → from the median interval of the table."""
+    lever_arm_m: Vec3 | None = None
+    mounting_rpy_deg: Vec3 | None = None
+    """ZYX roll, pitch, yaw (deg) of C_bs, sensor → body; the model's C_sb is its transpose."""
+    use: Literal["aid", "init", "off"] = "aid"
+    gate_q: Positive | None = None
+    vb_rho: Annotated[float, Field(gt=0, le=1)] | None = None
+    matching_window: Annotated[int, Field(ge=1)] | None = None
+    guard_probability: Annotated[float, Field(ge=0, lt=1)] | None = None
+    """This sensor's guard p (gate.Guard, docs/robustness.md); 0: no guard on it; None: the
+    filter's ``guard_probability``."""
+    use_height: StrictBool | None = None
+    """GNSS only (false is accepted and ignored elsewhere); None → false (marine: the height
+    comes from the depth sensor)."""
+    optional: StrictBool = False
+    model: Literal["pendulum", "attitude"] | None = None
+    """Inclinometer only: ``pendulum`` (it reads the tilt of the apparent gravity, the specific
+    force; the default) or ``attitude`` (it reads the attitude's roll and pitch, white noise):
+    docs/inclinometer.md."""
+    zero_is_lost: StrictBool = False
+    """DVL only: a reading of exactly zero on every axis is a lost bottom lock (drivers that
+    report the loss so), dropped at load with that reason. Not for a vehicle that can sit
+    still on the bottom."""
+    status_column: str | None = None
+    """DVL only: the table's column holding the DVL's own bottom-lock flag (1 or true: locked,
+    0 or false: lost), as DVL drivers report it; a reading flagged lost is dropped at load
+    with that reason."""
+    limits: tuple[float, float] | dict[str, tuple[float, float]] | None = None
+    """Plausible range of a reading, in the SI unit of its column: ``[min, max]`` for every
+    component, or ``{ column = [min, max] }`` per column; the rest from
+    :data:`SENSOR_LIMITS`. A reading outside is dropped at load (ledger: "implausible");
+    a column with every value outside is an error (wrong units). docs/robustness.md."""
+    stuck_s: NonNegative | None = None
+    """Shortest time (s) a reading must stay unchanged, within :attr:`resolution`, to be
+    taken as stuck (a frozen sensor or driver): the readings of such a run after its first are
+    dropped at load (ledger: "stuck"). 0: no detection; None: the kind's default,
+    :data:`STUCK_DEFAULTS`. docs/robustness.md."""
+    resolution: NonNegative | dict[str, NonNegative] | None = None
+    """How far, in the SI unit of its column, a component may move from the run's first
+    reading and still count as unchanged for :attr:`stuck_s`: one value for every component, or
+    ``{ column = value }`` per column; the rest from :data:`STUCK_DEFAULTS`."""
+
+    @field_validator("file")
+    @classmethod
+    def _check_file(cls, v: str) -> str:
+        return _check_table_file(v)
+
+    @field_validator("sigma")
+    @classmethod
+    def _check_sigma(cls, v: VecPair, info: ValidationInfo) -> VecPair:
+        kind = info.data.get("kind")
+        if kind is None:
+            return v  # the kind error is reported on its own
+        si = np.atleast_1d(_pair_si(v, SIGMA_KIND[kind], "sigma"))
+        if not np.all(si > 0.0):
+            raise UnitError(f"sigma: value {v[0]!r} must be > 0")
+        dims = (2, 3) if kind == "gnss" else _dims(kind, False)  # gnss: checked with use_height
+        if si.size not in (1, *dims):
+            raise UnitError(f"sigma: {si.size} values given, {kind} has {dims[-1]} components")
+        return v
+
+    @field_validator("limits")
+    @classmethod
+    def _check_limits(
+        cls, v: tuple[float, float] | dict[str, tuple[float, float]] | None, info: ValidationInfo
+    ) -> tuple[float, float] | dict[str, tuple[float, float]] | None:
+        if v is None:
+            return v
+        pairs = v if isinstance(v, dict) else {"": v}
+        kind = info.data.get("kind")
+        for column, (lo, hi) in pairs.items():
+            at = f"limits.{column}" if column else "limits"
+            if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+                raise ValueError(f"{at}: [{lo!r}, {hi!r}] must be [min, max] with min < max")
+            if column and kind is not None and column not in SENSOR_COLUMNS[kind]:
+                raise ValueError(
+                    f"{at}: not a column of a {kind} sensor ({', '.join(SENSOR_COLUMNS[kind])})"
+                )
+        return v
+
+    @field_validator("resolution")
+    @classmethod
+    def _check_resolution(
+        cls, v: float | dict[str, float] | None, info: ValidationInfo
+    ) -> float | dict[str, float] | None:
+        kind = info.data.get("kind")
+        if isinstance(v, dict) and kind is not None:
+            for column in v:
+                if column not in SENSOR_COLUMNS[kind]:
+                    raise ValueError(
+                        f"resolution.{column}: not a column of a {kind} sensor "
+                        f"({', '.join(SENSOR_COLUMNS[kind])})"
+                    )
+        return v
+
+    @model_validator(mode="after")
+    def _check_kind_fields(self) -> SensorConfig:
+        if self.model is not None and self.kind != "inclinometer":
+            raise ValueError(f"model: only an inclinometer has a model choice, not a {self.kind}")
+        if self.zero_is_lost and self.kind != "dvl":
+            raise ValueError(f"zero_is_lost: only a dvl reports a lost lock, not a {self.kind}")
+        if self.status_column is not None and self.kind != "dvl":
+            raise ValueError(f"status_column: only a dvl reports a lost lock, not a {self.kind}")
+        if self.use_height and self.kind != "gnss":
+            raise ValueError(f"use_height: only a gnss sensor measures height, not a {self.kind}")
+        if self.kind == "gnss":
+            s = np.atleast_1d(_pair_si(self.sigma, Kind.LENGTH, "sigma"))
+            if s.size not in (1, self.dim):
+                raise ValueError(
+                    f"sigma: {s.size} values given, gnss with use_height = "
+                    f"{str(bool(self.use_height)).lower()} has {self.dim} components"
+                )
+        if self.kind not in _HAS_LEVER_ARM and self.lever_arm_m not in (None, (0.0, 0.0, 0.0)):
+            raise ValueError(f"lever_arm_m: a {self.kind} sensor has no lever arm (leave it out)")
+        if self.kind not in _HAS_MOUNTING and self.mounting_rpy_deg not in (None, (0.0, 0.0, 0.0)):
+            raise ValueError(
+                f"mounting_rpy_deg: a {self.kind} sensor has no mounting rotation (leave it out)"
+            )
+        return self
+
+    @property
+    def dim(self) -> int:
+        """Number of measurement components."""
+        return _dims(self.kind, bool(self.use_height))[-1]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The table's measurement columns (SI names), after ``t_s``."""
+        cols = SENSOR_COLUMNS[self.kind]
+        return cols[: self.dim]
+
+    def limits_si(self) -> Array:
+        """``[min, max]`` (d, 2) of each measurement column (:attr:`columns`), SI units: the
+        configured ``limits``, else :data:`SENSOR_LIMITS` of the kind."""
+        default = SENSOR_LIMITS[self.kind]
+        out = np.array([default[c] for c in self.columns], dtype=float)
+        if isinstance(self.limits, dict):
+            for i, c in enumerate(self.columns):
+                if c in self.limits:
+                    out[i] = self.limits[c]
+        elif self.limits is not None:
+            out[:] = self.limits
+        return out
+
+    def stuck_duration_s(self) -> float:
+        """Minimum duration (s) of a stuck run: ``stuck_s``, else the kind's default
+        (:data:`STUCK_DEFAULTS`); 0 means no detection."""
+        return STUCK_DEFAULTS[self.kind].stuck_s if self.stuck_s is None else self.stuck_s
+
+    def resolution_si(self) -> Array:
+        """Resolution (d,) of each measurement column (:attr:`columns`), SI units: the
+        configured ``resolution``, else :data:`STUCK_DEFAULTS` of the kind."""
+        default = STUCK_DEFAULTS[self.kind].resolution
+        out = np.array([default[c] for c in self.columns], dtype=float)
+        if isinstance(self.resolution, dict):
+            for i, c in enumerate(self.columns):
+                if c in self.resolution:
+                    out[i] = self.resolution[c]
+        elif self.resolution is not None:
+            out[:] = self.resolution
+        return out
+
+    def sigma_si(self) -> float | Array:
+        """σ in SI units (m/s, m, rad): a scalar or one value per component."""
+        s = _pair_si(self.sigma, SIGMA_KIND[self.kind], "sigma")
+        return float(s) if np.ndim(s) == 0 else np.asarray(s, dtype=float)
+
+    def lever_arm(self) -> Array:
+        """l_b, body FRD (m); zero if not given."""
+        return np.array(self.lever_arm_m if self.lever_arm_m is not None else (0.0, 0.0, 0.0))
+
+    def sensor_from_body(self) -> Array:
+        """C_sb = C_bsᵀ with ``C_bs = euler_to_dcm(mounting_rpy_deg)`` (identity if not given)."""
+        if self.mounting_rpy_deg is None:
+            return np.eye(3)
+        r, p, y = (a * DEG for a in self.mounting_rpy_deg)
+        return np.asarray(euler_to_dcm(r, p, y).T, dtype=float)
+
+    def overrides(self) -> SensorOverrides:
+        """Per-sensor filter overrides (gate q, VB ρ, matching window)."""
+        from adaptnav.estimation.settings import SensorOverrides
+
+        return SensorOverrides(
+            self.gate_q, self.vb_rho, self.matching_window, self.guard_probability
+        )
+
+
+def _dims(kind: str, use_height: bool) -> tuple[int, ...]:
+    if kind == "gnss":
+        return (3,) if use_height else (2,)
+    return {"dvl": (3,), "depth": (1,), "inclinometer": (2,), "heading": (1,), "nhc": (2,)}[kind]
+
+
+SENSOR_COLUMNS: dict[SensorKind, tuple[str, ...]] = {
+    "dvl": ("vx_m_s", "vy_m_s", "vz_m_s"),
+    "depth": ("depth_m",),
+    "inclinometer": ("roll_rad", "pitch_rad"),
+    "heading": ("yaw_rad",),
+    "gnss": ("lat_rad", "lon_rad", "h_m"),
+    "nhc": ("vy_m_s", "vz_m_s"),
+}
+"""Measurement columns of each sensor table, after ``t_s`` (gnss ``h_m`` only with height)."""
+
+MAX_SPEED_M_S = 20.0
+"""|DVL velocity| (and NHC) above this (m/s, ~39 kn) per component is implausible."""
+SENSOR_LIMITS: dict[SensorKind, dict[str, tuple[float, float]]] = {
+    "dvl": {c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vx_m_s", "vy_m_s", "vz_m_s")},
+    "depth": {"depth_m": (-100.0, 12000.0)},
+    "inclinometer": {
+        "roll_rad": (-math.pi / 2, math.pi / 2),
+        "pitch_rad": (-math.pi / 2, math.pi / 2),
+    },
+    "heading": {"yaw_rad": (-2.0 * math.pi, 2.0 * math.pi)},
+    "gnss": {
+        "lat_rad": (-math.pi / 2, math.pi / 2),
+        "lon_rad": (-math.pi, 2.0 * math.pi),
+        "h_m": (-12000.0, 100000.0),
+    },
+    "nhc": {c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vy_m_s", "vz_m_s")},
+}
+"""Default plausible range of each sensor column (SI units; ``[sensors.<name>] limits``
+overrides them), the one place they are set: |DVL velocity| <= 20 m/s, depth in
+[-100, 12000] m (above the surface / below the deepest trench), inclinometer angles within
+±90°, heading within ±360°, GNSS latitude within ±90°, longitude in [-180°, 360°], height in
+[-12 km, 100 km]. docs/robustness.md."""
+
+
+class StuckDefault(NamedTuple):
+    """A kind's default stuck-reading settings (``[sensors.<name>] stuck_s`` and
+    ``resolution``)."""
+
+    stuck_s: float
+    """Minimum duration (s) of a stuck run; 0: no detection."""
+    resolution: dict[str, float]
+    """Per column, in its SI unit: a tenth or less of the finest output step of that kind of
+    sensor, so that two readings one step apart never count as unchanged."""
+
+
+DVL_STUCK_S = 10.0
+"""A DVL's noise (mm/s per ping, even at rest) spans its output step, so ten seconds of one
+vector is a frozen driver; it is longer than a ping interval, even in deep water (a driver that
+holds the last ping until the next one repeats it that long)."""
+SLOW_STUCK_S = 60.0
+"""Depth, roll, pitch and heading can be still for a while legitimately (a vessel alongside in
+a calm harbour, a parked vehicle): a minute unchanged, not less, is taken as stuck."""
+SPEED_RESOLUTION_M_S = 1e-5
+"""0.01 mm/s: a hundredth of the 1 mm/s step of a Teledyne DVL's PD0 record, a tenth of the
+0.1 mm/s of finer outputs; far above float32 round-off at DVL speeds (1e-6 m/s at 20 m/s)."""
+DEPTH_RESOLUTION_M = 1e-4
+"""0.1 mm: a tenth of the 1 mm step of a fine depth meter's output."""
+ANGLE_RESOLUTION_RAD = 1e-6
+"""0.00006°: below the finest step of inclinometer and heading outputs, 0.001° (1.7e-5 rad)."""
+LATLON_RESOLUTION_RAD = 1e-11
+"""0.06 mm on the earth: below the steps of RTKLIB's output (1e-7° = 1.7e-9 rad in the car
+data of docs/rtklib.md, 1e-9° at its finest)."""
+HEIGHT_RESOLUTION_M = 1e-5
+"""0.01 mm: below RTKLIB's height steps (1 mm in the car data, 0.1 mm at its finest)."""
+STUCK_DEFAULTS: dict[SensorKind, StuckDefault] = {
+    "dvl": StuckDefault(
+        DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in ("vx_m_s", "vy_m_s", "vz_m_s")}
+    ),
+    "depth": StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
+    "inclinometer": StuckDefault(
+        SLOW_STUCK_S, {c: ANGLE_RESOLUTION_RAD for c in ("roll_rad", "pitch_rad")}
+    ),
+    "heading": StuckDefault(SLOW_STUCK_S, {"yaw_rad": ANGLE_RESOLUTION_RAD}),
+    # Off: a receiver's static hold, or a coarse output on a moored or parked vehicle, repeats
+    # a position legitimately, and dropping those fixes would leave the INS unaided.
+    "gnss": StuckDefault(
+        0.0,
+        {
+            "lat_rad": LATLON_RESOLUTION_RAD,
+            "lon_rad": LATLON_RESOLUTION_RAD,
+            "h_m": HEIGHT_RESOLUTION_M,
+        },
+    ),
+    # Off: the constraint's readings are zero by construction, every one "unchanged".
+    "nhc": StuckDefault(0.0, {c: SPEED_RESOLUTION_M_S for c in ("vy_m_s", "vz_m_s")}),
+}
+"""Default stuck-reading detection of each sensor kind (``[sensors.<name>] stuck_s`` and
+``resolution`` override it), the one place it is set: DVL 10 s, depth, inclinometer and
+heading 60 s, GNSS and NHC off; resolutions below the sensors' output steps (0.01 mm/s, 0.1 mm,
+1e-6 rad). The reasons are in docs/robustness.md ("Stuck readings")."""
+
+
+class InitialConfig(_Model):
+    """``[initial]``: alignment (static window at the start) or an explicit state
+    (docs/alignment.md)."""
+
+    mode: Literal["alignment", "state"] = "alignment"
+    alignment_s: Positive = 600.0
+    lat_deg: Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False)] | None = None
+    lon_deg: Annotated[float, Field(ge=-180, le=360, allow_inf_nan=False)] | None = None
+    h_m: Finite = 0.0
+    v_ned_m_s: Vec3 = (0.0, 0.0, 0.0)
+    rpy_deg: Vec3 | None = None
+    sigma_position_m: Positive = 5.0
+    sigma_velocity_m_s: Positive = 0.1
+    sigma_attitude_deg: Positive | tuple[Positive, Positive, Positive] = (0.1, 0.1, 1.0)
+
+    @model_validator(mode="after")
+    def _check_state_mode(self) -> InitialConfig:
+        if self.mode == "state":
+            missing = [k for k in ("lat_deg", "lon_deg", "rpy_deg") if getattr(self, k) is None]
+            if missing:
+                raise ValueError(f"{missing[0]}: required when mode = 'state' (missing {missing})")
+        return self
+
+    def sigma_attitude_rad(self) -> Array:
+        """Initial attitude σ [roll, pitch, yaw] (rad)."""
+        return np.broadcast_to(np.asarray(self.sigma_attitude_deg, dtype=float) * DEG, (3,)).copy()
+
+
+class DivergenceConfig(_Model):
+    """One kind's divergence guard (:class:`adaptnav.estimation.health.DivergenceGuard`)."""
+
+    nis_ratio: Annotated[float, Field(ge=0)] = 0.0
+    """Windowed mean of NIS/d above which P is inflated; 0: off (else > 1)."""
+    window: Annotated[int, Field(ge=1)] = 30
+    inflate_max: Annotated[float, Field(ge=2)] = 100.0
+
+    @model_validator(mode="after")
+    def _check_ratio(self) -> DivergenceConfig:
+        if 0.0 < self.nis_ratio <= 1.0:
+            raise ValueError(f"nis_ratio: value {self.nis_ratio!r} must be 0 (off) or > 1")
+        return self
+
+
+class QAdaptationConfig(_Model):
+    """``[filter] q_adaptation = { ... }``: :class:`adaptnav.estimation.noise.process.QAdaptation`;
+    a
+    key left out keeps its default there."""
+
+    gain: Positive | None = None
+    target: Annotated[float, Field(ge=0, lt=1)] | None = None
+    beta_max: Annotated[float, Field(ge=1)] | None = None
+    window: Annotated[int, Field(ge=2)] | None = None
+
+    def settings(self) -> QAdaptation:
+        given = {k: v for k, v in self.model_dump().items() if v is not None}
+        return QAdaptation(**given)
+
+
+class FilterConfig(_Model):
+    """``[filter]``: the fields of :class:`adaptnav.estimation.settings.FilterSettings` plus output
+    rate.
+    A field left out (None) takes its default from :mod:`adaptnav.estimation.settings`."""
+
+    kind: Literal["meskf", "maeskf", "vb", "robust"] = "robust"
+    epoch_policy: Literal["exact", "grid"] = "exact"
+    output_rate_hz: Positive = 10.0
+    gate_rule: Literal["component", "chi2"] = "component"
+    gate_q: dict[str, Positive] = Field(default_factory=lambda: {"meskf": 600.0, "maeskf": 1800.0})
+    """q per filter kind; a kind absent here runs without a gate."""
+    gate_reference: Literal["adapted", "nominal"] = "adapted"
+    """R in the gate's S: ``adapted`` (the filter's current R, the paper) or ``nominal``."""
+    gate_sensors: tuple[str, ...] | None = None
+    """Gated sensor names; None → every sensor of kind dvl."""
+    matching_window: Annotated[int, Field(ge=1)] = 20
+    matching_floor: Positive = 0.01
+    matching_residual_based: StrictBool = False
+    matching_gap_periods: Annotated[float, Field(ge=0)] | None = None
+    """MAESKF's window restarts after a sensor gap of more than this many periods; 0: never."""
+    vb_alpha0: Positive = 1.0
+    vb_rho: Annotated[float, Field(gt=0, le=1)] = 0.99
+    vb_iterations: Annotated[int, Field(ge=1)] = 5
+    vb_tol: Positive = 1e-6
+    vb_irregular: StrictBool = False
+    vb_dof: Positive | None = None
+    """Student-t ν of each reading for VB-MAESKF (beyond the paper); None: Gaussian."""
+    specific_force_tau_s: Annotated[float, Field(ge=0)] | None = None
+    """Time constant (s) of the low-pass on the specific force that F is evaluated with; None:
+    the engine's default (``adaptnav.engine.batch.EngineConfig``; docs/error-model.md)."""
+    guard_probability: Annotated[float, Field(ge=0, lt=1)] | None = None
+    """The guard's p on every sensor (gate.Guard); 0: no guard (the paper's filters exactly)."""
+    guard_headroom: Annotated[float, Field(ge=1)] | None = None
+    """The guard's κ: its S holds κ × the nominal R (gate.Guard)."""
+    guard_lockout_s: Annotated[float, Field(ge=0)] | None = None
+    """A sensor the guard has rejected this long makes the filter inflate P; 0: never."""
+    r_bounds: dict[str, tuple[Annotated[float, Field(ge=0)], Positive]] | None = None
+    """``{kind = [floor, ceiling]}``: bounds on R̂ as factors of the nominal variance."""
+    divergence: dict[str, DivergenceConfig] | None = None
+    """``{kind = {nis_ratio, window, inflate_max}}``: the windowed NIS test
+    (estimation/health.py)."""
+    q_adaptation: StrictBool | QAdaptationConfig | None = None
+    """Q scaled by the whiteness of the innovations (estimation/noise/process.py): ``false`` off
+    (the paper's filters), ``true`` or left out: on with its defaults, ``{gain, target, beta_max,
+    window}``: on with these."""
+
+    @field_validator("r_bounds", "divergence")
+    @classmethod
+    def _check_kinds(cls, v: dict[str, Any] | None) -> dict[str, Any] | None:
+        unknown = [k for k in v or {} if k not in FILTER_KINDS]
+        if unknown:
+            raise ValueError(f"unknown filter kind(s) {unknown} (use {', '.join(FILTER_KINDS)})")
+        for k, b in (v or {}).items():
+            if isinstance(b, tuple) and not b[0] < b[1]:
+                raise ValueError(f"{k}: [floor, ceiling] = {list(b)} must have floor < ceiling")
+        return v
+
+    @field_validator("gate_q")
+    @classmethod
+    def _check_gate_kinds(cls, v: dict[str, float]) -> dict[str, float]:
+        unknown = [k for k in v if k not in FILTER_KINDS]
+        if unknown:
+            raise ValueError(f"unknown filter kind(s) {unknown} (use {', '.join(FILTER_KINDS)})")
+        return v
+
+
+class TruthConfig(_Model):
+    """``[truth]``: optional reference trajectory table."""
+
+    file: str | None = None
+
+    @field_validator("file")
+    @classmethod
+    def _check_file(cls, v: str | None) -> str | None:
+        return None if v is None else _check_table_file(v)
+
+
+class MissionConfig(_Model):
+    """The whole ``mission.toml``."""
+
+    mission: MissionSection
+    imu: ImuConfig
+    sensors: dict[str, SensorConfig] = Field(default_factory=dict)
+    initial: InitialConfig = InitialConfig()
+    filter: FilterConfig = FilterConfig()
+    truth: TruthConfig = TruthConfig()
+
+    @field_validator("sensors")
+    @classmethod
+    def _check_names(cls, v: dict[str, SensorConfig]) -> dict[str, SensorConfig]:
+        for name in v:
+            if not _NAME_RE.match(name):
+                raise ValueError(
+                    f"sensor name {name!r}: use a letter then letters, digits, '_' or '-'"
+                )
+            if name in RESERVED_NAMES:
+                raise ValueError(f"sensor name {name!r} is reserved ({', '.join(RESERVED_NAMES)})")
+        return v
+
+    @model_validator(mode="after")
+    def _check_cross(self) -> MissionConfig:
+        if self.filter.gate_sensors is not None:
+            unknown = [s for s in self.filter.gate_sensors if s not in self.sensors]
+            if unknown:
+                raise ValueError(
+                    f"filter.gate_sensors: {unknown} name no sensor (configured: "
+                    f"{list(self.sensors)})"
+                )
+        if self.initial.mode == "alignment" and self.imu.initial_bias.given():
+            raise ValueError(
+                "imu.initial_bias: used with initial.mode = 'state' only (an alignment estimates "
+                "the biases)"
+            )
+        if self.initial.mode == "alignment" and not any(
+            s.kind == "gnss" and s.use != "off" for s in self.sensors.values()
+        ):
+            missing = [k for k in ("lat_deg", "lon_deg") if getattr(self.initial, k) is None]
+            if missing:
+                raise ValueError(
+                    f"initial.{missing[0]}: required for alignment without a GNSS sensor, as the "
+                    f"position to align at (missing {missing})"
+                )
+        return self
+
+    def gated_sensors(self) -> tuple[str, ...]:
+        """Names of the gated sensors (``filter.gate_sensors``, default: every dvl)."""
+        if self.filter.gate_sensors is not None:
+            return self.filter.gate_sensors
+        return tuple(n for n, s in self.sensors.items() if s.kind == "dvl")
+
+    def filter_settings(self) -> FilterSettings:
+        """The engine's :class:`adaptnav.estimation.settings.FilterSettings` of ``[filter]``."""
+        from adaptnav.estimation.health import DivergenceGuard
+        from adaptnav.estimation.settings import (
+            DEFAULT_DIVERGENCE,
+            DEFAULT_R_BOUNDS,
+            FilterSettings,
+        )
+
+        f = self.filter
+        divergence = dict(DEFAULT_DIVERGENCE)
+        for k, d in (f.divergence or {}).items():
+            divergence[k] = DivergenceGuard(d.nis_ratio, d.window, d.inflate_max)
+        # Keys left out of [filter] keep FilterSettings' own defaults.
+        optional = (
+            "guard_probability",
+            "guard_headroom",
+            "guard_lockout_s",
+            "matching_gap_periods",
+        )
+        given = {k: v for k in optional if (v := getattr(f, k)) is not None}
+        if f.q_adaptation is False:
+            given["q_adaptation"] = None
+        elif isinstance(f.q_adaptation, QAdaptationConfig):
+            given["q_adaptation"] = f.q_adaptation.settings()
+        return FilterSettings(
+            kind=f.kind,
+            **given,
+            r_bounds={**DEFAULT_R_BOUNDS, **(f.r_bounds or {})},
+            divergence=divergence,
+            gate_rule=f.gate_rule,
+            gate_q=dict(f.gate_q),
+            gate_reference=f.gate_reference,
+            gate_sensors=self.gated_sensors(),
+            matching_window=f.matching_window,
+            matching_floor=f.matching_floor,
+            matching_residual_based=f.matching_residual_based,
+            vb_alpha0=f.vb_alpha0,
+            vb_rho=f.vb_rho,
+            vb_iterations=f.vb_iterations,
+            vb_tol=f.vb_tol,
+            vb_irregular=f.vb_irregular,
+            vb_dof=f.vb_dof,
+        )
+
+    def output_every(self) -> int:
+        """IMU intervals per output sample (``imu.rate_hz / filter.output_rate_hz``, >= 1)."""
+        return max(1, round(self.imu.rate_hz / self.filter.output_rate_hz))
+
+    def dump_toml(self) -> str:
+        """This configuration as TOML text (``load_config`` reads it back equal)."""
+        return dumps_toml(self.model_dump(mode="python", exclude_none=True))
+
+
+# --- reading and writing --------------------------------------------------------------------
+
+
+def _loc(loc: tuple[int | str, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _is_union_tag(part: int | str) -> bool:
+    """Union members add their type to an error's path ("value.float"); not a key."""
+    return isinstance(part, str) and (
+        part in ("float", "str", "int", "bool")
+        or "[" in part
+        or part.startswith(("constrained-", "function-"))
+    )
+
+
+_PREFIX = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): (.*)$", re.DOTALL)
+
+
+def _explain(source: str, exc: ValidationError) -> MissionError:
+    """One readable error (path: message) per problem; UnitError if a unit was the cause."""
+    lines: list[str] = []
+    unit_error = False
+    first_field: str | None = None
+    for err in exc.errors(include_url=False):
+        loc = [p for p in err["loc"] if not _is_union_tag(p)]
+        cause = err.get("ctx", {}).get("error")
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key"
+        elif err["type"] == "missing":
+            msg = "missing required key"
+        elif isinstance(cause, BaseException):
+            msg = str(cause)
+            unit_error = unit_error or isinstance(cause, UnitError)
+            # Validators name their key first ("sigma: ..."): fold it into the path.
+            m = _PREFIX.match(msg)
+            if m:
+                keys = m.group(1).split(".")
+                if loc and keys[0] == loc[-1]:
+                    keys = keys[1:]
+                loc = [*loc, *keys]
+                msg = m.group(2)
+        else:
+            msg = err["msg"]
+            if not isinstance(err.get("input"), dict):
+                msg += f" (got {err.get('input')!r})"
+        path = _loc(tuple(loc))
+        first_field = first_field or path or None
+        lines.append(f"{path}: {msg}" if path else msg)
+    # A union reports each member's failure; keep distinct lines only.
+    uniq = list(dict.fromkeys(lines))
+    text = f"{source}: " + ("; ".join(uniq) if len(uniq) <= 1 else "\n  " + "\n  ".join(uniq))
+    cls = MissionUnitError if unit_error else MissionError
+    return cls(text, file=source, field=first_field)
+
+
+def parse_config(data: Mapping[str, Any], source: str = "mission.toml") -> MissionConfig:
+    """Validate a parsed TOML document; errors become :class:`MissionError` naming key paths."""
+    try:
+        return MissionConfig.model_validate(dict(data))
+    except ValidationError as exc:
+        raise _explain(source, exc) from None
+
+
+def with_overrides(
+    config: MissionConfig, overrides: Iterable[tuple[str, Any]], source: str = "overrides"
+) -> MissionConfig:
+    """``config`` with each ``(dotted.path, value)`` set (e.g. ``("filter.vb_rho", 0.95)``,
+    ``("sensors.inclinometer.model", "attitude")``), validated again as a whole; a path through
+    a key that does not exist is a :class:`MissionError`."""
+    doc: dict[str, Any] = config.model_dump(mode="python", exclude_none=True)
+    for path, value in overrides:
+        *parents, leaf = path.split(".")
+        node = doc
+        for key in parents:
+            child = node.get(key)
+            if not isinstance(child, dict):
+                raise MissionError(f"{source}: {path}: no section {key!r}")
+            node = child
+        node[leaf] = value
+    return parse_config(doc, source)
+
+
+def load_config(path: str | Path) -> MissionConfig:
+    """Read and validate ``mission.toml`` (tomllib)."""
+    p = Path(path)
+    try:
+        text = p.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise MissionError(f"{p}: file not found", file=str(p)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MissionError(f"{p}: cannot read as UTF-8 text: {exc}", file=str(p)) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise MissionError(f"{p}: invalid TOML: {exc}", file=str(p)) from None
+    return parse_config(data, str(p))
+
+
+def write_config(config: MissionConfig, path: str | Path) -> Path:
+    """Write ``config`` as TOML to ``path``; returns the path."""
+    p = Path(path)
+    p.write_text(config.dump_toml(), encoding="utf-8")
+    return p
+
+
+# --- a small TOML writer (tomli-w is not a dependency) ------------------------------------------
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _key(k: str) -> str:
+    return k if _BARE_KEY.match(k) else json.dumps(k, ensure_ascii=False)
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{_key(str(k))} = {_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"cannot write {type(v).__name__} as TOML: {v!r}")
+
+
+def _is_table(v: Any) -> bool:
+    """Dicts holding dicts or arrays become [sections]; flat dicts are inline tables."""
+    return isinstance(v, dict) and any(isinstance(x, dict | list | tuple) for x in v.values())
+
+
+def dumps_toml(doc: Mapping[str, Any]) -> str:
+    """TOML text of nested dicts of str, int, float (inf/nan), bool, lists and tuples."""
+    out: list[str] = []
+
+    def emit(prefix: str, table: Mapping[str, Any], top: bool) -> None:
+        subtables = []
+        body = []
+        for k, v in table.items():
+            if isinstance(v, dict) and (top or _is_table(v)):
+                subtables.append((k, v))
+            else:
+                body.append(f"{_key(k)} = {_value(v)}")
+        if prefix and (body or not subtables):
+            out.append(f"[{prefix}]")
+        out.extend(body)
+        if prefix and (body or not subtables):
+            out.append("")
+        for k, v in subtables:
+            emit(f"{prefix}.{_key(k)}" if prefix else _key(k), v, top=False)
+
+    emit("", doc, top=True)
+    return "\n".join(out).rstrip("\n") + "\n"

@@ -1,0 +1,629 @@
+"""A mission folder: ``mission.toml`` plus one table per stream, loaded into SI arrays.
+
+:func:`load_mission` reads and checks everything once (docs/data-format.md gives the columns
+and the bad-input policy: clear :class:`MissionError`, or a logged :class:`Repair`);
+:func:`write_mission` writes a folder (the simulator's output); :func:`build_sensor_model` turns
+a ``[sensors.<name>]`` section into the measurement model of :mod:`adaptnav.sensors`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from adaptnav.core.units import G0
+from adaptnav.mission.config import (
+    SENSOR_LIMITS,
+    MissionConfig,
+    MissionError,
+    SensorConfig,
+    SensorKind,
+    load_config,
+    write_config,
+)
+from adaptnav.mission.screening import stuck_runs
+from adaptnav.mission.tables import (
+    IMU_INCREMENT_COLUMNS,
+    IMU_RATE_COLUMNS,
+    TIME_COLUMN,
+    TRUTH_COLUMNS,
+    DroppedRow,
+    Journal,
+    Repair,
+    Table,
+    check_order,
+    flag,
+    present,
+    read_table,
+    show,
+    take_columns,
+    write_table,
+)
+from adaptnav.models.strapdown import rates_to_increments
+from adaptnav.sensors import (
+    DVL,
+    GNSS,
+    Depth,
+    Heading,
+    Inclinometer,
+    MeasurementModel,
+    NonHolonomic,
+    PendulumInclinometer,
+)
+
+log = logging.getLogger("adaptnav.mission")
+
+Array = NDArray[np.float64]
+CONFIG_NAME = "mission.toml"
+LOST_LOCK_REASON = "all-zero DVL reading: bottom lock lost (zero_is_lost)"
+TRUNCATED_REASON = "truncated last line of the file (cut short), not read"
+MAX_GYRO_RAD_S = 20.0
+"""|gyro| above this (rad/s, ≈ 1150 °/s) is taken as wrong units (deg/s given as rad/s)."""
+MAX_ACCEL_M_S2 = 20.0 * G0
+"""|accel| above this (m/s², 20 g) is taken as wrong units."""
+RATE_MISMATCH = 0.1
+"""Relative difference between the median IMU interval and 1/rate_hz that is warned about."""
+
+
+@dataclass(frozen=True, eq=False)
+class ImuData:
+    """N IMU intervals ``(t_k - dt_k, t_k]`` with their increments (rad, m/s), as the engine
+    consumes them (:meth:`adaptnav.engine.batch.Navigator.feed_imu`)."""
+
+    t: Array
+    dt: Array
+    dtheta: Array
+    dvel: Array
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def start(self) -> float:
+        """Start of the first interval, ``t_0 - dt_0`` (s)."""
+        return float(self.t[0] - self.dt[0])
+
+
+@dataclass(frozen=True, eq=False)
+class SensorData:
+    """One sensor's readings: times (n,), values (n, d) in SI units, and the 0-based data rows
+    of the file they came from (rows removed at load are in :attr:`Mission.dropped`)."""
+
+    name: str
+    kind: SensorKind
+    t: Array
+    z: Array
+    rows: NDArray[np.int64]
+    period: float = math.nan
+    """Nominal sampling period (s): 1/rate_hz, else the median interval of the table."""
+
+
+@dataclass(frozen=True, eq=False)
+class Mission:
+    """A loaded mission: config, IMU, sensors with ``use`` aid or init, optional truth, every
+    table as read (keyed "imu", sensor names, "truth"), what was repaired or dropped, and the
+    readings of the sensors that are off (for the ledger)."""
+
+    root: Path
+    config: MissionConfig
+    imu: ImuData
+    sensors: dict[str, SensorData]
+    truth: pd.DataFrame | None
+    tables: dict[str, pd.DataFrame]
+    repairs: tuple[Repair, ...]
+    dropped: tuple[DroppedRow, ...]
+    off: dict[str, SensorData] = field(default_factory=dict)
+    """Sensors with ``use = "off"`` whose table could be read: never used, in the ledger as
+    "sensor off" (a missing or bad table of an off sensor is skipped, logged)."""
+
+    def readings(self, use: tuple[str, ...] = ("aid",)) -> dict[str, tuple[Array, Array]]:
+        """``{name: (t, z)}`` of the sensors whose ``use`` is in ``use`` (for the engine);
+        array position i is file row ``sensors[name].rows[i]``."""
+        return {n: (s.t, s.z) for n, s in self.sensors.items() if self.config.sensors[n].use in use}
+
+
+# --- loading ------------------------------------------------------------------------------------
+
+
+def load_mission(path: str | Path) -> Mission:
+    """Load the mission folder ``path`` (or its ``mission.toml``); see docs/data-format.md."""
+    root = Path(path)
+    if root.is_file():
+        root = root.parent
+    config = load_config(root / CONFIG_NAME)
+    journal = Journal()
+    cache: dict[Path, Table] = {}
+    inside = _resolve(root, root.name or str(root))
+
+    def table(file: str) -> Table:
+        p = _resolve(root / file, file)
+        if not p.is_relative_to(inside):
+            raise MissionError(
+                f"{file}: leads to {p}, outside the mission folder {inside} (a symbolic link out "
+                "of it?); tables live inside the mission folder",
+                file=file,
+            )
+        if p not in cache:
+            cache[p] = read_table(p, file, journal)
+        return cache[p]
+
+    imu_table = table(config.imu.file)
+    tables: dict[str, pd.DataFrame] = {"imu": imu_table.df}
+    imu = _load_imu(imu_table, config, journal)
+    sensors: dict[str, SensorData] = {}
+    off: dict[str, SensorData] = {}
+    for name, cfg in config.sensors.items():
+        if cfg.use == "off":
+            data = _load_off_sensor(table, name, cfg, journal)
+            if data is not None:
+                off[name] = data
+            continue
+        tb = table(cfg.file)
+        tables[name] = tb.df
+        data = _load_sensor(tb, name, cfg, journal)
+        if data is not None:
+            sensors[name] = data
+    truth = None
+    if config.truth.file is not None:
+        tb = table(config.truth.file)
+        tables["truth"] = tb.df
+        truth = _load_truth(tb, journal)
+    journal.summarise()
+    return Mission(
+        root,
+        config,
+        imu,
+        sensors,
+        truth,
+        tables,
+        tuple(journal.repairs),
+        tuple(journal.dropped),
+        off,
+    )
+
+
+def _load_off_sensor(
+    table: Callable[[str], Table], name: str, cfg: SensorConfig, journal: Journal
+) -> SensorData | None:
+    """A sensor with ``use = "off"``: its readings are read only to give each its fate in the
+    ledger ("sensor off"); a table that is missing or bad is skipped (logged), not an error."""
+    scratch = Journal()
+    try:
+        data = _load_sensor(table(cfg.file), name, cfg, scratch)
+    except MissionError as exc:
+        log.info("sensor %r: use = 'off', its table not read (%s)", name, exc)
+        return None
+    journal.repairs.extend(scratch.repairs)
+    journal.dropped.extend(scratch.dropped)
+    if data is None:  # an optional sensor with no rows
+        return None
+    log.info("sensor %r: use = 'off', %d reading(s) read, not used", name, len(data.t))
+    return data
+
+
+def _resolve(path: Path, label: str) -> Path:
+    """``path`` with every symbolic link followed; a loop (or a path the system cannot
+    follow) is a MissionError naming ``label``."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as exc:  # RuntimeError: Python < 3.13's symlink loop
+        why = "a symbolic link loop" if "loop" in str(exc).lower() else str(exc)
+        raise MissionError(f"{label}: cannot follow the path ({why})", file=label) from None
+
+
+def _rows_equal(a: Array, b: Array) -> bool:
+    return bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
+
+
+def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
+    """IMU table → intervals, with the checks and repairs of docs/data-format.md."""
+    cfg = config.imu
+    rates = cfg.format == "rates"
+    if len(table) == 0:
+        raise MissionError(f"{table.label} (imu): no data rows", file=table.label)
+    t, v, used = take_columns(
+        table, IMU_RATE_COLUMNS if rates else IMU_INCREMENT_COLUMNS, "imu", journal
+    )
+    check_order(table, t)
+    keep = np.ones(t.size, dtype=bool)
+    for k in np.flatnonzero(np.diff(t) == 0.0):
+        if _rows_equal(v[k], v[k + 1]):
+            journal.repair(
+                table.label,
+                int(table.lines[k + 1]),
+                TIME_COLUMN,
+                "dropped duplicate row",
+                f"same time and values as {table.where(int(k))}",
+            )
+            keep[k + 1] = False
+        else:
+            raise table.error(
+                int(k + 1),
+                TIME_COLUMN,
+                f"repeated time t = {show(t[k])} s (also at {table.where(int(k))}) with different "
+                "values",
+            )
+    rows = np.flatnonzero(keep)
+    # Increments: each row's own interval, before rows with NaN are removed (see below).
+    own_dt = np.diff(t[rows], prepend=t[rows[0]] - 1.0 / cfg.rate_hz)
+    finite = np.all(np.isfinite(v[rows]), axis=1)
+    for j in np.flatnonzero(~finite):
+        r = int(rows[j])
+        bad = used[1 + int(np.flatnonzero(~np.isfinite(v[r]))[0])]
+        journal.repair(
+            table.label,
+            int(table.lines[r]),
+            bad,
+            "dropped row with non-finite value",
+            f"{bad} = {show(table.df[bad].iloc[r])}",
+        )
+    rows, own_dt = rows[finite], own_dt[finite]
+    need = 2 if rates else 1
+    if rows.size < need:
+        raise MissionError(
+            f"{table.label} (imu): {rows.size} valid sample(s), at least {need} needed",
+            file=table.label,
+        )
+    _check_magnitudes(table, v[rows], own_dt, rows, used, rates)
+    tk = t[rows]
+    gaps = np.diff(tk)
+    _check_gaps(table, tk, gaps, rows, cfg.gap_limit_s)
+    med = float(np.median(gaps)) if gaps.size else 1.0 / cfg.rate_hz
+    if abs(med * cfg.rate_hz - 1.0) > RATE_MISMATCH:
+        log.warning(
+            "%s: median IMU interval %.6g s does not match imu.rate_hz = %g (%.6g s)",
+            table.label,
+            med,
+            cfg.rate_hz,
+            1.0 / cfg.rate_hz,
+        )
+    vv = v[rows]
+    if rates:
+        dtheta, dvel = rates_to_increments(vv[:, :3], vv[:, 3:], gaps)
+        return ImuData(tk[1:].copy(), gaps, dtheta, dvel)
+    # A row dropped for NaN leaves a hole: the next interval is stretched back to the previous
+    # kept sample and its increments scaled by the ratio (constant rate over the hole), so that
+    # gravity and the measured specific force stay integrated over the same time.
+    dt = np.concatenate([own_dt[:1], gaps])
+    scale = (dt / own_dt)[:, None]
+    return ImuData(tk.copy(), dt, vv[:, :3] * scale, vv[:, 3:] * scale)
+
+
+def _check_magnitudes(
+    table: Table,
+    v: Array,
+    own_dt: Array,
+    rows: NDArray[np.int64],
+    used: list[str],
+    rates: bool,
+) -> None:
+    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units."""
+    w = v if rates else v / own_dt[:, None]
+    limits = np.array([MAX_GYRO_RAD_S] * 3 + [MAX_ACCEL_M_S2] * 3)
+    over = np.abs(w) > limits
+    if not over.any():
+        return
+    j, c = (int(i) for i in np.argwhere(over)[0])
+    r = int(rows[j])
+    col = used[1 + c]
+    gyro = c < 3
+    limit = "20 rad/s" if gyro else f"20 g = {MAX_ACCEL_M_S2:.1f} m/s²"
+    hint = "deg/s (or deg) given as rad/s (rad)?" if gyro else "not m/s² (m/s), e.g. mm/s² or ft?"
+    what = (
+        f"value {show(v[j, c])}"
+        if rates
+        else f"value {show(v[j, c])} over dt = {own_dt[j]:.6g} s is a rate of {w[j, c]:.6g}"
+    )
+    raise table.error(r, col, f"{what} exceeds {limit}: wrong units? ({hint})")
+
+
+def _check_gaps(
+    table: Table, tk: Array, gaps: Array, rows: NDArray[np.int64], limit: float
+) -> None:
+    big = np.flatnonzero(gaps > limit)
+    if not big.size:
+        return
+    k = int(big[0])
+    r0, r1 = int(rows[k]), int(rows[k + 1])
+    dropped = r1 - r0 - 1
+    why = f" ({dropped} row(s) between them were dropped, see the log)" if dropped else ""
+    raise MissionError(
+        f"{table.label}: IMU gap of {gaps[k]:.6g} s between {table.where(r0)} "
+        f"(t = {show(tk[k])} s) and {table.where(r1)} (t = {show(tk[k + 1])} s) exceeds "
+        f"imu.max_gap_s = {limit:.6g} s{why}",
+        file=table.label,
+        line=int(table.lines[r1]),
+        field=TIME_COLUMN,
+    )
+
+
+def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -> SensorData | None:
+    """A sensor table → readings; NaN readings are kept (the engine drops them, logged)."""
+    if table.cut is not None:
+        line, t_cut = table.cut
+        journal.drop(
+            table.label,
+            f"{table.label} line {line}",
+            DroppedRow(name, len(table), t_cut, TRUNCATED_REASON),
+            logged=False,
+        )
+    if len(table) == 0:
+        if cfg.optional:
+            journal.repair(
+                table.label, None, "", "disabled sensor", f"sensor {name!r}: no rows (optional)"
+            )
+            return None
+        raise MissionError(
+            f"sensor {name!r} ({table.label}): no samples (set optional = true to run without it)",
+            file=table.label,
+        )
+    t, z, used = take_columns(table, cfg.columns, f"sensor {name!r}", journal)
+    check_order(table, t)
+    limits = cfg.limits_si()
+    outside = _check_plausible(table, name, z, limits, used[1:])
+    keep = np.ones(t.size, dtype=bool)
+    for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
+        keep[r] = False
+        journal.drop(
+            table.label,
+            table.where(int(r)),
+            DroppedRow(name, int(r), float(t[r]), "duplicate timestamp"),
+        )
+    if cfg.status_column is not None:
+        lost = ~flag(table, cfg.status_column)
+        reason = f"DVL bottom lock lost: {cfg.status_column} = 0 (status_column)"
+        for r in np.flatnonzero(keep & lost):
+            keep[r] = False
+            journal.drop(
+                table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
+            )
+    if cfg.zero_is_lost:
+        for r in np.flatnonzero(keep & np.all(z == 0.0, axis=1)):
+            keep[r] = False
+            journal.drop(
+                table.label,
+                table.where(int(r)),
+                DroppedRow(name, int(r), float(t[r]), LOST_LOCK_REASON),
+            )
+    for r in np.flatnonzero(keep & outside.any(axis=1)):
+        keep[r] = False
+        c = int(np.flatnonzero(outside[r])[0])
+        lo, hi = limits[c]
+        reason = (
+            f"implausible: {cfg.columns[c]} = {z[r, c]:.6g} outside [{lo:.6g}, {hi:.6g}] "
+            f"{_UNIT[cfg.columns[c].rsplit('_', 1)[-1]]}"
+        )
+        journal.drop(
+            table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
+        )
+    _drop_stuck(table, name, cfg, t, z, keep, journal)
+    rows = np.flatnonzero(keep).astype(np.int64)
+    tk = t[rows]
+    if cfg.rate_hz is not None:
+        period = 1.0 / cfg.rate_hz
+    elif tk.size >= 2:
+        period = float(np.median(np.diff(tk)))
+    else:
+        period = math.nan
+    return SensorData(name, cfg.kind, tk, z[rows], rows, period)
+
+
+_UNIT = {"s": "m/s", "m": "m", "rad": "rad"}
+"""Unit of a column by its name's last part (``vx_m_s`` → m/s, ``depth_m`` → m)."""
+
+
+def _drop_stuck(
+    table: Table,
+    name: str,
+    cfg: SensorConfig,
+    t: Array,
+    z: Array,
+    keep: NDArray[np.bool_],
+    journal: Journal,
+) -> None:
+    """Drop (``keep`` set False, ledger "stuck: ...") the readings still kept that
+    :func:`adaptnav.mission.screening.stuck_runs` catches: a run unchanged within
+    ``resolution`` for ``stuck_s`` or longer, all but its first reading (docs/robustness.md)."""
+    stuck_s = cfg.stuck_duration_s()
+    if stuck_s <= 0.0:
+        return
+    kept = np.flatnonzero(keep)
+    zk = z[kept]
+    if cfg.kind == "dvl":
+        # An all-zero vector is zero_is_lost's business (a lost bottom lock, or a vehicle
+        # resting on the bottom: the user says which), so it breaks a run, like NaN.
+        zk = np.where(np.all(zk == 0.0, axis=1)[:, None], np.nan, zk)
+    resolution = cfg.resolution_si()
+    for a, b in stuck_runs(t[kept], zk, resolution, stuck_s).tolist():
+        t_a, t_b = float(t[kept[a]]), float(t[kept[b]])
+        reason = (
+            f"stuck: {', '.join(cfg.columns)} unchanged within {_within(cfg, resolution)} for "
+            f"{t_b - t_a:.1f} s (t = {t_a:.3f} .. {t_b:.3f} s)"
+        )
+        for r in kept[a + 1 : b + 1].tolist():
+            keep[r] = False
+            journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
+
+
+def _within(cfg: SensorConfig, resolution: Array) -> str:
+    """``1e-05 m/s`` if every column has the same resolution and unit, else one per column."""
+    parts = [
+        f"{v:g} {_UNIT[c.rsplit('_', 1)[-1]]}"
+        for v, c in zip(resolution.tolist(), cfg.columns, strict=True)
+    ]
+    return parts[0] if len(set(parts)) == 1 else "(" + ", ".join(parts) + ")"
+
+
+def _check_plausible(
+    table: Table, name: str, z: Array, limits: Array, columns: list[str]
+) -> NDArray[np.bool_]:
+    """Which finite values lie outside ``limits`` (n, d). A column whose every finite value
+    does is an error (wrong units, or the wrong column): the readings are not just bad."""
+    finite = np.isfinite(z)
+    outside = finite & ((z < limits[:, 0]) | (z > limits[:, 1]))
+    for c in range(z.shape[1]):
+        n_finite = int(finite[:, c].sum())
+        if n_finite and bool(np.all(outside[finite[:, c], c])):
+            r = int(np.flatnonzero(finite[:, c])[0])
+            lo, hi = limits[c]
+            col = columns[c]
+            converted = " (after × π/180)" if "_deg" in col else ""
+            raise table.error(
+                r,
+                col,
+                f"every value of the column is outside the plausible range [{lo:.6g}, {hi:.6g}]"
+                f"{converted} (e.g. {show(table.df[col].iloc[r])} here, {n_finite} value(s)): "
+                f"wrong units or the wrong column? If the range is wrong, set "
+                f"[sensors.{name}] limits (docs/robustness.md)",
+            )
+    return outside
+
+
+TRUTH_OPTIONAL_GROUPS = (TRUTH_COLUMNS[3:6], TRUTH_COLUMNS[6:9])
+"""Velocity and attitude: each group all or none (a GNSS reference has no attitude)."""
+
+
+def _truth_columns(table: Table) -> list[str]:
+    """Position, plus each optional group whose columns are all present; a partial group is an
+    error naming the missing columns."""
+    names = list(table.df.columns)
+    columns = list(TRUTH_COLUMNS[:3])
+    for group in TRUTH_OPTIONAL_GROUPS:
+        have = [c for c in group if present(names, c)]
+        if have and len(have) < len(group):
+            missing = [c for c in group if c not in have]
+            raise MissionError(
+                f"{table.label} (truth): has {have} but not {missing}; give all of {list(group)} "
+                "or none",
+                file=table.label,
+                field=missing[0],
+            )
+        if have:
+            columns += group
+    return columns
+
+
+def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
+    """The reference table with its SI columns as floats (degrees converted), extras kept:
+    position always, velocity and attitude where the table has them (all three or none)."""
+    if len(table) == 0:
+        raise MissionError(f"{table.label} (truth): no data rows", file=table.label)
+    columns = _truth_columns(table)
+    t, z, used = take_columns(table, columns, "truth", journal)
+    check_order(table, t)
+    # The reference is not filtered: a position that cannot be one is an error (a wrong
+    # reference would score every run wrongly, without a word).
+    for i, c in enumerate(columns[:3]):
+        lo, hi = SENSOR_LIMITS["gnss"][c]
+        bad = np.flatnonzero(np.isfinite(z[:, i]) & ((z[:, i] < lo) | (z[:, i] > hi)))
+        if bad.size:
+            r = int(bad[0])
+            raise table.error(
+                r,
+                used[1 + i],
+                f"value {show(table.df[used[1 + i]].iloc[r])} is outside [{lo:.6g}, {hi:.6g}] "
+                f"{_UNIT[c.rsplit('_', 1)[-1]]}, not a position (wrong units?; "
+                f"{bad.size} row(s))",
+            )
+    same = np.flatnonzero(np.diff(t) == 0.0)
+    if same.size:
+        k = int(same[0])
+        raise table.error(
+            k + 1, TIME_COLUMN, f"repeated time t = {show(t[k])} s (also at {table.where(k)})"
+        )
+    out = table.df.copy()
+    out[TIME_COLUMN] = t
+    for i, c in enumerate(columns):
+        out[c] = z[:, i]
+    return out
+
+
+# --- sensor models ------------------------------------------------------------------------------
+
+
+def build_sensor_model(name: str, cfg: SensorConfig) -> MeasurementModel:
+    """The measurement model of ``[sensors.<name>]`` (σ in SI, l_b, C_sb = C_bsᵀ where
+    ``C_bs = euler_to_dcm(mounting_rpy_deg)`` rotates sensor axes into body axes)."""
+    sigma = cfg.sigma_si()
+    if cfg.kind == "dvl":
+        return DVL(sigma, cfg.lever_arm(), cfg.sensor_from_body(), name)
+    if cfg.kind == "depth":
+        return Depth(float(np.asarray(sigma).reshape(-1)[0]), cfg.lever_arm(), name)
+    if cfg.kind == "inclinometer":
+        if cfg.model == "attitude":
+            return Inclinometer(sigma, cfg.sensor_from_body(), name)
+        return PendulumInclinometer(sigma, cfg.sensor_from_body(), name)
+    if cfg.kind == "nhc":
+        return NonHolonomic(sigma, cfg.lever_arm(), cfg.sensor_from_body(), name)
+    if cfg.kind == "heading":
+        return Heading(float(np.asarray(sigma).reshape(-1)[0]), cfg.sensor_from_body(), name)
+    return GNSS(sigma, cfg.lever_arm(), bool(cfg.use_height), name)
+
+
+# --- writing ------------------------------------------------------------------------------------
+
+
+def write_mission(
+    path: str | Path,
+    config: MissionConfig,
+    tables: Mapping[str, pd.DataFrame],
+    fmt: Literal["parquet", "csv"] | None = "parquet",
+) -> MissionConfig:
+    """Write a mission folder: ``mission.toml`` and one table per stream.
+
+    ``tables`` is keyed "imu", sensor names and "truth" (sensors with ``use = "off"`` may be
+    left out). ``fmt`` sets every table's extension (file names in the config are changed to
+    match); None keeps the config's names. Returns the configuration as written.
+    """
+    root = Path(path)
+    if fmt is not None:
+        config = _with_format(config, "." + fmt)
+    targets: dict[str, str] = {"imu": config.imu.file}
+    for n, s in config.sensors.items():
+        if s.use != "off" or n in tables:
+            targets[n] = s.file
+    if config.truth.file is not None:
+        targets["truth"] = config.truth.file
+    unknown = sorted(set(tables) - set(targets))
+    if unknown:
+        raise MissionError(f"tables {unknown} name no stream of the config ({list(targets)})")
+    missing = sorted(set(targets) - set(tables))
+    if missing:
+        raise MissionError(f"no table given for {missing}")
+    root.mkdir(parents=True, exist_ok=True)
+    written: dict[str, pd.DataFrame] = {}
+    for key, file in targets.items():
+        df = tables[key]
+        if file in written:
+            if written[file] is not df:
+                raise MissionError(f"{file}: two different tables for one file ({key!r})")
+            continue
+        write_table(df, root / file)
+        written[file] = df
+    write_config(config, root / CONFIG_NAME)
+    return config
+
+
+def _with_format(config: MissionConfig, suffix: str) -> MissionConfig:
+    def rename(file: str) -> str:
+        return str(Path(file).with_suffix(suffix))
+
+    sensors = {n: s.model_copy(update={"file": rename(s.file)}) for n, s in config.sensors.items()}
+    truth = config.truth
+    if truth.file is not None:
+        truth = truth.model_copy(update={"file": rename(truth.file)})
+    return config.model_copy(
+        update={
+            "imu": config.imu.model_copy(update={"file": rename(config.imu.file)}),
+            "sensors": sensors,
+            "truth": truth,
+        }
+    )

@@ -1,0 +1,941 @@
+"""Reading the mission's tables (CSV or Parquet, by extension) with file/line-precise errors.
+
+A :class:`Table` keeps the whole DataFrame as read (extra columns included) and, per data row,
+where it is in the file: the 1-based CSV line (header = line 1; blank lines are skipped but
+counted) or the 0-based Parquet row. Values are turned into float arrays column by column, so
+a bad cell is reported as ``imu.csv line 7, gyro_x_rad_s: 'abc' is not a number`` and never as
+a traceback from NumPy or pandas. Policy (error or logged repair) is docs/data-format.md.
+
+A CSV of numbers is streamed by pyarrow into NumPy columns (its peak memory a fraction of the
+file); any other CSV, and any that has something to report, is read by the exact, text-based
+reader, which locates every problem. Both give the same table: docs/robustness.md, "Memory".
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import math
+import re
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, BinaryIO, Literal
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa  # type: ignore[import-untyped]
+import pyarrow.csv as pa_csv  # type: ignore[import-untyped]
+from numpy.typing import NDArray
+
+from adaptnav.core.units import DEG
+from adaptnav.mission.config import SENSOR_COLUMNS, MissionError
+
+log = logging.getLogger("adaptnav.mission")
+
+Array = NDArray[np.float64]
+TableFormat = Literal["csv", "parquet"]
+
+TIME_COLUMN = "t_s"
+IMU_RATE_COLUMNS = (
+    "gyro_x_rad_s",
+    "gyro_y_rad_s",
+    "gyro_z_rad_s",
+    "accel_x_m_s2",
+    "accel_y_m_s2",
+    "accel_z_m_s2",
+)
+IMU_INCREMENT_COLUMNS = (
+    "dtheta_x_rad",
+    "dtheta_y_rad",
+    "dtheta_z_rad",
+    "dvel_x_m_s",
+    "dvel_y_m_s",
+    "dvel_z_m_s",
+)
+TRUTH_COLUMNS = (
+    "lat_rad",
+    "lon_rad",
+    "h_m",
+    "vn_m_s",
+    "ve_m_s",
+    "vd_m_s",
+    "roll_rad",
+    "pitch_rad",
+    "yaw_rad",
+)
+STREAM_COLUMNS: dict[str, tuple[str, ...]] = {
+    "imu (format = 'rates')": IMU_RATE_COLUMNS,
+    "imu (format = 'increments')": IMU_INCREMENT_COLUMNS,
+    "truth": TRUTH_COLUMNS,
+    **{k: v[:2] if k == "gnss" else v for k, v in SENSOR_COLUMNS.items()},
+}
+"""Measurement columns (after ``t_s``) of every kind of table, to say what a table looks like."""
+_OLD_PANDAS = int(pd.__version__.split(".")[0]) < 3
+"""pandas < 3 parses floats exactly only when asked; pandas 3 always does (and deprecates it)."""
+_LOG_CAP = 10
+"""Repairs of one kind logged one by one per file; the rest are summarised (all are recorded)."""
+CUT_WINDOW = 100
+"""Lines before the last whose last field's length is compared with the last one's, in a CSV
+that does not end with a line break (a cut number is shorter)."""
+CSV_BLOCK_BYTES = 1 << 20
+"""CSV text pyarrow parses per batch (its default). Measured on a 138 MB IMU file: 4 MiB
+blocks were no faster and raised the peak above baseline from 100 to 213 MB (the reader holds
+several blocks in flight)."""
+SCAN_BYTES = 1 << 22
+"""CSV bytes read at a time by the pass that finds the lines (then dropped)."""
+TAIL_BYTES = 1 << 16
+"""CSV bytes read at a time, backwards from the end, for the last CUT_WINDOW + 1 lines."""
+TAIL_MAX_BYTES = 1 << 22
+"""A tail longer than this without CUT_WINDOW + 1 data lines (blank lines, very long lines)
+is left to the exact reader."""
+BOM = b"\xef\xbb\xbf"
+"""UTF-8 byte-order mark (read as ``utf-8-sig``: ignored)."""
+PANDAS_NA = (
+    "", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN",
+    "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null",
+)  # fmt: skip
+"""Cells ``pandas.read_csv`` reads as missing (its default ``na_values``), given to pyarrow so
+that both CSV readers read the same cells as NaN."""
+PANDAS_TRUE, PANDAS_FALSE = ("True", "TRUE", "true"), ("False", "FALSE", "false")
+"""The cells ``pandas.read_csv`` reads as booleans (a column of nothing else is a bool column);
+given to pyarrow so that both readers agree."""
+_NUMBER_BYTES = bytes(
+    sorted(
+        set(
+            b"0123456789+-.eE ,\t\r\n"
+            + b"infinityINFINITY"
+            + "".join(PANDAS_NA + PANDAS_TRUE + PANDAS_FALSE).encode()
+        )
+    )
+)
+"""Bytes a CSV of numbers is made of: digits, signs, point, exponent, separators, infinity and
+the missing-value spellings. A file with any other byte (a letter of a word, a quote, ``x`` of
+a hexadecimal number, non-ASCII) goes to the exact reader."""
+
+
+@dataclass(frozen=True)
+class Repair:
+    """A documented change made to the input while loading it (also logged).
+
+    ``line`` is the CSV line (1-based, header = line 1) or, for Parquet, the 0-based row;
+    None when the repair concerns the whole table or sensor. ``field`` is the column or key.
+    """
+
+    file: str
+    line: int | None
+    field: str
+    action: str
+    detail: str
+
+    def __str__(self) -> str:
+        at = self.file if self.line is None else f"{self.file} {_unit(self.file)} {self.line}"
+        return f"{at}{', ' + self.field if self.field else ''}: {self.action} ({self.detail})"
+
+
+@dataclass(frozen=True)
+class DroppedRow:
+    """A sensor row removed at load (its fate for the engine's ledger): 0-based data row."""
+
+    sensor: str
+    row: int
+    t: float
+    reason: str
+
+
+@dataclass
+class Journal:
+    """Collects repairs and dropped rows while loading, and logs them (logger
+    ``adaptnav.mission``)."""
+
+    repairs: list[Repair] = field(default_factory=list)
+    dropped: list[DroppedRow] = field(default_factory=list)
+    _counts: Counter[tuple[str, str]] = field(default_factory=Counter)
+
+    def repair(
+        self,
+        file: str,
+        line: int | None,
+        fld: str,
+        action: str,
+        detail: str,
+        level: int = logging.WARNING,
+    ) -> None:
+        r = Repair(file, line, fld, action, detail)
+        self.repairs.append(r)
+        self._note((file, action), level, str(r))
+
+    def drop(self, file: str, where: str, row: DroppedRow, *, logged: bool = True) -> None:
+        """Record a sensor row removed at load; ``logged=False`` when a repair already said so."""
+        self.dropped.append(row)
+        if logged:
+            kind = row.reason.split(":", 1)[0]  # "implausible: <value>": one kind for the cap
+            self._note((file, kind), logging.WARNING, f"{where}: dropped ({row.reason})")
+
+    def _note(self, key: tuple[str, str], level: int, text: str) -> None:
+        self._counts[key] += 1
+        if self._counts[key] <= _LOG_CAP:
+            log.log(level, "%s", text)
+
+    def summarise(self) -> None:
+        """Log how many of each repair were not logged one by one."""
+        for (file, action), n in self._counts.items():
+            if n > _LOG_CAP:
+                log.warning("%s: %d more: %s (see Mission.repairs)", file, n - _LOG_CAP, action)
+
+
+def show(value: object) -> str:
+    """A cell or number for a message: ``10.05``, ``nan``, ``'abc'`` (no NumPy reprs)."""
+    if isinstance(value, bool | np.bool_):
+        return str(bool(value))
+    if isinstance(value, int | np.integer):
+        return str(int(value))
+    if isinstance(value, float | np.floating):
+        return repr(float(value))
+    return repr(value)
+
+
+def _unit(file: str) -> str:
+    return "line" if file.lower().endswith(".csv") else "row"
+
+
+@dataclass(frozen=True, eq=False)
+class Table:
+    """One table as read: the full DataFrame and each data row's place in the file."""
+
+    label: str
+    """The file as named in mission.toml (used in every message)."""
+    path: Path
+    fmt: TableFormat
+    df: pd.DataFrame
+    lines: NDArray[np.int64]
+    """Per data row: CSV line (1-based, header = 1) or Parquet row (0-based)."""
+    cut: tuple[int, float] | None = None
+    """A truncated last line dropped while reading (a CSV cut short): its line and its ``t_s``
+    (NaN if that was cut too). Its data row is ``len(self)``; a sensor's ledger gets it."""
+
+    def __len__(self) -> int:
+        return len(self.df)
+
+    def where(self, row: int) -> str:
+        """``"imu.csv line 7"`` or ``"imu.parquet row 5"`` for 0-based data row ``row``."""
+        unit = "line" if self.fmt == "csv" else "row"
+        return f"{self.label} {unit} {int(self.lines[row])}"
+
+    def error(self, row: int, fld: str, message: str) -> MissionError:
+        """A MissionError located at data row ``row`` and column ``fld``."""
+        return MissionError(
+            f"{self.where(row)}, {fld}: {message}",
+            file=self.label,
+            line=int(self.lines[row]),
+            field=fld,
+        )
+
+
+def table_format(path: Path) -> TableFormat:
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        return "csv"
+    if suffix in (".parquet", ".pq"):
+        return "parquet"
+    raise MissionError(
+        f"{path.name}: unknown table format {suffix!r} (use .csv, .parquet or .pq)", file=path.name
+    )
+
+
+def read_table(path: Path, label: str, journal: Journal) -> Table:
+    """Read a CSV or Parquet table (by extension); structural problems are MissionErrors."""
+    fmt = table_format(path)
+    if not path.is_file():
+        what = "is not a file" if path.exists() else "file not found"
+        raise MissionError(f"{label}: {what} ({path})", file=label)
+    if fmt == "csv":
+        return _read_csv(path, label, journal)
+    return _read_parquet(path, label)
+
+
+def _read_parquet(path: Path, label: str) -> Table:
+    try:
+        df = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises many kinds; all mean "not a readable Parquet file"
+        raise MissionError(
+            f"{label}: not a readable Parquet file ({type(exc).__name__}: {exc})", file=label
+        ) from None
+    if not isinstance(df.index, pd.RangeIndex):
+        df = df.reset_index()  # an index written by pandas (e.g. t_s) becomes a column again
+    df = df.reset_index(drop=True)
+    df.columns = pd.Index([str(c).strip() for c in df.columns])
+    _check_header(list(df.columns), label, None)
+    return Table(label, path, "parquet", df, np.arange(len(df), dtype=np.int64))
+
+
+def _check_header(names: list[str], label: str, line: int | None) -> None:
+    at = label if line is None else f"{label} line {line}"
+    for i, name in enumerate(names):
+        if not name:
+            raise MissionError(
+                f"{at}: column {i + 1} has no name (a trailing separator?)", file=label, line=line
+            )
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise MissionError(f"{at}: repeated column name(s) {dup}", file=label, line=line)
+
+
+def _read_csv(path: Path, label: str, journal: Journal) -> Table:
+    """A CSV table: typed and streamed when the file allows it, else read exactly as text.
+
+    Both ways give the same DataFrame, lines, repairs and errors (docs/robustness.md, "Memory");
+    the typed reader leaves to the exact one every file it cannot read the same way, and every
+    file with an error to report (a cut last line it repairs itself, from the file's tail).
+    """
+    table = _read_csv_typed(path, label, journal)
+    return table if table is not None else _read_csv_exact(path, label, journal)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where a CSV's lines are, from one pass over its bytes (nothing kept but this)."""
+
+    header: list[str]
+    size: int
+    """Bytes the scan read: the file's size then (a file still growing is read up to it)."""
+    data_start: int
+    """Byte offset of line 2, the first after the header."""
+    n_lines: int
+    """Lines as ``text.split("\\n")`` counts them (an empty one after a final line break)."""
+    blank: NDArray[np.int64]
+    """1-based numbers of the empty lines after the header (CRLF ones too)."""
+    ends_with_break: bool
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What to read of a CSV whose layout is known, and what to say about its last line."""
+
+    limit: int
+    """Bytes to parse: the whole file, or up to the start of a cut last line."""
+    lines: NDArray[np.int64]
+    """File line of each data row to read."""
+    cut: tuple[int, float] | None
+    repair: tuple[int, str, str] | None
+    """(line, field, detail) of the "dropped truncated last line" repair."""
+
+
+def _read_csv_typed(path: Path, label: str, journal: Journal) -> Table | None:
+    """Read a CSV with pyarrow's streaming reader straight into NumPy columns, or None.
+
+    One pass over the bytes finds the header, the blank lines (for the line numbers) and
+    anything this reader would read differently from pandas (quotes, a lone CR, a character
+    that cannot be part of a number or a missing-value spelling); the file's tail decides on a
+    cut last line; then pyarrow parses the file (up to that line) in blocks of
+    :data:`CSV_BLOCK_BYTES` into columns allocated once. None whenever the exact reader has
+    to speak: a cell that is not a number, a wrong field count, a text, date or true/false
+    column, an empty table.
+    """
+    try:
+        with path.open("rb") as f:
+            layout = _scan(f)
+            if layout is None or not _header_ok(layout.header, label):
+                return None
+            plan = _plan_last_line(f, layout)
+    except OSError:
+        return None
+    if plan is None:
+        return None
+    columns = _read_columns(path, plan.limit, layout.header, plan.lines.size)
+    if columns is None:
+        return None
+    if plan.repair is not None:
+        line, fld, detail = plan.repair
+        journal.repair(label, line, fld, "dropped truncated last line", detail)
+    # copy=False: one block per column, no consolidation into a second 2-D copy of the data.
+    df = pd.DataFrame(dict(zip(layout.header, columns, strict=True)), copy=False)
+    df.columns = pd.Index(layout.header)
+    return Table(label, path, "csv", df, plan.lines, plan.cut)
+
+
+def _header_ok(header: list[str], label: str) -> bool:
+    """Whether the header passes :func:`_check_header` (the exact reader gives the error)."""
+    try:
+        _check_header(header, label, 1)
+    except MissionError:
+        return False
+    return True
+
+
+def _scan(f: BinaryIO) -> _Layout | None:
+    """The layout of an open CSV, or None if it is not a plain table of numbers.
+
+    Plain: a header on line 1 with at least two names (no quotes); after it, only the bytes of
+    :data:`_NUMBER_BYTES`, no ``+`` but an exponent's, line breaks LF or CRLF (a lone CR is a
+    line break to pyarrow, not to the exact reader) and at least one line. Read in pieces of
+    :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
+    The size is what was read: a file still being written is read as it was then.
+    """
+    first = f.read(SCAN_BYTES)
+    size = len(first)
+    end = first.find(b"\n")
+    if end < 0:
+        return None  # no line after the header, or a header longer than a piece
+    head = first[:end].removeprefix(BOM).removesuffix(b"\r")
+    if any(c in head for c in (b'"', b"\r", b"\x00")):
+        return None
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    header = [h.strip() for h in text.split(",")]
+    if not text.strip() or len(header) < 2:
+        return None
+    data_start = end + 1
+    blank: list[int] = []
+    breaks = 0  # line breaks after the header's
+    last = b"\n"  # the file's last byte so far: the header's line break
+    carry = b""
+    chunk = first[data_start:]
+    while True:
+        buf = carry + chunk  # carry: the start of a line, short
+        cut = buf.rfind(b"\n") + 1 if chunk else len(buf)
+        piece, carry = buf[:cut], buf[cut:]
+        if piece:
+            crs = piece.count(b"\r")
+            if piece.translate(None, _NUMBER_BYTES) or (crs and crs != piece.count(b"\r\n")):
+                return None
+            if _leading_plus(piece):
+                return None
+            _blank_lines(piece, 2 + breaks, blank, crlf=crs > 0)
+            breaks += piece.count(b"\n")
+            last = piece[-1:]
+        if not chunk:
+            break
+        chunk = f.read(SCAN_BYTES)
+        size += len(chunk)
+    n_lines = breaks + 2
+    ends_with_break = last == b"\n"
+    if ends_with_break:
+        blank.append(n_lines)  # the empty string after the final line break
+    if n_lines - 1 - len(blank) < 1:
+        return None  # no data line: the exact reader gives the table its empty columns
+    return _Layout(header, size, data_start, n_lines, np.asarray(blank, np.int64), ends_with_break)
+
+
+def _leading_plus(piece: bytes) -> bool:
+    """Whether a ``+`` of ``piece`` starts a number (``+7``) rather than an exponent
+    (``1e+16``): pandas reads ``+7`` as an integer, pyarrow only as a float."""
+    pluses = piece.count(b"+")
+    return pluses > 0 and pluses != piece.count(b"e+") + piece.count(b"E+")
+
+
+def _blank_lines(piece: bytes, first_line: int, out: list[int], *, crlf: bool) -> None:
+    """Append to ``out`` the numbers of the empty lines (LF, or CRLF if ``crlf``, alone) of
+    ``piece``, which starts at the start of line ``first_line``."""
+    starts = [0] if piece.startswith((b"\n", b"\r\n")) else []
+    for pattern in (b"\n\n", b"\n\r\n") if crlf else (b"\n\n",):
+        p = piece.find(pattern)
+        while p >= 0:
+            starts.append(p + 1)
+            p = piece.find(pattern, p + 1)
+    line, at = first_line, 0
+    for q in sorted(starts):
+        line += piece.count(b"\n", at, q)
+        at = q
+        out.append(line)
+
+
+def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
+    """Rows to read and what to do with the last line, as the exact reader decides it.
+
+    Only the tail is read: the last data line and the :data:`CUT_WINDOW` before it. A last
+    line with fewer fields, or cut inside its last number (docs/robustness.md), is left out
+    and reported; more fields, or nothing left to read, is the exact reader's to report.
+    """
+    tail = _tail_lines(f, layout)
+    if not tail:  # None, or only lines of spaces (blank to the exact reader, not to the scan)
+        return None
+    lines = np.arange(2, layout.n_lines + 1, dtype=np.int64)
+    if layout.blank.size:
+        lines = np.delete(lines, layout.blank - 2)
+    (line, offset, text) = tail[-1]
+    if int(lines[-1]) != line:  # lines of spaces at the end: blank to the exact reader only
+        return None
+    header = layout.header
+    n = len(header)
+    fields = text.split(",")
+    c = len(fields)
+    if c > n:
+        return None
+    repair: tuple[int, str, str] | None = None
+    cut: tuple[int, float] | None = None
+    if c < n:
+        repair = (line, "", f"{c} of {n} fields: {text[:60]!r}")
+        cut = (line, _time_of(fields[: c - 1], header))
+    elif not layout.ends_with_break:
+        before = [len(t.rsplit(",", 1)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
+        value = fields[-1].strip()
+        if not before or len(value) < max(before):
+            repair = (
+                line,
+                header[-1],
+                f"the file ends without a line break and the last value {value!r} is shorter "
+                f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+            )
+            cut = (line, _time_of(fields[:-1], header))
+    if cut is None:
+        return _Plan(layout.size, lines, None, None)
+    if lines.size < 2:
+        return None
+    return _Plan(offset, lines[:-1], cut, repair)
+
+
+def _tail_lines(f: BinaryIO, layout: _Layout) -> list[tuple[int, int, str]] | None:
+    """(line, byte offset, text without CR) of the last data lines, up to CUT_WINDOW + 1,
+    oldest first; read backwards from the end in steps of :data:`TAIL_BYTES`."""
+    want = CUT_WINDOW + 1
+    pos = layout.size
+    buf = b""
+    while True:
+        step = min(TAIL_BYTES, pos - layout.data_start)
+        pos -= step
+        f.seek(pos)
+        buf = f.read(step) + buf
+        parts = buf.split(b"\n")
+        whole = 0 if pos == layout.data_start else 1  # the first part may be a line's end
+        if sum(1 for p in parts[whole:] if p.strip()) >= want or pos == layout.data_start:
+            break
+        if len(buf) > TAIL_MAX_BYTES:
+            return None  # a tail of blank lines: not worth a special case
+    found: list[tuple[int, int, str]] = []
+    offset = pos + len(buf)
+    line = layout.n_lines
+    for part in reversed(parts[whole:]):
+        offset -= len(part)
+        if part.strip():
+            found.append((line, offset, part.decode("ascii").rstrip("\r")))
+            if len(found) == want:
+                break
+        offset -= 1  # its line break
+        line -= 1
+    return found[::-1]
+
+
+def _read_columns(
+    path: Path, limit: int, header: list[str], rows: int
+) -> list[NDArray[Any]] | None:
+    """The first ``limit`` bytes of a CSV parsed into one array per column, or None.
+
+    Types as pandas would infer them: pyarrow's inference on the first block says int64
+    (kept, float64 once a cell is missing, as in pandas) or float64 (also for a block of
+    missing cells); any other type is the exact reader's. An int64 column that turns out to
+    hold non-integers later is read again as float64.
+    """
+    types = _probe_types(path, limit, header)
+    if types is None:
+        return None
+    for _ in range(len(header) + 1):  # each retry turns one int64 column into float64
+        try:
+            return _convert(path, limit, header, types, rows)
+        except pa.ArrowInvalid as exc:
+            name = _widened(str(exc), types)
+            if name is None:
+                return None
+            types[name] = pa.float64()
+        except (pa.ArrowException, OSError):
+            return None
+    return None  # pragma: no cover - every column widened at most once
+
+
+def _open_csv(src: _Head, header: list[str], types: dict[str, Any] | None) -> Any:
+    """pyarrow's streaming CSV reader over ``src``: the header line skipped (its names are
+    ours, stripped), pandas' missing-value spellings, ``types`` or inference from block 1."""
+    return pa_csv.open_csv(
+        src,
+        read_options=pa_csv.ReadOptions(
+            skip_rows=1, column_names=header, block_size=CSV_BLOCK_BYTES
+        ),
+        convert_options=pa_csv.ConvertOptions(
+            column_types=types,
+            null_values=list(PANDAS_NA),
+            true_values=list(PANDAS_TRUE),
+            false_values=list(PANDAS_FALSE),
+        ),
+    )
+
+
+def _probe_types(path: Path, limit: int, header: list[str]) -> dict[str, Any] | None:
+    """Per column, pa.int64(), pa.float64() or pa.bool_() from the first block; None for
+    another type."""
+    try:
+        with _Head(path, limit) as src:
+            reader = _open_csv(src, header, None)
+            schema = reader.schema
+            reader.close()
+    except (pa.ArrowException, OSError):
+        return None
+    types: dict[str, Any] = {}
+    for name, kind in zip(header, schema.types, strict=True):
+        if pa.types.is_int64(kind):
+            types[name] = pa.int64()
+        elif pa.types.is_float64(kind) or pa.types.is_null(kind):
+            types[name] = pa.float64()
+        elif pa.types.is_boolean(kind):
+            types[name] = pa.bool_()
+        else:
+            return None
+    return types
+
+
+def _convert(
+    path: Path, limit: int, header: list[str], types: dict[str, Any], rows: int
+) -> list[NDArray[Any]] | None:
+    """Stream the batches into columns of ``rows`` values; None if the count differs, if a
+    cell reads as NaN that pandas would not (``NAN``, ``+nan``: not missing-value spellings), or
+    if a float column may be integers beyond int64 (pandas: uint64 or text, pyarrow: float)."""
+    dtypes = {"int64": np.int64, "bool": np.bool_}
+    out: list[NDArray[Any]] = [
+        np.empty(rows, dtypes.get(str(types[h]), np.float64)) for h in header
+    ]
+    huge = [False] * len(header)
+    at = 0
+    with _Head(path, limit) as src:
+        reader = _open_csv(src, header, types)
+        try:
+            for batch in reader:
+                m = int(batch.num_rows)
+                if at + m > rows:
+                    return None
+                for i, column in enumerate(batch.columns):
+                    if out[i].dtype == np.bool_ and column.null_count:
+                        return None  # pandas: an object column of bools and NaN
+                    values = column.to_numpy(zero_copy_only=False)  # missing → NaN (float64)
+                    if values.dtype.kind == "f":
+                        if int(np.count_nonzero(np.isnan(values))) != column.null_count:
+                            return None
+                        huge[i] = huge[i] or bool(np.any(np.abs(values) >= _INT64_END))
+                        if out[i].dtype != np.float64:  # an int64 column with a missing cell
+                            out[i] = out[i].astype(np.float64)
+                    out[i][at : at + m] = values
+                at += m
+        finally:
+            reader.close()
+    if at != rows:
+        return None
+    for column, big in zip(out, huge, strict=True):
+        # Every double beyond 2**63 is a whole number; the column could be integers only if
+        # every other value is one too (no NaN: a missing cell makes pandas read floats).
+        if big and np.all(np.isfinite(column)) and np.all(column == np.trunc(column)):
+            return None
+    return out
+
+
+_INT64_END = 2.0**63
+"""Magnitude from which an integer no longer fits an int64 (inf included: it rules nothing
+out, the whole column is looked at)."""
+_INT_FAILED = re.compile(
+    r"In CSV column #(\d+): (?:Row #\d+: )?CSV conversion error to int64: invalid value '(.*)'$",
+    re.DOTALL,
+)
+_INT_TEXT = re.compile(r"\s*[+-]?\d+\s*")
+
+
+def _widened(message: str, types: dict[str, Any]) -> str | None:
+    """The int64 column to read as float64 after pyarrow's conversion error ``message``, or
+    None: another error, or an integer pyarrow refuses and pandas reads (``+7``, 2**63)."""
+    m = _INT_FAILED.match(message)
+    if m is None or _INT_TEXT.fullmatch(m.group(2)):
+        return None
+    names = list(types)
+    k = int(m.group(1))
+    if k >= len(names) or not pa.types.is_int64(types[names[k]]):
+        return None  # pragma: no cover - pyarrow names the int64 column it was converting
+    return names[k]
+
+
+class _Head(io.RawIOBase):
+    """The first ``limit`` bytes of a file, as pyarrow reads a Python file object."""
+
+    def __init__(self, path: Path, limit: int) -> None:
+        super().__init__()
+        self._file = path.open("rb", buffering=0)
+        self._left = limit
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        n = min(len(buffer), self._left)
+        if n <= 0:
+            return 0
+        got = self._file.readinto(memoryview(buffer)[:n]) or 0
+        self._left -= got
+        return got
+
+    def close(self) -> None:
+        self._file.close()
+        super().close()
+
+
+def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
+    """The whole file as text, line by line: every error and repair located exactly.
+
+    Slow and memory-hungry (about 11× the file at its peak, docs/robustness.md, "Memory"): only
+    for the files :func:`_read_csv_typed` leaves to it.
+    """
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise MissionError(f"{label}: cannot read ({exc.strerror})", file=label) from None
+    if b"\x00" in raw[:65536]:
+        raise MissionError(
+            f"{label}: not a CSV text file (binary content; a Parquet file named .csv?)", file=label
+        )
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise MissionError(
+            f"{label}: not UTF-8 text (bad byte at offset {exc.start}); not a CSV file?", file=label
+        ) from None
+    lines = [s.rstrip("\r") for s in text.split("\n")]
+    keep = [i for i, s in enumerate(lines) if s.strip()]
+    if not keep:
+        raise MissionError(f"{label}: empty file (no header line)", file=label)
+    head = keep[0]
+    header = [h.strip() for h in next(csv.reader([lines[head]]))]
+    _check_header(header, label, head + 1)
+    data = keep[1:]
+    quoted = '"' in text
+
+    def fields(i: int) -> list[str]:
+        return next(csv.reader([lines[i]])) if quoted else lines[i].split(",")
+
+    if quoted:
+        counts = [len(r) for r in csv.reader(lines[i] for i in data)]
+    else:
+        counts = [lines[i].count(",") + 1 for i in data]
+    n = len(header)
+    cut: tuple[int, float] | None = None
+    for j, (i, c) in enumerate(zip(data, counts, strict=True)):
+        if c == n:
+            continue
+        if c < n and j == len(data) - 1:
+            journal.repair(
+                label,
+                i + 1,
+                "",
+                "dropped truncated last line",
+                f"{c} of {n} fields: {lines[i][:60]!r}",
+            )
+            cut = (i + 1, _time_of(fields(i)[: c - 1], header))
+            data = data[:-1]
+            break
+        raise MissionError(
+            f"{label} line {i + 1}: {c} fields, the header (line {head + 1}) has {n}",
+            file=label,
+            line=i + 1,
+        )
+    if cut is None and data and not text.endswith(("\n", "\r")):
+        # No line break at the end: the file may have been cut inside the last line's last
+        # field (-0.0979034 → -0.0979). Kept only if that field is as long as the longest of
+        # its column on the lines before (a fixed-width writer); otherwise dropped.
+        last = fields(data[-1])
+        before = [len(fields(i)[-1].strip()) for i in data[-1 - CUT_WINDOW : -1]]
+        value = last[-1].strip()
+        if not before or len(value) < max(before):
+            journal.repair(
+                label,
+                data[-1] + 1,
+                header[-1],
+                "dropped truncated last line",
+                f"the file ends without a line break and the last value {value!r} is shorter "
+                f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+            )
+            cut = (data[-1] + 1, _time_of(last[:-1], header))
+            data = data[:-1]
+    body = "\n".join([lines[head], *(lines[i] for i in data)])
+    try:
+        if _OLD_PANDAS:
+            df = pd.read_csv(
+                io.StringIO(body),
+                low_memory=False,
+                skipinitialspace=True,
+                float_precision="round_trip",
+            )
+        else:
+            df = pd.read_csv(io.StringIO(body), low_memory=False, skipinitialspace=True)
+    except (pd.errors.ParserError, ValueError, csv.Error) as exc:
+        raise MissionError(f"{label}: cannot parse as CSV ({exc})", file=label) from None
+    df.columns = pd.Index(header)
+    if len(df) != len(data):  # pragma: no cover - guarded by the field count above
+        raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
+    return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1, cut)
+
+
+def _time_of(complete: list[str], header: list[str]) -> float:
+    """``t_s`` of a truncated line from its complete fields (NaN if it is not among them)."""
+    if TIME_COLUMN not in header:
+        return math.nan
+    k = header.index(TIME_COLUMN)
+    try:
+        return float(complete[k]) if k < len(complete) else math.nan
+    except ValueError:
+        return math.nan
+
+
+# --- columns ------------------------------------------------------------------------------------
+
+
+def deg_variant(column: str) -> str | None:
+    """The degree spelling of an angle column (``lat_rad`` → ``lat_deg``), or None."""
+    return column.replace("_rad", "_deg", 1) if "_rad" in column else None
+
+
+def present(df_columns: Sequence[str], column: str) -> bool:
+    """Whether ``column`` or its degree variant (``*_deg*``) is among ``df_columns``."""
+    alt = deg_variant(column)
+    return column in df_columns or (alt is not None and alt in df_columns)
+
+
+def looks_like(columns: Sequence[str]) -> list[str]:
+    """The kinds of table whose measurement columns are all in ``columns``."""
+    return [k for k, cols in STREAM_COLUMNS.items() if all(present(columns, c) for c in cols)]
+
+
+def numeric(table: Table, column: str) -> Array:
+    """A column as float64; a cell that is not a number is an error naming line and field.
+
+    Empty cells (and NA spellings) become NaN; what NaN means is the caller's policy.
+    """
+    s = table.df[column]
+    if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
+        raise MissionError(
+            f"{table.label}, {column}: a date/time column; give plain float seconds",
+            file=table.label,
+            field=column,
+        )
+    if pd.api.types.is_bool_dtype(s) or _all_bool(s):
+        raise MissionError(
+            f"{table.label}, {column}: a true/false column where a number is expected (it would "
+            "read as 0 and 1); wrong column?",
+            file=table.label,
+            field=column,
+        )
+    if pd.api.types.is_complex_dtype(s):
+        raise MissionError(
+            f"{table.label}, {column}: a complex-number column where a real number is expected",
+            file=table.label,
+            field=column,
+        )
+    if pd.api.types.is_numeric_dtype(s):
+        return np.asarray(s.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+    text = s.astype("string").str.strip()
+    text = text.where(text != "")
+    conv = pd.to_numeric(text, errors="coerce")
+    bad = np.flatnonzero((conv.isna() & text.notna() & (text != "")).to_numpy(dtype=bool))
+    if bad.size:
+        r = int(bad[0])
+        raise table.error(r, column, f"value {show(s.iloc[r])} is not a number")
+    return np.asarray(conv.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+
+
+def flag(table: Table, column: str) -> NDArray[np.bool_]:
+    """A status column as booleans: true/false, or the numbers 1 and 0; anything else (a
+    missing cell too: a status the driver did not give is not a "locked") is an error naming
+    line and field."""
+    if column not in table.df.columns:
+        raise MissionError(
+            f"{table.label}: status column {column!r} not found; found {list(table.df.columns)}",
+            file=table.label,
+            field=column,
+        )
+    s = table.df[column]
+    if pd.api.types.is_bool_dtype(s) or _all_bool(s):
+        missing = np.flatnonzero(s.isna().to_numpy(dtype=bool))
+        if missing.size:
+            raise table.error(int(missing[0]), column, "status missing (not 1/0 or true/false)")
+        return np.asarray(s.to_numpy(dtype=bool))
+    text = s.astype("string").str.strip().str.lower()
+    ok = text.isin(["1", "0", "1.0", "0.0", "true", "false"]).to_numpy(dtype=bool)
+    if not ok.all():
+        r = int(np.flatnonzero(~ok)[0])
+        raise table.error(r, column, f"status {show(s.iloc[r])} is not 1/0 or true/false")
+    return np.asarray(text.isin(["1", "1.0", "true"]).to_numpy(dtype=bool))
+
+
+def _all_bool(s: pd.Series) -> bool:
+    """An object column whose non-missing cells are all Python/NumPy bools (nullable bools)."""
+    if s.dtype != object:
+        return False
+    cells = s.dropna()
+    return len(cells) > 0 and all(isinstance(v, bool | np.bool_) for v in cells)
+
+
+def take_columns(
+    table: Table, columns: Sequence[str], stream: str, journal: Journal
+) -> tuple[Array, Array, list[str]]:
+    """``t_s`` (n,), the measurement ``columns`` (n, d) in SI units (degrees → radians) and the
+    names of the file's columns they came from.
+
+    A missing column is an error listing the missing and the found columns (and what the table
+    looks like, if it matches another kind); columns not used are logged once and kept in the
+    DataFrame.
+    """
+    names = list(table.df.columns)
+    wanted = [TIME_COLUMN, *columns]
+    missing = [c for c in wanted if not present(names, c)]
+    if missing:
+        hint = looks_like(names)
+        extra = f"; it looks like a {' / '.join(hint)} table" if hint else ""
+        if len(names) == 1 and any(sep in names[0] for sep in ";\t"):
+            extra = "; the separator must be a comma"
+        raise MissionError(
+            f"{table.label} ({stream}): missing column(s) {missing}; found {names}{extra}",
+            file=table.label,
+            field=missing[0],
+        )
+    used: list[str] = []
+    values: list[Array] = []
+    for c in wanted:
+        if c in names:
+            values.append(numeric(table, c))
+            used.append(c)
+            continue
+        alt = deg_variant(c)
+        assert alt is not None
+        values.append(numeric(table, alt) * DEG)
+        used.append(alt)
+        journal.repair(
+            table.label, None, alt, "converted degrees", f"{alt} → {c} (× π/180)", logging.INFO
+        )
+    extra_cols = [c for c in names if c not in used]
+    if extra_cols:
+        log.info("%s (%s): extra columns kept, not used: %s", table.label, stream, extra_cols)
+    t = values[0]
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        r = int(bad[0])
+        raise table.error(r, TIME_COLUMN, f"time {show(table.df[used[0]].iloc[r])} is not finite")
+    z = np.column_stack(values[1:]) if len(values) > 1 else np.empty((t.size, 0))
+    return t, z, used
+
+
+def check_order(table: Table, t: Array, rows: NDArray[np.int64] | None = None) -> None:
+    """Timestamps must not decrease; the error names the first offending line and both times."""
+    back = np.flatnonzero(np.diff(t) < 0.0)
+    if back.size:
+        k = int(back[0])
+        r0, r1 = (k, k + 1) if rows is None else (int(rows[k]), int(rows[k + 1]))
+        raise table.error(
+            r1,
+            TIME_COLUMN,
+            f"time goes backwards: t = {show(t[k + 1])} s after t = {show(t[k])} s at "
+            f"{table.where(r0)} (timestamps must be in increasing order)",
+        )
+
+
+def write_table(df: pd.DataFrame, path: Path) -> None:
+    """Write ``df`` as CSV or Parquet (by extension), without the index."""
+    if table_format(path) == "csv":
+        df.to_csv(path, index=False)
+    else:
+        df.to_parquet(path, index=False)

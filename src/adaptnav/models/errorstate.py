@@ -1,0 +1,233 @@
+"""15-state error model: layout, F, G, Q, discretization, closed-loop feedback.
+
+Sign convention (docs/conventions.md): **dx = x_true ⊖ x_hat**, truth minus estimate, with
+position error in NED metres at the estimate, ``dr = [(R_M + h) δL, (R_N + h) cos L δλ, -δh]``,
+and the attitude error phi defined by ``C_nb_true = Exp(phi) C_nb_hat`` (resolved in n).
+
+Continuous model ``dx' = F dx + G w`` with ``w = [w_a, w_g, w_ba, w_bg]`` (VRW, ARW, bias driving
+noises; the paper's 12 noise inputs, its eq. (3); docs/filters.md, 'Error-state model'). Derived for
+this convention from the full local-navigation-frame model of Groves (2013) §14.2.4 (his δψ = -phi
+and δv = -dv), written with δL = dr_N / (R_M + h) and δh = -dr_D:
+
+* position: ``dr_N' = dv_N - v_D dr_N/R_M' + v_N dr_D/R_M'`` (R_M' = R_M + h), ``dr_D' = dv_D``,
+  ``dr_E' = dv_E + (...) dr_N + (...) dr_E + v_E dr_D / R_N'`` (see :func:`system_matrix`);
+* velocity: ``dv' = -[f_n×] phi - C_nb db_a - [(2ω_ie + ω_en)×] dv
+  + [v×] δ(2ω_ie + ω_en) + δg`` (Coriolis, transport and gravity-gradient terms);
+* attitude: ``phi' = -[ω_in×] phi - C_nb db_g - δω_in`` (δω_in from dr and dv);
+* biases: first-order Gauss-Markov ``db' = -db/τ + w_b`` (τ = inf: random walk).
+
+Every block is checked against finite differences of the nonlinear mechanization
+(tests/unit/test_errorstate.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav.core import attitude, earth
+from adaptnav.models.imu_noise import ImuNoise
+from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_SIZE, NOM_VEL
+
+Array = NDArray[np.float64]
+
+N_STATES = 15
+N_NOISE = 12
+POS = slice(0, 3)
+VEL = slice(3, 6)
+ATT = slice(6, 9)
+BA = slice(9, 12)
+BG = slice(12, 15)
+STATE_NAMES: tuple[str, ...] = (
+    "dr_N", "dr_E", "dr_D", "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D",
+    "dba_x", "dba_y", "dba_z", "dbg_x", "dbg_y", "dbg_z",
+)  # fmt: skip
+W_A = slice(0, 3)
+W_G = slice(3, 6)
+W_BA = slice(6, 9)
+W_BG = slice(9, 12)
+
+
+def _rate_sensitivities(lat: float, h: float, v_n: Array) -> tuple[Array, Array, Array, Array]:
+    """Partials of ω_ie and ω_en: (dω_ie/dL, dω_en/dL, dω_en/dh, dω_en/dv (3×3))."""
+    rm = earth.meridian_radius(lat) + h
+    rn = earth.transverse_radius(lat) + h
+    drm = earth.meridian_radius_dlat(lat)
+    drn = earth.transverse_radius_dlat(lat)
+    s, c = np.sin(lat), np.cos(lat)
+    t = s / c
+    vn, ve = v_n[0], v_n[1]
+    wie_L = np.array([-earth.OMEGA_IE * s, 0.0, -earth.OMEGA_IE * c])
+    wen_L = np.array(
+        [-ve * drn / rn**2, vn * drm / rm**2, -ve * (1.0 / (c * c * rn) - t * drn / rn**2)]
+    )
+    wen_h = np.array([-ve / rn**2, vn / rm**2, ve * t / rn**2])
+    wen_v = np.array([[0.0, 1.0 / rn, 0.0], [-1.0 / rm, 0.0, 0.0], [0.0, -t / rn, 0.0]])
+    return wie_L, wen_L, wen_h, wen_v
+
+
+def system_matrix(
+    lat: float,
+    h: float,
+    v_n: ArrayLike,
+    C_nb: ArrayLike,
+    f_n: ArrayLike,
+    tau_a: float = np.inf,
+    tau_g: float = np.inf,
+) -> Array:
+    """Continuous-time error dynamics matrix F (15×15) at a nominal point (docs/filters.md,
+    'Error-state model'; paper eq. (3) in continuous form; Groves §14.2.4).
+
+    ``f_n`` is the bias-corrected specific force resolved in n. Block rows follow the module
+    docstring; the dr_E column is zero outside the position block (longitude drives nothing).
+    """
+    v = np.asarray(v_n, dtype=float)
+    C = np.asarray(C_nb, dtype=float)
+    f = np.asarray(f_n, dtype=float)
+    rm = earth.meridian_radius(lat) + h
+    rn = earth.transverse_radius(lat) + h
+    drn = earth.transverse_radius_dlat(lat)
+    t = np.tan(lat)
+    vn, ve, vd = v
+    wie = earth.earth_rate_n(lat)
+    wen = earth.transport_rate_n(lat, h, v)
+    wie_L, wen_L, wen_h, wen_v = _rate_sensitivities(lat, h, v)
+    g_L, g_h = earth.gravity_gradient(lat, h)
+
+    F = np.zeros((N_STATES, N_STATES))
+    F[POS, POS] = [
+        [-vd / rm, 0.0, vn / rm],
+        [ve * (t - drn / rn) / rm, (drn * vn / (rm * rn) - vd / rn - t * vn / rm), ve / rn],
+        [0.0, 0.0, 0.0],
+    ]
+    F[POS, VEL] = np.eye(3)
+
+    # d/d(dr) of a quantity with partials a_L, a_h: columns [a_L / R_M', 0, -a_h].
+    def by_position(a_L: Array, a_h: Array) -> Array:
+        return np.column_stack([a_L / rm, np.zeros(3), -a_h])
+
+    d_cor = by_position(2.0 * wie_L + wen_L, wen_h)  # d(2ω_ie + ω_en)/d(dr)
+    d_grav = by_position(np.array([0.0, 0.0, g_L]), np.array([0.0, 0.0, g_h]))
+    F[VEL, POS] = attitude.skew(v) @ d_cor + d_grav
+    F[VEL, VEL] = -attitude.skew(2.0 * wie + wen) + attitude.skew(v) @ wen_v
+    F[VEL, ATT] = -attitude.skew(f)
+    F[VEL, BA] = -C
+    F[ATT, POS] = -by_position(wie_L + wen_L, wen_h)
+    F[ATT, VEL] = -wen_v
+    F[ATT, ATT] = -attitude.skew(wie + wen)
+    F[ATT, BG] = -C
+    F[BA, BA] = -np.eye(3) / tau_a
+    F[BG, BG] = -np.eye(3) / tau_g
+    return F
+
+
+def noise_input_matrix(C_nb: ArrayLike) -> Array:
+    """G (15×12): ``dv' ∋ -C_nb w_a``, ``phi' ∋ -C_nb w_g``, ``db' ∋ w_b``.
+
+    docs/filters.md, 'Error-state model'.
+    """
+    C = np.asarray(C_nb, dtype=float)
+    G = np.zeros((N_STATES, N_NOISE))
+    G[VEL, W_A] = -C
+    G[ATT, W_G] = -C
+    G[BA, W_BA] = np.eye(3)
+    G[BG, W_BG] = np.eye(3)
+    return G
+
+
+def noise_psd(noise: ImuNoise) -> Array:
+    """Diagonal of the continuous noise PSD Q (12): [VRW², ARW², q_ba, q_bg].
+
+    Gauss-Markov bias of steady-state σ and correlation time τ: ``q = 2 σ² / τ``; random walk
+    (τ = inf): ``q`` = the rate-random-walk PSD (Groves 14.2.2, Maybeck).
+    """
+    return np.concatenate(
+        [
+            np.full(3, noise.vrw**2),
+            np.full(3, noise.arw**2),
+            np.full(3, noise.accel_bias_psd),
+            np.full(3, noise.gyro_bias_psd),
+        ]
+    )
+
+
+def transition(F: ArrayLike, dt: float) -> Array:
+    """``Phi = I + F dt + (F dt)² / 2``, exp(F dt) to second order (docs/filters.md,
+    'Propagation')."""
+    A = np.asarray(F, dtype=float) * dt
+    return np.asarray(np.eye(A.shape[0]) + A + 0.5 * (A @ A), dtype=float)
+
+
+def discrete_noise(Phi: ArrayLike, G: ArrayLike, q_psd: ArrayLike, dt: float) -> Array:
+    """``Qd = ½ (Phi G Q Gᵀ Phiᵀ + G Q Gᵀ) dt``, trapezoidal (docs/filters.md, 'Propagation')."""
+    Gm = np.asarray(G, dtype=float)
+    GQG = (Gm * np.asarray(q_psd, dtype=float)) @ Gm.T
+    P = np.asarray(Phi, dtype=float)
+    Qd = 0.5 * (P @ GQG @ P.T + GQG) * dt
+    # Symmetric by construction; rounding in the triple product is not, and P inherits it.
+    return np.asarray(0.5 * (Qd + Qd.T), dtype=float)
+
+
+def predict_covariance(P: ArrayLike, Phi: ArrayLike, Qd: ArrayLike) -> Array:
+    """``P⁻ = Phi P⁺ Phiᵀ + Qd`` (docs/filters.md, 'Propagation'; paper eq. (11))."""
+    Pm = np.asarray(Phi, dtype=float)
+    return np.asarray(
+        Pm @ np.asarray(P, dtype=float) @ Pm.T + np.asarray(Qd, dtype=float), dtype=float
+    )
+
+
+def inject(x: ArrayLike, dx: ArrayLike) -> Array:
+    """Closed-loop feedback ``x_hat ⊕ dx`` (docs/conventions.md, 'Error state'; docs/filters.md,
+    'Feedback and reset').
+
+    lat += dr_N/(R_M + h), lon += dr_E/((R_N + h) cos lat), h -= dr_D (radii at the estimate),
+    v += dv, ``q ← Exp(phi) ⊗ q``, b += db.
+    """
+    xa = np.array(x, dtype=float)
+    d = np.asarray(dx, dtype=float)
+    if xa.shape != (NOM_SIZE,) or d.shape != (N_STATES,):
+        raise ValueError(
+            f"inject needs shapes ({NOM_SIZE},) and ({N_STATES},), got {xa.shape}, {d.shape}"
+        )
+    lat, h = xa[0], xa[2]
+    xa[0] = lat + d[0] / (earth.meridian_radius(lat) + h)
+    xa[1] = xa[1] + d[1] / ((earth.transverse_radius(lat) + h) * np.cos(lat))
+    xa[2] = h - d[2]
+    xa[NOM_VEL] += d[VEL]
+    xa[NOM_ATT] = attitude.quat_normalize(
+        attitude.quat_mult(attitude.rotvec_to_quat(d[ATT]), xa[NOM_ATT])
+    )
+    xa[NOM_BA] += d[BA]
+    xa[NOM_BG] += d[BG]
+    return xa
+
+
+def difference(x_true: ArrayLike, x_hat: ArrayLike) -> Array:
+    """``x_true ⊖ x_hat``, the exact inverse of :func:`inject` (used by tests and metrics)."""
+    xt = np.asarray(x_true, dtype=float)
+    xh = np.asarray(x_hat, dtype=float)
+    lat, h = xh[0], xh[2]
+    dx = np.empty(N_STATES)
+    dx[0] = (xt[0] - lat) * (earth.meridian_radius(lat) + h)
+    dx[1] = (xt[1] - xh[1]) * (earth.transverse_radius(lat) + h) * np.cos(lat)
+    dx[2] = -(xt[2] - h)
+    dx[VEL] = xt[NOM_VEL] - xh[NOM_VEL]
+    dx[ATT] = attitude.quat_to_rotvec(
+        attitude.quat_mult(xt[NOM_ATT], attitude.quat_conj(xh[NOM_ATT]))
+    )
+    dx[BA] = xt[NOM_BA] - xh[NOM_BA]
+    dx[BG] = xt[NOM_BG] - xh[NOM_BG]
+    return dx
+
+
+def reset_jacobian(dx: ArrayLike) -> Array:
+    """Jacobian of the error reset after feedback: ``P ← G_r P G_rᵀ`` (Solà 2017 §6.3;
+    docs/filters.md, 'Feedback and reset').
+
+    With the left (n-frame) attitude error, the new error after injecting phi_hat is
+    ``phi' = Log(Exp(phi) Exp(-phi_hat)) ≈ phi - phi_hat + ½ phi_hat × phi``, so the attitude
+    block is ``I + ½ [phi_hat×]``; other blocks are identity to first order.
+    """
+    G = np.eye(N_STATES)
+    G[ATT, ATT] += 0.5 * attitude.skew(np.asarray(dx, dtype=float)[ATT])
+    return G

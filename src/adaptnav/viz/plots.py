@@ -1,0 +1,503 @@
+"""The comparison's figures, after the paper's Figs. 7-10, as matplotlib Figures.
+
+* :func:`trajectory`: estimated tracks over the reference, east vs north from the start, with a
+  zoom on the end (Figs. 7, 8);
+* :func:`position_error`: 3-D and horizontal position error over time (Fig. 9);
+* :func:`noise_variance`: one aiding sensor's measurements and, on a log scale, the noise
+  variance R̂ each adaptive filter used at each reading (``Result.noise``), beside the nominal R
+  and, for a simulated mission, the true σ² (Fig. 10);
+* :func:`ledger_counts`: readings used, rejected by the gate and dropped per sensor and filter;
+* :func:`nis`: a running mean of the normalised innovation squared per reading dimension
+  (about 1 for a consistent filter; docs/metrics.md, 'NIS');
+* :func:`comparison_figures`: all of them for a :class:`~adaptnav.analysis.compare.Comparison`.
+
+Figures are built as :class:`matplotlib.figure.Figure` objects without pyplot, so nothing is
+registered in pyplot's global figure manager and nothing needs closing; ``fig.savefig`` renders
+them with the Agg canvas. Long series are reduced to a few thousand points by a min/max
+envelope (:func:`envelope`), which keeps spikes (outliers, R̂ jumps) that plain striding would
+drop. Times are minutes since the shared navigation start; angles are shown in degrees.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from numpy.typing import NDArray
+
+from adaptnav.analysis.evaluate import Metrics, position_errors
+from adaptnav.api.results import Result
+
+if TYPE_CHECKING:
+    from adaptnav.analysis.compare import Comparison
+    from adaptnav.mission import Mission
+
+Array = NDArray[np.float64]
+
+__all__ = [
+    "MAX_POINTS",
+    "STYLES",
+    "comparison_figures",
+    "envelope",
+    "ledger_counts",
+    "nis",
+    "noise_variance",
+    "position_error",
+    "trajectory",
+]
+
+MAX_POINTS = 4000
+"""Most points drawn per series (after :func:`envelope` or striding)."""
+
+STYLES: dict[str, tuple[str, Any]] = {
+    "meskf": ("tab:red", "--"),
+    "maeskf": ("tab:blue", "-."),
+    "vb": ("tab:green", "-"),
+    "robust": ("tab:olive", (0, (8, 2))),
+    "oracle": ("tab:purple", ":"),
+    "floor": ("tab:orange", (0, (6, 1.5, 1, 1.5, 1, 1.5))),
+}
+"""Colour and line style per filter: colours and dashes both differ, so the lines stay apart
+in grey print too. The reference is always black."""
+_OTHER_STYLE = ("tab:brown", (0, (3, 1)))
+_LABELS = {
+    "meskf": "MESKF",
+    "maeskf": "MAESKF",
+    "vb": "VB-MAESKF",
+    "robust": "robust (VB, bounded R̂)",
+    "oracle": "oracle ESKF (true R)",
+    "floor": "DVL dead reckoning",
+}
+_ADAPTIVE = ("maeskf", "vb", "robust")
+"""Filters whose R̂ Fig. 10 shows (MESKF's is the nominal R, the oracle's the true σ²)."""
+_HATCHES = ("", "//", "..", "xx", "\\\\", "oo")
+
+# Per sensor kind: a scale from SI to the shown unit, the shown unit, component names.
+_DISPLAY: dict[str, tuple[float, str, tuple[str, ...]]] = {
+    "dvl": (1.0, "m/s", ("x (forward)", "y (right)", "z (down)")),
+    "depth": (1.0, "m", ("depth",)),
+    "inclinometer": (180.0 / math.pi, "deg", ("roll", "pitch")),
+    "heading": (180.0 / math.pi, "deg", ("yaw",)),
+    "gnss": (1.0, "m", ("north", "east", "height")),
+    "nhc": (1.0, "m/s", ("y (lateral)", "z (vertical)")),
+}
+ERROR_WINDOW = 30
+"""Readings per running mean of the actual squared measurement error in :func:`noise_variance`."""
+_TRUE_SIGMA_COLUMNS = ("sigma_m_s", "sigma_m", "sigma_rad")
+"""The simulator's per-reading true σ column, one of these per sensor table."""
+
+
+def _style(name: str) -> tuple[str, Any]:
+    return STYLES.get(name, _OTHER_STYLE)
+
+
+def _label(name: str) -> str:
+    return _LABELS.get(name, name)
+
+
+def envelope(t: Array, y: Array, max_points: int = MAX_POINTS) -> tuple[Array, Array]:
+    """At most ``max_points`` of the series ``y(t)`` keeping each bucket's minimum and maximum
+    in time order, so a one-sample spike survives. NaN gaps stay gaps (an all-NaN bucket gives
+    NaN)."""
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n = t.size
+    if n <= max_points:
+        return t, y
+    buckets = max(max_points // 2, 1)
+    k = math.ceil(n / buckets)
+    pad = buckets * k - n
+    yp = np.concatenate([y, np.full(pad, np.nan)]).reshape(buckets, k)
+    finite = np.isfinite(yp)
+    i_min = np.argmin(np.where(finite, yp, np.inf), axis=1)
+    i_max = np.argmax(np.where(finite, yp, -np.inf), axis=1)
+    base = np.arange(buckets) * k
+    first = base + np.minimum(i_min, i_max)
+    second = base + np.maximum(i_min, i_max)
+    idx = np.stack([first, second], axis=1).reshape(-1)
+    idx = np.minimum(idx, n - 1)
+    empty = np.repeat(~finite.any(axis=1), 2)
+    ys = np.where(empty, np.nan, y[idx])
+    return t[idx], ys
+
+
+def _stride(n: int, max_points: int = MAX_POINTS) -> slice:
+    return slice(None, None, max(1, math.ceil(n / max_points)))
+
+
+def _minutes(t: Array, t0: float) -> Array:
+    return (np.asarray(t, dtype=float) - t0) / 60.0
+
+
+def _start_time(results: Mapping[str, Result], t0: float | None) -> float:
+    if t0 is not None and math.isfinite(t0):
+        return t0
+    return min(float(r.solution["t_s"].iloc[0]) for r in results.values())
+
+
+def _ne(lat: Array, lon: Array, h: Array, origin: tuple[float, float, float]) -> Array:
+    from adaptnav.core.earth import geodetic_to_ned
+
+    return np.asarray(geodetic_to_ned(lat, lon, h, *origin), dtype=float)
+
+
+def trajectory(
+    results: Mapping[str, Result], truth: pd.DataFrame, *, t0: float | None = None
+) -> Figure:
+    """Figs. 7/8: each run's track (east, north from the reference's position at the start)
+    over the reference, and a zoom on the end of the run, where the errors have grown."""
+    start = _start_time(results, t0)
+    tt = truth["t_s"].to_numpy(dtype=float)
+    keep = tt >= start
+    ref = truth[keep] if keep.any() else truth
+    origin = (
+        float(ref["lat_rad"].iloc[0]),
+        float(ref["lon_rad"].iloc[0]),
+        float(ref["h_m"].iloc[0]),
+    )
+    ref_ne = _ne(
+        ref["lat_rad"].to_numpy(dtype=float),
+        ref["lon_rad"].to_numpy(dtype=float),
+        ref["h_m"].to_numpy(dtype=float),
+        origin,
+    )
+    tracks: dict[str, Array] = {}
+    for name, r in results.items():
+        sol = r.solution
+        sol = sol[sol["t_s"].to_numpy(dtype=float) >= start]
+        s = _stride(len(sol))
+        tracks[name] = _ne(
+            sol["lat_rad"].to_numpy(dtype=float)[s],
+            sol["lon_rad"].to_numpy(dtype=float)[s],
+            sol["h_m"].to_numpy(dtype=float)[s],
+            origin,
+        )
+    extent = float(np.ptp(ref_ne[:, :2], axis=0).max()) if len(ref_ne) > 1 else 0.0
+    scale, unit = (1000.0, "km") if extent > 5000.0 else (1.0, "m")
+
+    fig = Figure(figsize=(12, 5.6), layout="constrained")
+    ax_all, ax_end = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.4, 1.0]})
+    s = _stride(len(ref_ne))
+    ends = [track[-1, :2] for track in tracks.values() if len(track)]
+    for ax in (ax_all, ax_end):
+        ax.plot(
+            ref_ne[s, 1] / scale, ref_ne[s, 0] / scale, color="black", lw=2.4, label="reference"
+        )
+        for name, track in tracks.items():
+            colour, dash = _style(name)
+            ax.plot(
+                track[:, 1] / scale, track[:, 0] / scale,
+                color=colour, ls=dash, lw=1.4, label=_label(name),
+            )  # fmt: skip
+        ax.set_xlabel(f"east of the start ({unit})")
+        ax.set_ylabel(f"north of the start ({unit})")
+        ax.grid(True, alpha=0.3)
+        ax.set_aspect("equal", adjustable="datalim")
+    ax_all.plot(0.0, 0.0, "ko", ms=6, label="start")
+    ax_all.set_title("estimated tracks over the reference")
+    ax_all.legend(loc="best", fontsize=8)
+    # The zoom window is centred on the reference's end and wide enough for every run's end.
+    end_ref = ref_ne[-1, :2]
+    spread = max((float(np.max(np.abs(e - end_ref))) for e in ends), default=0.0)
+    half = max(1.5 * spread, 0.01 * extent, 10.0)
+    ax_end.set_aspect("equal", adjustable="box")
+    ax_end.set_xlim((end_ref[1] - half) / scale, (end_ref[1] + half) / scale)
+    ax_end.set_ylim((end_ref[0] - half) / scale, (end_ref[0] + half) / scale)
+    for name, track in tracks.items():
+        if len(track):
+            colour, _ = _style(name)
+            ax_end.plot(track[-1, 1] / scale, track[-1, 0] / scale, "o", color=colour, ms=6)
+    ax_end.plot(end_ref[1] / scale, end_ref[0] / scale, "ks", ms=7)
+    ax_end.set_title(f"zoom on the end (±{half:.0f} m; markers: end points)")
+    return fig
+
+
+def position_error(
+    results: Mapping[str, Result], truth: pd.DataFrame, *, t0: float | None = None
+) -> Figure:
+    """Fig. 9: 3-D and horizontal position error (estimate minus reference) over time."""
+    start = _start_time(results, t0)
+    fig = Figure(figsize=(11, 6.5), layout="constrained")
+    ax3, axh = fig.subplots(2, 1, sharex=True)
+    for name, r in results.items():
+        err = position_errors(r.solution, truth)
+        colour, dash = _style(name)
+        t = err["t_s"].to_numpy(dtype=float)
+        for ax, col in ((ax3, "error_m"), (axh, "horizontal_m")):
+            te, ye = envelope(t, err[col].to_numpy(dtype=float))
+            ax.plot(_minutes(te, start), ye, color=colour, ls=dash, lw=1.3, label=_label(name))
+    ax3.set_ylabel("3-D position error (m)")
+    axh.set_ylabel("horizontal position error (m)")
+    axh.set_xlabel("time since navigation start (min)")
+    ax3.set_title("position error against the reference")
+    for ax in (ax3, axh):
+        ax.grid(True, alpha=0.3)
+        ax.set_ylim(bottom=0.0)
+    ax3.legend(loc="upper left", fontsize=8)
+    return fig
+
+
+def _nominal_r(mission: Mission, sensor: str, dim: int) -> Array:
+    sigma = np.atleast_1d(np.asarray(mission.config.sensors[sensor].sigma_si(), dtype=float))
+    return np.broadcast_to(sigma**2, (dim,)).astype(float)
+
+
+def _true_sigma_column(table: pd.DataFrame) -> str | None:
+    return next((c for c in _TRUE_SIGMA_COLUMNS if c in table.columns), None)
+
+
+def noise_variance(
+    results: Mapping[str, Result],
+    mission: Mission,
+    sensor: str,
+    *,
+    t0: float | None = None,
+    filters: Sequence[str] = _ADAPTIVE,
+) -> Figure:
+    """Fig. 10 for one aiding sensor: its measurements per component (top; the simulator's
+    true value in black and its injected outliers as red crosses when the table has them) and
+    the R̂ that each of ``filters`` used at each reading (bottom, log scale), with the nominal
+    R (grey dashes) and, for a simulated mission, the true σ² (black)."""
+    cfg = mission.config.sensors[sensor]
+    scale, unit, comp_names = _DISPLAY.get(cfg.kind, (1.0, "SI", ()))
+    columns = cfg.columns
+    dim = len(columns)
+    start = _start_time(results, t0)
+    table = mission.tables.get(sensor)
+    if table is not None:
+        table = table[table["t_s"].to_numpy(dtype=float) > start]
+    nominal = _nominal_r(mission, sensor, dim)
+    sigma_col = None if table is None else _true_sigma_column(table)
+
+    fig = Figure(figsize=(max(5.0 * dim, 7.0), 6.5), layout="constrained")
+    axes = np.asarray(fig.subplots(2, dim, sharex=True, squeeze=False))
+    for j, col in enumerate(columns):
+        comp = comp_names[j] if j < len(comp_names) else col
+        ax_z: Axes = axes[0, j]
+        ax_r: Axes = axes[1, j]
+        if table is not None and col in table.columns and cfg.kind != "gnss":
+            t = table["t_s"].to_numpy(dtype=float)
+            te, ze = envelope(t, table[col].to_numpy(dtype=float) * scale)
+            ax_z.plot(_minutes(te, start), ze, color="tab:gray", lw=0.8, label="measured")
+            if f"true_{col}" in table.columns:
+                s = _stride(len(table))
+                truth = table[f"true_{col}"].to_numpy(dtype=float) * scale
+                ax_z.plot(_minutes(t[s], start), truth[s], color="black", lw=0.7, label="true")
+            if "is_outlier" in table.columns:
+                out = table["is_outlier"].to_numpy(dtype=bool)
+                # An outlier event spikes only some axes: mark it on those (spike_<axis>_m_s).
+                spike = f"spike_{col.split('_')[0][-1]}_m_s"
+                if spike in table.columns:
+                    # Not in place: to_numpy may be a (read-only) view of the mission's table.
+                    out = out & (table[spike].to_numpy(dtype=float) != 0.0)
+                if out.any():
+                    ax_z.plot(
+                        _minutes(t[out], start), table[col].to_numpy(dtype=float)[out] * scale,
+                        "x", color="tab:red", ms=4, label="injected outlier",
+                    )  # fmt: skip
+        else:
+            ax_z.text(0.5, 0.5, "measurements not shown", ha="center", transform=ax_z.transAxes)
+        ax_z.set_title(f"{sensor}: {comp}")
+        ax_z.set_ylabel(f"measurement ({unit})")
+        ax_z.grid(True, alpha=0.3)
+
+        for name in filters:
+            if name not in results:
+                continue
+            noise = results[name].noise
+            rows = noise[(noise["sensor"] == sensor) & (noise["component"] == j)]
+            if rows.empty:
+                continue
+            colour, dash = _style(name)
+            te, re = envelope(
+                rows["t_s"].to_numpy(dtype=float), rows["r_hat"].to_numpy(dtype=float) * scale**2
+            )
+            # Layers: the noisy matching estimate (MAESKF) translucent at the bottom, the
+            # references over it, VB-MAESKF's smooth estimate on top.
+            last = name == filters[-1]
+            ax_r.plot(
+                _minutes(te, start), re, color=colour, ls=dash, lw=1.2, label=_label(name),
+                zorder=5 if last else 2, alpha=1.0 if last else 0.55,
+            )  # fmt: skip
+        if table is not None and col in table.columns and f"true_{col}" in table.columns:
+            # What the errors really were (pendulum error and outliers included, which the
+            # simulator's σ leaves out): the reference an estimate of R can be held against.
+            # A longer mission gets a longer mean, so the drawn curve stays a line, not a band.
+            window = max(ERROR_WINDOW, len(table) // 500)
+            err = table[col].to_numpy(dtype=float) - table[f"true_{col}"].to_numpy(dtype=float)
+            err2 = pd.Series((err * scale) ** 2).rolling(window, min_periods=window // 2).mean()
+            te, ee = envelope(table["t_s"].to_numpy(dtype=float), err2.to_numpy(dtype=float))
+            ax_r.plot(
+                _minutes(te, start), ee, color="black", ls=":", lw=1.1, zorder=4,
+                label=f"actual error², mean of {window}",
+            )  # fmt: skip
+        if sigma_col is not None and table is not None:
+            te, se = envelope(
+                table["t_s"].to_numpy(dtype=float),
+                (table[sigma_col].to_numpy(dtype=float) * scale) ** 2,
+            )
+            ax_r.plot(_minutes(te, start), se, color="black", lw=1.0, zorder=4, label="true σ²")
+        ax_r.axhline(
+            nominal[j] * scale**2, color="0.45", ls=(0, (4, 2)), lw=1.2, zorder=4,
+            label="nominal R",
+        )  # fmt: skip
+        ax_r.set_yscale("log")
+        ax_r.set_ylabel(f"noise variance ({unit}²)")
+        ax_r.set_xlabel("time since navigation start (min)")
+        ax_r.grid(True, which="major", alpha=0.3)
+    handles: list[Any] = []
+    labels: list[str] = []
+    for ax in (axes[0, 0], axes[1, 0]):
+        h, lab = ax.get_legend_handles_labels()
+        handles += h
+        labels += lab
+    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 4), fontsize=8)
+    what = sensor if sensor == cfg.kind else f"{sensor} ({cfg.kind})"
+    fig.suptitle(f"{what}: measurements (top) and noise variance R̂ used by the filters (bottom)")
+    return fig
+
+
+def _navigation_counts(
+    results: Mapping[str, Result], t0: float
+) -> tuple[list[str], dict[str, dict[str, dict[str, int]]]]:
+    """Aided sensors (used or rejected by some run) and, per filter and sensor, the readings
+    used, rejected and dropped after the navigation start."""
+    sensors: set[str] = set()
+    counts: dict[str, dict[str, dict[str, int]]] = {}
+    for name, r in results.items():
+        ledger = r.ledger
+        fate = ledger["fate"].astype(str)
+        aided = set(ledger.loc[fate.isin(("used", "rejected")), "sensor"].astype(str))
+        sensors |= aided
+        late = ledger["t"].to_numpy(dtype=float) > t0
+        per: dict[str, dict[str, int]] = {}
+        for sensor in aided:
+            mine = (ledger["sensor"].astype(str) == sensor).to_numpy()
+            per[sensor] = {
+                "used": int(((fate == "used").to_numpy() & mine).sum()),
+                "rejected": int(((fate == "rejected").to_numpy() & mine).sum()),
+                "dropped": int(((fate == "dropped").to_numpy() & mine & late).sum()),
+            }
+        counts[name] = per
+    return sorted(sensors), counts
+
+
+def ledger_counts(
+    results: Mapping[str, Result],
+    metrics: Mapping[str, Metrics] | None = None,
+    *,
+    t0: float | None = None,
+) -> Figure:
+    """Readings per aided sensor and filter: used, rejected by the outlier gate (docs/filters.md,
+    'Gate'), and dropped after the navigation start (invalid or missing readings; the alignment
+    window and initialisation-only sensors are left out). ``metrics`` is accepted for symmetry and
+    unused: its counts are totals over the whole mission, alignment window included."""
+    del metrics
+    start = _start_time(results, t0)
+    # A baseline without a ledger (the DVL dead reckoning) has no readings to count.
+    results = {n: r for n, r in results.items() if not r.ledger.empty}
+    sensors, counts = _navigation_counts(results, start)
+    names = list(results)
+    fig = Figure(figsize=(12, 4.4), layout="constrained")
+    axes = fig.subplots(1, 3)
+    width = 0.8 / max(len(names), 1)
+    x = np.arange(len(sensors), dtype=float)
+    for ax, fate, title in zip(
+        axes,
+        ("used", "rejected", "dropped"),
+        ("used", "rejected by the gate", "dropped while navigating"),
+        strict=True,
+    ):
+        top = 0
+        for i, name in enumerate(names):
+            colour, _ = _style(name)
+            values = [counts[name].get(s, {}).get(fate, 0) for s in sensors]
+            bars = ax.bar(
+                x + (i - (len(names) - 1) / 2) * width, values, width,
+                color=colour, hatch=_HATCHES[i % len(_HATCHES)], edgecolor="black", lw=0.5,
+                label=_label(name),
+            )  # fmt: skip
+            ax.bar_label(bars, fontsize=7, rotation=90, padding=2)
+            top = max(top, *values, 0)
+        ax.set_xticks(x, sensors)
+        ax.set_title(title)
+        ax.set_ylabel("readings")
+        # Headroom for the rotated value labels above the tallest bar.
+        ax.set_ylim(0.0, 1.45 * top + 1.0)
+        ax.grid(True, axis="y", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8)
+    fig.suptitle("ledger: the fate of each aiding reading after the navigation start")
+    return fig
+
+
+NIS_WINDOW = 100
+"""Readings per running mean in :func:`nis`."""
+
+
+def nis(results: Mapping[str, Result], *, t0: float | None = None) -> Figure:
+    """Running mean (over :data:`NIS_WINDOW` used readings) of each reading's NIS divided by
+    its dimension, per aided sensor and filter; 1 is what a consistent filter gives
+    (docs/metrics.md, 'NIS')."""
+    start = _start_time(results, t0)
+    per_sensor: dict[str, dict[str, tuple[Array, Array]]] = {}
+    r_cols = [c for c in next(iter(results.values())).ledger.columns if c.startswith("r_")]
+    for name, r in results.items():
+        ledger = r.ledger
+        used = ledger[(ledger["fate"] == "used") & np.isfinite(ledger["statistic"].astype(float))]
+        for sensor, rows in used.groupby("sensor"):
+            dim = np.isfinite(rows[r_cols].to_numpy(dtype=float)).sum(axis=1)
+            value = rows["statistic"].to_numpy(dtype=float) / np.maximum(dim, 1)
+            mean = pd.Series(value).rolling(NIS_WINDOW, min_periods=1).mean().to_numpy()
+            per_sensor.setdefault(str(sensor), {})[name] = (
+                rows["t"].to_numpy(dtype=float),
+                np.asarray(mean, dtype=float),
+            )
+    sensors = sorted(per_sensor)
+    fig = Figure(figsize=(11, 2.6 * max(len(sensors), 1) + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(max(len(sensors), 1), 1, sharex=True, squeeze=False)[:, 0])
+    for ax, sensor in zip(axes, sensors, strict=False):
+        for name, (t, mean) in per_sensor[sensor].items():
+            colour, dash = _style(name)
+            te, me = envelope(t, mean)
+            ax.plot(_minutes(te, start), me, color=colour, ls=dash, lw=1.2, label=_label(name))
+        ax.axhline(1.0, color="black", lw=1.0, label="consistent (1)")
+        ax.set_yscale("log")
+        ax.set_ylabel(f"{sensor}: NIS / dim")
+        ax.grid(True, which="major", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8)
+    axes[-1].set_xlabel("time since navigation start (min)")
+    fig.suptitle(f"normalised innovation squared per component, running mean of {NIS_WINDOW}")
+    return fig
+
+
+def aided_sensors(mission: Mission) -> list[str]:
+    """The mission's sensors with ``use = "aid"`` and a table, in configuration order."""
+    return [
+        name
+        for name, cfg in mission.config.sensors.items()
+        if cfg.use == "aid" and name in mission.tables
+    ]
+
+
+def comparison_figures(cmp: Comparison) -> dict[str, Figure]:
+    """Every figure of a comparison, keyed by file stem: ``trajectory``, ``position_error``,
+    ``noise_<sensor>`` per aided sensor, ``ledger_counts``, ``nis``."""
+    t0 = cmp.t0
+    figs = {
+        "trajectory": trajectory(cmp.results, cmp.truth, t0=t0),
+        "position_error": position_error(cmp.results, cmp.truth, t0=t0),
+    }
+    for sensor in aided_sensors(cmp.mission):
+        figs[f"noise_{sensor}"] = noise_variance(cmp.results, cmp.mission, sensor, t0=t0)
+    if any(not r.ledger.empty for r in cmp.results.values()):
+        figs["ledger_counts"] = ledger_counts(cmp.results, cmp.metrics, t0=t0)
+    if any((r.ledger["fate"] == "used").any() for r in cmp.results.values()):
+        figs["nis"] = nis(cmp.results, t0=t0)
+    return figs
