@@ -158,18 +158,17 @@ class RunSpec:
     """One run of a sweep: which mission, which filter, which parameter.
 
     Attributes:
-        preset: simulation preset (``adaptnav.sim.scenarios.PRESETS``). seed: simulation seed (every
-        error source's random stream). filter: a kind of
-        :data:`adaptnav.estimation.settings.FILTER_KINDS`. q: DVL gate coefficient: the gate is
-        **on** for this filter with this q (docs/filters.md,
+        preset: simulation preset (``adaptnav.sim.scenarios.PRESETS``).
+        seed: simulation seed (every error source's random stream).
+        filter: a kind of :data:`adaptnav.estimation.settings.FILTER_KINDS`.
+        q: DVL gate coefficient: the gate is **on** for this filter with this q (docs/filters.md,
             'Gate'; the mission's gate rule, by default per component); None: the filter's
             default (MESKF 600, MAESKF 1800 gated; VB-MAESKF and the oracle ungated).
         q_scale: factor on the gyro-bias process-noise PSD in the filter's Q
             (:func:`scale_gyro_bias_q`); None (or 1): the mission's Q.
         disturbances: the simulator's switches; None (or the default): all on.
         vb_dof: VB-MAESKF only: Student-t ν of each reading (estimation/noise/vb.py, beyond the
-        paper);
-            None: the paper's Gaussian update.
+            paper); None: the paper's Gaussian update.
         config: mission-config overrides ``(dotted.path, value)`` applied before the run
             (:func:`adaptnav.mission.with_overrides`), e.g. ``(("filter.specific_force_tau_s",
             1.0),)``; sorted by path. The alignment stays the mission's own.
