@@ -389,7 +389,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     mc_specs = sw.monte_carlo_specs(presets, mc_seeds, filters)
     q_specs = sw.q_sweep_specs(presets, q_seeds, q_values) if q_values else []
     pn_specs = sw.process_noise_specs(presets, pn_seeds, scales) if scales else []
-    st_specs = [sw.RunSpec(p, s, "vb", vb_dof=STUDENT_T_DOF) for p in presets for s in mc_seeds]
+    st_specs = [
+        sw.RunSpec(p, s, "vb", config=(("filter.vb_dof", STUDENT_T_DOF),))
+        for p in presets
+        for s in mc_seeds
+    ]
     model_specs = _model_specs(presets, list(range(1, args.model_seeds + 1)))
     all_specs = mc_specs + q_specs + pn_specs + st_specs + model_specs
     n_unique = len({s.key() for s in all_specs})

@@ -76,7 +76,7 @@ def test_gate_reference_reaches_every_gate() -> None:
     d = config_dict()
     d["filter"] = {"kind": "vb", "gate_q": {"vb": 2600.0}, "gate_reference": "nominal"}
     settings = parse_config(d).filter_settings()
-    gate = settings.gate("dvl")
+    gate = settings.gate("dvl", is_dvl=True)
     assert gate is not None and gate.q == 2600.0 and gate.reference == "nominal"
 
 
@@ -124,7 +124,7 @@ def _config_error(mutate: Any) -> MissionError:
         (lambda d: d["mission"].pop("name"), "mission.name", "missing required"),
         (lambda d: d["imu"]["noise"].pop("vrw"), "imu.noise.vrw", "missing required"),
         (lambda d: d["imu"].update(file="imu.txt"), "imu.file", "unknown table format"),
-        (lambda d: d.update(filter={"gate_q": {"ekf": 1.0}}), "filter.gate_q", "'ekf'"),
+        (lambda d: d.update(filter={"gate_q": {"ekf": 1.0}}), "filter.gate_q.ekf", "(got 'ekf')"),
         (lambda d: d.update(filter={"gate_sensors": ["dv"]}), "filter.gate_sensors", "'dv'"),
         (lambda d: d.update(filter={"gate_reference": "R"}), "filter.gate_reference", "'R'"),
         (lambda d: d["sensors"]["dvl"].update(use_height=True), "sensors.dvl.use_height", "gnss"),

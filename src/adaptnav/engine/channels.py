@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from adaptnav.engine.batch import SensorChannel
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 from adaptnav.sensors.base import MeasurementModel
+from adaptnav.sensors.dvl import DVL
 
 
 def build_channels(
@@ -22,8 +23,8 @@ def build_channels(
         o = ov.get(model.name, SensorOverrides())
         out.append(
             SensorChannel(
-                model, period, settings.strategy(o), settings.gate(model.name, o),
-                settings.guard(o),
+                model, period, settings.strategy(o),
+                settings.gate(model.name, o, is_dvl=isinstance(model, DVL)), settings.guard(o),
             )
         )  # fmt: skip
     return out

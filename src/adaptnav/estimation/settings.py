@@ -28,13 +28,22 @@ exactly the paper's.
 Default gate coefficients are the paper's best on its trajectory No. 1 (q = 600 for MESKF,
 1800 for MAESKF; Fig. 4); the paper gives no ρ, N or α0, so ours are stated choices: ρ = 0.99
 (memory ≈ 100 of the sensor's epochs), N = 5 iterations, α0 = 1.
+
+:class:`FilterSettings` is the one settings model, from ``mission.toml``'s ``[filter]`` section
+(:class:`adaptnav.mission.config.FilterConfig` adds only the engine's output rate, epoch policy
+and specific-force filter) to the kernel's packed tables (``adaptnav.engine.batch``, the one
+function ``Navigator._build_tables``): each field is declared, constrained and defaulted here
+once, and sweeps describe runs as overrides of it (``filter.<field>`` in
+:class:`adaptnav.experiments.sweep.RunSpec`'s ``config``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
-from typing import Any, Literal
+from dataclasses import asdict, dataclass
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, field_validator
 
 from adaptnav.estimation.gate import (
     DEFAULT_HEADROOM,
@@ -55,20 +64,24 @@ from adaptnav.estimation.noise.process import QAdaptation
 
 FilterKind = Literal["meskf", "maeskf", "vb", "robust", "oracle"]
 FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
-DEFAULT_GATE_Q: dict[str, float] = {"meskf": 600.0, "maeskf": 1800.0}
+DEFAULT_GATE_Q: dict[FilterKind, float] = {"meskf": 600.0, "maeskf": 1800.0}
 DEFAULT_MATCHING_GAP_PERIODS = 0.0
 """MAESKF's window restarts after a sensor gap of more than this many periods (0: never, the
 paper; the measured trade-off in estimation/noise/matching.py)."""
 DEFAULT_GUARD_PROBABILITY = 1e-6
 """The guard's false-alarm probability per reading for a consistent filter (gate.Guard)."""
-DEFAULT_R_BOUNDS: dict[str, tuple[float, float]] = {"robust": (0.1, 100.0)}
+DEFAULT_R_BOUNDS: dict[FilterKind, tuple[float, float]] = {"robust": (0.1, 100.0)}
 """[floor, ceiling] of R̂ as factors of the nominal variance, per kind (estimation/noise/vb.py)."""
-DEFAULT_DIVERGENCE: dict[str, DivergenceGuard] = {}
+DEFAULT_DIVERGENCE: dict[FilterKind, DivergenceGuard] = {}
 """The windowed NIS test per kind (estimation/health.py); a kind absent here runs without it. None
 by default: on the adapted R it fires in the simulated trials' noise segments (robust with
 ``nis_ratio = 5``: mean relative RMSE over 20 seeds 0.630 / 1.530 % against 0.541 / 1.008 % without,
 paper-1 / paper-2), though it is what holds the RTKLIB drive with a too-small Q (mean
 outage drift 345 m against 2569 m); docs/robustness.md."""
+
+
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
 
 @dataclass(frozen=True)
@@ -82,52 +95,84 @@ class SensorOverrides:
     guard_probability: float | None = None
 
 
-@dataclass(frozen=True)
-class FilterSettings:
-    """Everything that distinguishes one filter run from another on the same engine."""
+class FilterSettings(BaseModel):
+    """Everything that distinguishes one filter run from another on the same engine; frozen and
+    validated (a wrong value is a ``pydantic.ValidationError`` naming the field)."""
 
-    kind: FilterKind = "vb"
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    kind: FilterKind = "robust"
     gate_rule: GateRule = "component"
-    gate_q: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_GATE_Q))
+    gate_q: dict[FilterKind, Positive] = Field(default_factory=lambda: dict(DEFAULT_GATE_Q))
     """q per filter kind; a kind absent here runs without a gate."""
     gate_reference: GateReference = "adapted"
-    """R in the gate's S: the strategy's current R (the paper) or the nominal one
+    """R in the gate's S: ``adapted``, the strategy's current R (the paper), or ``nominal``
     (estimation/gate.py)."""
-    gate_sensors: tuple[str, ...] = ("dvl",)
-    matching_window: int = 20
-    matching_floor: float = 1e-2
-    matching_residual_based: bool = False
-    matching_gap_periods: float = DEFAULT_MATCHING_GAP_PERIODS
+    gate_sensors: tuple[str, ...] | None = None
+    """Names of the gated sensors; None: every DVL (engine/channels.py)."""
+    matching_window: Annotated[int, Field(ge=1)] = 20
+    matching_floor: Positive = 1e-2
+    matching_residual_based: StrictBool = False
+    matching_gap_periods: NonNegative = DEFAULT_MATCHING_GAP_PERIODS
     """MAESKF's window restarts after a gap of more than this many periods
-    (estimation/noise/matching.py);
-    0: never, the paper."""
-    vb_alpha0: float = 1.0
-    vb_rho: float = 0.99
-    vb_iterations: int = 5
-    vb_tol: float = 1e-6
-    vb_irregular: bool = False
-    vb_dof: float | None = None
-    """Student-t ν of each reading for VB-MAESKF (estimation/noise/vb.py, beyond the paper); None:
-    Gaussian, the paper's update."""
-    guard_probability: float = DEFAULT_GUARD_PROBABILITY
-    """The guard's p on every sensor (gate.Guard); 0: no guard."""
-    guard_headroom: float = DEFAULT_HEADROOM
+    (estimation/noise/matching.py); 0: never, the paper."""
+    vb_alpha0: Positive = 1.0
+    vb_rho: Annotated[float, Field(gt=0, le=1)] = 0.99
+    vb_iterations: Annotated[int, Field(ge=1)] = 5
+    vb_tol: Positive = 1e-6
+    vb_irregular: StrictBool = False
+    vb_dof: Positive | None = None
+    """Student-t ν of each reading for VB-MAESKF (estimation/noise/vb.py, beyond the paper);
+    None: Gaussian, the paper's update."""
+    guard_probability: Annotated[float, Field(ge=0, lt=1)] = DEFAULT_GUARD_PROBABILITY
+    """The guard's p on every sensor (gate.Guard); 0: no guard (the paper's filters exactly)."""
+    guard_headroom: Annotated[float, Field(ge=1, allow_inf_nan=False)] = DEFAULT_HEADROOM
     """The guard's κ: its S holds κ × the nominal R (gate.Guard)."""
-    guard_lockout_s: float = DEFAULT_LOCKOUT_S
-    """The guard's lockout time (gate.Guard); 0: no lockout."""
-    r_bounds: dict[str, tuple[float, float]] = field(default_factory=lambda: dict(DEFAULT_R_BOUNDS))
-    """Bounds on R̂ per kind (maeskf: its ceiling only, the floor is ``matching_floor``)."""
-    divergence: dict[str, DivergenceGuard] = field(default_factory=lambda: dict(DEFAULT_DIVERGENCE))
-    q_adaptation: QAdaptation | None = field(default_factory=QAdaptation)
-    """Q scaled by the whiteness of the innovations (estimation/noise/process.py), every kind; None:
-    the configured Q throughout (the paper)."""
+    guard_lockout_s: NonNegative = DEFAULT_LOCKOUT_S
+    """A sensor the guard has rejected this long makes the filter inflate P; 0: never."""
+    r_bounds: dict[FilterKind, tuple[NonNegative, Positive]] = Field(
+        default_factory=lambda: dict(DEFAULT_R_BOUNDS)
+    )
+    """``{kind: (floor, ceiling)}``: bounds on R̂ as factors of the nominal variance (maeskf: its
+    ceiling only, the floor is ``matching_floor``); a kind left out keeps its default."""
+    divergence: dict[FilterKind, DivergenceGuard] = Field(
+        default_factory=lambda: dict(DEFAULT_DIVERGENCE)
+    )
+    """``{kind: {nis_ratio, window, inflate_max}}``: the windowed NIS test
+    (estimation/health.py); a kind left out keeps its default."""
+    q_adaptation: QAdaptation | None = Field(default_factory=QAdaptation)
+    """Q scaled by the whiteness of the innovations (estimation/noise/process.py), every kind;
+    None (``false`` in a mission): the configured Q throughout (the paper); ``true``: the
+    defaults."""
 
-    def __post_init__(self) -> None:
-        if self.kind not in FILTER_KINDS:
-            raise ValueError(f"filter kind: value {self.kind!r} must be one of {FILTER_KINDS}")
+    @field_validator("r_bounds", mode="after")
+    @classmethod
+    def _merge_bounds(
+        cls, v: dict[FilterKind, tuple[float, float]]
+    ) -> dict[FilterKind, tuple[float, float]]:
+        for k, (floor, ceiling) in v.items():
+            if not floor < ceiling:
+                raise ValueError(
+                    f"{k}: [floor, ceiling] = {[floor, ceiling]} must have floor < ceiling"
+                )
+        return {**DEFAULT_R_BOUNDS, **v}
+
+    @field_validator("divergence", mode="after")
+    @classmethod
+    def _merge_divergence(
+        cls, v: dict[FilterKind, DivergenceGuard]
+    ) -> dict[FilterKind, DivergenceGuard]:
+        return {**DEFAULT_DIVERGENCE, **v}
+
+    @field_validator("q_adaptation", mode="before")
+    @classmethod
+    def _q_adaptation_switch(cls, v: Any) -> Any:
+        if v is True:
+            return QAdaptation()
+        return None if v is False else v
 
     def with_kind(self, kind: FilterKind) -> FilterSettings:
-        return replace(self, kind=kind)
+        return self.model_copy(update={"kind": kind})
 
     def strategy(self, overrides: SensorOverrides = SensorOverrides()) -> NoiseStrategy:
         """The R strategy of this filter kind for one sensor."""
@@ -154,7 +199,7 @@ class FilterSettings:
 
     def as_dict(self) -> dict[str, Any]:
         """These settings as JSON values (a run's ``meta.filter_settings``)."""
-        out = {k: v for k, v in self.__dict__.items() if k not in ("divergence", "q_adaptation")}
+        out = {k: v for k, v in self if k not in ("divergence", "q_adaptation")}
         out["divergence"] = {k: asdict(v) for k, v in self.divergence.items()}
         qa = self.q_adaptation
         out["q_adaptation"] = asdict(qa) if qa is not None else None
@@ -164,9 +209,16 @@ class FilterSettings:
         """The windowed NIS test of this kind (health.OFF if none)."""
         return self.divergence.get(self.kind, OFF)
 
-    def gate(self, sensor: str, overrides: SensorOverrides = SensorOverrides()) -> Gate | None:
-        """The outlier gate for ``sensor`` under this filter kind, or None."""
-        if self.kind not in self.gate_q or sensor not in self.gate_sensors:
+    def gated(self, sensor: str, *, is_dvl: bool) -> bool:
+        """Whether the gate applies to ``sensor``: named in ``gate_sensors``, or, if that is
+        None, a DVL."""
+        return is_dvl if self.gate_sensors is None else sensor in self.gate_sensors
+
+    def gate(
+        self, sensor: str, overrides: SensorOverrides = SensorOverrides(), *, is_dvl: bool
+    ) -> Gate | None:
+        """The outlier gate for ``sensor`` (a DVL or not) under this filter kind, or None."""
+        if self.kind not in self.gate_q or not self.gated(sensor, is_dvl=is_dvl):
             return None
         q = overrides.gate_q if overrides.gate_q is not None else self.gate_q[self.kind]
         return Gate(q, self.gate_rule, self.gate_reference)

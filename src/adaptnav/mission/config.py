@@ -15,7 +15,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PureWindowsPath
-from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple
+from typing import Annotated, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,17 +32,11 @@ from pydantic import (
 
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, Kind, UnitError, to_si
-from adaptnav.estimation.noise.process import QAdaptation
+from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 from adaptnav.models.imu_noise import FIELD_KINDS, ImuNoise
-
-if TYPE_CHECKING:
-    from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 
 Array = NDArray[np.float64]
 
-FILTER_KINDS = ("meskf", "maeskf", "vb", "robust")
-"""The kinds a mission may name (the oracle is a baseline of simulated missions, not a
-setting); the same as :data:`adaptnav.estimation.settings.FILTER_KINDS` without it."""
 SensorKind = Literal["dvl", "depth", "inclinometer", "heading", "gnss", "nhc"]
 SENSOR_KINDS: tuple[SensorKind, ...] = ("dvl", "depth", "inclinometer", "heading", "gnss", "nhc")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
@@ -484,8 +478,6 @@ class SensorConfig(_Model):
 
     def overrides(self) -> SensorOverrides:
         """Per-sensor filter overrides (gate q, VB ρ, matching window)."""
-        from adaptnav.estimation.settings import SensorOverrides
-
         return SensorOverrides(
             self.gate_q, self.vb_rho, self.matching_window, self.guard_probability
         )
@@ -617,100 +609,29 @@ class InitialConfig(_Model):
         return np.broadcast_to(np.asarray(self.sigma_attitude_deg, dtype=float) * DEG, (3,)).copy()
 
 
-class DivergenceConfig(_Model):
-    """One kind's divergence guard (:class:`adaptnav.estimation.health.DivergenceGuard`)."""
+class FilterConfig(FilterSettings):
+    """``[filter]``: the filter's settings (:class:`adaptnav.estimation.settings.FilterSettings`,
+    where each field is declared, constrained and defaulted once) and three of the engine's:
+    output rate, epoch policy and the specific-force low-pass."""
 
-    nis_ratio: Annotated[float, Field(ge=0)] = 0.0
-    """Windowed mean of NIS/d above which P is inflated; 0: off (else > 1)."""
-    window: Annotated[int, Field(ge=1)] = 30
-    inflate_max: Annotated[float, Field(ge=2)] = 100.0
-
-    @model_validator(mode="after")
-    def _check_ratio(self) -> DivergenceConfig:
-        if 0.0 < self.nis_ratio <= 1.0:
-            raise ValueError(f"nis_ratio: value {self.nis_ratio!r} must be 0 (off) or > 1")
-        return self
-
-
-class QAdaptationConfig(_Model):
-    """``[filter] q_adaptation = { ... }``: :class:`adaptnav.estimation.noise.process.QAdaptation`;
-    a
-    key left out keeps its default there."""
-
-    gain: Positive | None = None
-    target: Annotated[float, Field(ge=0, lt=1)] | None = None
-    beta_max: Annotated[float, Field(ge=1)] | None = None
-    window: Annotated[int, Field(ge=2)] | None = None
-
-    def settings(self) -> QAdaptation:
-        given = {k: v for k, v in self.model_dump().items() if v is not None}
-        return QAdaptation(**given)
-
-
-class FilterConfig(_Model):
-    """``[filter]``: the fields of :class:`adaptnav.estimation.settings.FilterSettings` plus output
-    rate.
-    A field left out (None) takes its default from :mod:`adaptnav.estimation.settings`."""
-
-    kind: Literal["meskf", "maeskf", "vb", "robust"] = "robust"
     epoch_policy: Literal["exact", "grid"] = "exact"
     output_rate_hz: Positive = 10.0
-    gate_rule: Literal["component", "chi2"] = "component"
-    gate_q: dict[str, Positive] = Field(default_factory=lambda: {"meskf": 600.0, "maeskf": 1800.0})
-    """q per filter kind; a kind absent here runs without a gate."""
-    gate_reference: Literal["adapted", "nominal"] = "adapted"
-    """R in the gate's S: ``adapted`` (the filter's current R, the paper) or ``nominal``."""
-    gate_sensors: tuple[str, ...] | None = None
-    """Gated sensor names; None → every sensor of kind dvl."""
-    matching_window: Annotated[int, Field(ge=1)] = 20
-    matching_floor: Positive = 0.01
-    matching_residual_based: StrictBool = False
-    matching_gap_periods: Annotated[float, Field(ge=0)] | None = None
-    """MAESKF's window restarts after a sensor gap of more than this many periods; 0: never."""
-    vb_alpha0: Positive = 1.0
-    vb_rho: Annotated[float, Field(gt=0, le=1)] = 0.99
-    vb_iterations: Annotated[int, Field(ge=1)] = 5
-    vb_tol: Positive = 1e-6
-    vb_irregular: StrictBool = False
-    vb_dof: Positive | None = None
-    """Student-t ν of each reading for VB-MAESKF (beyond the paper); None: Gaussian."""
     specific_force_tau_s: Annotated[float, Field(ge=0)] | None = None
     """Time constant (s) of the low-pass on the specific force that F is evaluated with; None:
     the engine's default (``adaptnav.engine.batch.EngineConfig``; docs/error-model.md)."""
-    guard_probability: Annotated[float, Field(ge=0, lt=1)] | None = None
-    """The guard's p on every sensor (gate.Guard); 0: no guard (the paper's filters exactly)."""
-    guard_headroom: Annotated[float, Field(ge=1)] | None = None
-    """The guard's κ: its S holds κ × the nominal R (gate.Guard)."""
-    guard_lockout_s: Annotated[float, Field(ge=0)] | None = None
-    """A sensor the guard has rejected this long makes the filter inflate P; 0: never."""
-    r_bounds: dict[str, tuple[Annotated[float, Field(ge=0)], Positive]] | None = None
-    """``{kind = [floor, ceiling]}``: bounds on R̂ as factors of the nominal variance."""
-    divergence: dict[str, DivergenceConfig] | None = None
-    """``{kind = {nis_ratio, window, inflate_max}}``: the windowed NIS test
-    (estimation/health.py)."""
-    q_adaptation: StrictBool | QAdaptationConfig | None = None
-    """Q scaled by the whiteness of the innovations (estimation/noise/process.py): ``false`` off
-    (the paper's filters), ``true`` or left out: on with its defaults, ``{gain, target, beta_max,
-    window}``: on with these."""
 
-    @field_validator("r_bounds", "divergence")
+    @field_validator("kind")
     @classmethod
-    def _check_kinds(cls, v: dict[str, Any] | None) -> dict[str, Any] | None:
-        unknown = [k for k in v or {} if k not in FILTER_KINDS]
-        if unknown:
-            raise ValueError(f"unknown filter kind(s) {unknown} (use {', '.join(FILTER_KINDS)})")
-        for k, b in (v or {}).items():
-            if isinstance(b, tuple) and not b[0] < b[1]:
-                raise ValueError(f"{k}: [floor, ceiling] = {list(b)} must have floor < ceiling")
+    def _runnable_kind(cls, v: str) -> str:
+        # The oracle needs the simulator's truth; it is a baseline, not a mission's filter.
+        if v == "oracle":
+            raise ValueError("'oracle' is a baseline (adaptnav compare), not a mission's filter")
         return v
 
-    @field_validator("gate_q")
-    @classmethod
-    def _check_gate_kinds(cls, v: dict[str, float]) -> dict[str, float]:
-        unknown = [k for k in v if k not in FILTER_KINDS]
-        if unknown:
-            raise ValueError(f"unknown filter kind(s) {unknown} (use {', '.join(FILTER_KINDS)})")
-        return v
+    def settings(self, gate_sensors: tuple[str, ...]) -> FilterSettings:
+        """The filter's settings alone, the gated sensors resolved to names."""
+        fields = {k: getattr(self, k) for k in FilterSettings.model_fields}
+        return FilterSettings(**{**fields, "gate_sensors": gate_sensors})
 
 
 class TruthConfig(_Model):
@@ -779,48 +700,7 @@ class MissionConfig(_Model):
 
     def filter_settings(self) -> FilterSettings:
         """The engine's :class:`adaptnav.estimation.settings.FilterSettings` of ``[filter]``."""
-        from adaptnav.estimation.health import DivergenceGuard
-        from adaptnav.estimation.settings import (
-            DEFAULT_DIVERGENCE,
-            DEFAULT_R_BOUNDS,
-            FilterSettings,
-        )
-
-        f = self.filter
-        divergence = dict(DEFAULT_DIVERGENCE)
-        for k, d in (f.divergence or {}).items():
-            divergence[k] = DivergenceGuard(d.nis_ratio, d.window, d.inflate_max)
-        # Keys left out of [filter] keep FilterSettings' own defaults.
-        optional = (
-            "guard_probability",
-            "guard_headroom",
-            "guard_lockout_s",
-            "matching_gap_periods",
-        )
-        given = {k: v for k in optional if (v := getattr(f, k)) is not None}
-        if f.q_adaptation is False:
-            given["q_adaptation"] = None
-        elif isinstance(f.q_adaptation, QAdaptationConfig):
-            given["q_adaptation"] = f.q_adaptation.settings()
-        return FilterSettings(
-            kind=f.kind,
-            **given,
-            r_bounds={**DEFAULT_R_BOUNDS, **(f.r_bounds or {})},
-            divergence=divergence,
-            gate_rule=f.gate_rule,
-            gate_q=dict(f.gate_q),
-            gate_reference=f.gate_reference,
-            gate_sensors=self.gated_sensors(),
-            matching_window=f.matching_window,
-            matching_floor=f.matching_floor,
-            matching_residual_based=f.matching_residual_based,
-            vb_alpha0=f.vb_alpha0,
-            vb_rho=f.vb_rho,
-            vb_iterations=f.vb_iterations,
-            vb_tol=f.vb_tol,
-            vb_irregular=f.vb_irregular,
-            vb_dof=f.vb_dof,
-        )
+        return self.filter.settings(self.gated_sensors())
 
     def output_every(self) -> int:
         """IMU intervals per output sample (``imu.rate_hz / filter.output_rate_hz``, >= 1)."""

@@ -1,0 +1,84 @@
+"""The one settings model (estimation/settings.py): ``mission.toml``'s ``[filter]`` is the filter's
+settings plus three engine fields, each declared and defaulted once."""
+
+from __future__ import annotations
+
+import numpy as np
+import pydantic
+import pytest
+
+from adaptnav.engine.channels import build_channels
+from adaptnav.estimation.noise.process import QAdaptation
+from adaptnav.estimation.settings import DEFAULT_R_BOUNDS, FilterSettings
+from adaptnav.mission import MissionError, parse_config
+from adaptnav.mission.config import FilterConfig
+from adaptnav.sensors import DVL, Depth
+from helpers.missions import config_dict
+
+
+def test_the_mission_section_is_the_settings_plus_the_engine_fields() -> None:
+    settings, section = FilterSettings.model_fields, FilterConfig.model_fields
+    assert set(section) - set(settings) == {
+        "epoch_policy",
+        "output_rate_hz",
+        "specific_force_tau_s",
+    }
+    for name, field in settings.items():
+        # Inherited, not copied: one declaration, one default.
+        assert section[name] is field or section[name].default == field.default, name
+    defaults = parse_config(config_dict()).filter_settings()
+    assert defaults == FilterSettings(gate_sensors=("dvl",))
+
+
+def test_a_mission_value_reaches_the_settings() -> None:
+    cfg = parse_config(config_dict(filter={"kind": "vb", "vb_rho": 0.95, "vb_dof": 4}))
+    s = cfg.filter_settings()
+    assert (s.kind, s.vb_rho, s.vb_dof) == ("vb", 0.95, 4.0)
+
+
+@pytest.mark.parametrize(
+    ("given", "expected"),
+    [(True, QAdaptation()), (False, None), ({"gain": 0.2}, QAdaptation(gain=0.2))],
+)
+def test_q_adaptation_switch(given: object, expected: QAdaptation | None) -> None:
+    cfg = parse_config(config_dict(filter={"q_adaptation": given}))
+    assert cfg.filter_settings().q_adaptation == expected
+
+
+def test_bounds_for_one_kind_keep_the_others_defaults() -> None:
+    s = FilterSettings(r_bounds={"vb": (0.5, 2.0)})
+    assert s.r_bounds == {**DEFAULT_R_BOUNDS, "vb": (0.5, 2.0)}
+    with pytest.raises(pydantic.ValidationError, match="floor < ceiling"):
+        FilterSettings(r_bounds={"vb": (2.0, 1.0)})
+
+
+@pytest.mark.parametrize(
+    ("section", "words"),
+    [
+        ({"kind": "oracle"}, "filter.kind: 'oracle' is a baseline"),
+        ({"vb_rho": 1.5}, "filter.vb_rho"),
+        ({"q_adaptation": {"gain": -1}}, "filter.q_adaptation"),
+        ({"divergence": {"vb": {"nis_ratio": 0.5}}}, "filter.divergence.vb"),
+    ],
+)
+def test_bad_values_name_the_key(section: dict[str, object], words: str) -> None:
+    with pytest.raises(MissionError, match=words.replace("(", r"\(")):
+        parse_config(config_dict(filter=section))
+
+
+def test_settings_are_frozen() -> None:
+    with pytest.raises(pydantic.ValidationError):
+        FilterSettings().vb_rho = 0.5  # type: ignore[misc]
+
+
+def test_without_gate_sensors_every_dvl_is_gated_whatever_its_name() -> None:
+    s = FilterSettings(kind="meskf")
+    sensors = [
+        (DVL(np.full(3, 0.02), name="bottom_tracker"), 1 / 3),
+        (Depth(0.1, name="dvl"), 1.0),  # named like a DVL, but a depth sensor
+    ]
+    gates = [ch.gate for ch in build_channels(s, sensors)]
+    assert gates[0] is not None and gates[0].q == 600.0
+    assert gates[1] is None
+    named = build_channels(s.model_copy(update={"gate_sensors": ("dvl",)}), sensors)
+    assert named[0].gate is None and named[1].gate is not None
