@@ -76,6 +76,7 @@ from adaptnav.compiled.propagation import (
 )
 from adaptnav.core.earth import E2, A
 from adaptnav.estimation.health import EIG_FLOOR, MIN_LOCKOUT_FACTOR
+from adaptnav.estimation.noise.base import NoiseKind
 from adaptnav.estimation.noise.process import EVENT_STEP, GAP_PERIODS
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
@@ -126,7 +127,7 @@ N_SSTATE = 26
 
 GATE_NONE, GATE_COMPONENT, GATE_CHI2 = 0, 1, 2
 GATE_REF_ADAPTED, GATE_REF_NOMINAL = 0, 1
-KIND_FIXED, KIND_MATCHING, KIND_VB = 0, 1, 2
+KIND_FIXED, KIND_MATCHING, KIND_VB = (int(k) for k in NoiseKind)  # Numba sees plain ints
 
 # fallback rows (one per group member) for sensors linearised in Python: valid, y, H, R
 FB_VALID, FB_Y, FB_H, FB_R = 0, 1, 4, 49

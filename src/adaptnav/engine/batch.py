@@ -71,10 +71,10 @@ from adaptnav.estimation.noise import (
     CovarianceMatching,
     FixedNoise,
     MatchingState,
+    NoiseStrategy,
     VariationalBayes,
     VBState,
 )
-from adaptnav.estimation.noise.base import NoiseStrategy
 from adaptnav.estimation.noise.process import QAdaptation
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import N_STATES
@@ -126,11 +126,8 @@ _EVENTS: dict[int, tuple[str, str]] = {
     uk.EVENT_Q: ("q_scale", "innovations correlated: the IMU white noise in Q scaled by "
                  "the factor"),
 }  # fmt: skip
-_KINDS: dict[type, int] = {
-    FixedNoise: uk.KIND_FIXED,
-    CovarianceMatching: uk.KIND_MATCHING,
-    VariationalBayes: uk.KIND_VB,
-}
+_STRATEGIES = (FixedNoise, CovarianceMatching, VariationalBayes)
+"""The closed set of noise strategies (estimation/noise/base.py, :class:`NoiseKind`)."""
 
 
 @dataclass(frozen=True)
@@ -515,12 +512,12 @@ class Navigator:
         self._kind = uk.KIND_FIXED
         if kinds:
             cls = kinds.pop()
-            if cls not in _KINDS:
+            if cls not in _STRATEGIES:
                 raise TypeError(
-                    f"noise strategy {cls.__name__} has no compiled update; the engine runs "
-                    "FixedNoise, CovarianceMatching and VariationalBayes"
+                    f"noise strategy {cls.__name__} has no compiled update; the strategies are a "
+                    "closed set: FixedNoise, CovarianceMatching and VariationalBayes"
                 )
-            self._kind = _KINDS[cls]
+            self._kind = int(cls.kind)
         self.config = config
         self.channels = tuple(channels)
         self._index = {c.name: i for i, c in enumerate(channels)}
@@ -611,24 +608,7 @@ class Navigator:
                 nominal = ch.gate.reference == "nominal"
                 si[uk.S_GATE_REF] = uk.GATE_REF_NOMINAL if nominal else uk.GATE_REF_ADAPTED
                 sf[uk.F_GATE_Q] = ch.gate.q
-            st = ch.strategy
-            state0 = st.initial_state(R)
-            if isinstance(st, VariationalBayes):
-                si[uk.S_ITER] = st.iterations
-                sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
-                sf[uk.F_IRREGULAR] = float(st.irregular)
-                sf[uk.F_DOF] = st.dof if st.dof is not None else 0.0
-                sf[uk.F_RMIN], sf[uk.F_RMAX] = st.r_floor, st.r_ceiling
-                sx[uk.X_ALPHA : uk.X_ALPHA + d] = state0.alpha
-                sx[uk.X_BETA : uk.X_BETA + d] = state0.beta
-            elif isinstance(st, CovarianceMatching):
-                si[uk.S_WINDOW] = st.window
-                sf[uk.F_FLOOR], sf[uk.F_RAE] = st.floor, float(st.residual_based)
-                sf[uk.F_RMAX], sf[uk.F_GAP] = st.ceiling, st.gap_periods
-                self._rings[i, 0, : st.window, :d] = state0.squares
-                self._rings[i, 1, : st.window, :d] = state0.hph
-                si[uk.S_COUNT] = state0.count
-                sx[uk.X_MR : uk.X_MR + 9] = _block3(state0.R)
+            _pack_strategy(ch.strategy, R, d, si, sf, sx, self._rings[i])
         self._python_lin = bool(np.any(self._s_int[:, uk.S_CODE] == uk.LIN_PYTHON))
         self._ws = uk.workspace(n)
 
@@ -991,6 +971,32 @@ class Navigator:
             events=self._events(),
             q_scale=float(self._rates[uk.R_Q, 0]),
         )
+
+
+def _pack_strategy(
+    st: NoiseStrategy, R: Array, d: int, si: IntArray, sf: Array, sx: Array, ring: Array
+) -> None:
+    """One sensor's noise strategy into its rows of the kernel's tables: settings into ``si``
+    and ``sf``, initial adaptation state into ``sx`` and its matching ``ring``
+    (estimation/noise/vb.py, estimation/noise/matching.py)."""
+    if isinstance(st, VariationalBayes):
+        vb0 = st.initial_state(R)
+        si[uk.S_ITER] = st.iterations
+        sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
+        sf[uk.F_IRREGULAR] = float(st.irregular)
+        sf[uk.F_DOF] = st.dof if st.dof is not None else 0.0
+        sf[uk.F_RMIN], sf[uk.F_RMAX] = st.r_floor, st.r_ceiling
+        sx[uk.X_ALPHA : uk.X_ALPHA + d] = vb0.alpha
+        sx[uk.X_BETA : uk.X_BETA + d] = vb0.beta
+    elif isinstance(st, CovarianceMatching):
+        m0 = st.initial_state(R)
+        si[uk.S_WINDOW] = st.window
+        sf[uk.F_FLOOR], sf[uk.F_RAE] = st.floor, float(st.residual_based)
+        sf[uk.F_RMAX], sf[uk.F_GAP] = st.ceiling, st.gap_periods
+        ring[0, : st.window, :d] = m0.squares
+        ring[1, : st.window, :d] = m0.hph
+        si[uk.S_COUNT] = m0.count
+        sx[uk.X_MR : uk.X_MR + 9] = _block3(m0.R)
 
 
 def _block3(R: ArrayLike) -> Array:

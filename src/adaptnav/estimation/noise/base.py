@@ -1,4 +1,4 @@
-"""One interface for measurement-noise adaptation; three strategies implement it.
+"""Measurement-noise adaptation: a closed set of three strategies, and what they share.
 
 A filter kind fixes the strategy; each sensor has its own settings and its own adaptation state.
 At an epoch the engine hands the strategy the received sensors' blocks (y_i, H_i, nominal R_i,
@@ -6,13 +6,21 @@ state_i); the strategy chooses R (fixed, matched, or variational) and performs t
 update (paper eqs. (20)-(22)), returning the new per-sensor states. Sensors not received are
 not passed and so keep their state (paper eqs. (18), (19), (29), (30)). docs/filters.md,
 'Stacked update' and the sections on the three filters.
+
+The set is closed on purpose (:class:`NoiseKind`): the engine runs every epoch in the compiled
+kernel (``adaptnav.compiled.update``), which implements each strategy's prediction, R and update,
+and the classes here are their readable twins. A subclass overriding ``update`` would be ignored
+by the kernel, so the engine refuses anything but the exact classes. A new strategy is a module
+with its twin class, a :class:`NoiseKind` member, its branch in the kernel's predict/update and
+its packed settings (``Navigator._build_tables``); docs/architecture.md, 'Adding a noise strategy'.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from enum import IntEnum
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,27 +52,17 @@ class StackedResult:
     iterations: int
 
 
-class NoiseStrategy(Protocol):
-    """How a filter chooses R: MESKF (fixed), MAESKF (matching), VB-MAESKF (variational)."""
+class NoiseKind(IntEnum):
+    """The strategies the engine runs; the values are the compiled kernel's codes."""
 
-    @property
-    def name(self) -> str: ...
-
-    def initial_state(self, R_nominal: Array) -> Any:
-        """Adaptation state of a sensor before its first measurement."""
-        ...
-
-    def predict(self, state: Any, dt: float, period: float) -> Any:
-        """Time update of a sensor's state at its own epoch, dt after its previous one."""
-        ...
-
-    def current_R(self, state: Any, R_nominal: Array) -> Array:
-        """The R the strategy would use now (for gating and for the record)."""
-        ...
-
-    def update(self, P: Array, blocks: Sequence[Block]) -> StackedResult:
-        """Stacked measurement update over the received blocks."""
-        ...
+    FIXED = 0
+    """MESKF: R = nominal R (:class:`~adaptnav.estimation.noise.fixed.FixedNoise`)."""
+    MATCHING = 1
+    """MAESKF: R by covariance matching
+    (:class:`~adaptnav.estimation.noise.matching.CovarianceMatching`)."""
+    VB = 2
+    """VB-MAESKF: R by variational Bayes
+    (:class:`~adaptnav.estimation.noise.vb.VariationalBayes`)."""
 
 
 def stack(blocks: Sequence[Block]) -> tuple[Array, Array]:

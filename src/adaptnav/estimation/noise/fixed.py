@@ -4,15 +4,17 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from adaptnav.estimation import kalman
-from adaptnav.estimation.noise.base import Array, Block, StackedResult, stack, stacked_R
+from adaptnav.estimation.noise.base import Array, Block, NoiseKind, StackedResult, stack, stacked_R
 
 
 @dataclass(frozen=True)
 class FixedNoise:
     """R_i = nominal R_i at every epoch."""
+
+    kind: ClassVar[NoiseKind] = NoiseKind.FIXED
 
     name: str = "fixed"
 

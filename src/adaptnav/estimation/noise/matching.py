@@ -30,11 +30,20 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from adaptnav.estimation import kalman
-from adaptnav.estimation.noise.base import Array, Block, StackedResult, slices, stack, stacked_R
+from adaptnav.estimation.noise.base import (
+    Array,
+    Block,
+    NoiseKind,
+    StackedResult,
+    slices,
+    stack,
+    stacked_R,
+)
 
 
 @dataclass(frozen=True)
@@ -50,6 +59,8 @@ class MatchingState:
 @dataclass(frozen=True)
 class CovarianceMatching:
     """Settings: window W, floor as a fraction of the nominal variance, IAE or RAE."""
+
+    kind: ClassVar[NoiseKind] = NoiseKind.MATCHING
 
     window: int = 20
     floor: float = 1e-2

@@ -53,11 +53,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from adaptnav.estimation import kalman
-from adaptnav.estimation.noise.base import Array, Block, StackedResult, slices, stack
+from adaptnav.estimation.noise.base import Array, Block, NoiseKind, StackedResult, slices, stack
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,8 @@ class VBState:
 @dataclass(frozen=True)
 class VariationalBayes:
     """Settings: α0, forgetting ρ, at most N fixed-point iterations, relative tolerance."""
+
+    kind: ClassVar[NoiseKind] = NoiseKind.VB
 
     alpha0: float = 1.0
     rho: float = 0.99
