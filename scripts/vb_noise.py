@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +37,7 @@ def ratios(mission: Path, variant: dict[str, Any]) -> np.ndarray:
     """R̂ / σ_true² (n, 3) of the used DVL readings in nominal periods."""
     m = load_mission(mission)
     dvl = m.tables["dvl"]
-    settings = replace(m.config.filter_settings().with_kind("vb"), **variant)
+    settings = m.config.filter_settings().updated(kind="vb", **variant)
     result = api.run(m, "vb", settings=settings)
     used = result.ledger[(result.ledger["sensor"] == "dvl") & (result.ledger["fate"] == "used")]
     noise = result.noise[result.noise["sensor"] == "dvl"]

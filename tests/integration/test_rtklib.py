@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import struct
-from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -77,7 +76,7 @@ class Drive:
         if key not in self._drift:
             m = load_mission(self.mission(time_offset_s, nhc))
             x0, P0, t0, _ = api.initial_state(m)
-            fixed_q = replace(m.config.filter_settings(), q_adaptation=None)
+            fixed_q = m.config.filter_settings().updated(q_adaptation=None)
             run = api.run(m, "meskf", settings=fixed_q, initial=(x0, P0, t0))
             assert m.truth is not None
             table = evaluate.outage_drift(run.solution, m.truth, rtklib.DEFAULT_OUTAGES_S)
@@ -297,7 +296,7 @@ def test_import_writes_a_mission_that_loads_runs_and_scores_its_outages(drive: D
     x0, P0, t0, _ = api.initial_state(m)
     # The paper's VB-MAESKF without the guard: this checks the import, not the guard (which
     # rejects the first fixes after an outage while P is too small, docs/robustness.md).
-    paper = replace(m.config.filter_settings(), guard_probability=0.0)
+    paper = m.config.filter_settings().updated(guard_probability=0.0)
     run = api.run(m, "vb", settings=paper, initial=(x0, P0, t0))
     e = evaluate.position_errors(run.solution, m.truth)
     aided = ~np.isin(e["t_s"].to_numpy(), m.truth["t_s"].to_numpy()[withheld])

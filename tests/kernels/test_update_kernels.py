@@ -40,6 +40,7 @@ from adaptnav.models import errorstate, strapdown
 from adaptnav.sensors import DVL, GNSS, Depth, Heading, Inclinometer
 from adaptnav.sensors.base import Measurement
 from adaptnav.sensors.inclinometer import PendulumInclinometer
+from adaptnav.sensors.nhc import NonHolonomic
 from adaptnav.sensors.zupt import ZeroVelocity
 from helpers import engine_reference, synthetic
 
@@ -105,13 +106,15 @@ def _models(rng: np.random.Generator) -> list[Any]:
         GNSS(2.0, rng.uniform(-3, 3, 3)),
         GNSS((1.0, 1.5), rng.uniform(-3, 3, 3), use_height=False),
         ZeroVelocity(0.01),
+        NonHolonomic(0.05, rng.uniform(-3, 3, 3), _rotation(rng)),
+        NonHolonomic((0.1, 0.05)),
     ]
 
 
 def _reading(
     model: Any, x: np.ndarray, w: np.ndarray, rng: np.random.Generator, f: np.ndarray = _F0
 ) -> np.ndarray:
-    if isinstance(model, DVL):
+    if isinstance(model, DVL | NonHolonomic):
         pred = model.predict(x, w)
     elif isinstance(model, PendulumInclinometer):
         pred = model.predict(x, f)

@@ -66,9 +66,12 @@ def test_bad_values_name_the_key(section: dict[str, object], words: str) -> None
         parse_config(config_dict(filter=section))
 
 
-def test_settings_are_frozen() -> None:
+def test_settings_are_frozen_and_changes_are_checked() -> None:
     with pytest.raises(pydantic.ValidationError):
         FilterSettings().vb_rho = 0.5  # type: ignore[misc]
+    assert FilterSettings().updated(vb_rho=0.5).vb_rho == 0.5
+    with pytest.raises(pydantic.ValidationError, match="vb_rho"):
+        FilterSettings().updated(vb_rho=5.0)
 
 
 def test_without_gate_sensors_every_dvl_is_gated_whatever_its_name() -> None:
@@ -80,5 +83,5 @@ def test_without_gate_sensors_every_dvl_is_gated_whatever_its_name() -> None:
     gates = [ch.gate for ch in build_channels(s, sensors)]
     assert gates[0] is not None and gates[0].q == 600.0
     assert gates[1] is None
-    named = build_channels(s.model_copy(update={"gate_sensors": ("dvl",)}), sensors)
+    named = build_channels(s.updated(gate_sensors=("dvl",)), sensors)
     assert named[0].gate is None and named[1].gate is not None

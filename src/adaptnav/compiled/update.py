@@ -83,6 +83,7 @@ from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.heading import Heading
 from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
+from adaptnav.sensors.nhc import NonHolonomic
 from adaptnav.sensors.zupt import ZeroVelocity
 
 Array = NDArray[np.float64]
@@ -97,7 +98,7 @@ MAX_DIM = 3
 LIN_PYTHON = -1
 """No compiled linearisation: the engine calls the model's ``evaluate``."""
 LIN_DVL, LIN_DEPTH, LIN_INCLINOMETER, LIN_HEADING, LIN_GNSS, LIN_ZUPT = 0, 1, 2, 3, 4, 5
-LIN_PENDULUM = 6
+LIN_PENDULUM, LIN_NHC = 6, 7
 N_PAR = 16
 """Packed parameters: ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
 PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
@@ -233,9 +234,11 @@ def _euler(M: Mat3) -> tuple[float, float, float]:
 
 
 @jit_inline
-def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: int) -> None:
+def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: int, a0: int) -> None:
     """DVL (sensors.dvl): ``h = C_sb (C_nbᵀ v_n + (ω̃ - b_g) × l_b)``; H on dv, phi, db_g.
 
+    Components ``a0..2`` of the sensor-frame velocity: all three for the DVL (a0 = 0), the
+    lateral and vertical ones for the non-holonomic constraint (a0 = 1, sensors.nhc).
     Row a of ``C_sn [v×]`` is ``(C_sn)_a × v``, of ``C_sb [l×]`` is ``(C_sb)_a × l``.
     """
     C = _dcm(x)
@@ -251,15 +254,16 @@ def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: in
     lw = _cross(rate, lever)
     pred = _matvec(Cs, (v_b[0] + lw[0], v_b[1] + lw[1], v_b[2] + lw[2]))
     Csn = _mul_bt(Cs, C)
-    for a in range(3):
-        y[r + a] = z[a] - pred[a]
+    for a in range(a0, 3):
+        k = r + a - a0
+        y[k] = z[a - a0] - pred[a]
         row = (Csn[3 * a], Csn[3 * a + 1], Csn[3 * a + 2])
         h_phi = _cross(row, v)
         h_bg = _cross((Cs[3 * a], Cs[3 * a + 1], Cs[3 * a + 2]), lever)
         for c in range(3):
-            H[r + a, 3 + c] = row[c]
-            H[r + a, 6 + c] = h_phi[c]
-            H[r + a, 12 + c] = h_bg[c]
+            H[k, 3 + c] = row[c]
+            H[k, 6 + c] = h_phi[c]
+            H[k, 12 + c] = h_bg[c]
 
 
 @jit_inline
@@ -357,7 +361,9 @@ def linearise(
             for c in range(N_STATES):
                 H[row + a, c] = 0.0
     if code == LIN_DVL:
-        _lin_dvl(par, x, z, w, y, H, row)
+        _lin_dvl(par, x, z, w, y, H, row, 0)
+    elif code == LIN_NHC:
+        _lin_dvl(par, x, z, w, y, H, row, 1)
     elif code == LIN_DEPTH:
         _lin_depth(par, x, z, y, H, row)
     elif code == LIN_INCLINOMETER:
@@ -399,6 +405,7 @@ LINEARISATIONS: dict[type, Callable[[Any], LinearisationSpec]] = {
     Heading: lambda m: (LIN_HEADING, _pack(C_sb=m.C_sb)),
     GNSS: lambda m: (LIN_GNSS, _pack(m.l_b, flag=1.0 if m.use_height else 0.0)),
     ZeroVelocity: lambda m: (LIN_ZUPT, _pack()),
+    NonHolonomic: lambda m: (LIN_NHC, _pack(m.l_b, m.C_sb)),
 }
 """Sensor classes with a compiled linearisation, by exact class (a subclass may change
 ``evaluate``, so it is not matched)."""

@@ -172,7 +172,12 @@ class FilterSettings(BaseModel):
         return None if v is False else v
 
     def with_kind(self, kind: FilterKind) -> FilterSettings:
-        return self.model_copy(update={"kind": kind})
+        return self.updated(kind=kind)
+
+    def updated(self, **changes: Any) -> FilterSettings:
+        """These settings with ``changes``, validated like the originals (``model_copy`` would
+        not check them)."""
+        return type(self).model_validate({**dict(self), **changes})
 
     def strategy(self, overrides: SensorOverrides = SensorOverrides()) -> NoiseStrategy:
         """The R strategy of this filter kind for one sensor."""

@@ -440,7 +440,7 @@ def run_one(
     kind = cast(FilterKind, spec.filter)
     settings = cfg.filter_settings().with_kind(kind)
     if spec.q is not None:
-        settings = settings.model_copy(update={"gate_q": {**settings.gate_q, kind: spec.q}})
+        settings = settings.updated(gate_q={**settings.gate_q, kind: spec.q})
     noise = None
     if spec.q_scale is not None:
         noise = scale_gyro_bias_q(cfg.imu.noise.to_imu_noise(), spec.q_scale)
