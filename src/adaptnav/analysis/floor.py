@@ -99,27 +99,12 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
     reference's, biases 0 and the ``sd_*`` columns NaN (no covariance). Ledger and noise
     tables are empty (no filter, no update).
     """
-    truth = mission.truth
-    if truth is None:
-        raise ValueError("floor: the mission has no truth table (it uses the reference attitude)")
-    missing = [c for c in ("t_s", *_POSITION, *_ATTITUDE) if c not in truth.columns]
-    if missing:
-        raise ValueError(f"floor: the truth table lacks columns {missing}")
+    truth = _reference(mission)
     name = _dvl_sensor(mission, sensor)
-    data = mission.sensors[name]
     cfg = mission.config.sensors[name]
     imu = mission.imu
-
     t_ref = truth["t_s"].to_numpy(dtype=float)
-    lo = max(float(imu.t[0] - imu.dt[0]), float(t_ref[0]))
-    hi = min(float(imu.t[-1]), float(t_ref[-1]))
-    inside = (data.t >= lo) & (data.t <= hi)
-    t, z = data.t[inside], data.z[inside]
-    valid = np.all(np.isfinite(z), axis=1)
-    if not valid.any():
-        raise ValueError(f"floor: sensor {name!r} has no finite reading inside [{lo}, {hi}] s")
-    first = int(np.argmax(valid))
-    t, z, valid = t[first:], z[first:], valid[first:]
+    t, z, valid = _readings(mission, name, t_ref)
 
     # Hold the last valid reading over non-finite ones (index of the last valid so far).
     held = np.maximum.accumulate(np.where(valid, np.arange(t.size), 0))
@@ -141,6 +126,63 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
     start = [_interp(t[:1], t_ref, truth[c].to_numpy(dtype=float))[0] for c in _POSITION]
     pos = dead_reckon(t, v_n, start[0], start[1], start[2])
 
+    ledger = ledger_frame([])
+    meta: dict[str, Any] = {
+        "baseline": "floor",
+        "description": (
+            "DVL dead reckoning: lever-arm-corrected DVL velocity rotated to NED by the "
+            "reference attitude, trapezoid-integrated from the reference position"
+        ),
+        "mission_dir": str(mission.root),
+        "sensor": name,
+        "lever_arm_m": cfg.lever_arm().tolist(),
+        "readings": int(t.size),
+        "readings_held": int(np.count_nonzero(~valid)),
+        "start_s": float(t[0]),
+        "end_s": float(t[-1]),
+    }
+    return Result(
+        filter=FILTER_NAME,
+        mission=mission.config.mission.name,
+        solution=_solution(t, pos, v_n, rpy),
+        ledger=ledger,
+        noise=noise_frame(ledger),
+        meta=meta,
+        repairs=repairs_frame([r.__dict__ for r in mission.repairs]),
+    )
+
+
+def _reference(mission: Mission) -> pd.DataFrame:
+    """The mission's truth table; ValueError without one or without the position and
+    attitude columns the floor needs."""
+    truth = mission.truth
+    if truth is None:
+        raise ValueError("floor: the mission has no truth table (it uses the reference attitude)")
+    missing = [c for c in ("t_s", *_POSITION, *_ATTITUDE) if c not in truth.columns]
+    if missing:
+        raise ValueError(f"floor: the truth table lacks columns {missing}")
+    return truth
+
+
+def _readings(mission: Mission, name: str, t_ref: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
+    """(t, z, finite) of the DVL ``name``'s readings inside the IMU and truth spans, from the
+    first finite one on; ValueError if there is none."""
+    data = mission.sensors[name]
+    imu = mission.imu
+    lo = max(float(imu.t[0] - imu.dt[0]), float(t_ref[0]))
+    hi = min(float(imu.t[-1]), float(t_ref[-1]))
+    inside = (data.t >= lo) & (data.t <= hi)
+    t, z = data.t[inside], data.z[inside]
+    valid = np.all(np.isfinite(z), axis=1)
+    if not valid.any():
+        raise ValueError(f"floor: sensor {name!r} has no finite reading inside [{lo}, {hi}] s")
+    first = int(np.argmax(valid))
+    return t[first:], z[first:], valid[first:]
+
+
+def _solution(t: Array, pos: Array, v_n: Array, rpy: Array) -> pd.DataFrame:
+    """The floor's solution in ``SOLUTION_COLUMNS``: the dead-reckoned position and velocity,
+    the reference's attitude, biases 0, no covariance (NaN ``sd_*`` and ``cov_*``)."""
     n = t.size
     zeros = np.zeros(n)
     columns: dict[str, Any] = {
@@ -157,28 +199,4 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
         **{c: zeros for c in SOLUTION_COLUMNS if c.startswith(("ba_", "bg_"))},
         **{c: np.full(n, np.nan) for c in (*SD_COLUMNS, *COV_COLUMNS)},
     }
-    solution = pd.DataFrame({c: columns[c] for c in SOLUTION_COLUMNS})
-    ledger = ledger_frame([])
-    meta: dict[str, Any] = {
-        "baseline": "floor",
-        "description": (
-            "DVL dead reckoning: lever-arm-corrected DVL velocity rotated to NED by the "
-            "reference attitude, trapezoid-integrated from the reference position"
-        ),
-        "mission_dir": str(mission.root),
-        "sensor": name,
-        "lever_arm_m": cfg.lever_arm().tolist(),
-        "readings": int(n),
-        "readings_held": int(np.count_nonzero(~valid)),
-        "start_s": float(t[0]),
-        "end_s": float(t[-1]),
-    }
-    return Result(
-        filter=FILTER_NAME,
-        mission=mission.config.mission.name,
-        solution=solution,
-        ledger=ledger,
-        noise=noise_frame(ledger),
-        meta=meta,
-        repairs=repairs_frame([r.__dict__ for r in mission.repairs]),
-    )
+    return pd.DataFrame({c: columns[c] for c in SOLUTION_COLUMNS})

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.table import Table
@@ -18,6 +18,12 @@ from adaptnav.cli._app import (
 from adaptnav.cli._app import fail as _fail
 from adaptnav.core.units import UnitError
 from adaptnav.viz import plots
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from adaptnav.analysis.evaluate import Metrics
+    from adaptnav.api.results import Result
 
 
 @app.command()
@@ -140,15 +146,31 @@ def evaluate_cmd(
     95 % of the epochs should lie in [0.216, 9.348]; velocity and attitude need them in the
     reference. Definitions: docs/metrics.md.
     """
-    import json
+    from adaptnav.analysis import evaluate
 
+    result, truth, source = _run_and_reference(run_dir, mission)
+    try:
+        metrics = evaluate.evaluate(result, truth)
+    except ValueError as exc:  # a reference without the columns or times it needs
+        _fail(f"{source}: {exc}")
+    d = metrics.to_dict()
+    if as_json:
+        import json
+
+        typer.echo(json.dumps({"filter": result.filter, **d}, default=str))
+        return
+    console.print(_metrics_table(result, metrics, d))
+    console.print(_ledger_table(metrics))
+
+
+def _run_and_reference(run_dir: Path, mission: Path | None) -> tuple[Result, pd.DataFrame, Path]:
+    """(the run, its reference, where the reference came from) for ``evaluate``: the
+    ``--mission``'s truth table, else the run folder's ``truth.parquet``; a clear error
+    (:func:`_fail`) when either cannot be read or there is none."""
     import pandas as pd
 
-    from adaptnav.analysis import evaluate
     from adaptnav.api import results
     from adaptnav.mission import MissionError, load_mission
-
-    lo, hi = evaluate.NEES_BAND
 
     source = mission if mission is not None else run_dir / "truth.parquet"
     try:
@@ -167,14 +189,15 @@ def evaluate_cmd(
         _fail(str(exc))
     if truth is None:
         _fail(f"{run_dir}: no reference (truth.parquet) and no --mission with a [truth] table")
-    try:
-        metrics = evaluate.evaluate(result, truth)
-    except ValueError as exc:  # a reference without the columns or times it needs
-        _fail(f"{source}: {exc}")
-    d = metrics.to_dict()
-    if as_json:
-        typer.echo(json.dumps({"filter": result.filter, **d}, default=str))
-        return
+    return result, truth, source
+
+
+def _metrics_table(result: Result, metrics: Metrics, d: dict[str, Any]) -> Table:
+    """The ``evaluate`` table: RMSE, relative RMSE, distance and NEES (docs/metrics.md) from
+    ``d``, the metrics as a dict."""
+    from adaptnav.analysis import evaluate
+
+    lo, hi = evaluate.NEES_BAND
     table = Table(title=f"{result.filter} on {result.mission} (against the reference)")
     table.add_column("metric")
     table.add_column("value")
@@ -202,7 +225,11 @@ def evaluate_cmd(
         table.add_row(label, "n/a" if value is None else fmt.format(value))
     if not metrics.nees_uses_correlations:
         table.caption = "NEES from P's diagonal only: the run folder has no cov_ columns"
-    console.print(table)
+    return table
+
+
+def _ledger_table(metrics: Metrics) -> Table:
+    """Readings used, rejected and dropped per sensor, with the mean NIS (docs/metrics.md)."""
     counts = Table(title="ledger")
     for col in ("sensor", "used", "rejected", "dropped", "mean NIS"):
         counts.add_column(col)
@@ -212,7 +239,7 @@ def evaluate_cmd(
             sensor, *(str(c.get(k, 0)) for k in ("used", "rejected", "dropped")),
             "n/a" if nis is None or nis != nis else f"{nis:.2f}",
         )  # fmt: skip
-    console.print(counts)
+    return counts
 
 
 @app.command()

@@ -285,14 +285,7 @@ def coarse_align(
     dth, dv, d = _increments(dtheta, dvel, dt)
     lat = _check_lat(lat)
     if heading is not None:
-        if heading_sigma is None:
-            raise ValueError("heading_sigma (rad) is required when a heading is given")
-        heading = float(heading)
-        if not math.isfinite(heading):
-            raise ValueError(f"heading must be finite, got {heading!r}")
-        heading_sigma = float(heading_sigma)
-        if not (math.isfinite(heading_sigma) and heading_sigma > 0.0):
-            raise ValueError(f"heading_sigma must be finite and > 0, got {heading_sigma!r}")
+        heading, heading_sigma = _check_heading(heading, heading_sigma)
     arw = imu_noise.arw if imu_noise is not None else 0.0
     vrw = imu_noise.vrw if imu_noise is not None else 0.0
     if gyro_bias_sigma is None and imu_noise is not None:
@@ -331,23 +324,48 @@ def coarse_align(
         source = "heading"
         yaw, sigma_heading = float(attitude.wrap_angle(heading)), heading_sigma
     else:
-        why = (
-            "the gyro bias σ is unknown, so gyrocompassing cannot be judged"
-            if gyro_bias_sigma is None
-            else (
-                f"gyrocompassing would give a heading σ of {math.degrees(sigma_gc):.3g}° "
-                f"> {math.degrees(max_heading_sigma):.3g}° (gyro bias σ "
-                f"{math.degrees(gyro_bias_sigma) * 3600:.3g} deg/h against the earth rate's "
-                f"horizontal {math.degrees(horizontal_rate) * 3600:.3g} deg/h at "
-                f"{math.degrees(lat):.2f}°)"
-            )
-        )
-        raise AlignmentError(
-            f"no heading for the alignment: {why}; give a heading (rad) and its σ from a "
-            "heading sensor or the configuration"
-        )
+        raise _no_heading(gyro_bias_sigma, sigma_gc, max_heading_sigma, horizontal_rate, lat)
     info = CoarseInfo(source, sigma_level, sigma_heading, sigma_gc, yaw_gc, T, g, f_mean, w_mean)
     return roll, pitch, yaw, info
+
+
+def _check_heading(heading: float, heading_sigma: float | None) -> tuple[float, float]:
+    """A given heading and its σ as floats; ValueError unless finite (σ > 0 and required)."""
+    if heading_sigma is None:
+        raise ValueError("heading_sigma (rad) is required when a heading is given")
+    heading = float(heading)
+    if not math.isfinite(heading):
+        raise ValueError(f"heading must be finite, got {heading!r}")
+    heading_sigma = float(heading_sigma)
+    if not (math.isfinite(heading_sigma) and heading_sigma > 0.0):
+        raise ValueError(f"heading_sigma must be finite and > 0, got {heading_sigma!r}")
+    return heading, heading_sigma
+
+
+def _no_heading(
+    gyro_bias_sigma: float | None,
+    sigma_gc: float,
+    max_heading_sigma: float,
+    horizontal_rate: float,
+    lat: float,
+) -> AlignmentError:
+    """The error when gyrocompassing is not good enough and no heading is given: why the
+    gyrocompass was refused (σ_ψ against the limit, module docstring; docs/alignment.md)."""
+    why = (
+        "the gyro bias σ is unknown, so gyrocompassing cannot be judged"
+        if gyro_bias_sigma is None
+        else (
+            f"gyrocompassing would give a heading σ of {math.degrees(sigma_gc):.3g}° "
+            f"> {math.degrees(max_heading_sigma):.3g}° (gyro bias σ "
+            f"{math.degrees(gyro_bias_sigma) * 3600:.3g} deg/h against the earth rate's "
+            f"horizontal {math.degrees(horizontal_rate) * 3600:.3g} deg/h at "
+            f"{math.degrees(lat):.2f}°)"
+        )
+    )
+    return AlignmentError(
+        f"no heading for the alignment: {why}; give a heading (rad) and its σ from a "
+        "heading sensor or the configuration"
+    )
 
 
 # --- initial covariance -------------------------------------------------------------------------
@@ -605,23 +623,11 @@ def align(
         zupt, zupt_period: the zero-velocity pseudo-measurement and its period (s).
         max_heading_sigma, tolerances: see :func:`coarse_align`.
     """
-    t = np.atleast_1d(np.asarray(imu_t, dtype=float))
-    dth = np.asarray(dtheta, dtype=float)
-    dv = np.asarray(dvel, dtype=float)
-    if t.ndim != 1 or t.size < 1:
-        raise ValueError(f"imu_t must be a non-empty 1-D array, got shape {t.shape}")
-    d = np.broadcast_to(np.asarray(imu_dt, dtype=float), t.shape).copy()
-    if dth.shape != (t.size, 3) or dv.shape != (t.size, 3):
-        raise ValueError(
-            f"dtheta and dvel must have shape ({t.size}, 3), got {dth.shape} and {dv.shape}"
-        )
+    t, d, dth, dv = _imu_arrays(imu_t, imu_dt, dtheta, dvel)
     window = float(window)
     if not (math.isfinite(window) and window > 0.0):
         raise ValueError(f"window must be finite and > 0 s, got {window!r}")
-    if len(position) != 3:
-        raise ValueError(f"position must be (lat, lon, h), got {position!r}")
-    lat, lon, h = (float(p) for p in position)
-    lat = _check_lat(lat)
+    lat, lon, h = _position(position)
     for name, s in (
         ("accel_bias_sigma", accel_bias_sigma),
         ("gyro_bias_sigma", gyro_bias_sigma),
@@ -632,6 +638,64 @@ def align(
             raise ValueError(f"{name} must be finite and >= 0, got {s!r}")
 
     start = float(t[0] - d[0])
+    n = _window_samples(t, d, start, window)
+    tw, dw, dthw, dvw = t[:n], d[:n], dth[:n], dv[:n]
+    T = float(dw.sum())
+    sa, sg = _window_bias_sigmas(imu_noise, T, accel_bias_sigma, gyro_bias_sigma)
+    roll, pitch, yaw, info = coarse_align(
+        dthw, dvw, dw, lat, heading, heading_sigma=heading_sigma, h=h, gyro_bias_sigma=sg,
+        accel_bias_sigma=sa, imu_noise=imu_noise, max_heading_sigma=max_heading_sigma,
+        tolerances=tolerances,
+    )  # fmt: skip
+    x0 = NavState.from_euler(lat, lon, h, np.zeros(3), roll, pitch, yaw).to_array()
+    P0 = np.zeros((N_STATES, N_STATES))
+    P0[POS, POS] = np.eye(3) * position_sigma**2
+    P0[VEL, VEL] = np.eye(3) * velocity_sigma**2
+    idx = np.r_[ATT, BA, BG]
+    P0[np.ix_(idx, idx)] = coarse_covariance(
+        attitude.euler_to_dcm(roll, pitch, yaw), lat, T, imu_noise, accel_bias_sigma,
+        gyro_bias_sigma, info.heading_source,
+        info.sigma_heading if info.heading_source == "heading" else None, h,
+    )  # fmt: skip
+    fine = fine_align(
+        tw, dw, dthw, dvw, x0, P0, imu_noise, t0=start, zupt=zupt, zupt_period=zupt_period,
+        gnss=gnss, gnss_readings=gnss_readings,
+    )  # fmt: skip
+    return Alignment(
+        fine.x, fine.P, fine.t_end, roll, pitch, yaw, info.heading_source, info, P0,
+        fine.zupt_mean_nis, fine.output,
+    )  # fmt: skip
+
+
+def _imu_arrays(
+    imu_t: ArrayLike, imu_dt: ArrayLike, dtheta: ArrayLike, dvel: ArrayLike
+) -> tuple[Array, Array, Array, Array]:
+    """``(t, dt, dtheta, dvel)`` of :func:`align` as float arrays, ``dt`` broadcast to ``t``;
+    ValueError unless ``t`` is a non-empty 1-D array and the increments are (N, 3)."""
+    t = np.atleast_1d(np.asarray(imu_t, dtype=float))
+    dth = np.asarray(dtheta, dtype=float)
+    dv = np.asarray(dvel, dtype=float)
+    if t.ndim != 1 or t.size < 1:
+        raise ValueError(f"imu_t must be a non-empty 1-D array, got shape {t.shape}")
+    d = np.broadcast_to(np.asarray(imu_dt, dtype=float), t.shape).copy()
+    if dth.shape != (t.size, 3) or dv.shape != (t.size, 3):
+        raise ValueError(
+            f"dtheta and dvel must have shape ({t.size}, 3), got {dth.shape} and {dv.shape}"
+        )
+    return t, d, dth, dv
+
+
+def _position(position: Sequence[float]) -> tuple[float, float, float]:
+    """``(lat, lon, h)`` as floats, the latitude checked (:func:`_check_lat`)."""
+    if len(position) != 3:
+        raise ValueError(f"position must be (lat, lon, h), got {position!r}")
+    lat, lon, h = (float(p) for p in position)
+    return _check_lat(lat), lon, h
+
+
+def _window_samples(t: Array, d: Array, start: float, window: float) -> int:
+    """Number of IMU intervals in the static window ``[start, start + window]``, to half an
+    interval; AlignmentError if the data end before it."""
     stop = start + window
     half_dt = 0.5 * float(np.median(d))
     if t[-1] < stop - half_dt:
@@ -639,69 +703,16 @@ def align(
             f"the alignment window ({window:.6g} s) is longer than the IMU data "
             f"({t[-1] - start:.6g} s from t = {start:.6g} s)"
         )
-    n = int(np.searchsorted(t, stop + half_dt, side="right"))
-    tw, dw, dthw, dvw = t[:n], d[:n], dth[:n], dv[:n]
-    T = float(dw.sum())
+    return int(np.searchsorted(t, stop + half_dt, side="right"))
 
-    # σ of the window-mean biases (what coarse alignment sees), as in coarse_covariance.
+
+def _window_bias_sigmas(
+    imu_noise: ImuNoise, T: float, accel_bias_sigma: float, gyro_bias_sigma: float
+) -> tuple[float, float]:
+    """σ of the window-mean accelerometer and gyro biases (what coarse alignment sees), as in
+    :func:`coarse_covariance`: ``sqrt((κ σ_0)² + q T / 3)``."""
     ka = _mean_factor(imu_noise.accel_bias_tau, T)
     kg = _mean_factor(imu_noise.gyro_bias_tau, T)
     sa = math.sqrt((ka * accel_bias_sigma) ** 2 + imu_noise.accel_bias_psd * T / 3.0)
     sg = math.sqrt((kg * gyro_bias_sigma) ** 2 + imu_noise.gyro_bias_psd * T / 3.0)
-    roll, pitch, yaw, info = coarse_align(
-        dthw,
-        dvw,
-        dw,
-        lat,
-        heading,
-        heading_sigma=heading_sigma,
-        h=h,
-        gyro_bias_sigma=sg,
-        accel_bias_sigma=sa,
-        imu_noise=imu_noise,
-        max_heading_sigma=max_heading_sigma,
-        tolerances=tolerances,
-    )
-    x0 = NavState.from_euler(lat, lon, h, np.zeros(3), roll, pitch, yaw).to_array()
-    P0 = np.zeros((N_STATES, N_STATES))
-    P0[POS, POS] = np.eye(3) * position_sigma**2
-    P0[VEL, VEL] = np.eye(3) * velocity_sigma**2
-    idx = np.r_[ATT, BA, BG]
-    P0[np.ix_(idx, idx)] = coarse_covariance(
-        attitude.euler_to_dcm(roll, pitch, yaw),
-        lat,
-        T,
-        imu_noise,
-        accel_bias_sigma,
-        gyro_bias_sigma,
-        info.heading_source,
-        info.sigma_heading if info.heading_source == "heading" else None,
-        h,
-    )
-    fine = fine_align(
-        tw,
-        dw,
-        dthw,
-        dvw,
-        x0,
-        P0,
-        imu_noise,
-        t0=start,
-        zupt=zupt,
-        zupt_period=zupt_period,
-        gnss=gnss,
-        gnss_readings=gnss_readings,
-    )
-    return Alignment(
-        fine.x,
-        fine.P,
-        fine.t_end,
-        roll,
-        pitch,
-        yaw,
-        info.heading_source,
-        info,
-        P0,
-        fine.zupt_mean_nis,
-        fine.output,
-    )
+    return sa, sg

@@ -233,38 +233,10 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
         table, IMU_RATE_COLUMNS if rates else IMU_INCREMENT_COLUMNS, "imu", journal
     )
     check_order(table, t)
-    keep = np.ones(t.size, dtype=bool)
-    for k in np.flatnonzero(np.diff(t) == 0.0):
-        if _rows_equal(v[k], v[k + 1]):
-            journal.repair(
-                table.label,
-                int(table.lines[k + 1]),
-                TIME_COLUMN,
-                "dropped duplicate row",
-                f"same time and values as {table.where(int(k))}",
-            )
-            keep[k + 1] = False
-        else:
-            raise table.error(
-                int(k + 1),
-                TIME_COLUMN,
-                f"repeated time t = {show(t[k])} s (also at {table.where(int(k))}) with different "
-                "values",
-            )
-    rows = np.flatnonzero(keep)
+    rows = np.flatnonzero(_drop_duplicate_rows(table, t, v, journal))
     # Increments: each row's own interval, before rows with NaN are removed (see below).
     own_dt = np.diff(t[rows], prepend=t[rows[0]] - 1.0 / cfg.rate_hz)
-    finite = np.all(np.isfinite(v[rows]), axis=1)
-    for j in np.flatnonzero(~finite):
-        r = int(rows[j])
-        bad = used[1 + int(np.flatnonzero(~np.isfinite(v[r]))[0])]
-        journal.repair(
-            table.label,
-            int(table.lines[r]),
-            bad,
-            "dropped row with non-finite value",
-            f"{bad} = {show(table.df[bad].iloc[r])}",
-        )
+    finite = _finite_rows(table, v, rows, used, journal)
     rows, own_dt = rows[finite], own_dt[finite]
     need = 2 if rates else 1
     if rows.size < need:
@@ -295,6 +267,49 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     dt = np.concatenate([own_dt[:1], gaps])
     scale = (dt / own_dt)[:, None]
     return ImuData(tk.copy(), dt, vv[:, :3] * scale, vv[:, 3:] * scale)
+
+
+def _drop_duplicate_rows(table: Table, t: Array, v: Array, journal: Journal) -> NDArray[np.bool_]:
+    """Rows to keep: a row repeating the previous one's time and values is dropped (a
+    repair); the same time with other values is a MissionError (docs/data-format.md)."""
+    keep = np.ones(t.size, dtype=bool)
+    for k in np.flatnonzero(np.diff(t) == 0.0):
+        if _rows_equal(v[k], v[k + 1]):
+            journal.repair(
+                table.label,
+                int(table.lines[k + 1]),
+                TIME_COLUMN,
+                "dropped duplicate row",
+                f"same time and values as {table.where(int(k))}",
+            )
+            keep[k + 1] = False
+        else:
+            raise table.error(
+                int(k + 1),
+                TIME_COLUMN,
+                f"repeated time t = {show(t[k])} s (also at {table.where(int(k))}) with different "
+                "values",
+            )
+    return keep
+
+
+def _finite_rows(
+    table: Table, v: Array, rows: NDArray[np.int64], used: list[str], journal: Journal
+) -> NDArray[np.bool_]:
+    """Which of ``rows`` have every IMU value finite; the others are dropped, each a repair
+    naming its first non-finite column (docs/data-format.md)."""
+    finite = np.all(np.isfinite(v[rows]), axis=1)
+    for j in np.flatnonzero(~finite):
+        r = int(rows[j])
+        bad = used[1 + int(np.flatnonzero(~np.isfinite(v[r]))[0])]
+        journal.repair(
+            table.label,
+            int(table.lines[r]),
+            bad,
+            "dropped row with non-finite value",
+            f"{bad} = {show(table.df[bad].iloc[r])}",
+        )
+    return np.asarray(finite, dtype=bool)
 
 
 def _check_magnitudes(
@@ -377,22 +392,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             table.where(int(r)),
             DroppedRow(name, int(r), float(t[r]), "duplicate timestamp"),
         )
-    if cfg.status_column is not None:
-        lost = ~flag(table, cfg.status_column)
-        reason = f"DVL bottom lock lost: {cfg.status_column} = 0 (status_column)"
-        for r in np.flatnonzero(keep & lost):
-            keep[r] = False
-            journal.drop(
-                table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
-            )
-    if cfg.zero_is_lost:
-        for r in np.flatnonzero(keep & np.all(z == 0.0, axis=1)):
-            keep[r] = False
-            journal.drop(
-                table.label,
-                table.where(int(r)),
-                DroppedRow(name, int(r), float(t[r]), LOST_LOCK_REASON),
-            )
+    _drop_lost_lock(table, name, cfg, t, z, keep, journal)
     for r in np.flatnonzero(keep & outside.any(axis=1)):
         keep[r] = False
         c = int(np.flatnonzero(outside[r])[0])
@@ -414,6 +414,35 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     else:
         period = math.nan
     return SensorData(name, cfg.kind, tk, z[rows], rows, period)
+
+
+def _drop_lost_lock(
+    table: Table,
+    name: str,
+    cfg: SensorConfig,
+    t: Array,
+    z: Array,
+    keep: NDArray[np.bool_],
+    journal: Journal,
+) -> None:
+    """Drop (``keep`` set False, ledger) the readings still kept that report a lost bottom
+    lock: the ``status_column`` flag 0, or (``zero_is_lost``) all zeros (docs/data-format.md)."""
+    if cfg.status_column is not None:
+        lost = ~flag(table, cfg.status_column)
+        reason = f"DVL bottom lock lost: {cfg.status_column} = 0 (status_column)"
+        for r in np.flatnonzero(keep & lost):
+            keep[r] = False
+            journal.drop(
+                table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
+            )
+    if cfg.zero_is_lost:
+        for r in np.flatnonzero(keep & np.all(z == 0.0, axis=1)):
+            keep[r] = False
+            journal.drop(
+                table.label,
+                table.where(int(r)),
+                DroppedRow(name, int(r), float(t[r]), LOST_LOCK_REASON),
+            )
 
 
 _UNIT = {"s": "m/s", "m": "m", "rad": "rad"}

@@ -682,6 +682,29 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     Slow and memory-hungry (about 11× the file at its peak, docs/robustness.md, "Memory"): only
     for the files :func:`_read_csv_typed` leaves to it.
     """
+    text = _decode(path, label)
+    lines = [s.rstrip("\r") for s in text.split("\n")]
+    keep = [i for i, s in enumerate(lines) if s.strip()]
+    if not keep:
+        raise MissionError(f"{label}: empty file (no header line)", file=label)
+    head = keep[0]
+    header = [h.strip() for h in next(csv.reader([lines[head]]))]
+    _check_header(header, label, head + 1)
+    quoted = '"' in text
+    data, cut = _check_field_counts(lines, keep[1:], header, head, quoted, label, journal)
+    if cut is None and data and not text.endswith(("\n", "\r")):
+        data, cut = _drop_cut_last_line(lines, data, header, quoted, label, journal)
+    body = "\n".join([lines[head], *(lines[i] for i in data)])
+    df = _parse_csv(body, label)
+    df.columns = pd.Index(header)
+    if len(df) != len(data):  # pragma: no cover - guarded by the field count above
+        raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
+    return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1, cut)
+
+
+def _decode(path: Path, label: str) -> str:
+    """The file's text (UTF-8, a BOM dropped); MissionError for an unreadable file, binary
+    content or another encoding."""
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -691,30 +714,35 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
             f"{label}: not a CSV text file (binary content; a Parquet file named .csv?)", file=label
         )
     try:
-        text = raw.decode("utf-8-sig")
+        return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise MissionError(
             f"{label}: not UTF-8 text (bad byte at offset {exc.start}); not a CSV file?", file=label
         ) from None
-    lines = [s.rstrip("\r") for s in text.split("\n")]
-    keep = [i for i, s in enumerate(lines) if s.strip()]
-    if not keep:
-        raise MissionError(f"{label}: empty file (no header line)", file=label)
-    head = keep[0]
-    header = [h.strip() for h in next(csv.reader([lines[head]]))]
-    _check_header(header, label, head + 1)
-    data = keep[1:]
-    quoted = '"' in text
 
-    def fields(i: int) -> list[str]:
-        return next(csv.reader([lines[i]])) if quoted else lines[i].split(",")
 
+def _fields(line: str, quoted: bool) -> list[str]:
+    """The fields of one CSV line (the csv module only when the file has quotes: faster)."""
+    return next(csv.reader([line])) if quoted else line.split(",")
+
+
+def _check_field_counts(
+    lines: list[str],
+    data: list[int],
+    header: list[str],
+    head: int,
+    quoted: bool,
+    label: str,
+    journal: Journal,
+) -> tuple[list[int], tuple[int, float] | None]:
+    """(data line indices, cut): every data line must have the header's number of fields,
+    MissionError otherwise, except a short last line (the file cut short), which is dropped
+    and recorded (docs/robustness.md)."""
     if quoted:
         counts = [len(r) for r in csv.reader(lines[i] for i in data)]
     else:
         counts = [lines[i].count(",") + 1 for i in data]
     n = len(header)
-    cut: tuple[int, float] | None = None
     for j, (i, c) in enumerate(zip(data, counts, strict=True)):
         if c == n:
             continue
@@ -726,49 +754,56 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
                 "dropped truncated last line",
                 f"{c} of {n} fields: {lines[i][:60]!r}",
             )
-            cut = (i + 1, _time_of(fields(i)[: c - 1], header))
-            data = data[:-1]
-            break
+            return data[:-1], (i + 1, _time_of(_fields(lines[i], quoted)[: c - 1], header))
         raise MissionError(
             f"{label} line {i + 1}: {c} fields, the header (line {head + 1}) has {n}",
             file=label,
             line=i + 1,
         )
-    if cut is None and data and not text.endswith(("\n", "\r")):
-        # No line break at the end: the file may have been cut inside the last line's last
-        # field (-0.0979034 → -0.0979). Kept only if that field is as long as the longest of
-        # its column on the lines before (a fixed-width writer); otherwise dropped.
-        last = fields(data[-1])
-        before = [len(fields(i)[-1].strip()) for i in data[-1 - CUT_WINDOW : -1]]
-        value = last[-1].strip()
-        if not before or len(value) < max(before):
-            journal.repair(
-                label,
-                data[-1] + 1,
-                header[-1],
-                "dropped truncated last line",
-                f"the file ends without a line break and the last value {value!r} is shorter "
-                f"than its column's ({max(before, default=0)} characters): cut mid-number?",
-            )
-            cut = (data[-1] + 1, _time_of(last[:-1], header))
-            data = data[:-1]
-    body = "\n".join([lines[head], *(lines[i] for i in data)])
+    return data, None
+
+
+def _drop_cut_last_line(
+    lines: list[str],
+    data: list[int],
+    header: list[str],
+    quoted: bool,
+    label: str,
+    journal: Journal,
+) -> tuple[list[int], tuple[int, float] | None]:
+    """(data line indices, cut) of a file without a line break at the end: it may have been
+    cut inside the last line's last field (-0.0979034 → -0.0979). That line is kept only if
+    the field is as long as the longest of its column on the lines before (a fixed-width
+    writer); otherwise dropped and recorded (docs/robustness.md)."""
+    last = _fields(lines[data[-1]], quoted)
+    before = [len(_fields(lines[i], quoted)[-1].strip()) for i in data[-1 - CUT_WINDOW : -1]]
+    value = last[-1].strip()
+    if before and len(value) >= max(before):
+        return data, None
+    journal.repair(
+        label,
+        data[-1] + 1,
+        header[-1],
+        "dropped truncated last line",
+        f"the file ends without a line break and the last value {value!r} is shorter "
+        f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+    )
+    return data[:-1], (data[-1] + 1, _time_of(last[:-1], header))
+
+
+def _parse_csv(body: str, label: str) -> pd.DataFrame:
+    """pandas' parse of the checked lines (floats read exactly: round_trip before pandas 3)."""
     try:
         if _OLD_PANDAS:
-            df = pd.read_csv(
+            return pd.read_csv(
                 io.StringIO(body),
                 low_memory=False,
                 skipinitialspace=True,
                 float_precision="round_trip",
             )
-        else:
-            df = pd.read_csv(io.StringIO(body), low_memory=False, skipinitialspace=True)
+        return pd.read_csv(io.StringIO(body), low_memory=False, skipinitialspace=True)
     except (pd.errors.ParserError, ValueError, csv.Error) as exc:
         raise MissionError(f"{label}: cannot parse as CSV ({exc})", file=label) from None
-    df.columns = pd.Index(header)
-    if len(df) != len(data):  # pragma: no cover - guarded by the field count above
-        raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
-    return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1, cut)
 
 
 def _time_of(complete: list[str], header: list[str]) -> float:

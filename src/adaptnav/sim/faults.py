@@ -401,126 +401,18 @@ def inject(
     ``faults.json``, or a span too short for the windows.
     """
     p = params if params is not None else FaultParams()
-    kinds: tuple[FaultKind, ...]
-    if case == ALL:
-        kinds = FAULT_KINDS
-    elif case in FAULT_KINDS:
-        kinds = (case,)
-    else:
-        raise ValueError(f"fault {case!r}: use one of {', '.join((*FAULT_KINDS, ALL))}")
+    kinds = _kinds(case)
     src, dst = Path(source), Path(out)
-    if (src / FAULTS_FILE).exists():
-        raise ValueError(f"{src}: already a faulted mission ({FAULTS_FILE}); fault the clean one")
-    if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
-        raise ValueError(f"{dst}: exists and is not an empty folder")
+    _check_folders(src, dst)
     config = load_config(src / CONFIG_NAME)
-    dvl = _sensor(config, "dvl", p.dvl_sensor)
-    depth = _sensor(config, "depth", p.depth_sensor)
-    files = {dvl: config.sensors[dvl].file, depth: config.sensors[depth].file}
-    others = {config.imu.file, config.truth.file} | {
-        s.file for n, s in config.sensors.items() if n not in files
-    }
-    for name, file in files.items():
-        if file in others or list(files.values()).count(file) > 1:
-            raise ValueError(f"{file}: sensor {name!r} shares its table; cannot fault it alone")
+    dvl, depth, files = _faulted_sensors(config, p)
 
     nav_start, lo, hi = _span(src, config, p)
     windows = layout((lo, hi), p, rng)
     tables = {dvl: _read(src / files[dvl]), depth: _read(src / files[depth])}
-    faults: dict[FaultKind, Injected] = {}
-    dvl_table = tables[dvl]
-    t_dvl = dvl_table["t_s"].to_numpy(dtype=float)
-
-    # DVL windows first: the spikes must avoid them, and rows are counted before the dropout.
-    a, b = windows["dvl_stuck"]
-    valid = _finite_rows(dvl_table, DVL_COLUMNS)
-    if OUTLIER_COLUMN in dvl_table.columns:
-        valid &= dvl_table[OUTLIER_COLUMN].to_numpy() == 0
-    first = np.flatnonzero((t_dvl >= a) & (t_dvl < b) & valid)
-    if first.size == 0:
-        raise ValueError(f"no valid DVL reading in the stuck window [{a:.1f}, {b:.1f}) s")
-    k0 = int(first[0])
-    stuck_window = (a, b)
-    # The window keeps its place (so it stays disjoint from the others) even when its first
-    # reading is late (a NaN or an outlier of the simulator at the start).
-    stuck_rows = np.flatnonzero((t_dvl > t_dvl[k0]) & (t_dvl < b))
-    stuck_value = dvl_table.loc[k0, list(DVL_COLUMNS)].to_numpy(dtype=float)
-    drop_window = windows["dvl_dropout"]
-    drop_rows = np.flatnonzero((t_dvl >= drop_window[0]) & (t_dvl < drop_window[1]))
-
-    # Spikes: drawn whether or not injected, so the generator is in the same state after.
-    n_nav = int(np.count_nonzero(t_dvl > nav_start))
-    n_spikes = max(1, round(p.dvl_spike_fraction * n_nav))
-    busy = in_intervals(t_dvl, np.array([stuck_window, drop_window]))
-    candidates = np.flatnonzero((t_dvl >= lo) & (t_dvl < hi) & valid & ~busy)
-    if candidates.size < n_spikes:
-        raise ValueError(f"{n_spikes} DVL spikes wanted, {candidates.size} readings eligible")
-    spike_rows = np.sort(rng.choice(candidates, size=n_spikes, replace=False))
-    spikes = spike_vectors(rng, n_spikes, p.dvl_spike_range_m_s)
-
-    if "dvl_stuck" in kinds:
-        _set(dvl_table, DVL_COLUMNS, stuck_rows, np.tile(stuck_value, (stuck_rows.size, 1)))
-        _flag(dvl_table, stuck_rows)
-    if "dvl_spikes" in kinds:
-        values = dvl_table[list(DVL_COLUMNS)].to_numpy(dtype=float)[spike_rows]
-        _set(dvl_table, DVL_COLUMNS, spike_rows, values + spikes)
-        _flag(dvl_table, spike_rows)
-    removed = drop_rows if "dvl_dropout" in kinds else np.zeros(0, dtype=np.int64)
-    # Source row -> row of the faulted table (ledger rows), once the dropout is taken out.
-    new_row = np.cumsum(~np.isin(np.arange(len(dvl_table)), removed)) - 1
-    if removed.size:
-        tables[dvl] = dvl_table.drop(index=dvl_table.index[removed]).reset_index(drop=True)
-
-    def rows_after(rows: IntArray) -> tuple[int, ...]:
-        return tuple(int(r) for r in new_row[rows])
-
-    if "dvl_stuck" in kinds:
-        faults["dvl_stuck"] = Injected(
-            "dvl_stuck", dvl, files[dvl], stuck_window, rows_after(stuck_rows),
-            detail={"stuck_row": int(new_row[k0]), "stuck_from_s": float(t_dvl[k0]),
-                    "value_m_s": stuck_value.tolist()},
-        )  # fmt: skip
-    if "dvl_dropout" in kinds:
-        times = t_dvl[removed]
-        faults["dvl_dropout"] = Injected(
-            "dvl_dropout", dvl, files[dvl], drop_window, (), tuple(int(r) for r in removed),
-            detail={"removed": int(removed.size),
-                    "removed_t_s": [float(times[0]), float(times[-1])] if times.size else []},
-        )  # fmt: skip
-    if "dvl_spikes" in kinds:
-        faults["dvl_spikes"] = Injected(
-            "dvl_spikes", dvl, files[dvl], None, rows_after(spike_rows),
-            detail={"spikes_m_s": spikes.tolist(), "fraction": p.dvl_spike_fraction,
-                    "navigation_readings": n_nav},
-        )  # fmt: skip
-
-    depth_table = tables[depth]
-    t_depth = depth_table["t_s"].to_numpy(dtype=float)
-    if "depth_spike" in kinds:
-        a, b = windows["depth_spike"]
-        rows = np.flatnonzero((t_depth >= a) & _finite_rows(depth_table, [DEPTH_COLUMN]))[:1]
-        if rows.size == 0 or t_depth[rows[0]] >= hi:
-            raise ValueError(f"no depth reading after {a:.1f} s for the spike")
-        z = depth_table[DEPTH_COLUMN].to_numpy(dtype=float)[rows, None]
-        _set(depth_table, [DEPTH_COLUMN], rows, z + p.depth_spike_m)
-        _flag(depth_table, rows)
-        t = float(t_depth[rows[0]])
-        faults["depth_spike"] = Injected(
-            "depth_spike", depth, files[depth], (t, t), (int(rows[0]),),
-            detail={"offset_m": p.depth_spike_m},
-        )  # fmt: skip
-    if "depth_offset" in kinds:
-        a, b = windows["depth_offset"]
-        rows = np.flatnonzero((t_depth >= a) & (t_depth < b))
-        if rows.size == 0:
-            raise ValueError(f"no depth reading in the offset window [{a:.1f}, {b:.1f}) s")
-        z = depth_table[DEPTH_COLUMN].to_numpy(dtype=float)[rows, None]
-        _set(depth_table, [DEPTH_COLUMN], rows, z + p.depth_offset_m)
-        _flag(depth_table, rows)
-        faults["depth_offset"] = Injected(
-            "depth_offset", depth, files[depth], (a, b), tuple(int(r) for r in rows),
-            detail={"offset_m": p.depth_offset_m},
-        )  # fmt: skip
+    placed = _place_dvl(tables[dvl], windows, nav_start, (lo, hi), p, rng)
+    tables[dvl], faults = _fault_dvl(tables[dvl], dvl, files[dvl], kinds, placed, p)
+    faults.update(_fault_depth(tables[depth], depth, files[depth], kinds, windows, hi, p))
 
     log = FaultLog(
         source=str(src.resolve()),
@@ -535,6 +427,202 @@ def inject(
     changed = {files[n]: tables[n] for n in (dvl, depth) if any(f.sensor == n for f in log.faults)}
     _write_copy(src, dst, changed, log)
     return log
+
+
+def _kinds(case: str) -> tuple[FaultKind, ...]:
+    """The single faults of ``case`` (:data:`ALL`: every one); ValueError for an unknown case."""
+    if case == ALL:
+        return FAULT_KINDS
+    if case in FAULT_KINDS:
+        return (case,)
+    raise ValueError(f"fault {case!r}: use one of {', '.join((*FAULT_KINDS, ALL))}")
+
+
+def _check_folders(src: Path, dst: Path) -> None:
+    """The source must be a clean mission, the output absent or an empty folder."""
+    if (src / FAULTS_FILE).exists():
+        raise ValueError(f"{src}: already a faulted mission ({FAULTS_FILE}); fault the clean one")
+    if dst.exists() and (not dst.is_dir() or any(dst.iterdir())):
+        raise ValueError(f"{dst}: exists and is not an empty folder")
+
+
+def _faulted_sensors(config: MissionConfig, p: FaultParams) -> tuple[str, str, dict[str, str]]:
+    """(DVL name, depth name, name -> table file) of the faulted sensors; ValueError when one
+    shares its table with another sensor, the IMU or the truth (it could not be faulted alone)."""
+    dvl = _sensor(config, "dvl", p.dvl_sensor)
+    depth = _sensor(config, "depth", p.depth_sensor)
+    files = {dvl: config.sensors[dvl].file, depth: config.sensors[depth].file}
+    others = {config.imu.file, config.truth.file} | {
+        s.file for n, s in config.sensors.items() if n not in files
+    }
+    for name, file in files.items():
+        if file in others or list(files.values()).count(file) > 1:
+            raise ValueError(f"{file}: sensor {name!r} shares its table; cannot fault it alone")
+    return dvl, depth, files
+
+
+@dataclass(frozen=True)
+class _DvlPlacement:
+    """Where the DVL faults go in the source table (rows are the source's), and the spikes."""
+
+    t_s: Array
+    stuck_window: tuple[float, float]
+    stuck_first: int
+    stuck_rows: IntArray
+    stuck_value: Array
+    drop_window: tuple[float, float]
+    drop_rows: IntArray
+    navigation_readings: int
+    spike_rows: IntArray
+    spikes: Array
+
+
+def _place_dvl(
+    table: pd.DataFrame,
+    windows: Mapping[FaultKind, tuple[float, float]],
+    nav_start: float,
+    span: tuple[float, float],
+    p: FaultParams,
+    rng: np.random.Generator,
+) -> _DvlPlacement:
+    """The DVL faults' rows: stuck and dropout windows first (the spikes must avoid them, and
+    rows are counted before the dropout), then the spikes, drawn whether or not injected so
+    the generator is in the same state after (docs/faults.md, "Placement and seeds")."""
+    lo, hi = span
+    t_dvl = table["t_s"].to_numpy(dtype=float)
+    a, b = windows["dvl_stuck"]
+    valid = _finite_rows(table, DVL_COLUMNS)
+    if OUTLIER_COLUMN in table.columns:
+        valid &= table[OUTLIER_COLUMN].to_numpy() == 0
+    first = np.flatnonzero((t_dvl >= a) & (t_dvl < b) & valid)
+    if first.size == 0:
+        raise ValueError(f"no valid DVL reading in the stuck window [{a:.1f}, {b:.1f}) s")
+    k0 = int(first[0])
+    stuck_window = (a, b)
+    # The window keeps its place (so it stays disjoint from the others) even when its first
+    # reading is late (a NaN or an outlier of the simulator at the start).
+    stuck_rows = np.flatnonzero((t_dvl > t_dvl[k0]) & (t_dvl < b))
+    stuck_value = table.loc[k0, list(DVL_COLUMNS)].to_numpy(dtype=float)
+    drop_window = windows["dvl_dropout"]
+    drop_rows = np.flatnonzero((t_dvl >= drop_window[0]) & (t_dvl < drop_window[1]))
+
+    n_nav = int(np.count_nonzero(t_dvl > nav_start))
+    n_spikes = max(1, round(p.dvl_spike_fraction * n_nav))
+    busy = in_intervals(t_dvl, np.array([stuck_window, drop_window]))
+    candidates = np.flatnonzero((t_dvl >= lo) & (t_dvl < hi) & valid & ~busy)
+    if candidates.size < n_spikes:
+        raise ValueError(f"{n_spikes} DVL spikes wanted, {candidates.size} readings eligible")
+    spike_rows = np.sort(rng.choice(candidates, size=n_spikes, replace=False))
+    spikes = spike_vectors(rng, n_spikes, p.dvl_spike_range_m_s)
+    return _DvlPlacement(
+        t_s=t_dvl,
+        stuck_window=stuck_window,
+        stuck_first=k0,
+        stuck_rows=stuck_rows,
+        stuck_value=stuck_value,
+        drop_window=drop_window,
+        drop_rows=drop_rows,
+        navigation_readings=n_nav,
+        spike_rows=spike_rows,
+        spikes=spikes,
+    )
+
+
+def _fault_dvl(
+    table: pd.DataFrame,
+    sensor: str,
+    file: str,
+    kinds: Sequence[FaultKind],
+    placed: _DvlPlacement,
+    p: FaultParams,
+) -> tuple[pd.DataFrame, dict[FaultKind, Injected]]:
+    """Apply the DVL faults of ``kinds`` to ``table`` (changed in place; a dropout returns a
+    new table without its rows): the faulted table and the faults in ledger rows
+    (docs/faults.md)."""
+    stuck, spiked, t_dvl, k0 = placed.stuck_rows, placed.spike_rows, placed.t_s, placed.stuck_first
+    if "dvl_stuck" in kinds:
+        _set(table, DVL_COLUMNS, stuck, np.tile(placed.stuck_value, (stuck.size, 1)))
+        _flag(table, stuck)
+    if "dvl_spikes" in kinds:
+        values = table[list(DVL_COLUMNS)].to_numpy(dtype=float)[spiked]
+        _set(table, DVL_COLUMNS, spiked, values + placed.spikes)
+        _flag(table, spiked)
+    removed = placed.drop_rows if "dvl_dropout" in kinds else np.zeros(0, dtype=np.int64)
+    # Source row -> row of the faulted table (ledger rows), once the dropout is taken out.
+    new_row = np.cumsum(~np.isin(np.arange(len(table)), removed)) - 1
+    if removed.size:
+        table = table.drop(index=table.index[removed]).reset_index(drop=True)
+
+    faults: dict[FaultKind, Injected] = {}
+    if "dvl_stuck" in kinds:
+        faults["dvl_stuck"] = Injected(
+            "dvl_stuck", sensor, file, placed.stuck_window, _ledger_rows(new_row, stuck),
+            detail={"stuck_row": int(new_row[k0]), "stuck_from_s": float(t_dvl[k0]),
+                    "value_m_s": placed.stuck_value.tolist()},
+        )  # fmt: skip
+    if "dvl_dropout" in kinds:
+        times = t_dvl[removed]
+        faults["dvl_dropout"] = Injected(
+            "dvl_dropout", sensor, file, placed.drop_window, (), tuple(int(r) for r in removed),
+            detail={"removed": int(removed.size),
+                    "removed_t_s": [float(times[0]), float(times[-1])] if times.size else []},
+        )  # fmt: skip
+    if "dvl_spikes" in kinds:
+        faults["dvl_spikes"] = Injected(
+            "dvl_spikes", sensor, file, None, _ledger_rows(new_row, spiked),
+            detail={"spikes_m_s": placed.spikes.tolist(), "fraction": p.dvl_spike_fraction,
+                    "navigation_readings": placed.navigation_readings},
+        )  # fmt: skip
+    return table, faults
+
+
+def _ledger_rows(new_row: IntArray, rows: IntArray) -> tuple[int, ...]:
+    """Source ``rows`` as rows of the faulted table (``new_row``: source row -> faulted row)."""
+    return tuple(int(r) for r in new_row[rows])
+
+
+def _fault_depth(
+    table: pd.DataFrame,
+    sensor: str,
+    file: str,
+    kinds: Sequence[FaultKind],
+    windows: Mapping[FaultKind, tuple[float, float]],
+    hi: float,
+    p: FaultParams,
+) -> dict[FaultKind, Injected]:
+    """Apply the depth faults of ``kinds`` to ``table`` in place (the spike, then the offset);
+    ``hi``: the span's end, which the spike's reading must come before (docs/faults.md)."""
+    t_depth = table["t_s"].to_numpy(dtype=float)
+    faults: dict[FaultKind, Injected] = {}
+    if "depth_spike" in kinds:
+        a, _ = windows["depth_spike"]
+        rows = np.flatnonzero((t_depth >= a) & _finite_rows(table, [DEPTH_COLUMN]))[:1]
+        if rows.size == 0 or t_depth[rows[0]] >= hi:
+            raise ValueError(f"no depth reading after {a:.1f} s for the spike")
+        _offset_depth(table, rows, p.depth_spike_m)
+        t = float(t_depth[rows[0]])
+        faults["depth_spike"] = Injected(
+            "depth_spike", sensor, file, (t, t), (int(rows[0]),),
+            detail={"offset_m": p.depth_spike_m},
+        )  # fmt: skip
+    if "depth_offset" in kinds:
+        a, b = windows["depth_offset"]
+        rows = np.flatnonzero((t_depth >= a) & (t_depth < b))
+        if rows.size == 0:
+            raise ValueError(f"no depth reading in the offset window [{a:.1f}, {b:.1f}) s")
+        _offset_depth(table, rows, p.depth_offset_m)
+        faults["depth_offset"] = Injected(
+            "depth_offset", sensor, file, (a, b), tuple(int(r) for r in rows),
+            detail={"offset_m": p.depth_offset_m},
+        )  # fmt: skip
+    return faults
+
+
+def _offset_depth(table: pd.DataFrame, rows: IntArray, offset_m: float) -> None:
+    """Add ``offset_m`` to the depth readings at ``rows`` and flag them as outliers."""
+    z = table[DEPTH_COLUMN].to_numpy(dtype=float)[rows, None]
+    _set(table, [DEPTH_COLUMN], rows, z + offset_m)
+    _flag(table, rows)
 
 
 def _seed_of(rng: np.random.Generator) -> Any:

@@ -285,6 +285,7 @@ def _config(
     description: str,
     pendulum: bool = True,
 ) -> MissionConfig:
+    """The simulated mission's ``mission.toml`` (module docstring; docs/data-format.md)."""
     initial: dict[str, Any] = {
         "mode": "alignment",
         "alignment_s": static_end,
@@ -294,66 +295,77 @@ def _config(
     if heading_deg is not None and sc.initial_heading_sigma is not None:
         initial["rpy_deg"] = [0.0, 0.0, heading_deg]
         initial["sigma_attitude_deg"] = [0.1, 0.1, sc.initial_heading_sigma / DEG]
-    gyro_on = imu.gyro_turn_on_sigma or imu.gyro_bias_sigma
-    accel_on = imu.accel_turn_on_sigma or imu.accel_bias_sigma
     doc: dict[str, Any] = {
         "mission": {"name": sc.name, "description": description},
-        "imu": {
-            "file": "imu.parquet",
-            "format": "increments",
-            "rate_hz": sc.imu_rate_hz,
-            "noise": {k: list(v) for k, v in imu.config_noise().items()},
-            "initial_bias_sigma": {
-                "gyro": [gyro_on / (DEG / 3600.0), "deg/h"],
-                "accel": [accel_on / (1e-3 * G0), "mg"],
-            },
-        },
-        "sensors": {
-            "dvl": {
-                "kind": "dvl",
-                "file": "dvl.parquet",
-                "sigma": [sc.dvl.nominal_sigma(sc.cruise_speed), "m/s"],
-                "rate_hz": sc.dvl.rate_hz,
-                "lever_arm_m": list(sc.dvl.lever_arm),
-                "use": "aid",
-            },
-            "depth": {
-                "kind": "depth",
-                "file": "depth.parquet",
-                "sigma": [sc.depth.sigma_nominal, "m"],
-                "rate_hz": sc.depth.rate_hz,
-                "lever_arm_m": list(sc.depth.lever_arm),
-                "use": "aid",
-            },
-            "inclinometer": {
-                "kind": "inclinometer",
-                "file": "inclinometer.parquet",
-                "sigma": [sc.inclinometer.sigma / DEG, "deg"],
-                "rate_hz": sc.inclinometer.rate_hz,
-                # what the simulated sensor reads: the apparent vertical, or the attitude itself
-                "model": "pendulum" if pendulum else "attitude",
-                "use": "aid",
-            },
-            "heading": {
-                "kind": "heading",
-                "file": "heading.parquet",
-                "sigma": [sc.heading.sigma / DEG, "deg"],
-                "rate_hz": sc.heading.rate_hz,
-                "use": sc.heading.use,
-            },
-            "gps": {
-                "kind": "gnss",
-                "file": "gps.parquet",
-                "sigma": [round(sc.gps.sigma, 3), "m"],
-                "rate_hz": sc.gps.rate_hz,
-                "lever_arm_m": list(sc.gps.lever_arm),
-                "use": "init",
-            },
-        },
+        "imu": _imu_section(sc, imu),
+        "sensors": _sensor_sections(sc, pendulum),
         "initial": initial,
         "truth": {"file": "truth.parquet"},
     }
     return parse_config(doc, f"{sc.name} (simulated)")
+
+
+def _imu_section(sc: Scenario, imu: ImuErrorModel) -> dict[str, Any]:
+    """``[imu]``: the increments table, the noise model and the turn-on σ the simulator applied
+    (the in-run σ when it has none) as ``initial_bias_sigma``."""
+    gyro_on = imu.gyro_turn_on_sigma or imu.gyro_bias_sigma
+    accel_on = imu.accel_turn_on_sigma or imu.accel_bias_sigma
+    return {
+        "file": "imu.parquet",
+        "format": "increments",
+        "rate_hz": sc.imu_rate_hz,
+        "noise": {k: list(v) for k, v in imu.config_noise().items()},
+        "initial_bias_sigma": {
+            "gyro": [gyro_on / (DEG / 3600.0), "deg/h"],
+            "accel": [accel_on / (1e-3 * G0), "mg"],
+        },
+    }
+
+
+def _sensor_sections(sc: Scenario, pendulum: bool) -> dict[str, Any]:
+    """``[sensors.*]``: every simulated sensor with its table, nominal σ, rate and use."""
+    return {
+        "dvl": {
+            "kind": "dvl",
+            "file": "dvl.parquet",
+            "sigma": [sc.dvl.nominal_sigma(sc.cruise_speed), "m/s"],
+            "rate_hz": sc.dvl.rate_hz,
+            "lever_arm_m": list(sc.dvl.lever_arm),
+            "use": "aid",
+        },
+        "depth": {
+            "kind": "depth",
+            "file": "depth.parquet",
+            "sigma": [sc.depth.sigma_nominal, "m"],
+            "rate_hz": sc.depth.rate_hz,
+            "lever_arm_m": list(sc.depth.lever_arm),
+            "use": "aid",
+        },
+        "inclinometer": {
+            "kind": "inclinometer",
+            "file": "inclinometer.parquet",
+            "sigma": [sc.inclinometer.sigma / DEG, "deg"],
+            "rate_hz": sc.inclinometer.rate_hz,
+            # what the simulated sensor reads: the apparent vertical, or the attitude itself
+            "model": "pendulum" if pendulum else "attitude",
+            "use": "aid",
+        },
+        "heading": {
+            "kind": "heading",
+            "file": "heading.parquet",
+            "sigma": [sc.heading.sigma / DEG, "deg"],
+            "rate_hz": sc.heading.rate_hz,
+            "use": sc.heading.use,
+        },
+        "gps": {
+            "kind": "gnss",
+            "file": "gps.parquet",
+            "sigma": [round(sc.gps.sigma, 3), "m"],
+            "rate_hz": sc.gps.rate_hz,
+            "lever_arm_m": list(sc.gps.lever_arm),
+            "use": "init",
+        },
+    }
 
 
 def _streams(seed: int) -> dict[str, np.random.SeedSequence]:
@@ -412,25 +424,74 @@ def generate(
     """Generate the mission of ``scenario`` in memory (see the module docstring)."""
     sc = scenario
     dist = disturbances if disturbances is not None else Disturbances()
-    streams = dict(zip(_STREAMS, np.random.SeedSequence(seed).spawn(len(_STREAMS)), strict=True))
-    rngs = {k: np.random.default_rng(s) for k, s in streams.items() if k != "imu"}
+    streams = _streams(seed)
     traj = tr.build(sc.trajectory, waves=dist.waves)
-    static_end = traj.static_end
-    duration = traj.duration
+    model = sc.imu if dist.imu_uncalibrated_turn_on else sc.calibrated_imu
+    imu_df, errs = _imu_table(sc, traj, model, streams["imu"], dist)
+    truth_df = _truth_table(sc, traj, errs, dist)
+    sensor_dfs, sensor_info = sensor_tables(sc, traj, seed, dist)
+    heading_err, heading_deg = _initial_heading(
+        sc, traj, np.random.default_rng(streams["initial_heading"]), dist
+    )
 
-    # IMU: exact increments, then the error model.
+    turn_on = "uncalibrated (Table 2)" if dist.imu_uncalibrated_turn_on else "calibrated residual"
+    off = [k for k, v in dist.as_dict().items() if not v]
+    description = (
+        f"{sc.description}; simulated, seed {seed}; turn-on bias: {turn_on}; "
+        f"switched off: {', '.join(off) if off else 'none'}"
+    )
+    config = _config(
+        sc, model, traj.static_end, heading_deg, description, dist.inclinometer_pendulum
+    )
+    meta: dict[str, Any] = {
+        "generator": "adaptnav.sim.scenarios",
+        "preset": sc.name,
+        "seed": seed,
+        "disturbances": dist.as_dict(),
+        "duration_s": traj.duration,
+        "static_end_s": traj.static_end,
+        "distance_m": traj.distance(),
+        "imu": {
+            "turn_on": turn_on,
+            "gyro_turn_on_rad_s": errs.gyro_turn_on.tolist(),
+            "accel_turn_on_m_s2": errs.accel_turn_on.tolist(),
+            "gyro_scale": errs.gyro_scale.tolist(),
+            "accel_scale": errs.accel_scale.tolist(),
+            "gyro_turn_on_sigma_rad_s": model.gyro_turn_on_sigma,
+            "accel_turn_on_sigma_m_s2": model.accel_turn_on_sigma,
+        },
+        "initial_heading_error_rad": heading_err if heading_deg is not None else None,
+        **sensor_info,
+        "segments": [[s.kind, s.start, s.end] for s in traj.spans],
+    }
+    tables = {"imu": imu_df, **sensor_dfs, "truth": truth_df}
+    return SimulatedMission(config, tables, errs, traj, meta)
+
+
+def _imu_count(sc: Scenario, traj: tr.Trajectory) -> int:
+    """Number of IMU intervals in the mission: t_k = k / rate for k = 0 .. n."""
+    return math.floor(traj.duration * sc.imu_rate_hz + 1e-9)
+
+
+def _imu_table(
+    sc: Scenario,
+    traj: tr.Trajectory,
+    model: ImuErrorModel,
+    stream: np.random.SeedSequence,
+    dist: Disturbances,
+) -> tuple[pd.DataFrame, ImuErrors]:
+    """``imu.parquet``: the exact increments of the motion over (t_{k-1}, t_k], corrupted by
+    ``model`` (docs/simulation.md), and the realised errors."""
     rate = sc.imu_rate_hz
     dt = 1.0 / rate
-    n_imu = math.floor(duration * rate + 1e-9)
-    t_imu = np.arange(0, n_imu + 1) / rate
+    t_imu = np.arange(0, _imu_count(sc, traj) + 1) / rate
     dtheta, dvel = kinematics.imu_increments(traj.motion, t_imu)
-    model = sc.imu if dist.imu_uncalibrated_turn_on else sc.calibrated_imu
     th_m, dv_m, errs = imu_model.corrupt(
-        dtheta, dvel, dt, model, imu_model.generators(streams["imu"]),
+        dtheta, dvel, dt, model, imu_model.generators(stream),
         white=dist.imu_white_noise, in_run=dist.imu_in_run_bias,
         turn_on=dist.imu_turn_on_bias, scale=dist.imu_scale_factor,
     )  # fmt: skip
-    del dtheta, dvel
+    del dtheta, dvel  # a long mission's exact increments: freed before the table is built
     imu_df = pd.DataFrame(
         {
             "t_s": t_imu[1:],
@@ -442,15 +503,22 @@ def generate(
             "dvel_z_m_s": dv_m[:, 2],
         }
     )
-    del th_m, dv_m
+    return imu_df, errs
 
-    # Truth at 10 Hz, with the true biases of the interval ending there.
-    n_truth = math.floor(duration * sc.truth_rate_hz + 1e-9)
+
+def _truth_table(
+    sc: Scenario, traj: tr.Trajectory, errs: ImuErrors, dist: Disturbances
+) -> pd.DataFrame:
+    """``truth.parquet`` at ``truth_rate_hz``, with the true biases of the IMU interval ending
+    there and the sea-state level (docs/data-format.md)."""
+    rate = sc.imu_rate_hz
+    n_imu = _imu_count(sc, traj)
+    n_truth = math.floor(traj.duration * sc.truth_rate_hz + 1e-9)
     t_truth = np.arange(0, n_truth + 1) / sc.truth_rate_hz
     x = kinematics.true_states(traj.motion, t_truth)
     eul = traj.motion.euler(t_truth)
     k_imu = np.clip(np.round(t_truth * rate).astype(int) - 1, 0, n_imu - 1)
-    truth_df = pd.DataFrame(
+    return pd.DataFrame(
         {
             "t_s": t_truth,
             "lat_rad": x[:, 0],
@@ -468,48 +536,19 @@ def generate(
         }
     )
 
-    sensor_dfs, sensor_info = sensor_tables(sc, traj, seed, dist)
 
-    # [initial]: heading from the quay's bearing, with its error.
-    heading_err = 0.0
-    heading_deg: float | None = None
-    if sc.initial_heading_sigma is not None:
-        heading_err = float(rngs["initial_heading"].normal(0.0, sc.initial_heading_sigma))
-        if not dist.sensor_noise:
-            heading_err = 0.0
-        yaw0 = float(traj.motion.euler(np.array([0.0]))[0, 2])
-        heading_deg = math.degrees(math.remainder(yaw0 + heading_err, 2.0 * math.pi))
-
-    turn_on = "uncalibrated (Table 2)" if dist.imu_uncalibrated_turn_on else "calibrated residual"
-    off = [k for k, v in dist.as_dict().items() if not v]
-    description = (
-        f"{sc.description}; simulated, seed {seed}; turn-on bias: {turn_on}; "
-        f"switched off: {', '.join(off) if off else 'none'}"
-    )
-    config = _config(sc, model, static_end, heading_deg, description, dist.inclinometer_pendulum)
-    meta: dict[str, Any] = {
-        "generator": "adaptnav.sim.scenarios",
-        "preset": sc.name,
-        "seed": seed,
-        "disturbances": dist.as_dict(),
-        "duration_s": duration,
-        "static_end_s": static_end,
-        "distance_m": traj.distance(),
-        "imu": {
-            "turn_on": turn_on,
-            "gyro_turn_on_rad_s": errs.gyro_turn_on.tolist(),
-            "accel_turn_on_m_s2": errs.accel_turn_on.tolist(),
-            "gyro_scale": errs.gyro_scale.tolist(),
-            "accel_scale": errs.accel_scale.tolist(),
-            "gyro_turn_on_sigma_rad_s": model.gyro_turn_on_sigma,
-            "accel_turn_on_sigma_m_s2": model.accel_turn_on_sigma,
-        },
-        "initial_heading_error_rad": heading_err if heading_deg is not None else None,
-        **sensor_info,
-        "segments": [[s.kind, s.start, s.end] for s in traj.spans],
-    }
-    tables = {"imu": imu_df, **sensor_dfs, "truth": truth_df}
-    return SimulatedMission(config, tables, errs, traj, meta)
+def _initial_heading(
+    sc: Scenario, traj: tr.Trajectory, rng: np.random.Generator, dist: Disturbances
+) -> tuple[float, float | None]:
+    """(error (rad), heading (deg) or None) for ``[initial]``: the quay's charted bearing, the
+    true initial yaw plus N(0, ``initial_heading_sigma``²) (docs/simulation.md)."""
+    if sc.initial_heading_sigma is None:
+        return 0.0, None
+    heading_err = float(rng.normal(0.0, sc.initial_heading_sigma))
+    if not dist.sensor_noise:
+        heading_err = 0.0
+    yaw0 = float(traj.motion.euler(np.array([0.0]))[0, 2])
+    return heading_err, math.degrees(math.remainder(yaw0 + heading_err, 2.0 * math.pi))
 
 
 def simulate_scenario(

@@ -322,19 +322,8 @@ def dvl(
     speed = np.linalg.norm(clean, axis=1)
     sigma = spec.sigma_scale * speed + spec.sigma_floor
     t_end = float(truth.t[-1]) if n else nav_start
-    factor = np.ones(n)
-    seg = np.zeros((0, 2))
-    seg_k = np.zeros(0)
     span = max(0.0, t_end - nav_start)
-    if dist.dvl_noise_segments and span > 0.0:
-        g = rng["segments"]
-        seg = place_intervals(
-            nav_start, t_end, draw_durations(spec.segment_fraction * span,
-                                             spec.segment_duration, g), g,
-        )  # fmt: skip
-        seg_k = g.uniform(*spec.segment_factor, seg.shape[0])
-        for (a, b), k in zip(seg, seg_k, strict=True):
-            factor[(truth.t >= a) & (truth.t < b)] = k
+    factor, seg, seg_k = _dvl_segments(spec, truth.t, nav_start, t_end, rng, dist)
     noise = rng["noise"].standard_normal((n, 3)) * (sigma * factor)[:, None]
     if not dist.sensor_noise:
         noise[:] = 0.0
@@ -346,30 +335,8 @@ def dvl(
                                              spec.dropout_duration, g), g,
         )  # fmt: skip
     is_drop = in_intervals(truth.t, drop)
-    spikes = np.zeros((n, 3))
-    is_out = np.zeros(n, dtype=bool)
     eligible = np.flatnonzero((truth.t > nav_start) & ~is_drop)
-    n_out = round(spec.outlier_rate * eligible.size) if dist.dvl_outliers else 0
-    events = 0
-    if n_out > 0:
-        g = rng["outliers"]
-        lengths: list[int] = []
-        while sum(lengths) < n_out:
-            burst = g.uniform() < spec.burst_fraction
-            lo, hi = spec.burst_length
-            lengths.append(int(g.integers(lo, hi + 1)) if burst else 1)
-        lengths[-1] -= sum(lengths) - n_out
-        lengths = [x for x in lengths if x > 0]
-        events = len(lengths)
-        starts = place_events(eligible.size, lengths, g)
-        for s0, ln in zip(starts, lengths, strict=True):
-            rows = eligible[s0 : s0 + ln]
-            axes = g.uniform(size=3) < 0.5
-            if not axes.any():
-                axes[g.integers(3)] = True
-            mag = g.uniform(*spec.spike, (ln, 3)) * g.choice([-1.0, 1.0], (ln, 3))
-            spikes[rows] = mag * axes
-            is_out[rows] = True
+    spikes, is_out, events = _dvl_outliers(spec, eligible, n, rng, dist)
     z = clean + noise + spikes
     z[is_drop] = np.nan
     df = pd.DataFrame(
@@ -400,6 +367,68 @@ def dvl(
         "navigation_samples": int(eligible.size),
     }
     return df, info
+
+
+def _dvl_segments(
+    spec: DvlSpec,
+    t: Array,
+    nav_start: float,
+    t_end: float,
+    rng: dict[str, np.random.Generator],
+    dist: Disturbances,
+) -> tuple[Array, Array, Array]:
+    """(k(t) per reading, segments (m, 2), their factors (m,)): the noise segments covering
+    ``segment_fraction`` of the navigation time, each with k ~ U(segment_factor), k = 1
+    elsewhere (module docstring; docs/simulation.md)."""
+    factor = np.ones(t.size)
+    seg = np.zeros((0, 2))
+    seg_k = np.zeros(0)
+    span = max(0.0, t_end - nav_start)
+    if dist.dvl_noise_segments and span > 0.0:
+        g = rng["segments"]
+        seg = place_intervals(
+            nav_start, t_end, draw_durations(spec.segment_fraction * span,
+                                             spec.segment_duration, g), g,
+        )  # fmt: skip
+        seg_k = g.uniform(*spec.segment_factor, seg.shape[0])
+        for (a, b), k in zip(seg, seg_k, strict=True):
+            factor[(t >= a) & (t < b)] = k
+    return factor, seg, seg_k
+
+
+def _dvl_outliers(
+    spec: DvlSpec,
+    eligible: IntArray,
+    n: int,
+    rng: dict[str, np.random.Generator],
+    dist: Disturbances,
+) -> tuple[Array, NDArray[np.bool_], int]:
+    """(spikes (n, 3), outlier mask (n,), event count): ``round(outlier_rate · m)`` of the m
+    ``eligible`` readings in single-sample or burst events, each on a random non-empty set of
+    axes with ±U(spike) m/s per sample (module docstring; docs/simulation.md)."""
+    spikes = np.zeros((n, 3))
+    is_out = np.zeros(n, dtype=bool)
+    n_out = round(spec.outlier_rate * eligible.size) if dist.dvl_outliers else 0
+    if n_out <= 0:
+        return spikes, is_out, 0
+    g = rng["outliers"]
+    lengths: list[int] = []
+    while sum(lengths) < n_out:
+        burst = g.uniform() < spec.burst_fraction
+        lo, hi = spec.burst_length
+        lengths.append(int(g.integers(lo, hi + 1)) if burst else 1)
+    lengths[-1] -= sum(lengths) - n_out
+    lengths = [x for x in lengths if x > 0]
+    starts = place_events(eligible.size, lengths, g)
+    for s0, ln in zip(starts, lengths, strict=True):
+        rows = eligible[s0 : s0 + ln]
+        axes = g.uniform(size=3) < 0.5
+        if not axes.any():
+            axes[g.integers(3)] = True
+        mag = g.uniform(*spec.spike, (ln, 3)) * g.choice([-1.0, 1.0], (ln, 3))
+        spikes[rows] = mag * axes
+        is_out[rows] = True
+    return spikes, is_out, len(lengths)
 
 
 def depth(

@@ -152,6 +152,39 @@ def trajectory(
     """Figs. 7/8: each run's track (east, north from the reference's position at the start)
     over the reference, and a zoom on the end of the run, where the errors have grown."""
     start = _start_time(results, t0)
+    ref_ne, tracks = _tracks(results, truth, start)
+    extent = float(np.ptp(ref_ne[:, :2], axis=0).max()) if len(ref_ne) > 1 else 0.0
+    scale, unit = (1000.0, "km") if extent > 5000.0 else (1.0, "m")
+
+    fig = Figure(figsize=(12, 5.6), layout="constrained")
+    ax_all, ax_end = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.4, 1.0]})
+    s = _stride(len(ref_ne))
+    for ax in (ax_all, ax_end):
+        ax.plot(
+            ref_ne[s, 1] / scale, ref_ne[s, 0] / scale, color="black", lw=2.4, label="reference"
+        )
+        for name, track in tracks.items():
+            colour, dash = _style(name)
+            ax.plot(
+                track[:, 1] / scale, track[:, 0] / scale,
+                color=colour, ls=dash, lw=1.4, label=_label(name),
+            )  # fmt: skip
+        ax.set_xlabel(f"east of the start ({unit})")
+        ax.set_ylabel(f"north of the start ({unit})")
+        ax.grid(True, alpha=0.3)
+        ax.set_aspect("equal", adjustable="datalim")
+    ax_all.plot(0.0, 0.0, "ko", ms=6, label="start")
+    ax_all.set_title("estimated tracks over the reference")
+    ax_all.legend(loc="best", fontsize=8)
+    _zoom_on_end(ax_end, ref_ne, tracks, extent, scale)
+    return fig
+
+
+def _tracks(
+    results: Mapping[str, Result], truth: pd.DataFrame, start: float
+) -> tuple[Array, dict[str, Array]]:
+    """The reference's and each run's (strided) track from ``start`` on, as NED offsets (m)
+    from the reference's position at the start (the whole reference if it ends before)."""
     tt = truth["t_s"].to_numpy(dtype=float)
     keep = tt >= start
     ref = truth[keep] if keep.any() else truth
@@ -177,44 +210,27 @@ def trajectory(
             sol["h_m"].to_numpy(dtype=float)[s],
             origin,
         )
-    extent = float(np.ptp(ref_ne[:, :2], axis=0).max()) if len(ref_ne) > 1 else 0.0
-    scale, unit = (1000.0, "km") if extent > 5000.0 else (1.0, "m")
+    return ref_ne, tracks
 
-    fig = Figure(figsize=(12, 5.6), layout="constrained")
-    ax_all, ax_end = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.4, 1.0]})
-    s = _stride(len(ref_ne))
-    ends = [track[-1, :2] for track in tracks.values() if len(track)]
-    for ax in (ax_all, ax_end):
-        ax.plot(
-            ref_ne[s, 1] / scale, ref_ne[s, 0] / scale, color="black", lw=2.4, label="reference"
-        )
-        for name, track in tracks.items():
-            colour, dash = _style(name)
-            ax.plot(
-                track[:, 1] / scale, track[:, 0] / scale,
-                color=colour, ls=dash, lw=1.4, label=_label(name),
-            )  # fmt: skip
-        ax.set_xlabel(f"east of the start ({unit})")
-        ax.set_ylabel(f"north of the start ({unit})")
-        ax.grid(True, alpha=0.3)
-        ax.set_aspect("equal", adjustable="datalim")
-    ax_all.plot(0.0, 0.0, "ko", ms=6, label="start")
-    ax_all.set_title("estimated tracks over the reference")
-    ax_all.legend(loc="best", fontsize=8)
-    # The zoom window is centred on the reference's end and wide enough for every run's end.
+
+def _zoom_on_end(
+    ax: Axes, ref_ne: Array, tracks: Mapping[str, Array], extent: float, scale: float
+) -> None:
+    """The zoom panel: a window centred on the reference's end, wide enough for every run's
+    end point (markers), at least 1 % of the track's extent and ±10 m."""
     end_ref = ref_ne[-1, :2]
+    ends = [track[-1, :2] for track in tracks.values() if len(track)]
     spread = max((float(np.max(np.abs(e - end_ref))) for e in ends), default=0.0)
     half = max(1.5 * spread, 0.01 * extent, 10.0)
-    ax_end.set_aspect("equal", adjustable="box")
-    ax_end.set_xlim((end_ref[1] - half) / scale, (end_ref[1] + half) / scale)
-    ax_end.set_ylim((end_ref[0] - half) / scale, (end_ref[0] + half) / scale)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlim((end_ref[1] - half) / scale, (end_ref[1] + half) / scale)
+    ax.set_ylim((end_ref[0] - half) / scale, (end_ref[0] + half) / scale)
     for name, track in tracks.items():
         if len(track):
             colour, _ = _style(name)
-            ax_end.plot(track[-1, 1] / scale, track[-1, 0] / scale, "o", color=colour, ms=6)
-    ax_end.plot(end_ref[1] / scale, end_ref[0] / scale, "ks", ms=7)
-    ax_end.set_title(f"zoom on the end (±{half:.0f} m; markers: end points)")
-    return fig
+            ax.plot(track[-1, 1] / scale, track[-1, 0] / scale, "o", color=colour, ms=6)
+    ax.plot(end_ref[1] / scale, end_ref[0] / scale, "ks", ms=7)
+    ax.set_title(f"zoom on the end (±{half:.0f} m; markers: end points)")
 
 
 def position_error(
@@ -281,61 +297,16 @@ def noise_variance(
         ax_z: Axes = axes[0, j]
         ax_r: Axes = axes[1, j]
         if table is not None and col in table.columns and cfg.kind != "gnss":
-            t = table["t_s"].to_numpy(dtype=float)
-            te, ze = envelope(t, table[col].to_numpy(dtype=float) * scale)
-            ax_z.plot(_minutes(te, start), ze, color="tab:gray", lw=0.8, label="measured")
-            if f"true_{col}" in table.columns:
-                s = _stride(len(table))
-                truth = table[f"true_{col}"].to_numpy(dtype=float) * scale
-                ax_z.plot(_minutes(t[s], start), truth[s], color="black", lw=0.7, label="true")
-            if "is_outlier" in table.columns:
-                out = table["is_outlier"].to_numpy(dtype=bool)
-                # An outlier event spikes only some axes: mark it on those (spike_<axis>_m_s).
-                spike = f"spike_{col.split('_')[0][-1]}_m_s"
-                if spike in table.columns:
-                    # Not in place: to_numpy may be a (read-only) view of the mission's table.
-                    out = out & (table[spike].to_numpy(dtype=float) != 0.0)
-                if out.any():
-                    ax_z.plot(
-                        _minutes(t[out], start), table[col].to_numpy(dtype=float)[out] * scale,
-                        "x", color="tab:red", ms=4, label="injected outlier",
-                    )  # fmt: skip
+            _measurements(ax_z, table, col, scale, start)
         else:
             ax_z.text(0.5, 0.5, "measurements not shown", ha="center", transform=ax_z.transAxes)
         ax_z.set_title(f"{sensor}: {comp}")
         ax_z.set_ylabel(f"measurement ({unit})")
         ax_z.grid(True, alpha=0.3)
 
-        for name in filters:
-            if name not in results:
-                continue
-            noise = results[name].noise
-            rows = noise[(noise["sensor"] == sensor) & (noise["component"] == j)]
-            if rows.empty:
-                continue
-            colour, dash = _style(name)
-            te, re = envelope(
-                rows["t_s"].to_numpy(dtype=float), rows["r_hat"].to_numpy(dtype=float) * scale**2
-            )
-            # Layers: the noisy matching estimate (MAESKF) translucent at the bottom, the
-            # references over it, VB-MAESKF's smooth estimate on top.
-            last = name == filters[-1]
-            ax_r.plot(
-                _minutes(te, start), re, color=colour, ls=dash, lw=1.2, label=_label(name),
-                zorder=5 if last else 2, alpha=1.0 if last else 0.55,
-            )  # fmt: skip
+        _filter_variances(ax_r, results, filters, sensor, j, scale, start)
         if table is not None and col in table.columns and f"true_{col}" in table.columns:
-            # What the errors really were (pendulum error and outliers included, which the
-            # simulator's σ leaves out): the reference an estimate of R can be held against.
-            # A longer mission gets a longer mean, so the drawn curve stays a line, not a band.
-            window = max(ERROR_WINDOW, len(table) // 500)
-            err = table[col].to_numpy(dtype=float) - table[f"true_{col}"].to_numpy(dtype=float)
-            err2 = pd.Series((err * scale) ** 2).rolling(window, min_periods=window // 2).mean()
-            te, ee = envelope(table["t_s"].to_numpy(dtype=float), err2.to_numpy(dtype=float))
-            ax_r.plot(
-                _minutes(te, start), ee, color="black", ls=":", lw=1.1, zorder=4,
-                label=f"actual error², mean of {window}",
-            )  # fmt: skip
+            _actual_error(ax_r, table, col, scale, start)
         if sigma_col is not None and table is not None:
             te, se = envelope(
                 table["t_s"].to_numpy(dtype=float),
@@ -360,6 +331,77 @@ def noise_variance(
     what = sensor if sensor == cfg.kind else f"{sensor} ({cfg.kind})"
     fig.suptitle(f"{what}: measurements (top) and noise variance R̂ used by the filters (bottom)")
     return fig
+
+
+def _measurements(ax: Axes, table: pd.DataFrame, col: str, scale: float, start: float) -> None:
+    """Fig. 10's top panel for one component: the measured series, the simulator's true value
+    and its injected outliers when the table has them."""
+    t = table["t_s"].to_numpy(dtype=float)
+    te, ze = envelope(t, table[col].to_numpy(dtype=float) * scale)
+    ax.plot(_minutes(te, start), ze, color="tab:gray", lw=0.8, label="measured")
+    if f"true_{col}" in table.columns:
+        s = _stride(len(table))
+        truth = table[f"true_{col}"].to_numpy(dtype=float) * scale
+        ax.plot(_minutes(t[s], start), truth[s], color="black", lw=0.7, label="true")
+    if "is_outlier" in table.columns:
+        out = table["is_outlier"].to_numpy(dtype=bool)
+        # An outlier event spikes only some axes: mark it on those (spike_<axis>_m_s).
+        spike = f"spike_{col.split('_')[0][-1]}_m_s"
+        if spike in table.columns:
+            # Not in place: to_numpy may be a (read-only) view of the mission's table.
+            out = out & (table[spike].to_numpy(dtype=float) != 0.0)
+        if out.any():
+            ax.plot(
+                _minutes(t[out], start), table[col].to_numpy(dtype=float)[out] * scale,
+                "x", color="tab:red", ms=4, label="injected outlier",
+            )  # fmt: skip
+
+
+def _filter_variances(
+    ax: Axes,
+    results: Mapping[str, Result],
+    filters: Sequence[str],
+    sensor: str,
+    component: int,
+    scale: float,
+    start: float,
+) -> None:
+    """Fig. 10's bottom panel: the R̂ each of ``filters`` used for ``component`` of
+    ``sensor`` at each reading (``Result.noise``), the last of ``filters`` on top."""
+    for name in filters:
+        if name not in results:
+            continue
+        noise = results[name].noise
+        rows = noise[(noise["sensor"] == sensor) & (noise["component"] == component)]
+        if rows.empty:
+            continue
+        colour, dash = _style(name)
+        te, re = envelope(
+            rows["t_s"].to_numpy(dtype=float), rows["r_hat"].to_numpy(dtype=float) * scale**2
+        )
+        # Layers: the noisy matching estimate (MAESKF) translucent at the bottom, the
+        # references over it, VB-MAESKF's smooth estimate on top.
+        last = name == filters[-1]
+        ax.plot(
+            _minutes(te, start), re, color=colour, ls=dash, lw=1.2, label=_label(name),
+            zorder=5 if last else 2, alpha=1.0 if last else 0.55,
+        )  # fmt: skip
+
+
+def _actual_error(ax: Axes, table: pd.DataFrame, col: str, scale: float, start: float) -> None:
+    """A running mean of the squared measurement error (measured minus the simulator's true
+    value) over :data:`ERROR_WINDOW` readings or more, on Fig. 10's bottom panel."""
+    # What the errors really were (pendulum error and outliers included, which the
+    # simulator's σ leaves out): the reference an estimate of R can be held against.
+    # A longer mission gets a longer mean, so the drawn curve stays a line, not a band.
+    window = max(ERROR_WINDOW, len(table) // 500)
+    err = table[col].to_numpy(dtype=float) - table[f"true_{col}"].to_numpy(dtype=float)
+    err2 = pd.Series((err * scale) ** 2).rolling(window, min_periods=window // 2).mean()
+    te, ee = envelope(table["t_s"].to_numpy(dtype=float), err2.to_numpy(dtype=float))
+    ax.plot(
+        _minutes(te, start), ee, color="black", ls=":", lw=1.1, zorder=4,
+        label=f"actual error², mean of {window}",
+    )  # fmt: skip
 
 
 def _navigation_counts(
