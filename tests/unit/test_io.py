@@ -589,7 +589,7 @@ def test_dvl_zero_reading_is_a_lost_lock_when_asked(tmp_path: Path) -> None:
     assert list(zip(rows["fate"], rows["reason"], strict=True)) == [("dropped", drop.reason)]
     d["sensors"]["gnss"] = {"kind": "gnss", "file": "g.csv", "sigma": [1, "m"],
                             "zero_is_lost": True}  # fmt: skip
-    assert "only a dvl" in str(_config_error(lambda c: c.update(d)))
+    assert "only for dvl" in str(_config_error(lambda c: c.update(d)))
 
 
 @pytest.mark.parametrize(
@@ -641,7 +641,7 @@ def test_dvl_status_column_errors(tmp_path: Path) -> None:
     assert "status column 'lock' not found" in load_error(root)
     d["sensors"]["depth"] = {"kind": "depth", "file": "z.csv", "sigma": [1, "m"],
                              "status_column": "x"}  # fmt: skip
-    assert "only a dvl" in str(_config_error(lambda c: c.update(d)))
+    assert "only for dvl" in str(_config_error(lambda c: c.update(d)))
 
 
 def test_imu_gap_names_lines_and_times(tmp_path: Path) -> None:

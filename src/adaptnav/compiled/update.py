@@ -39,8 +39,8 @@ iteration costs O(D³); the 15-state K, x⁺ and P⁺ are formed once, with the 
 Per-sensor settings and adaptation states live in packed tables whose columns are named by the
 constants below (``S_*``, ``F_*``, ``X_*``); the engine fills them. Scratch arrays come from
 :func:`workspace`, allocated once per navigator. A sensor class exposes its compiled
-linearisation through :func:`compiled_linearisation` (a registry by exact class,
-:data:`LINEARISATIONS`, or an optional ``compiled_linearisation()`` method of the model); the
+linearisation through :func:`compiled_linearisation` (by exact class, :data:`LINEARISED` with
+each class's ``LIN_CODE``, or an optional ``compiled_linearisation()`` method of the model); the
 readable ``evaluate`` stays the reference, and sensors without one are linearised by it.
 
 Numba caches compiled code per file; the helpers imported from :mod:`adaptnav.compiled.propagation`
@@ -50,7 +50,6 @@ are compiled into these functions, so clear ``__pycache__`` if compiled/propagat
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -78,6 +77,8 @@ from adaptnav.core.earth import E2, A
 from adaptnav.estimation.health import EIG_FLOOR, MIN_LOCKOUT_FACTOR
 from adaptnav.estimation.noise.base import NoiseKind
 from adaptnav.estimation.noise.process import EVENT_STEP, GAP_PERIODS
+from adaptnav.sensors import kind as sensor_kind
+from adaptnav.sensors import registry
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
@@ -97,11 +98,13 @@ MAX_DIM = 3
 
 LIN_PYTHON = -1
 """No compiled linearisation: the engine calls the model's ``evaluate``."""
-LIN_DVL, LIN_DEPTH, LIN_INCLINOMETER, LIN_HEADING, LIN_GNSS, LIN_ZUPT = 0, 1, 2, 3, 4, 5
-LIN_PENDULUM, LIN_NHC = 6, 7
-N_PAR = 16
-"""Packed parameters: ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
-PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
+# Each model class declares its code (sensors/kind.py); Numba sees plain module-level ints.
+LIN_DVL, LIN_DEPTH, LIN_NHC = DVL.LIN_CODE, Depth.LIN_CODE, NonHolonomic.LIN_CODE
+LIN_INCLINOMETER, LIN_PENDULUM = Inclinometer.LIN_CODE, PendulumInclinometer.LIN_CODE
+LIN_HEADING, LIN_GNSS, LIN_ZUPT = Heading.LIN_CODE, GNSS.LIN_CODE, ZeroVelocity.LIN_CODE
+N_PAR = sensor_kind.N_PAR
+"""Packed parameters (sensors/kind.py): ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
+PAR_LB, PAR_CSB, PAR_FLAG = sensor_kind.PAR_LB, sensor_kind.PAR_CSB, sensor_kind.PAR_FLAG
 
 # --- per-sensor tables (rows: sensors) ----------------------------------------------------------
 
@@ -383,30 +386,10 @@ def linearise(
 # --- the registry: sensor class -> (code, packed parameters) -----------------------------------
 
 
-def _pack(l_b: Any = None, C_sb: Any = None, flag: float = 0.0) -> Array:
-    par = np.zeros(N_PAR)
-    par[PAR_CSB : PAR_CSB + 9] = np.eye(3).ravel()
-    if l_b is not None:
-        par[PAR_LB : PAR_LB + 3] = np.asarray(l_b, dtype=float)
-    if C_sb is not None:
-        par[PAR_CSB : PAR_CSB + 9] = np.asarray(C_sb, dtype=float).ravel()
-    par[PAR_FLAG] = flag
-    return par
-
-
 LinearisationSpec = tuple[int, Array]
 """(sensor code, packed parameters (N_PAR,)) as :func:`linearise` takes them."""
 
-LINEARISATIONS: dict[type, Callable[[Any], LinearisationSpec]] = {
-    DVL: lambda m: (LIN_DVL, _pack(m.l_b, m.C_sb)),
-    Depth: lambda m: (LIN_DEPTH, _pack(m.l_b)),
-    Inclinometer: lambda m: (LIN_INCLINOMETER, _pack(C_sb=m.C_sb)),
-    PendulumInclinometer: lambda m: (LIN_PENDULUM, _pack(C_sb=m.C_sb)),
-    Heading: lambda m: (LIN_HEADING, _pack(C_sb=m.C_sb)),
-    GNSS: lambda m: (LIN_GNSS, _pack(m.l_b, flag=1.0 if m.use_height else 0.0)),
-    ZeroVelocity: lambda m: (LIN_ZUPT, _pack()),
-    NonHolonomic: lambda m: (LIN_NHC, _pack(m.l_b, m.C_sb)),
-}
+LINEARISED: frozenset[type] = frozenset(registry.LINEARISED)
 """Sensor classes with a compiled linearisation, by exact class (a subclass may change
 ``evaluate``, so it is not matched)."""
 
@@ -415,8 +398,8 @@ def compiled_linearisation(model: object) -> LinearisationSpec | None:
     """The compiled linearisation of ``model``, or None (the engine then calls ``evaluate``).
 
     A model may offer one itself with a ``compiled_linearisation()`` method returning
-    ``(code, params)`` for one of the codes of :func:`linearise`; otherwise the registry
-    :data:`LINEARISATIONS` is looked up by the model's exact class.
+    ``(code, params)`` for one of the codes of :func:`linearise`; otherwise a class of
+    :data:`LINEARISED` gives its ``LIN_CODE`` and ``lin_params()``.
     """
     hook = getattr(model, "compiled_linearisation", None)
     if callable(hook):
@@ -425,8 +408,9 @@ def compiled_linearisation(model: object) -> LinearisationSpec | None:
             return None
         code, par = spec
         return int(code), np.asarray(par, dtype=float)
-    pack = LINEARISATIONS.get(type(model))
-    return None if pack is None else pack(model)
+    if type(model) not in LINEARISED:
+        return None
+    return int(model.LIN_CODE), model.lin_params()  # type: ignore[attr-defined]
 
 
 # --- small dense linear algebra (D ≤ 3 per sensor, stacked) ------------------------------------

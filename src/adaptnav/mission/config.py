@@ -15,7 +15,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PureWindowsPath
-from typing import Annotated, Any, Literal, NamedTuple
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,11 +34,12 @@ from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, Kind, UnitError, to_si
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 from adaptnav.models.imu_noise import FIELD_KINDS, ImuNoise
+from adaptnav.sensors import registry
+from adaptnav.sensors.kind import StuckDefault
+from adaptnav.sensors.registry import KINDS
 
 Array = NDArray[np.float64]
 
-SensorKind = Literal["dvl", "depth", "inclinometer", "heading", "gnss", "nhc"]
-SENSOR_KINDS: tuple[SensorKind, ...] = ("dvl", "depth", "inclinometer", "heading", "gnss", "nhc")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
 RESERVED_NAMES = ("imu", "truth")
 """Stream names taken by the IMU and the reference; a sensor may not use them."""
@@ -49,18 +50,24 @@ FALLBACK_GYRO_BIAS_SIGMA = 10.0 * DEG / 3600.0
 FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
 """Initial accelerometer-bias σ (m/s², 1 mg) when neither the config nor the noise model does."""
 
-# Residual units of each sensor's sigma (the sensors' docstrings).
-SIGMA_KIND: dict[SensorKind, Kind] = {
-    "dvl": Kind.SPEED,
-    "depth": Kind.LENGTH,
-    "inclinometer": Kind.ANGLE,
-    "heading": Kind.ANGLE,
-    "gnss": Kind.LENGTH,
-    "nhc": Kind.SPEED,
-}
-_HAS_LEVER_ARM = frozenset({"dvl", "depth", "gnss", "nhc"})
-_HAS_MOUNTING = frozenset({"dvl", "inclinometer", "heading", "nhc"})
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
+
+
+SENSOR_KINDS = registry.SENSOR_KINDS
+"""The sensor kinds a mission may configure (adaptnav.sensors.registry)."""
+SENSOR_COLUMNS: dict[str, tuple[str, ...]] = {k: v.columns for k, v in KINDS.items()}
+"""Measurement columns of each sensor table, after ``t_s`` (gnss ``h_m`` only with height)."""
+SENSOR_LIMITS: dict[str, dict[str, tuple[float, float]]] = {
+    k: dict(v.limits) for k, v in KINDS.items()
+}
+"""Default plausible range of each sensor column (SI units; ``[sensors.<name>] limits``
+overrides them), declared by each sensor kind (``KIND.limits`` in ``sensors/<kind>.py``)."""
+STUCK_DEFAULTS: dict[str, StuckDefault] = {k: v.stuck for k, v in KINDS.items()}
+"""Default stuck-reading detection of each sensor kind (``[sensors.<name>] stuck_s`` and
+``resolution`` override it), declared by each kind (``KIND.stuck``); the reasons are in
+docs/robustness.md ("Stuck readings")."""
+_OPTIONS = frozenset().union(*(k.options for k in KINDS.values()))
+"""Every kind-specific key of a ``[sensors.<name>]`` section."""
 
 
 class MissionError(ValueError):
@@ -294,7 +301,8 @@ def _check_table_file(v: str) -> str:
 class SensorConfig(_Model):
     """``[sensors.<name>]``: one aiding sensor; ``kind`` picks the model (adaptnav.sensors)."""
 
-    kind: SensorKind
+    kind: str
+    """The sensor kind (adaptnav.sensors.registry), e.g. ``dvl``."""
     file: str
     sigma: VecPair
     rate_hz: Positive | None = None
@@ -340,6 +348,13 @@ class SensorConfig(_Model):
     reading and still count as unchanged for :attr:`stuck_s`: one value for every component, or
     ``{ column = value }`` per column; the rest from :data:`STUCK_DEFAULTS`."""
 
+    @field_validator("kind")
+    @classmethod
+    def _check_kind(cls, v: str) -> str:
+        if v not in KINDS:
+            raise ValueError(f"{v!r} is not a sensor kind (use {', '.join(SENSOR_KINDS)})")
+        return v
+
     @field_validator("file")
     @classmethod
     def _check_file(cls, v: str) -> str:
@@ -351,10 +366,10 @@ class SensorConfig(_Model):
         kind = info.data.get("kind")
         if kind is None:
             return v  # the kind error is reported on its own
-        si = np.atleast_1d(_pair_si(v, SIGMA_KIND[kind], "sigma"))
+        si = np.atleast_1d(_pair_si(v, KINDS[kind].sigma_kind, "sigma"))
         if not np.all(si > 0.0):
             raise UnitError(f"sigma: value {v[0]!r} must be > 0")
-        dims = (2, 3) if kind == "gnss" else _dims(kind, False)  # gnss: checked with use_height
+        dims = KINDS[kind].dims()  # optional components: checked with the option below
         if si.size not in (1, *dims):
             raise UnitError(f"sigma: {si.size} values given, {kind} has {dims[-1]} components")
         return v
@@ -372,9 +387,9 @@ class SensorConfig(_Model):
             at = f"limits.{column}" if column else "limits"
             if math.isnan(lo) or math.isnan(hi) or not lo < hi:
                 raise ValueError(f"{at}: [{lo!r}, {hi!r}] must be [min, max] with min < max")
-            if column and kind is not None and column not in SENSOR_COLUMNS[kind]:
+            if column and kind is not None and column not in KINDS[kind].columns:
                 raise ValueError(
-                    f"{at}: not a column of a {kind} sensor ({', '.join(SENSOR_COLUMNS[kind])})"
+                    f"{at}: not a column of a {kind} sensor ({', '.join(KINDS[kind].columns)})"
                 )
         return v
 
@@ -386,33 +401,32 @@ class SensorConfig(_Model):
         kind = info.data.get("kind")
         if isinstance(v, dict) and kind is not None:
             for column in v:
-                if column not in SENSOR_COLUMNS[kind]:
+                if column not in KINDS[kind].columns:
                     raise ValueError(
                         f"resolution.{column}: not a column of a {kind} sensor "
-                        f"({', '.join(SENSOR_COLUMNS[kind])})"
+                        f"({', '.join(KINDS[kind].columns)})"
                     )
         return v
 
     @model_validator(mode="after")
     def _check_kind_fields(self) -> SensorConfig:
-        if self.model is not None and self.kind != "inclinometer":
-            raise ValueError(f"model: only an inclinometer has a model choice, not a {self.kind}")
-        if self.zero_is_lost and self.kind != "dvl":
-            raise ValueError(f"zero_is_lost: only a dvl reports a lost lock, not a {self.kind}")
-        if self.status_column is not None and self.kind != "dvl":
-            raise ValueError(f"status_column: only a dvl reports a lost lock, not a {self.kind}")
-        if self.use_height and self.kind != "gnss":
-            raise ValueError(f"use_height: only a gnss sensor measures height, not a {self.kind}")
-        if self.kind == "gnss":
-            s = np.atleast_1d(_pair_si(self.sigma, Kind.LENGTH, "sigma"))
+        kind = KINDS[self.kind]
+        for option in sorted(_OPTIONS - kind.options):
+            if getattr(self, option) not in (None, False):
+                having = [k for k, v in KINDS.items() if option in v.options]
+                raise ValueError(
+                    f"{option}: only for {' or '.join(having)} sensors, not a {self.kind}"
+                )
+        if kind.optional_columns:
+            s = np.atleast_1d(_pair_si(self.sigma, kind.sigma_kind, "sigma"))
             if s.size not in (1, self.dim):
                 raise ValueError(
-                    f"sigma: {s.size} values given, gnss with use_height = "
+                    f"sigma: {s.size} values given, {self.kind} with use_height = "
                     f"{str(bool(self.use_height)).lower()} has {self.dim} components"
                 )
-        if self.kind not in _HAS_LEVER_ARM and self.lever_arm_m not in (None, (0.0, 0.0, 0.0)):
+        if not kind.lever_arm and self.lever_arm_m not in (None, (0.0, 0.0, 0.0)):
             raise ValueError(f"lever_arm_m: a {self.kind} sensor has no lever arm (leave it out)")
-        if self.kind not in _HAS_MOUNTING and self.mounting_rpy_deg not in (None, (0.0, 0.0, 0.0)):
+        if not kind.mounting and self.mounting_rpy_deg not in (None, (0.0, 0.0, 0.0)):
             raise ValueError(
                 f"mounting_rpy_deg: a {self.kind} sensor has no mounting rotation (leave it out)"
             )
@@ -421,18 +435,18 @@ class SensorConfig(_Model):
     @property
     def dim(self) -> int:
         """Number of measurement components."""
-        return _dims(self.kind, bool(self.use_height))[-1]
+        return KINDS[self.kind].dim(bool(self.use_height))
 
     @property
     def columns(self) -> tuple[str, ...]:
         """The table's measurement columns (SI names), after ``t_s``."""
-        cols = SENSOR_COLUMNS[self.kind]
+        cols = KINDS[self.kind].columns
         return cols[: self.dim]
 
     def limits_si(self) -> Array:
         """``[min, max]`` (d, 2) of each measurement column (:attr:`columns`), SI units: the
         configured ``limits``, else :data:`SENSOR_LIMITS` of the kind."""
-        default = SENSOR_LIMITS[self.kind]
+        default = KINDS[self.kind].limits
         out = np.array([default[c] for c in self.columns], dtype=float)
         if isinstance(self.limits, dict):
             for i, c in enumerate(self.columns):
@@ -445,12 +459,12 @@ class SensorConfig(_Model):
     def stuck_duration_s(self) -> float:
         """Minimum duration (s) of a stuck run: ``stuck_s``, else the kind's default
         (:data:`STUCK_DEFAULTS`); 0 means no detection."""
-        return STUCK_DEFAULTS[self.kind].stuck_s if self.stuck_s is None else self.stuck_s
+        return KINDS[self.kind].stuck.stuck_s if self.stuck_s is None else self.stuck_s
 
     def resolution_si(self) -> Array:
         """Resolution (d,) of each measurement column (:attr:`columns`), SI units: the
         configured ``resolution``, else :data:`STUCK_DEFAULTS` of the kind."""
-        default = STUCK_DEFAULTS[self.kind].resolution
+        default = KINDS[self.kind].stuck.resolution
         out = np.array([default[c] for c in self.columns], dtype=float)
         if isinstance(self.resolution, dict):
             for i, c in enumerate(self.columns):
@@ -462,7 +476,7 @@ class SensorConfig(_Model):
 
     def sigma_si(self) -> float | Array:
         """σ in SI units (m/s, m, rad): a scalar or one value per component."""
-        s = _pair_si(self.sigma, SIGMA_KIND[self.kind], "sigma")
+        s = _pair_si(self.sigma, KINDS[self.kind].sigma_kind, "sigma")
         return float(s) if np.ndim(s) == 0 else np.asarray(s, dtype=float)
 
     def lever_arm(self) -> Array:
@@ -481,104 +495,6 @@ class SensorConfig(_Model):
         return SensorOverrides(
             self.gate_q, self.vb_rho, self.matching_window, self.guard_probability
         )
-
-
-def _dims(kind: str, use_height: bool) -> tuple[int, ...]:
-    if kind == "gnss":
-        return (3,) if use_height else (2,)
-    return {"dvl": (3,), "depth": (1,), "inclinometer": (2,), "heading": (1,), "nhc": (2,)}[kind]
-
-
-SENSOR_COLUMNS: dict[SensorKind, tuple[str, ...]] = {
-    "dvl": ("vx_m_s", "vy_m_s", "vz_m_s"),
-    "depth": ("depth_m",),
-    "inclinometer": ("roll_rad", "pitch_rad"),
-    "heading": ("yaw_rad",),
-    "gnss": ("lat_rad", "lon_rad", "h_m"),
-    "nhc": ("vy_m_s", "vz_m_s"),
-}
-"""Measurement columns of each sensor table, after ``t_s`` (gnss ``h_m`` only with height)."""
-
-MAX_SPEED_M_S = 20.0
-"""|DVL velocity| (and NHC) above this (m/s, ~39 kn) per component is implausible."""
-SENSOR_LIMITS: dict[SensorKind, dict[str, tuple[float, float]]] = {
-    "dvl": {c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vx_m_s", "vy_m_s", "vz_m_s")},
-    "depth": {"depth_m": (-100.0, 12000.0)},
-    "inclinometer": {
-        "roll_rad": (-math.pi / 2, math.pi / 2),
-        "pitch_rad": (-math.pi / 2, math.pi / 2),
-    },
-    "heading": {"yaw_rad": (-2.0 * math.pi, 2.0 * math.pi)},
-    "gnss": {
-        "lat_rad": (-math.pi / 2, math.pi / 2),
-        "lon_rad": (-math.pi, 2.0 * math.pi),
-        "h_m": (-12000.0, 100000.0),
-    },
-    "nhc": {c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vy_m_s", "vz_m_s")},
-}
-"""Default plausible range of each sensor column (SI units; ``[sensors.<name>] limits``
-overrides them), the one place they are set: |DVL velocity| <= 20 m/s, depth in
-[-100, 12000] m (above the surface / below the deepest trench), inclinometer angles within
-±90°, heading within ±360°, GNSS latitude within ±90°, longitude in [-180°, 360°], height in
-[-12 km, 100 km]. docs/robustness.md."""
-
-
-class StuckDefault(NamedTuple):
-    """A kind's default stuck-reading settings (``[sensors.<name>] stuck_s`` and
-    ``resolution``)."""
-
-    stuck_s: float
-    """Minimum duration (s) of a stuck run; 0: no detection."""
-    resolution: dict[str, float]
-    """Per column, in its SI unit: a tenth or less of the finest output step of that kind of
-    sensor, so that two readings one step apart never count as unchanged."""
-
-
-DVL_STUCK_S = 10.0
-"""A DVL's noise (mm/s per ping, even at rest) spans its output step, so ten seconds of one
-vector is a frozen driver; it is longer than a ping interval, even in deep water (a driver that
-holds the last ping until the next one repeats it that long)."""
-SLOW_STUCK_S = 60.0
-"""Depth, roll, pitch and heading can be still for a while legitimately (a vessel alongside in
-a calm harbour, a parked vehicle): a minute unchanged, not less, is taken as stuck."""
-SPEED_RESOLUTION_M_S = 1e-5
-"""0.01 mm/s: a hundredth of the 1 mm/s step of a Teledyne DVL's PD0 record, a tenth of the
-0.1 mm/s of finer outputs; far above float32 round-off at DVL speeds (1e-6 m/s at 20 m/s)."""
-DEPTH_RESOLUTION_M = 1e-4
-"""0.1 mm: a tenth of the 1 mm step of a fine depth meter's output."""
-ANGLE_RESOLUTION_RAD = 1e-6
-"""0.00006°: below the finest step of inclinometer and heading outputs, 0.001° (1.7e-5 rad)."""
-LATLON_RESOLUTION_RAD = 1e-11
-"""0.06 mm on the earth: below the steps of RTKLIB's output (1e-7° = 1.7e-9 rad in the car
-data of docs/rtklib.md, 1e-9° at its finest)."""
-HEIGHT_RESOLUTION_M = 1e-5
-"""0.01 mm: below RTKLIB's height steps (1 mm in the car data, 0.1 mm at its finest)."""
-STUCK_DEFAULTS: dict[SensorKind, StuckDefault] = {
-    "dvl": StuckDefault(
-        DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in ("vx_m_s", "vy_m_s", "vz_m_s")}
-    ),
-    "depth": StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
-    "inclinometer": StuckDefault(
-        SLOW_STUCK_S, {c: ANGLE_RESOLUTION_RAD for c in ("roll_rad", "pitch_rad")}
-    ),
-    "heading": StuckDefault(SLOW_STUCK_S, {"yaw_rad": ANGLE_RESOLUTION_RAD}),
-    # Off: a receiver's static hold, or a coarse output on a moored or parked vehicle, repeats
-    # a position legitimately, and dropping those fixes would leave the INS unaided.
-    "gnss": StuckDefault(
-        0.0,
-        {
-            "lat_rad": LATLON_RESOLUTION_RAD,
-            "lon_rad": LATLON_RESOLUTION_RAD,
-            "h_m": HEIGHT_RESOLUTION_M,
-        },
-    ),
-    # Off: the constraint's readings are zero by construction, every one "unchanged".
-    "nhc": StuckDefault(0.0, {c: SPEED_RESOLUTION_M_S for c in ("vy_m_s", "vz_m_s")}),
-}
-"""Default stuck-reading detection of each sensor kind (``[sensors.<name>] stuck_s`` and
-``resolution`` override it), the one place it is set: DVL 10 s, depth, inclinometer and
-heading 60 s, GNSS and NHC off; resolutions below the sensors' output steps (0.01 mm/s, 0.1 mm,
-1e-6 rad). The reasons are in docs/robustness.md ("Stuck readings")."""
 
 
 class InitialConfig(_Model):

@@ -25,7 +25,6 @@ from adaptnav.mission.config import (
     MissionConfig,
     MissionError,
     SensorConfig,
-    SensorKind,
     load_config,
     write_config,
 )
@@ -48,16 +47,9 @@ from adaptnav.mission.tables import (
     write_table,
 )
 from adaptnav.models.strapdown import rates_to_increments
-from adaptnav.sensors import (
-    DVL,
-    GNSS,
-    Depth,
-    Heading,
-    Inclinometer,
-    MeasurementModel,
-    NonHolonomic,
-    PendulumInclinometer,
-)
+from adaptnav.sensors import MeasurementModel
+from adaptnav.sensors.kind import SensorSetup
+from adaptnav.sensors.registry import KINDS
 
 log = logging.getLogger("adaptnav.mission")
 
@@ -98,7 +90,7 @@ class SensorData:
     of the file they came from (rows removed at load are in :attr:`Mission.dropped`)."""
 
     name: str
-    kind: SensorKind
+    kind: str
     t: Array
     z: Array
     rows: NDArray[np.int64]
@@ -579,22 +571,18 @@ def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
 
 
 def build_sensor_model(name: str, cfg: SensorConfig) -> MeasurementModel:
-    """The measurement model of ``[sensors.<name>]`` (σ in SI, l_b, C_sb = C_bsᵀ where
-    ``C_bs = euler_to_dcm(mounting_rpy_deg)`` rotates sensor axes into body axes)."""
-    sigma = cfg.sigma_si()
-    if cfg.kind == "dvl":
-        return DVL(sigma, cfg.lever_arm(), cfg.sensor_from_body(), name)
-    if cfg.kind == "depth":
-        return Depth(float(np.asarray(sigma).reshape(-1)[0]), cfg.lever_arm(), name)
-    if cfg.kind == "inclinometer":
-        if cfg.model == "attitude":
-            return Inclinometer(sigma, cfg.sensor_from_body(), name)
-        return PendulumInclinometer(sigma, cfg.sensor_from_body(), name)
-    if cfg.kind == "nhc":
-        return NonHolonomic(sigma, cfg.lever_arm(), cfg.sensor_from_body(), name)
-    if cfg.kind == "heading":
-        return Heading(float(np.asarray(sigma).reshape(-1)[0]), cfg.sensor_from_body(), name)
-    return GNSS(sigma, cfg.lever_arm(), bool(cfg.use_height), name)
+    """The measurement model of ``[sensors.<name>]``, built by its kind (``KIND.build`` in
+    ``sensors/<kind>.py``): σ in SI, l_b, C_sb = C_bsᵀ where
+    ``C_bs = euler_to_dcm(mounting_rpy_deg)`` rotates sensor axes into body axes."""
+    setup = SensorSetup(
+        name,
+        cfg.sigma_si(),
+        cfg.lever_arm(),
+        cfg.sensor_from_body(),
+        bool(cfg.use_height),
+        cfg.model,
+    )
+    return KINDS[cfg.kind].build(setup)
 
 
 # --- writing ------------------------------------------------------------------------------------

@@ -17,11 +17,13 @@ Linearisation for ``dx = x_true ⊖ x_hat`` (``h_true = h - dr_D``, ``C_true = E
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from adaptnav.core import attitude
+from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, N_STATES, POS
 from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
@@ -33,6 +35,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
+from adaptnav.sensors.kind import SLOW_STUCK_S, SensorKind, StuckDefault, pack_params
 
 DIM = 1
 
@@ -67,6 +70,13 @@ class Depth:
     sigma: float
     l_b: Array = field(default_factory=lambda: np.zeros(3))
     name: str = "depth"
+
+    LIN_CODE: ClassVar[int] = 1
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(self.l_b)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
@@ -104,3 +114,20 @@ class Depth:
         if zz is None:
             return None
         return Measurement(zz - self.predict(x), self.jacobian(x), self.R, self.names)
+
+
+DEPTH_RESOLUTION_M = 1e-4
+"""0.1 mm: a tenth of the 1 mm step of a fine depth meter's output."""
+
+KIND = SensorKind(
+    name="depth",
+    columns=("depth_m",),
+    sigma_kind=Kind.LENGTH,
+    build=lambda s: Depth(float(np.asarray(s.sigma).reshape(-1)[0]), s.l_b, s.name),
+    limits={"depth_m": (-100.0, 12000.0)},
+    stuck=StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
+    lever_arm=True,
+    linearised=(Depth,),
+)
+"""The depth meter as a sensor kind (sensors/kind.py): depth in [-100, 12000] m (above the
+surface / below the deepest trench); stuck after 60 s within 0.1 mm (docs/robustness.md)."""

@@ -20,11 +20,13 @@ and ``b_g,true = b_g + db_g``::
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from adaptnav.core import attitude
+from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, BG, N_STATES, VEL
 from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_VEL
 from adaptnav.sensors.base import (
@@ -36,6 +38,13 @@ from adaptnav.sensors.base import (
     check_sigma,
     check_state,
     check_vector3,
+)
+from adaptnav.sensors.kind import (
+    MAX_SPEED_M_S,
+    SPEED_RESOLUTION_M_S,
+    SensorKind,
+    StuckDefault,
+    pack_params,
 )
 
 DIM = 3
@@ -94,6 +103,9 @@ class DVL:
         name: sensor name; components are named ``{name}_x``, ``_y``, ``_z``.
     """
 
+    LIN_CODE: ClassVar[int] = 0
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
     sigma: float | Array
     l_b: Array = field(default_factory=lambda: np.zeros(3))
     C_sb: Array = field(default_factory=lambda: np.eye(3))
@@ -104,6 +116,10 @@ class DVL:
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
         object.__setattr__(self, "C_sb", check_rotation("C_sb", self.C_sb))
         object.__setattr__(self, "name", check_name("name", self.name))
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(self.l_b, self.C_sb)
 
     @property
     def dim(self) -> int:
@@ -137,3 +153,25 @@ class DVL:
             return None
         y = zz - self.predict(x, omega_ib_b)
         return Measurement(y, self.jacobian(x), self.R, self.names)
+
+
+DVL_STUCK_S = 10.0
+"""A DVL's noise (mm/s per ping, even at rest) spans its output step, so ten seconds of one
+vector is a frozen driver; it is longer than a ping interval, even in deep water (a driver that
+holds the last ping until the next one repeats it that long)."""
+COLUMNS = ("vx_m_s", "vy_m_s", "vz_m_s")
+
+KIND = SensorKind(
+    name="dvl",
+    columns=COLUMNS,
+    sigma_kind=Kind.SPEED,
+    build=lambda s: DVL(s.sigma, s.l_b, s.C_sb, s.name),
+    limits={c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in COLUMNS},
+    stuck=StuckDefault(DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in COLUMNS}),
+    lever_arm=True,
+    mounting=True,
+    options=frozenset({"zero_is_lost", "status_column"}),
+    linearised=(DVL,),
+)
+"""The DVL as a sensor kind (sensors/kind.py): |velocity| <= 20 m/s per axis; stuck after 10 s
+within 0.01 mm/s (docs/robustness.md)."""

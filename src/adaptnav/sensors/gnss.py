@@ -28,12 +28,15 @@ make H the true Jacobian of the model above.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from adaptnav.core import attitude, earth
+from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, N_STATES, POS
 from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
@@ -45,6 +48,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
+from adaptnav.sensors.kind import SensorKind, StuckDefault, pack_params
 
 
 def _lever_n(x: Array, l_b: ArrayLike) -> Array:
@@ -116,6 +120,13 @@ class GNSS:
     use_height: bool = True
     name: str = "gnss"
 
+    LIN_CODE: ClassVar[int] = 4
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(self.l_b, flag=1.0 if self.use_height else 0.0)
+
     def __post_init__(self) -> None:
         if not isinstance(self.use_height, bool):
             raise ValueError(f"use_height must be a bool, got {self.use_height!r}")
@@ -155,3 +166,38 @@ class GNSS:
             return None
         y = residual(x, zz, self.l_b)
         return Measurement(y, self.jacobian(x), self.R, self.names)
+
+
+LATLON_RESOLUTION_RAD = 1e-11
+"""0.06 mm on the earth: below the steps of RTKLIB's output (1e-7° = 1.7e-9 rad in the car
+data of docs/rtklib.md, 1e-9° at its finest)."""
+HEIGHT_RESOLUTION_M = 1e-5
+"""0.01 mm: below RTKLIB's height steps (1 mm in the car data, 0.1 mm at its finest)."""
+
+KIND = SensorKind(
+    name="gnss",
+    columns=("lat_rad", "lon_rad", "h_m"),
+    sigma_kind=Kind.LENGTH,
+    build=lambda s: GNSS(s.sigma, s.l_b, s.use_height, s.name),
+    limits={
+        "lat_rad": (-math.pi / 2, math.pi / 2),
+        "lon_rad": (-math.pi, 2.0 * math.pi),
+        "h_m": (-12000.0, 100000.0),
+    },
+    # Off: a receiver's static hold, or a coarse output on a moored or parked vehicle, repeats
+    # a position legitimately, and dropping those fixes would leave the INS unaided.
+    stuck=StuckDefault(
+        0.0,
+        {
+            "lat_rad": LATLON_RESOLUTION_RAD,
+            "lon_rad": LATLON_RESOLUTION_RAD,
+            "h_m": HEIGHT_RESOLUTION_M,
+        },
+    ),
+    lever_arm=True,
+    options=frozenset({"use_height"}),
+    optional_columns=1,
+    linearised=(GNSS,),
+)
+"""GNSS (or USBL) fixes as a sensor kind (sensors/kind.py): latitude within ±90°, longitude in
+[-180°, 360°], height in [-12 km, 100 km]; no stuck detection (docs/robustness.md)."""

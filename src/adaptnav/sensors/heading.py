@@ -14,12 +14,15 @@ attitude only phi_D is seen. Singular at pitch = ±90°.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from adaptnav.core import attitude
+from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, N_STATES
 from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
@@ -31,6 +34,13 @@ from adaptnav.sensors.base import (
     check_scalar_sigma,
     check_state,
     euler_jacobian,
+)
+from adaptnav.sensors.kind import (
+    ANGLE_RESOLUTION_RAD,
+    SLOW_STUCK_S,
+    SensorKind,
+    StuckDefault,
+    pack_params,
 )
 
 DIM = 1
@@ -69,6 +79,13 @@ class Heading:
     C_sb: Array = field(default_factory=lambda: np.eye(3))
     name: str = "heading"
 
+    LIN_CODE: ClassVar[int] = 3
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(C_sb=self.C_sb)
+
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
         object.__setattr__(self, "C_sb", check_rotation("C_sb", self.C_sb))
@@ -106,3 +123,17 @@ class Heading:
             return None
         y = attitude.wrap_angle(zz - self.predict(x))
         return Measurement(y, self.jacobian(x), self.R, self.names)
+
+
+KIND = SensorKind(
+    name="heading",
+    columns=("yaw_rad",),
+    sigma_kind=Kind.ANGLE,
+    build=lambda s: Heading(float(np.asarray(s.sigma).reshape(-1)[0]), s.C_sb, s.name),
+    limits={"yaw_rad": (-2.0 * math.pi, 2.0 * math.pi)},
+    stuck=StuckDefault(SLOW_STUCK_S, {"yaw_rad": ANGLE_RESOLUTION_RAD}),
+    mounting=True,
+    linearised=(Heading,),
+)
+"""The heading sensor as a sensor kind (sensors/kind.py): heading within ±360°; stuck after
+60 s within 1e-6 rad (docs/robustness.md)."""

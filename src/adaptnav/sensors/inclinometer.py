@@ -48,11 +48,13 @@ Residuals are in rad and wrapped to (-π, π]. The model is singular at pitch = 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from adaptnav.core import attitude
+from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, BA, N_STATES
 from adaptnav.models.strapdown import NOM_ATT, NOM_BA
 from adaptnav.sensors.base import (
@@ -64,6 +66,15 @@ from adaptnav.sensors.base import (
     check_sigma,
     check_state,
     euler_jacobian,
+)
+from adaptnav.sensors.kind import (
+    ANGLE_RESOLUTION_RAD,
+    HALF_PI,
+    SLOW_STUCK_S,
+    SensorKind,
+    SensorSetup,
+    StuckDefault,
+    pack_params,
 )
 
 DIM = 2
@@ -123,6 +134,13 @@ class _TwoAxis:
 @dataclass(frozen=True, eq=False)
 class Inclinometer(_TwoAxis):
     """Two-axis inclinometer read as the attitude's roll and pitch (the attitude model)."""
+
+    LIN_CODE: ClassVar[int] = 2
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(C_sb=self.C_sb)
 
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict`."""
@@ -193,6 +211,13 @@ class PendulumInclinometer(_TwoAxis):
     falls in (the engine passes it; the compiled twin is ``update_kernels._lin_pendulum``).
     """
 
+    LIN_CODE: ClassVar[int] = 6
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(C_sb=self.C_sb)
+
     def predict(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`pendulum_predict`."""
         return pendulum_predict(x, _need_force(f_ib_b), self.C_sb)
@@ -224,3 +249,25 @@ def _need_force(f_ib_b: ArrayLike | None) -> Array:
     if f.shape != (3,):
         raise ValueError(f"f_ib_b must have shape (3,), got {f.shape}")
     return f
+
+
+def _build(s: SensorSetup) -> Inclinometer | PendulumInclinometer:
+    """``model = "attitude"``: it reads roll and pitch; else (the default) a pendulum."""
+    if s.model == "attitude":
+        return Inclinometer(s.sigma, s.C_sb, s.name)
+    return PendulumInclinometer(s.sigma, s.C_sb, s.name)
+
+
+KIND = SensorKind(
+    name="inclinometer",
+    columns=("roll_rad", "pitch_rad"),
+    sigma_kind=Kind.ANGLE,
+    build=_build,
+    limits={"roll_rad": (-HALF_PI, HALF_PI), "pitch_rad": (-HALF_PI, HALF_PI)},
+    stuck=StuckDefault(SLOW_STUCK_S, {c: ANGLE_RESOLUTION_RAD for c in ("roll_rad", "pitch_rad")}),
+    mounting=True,
+    options=frozenset({"model"}),
+    linearised=(Inclinometer, PendulumInclinometer),
+)
+"""The inclinometer as a sensor kind (sensors/kind.py): angles within ±90°; stuck after 60 s
+within 1e-6 rad (docs/robustness.md); ``model``: docs/inclinometer.md."""

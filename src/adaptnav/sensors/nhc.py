@@ -16,10 +16,12 @@ allows for: sideslip in turns, suspension travel, a lever arm known only roughly
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from adaptnav.core.units import Kind
 from adaptnav.sensors import dvl
 from adaptnav.sensors.base import (
     Array,
@@ -29,6 +31,13 @@ from adaptnav.sensors.base import (
     check_rotation,
     check_sigma,
     check_vector3,
+)
+from adaptnav.sensors.kind import (
+    MAX_SPEED_M_S,
+    SPEED_RESOLUTION_M_S,
+    SensorKind,
+    StuckDefault,
+    pack_params,
 )
 
 DIM = 2
@@ -70,6 +79,13 @@ class NonHolonomic:
     C_sb: Array = field(default_factory=lambda: np.eye(3))
     name: str = "nhc"
 
+    LIN_CODE: ClassVar[int] = 7
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(self.l_b, self.C_sb)
+
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, DIM))
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
@@ -106,3 +122,19 @@ class NonHolonomic:
             return None
         y = zz - self.predict(x, omega_ib_b)
         return Measurement(y, self.jacobian(x), self.R, self.names)
+
+
+KIND = SensorKind(
+    name="nhc",
+    columns=("vy_m_s", "vz_m_s"),
+    sigma_kind=Kind.SPEED,
+    build=lambda s: NonHolonomic(s.sigma, s.l_b, s.C_sb, s.name),
+    limits={c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in ("vy_m_s", "vz_m_s")},
+    # Off: the constraint's readings are zero by construction, every one "unchanged".
+    stuck=StuckDefault(0.0, {c: SPEED_RESOLUTION_M_S for c in ("vy_m_s", "vz_m_s")}),
+    lever_arm=True,
+    mounting=True,
+    linearised=(NonHolonomic,),
+)
+"""The non-holonomic constraint as a sensor kind (sensors/kind.py); its readings are zeros
+(the RTKLIB importer writes them, docs/rtklib.md)."""

@@ -18,6 +18,7 @@ default.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,6 +33,7 @@ from adaptnav.sensors.base import (
     check_scalar_sigma,
     check_state,
 )
+from adaptnav.sensors.kind import pack_params
 
 DIM = 3
 
@@ -60,6 +62,13 @@ class ZeroVelocity:
 
     sigma: float = 0.01
     name: str = "zupt"
+
+    LIN_CODE: ClassVar[int] = 5
+    """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))

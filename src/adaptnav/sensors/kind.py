@@ -1,0 +1,119 @@
+"""A kind of aiding sensor as a whole: what the mission format, the loader and the engine's
+compiled epoch need to know about it, declared once in the sensor's own module.
+
+Each sensor module (``sensors/dvl.py``, ...) ends with ``KIND = SensorKind(...)``: its table
+columns, the unit of its σ, whether it has a lever arm and a mounting rotation, its plausible
+ranges and stuck-reading defaults (docs/robustness.md), the kind-specific options of its
+``[sensors.<name>]`` section and how to build its measurement model from them (the simulator
+still generates each kind's readings in its own function, ``adaptnav.sim.sensors``).
+:mod:`adaptnav.sensors.registry` lists the kinds; docs/architecture.md, 'Adding a sensor'.
+
+A model class with a compiled linearisation declares ``LIN_CODE`` (its branch in the kernel's
+``linearise``, ``adaptnav.compiled.update``) and ``lin_params()``, its parameters packed as
+:func:`pack_params` lays them out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav.core.units import Kind
+from adaptnav.sensors.base import MeasurementModel
+
+Array = NDArray[np.float64]
+
+N_PAR = 16
+"""Packed linearisation parameters: ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
+PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
+
+
+def pack_params(
+    l_b: ArrayLike | None = None, C_sb: ArrayLike | None = None, flag: float = 0.0
+) -> Array:
+    """A model's parameters as the compiled ``linearise`` reads them (:data:`N_PAR`)."""
+    par = np.zeros(N_PAR)
+    par[PAR_CSB : PAR_CSB + 9] = np.eye(3).ravel()
+    if l_b is not None:
+        par[PAR_LB : PAR_LB + 3] = np.asarray(l_b, dtype=float)
+    if C_sb is not None:
+        par[PAR_CSB : PAR_CSB + 9] = np.asarray(C_sb, dtype=float).ravel()
+    par[PAR_FLAG] = flag
+    return par
+
+
+class StuckDefault(NamedTuple):
+    """A kind's default stuck-reading settings (``[sensors.<name>] stuck_s`` and
+    ``resolution``; docs/robustness.md, 'Stuck readings')."""
+
+    stuck_s: float
+    """Minimum duration (s) of a stuck run; 0: no detection."""
+    resolution: dict[str, float]
+    """Per column, in its SI unit: a tenth or less of the finest output step of that kind of
+    sensor, so that two readings one step apart never count as unchanged."""
+
+
+MAX_SPEED_M_S = 20.0
+"""|DVL velocity| (and NHC) above this (m/s, ~39 kn) per component is implausible."""
+SLOW_STUCK_S = 60.0
+"""Depth, roll, pitch and heading can be still for a while legitimately (a vessel alongside in
+a calm harbour, a parked vehicle): a minute unchanged, not less, is taken as stuck."""
+SPEED_RESOLUTION_M_S = 1e-5
+"""0.01 mm/s: a hundredth of the 1 mm/s step of a Teledyne DVL's PD0 record, a tenth of the
+0.1 mm/s of finer outputs; far above float32 round-off at DVL speeds (1e-6 m/s at 20 m/s)."""
+ANGLE_RESOLUTION_RAD = 1e-6
+"""0.00006°: below the finest step of inclinometer and heading outputs, 0.001° (1.7e-5 rad)."""
+HALF_PI = math.pi / 2
+
+
+@dataclass(frozen=True)
+class SensorSetup:
+    """One configured sensor in SI units, what a kind's ``build`` makes its model from."""
+
+    name: str
+    sigma: float | Array
+    """σ per component (or one for all), in the unit of :attr:`SensorKind.sigma_kind`."""
+    l_b: Array
+    """Lever arm from the IMU, body FRD (m); zeros for a kind without one."""
+    C_sb: Array
+    """Sensor frame from body frame; identity for a kind without a mounting rotation."""
+    use_height: bool = False
+    model: str | None = None
+
+
+@dataclass(frozen=True)
+class SensorKind:
+    """One kind of aiding sensor (module docstring)."""
+
+    name: str
+    columns: tuple[str, ...]
+    """Measurement columns of its table after ``t_s``, SI names."""
+    sigma_kind: Kind
+    """Unit kind of its σ (and of its residual)."""
+    build: Callable[[SensorSetup], MeasurementModel]
+    limits: Mapping[str, tuple[float, float]]
+    """Default plausible range of each column, SI (``[sensors.<name>] limits`` overrides)."""
+    stuck: StuckDefault
+    lever_arm: bool = False
+    mounting: bool = False
+    options: frozenset[str] = frozenset()
+    """Kind-specific keys of its ``[sensors.<name>]`` section (e.g. ``use_height``)."""
+    optional_columns: int = 0
+    """Trailing columns present only with an option (the GNSS height, with ``use_height``)."""
+    linearised: tuple[type, ...] = field(default=())
+    """Its model classes that have a compiled linearisation (``LIN_CODE``, ``lin_params``)."""
+
+    def dims(self) -> tuple[int, ...]:
+        """The numbers of components it can have (with and without its optional columns)."""
+        full = len(self.columns)
+        return tuple(range(full - self.optional_columns, full + 1))
+
+    def dim(self, use_height: bool) -> int:
+        """Its number of components (all columns with ``use_height``, else without the
+        optional ones)."""
+        return len(self.columns) - (0 if use_height else self.optional_columns)
