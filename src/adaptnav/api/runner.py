@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +36,8 @@ __all__ = ["FilterError", "initial_state", "run"]
 
 OFF_REASON = "sensor off"
 """Ledger reason of every reading of a sensor with ``use = "off"``."""
+BEFORE_START_REASON = "before navigation start (alignment)"
+"""Ledger reason of the readings inside the static alignment window (docs/alignment.md)."""
 
 
 class FilterError(MissionError):
@@ -78,47 +80,9 @@ def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict
     ini = cfg.initial
     t_start = float(imu.t[0] - imu.dt[0])
     if ini.mode == "state":
-        assert ini.lat_deg is not None and ini.lon_deg is not None and ini.rpy_deg is not None
-        roll, pitch, yaw = np.radians(ini.rpy_deg)
-        x0 = NavState.from_euler(
-            math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m, ini.v_ned_m_s,
-            roll, pitch, yaw,
-        ).to_array()  # fmt: skip
-        x0[NOM_BG], x0[NOM_BA] = cfg.imu.initial_bias.si()
-        sig = np.zeros(N_STATES)
-        sig[POS] = ini.sigma_position_m
-        sig[VEL] = ini.sigma_velocity_m_s
-        sig[ATT] = ini.sigma_attitude_rad()
-        sig[BA] = accel_sigma
-        sig[BG] = gyro_sigma
-        return x0, np.diag(sig**2), t_start, {"initial": "state"}
-
-    gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
-    window_end = t_start + ini.alignment_s
-    if ini.lat_deg is not None and ini.lon_deg is not None:
-        position = (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
-    elif gnss and gnss[0] in mission.sensors:
-        g = mission.sensors[gnss[0]]
-        inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
-        if not np.any(inside):
-            file = cfg.sensors[gnss[0]].file
-            n = int(np.count_nonzero(g.t <= window_end))
-            raise MissionError(
-                f"{file}: no valid fix of sensor {gnss[0]!r} inside the static alignment window "
-                f"(t <= {window_end:.6g} s; {n} row(s) there, none finite and plausible), and no "
-                "initial.lat_deg/lon_deg to align at",
-                file=file,
-                field=gnss[0],
-            )
-        lat, lon = float(np.mean(g.z[inside, 0])), float(np.mean(g.z[inside, 1]))
-        h = float(np.mean(g.z[inside, 2])) if g.z.shape[1] > 2 else ini.h_m
-        position = (lat, lon, h)
-    else:
-        raise MissionError(
-            f"{CONFIG_NAME}: alignment: no position to align at (initial.lat_deg/lon_deg, or a "
-            "GNSS sensor with readings)",
-            file=CONFIG_NAME,
-        )
+        x0, P0 = _configured_state(mission, accel_sigma, gyro_sigma)
+        return x0, P0, t_start, {"initial": "state"}
+    position = _alignment_position(mission, t_start + ini.alignment_s)
     heading = math.radians(ini.rpy_deg[2]) if ini.rpy_deg is not None else None
     heading_sigma = float(ini.sigma_attitude_rad()[2]) if heading is not None else None
     a = align(
@@ -135,6 +99,60 @@ def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict
         "sigma_attitude_deg": list(np.degrees(a.std[ATT])),
     }
     return a.x0, a.P0, a.t_end, info
+
+
+def _configured_state(
+    mission: Mission, accel_sigma: float, gyro_sigma: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``initial.mode = "state"``: x0 and a diagonal P0 from ``[initial]`` and
+    ``[imu.initial_bias]`` (docs/alignment.md)."""
+    cfg = mission.config
+    ini = cfg.initial
+    assert ini.lat_deg is not None and ini.lon_deg is not None and ini.rpy_deg is not None
+    roll, pitch, yaw = np.radians(ini.rpy_deg)
+    x0 = NavState.from_euler(
+        math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m, ini.v_ned_m_s,
+        roll, pitch, yaw,
+    ).to_array()  # fmt: skip
+    x0[NOM_BG], x0[NOM_BA] = cfg.imu.initial_bias.si()
+    sig = np.zeros(N_STATES)
+    sig[POS] = ini.sigma_position_m
+    sig[VEL] = ini.sigma_velocity_m_s
+    sig[ATT] = ini.sigma_attitude_rad()
+    sig[BA] = accel_sigma
+    sig[BG] = gyro_sigma
+    return x0, np.diag(sig**2)
+
+
+def _alignment_position(mission: Mission, window_end: float) -> tuple[float, float, float]:
+    """Where to align: the configured position, else the mean of the first GNSS sensor's valid
+    fixes inside the static window (docs/alignment.md); an error naming the file if neither."""
+    cfg = mission.config
+    ini = cfg.initial
+    if ini.lat_deg is not None and ini.lon_deg is not None:
+        return (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
+    gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
+    if not (gnss and gnss[0] in mission.sensors):
+        raise MissionError(
+            f"{CONFIG_NAME}: alignment: no position to align at (initial.lat_deg/lon_deg, or a "
+            "GNSS sensor with readings)",
+            file=CONFIG_NAME,
+        )
+    g = mission.sensors[gnss[0]]
+    inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
+    if not np.any(inside):
+        file = cfg.sensors[gnss[0]].file
+        n = int(np.count_nonzero(g.t <= window_end))
+        raise MissionError(
+            f"{file}: no valid fix of sensor {gnss[0]!r} inside the static alignment window "
+            f"(t <= {window_end:.6g} s; {n} row(s) there, none finite and plausible), and no "
+            "initial.lat_deg/lon_deg to align at",
+            file=file,
+            field=gnss[0],
+        )
+    lat, lon = float(np.mean(g.z[inside, 0])), float(np.mean(g.z[inside, 1]))
+    h = float(np.mean(g.z[inside, 2])) if g.z.shape[1] > 2 else ini.h_m
+    return (lat, lon, h)
 
 
 def run(
@@ -172,36 +190,80 @@ def run(
 
     started = time.perf_counter()
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
+    feed = _feed(m, s, t0)
+    nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
+    config = engine.EngineConfig(
+        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
+        q_adaptation=s.q_adaptation,
+    )  # fmt: skip
+    if cfg.filter.specific_force_tau_s is not None:
+        config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
+    out = _run_engine(m, s.kind, config, feed, (x0, P0, t0), nav_from)
+    elapsed = time.perf_counter() - started
+    out = _with_file_rows(out, m, feed)
+    imu_samples = int(m.imu.t.size - nav_from)
+    meta: dict[str, Any] = {
+        "mission_dir": str(m.root),
+        "filter_settings": s.as_dict(),
+        "epoch_policy": policy,
+        **(
+            {"oracle_nominal_R": [n for n, o in feed.known.items() if o.r_diag is None]}
+            if s.kind == "oracle"
+            else {}
+        ),
+        "imu_samples": imu_samples,
+        "q_scale_final": out.q_scale,
+        "elapsed_s": elapsed,
+        "imu_samples_per_s": imu_samples / elapsed if elapsed > 0 else math.nan,
+        **init_info,
+    }
+    kinds: Mapping[str, str] = {n: c.kind for n, c in cfg.sensors.items()}
+    repairs = [r.__dict__ for r in m.repairs]
+    return Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds)
 
-    extra: list[dict[str, Any]] = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
+
+@dataclass(frozen=True)
+class _Feed:
+    """What the engine is fed from a mission, and the fates of the readings it is not."""
+
+    channels: list[engine.SensorChannel]
+    readings: dict[str, tuple[np.ndarray, ...]]
+    kept: dict[str, np.ndarray]
+    """Per aiding sensor: which of its loaded readings reach the engine."""
+    extra: list[dict[str, Any]]
+    """Ledger rows of the readings that never reach it."""
+    known: dict[str, oracle.OracleNoise]
+    """The oracle's true noise per sensor (empty for every other kind)."""
+
+
+def _feed(m: Mission, s: FilterSettings, t0: float) -> _Feed:
+    """The channels and readings of the aiding sensors after the navigation start ``t0``;
+    every other reading (dropped at load, of a sensor off or used only to initialise, inside
+    the alignment, or a known outlier for the oracle) gets its ledger row with the reason."""
+    cfg = m.config
+    extra = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
     for name, data in m.off.items():
-        extra += [
-            _ledger_row(name, int(r), float(t), OFF_REASON)
-            for r, t in zip(data.rows, data.t, strict=True)
-        ]
-    sensors = []
-    readings: dict[str, tuple[np.ndarray, ...]] = {}
-    overrides = {}
+        extra += _rows(name, data.rows, data.t, OFF_REASON)
     aiding = [n for n in m.sensors if cfg.sensors[n].use == "aid"]
     known = oracle.mission_noise(m, aiding) if s.kind == "oracle" else {}
-    kept: dict[str, np.ndarray] = {}
+    sensors, overrides, kept = [], {}, {}
+    readings: dict[str, tuple[np.ndarray, ...]] = {}
     for name, data in m.sensors.items():
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
             why = "sensor used only for initialisation" if scfg.use == "init" else OFF_REASON
-            extra += [
-                _ledger_row(name, int(r), float(t), why)
-                for r, t in zip(data.rows, data.t, strict=True)
-            ]
+            extra += _rows(name, data.rows, data.t, why)
             continue
         before = data.t <= t0
-        for r, t in zip(data.rows[before], data.t[before], strict=True):
-            extra.append(_ledger_row(name, int(r), float(t), "before navigation start (alignment)"))
+        extra += _rows(
+            name, data.rows[before], data.t[before], "before navigation start (alignment)"
+        )
         keep = ~before
         if name in known:
             outlier = known[name].outlier
-            for r, t in zip(data.rows[keep & outlier], data.t[keep & outlier], strict=True):
-                extra.append(_ledger_row(name, int(r), float(t), oracle.OUTLIER_REASON))
+            extra += _rows(
+                name, data.rows[keep & outlier], data.t[keep & outlier], oracle.OUTLIER_REASON
+            )
             keep &= ~outlier
         kept[name] = keep
         r_diag = known[name].r_diag if name in known else None
@@ -215,33 +277,44 @@ def run(
         period = data.period if math.isfinite(data.period) else 1.0
         sensors.append((build_sensor_model(name, scfg), period))
         overrides[name] = scfg.overrides()
-    channels = build_channels(s, sensors, overrides)
+    return _Feed(build_channels(s, sensors, overrides), readings, kept, extra, known)
 
-    nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
-    imu_t, imu_dt = m.imu.t[nav_from:], m.imu.dt[nav_from:]
-    config = engine.EngineConfig(
-        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
-        q_adaptation=s.q_adaptation,
-    )  # fmt: skip
-    if cfg.filter.specific_force_tau_s is not None:
-        config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
+
+def _rows(name: str, rows: np.ndarray, t: np.ndarray, reason: str) -> list[dict[str, Any]]:
+    return [_ledger_row(name, int(r), float(tt), reason) for r, tt in zip(rows, t, strict=True)]
+
+
+def _run_engine(
+    m: Mission,
+    kind: str,
+    config: engine.EngineConfig,
+    feed: _Feed,
+    start: tuple[np.ndarray, np.ndarray, float],
+    nav_from: int,
+) -> engine.EngineOutput:
+    """The engine over the IMU samples after the start; a numerical breakdown is a
+    :class:`FilterError` naming the mission, not a traceback (docs/robustness.md)."""
+    x0, P0, t0 = start
+    imu = m.imu
     try:
-        out = engine.run_batch(
-            config, channels, x0, P0, t0, imu_t, imu_dt,
-            m.imu.dtheta[nav_from:], m.imu.dvel[nav_from:], readings,
+        return engine.run_batch(
+            config, feed.channels, x0, P0, t0, imu.t[nav_from:], imu.dt[nav_from:],
+            imu.dtheta[nav_from:], imu.dvel[nav_from:], feed.readings,
         )  # fmt: skip
     except np.linalg.LinAlgError as exc:
         raise FilterError(
-            f"{m.root / CONFIG_NAME}: the {s.kind} filter broke down: {exc}. A reading far from "
+            f"{m.root / CONFIG_NAME}: the {kind} filter broke down: {exc}. A reading far from "
             "what the filter predicts, or a sensor sigma far from the truth, near that time: "
             "check the readings, their units and [sensors.<name>] sigma / limits "
             "(docs/robustness.md)",
             file=CONFIG_NAME,
         ) from None
-    elapsed = time.perf_counter() - started
-    # Rows that never reached the engine are dropped, but keep their fate in the ledger; the
-    # engine's own rows index its readings, so map them back to the files' data rows.
-    rows_of = {name: m.sensors[name].rows[kept[name]] for name in readings}
+
+
+def _with_file_rows(out: engine.EngineOutput, m: Mission, feed: _Feed) -> engine.EngineOutput:
+    """The engine's ledger and events with rows of the files instead of its own reading
+    indices, and the rows that never reached it appended: every reading keeps its fate."""
+    rows_of = {name: m.sensors[name].rows[feed.kept[name]] for name in feed.readings}
 
     def file_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
         mapped = []
@@ -253,22 +326,4 @@ def run(
         return mapped
 
     # Events name the reading that triggered them: the same mapping.
-    out = replace(out, ledger=file_rows(out.ledger) + extra, events=file_rows(out.events))
-    meta: dict[str, Any] = {
-        "mission_dir": str(m.root),
-        "filter_settings": s.as_dict(),
-        "epoch_policy": policy,
-        **(
-            {"oracle_nominal_R": [n for n, o in known.items() if o.r_diag is None]}
-            if s.kind == "oracle"
-            else {}
-        ),
-        "imu_samples": int(imu_t.size),
-        "q_scale_final": out.q_scale,
-        "elapsed_s": elapsed,
-        "imu_samples_per_s": imu_t.size / elapsed if elapsed > 0 else math.nan,
-        **init_info,
-    }
-    kinds: Mapping[str, str] = {n: c.kind for n, c in cfg.sensors.items()}
-    repairs = [r.__dict__ for r in m.repairs]
-    return Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds)
+    return replace(out, ledger=file_rows(out.ledger) + feed.extra, events=file_rows(out.events))

@@ -622,9 +622,17 @@ class MissionConfig(_Model):
         """IMU intervals per output sample (``imu.rate_hz / filter.output_rate_hz``, >= 1)."""
         return max(1, round(self.imu.rate_hz / self.filter.output_rate_hz))
 
+    def document(self) -> dict[str, Any]:
+        """This configuration as plain data, as ``mission.toml`` holds it. ``[filter]`` holds
+        only the keys that were given: a setting left out follows the library's default
+        (estimation/settings.py), also in a mission written by the simulator or an importer."""
+        doc: dict[str, Any] = self.model_dump(mode="python", exclude_none=True)
+        doc["filter"] = self.filter.model_dump(mode="python", exclude_none=True, exclude_unset=True)
+        return doc
+
     def dump_toml(self) -> str:
         """This configuration as TOML text (``load_config`` reads it back equal)."""
-        return dumps_toml(self.model_dump(mode="python", exclude_none=True))
+        return dumps_toml(self.document())
 
 
 # --- reading and writing --------------------------------------------------------------------
@@ -703,7 +711,7 @@ def with_overrides(
     """``config`` with each ``(dotted.path, value)`` set (e.g. ``("filter.vb_rho", 0.95)``,
     ``("sensors.inclinometer.model", "attitude")``), validated again as a whole; a path through
     a key that does not exist is a :class:`MissionError`."""
-    doc: dict[str, Any] = config.model_dump(mode="python", exclude_none=True)
+    doc = config.document()
     for path, value in overrides:
         *parents, leaf = path.split(".")
         node = doc
