@@ -503,21 +503,7 @@ class Navigator:
         P0: ArrayLike,
         t0: float,
     ) -> None:
-        names = [c.name for c in channels]
-        if len(set(names)) != len(names):
-            raise ValueError(f"sensor names must be unique, got {names}")
-        kinds = {type(c.strategy) for c in channels}
-        if len(kinds) > 1:
-            raise ValueError("all sensors of one filter must use the same noise strategy class")
-        self._kind = uk.KIND_FIXED
-        if kinds:
-            cls = kinds.pop()
-            if cls not in _STRATEGIES:
-                raise TypeError(
-                    f"noise strategy {cls.__name__} has no compiled update; the strategies are a "
-                    "closed set: FixedNoise, CovarianceMatching and VariationalBayes"
-                )
-            self._kind = int(cls.kind)
+        self._kind = _strategy_kind(channels)
         self.config = config
         self.channels = tuple(channels)
         self._index = {c.name: i for i, c in enumerate(channels)}
@@ -543,7 +529,13 @@ class Navigator:
         self._icur = np.zeros(N_ICUR, dtype=np.int64)
         self._icur[I_EVERY] = config.output_every
         self._build_tables()
-        # Readings (the store), the queue of their indices, the ledger and the output rows.
+        self._allocate()
+        self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
+        self._record()
+
+    def _allocate(self) -> None:
+        """The reading store, the queue of their indices, the ledger and the output rows, each
+        grown by doubling as needed."""
         self._st_t = np.zeros(64)
         self._st_sensor = np.zeros(64, dtype=np.int64)
         self._st_row = np.zeros(64, dtype=np.int64)
@@ -562,8 +554,6 @@ class Navigator:
         self._out_t = np.zeros(64)
         self._out_x = np.zeros((64, NOM_SIZE))
         self._out_p = np.zeros((64, N_STATES + N_CROSS))  # diag P, then P_CROSS_PAIRS
-        self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
-        self._record()
 
     def _build_tables(self) -> None:
         """Per-sensor settings, linearisations and initial adaptation states, packed."""
@@ -971,6 +961,26 @@ class Navigator:
             events=self._events(),
             q_scale=float(self._rates[uk.R_Q, 0]),
         )
+
+
+def _strategy_kind(channels: Sequence[SensorChannel]) -> int:
+    """The kernel's code of the channels' one noise strategy (estimation/noise/base.py);
+    sensor names must be unique."""
+    names = [c.name for c in channels]
+    if len(set(names)) != len(names):
+        raise ValueError(f"sensor names must be unique, got {names}")
+    kinds = {type(c.strategy) for c in channels}
+    if len(kinds) > 1:
+        raise ValueError("all sensors of one filter must use the same noise strategy class")
+    if not kinds:
+        return uk.KIND_FIXED
+    cls = kinds.pop()
+    if cls not in _STRATEGIES:
+        raise TypeError(
+            f"noise strategy {cls.__name__} has no compiled update; the strategies are a "
+            "closed set: FixedNoise, CovarianceMatching and VariationalBayes"
+        )
+    return int(cls.kind)
 
 
 def _pack_strategy(
