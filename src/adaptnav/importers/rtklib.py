@@ -197,21 +197,32 @@ def _parse_gpst(tokens: Sequence[str]) -> float:
     return GPS_EPOCH.timestamp() + 604800.0 * int(a) + float(b)
 
 
-def read_pos(path: str | Path) -> PosSolution:
-    """Read an RTKLIB ``.pos`` file (header lines start with ``%``, the last one names the
-    columns; time in GPST as a calendar date or GPS week and seconds).
-
-    A truncated last line (fewer fields than the header) is dropped and recorded as a repair;
-    any other malformed line, a non-number, an unknown time system or a time that does not
-    increase is an :class:`RtklibError` naming the file, line and field.
-    """
-    p = Path(path)
+def _require_file(p: Path) -> None:
+    """Refuse a path that is not a file (RtklibError naming the file and its folder)."""
     if not p.is_file():
         raise RtklibError(f"{p.name}: file not found in {p.parent}", file=str(p))
+
+
+def _read_text(p: Path) -> str:
+    """The UTF-8 text of ``p``; a missing file or one that is not text is an RtklibError."""
+    _require_file(p)
     try:
-        text = p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise RtklibError(f"{p.name}: not a text file ({exc.reason})", file=p.name) from None
+
+
+def _truncated_last_line(p: Path, line: int, detail: str) -> Repair:
+    """The repair of a dropped truncated last line (docs/rtklib.md, "Inputs and what is
+    refused"), logged as a warning."""
+    log.warning("%s line %d: truncated last line dropped", p.name, line)
+    return Repair(p.name, line, "(line)", "dropped truncated last line", detail)
+
+
+def _split_pos_lines(p: Path, text: str) -> tuple[list[str], list[list[str]], list[int]]:
+    """(column names, fields of each data line, 1-based line numbers) of a ``.pos`` text: the
+    names from the last ``%`` header line that starts with a time system; blank lines skipped.
+    Data before that header, or no header, is an RtklibError."""
     names: list[str] | None = None
     rows: list[list[str]] = []
     lines: list[int] = []
@@ -233,6 +244,12 @@ def read_pos(path: str | Path) -> PosSolution:
         lines.append(no)
     if names is None:
         raise RtklibError(f"{p.name}: no column header ('%  GPST  latitude(deg) ...')", file=p.name)
+    return names, rows, lines
+
+
+def _check_pos_header(p: Path, names: list[str]) -> list[str]:
+    """The value columns after the time: the time system must be GPST and the columns
+    :data:`POS_COLUMNS` present (lat/lon/height output), else an RtklibError."""
     if names[0] != "GPST":
         raise RtklibError(
             f"{p.name}: time system {names[0]}; only GPST solutions are supported (set "
@@ -249,22 +266,15 @@ def read_pos(path: str | Path) -> PosSolution:
             file=p.name,
             field=missing[0],
         )
+    return cols
+
+
+def _parse_pos_fields(
+    p: Path, rows: list[list[str]], lines: list[int], cols: list[str]
+) -> tuple[Array, Array]:
+    """(GPST s since 1970 (n,), values (n, columns)) of the data lines; a line with another
+    field count than the header, a bad time or a non-number is an RtklibError."""
     width = 2 + len(cols)
-    repairs: list[Repair] = []
-    if rows and len(rows[-1]) < width:
-        repairs.append(
-            Repair(
-                p.name,
-                lines[-1],
-                "(line)",
-                "dropped truncated last line",
-                f"{len(rows[-1])} of {width} fields",
-            )
-        )
-        log.warning("%s line %d: truncated last line dropped", p.name, lines[-1])
-        rows, lines = rows[:-1], lines[:-1]
-    if not rows:
-        raise RtklibError(f"{p.name}: no solution lines", file=p.name)
     values = np.full((len(rows), len(cols)), np.nan)
     t = np.empty(len(rows))
     for i, (r, no) in enumerate(zip(rows, lines, strict=True)):
@@ -295,6 +305,12 @@ def read_pos(path: str | Path) -> PosSolution:
                     line=no,
                     field=c,
                 ) from None
+    return t, values
+
+
+def _check_pos_values(p: Path, t: Array, col: dict[str, Array], lines: list[int]) -> None:
+    """Refuse (RtklibError naming the line) a time that does not increase, a non-finite
+    position or a latitude beyond ±90°."""
     bad = np.flatnonzero(np.diff(t) <= 0.0)
     if bad.size:
         k = int(bad[0]) + 1
@@ -305,7 +321,6 @@ def read_pos(path: str | Path) -> PosSolution:
             line=lines[k],
             field="GPST",
         )
-    col = {c: values[:, j] for j, c in enumerate(cols)}
     for c in ("latitude(deg)", "longitude(deg)", "height(m)"):
         finite = np.isfinite(col[c])
         if not finite.all():
@@ -321,6 +336,29 @@ def read_pos(path: str | Path) -> PosSolution:
             line=lines[k],
             field="latitude(deg)",
         )
+
+
+def read_pos(path: str | Path) -> PosSolution:
+    """Read an RTKLIB ``.pos`` file (header lines start with ``%``, the last one names the
+    columns; time in GPST as a calendar date or GPS week and seconds).
+
+    A truncated last line (fewer fields than the header) is dropped and recorded as a repair;
+    any other malformed line, a non-number, an unknown time system or a time that does not
+    increase is an :class:`RtklibError` naming the file, line and field.
+    """
+    p = Path(path)
+    names, rows, lines = _split_pos_lines(p, _read_text(p))
+    cols = _check_pos_header(p, names)
+    width = 2 + len(cols)
+    repairs: list[Repair] = []
+    if rows and len(rows[-1]) < width:
+        repairs.append(_truncated_last_line(p, lines[-1], f"{len(rows[-1])} of {width} fields"))
+        rows, lines = rows[:-1], lines[:-1]
+    if not rows:
+        raise RtklibError(f"{p.name}: no solution lines", file=p.name)
+    t, values = _parse_pos_fields(p, rows, lines, cols)
+    col = {c: values[:, j] for j, c in enumerate(cols)}
+    _check_pos_values(p, t, col, lines)
     if all(c in cols for c in POS_VELOCITY_COLUMNS):
         v = np.column_stack([col["vn(m/s)"], col["ve(m/s)"], -col["vu(m/s)"]])
     else:
@@ -360,8 +398,7 @@ def read_time_tag(path: str | Path) -> TimeTag:
     file position) records. A wrong header, a partial record or ticks that go back are an
     :class:`RtklibError`."""
     p = Path(path)
-    if not p.is_file():
-        raise RtklibError(f"{p.name}: file not found in {p.parent}", file=str(p))
+    _require_file(p)
     b = p.read_bytes()
     head = TAG_HEADER_BYTES + 16
     if len(b) < head or not b.startswith(TAG_MAGIC):
@@ -410,21 +447,10 @@ MAX_GYRO_DEG_S = 2000.0
 """Beyond a MEMS IMU's range: an absurd value (or a unit mix-up) is an error."""
 
 
-def read_imu_csv(path: str | Path) -> RawImu:
-    """Read the raw IMU CSV: ``acc x, y, z (g), gyro x, y, z (deg/s), counter (ms)``, with or
-    without one header line.
-
-    A truncated last line (fewer fields, or a cut number) is dropped and recorded as a repair;
-    any other malformed line, a value beyond the sensor's range, or a counter that does not
-    increase is an :class:`RtklibError` naming the file, line and field.
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise RtklibError(f"{p.name}: file not found in {p.parent}", file=str(p))
-    try:
-        raw = p.read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError as exc:
-        raise RtklibError(f"{p.name}: not a text file ({exc.reason})", file=p.name) from None
+def _imu_sample_lines(p: Path, raw: list[str]) -> tuple[list[tuple[int, str]], list[Repair]]:
+    """(1-based line number, text) of the sample lines, and the repairs: blank lines and a
+    header line (one that is not all numbers) skipped, and a truncated last line (fewer
+    fields, or a cut number, at the end of the file) dropped."""
     numbered = [(no, line) for no, line in enumerate(raw, start=1) if line.strip()]
     if numbered and not _numbers(numbered[0][1].split(",")):  # a header line
         numbered = numbered[1:]
@@ -434,19 +460,15 @@ def read_imu_csv(path: str | Path) -> RawImu:
         fields = last.split(",")
         cut = len(fields) != len(IMU_FIELDS) or not raw[-1:] or not _numbers(fields)
         if cut and no == len(raw):
-            repairs.append(
-                Repair(
-                    p.name,
-                    no,
-                    "(line)",
-                    "dropped truncated last line",
-                    f"{len(fields)} of {len(IMU_FIELDS)} fields: {last!r}",
-                )
-            )
-            log.warning("%s line %d: truncated last line dropped", p.name, no)
+            detail = f"{len(fields)} of {len(IMU_FIELDS)} fields: {last!r}"
+            repairs.append(_truncated_last_line(p, no, detail))
             numbered = numbered[:-1]
-    if len(numbered) < 2:
-        raise RtklibError(f"{p.name}: {len(numbered)} sample line(s), at least 2", file=p.name)
+    return numbered, repairs
+
+
+def _parse_imu_fields(p: Path, numbered: list[tuple[int, str]]) -> Array:
+    """The sample lines as numbers (n, 7), :data:`IMU_FIELDS`; a line with another field count
+    or a non-number is an RtklibError naming the line and field."""
     data = np.empty((len(numbered), len(IMU_FIELDS)))
     for i, (no, line) in enumerate(numbered):
         fields = line.split(",")
@@ -467,7 +489,13 @@ def read_imu_csv(path: str | Path) -> RawImu:
                     line=no,
                     field=IMU_FIELDS[j],
                 ) from None
-    lines = np.array([no for no, _ in numbered], dtype=np.int64)
+    return data
+
+
+def _check_imu_values(p: Path, data: Array, lines: NDArray[np.int64]) -> None:
+    """Refuse (RtklibError naming the line and field) a value that is not finite or beyond
+    :data:`MAX_ACCEL_G` / :data:`MAX_GYRO_DEG_S` (wrong units), and a counter that does not
+    increase."""
     for j, limit in ((0, MAX_ACCEL_G), (3, MAX_GYRO_DEG_S)):
         block = data[:, j : j + 3]
         bad = ~np.isfinite(block) | (np.abs(block) > limit)
@@ -491,7 +519,24 @@ def read_imu_csv(path: str | Path) -> RawImu:
             line=int(lines[i]),
             field="counter_ms",
         )
-    return RawImu(p, data[:, :3], data[:, 3:6], c, lines, tuple(repairs))
+
+
+def read_imu_csv(path: str | Path) -> RawImu:
+    """Read the raw IMU CSV: ``acc x, y, z (g), gyro x, y, z (deg/s), counter (ms)``, with or
+    without one header line.
+
+    A truncated last line (fewer fields, or a cut number) is dropped and recorded as a repair;
+    any other malformed line, a value beyond the sensor's range, or a counter that does not
+    increase is an :class:`RtklibError` naming the file, line and field.
+    """
+    p = Path(path)
+    numbered, repairs = _imu_sample_lines(p, _read_text(p).splitlines())
+    if len(numbered) < 2:
+        raise RtklibError(f"{p.name}: {len(numbered)} sample line(s), at least 2", file=p.name)
+    data = _parse_imu_fields(p, numbered)
+    lines = np.array([no for no, _ in numbered], dtype=np.int64)
+    _check_imu_values(p, data, lines)
+    return RawImu(p, data[:, :3], data[:, 3:6], data[:, 6], lines, tuple(repairs))
 
 
 def _numbers(fields: Sequence[str]) -> bool:
