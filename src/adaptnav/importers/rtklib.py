@@ -1387,6 +1387,11 @@ def import_drive(
     Mission time ``t_s`` is GPST minus the IMU's first (offset-corrected) sample time, which is
     recorded in import.json with every estimate, check, correction, left-out reading and
     repair. Returns ``out_dir``.
+
+    The steps: :func:`read_pos`, :func:`read_imu_csv`, :func:`read_time_tag`,
+    :func:`check_settings`, :func:`estimate_drive` (:func:`estimate_clock`,
+    :func:`estimate_start`, :func:`estimate_imu_noise`, :func:`select_fixes`),
+    :func:`build_config`, :func:`build_tables` and :func:`build_import_record`.
     """
     imu_p = Path(imu_path)
     tag_p = Path(tag_path) if tag_path is not None else imu_p.with_name(imu_p.name + ".tag")
