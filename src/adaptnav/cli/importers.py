@@ -26,6 +26,21 @@ def _fmt(value: Any, spec: str) -> str:
     return format(value, spec)
 
 
+def _first_line(exc: Exception) -> str:
+    """The one line the command prints for a refused input: the message's first line, or the
+    exception's type when it has no message."""
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
+def _print_repairs(info: dict[str, Any]) -> None:
+    """One line per repair recorded in an import.json (a dropped truncated line, ...)."""
+    for repair in info["repairs"]:
+        console.print(
+            f"[yellow]repaired:[/] {repair['file']} line {repair['line']}: {repair['action']} "
+            f"({repair['detail']})"
+        )
+
+
 @import_app.command("akit")
 def akit(
     trajectory: Annotated[int, typer.Option("--trajectory", "-n", help="segment number N")],
@@ -71,9 +86,30 @@ def akit(
                 fmt="csv" if csv else "parquet",
             )
         except (MissionError, ValueError, OSError) as exc:  # AkitError is a MissionError
-            fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-    root = out
-    info = json.loads((root / "import.json").read_text(encoding="utf-8"))
+            fail(_first_line(exc))
+    _report_akit(out, trajectory, faults, seed)
+
+
+def _report_akit(out: Path, trajectory: int, faults: bool, seed: int) -> None:
+    """Print what the import of ``out`` recorded in import.json: the offsets, the repairs and
+    the injected faults."""
+    info = json.loads((out / "import.json").read_text(encoding="utf-8"))
+    console.print(_akit_offsets(info, trajectory))
+    _print_repairs(info)
+    if faults:
+        f = info["fault_injection"]
+        console.print(
+            f"DVL faults (seed {seed}): {len(f['spike_rows'])} spikes, lock loss "
+            f"{f['lock_loss_window_s'][0]:.1f}-{f['lock_loss_window_s'][1]:.1f} s, "
+            f"×{f['noise_factor']:g} noise {f['noisy_window_s'][0]:.1f}-"
+            f"{f['noisy_window_s'][1]:.1f} s"
+        )
+    console.print(f"mission akit-{trajectory} written to {out} (depth is semi-synthetic)")
+
+
+def _akit_offsets(info: dict[str, Any], trajectory: int) -> Table:
+    """The offsets and the IMU's position of an A-KIT import.json: estimated, README and used
+    (docs/akit.md, "The corrections")."""
     table = Table(title=f"A-KIT segment {trajectory}: offsets (estimated from the data)")
     for col in ("quantity", "estimated", "README", "used"):
         table.add_column(col)
@@ -96,21 +132,7 @@ def akit(
         _fmt(arm["readme"], "+.1f"),
         _fmt(arm["used"], "+.3f"),
     )
-    console.print(table)
-    for repair in info["repairs"]:
-        console.print(
-            f"[yellow]repaired:[/] {repair['file']} line {repair['line']}: {repair['action']} "
-            f"({repair['detail']})"
-        )
-    if faults:
-        f = info["fault_injection"]
-        console.print(
-            f"DVL faults (seed {seed}): {len(f['spike_rows'])} spikes, lock loss "
-            f"{f['lock_loss_window_s'][0]:.1f}-{f['lock_loss_window_s'][1]:.1f} s, "
-            f"×{f['noise_factor']:g} noise {f['noisy_window_s'][0]:.1f}-"
-            f"{f['noisy_window_s'][1]:.1f} s"
-        )
-    console.print(f"mission akit-{trajectory} written to {root} (depth is semi-synthetic)")
+    return table
 
 
 def _parse_outages(spec: str) -> list[tuple[float, float]]:
@@ -187,9 +209,26 @@ def rtklib(
                 fmt="csv" if csv else "parquet",
             )
         except (MissionError, ValueError, OSError) as exc:  # RtklibError is a MissionError
-            fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
-    root = out
-    info = json.loads((root / "import.json").read_text(encoding="utf-8"))
+            fail(_first_line(exc))
+    _report_rtklib(out, len(windows), nhc)
+
+
+def _report_rtklib(out: Path, n_windows: int, nhc: bool) -> None:
+    """Print what the import of ``out`` recorded in import.json: the estimates and checks, the
+    repairs and the GNSS fixes left out by reason."""
+    info = json.loads((out / "import.json").read_text(encoding="utf-8"))
+    console.print(_rtklib_checks(info))
+    _print_repairs(info)
+    for reason, n in info["gnss"]["left_out"].items():
+        if n:
+            console.print(f"GNSS left out: {n} ({reason})")
+    extra = ", non-holonomic constraint" if nhc else ""
+    console.print(f"mission written to {out} ({n_windows} outage window(s){extra})")
+
+
+def _rtklib_checks(info: dict[str, Any]) -> Table:
+    """The estimates and checks of an RTKLIB import.json beside the published or expected
+    values (docs/rtklib.md, "The corrections" and "The start")."""
     table = Table(title="RTKLIB drive: estimates and checks")
     for col in ("quantity", "value", "published / expected"):
         table.add_column(col)
@@ -206,14 +245,4 @@ def rtklib(
     table.add_row("gyro bias, parked (deg/s)", _fmt(ini["gyro_bias_deg_s"], "+.3f"), "-")
     g = info["gnss"]
     table.add_row("GNSS fixes aiding / epochs", f"{g['used']} / {g['epochs']}", "-")
-    console.print(table)
-    for repair in info["repairs"]:
-        console.print(
-            f"[yellow]repaired:[/] {repair['file']} line {repair['line']}: {repair['action']} "
-            f"({repair['detail']})"
-        )
-    for reason, n in g["left_out"].items():
-        if n:
-            console.print(f"GNSS left out: {n} ({reason})")
-    extra = ", non-holonomic constraint" if nhc else ""
-    console.print(f"mission written to {root} ({len(windows)} outage window(s){extra})")
+    return table

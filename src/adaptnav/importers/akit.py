@@ -51,7 +51,7 @@ from adaptnav.analysis.evaluate import ned_errors
 from adaptnav.core import attitude, earth
 from adaptnav.engine import propagation
 from adaptnav.importers.timing import minimise_lag
-from adaptnav.mission.config import MissionError, parse_config
+from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Journal, Repair, Table, numeric, read_table
 from adaptnav.models import strapdown
@@ -628,6 +628,42 @@ def _window(rng: np.random.Generator, lo: float, hi: float, length: float) -> fl
     return float(rng.uniform(lo, hi - length))
 
 
+def _fault_windows(
+    rng: np.random.Generator, t: Array, noisy_s: float, lock_loss_s: float
+) -> tuple[float, float]:
+    """(start of the noisy window, start of the lock loss) (s), drawn in that order over the
+    DVL span ``[t_0, t_n + 1 s]`` (docs/akit.md, "Fault injection")."""
+    lo, hi = float(t[0]), float(t[-1]) + DVL_PERIOD_S
+    noisy_start = _window(rng, lo, hi, noisy_s)
+    # The lock loss goes in the longer of the two stretches left beside the noisy window.
+    before, after = (lo, noisy_start), (noisy_start + noisy_s, hi)
+    side = before if before[1] - before[0] >= after[1] - after[0] else after
+    return noisy_start, _window(rng, side[0], side[1], lock_loss_s)
+
+
+def _dvl_truth(
+    v: Array,
+    sigma_m_s: float,
+    factor: Array,
+    lock: NDArray[np.bool_],
+    outlier: NDArray[np.bool_],
+    spikes: Array,
+) -> pd.DataFrame:
+    """The DVL table's truth columns (docs/akit.md, "The mission written"): per reading
+    ``is_outlier``, ``is_lock_loss``, ``noise_factor``, the true σ ``sigma_m_s × factor``,
+    ``spike_{x,y,z}_m_s`` and the recorded readings ``recorded_v{x,y,z}_m_s`` (``v``)."""
+    return pd.DataFrame(
+        {
+            "is_outlier": outlier,
+            "is_lock_loss": lock,
+            "noise_factor": factor,
+            "sigma_m_s": sigma_m_s * factor,
+            **{f"spike_{a}_m_s": spikes[:, i] for i, a in enumerate("xyz")},
+            **{f"recorded_v{a}_m_s": v[:, i] for i, a in enumerate("xyz")},
+        }
+    )
+
+
 def inject_dvl_faults(
     t: Array,
     v: Array,
@@ -656,15 +692,10 @@ def inject_dvl_faults(
     """
     n = t.size
     out = np.array(v, dtype=float, copy=True)
-    factor = np.ones(n)
-    lo, hi = float(t[0]), float(t[-1]) + DVL_PERIOD_S
-    noisy_start = _window(rng, lo, hi, noisy_s)
+    noisy_start, lock_start = _fault_windows(rng, t, noisy_s, lock_loss_s)
     noisy = (t >= noisy_start) & (t < noisy_start + noisy_s)
-    # The lock loss goes in the longer of the two stretches left beside the noisy window.
-    before, after = (lo, noisy_start), (noisy_start + noisy_s, hi)
-    side = before if before[1] - before[0] >= after[1] - after[0] else after
-    lock_start = _window(rng, side[0], side[1], lock_loss_s)
     lock = (t >= lock_start) & (t < lock_start + lock_loss_s)
+    factor = np.ones(n)
     factor[noisy] = noise_factor
     extra = sigma_m_s * math.sqrt(noise_factor**2 - 1.0)
     out[noisy] += rng.normal(0.0, extra, size=(int(noisy.sum()), 3))
@@ -677,16 +708,7 @@ def inject_dvl_faults(
     out += spikes
     outlier = lock.copy()
     outlier[rows] = True
-    truth = pd.DataFrame(
-        {
-            "is_outlier": outlier,
-            "is_lock_loss": lock,
-            "noise_factor": factor,
-            "sigma_m_s": sigma_m_s * factor,
-            **{f"spike_{a}_m_s": spikes[:, i] for i, a in enumerate("xyz")},
-            **{f"recorded_v{a}_m_s": np.asarray(v, dtype=float)[:, i] for i, a in enumerate("xyz")},
-        }
-    )
+    truth = _dvl_truth(np.asarray(v, dtype=float), sigma_m_s, factor, lock, outlier, spikes)
     info = {
         "noisy_window_s": [noisy_start, noisy_start + noisy_s],
         "noise_factor": noise_factor,
@@ -700,24 +722,378 @@ def inject_dvl_faults(
 
 
 def _clean_dvl_truth(v: Array, sigma_m_s: float) -> pd.DataFrame:
+    """The truth columns of readings without faults: no outlier, factor 1, the nominal σ."""
     n = v.shape[0]
+    none = np.zeros(n, dtype=bool)
+    return _dvl_truth(v, sigma_m_s, np.ones(n), none, none.copy(), np.zeros((n, 3)))
+
+
+# --- the mission: check, estimate, build --------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SegmentSettings:
+    """The checked settings of an import (:func:`check_settings`): the seed, whether DVL faults
+    are injected, the semi-synthetic depth's σ (m), the DVL's nominal σ (m/s) and the
+    ``[imu.noise]`` pairs (docs/akit.md, "Vehicle configuration")."""
+
+    seed: int
+    faults: bool
+    depth_sigma_m: float
+    dvl_sigma_m_s: float
+    imu_noise: dict[str, tuple[float | str, str]]
+
+
+def check_settings(
+    seed: int,
+    faults: bool,
+    depth_sigma_m: float,
+    dvl_sigma_m_s: float,
+    imu_noise: Mapping[str, tuple[float | str, str]] | None,
+) -> SegmentSettings:
+    """The import's settings, the two σ's refused (ValueError) unless finite and > 0;
+    ``imu_noise`` None stands for :data:`PHINS_NOISE`."""
+    if not (math.isfinite(depth_sigma_m) and depth_sigma_m > 0.0):
+        raise ValueError(f"depth_sigma_m: value {depth_sigma_m!r} must be > 0")
+    if not (math.isfinite(dvl_sigma_m_s) and dvl_sigma_m_s > 0.0):
+        raise ValueError(f"dvl_sigma_m_s: value {dvl_sigma_m_s!r} must be > 0")
+    noise = dict(imu_noise) if imu_noise is not None else dict(PHINS_NOISE)
+    return SegmentSettings(seed, faults, depth_sigma_m, dvl_sigma_m_s, noise)
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentOffsets:
+    """The corrections estimated from the data and those used (docs/akit.md, corrections 3, 4
+    and 6): the reference offset L (s), the DVL offset (s) and the IMU's position r from the
+    reference point (m, body FRD)."""
+
+    reference_estimated: float
+    reference: float
+    dvl_estimated: float
+    dvl: float
+    imu_lever_arm_estimated: Array
+    imu_lever_arm: Array
+
+    @property
+    def dvl_lever_arm(self) -> Array:
+        """The DVL's lever arm from the IMU, ``DVL_LEVER_ARM_M - r`` (correction 6)."""
+        return np.asarray(DVL_LEVER_ARM_M) - self.imu_lever_arm
+
+
+def estimate_offsets(
+    seg: RawSegment,
+    reference_offset_s: float | None,
+    dvl_offset_s: float | None,
+    imu_lever_arm_m: Sequence[float] | None,
+) -> SegmentOffsets:
+    """Estimate L (:func:`estimate_reference_offset`), then the DVL offset
+    (:func:`estimate_dvl_offset`) and r (:func:`estimate_imu_lever_arm`) at the L used; each
+    given value replaces its estimate (docs/akit.md, "The corrections"). A given r that is not
+    3 finite numbers is a ValueError."""
+    L_est = estimate_reference_offset(seg)
+    L = L_est if reference_offset_s is None else float(reference_offset_s)
+    dvl_est = estimate_dvl_offset(seg, L)
+    dvl_off = dvl_est if dvl_offset_s is None else float(dvl_offset_s)
+    r_est = estimate_imu_lever_arm(seg, L)
+    r_imu = r_est if imu_lever_arm_m is None else np.asarray(imu_lever_arm_m, dtype=float)
+    if r_imu.shape != (3,) or not np.all(np.isfinite(r_imu)):
+        raise ValueError(f"imu_lever_arm_m: {imu_lever_arm_m!r} is not 3 finite numbers")
+    return SegmentOffsets(L_est, L, dvl_est, dvl_off, r_est, r_imu)
+
+
+@dataclass(frozen=True, eq=False)
+class NavigationSpan:
+    """Where navigation runs (docs/akit.md, "Navigation start"): ``start`` the initial state at
+    the IMU point, from reference sample ``start_index``; ``t0`` its time and ``t_end`` the
+    last IMU sample used (s); ``imu`` the slice of IMU samples from ``t0`` to ``t_end``."""
+
+    start: ReferenceSample
+    start_index: int
+    t0: float
+    t_end: float
+    imu: slice
+
+
+def estimate_navigation_span(seg: RawSegment, offsets: SegmentOffsets) -> NavigationSpan:
+    """The navigation start and end: the first reference sample inside the IMU data carried
+    to the next IMU sample (:func:`reference_state`) and moved to the IMU point; the end at the
+    last IMU sample inside the reference span (docs/akit.md, "Navigation start")."""
+    # No static alignment in these segments: the reference gives the start.
+    t_ref = seg.ref_k + offsets.reference
+    k0 = int(np.searchsorted(t_ref, seg.imu_t[0] - 1e-9, side="left"))
+    start = reference_state(seg, offsets.reference, k0)
+    start = start.moved(offsets.imu_lever_arm, seg.gyro_at(start.t))
+    t0 = float(start.t[0])
+    t_end = float(min(seg.imu_t[-1], t_ref[-1]))
+    j0 = int(np.searchsorted(seg.imu_t, t0 - 1e-9, side="left"))
+    j_end = int(np.searchsorted(seg.imu_t, t_end + 1e-9, side="right"))
+    t_end = float(seg.imu_t[j_end - 1])  # readings after the last IMU sample could not be used
+    return NavigationSpan(start, k0, t0, t_end, slice(j0, j_end))
+
+
+def build_imu_table(seg: RawSegment, span: NavigationSpan) -> pd.DataFrame:
+    """The ``imu`` table (rates, FRD, y negated) over the navigation span (docs/akit.md, "The
+    mission written")."""
+    j = span.imu
     return pd.DataFrame(
         {
-            "is_outlier": np.zeros(n, dtype=bool),
-            "is_lock_loss": np.zeros(n, dtype=bool),
-            "noise_factor": np.ones(n),
-            "sigma_m_s": np.full(n, sigma_m_s),
-            **{f"spike_{a}_m_s": np.zeros(n) for a in "xyz"},
-            **{f"recorded_v{a}_m_s": v[:, i] for i, a in enumerate("xyz")},
+            "t_s": seg.imu_t[j],
+            **{f"gyro_{a}_rad_s": seg.gyro[j, i] for i, a in enumerate("xyz")},
+            **{f"accel_{a}_m_s2": seg.accel[j, i] for i, a in enumerate("xyz")},
         }
     )
 
 
-# --- the mission --------------------------------------------------------------------------------
+def build_dvl_table(
+    seg: RawSegment,
+    offsets: SegmentOffsets,
+    span: NavigationSpan,
+    settings: SegmentSettings,
+    fault_ss: np.random.SeedSequence,
+) -> tuple[pd.DataFrame, dict[str, Any], int]:
+    """(``dvl`` table, injected faults, readings left out): the readings at ``k + offset``
+    after the start and up to the last IMU sample, with faults (:func:`inject_dvl_faults`, the
+    seed's second stream) or without, and their truth columns (docs/akit.md, "Fault
+    injection")."""
+    t_dvl = seg.dvl_k + offsets.dvl
+    keep = (t_dvl > span.t0) & (t_dvl <= span.t_end)
+    t_dvl, v_dvl = t_dvl[keep], seg.dvl_v[keep]
+    sigma = settings.dvl_sigma_m_s
+    if settings.faults:
+        v_out, truth, info = inject_dvl_faults(t_dvl, v_dvl, sigma, np.random.default_rng(fault_ss))
+    else:
+        v_out, truth, info = v_dvl, _clean_dvl_truth(v_dvl, sigma), {}
+    readings = pd.DataFrame(
+        {"t_s": t_dvl, **{f"v{a}_m_s": v_out[:, i] for i, a in enumerate("xyz")}}
+    )
+    return pd.concat([readings, truth], axis=1), info, int(np.count_nonzero(~keep))
+
+
+def build_truth_table(seg: RawSegment, offsets: SegmentOffsets) -> pd.DataFrame:
+    """The ``truth`` table at ``t = k + L``: the reference moved to the IMU point
+    (:meth:`ReferenceSample.moved`, correction 6), its attitude, ``ref_index`` and the recorded
+    reference-point values as ``ref_*`` (docs/akit.md, "The mission written")."""
+    t_ref = seg.ref_k + offsets.reference
+    recorded = ReferenceSample(t_ref, seg.ref_pos, seg.ref_vel, seg.reference_rotation())
+    at_imu = recorded.moved(offsets.imu_lever_arm, seg.gyro_at(t_ref))
+    return pd.DataFrame(
+        {
+            "t_s": t_ref,
+            "lat_rad": at_imu.pos[:, 0],
+            "lon_rad": at_imu.pos[:, 1],
+            "h_m": at_imu.pos[:, 2],
+            "vn_m_s": at_imu.vel[:, 0],
+            "ve_m_s": at_imu.vel[:, 1],
+            "vd_m_s": at_imu.vel[:, 2],
+            "roll_rad": seg.ref_rpy[:, 0],
+            "pitch_rad": seg.ref_rpy[:, 1],
+            "yaw_rad": seg.ref_rpy[:, 2],
+            "ref_index": np.arange(t_ref.size, dtype=np.int64),
+            **{f"ref_{c}": seg.ref_pos[:, i] for i, c in enumerate(("lat_rad", "lon_rad", "h_m"))},
+            **{f"ref_v{c}_m_s": seg.ref_vel[:, i] for i, c in enumerate("ned")},
+        }
+    )
+
+
+def build_depth_table(
+    seg: RawSegment,
+    offsets: SegmentOffsets,
+    span: NavigationSpan,
+    depth_sigma_m: float,
+    depth_ss: np.random.SeedSequence,
+) -> pd.DataFrame:
+    """The semi-synthetic ``depth`` table (docs/akit.md, "Semi-synthetic depth"): the reference
+    point's depth ``-h`` at the reference times inside the navigation span, plus white noise of
+    σ ``depth_sigma_m`` from the seed's first stream (the recordings have no depth sensor)."""
+    t_ref = seg.ref_k + offsets.reference
+    in_span = (t_ref > span.t0) & (t_ref <= span.t_end)
+    true_depth = -seg.ref_pos[in_span, 2]
+    depth_noise = np.random.default_rng(depth_ss).normal(0.0, depth_sigma_m, true_depth.size)
+    return pd.DataFrame(
+        {
+            "t_s": t_ref[in_span],
+            "depth_m": true_depth + depth_noise,
+            "true_depth_m": true_depth,
+            "sigma_m": np.full(true_depth.size, depth_sigma_m),
+        }
+    )
+
+
+def _description(n: int, settings: SegmentSettings, offsets: SegmentOffsets) -> str:
+    """The mission's description: real data, the semi-synthetic depth, faults, offsets used."""
+    return (
+        f"Snapir AUV (A-KIT) segment {n}: real Phins IMU and RDI DVL data with the Delph "
+        f"post-processed reference (moved to the IMU point) as truth; the depth sensor is "
+        f"SEMI-SYNTHETIC (reference depth + N(0, {settings.depth_sigma_m:g} m), "
+        f"seed {settings.seed})"
+        + ("; DVL faults injected (seeded)" if settings.faults else "")
+        + f"; L = {offsets.reference:+.3f} s, DVL offset {offsets.dvl:+.3f} s (import.json)"
+    )
+
+
+def _sensors_section(settings: SegmentSettings, offsets: SegmentOffsets) -> dict[str, Any]:
+    """``[sensors]``: the DVL and the semi-synthetic depth, lever arms from the IMU
+    (``DVL_LEVER_ARM_M - r`` and ``-r``, correction 6)."""
+    return {
+        "dvl": {
+            "kind": "dvl",
+            "file": "dvl.parquet",
+            "sigma": [settings.dvl_sigma_m_s, "m/s"],
+            "rate_hz": 1.0 / DVL_PERIOD_S,
+            "lever_arm_m": [round(float(v), 4) for v in offsets.dvl_lever_arm],
+            "use": "aid",
+        },
+        "depth": {
+            "kind": "depth",
+            "file": "depth_semisynthetic.parquet",
+            "sigma": [settings.depth_sigma_m, "m"],
+            "rate_hz": 1.0 / REF_PERIOD_S,
+            "lever_arm_m": [round(float(-v), 4) for v in offsets.imu_lever_arm],
+            "use": "aid",
+        },
+    }
+
+
+def _initial_section(start: ReferenceSample) -> dict[str, Any]:
+    """``[initial]``: ``mode = "state"`` at the navigation start, with the assumed σ's
+    (docs/akit.md, "Vehicle configuration")."""
+    lat0, lon0, h0 = (float(v) for v in start.pos[0])
+    roll0, pitch0, yaw0 = (float(math.degrees(a)) for a in start.rpy[0])
+    return {
+        "mode": "state",
+        "lat_deg": math.degrees(lat0),
+        "lon_deg": math.degrees(lon0),
+        "h_m": h0,
+        "v_ned_m_s": [float(v) for v in start.vel[0]],
+        "rpy_deg": [roll0, pitch0, yaw0],
+        "sigma_position_m": INITIAL_SIGMA_POSITION_M,
+        "sigma_velocity_m_s": INITIAL_SIGMA_VELOCITY_M_S,
+        "sigma_attitude_deg": list(INITIAL_SIGMA_ATTITUDE_DEG),
+    }
+
+
+def build_config(
+    n: int, settings: SegmentSettings, offsets: SegmentOffsets, span: NavigationSpan
+) -> MissionConfig:
+    """The mission configuration of segment ``n`` (docs/akit.md, "The mission written" and
+    "Vehicle configuration"): the IMU as rates with the Phins noise, the DVL and depth sensors,
+    the initial state at the navigation start and the truth."""
+    doc: dict[str, Any] = {
+        "mission": {"name": f"akit-{n}", "description": _description(n, settings, offsets)},
+        "imu": {
+            "file": "imu.parquet",
+            "format": "rates",
+            "rate_hz": 1.0 / IMU_PERIOD_S,
+            "noise": {k: list(v) for k, v in settings.imu_noise.items()},
+            "initial_bias_sigma": {k: list(v) for k, v in PHINS_INITIAL_BIAS_SIGMA.items()},
+        },
+        "sensors": _sensors_section(settings, offsets),
+        "initial": _initial_section(span.start),
+        "truth": {"file": "truth.parquet"},
+    }
+    return parse_config(doc, f"A-KIT segment {n} (import)")
 
 
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _offsets_record(seg: RawSegment, offsets: SegmentOffsets) -> dict[str, Any]:
+    """import.json's offsets and lever arms, estimated, README and used, and the σ of the DVL
+    residuals (:func:`dvl_residuals`) with and without the DVL lever arm (docs/akit.md,
+    corrections 3-6)."""
+    readme_L = README_REFERENCE_OFFSET_S.get(seg.trajectory)
+    L_est, L, r_imu = offsets.reference_estimated, offsets.reference, offsets.imu_lever_arm
+    _, r_used = dvl_residuals(seg, L, offsets.dvl)
+    _, r_no_arm = dvl_residuals(seg, L, offsets.dvl, (0.0, 0.0, 0.0))
+    return {
+        "reference_offset_s": {
+            "estimated": L_est,
+            "readme": readme_L,
+            "used": L,
+            "estimated_minus_readme": None if readme_L is None else L_est - readme_L,
+        },
+        "dvl_offset_s": {
+            "estimated": offsets.dvl_estimated,
+            "readme": README_DVL_OFFSET_S,
+            "used": offsets.dvl,
+        },
+        "imu_lever_arm_m": {
+            "estimated": offsets.imu_lever_arm_estimated.tolist(),
+            "readme": [0.0, 0.0, 0.0],
+            "used": r_imu.tolist(),
+            "meaning": "IMU position from the reference point, body FRD",
+        },
+        "dvl_lever_arm_m": {
+            "from_reference_point": list(DVL_LEVER_ARM_M),
+            "from_imu": offsets.dvl_lever_arm.tolist(),
+        },
+        "dvl_residual_sigma_m_s": {
+            "with_lever_arm": np.std(r_used, axis=0).tolist(),
+            "without_lever_arm": np.std(r_no_arm, axis=0).tolist(),
+        },
+    }
+
+
+def _corrections(offsets: SegmentOffsets) -> list[str]:
+    """The six corrections as applied (docs/akit.md, "The corrections")."""
+    return [
+        "index time: IMU t = 0.01 j, DVL and reference t = 1.0 k (Time [s] ignored)",
+        "IMU y axis negated (ACC Y, GYRO Y) to FRD",
+        f"reference sample k at IMU time k + L, L = {offsets.reference:+.4f} s",
+        f"DVL sample k at IMU time k + {offsets.dvl:.4f} s",
+        f"DVL lever arm {list(DVL_LEVER_ARM_M)} m FRD from the reference point",
+        f"IMU at {np.round(offsets.imu_lever_arm, 4).tolist()} m FRD from the reference point: "
+        "truth, initial state, DVL and depth lever arms refer to the IMU",
+    ]
+
+
+def build_import_record(
+    seg: RawSegment,
+    settings: SegmentSettings,
+    offsets: SegmentOffsets,
+    span: NavigationSpan,
+    left_out: tuple[int, int],
+    fault_info: dict[str, Any],
+    written: MissionConfig,
+) -> dict[str, Any]:
+    """import.json (docs/akit.md, "The mission written"): the source files' SHA-256, the seed,
+    the offsets (:func:`_offsets_record`), the corrections, the navigation span and the IMU
+    samples and DVL readings ``left_out``, the depth's origin, the repairs, the injected faults
+    and the tables written."""
+    n = seg.trajectory
+    return {
+        "importer": "adaptnav.importers.akit",
+        "trajectory": n,
+        "source": str(seg.source),
+        "source_sha256": {
+            f"{s}_trajectory{n}.csv": _sha256(seg.source / f"{s}_trajectory{n}.csv")
+            for s in ("IMU", "DVL", "GT")
+        },
+        "seed": settings.seed,
+        "faults": settings.faults,
+        **_offsets_record(seg, offsets),
+        "corrections": _corrections(offsets),
+        "navigation_start_s": span.t0,
+        "navigation_start_reference_index": span.start_index,
+        "navigation_end_s": span.t_end,
+        "imu_samples_left_out": left_out[0],
+        "dvl_readings_left_out": left_out[1],
+        "depth": {
+            "semi_synthetic": True,
+            "source": "reference depth = -altitude at the reference times, plus white noise",
+            "sigma_m": settings.depth_sigma_m,
+        },
+        "dvl_sigma_m_s": settings.dvl_sigma_m_s,
+        "imu_noise": {k: list(v) for k, v in settings.imu_noise.items()},
+        "repairs": [r.__dict__ for r in seg.repairs],
+        "fault_injection": fault_info,
+        "mission_files": {
+            "imu": written.imu.file,
+            **{k: s.file for k, s in written.sensors.items()},
+            "truth": written.truth.file,
+        },
+    }
 
 
 def import_segment(
@@ -763,226 +1139,44 @@ def import_segment(
     reference sample inside the IMU data, carried to the next IMU sample
     (:func:`reference_state`); IMU samples before it and DVL readings outside the IMU span are
     left out (counted in import.json). Returns ``out_dir``.
+
+    The steps: :func:`check_settings`, :func:`read_segment`, :func:`estimate_offsets`,
+    :func:`estimate_navigation_span`, the ``build_*_table`` functions, :func:`build_config` and
+    :func:`build_import_record`.
     """
-    if not (math.isfinite(depth_sigma_m) and depth_sigma_m > 0.0):
-        raise ValueError(f"depth_sigma_m: value {depth_sigma_m!r} must be > 0")
-    if not (math.isfinite(dvl_sigma_m_s) and dvl_sigma_m_s > 0.0):
-        raise ValueError(f"dvl_sigma_m_s: value {dvl_sigma_m_s!r} must be > 0")
+    settings = check_settings(seed, faults, depth_sigma_m, dvl_sigma_m_s, imu_noise)
     seg = read_segment(src_dir, trajectory)
-    n = seg.trajectory
-    L_est = estimate_reference_offset(seg)
-    L = L_est if reference_offset_s is None else float(reference_offset_s)
-    dvl_est = estimate_dvl_offset(seg, L)
-    dvl_off = dvl_est if dvl_offset_s is None else float(dvl_offset_s)
-    r_est = estimate_imu_lever_arm(seg, L)
-    r_imu = r_est if imu_lever_arm_m is None else np.asarray(imu_lever_arm_m, dtype=float)
-    if r_imu.shape != (3,) or not np.all(np.isfinite(r_imu)):
-        raise ValueError(f"imu_lever_arm_m: {imu_lever_arm_m!r} is not 3 finite numbers")
+    offsets = estimate_offsets(seg, reference_offset_s, dvl_offset_s, imu_lever_arm_m)
     depth_ss, fault_ss = np.random.SeedSequence(seed).spawn(2)
-
-    # Navigation start (no static alignment in these segments): the first reference sample
-    # inside the IMU data, carried to the next IMU sample (reference_state).
-    t_ref = seg.ref_k + L
-    k0 = int(np.searchsorted(t_ref, seg.imu_t[0] - 1e-9, side="left"))
-    start = reference_state(seg, L, k0)
-    start = start.moved(r_imu, seg.gyro_at(start.t))
-    t0 = float(start.t[0])
-    t_end = float(min(seg.imu_t[-1], t_ref[-1]))
-    j0 = int(np.searchsorted(seg.imu_t, t0 - 1e-9, side="left"))
-    j_end = int(np.searchsorted(seg.imu_t, t_end + 1e-9, side="right"))
-    t_imu = seg.imu_t[j0:j_end]
-    t_end = float(t_imu[-1])  # sensor readings after the last IMU sample could not be used
-    imu_df = pd.DataFrame(
-        {
-            "t_s": t_imu,
-            **{f"gyro_{a}_rad_s": seg.gyro[j0:j_end, i] for i, a in enumerate("xyz")},
-            **{f"accel_{a}_m_s2": seg.accel[j0:j_end, i] for i, a in enumerate("xyz")},
-        }
-    )
-
-    t_dvl = seg.dvl_k + dvl_off
-    keep = (t_dvl > t0) & (t_dvl <= t_end)
-    t_dvl, v_dvl = t_dvl[keep], seg.dvl_v[keep]
-    if faults:
-        v_out, dvl_truth, fault_info = inject_dvl_faults(
-            t_dvl, v_dvl, dvl_sigma_m_s, np.random.default_rng(fault_ss)
-        )
-    else:
-        v_out, dvl_truth, fault_info = v_dvl, _clean_dvl_truth(v_dvl, dvl_sigma_m_s), {}
-    dvl_df = pd.concat(
-        [
-            pd.DataFrame({"t_s": t_dvl, **{f"v{a}_m_s": v_out[:, i] for i, a in enumerate("xyz")}}),
-            dvl_truth,
-        ],
-        axis=1,
-    )
-
-    recorded = ReferenceSample(t_ref, seg.ref_pos, seg.ref_vel, seg.reference_rotation())
-    at_imu = recorded.moved(r_imu, seg.gyro_at(t_ref))
-    truth_df = pd.DataFrame(
-        {
-            "t_s": t_ref,
-            "lat_rad": at_imu.pos[:, 0],
-            "lon_rad": at_imu.pos[:, 1],
-            "h_m": at_imu.pos[:, 2],
-            "vn_m_s": at_imu.vel[:, 0],
-            "ve_m_s": at_imu.vel[:, 1],
-            "vd_m_s": at_imu.vel[:, 2],
-            "roll_rad": seg.ref_rpy[:, 0],
-            "pitch_rad": seg.ref_rpy[:, 1],
-            "yaw_rad": seg.ref_rpy[:, 2],
-            "ref_index": np.arange(t_ref.size, dtype=np.int64),
-            **{f"ref_{c}": seg.ref_pos[:, i] for i, c in enumerate(("lat_rad", "lon_rad", "h_m"))},
-            **{f"ref_v{c}_m_s": seg.ref_vel[:, i] for i, c in enumerate("ned")},
-        }
-    )
-
-    # Semi-synthetic depth: the reference point's depth (-h) at the reference times inside
-    # the IMU span, plus white noise; the recordings have no depth-sensor stream.
-    in_span = (t_ref > t0) & (t_ref <= t_end)
-    true_depth = -seg.ref_pos[in_span, 2]
-    depth_noise = np.random.default_rng(depth_ss).normal(0.0, depth_sigma_m, true_depth.size)
-    depth_df = pd.DataFrame(
-        {
-            "t_s": t_ref[in_span],
-            "depth_m": true_depth + depth_noise,
-            "true_depth_m": true_depth,
-            "sigma_m": np.full(true_depth.size, depth_sigma_m),
-        }
-    )
-
-    lat0, lon0, h0 = (float(v) for v in start.pos[0])
-    roll0, pitch0, yaw0 = (float(math.degrees(a)) for a in start.rpy[0])
-    noise = dict(imu_noise) if imu_noise is not None else dict(PHINS_NOISE)
-    dvl_arm = np.asarray(DVL_LEVER_ARM_M) - r_imu
-    description = (
-        f"Snapir AUV (A-KIT) segment {n}: real Phins IMU and RDI DVL data with the Delph "
-        f"post-processed reference (moved to the IMU point) as truth; the depth sensor is "
-        f"SEMI-SYNTHETIC (reference depth + N(0, {depth_sigma_m:g} m), seed {seed})"
-        + ("; DVL faults injected (seeded)" if faults else "")
-        + f"; L = {L:+.3f} s, DVL offset {dvl_off:+.3f} s (import.json)"
-    )
-    doc: dict[str, Any] = {
-        "mission": {"name": f"akit-{n}", "description": description},
-        "imu": {
-            "file": "imu.parquet",
-            "format": "rates",
-            "rate_hz": 1.0 / IMU_PERIOD_S,
-            "noise": {k: list(v) for k, v in noise.items()},
-            "initial_bias_sigma": {k: list(v) for k, v in PHINS_INITIAL_BIAS_SIGMA.items()},
-        },
-        "sensors": {
-            "dvl": {
-                "kind": "dvl",
-                "file": "dvl.parquet",
-                "sigma": [dvl_sigma_m_s, "m/s"],
-                "rate_hz": 1.0 / DVL_PERIOD_S,
-                "lever_arm_m": [round(float(v), 4) for v in dvl_arm],
-                "use": "aid",
-            },
-            "depth": {
-                "kind": "depth",
-                "file": "depth_semisynthetic.parquet",
-                "sigma": [depth_sigma_m, "m"],
-                "rate_hz": 1.0 / REF_PERIOD_S,
-                "lever_arm_m": [round(float(-v), 4) for v in r_imu],
-                "use": "aid",
-            },
-        },
-        "initial": {
-            "mode": "state",
-            "lat_deg": math.degrees(lat0),
-            "lon_deg": math.degrees(lon0),
-            "h_m": h0,
-            "v_ned_m_s": [float(v) for v in start.vel[0]],
-            "rpy_deg": [roll0, pitch0, yaw0],
-            "sigma_position_m": INITIAL_SIGMA_POSITION_M,
-            "sigma_velocity_m_s": INITIAL_SIGMA_VELOCITY_M_S,
-            "sigma_attitude_deg": list(INITIAL_SIGMA_ATTITUDE_DEG),
-        },
-        "truth": {"file": "truth.parquet"},
+    span = estimate_navigation_span(seg, offsets)
+    imu_df = build_imu_table(seg, span)
+    dvl_df, fault_info, dvl_left_out = build_dvl_table(seg, offsets, span, settings, fault_ss)
+    tables = {
+        "imu": imu_df,
+        "dvl": dvl_df,
+        "depth": build_depth_table(seg, offsets, span, depth_sigma_m, depth_ss),
+        "truth": build_truth_table(seg, offsets),
     }
-    config = parse_config(doc, f"A-KIT segment {n} (import)")
-    tables = {"imu": imu_df, "dvl": dvl_df, "depth": depth_df, "truth": truth_df}
     root = Path(out_dir)
-    written = write_mission(root, config, tables, fmt=fmt)
-
-    readme_L = README_REFERENCE_OFFSET_S.get(n)
-    _, r_used = dvl_residuals(seg, L, dvl_off)
-    _, r_no_arm = dvl_residuals(seg, L, dvl_off, (0.0, 0.0, 0.0))
-    meta: dict[str, Any] = {
-        "importer": "adaptnav.importers.akit",
-        "trajectory": n,
-        "source": str(seg.source),
-        "source_sha256": {
-            f"{s}_trajectory{n}.csv": _sha256(seg.source / f"{s}_trajectory{n}.csv")
-            for s in ("IMU", "DVL", "GT")
-        },
-        "seed": seed,
-        "faults": faults,
-        "reference_offset_s": {
-            "estimated": L_est,
-            "readme": readme_L,
-            "used": L,
-            "estimated_minus_readme": None if readme_L is None else L_est - readme_L,
-        },
-        "dvl_offset_s": {"estimated": dvl_est, "readme": README_DVL_OFFSET_S, "used": dvl_off},
-        "imu_lever_arm_m": {
-            "estimated": r_est.tolist(),
-            "readme": [0.0, 0.0, 0.0],
-            "used": r_imu.tolist(),
-            "meaning": "IMU position from the reference point, body FRD",
-        },
-        "dvl_lever_arm_m": {
-            "from_reference_point": list(DVL_LEVER_ARM_M),
-            "from_imu": dvl_arm.tolist(),
-        },
-        "dvl_residual_sigma_m_s": {
-            "with_lever_arm": np.std(r_used, axis=0).tolist(),
-            "without_lever_arm": np.std(r_no_arm, axis=0).tolist(),
-        },
-        "corrections": [
-            "index time: IMU t = 0.01 j, DVL and reference t = 1.0 k (Time [s] ignored)",
-            "IMU y axis negated (ACC Y, GYRO Y) to FRD",
-            f"reference sample k at IMU time k + L, L = {L:+.4f} s",
-            f"DVL sample k at IMU time k + {dvl_off:.4f} s",
-            f"DVL lever arm {list(DVL_LEVER_ARM_M)} m FRD from the reference point",
-            f"IMU at {np.round(r_imu, 4).tolist()} m FRD from the reference point: truth, "
-            "initial state, DVL and depth lever arms refer to the IMU",
-        ],
-        "navigation_start_s": t0,
-        "navigation_start_reference_index": k0,
-        "navigation_end_s": t_end,
-        "imu_samples_left_out": int(seg.imu_t.size - t_imu.size),
-        "dvl_readings_left_out": int(np.count_nonzero(~keep)),
-        "depth": {
-            "semi_synthetic": True,
-            "source": "reference depth = -altitude at the reference times, plus white noise",
-            "sigma_m": depth_sigma_m,
-        },
-        "dvl_sigma_m_s": dvl_sigma_m_s,
-        "imu_noise": {k: list(v) for k, v in noise.items()},
-        "repairs": [r.__dict__ for r in seg.repairs],
-        "fault_injection": fault_info,
-        "mission_files": {
-            "imu": written.imu.file,
-            **{k: s.file for k, s in written.sensors.items()},
-            "truth": written.truth.file,
-        },
-    }
+    written = write_mission(
+        root, build_config(seg.trajectory, settings, offsets, span), tables, fmt=fmt
+    )
+    left_out = (int(seg.imu_t.size - len(imu_df)), dvl_left_out)
+    meta = build_import_record(seg, settings, offsets, span, left_out, fault_info, written)
     (root / "import.json").write_text(
         json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n", encoding="utf-8"
     )
+    readme_L = README_REFERENCE_OFFSET_S.get(seg.trajectory)
     log.info(
         "A-KIT segment %d -> %s: L = %+.3f s (README %s), DVL offset %.3f s (estimated %.3f), "
         "IMU at %s m from the reference point",
-        n,
+        seg.trajectory,
         root,
-        L,
+        offsets.reference,
         "n/a" if readme_L is None else f"{readme_L:+.2f}",
-        dvl_off,
-        dvl_est,
-        np.round(r_imu, 3).tolist(),
+        offsets.dvl,
+        offsets.dvl_estimated,
+        np.round(offsets.imu_lever_arm, 3).tolist(),
     )
     return root
 

@@ -56,7 +56,7 @@ from adaptnav.core import earth
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, G0
 from adaptnav.importers.timing import minimise_lag
-from adaptnav.mission.config import MissionError, parse_config
+from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Repair
 
@@ -197,21 +197,32 @@ def _parse_gpst(tokens: Sequence[str]) -> float:
     return GPS_EPOCH.timestamp() + 604800.0 * int(a) + float(b)
 
 
-def read_pos(path: str | Path) -> PosSolution:
-    """Read an RTKLIB ``.pos`` file (header lines start with ``%``, the last one names the
-    columns; time in GPST as a calendar date or GPS week and seconds).
-
-    A truncated last line (fewer fields than the header) is dropped and recorded as a repair;
-    any other malformed line, a non-number, an unknown time system or a time that does not
-    increase is an :class:`RtklibError` naming the file, line and field.
-    """
-    p = Path(path)
+def _require_file(p: Path) -> None:
+    """Refuse a path that is not a file (RtklibError naming the file and its folder)."""
     if not p.is_file():
         raise RtklibError(f"{p.name}: file not found in {p.parent}", file=str(p))
+
+
+def _read_text(p: Path) -> str:
+    """The UTF-8 text of ``p``; a missing file or one that is not text is an RtklibError."""
+    _require_file(p)
     try:
-        text = p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise RtklibError(f"{p.name}: not a text file ({exc.reason})", file=p.name) from None
+
+
+def _truncated_last_line(p: Path, line: int, detail: str) -> Repair:
+    """The repair of a dropped truncated last line (docs/rtklib.md, "Inputs and what is
+    refused"), logged as a warning."""
+    log.warning("%s line %d: truncated last line dropped", p.name, line)
+    return Repair(p.name, line, "(line)", "dropped truncated last line", detail)
+
+
+def _split_pos_lines(p: Path, text: str) -> tuple[list[str], list[list[str]], list[int]]:
+    """(column names, fields of each data line, 1-based line numbers) of a ``.pos`` text: the
+    names from the last ``%`` header line that starts with a time system; blank lines skipped.
+    Data before that header, or no header, is an RtklibError."""
     names: list[str] | None = None
     rows: list[list[str]] = []
     lines: list[int] = []
@@ -233,6 +244,12 @@ def read_pos(path: str | Path) -> PosSolution:
         lines.append(no)
     if names is None:
         raise RtklibError(f"{p.name}: no column header ('%  GPST  latitude(deg) ...')", file=p.name)
+    return names, rows, lines
+
+
+def _check_pos_header(p: Path, names: list[str]) -> list[str]:
+    """The value columns after the time: the time system must be GPST and the columns
+    :data:`POS_COLUMNS` present (lat/lon/height output), else an RtklibError."""
     if names[0] != "GPST":
         raise RtklibError(
             f"{p.name}: time system {names[0]}; only GPST solutions are supported (set "
@@ -249,22 +266,15 @@ def read_pos(path: str | Path) -> PosSolution:
             file=p.name,
             field=missing[0],
         )
+    return cols
+
+
+def _parse_pos_fields(
+    p: Path, rows: list[list[str]], lines: list[int], cols: list[str]
+) -> tuple[Array, Array]:
+    """(GPST s since 1970 (n,), values (n, columns)) of the data lines; a line with another
+    field count than the header, a bad time or a non-number is an RtklibError."""
     width = 2 + len(cols)
-    repairs: list[Repair] = []
-    if rows and len(rows[-1]) < width:
-        repairs.append(
-            Repair(
-                p.name,
-                lines[-1],
-                "(line)",
-                "dropped truncated last line",
-                f"{len(rows[-1])} of {width} fields",
-            )
-        )
-        log.warning("%s line %d: truncated last line dropped", p.name, lines[-1])
-        rows, lines = rows[:-1], lines[:-1]
-    if not rows:
-        raise RtklibError(f"{p.name}: no solution lines", file=p.name)
     values = np.full((len(rows), len(cols)), np.nan)
     t = np.empty(len(rows))
     for i, (r, no) in enumerate(zip(rows, lines, strict=True)):
@@ -295,6 +305,12 @@ def read_pos(path: str | Path) -> PosSolution:
                     line=no,
                     field=c,
                 ) from None
+    return t, values
+
+
+def _check_pos_values(p: Path, t: Array, col: dict[str, Array], lines: list[int]) -> None:
+    """Refuse (RtklibError naming the line) a time that does not increase, a non-finite
+    position or a latitude beyond ±90°."""
     bad = np.flatnonzero(np.diff(t) <= 0.0)
     if bad.size:
         k = int(bad[0]) + 1
@@ -305,7 +321,6 @@ def read_pos(path: str | Path) -> PosSolution:
             line=lines[k],
             field="GPST",
         )
-    col = {c: values[:, j] for j, c in enumerate(cols)}
     for c in ("latitude(deg)", "longitude(deg)", "height(m)"):
         finite = np.isfinite(col[c])
         if not finite.all():
@@ -321,6 +336,29 @@ def read_pos(path: str | Path) -> PosSolution:
             line=lines[k],
             field="latitude(deg)",
         )
+
+
+def read_pos(path: str | Path) -> PosSolution:
+    """Read an RTKLIB ``.pos`` file (header lines start with ``%``, the last one names the
+    columns; time in GPST as a calendar date or GPS week and seconds).
+
+    A truncated last line (fewer fields than the header) is dropped and recorded as a repair;
+    any other malformed line, a non-number, an unknown time system or a time that does not
+    increase is an :class:`RtklibError` naming the file, line and field.
+    """
+    p = Path(path)
+    names, rows, lines = _split_pos_lines(p, _read_text(p))
+    cols = _check_pos_header(p, names)
+    width = 2 + len(cols)
+    repairs: list[Repair] = []
+    if rows and len(rows[-1]) < width:
+        repairs.append(_truncated_last_line(p, lines[-1], f"{len(rows[-1])} of {width} fields"))
+        rows, lines = rows[:-1], lines[:-1]
+    if not rows:
+        raise RtklibError(f"{p.name}: no solution lines", file=p.name)
+    t, values = _parse_pos_fields(p, rows, lines, cols)
+    col = {c: values[:, j] for j, c in enumerate(cols)}
+    _check_pos_values(p, t, col, lines)
     if all(c in cols for c in POS_VELOCITY_COLUMNS):
         v = np.column_stack([col["vn(m/s)"], col["ve(m/s)"], -col["vu(m/s)"]])
     else:
@@ -360,8 +398,7 @@ def read_time_tag(path: str | Path) -> TimeTag:
     file position) records. A wrong header, a partial record or ticks that go back are an
     :class:`RtklibError`."""
     p = Path(path)
-    if not p.is_file():
-        raise RtklibError(f"{p.name}: file not found in {p.parent}", file=str(p))
+    _require_file(p)
     b = p.read_bytes()
     head = TAG_HEADER_BYTES + 16
     if len(b) < head or not b.startswith(TAG_MAGIC):
@@ -410,21 +447,10 @@ MAX_GYRO_DEG_S = 2000.0
 """Beyond a MEMS IMU's range: an absurd value (or a unit mix-up) is an error."""
 
 
-def read_imu_csv(path: str | Path) -> RawImu:
-    """Read the raw IMU CSV: ``acc x, y, z (g), gyro x, y, z (deg/s), counter (ms)``, with or
-    without one header line.
-
-    A truncated last line (fewer fields, or a cut number) is dropped and recorded as a repair;
-    any other malformed line, a value beyond the sensor's range, or a counter that does not
-    increase is an :class:`RtklibError` naming the file, line and field.
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise RtklibError(f"{p.name}: file not found in {p.parent}", file=str(p))
-    try:
-        raw = p.read_text(encoding="utf-8").splitlines()
-    except UnicodeDecodeError as exc:
-        raise RtklibError(f"{p.name}: not a text file ({exc.reason})", file=p.name) from None
+def _imu_sample_lines(p: Path, raw: list[str]) -> tuple[list[tuple[int, str]], list[Repair]]:
+    """(1-based line number, text) of the sample lines, and the repairs: blank lines and a
+    header line (one that is not all numbers) skipped, and a truncated last line (fewer
+    fields, or a cut number, at the end of the file) dropped."""
     numbered = [(no, line) for no, line in enumerate(raw, start=1) if line.strip()]
     if numbered and not _numbers(numbered[0][1].split(",")):  # a header line
         numbered = numbered[1:]
@@ -434,19 +460,15 @@ def read_imu_csv(path: str | Path) -> RawImu:
         fields = last.split(",")
         cut = len(fields) != len(IMU_FIELDS) or not raw[-1:] or not _numbers(fields)
         if cut and no == len(raw):
-            repairs.append(
-                Repair(
-                    p.name,
-                    no,
-                    "(line)",
-                    "dropped truncated last line",
-                    f"{len(fields)} of {len(IMU_FIELDS)} fields: {last!r}",
-                )
-            )
-            log.warning("%s line %d: truncated last line dropped", p.name, no)
+            detail = f"{len(fields)} of {len(IMU_FIELDS)} fields: {last!r}"
+            repairs.append(_truncated_last_line(p, no, detail))
             numbered = numbered[:-1]
-    if len(numbered) < 2:
-        raise RtklibError(f"{p.name}: {len(numbered)} sample line(s), at least 2", file=p.name)
+    return numbered, repairs
+
+
+def _parse_imu_fields(p: Path, numbered: list[tuple[int, str]]) -> Array:
+    """The sample lines as numbers (n, 7), :data:`IMU_FIELDS`; a line with another field count
+    or a non-number is an RtklibError naming the line and field."""
     data = np.empty((len(numbered), len(IMU_FIELDS)))
     for i, (no, line) in enumerate(numbered):
         fields = line.split(",")
@@ -467,7 +489,13 @@ def read_imu_csv(path: str | Path) -> RawImu:
                     line=no,
                     field=IMU_FIELDS[j],
                 ) from None
-    lines = np.array([no for no, _ in numbered], dtype=np.int64)
+    return data
+
+
+def _check_imu_values(p: Path, data: Array, lines: NDArray[np.int64]) -> None:
+    """Refuse (RtklibError naming the line and field) a value that is not finite or beyond
+    :data:`MAX_ACCEL_G` / :data:`MAX_GYRO_DEG_S` (wrong units), and a counter that does not
+    increase."""
     for j, limit in ((0, MAX_ACCEL_G), (3, MAX_GYRO_DEG_S)):
         block = data[:, j : j + 3]
         bad = ~np.isfinite(block) | (np.abs(block) > limit)
@@ -491,7 +519,24 @@ def read_imu_csv(path: str | Path) -> RawImu:
             line=int(lines[i]),
             field="counter_ms",
         )
-    return RawImu(p, data[:, :3], data[:, 3:6], c, lines, tuple(repairs))
+
+
+def read_imu_csv(path: str | Path) -> RawImu:
+    """Read the raw IMU CSV: ``acc x, y, z (g), gyro x, y, z (deg/s), counter (ms)``, with or
+    without one header line.
+
+    A truncated last line (fewer fields, or a cut number) is dropped and recorded as a repair;
+    any other malformed line, a value beyond the sensor's range, or a counter that does not
+    increase is an :class:`RtklibError` naming the file, line and field.
+    """
+    p = Path(path)
+    numbered, repairs = _imu_sample_lines(p, _read_text(p).splitlines())
+    if len(numbered) < 2:
+        raise RtklibError(f"{p.name}: {len(numbered)} sample line(s), at least 2", file=p.name)
+    data = _parse_imu_fields(p, numbered)
+    lines = np.array([no for no, _ in numbered], dtype=np.int64)
+    _check_imu_values(p, data, lines)
+    return RawImu(p, data[:, :3], data[:, 3:6], data[:, 6], lines, tuple(repairs))
 
 
 def _numbers(fields: Sequence[str]) -> bool:
@@ -791,6 +836,521 @@ def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+# --- the import: check, estimate, build ---------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class DriveSettings:
+    """The import's settings (:func:`check_settings`): the RTK fixes' σ (N, E, D) m, the
+    non-holonomic constraint's σ (lateral, vertical) m/s or None for none, the IMU white-noise
+    model (checked where the noise is written, :func:`_noise_section`) and the mounting steps
+    (docs/rtklib.md, "The corrections")."""
+
+    gnss_sigma_m: Array
+    nhc_sigma_m_s: Array | None
+    imu_noise: str
+    mounting_rpy_deg: Sequence[Sequence[float]]
+
+
+def check_settings(
+    gnss_sigma_m: Sequence[float],
+    nhc_sigma_m_s: Sequence[float] | None,
+    imu_noise: str,
+    mounting_rpy_deg: Sequence[Sequence[float]],
+) -> DriveSettings:
+    """The import's settings, the σ's refused (ValueError) unless three (GNSS) or two (NHC)
+    finite numbers > 0."""
+    sigma_g = np.asarray(gnss_sigma_m, dtype=float)
+    if sigma_g.shape != (3,) or not np.all(np.isfinite(sigma_g) & (sigma_g > 0)):
+        raise ValueError(f"gnss_sigma_m: {gnss_sigma_m!r} is not three numbers > 0")
+    sigma_nhc = None if nhc_sigma_m_s is None else np.asarray(nhc_sigma_m_s, dtype=float)
+    if sigma_nhc is not None and (
+        sigma_nhc.shape != (2,) or not np.all(np.isfinite(sigma_nhc) & (sigma_nhc > 0))
+    ):
+        raise ValueError(f"nhc_sigma_m_s: {nhc_sigma_m_s!r} is not two numbers > 0")
+    return DriveSettings(sigma_g, sigma_nhc, imu_noise, mounting_rpy_deg)
+
+
+@dataclass(frozen=True, eq=False)
+class DriveClock:
+    """The IMU in body axes on the GPST clock (docs/rtklib.md, corrections 1-3): ``C_bs``,
+    specific force ``f_b`` (m/s²) and rate ``w_b`` (rad/s) (n, 3); the IMU time offset
+    estimated and used (s); ``t_gps`` the GPST of each sample, ``origin`` the first, and the
+    mission time ``t_imu = t_gps - origin``."""
+
+    C_bs: Array
+    f_b: Array
+    w_b: Array
+    offset_estimated: float
+    offset: float
+    t_gps: Array
+    origin: float
+    t_imu: Array
+
+
+def estimate_clock(
+    sol: PosSolution,
+    raw: RawImu,
+    tag: TimeTag,
+    settings: DriveSettings,
+    time_offset_s: float | None,
+) -> DriveClock:
+    """Turn the IMU into body axes (:func:`body_imu`), map its counter onto GPST
+    (:func:`imu_gpst`) and estimate the IMU time offset (:func:`estimate_imu_time_offset`,
+    docs/rtklib.md, correction 1); ``time_offset_s`` replaces the estimate."""
+    C_bs = mounting_dcm(settings.mounting_rpy_deg)
+    f_b, w_b = body_imu(raw, C_bs)
+    t_tag = imu_gpst(raw, tag)
+    # The parked stretch on the tag's clock (a tenth of a second does not move it): for the
+    # offset fit's gyro bias and level.
+    window_tag = static_window(t_tag, sol)
+    static_tag = (t_tag >= window_tag[0]) & (t_tag <= window_tag[1])
+    delta_est = estimate_imu_time_offset(
+        t_tag, w_b, sol, static=static_tag, roll_pitch=level(f_b[static_tag].mean(axis=0))
+    )
+    delta = delta_est if time_offset_s is None else float(time_offset_s)
+    t_gps = t_tag + delta
+    origin = float(t_gps[0])
+    return DriveClock(C_bs, f_b, w_b, delta_est, delta, t_gps, origin, t_gps - origin)
+
+
+@dataclass(frozen=True, eq=False)
+class DriveStart:
+    """The parked start (docs/rtklib.md, "The start"): the static window (GPST s) and its mean
+    specific force (m/s², body); roll, pitch and yaw (rad) and the heading's details; the gyro
+    bias (rad/s); the forward-axis angle (rad) with and without the mounting's last yaw."""
+
+    window: tuple[float, float]
+    f_static: Array
+    roll: float
+    pitch: float
+    yaw: float
+    heading_info: dict[str, Any]
+    gyro_bias: Array
+    forward: float
+    forward_without_last_yaw: float
+
+
+def estimate_start(
+    sol: PosSolution, raw: RawImu, clock: DriveClock, settings: DriveSettings
+) -> DriveStart:
+    """Level over the static window (:func:`static_window`, :func:`level`), carry the heading
+    back from the first fast course (:func:`initial_heading`), take the gyro bias as the static
+    mean less the earth rate, and check the mounting by the forward-axis angle
+    (:func:`forward_axis_angle`) with and without its last yaw (docs/rtklib.md, correction 2
+    and "The start")."""
+    t_gps, f_b, w_b = clock.t_gps, clock.f_b, clock.w_b
+    window = static_window(t_gps, sol)
+    static = (t_gps >= window[0]) & (t_gps <= window[1])
+    roll0, pitch0 = level(f_b[static].mean(axis=0))
+    yaw0, heading_info = initial_heading(t_gps, f_b, w_b, sol, window)
+    forward = forward_axis_angle(t_gps, f_b, w_b, sol)
+    steps = [tuple(float(v) for v in s) for s in settings.mounting_rpy_deg]
+    no_yaw = [*steps[:-1], (steps[-1][0], steps[-1][1], 0.0)] if steps else []
+    forward_no_yaw = forward_axis_angle(t_gps, *body_imu(raw, mounting_dcm(no_yaw)), sol)
+    lat_f = float(np.interp(t_gps[0], sol.gpst_s, sol.lat_rad))
+    C_nb0 = euler_to_dcm(roll0, pitch0, yaw0)
+    bias_g = w_b[static].mean(axis=0) - C_nb0.T @ earth.earth_rate_n(lat_f)
+    return DriveStart(
+        window,
+        f_b[static].mean(axis=0),
+        roll0,
+        pitch0,
+        yaw0,
+        heading_info,
+        bias_g,
+        forward,
+        forward_no_yaw,
+    )
+
+
+@dataclass(frozen=True)
+class ImuNoise:
+    """The IMU white noise estimated from the data (docs/rtklib.md, "IMU noise"): ARW (rad/√s)
+    and VRW (m/s/√s) parked (:func:`measured_imu_noise`) and driving
+    (:func:`driving_imu_noise`)."""
+
+    arw: float
+    vrw: float
+    arw_driving: float
+    vrw_driving: float
+
+
+def estimate_imu_noise(
+    sol: PosSolution, clock: DriveClock, window: tuple[float, float]
+) -> ImuNoise:
+    """The parked and the driving white-noise estimates (:class:`ImuNoise`)."""
+    arw, vrw = measured_imu_noise(clock.t_gps, clock.f_b, clock.w_b, window)
+    arw_drive, vrw_drive = driving_imu_noise(clock.t_gps, clock.f_b, clock.w_b, sol)
+    return ImuNoise(arw, vrw, arw_drive, vrw_drive)
+
+
+@dataclass(frozen=True, eq=False)
+class FixSelection:
+    """Where each solution epoch goes (docs/rtklib.md, "Inputs and what is refused"): its
+    mission time ``t``; ``in_span`` (inside the IMU data), ``fixed`` (Q = 1), ``withheld`` (in
+    an outage); the checked outage ``windows`` and the fixes withheld in each."""
+
+    t: Array
+    in_span: NDArray[np.bool_]
+    fixed: NDArray[np.bool_]
+    withheld: NDArray[np.bool_]
+    windows: list[tuple[float, float]]
+    per_outage: list[dict[str, Any]]
+
+    @property
+    def aid(self) -> NDArray[np.bool_]:
+        """The fixes in the GNSS stream: fixed, in the span, not withheld."""
+        return self.in_span & self.fixed & ~self.withheld
+
+    @property
+    def truth(self) -> NDArray[np.bool_]:
+        """The fixes in the truth table: fixed and in the span (withheld ones too)."""
+        return self.in_span & self.fixed
+
+
+def select_fixes(
+    sol: PosSolution, clock: DriveClock, outages: Sequence[tuple[float, float]]
+) -> FixSelection:
+    """Check the outage windows (:func:`_check_outages`) and sort the solution epochs: outside
+    the IMU span, not fixed, withheld in an outage, or aiding."""
+    in_span = (sol.gpst_s > clock.t_gps[0]) & (sol.gpst_s <= clock.t_gps[-1])
+    fixed = sol.q == 1
+    t_sol = sol.gpst_s - clock.origin
+    windows = _check_outages(outages, float(clock.t_imu[-1]))
+    withheld = np.zeros(sol.gpst_s.size, dtype=bool)
+    per_outage = []
+    for a, length in windows:
+        w = in_span & fixed & (t_sol > a) & (t_sol <= a + length)
+        withheld |= w
+        per_outage.append({"start_s": a, "length_s": length, "fixes_withheld": int(w.sum())})
+    return FixSelection(t_sol, in_span, fixed, withheld, windows, per_outage)
+
+
+@dataclass(frozen=True, eq=False)
+class Drive:
+    """Everything an import reads and estimates: the three files, the clock, the start, the
+    IMU noise, the fixes' selection, the fixes moved to the IMU point (lat, lon rad, h m) and
+    the initial position there (lat, lon rad, h m)."""
+
+    sol: PosSolution
+    raw: RawImu
+    tag: TimeTag
+    clock: DriveClock
+    start: DriveStart
+    noise: ImuNoise
+    fixes: FixSelection
+    at_imu: tuple[Array, Array, Array]
+    position0: tuple[float, float, float]
+
+
+def estimate_drive(
+    sol: PosSolution,
+    raw: RawImu,
+    tag: TimeTag,
+    settings: DriveSettings,
+    time_offset_s: float | None,
+    outages: Sequence[tuple[float, float]],
+) -> Drive:
+    """The clock, the start, the IMU noise and the fixes' selection of the drive; the fixes
+    moved to the IMU with the course heading (:func:`_heading_track`, :func:`_move_to_imu`) and
+    the initial position interpolated from them at the first IMU sample."""
+    clock = estimate_clock(sol, raw, tag, settings, time_offset_s)
+    start = estimate_start(sol, raw, clock, settings)
+    noise = estimate_imu_noise(sol, clock, start.window)
+    fixes = select_fixes(sol, clock, outages)
+    lever = np.asarray(ANTENNA_LEVER_ARM_M, dtype=float)
+    lat_i, lon_i, h_i = _move_to_imu(sol, _heading_track(sol, start.yaw), lever)
+    keep, t0 = fixes.truth, clock.t_gps[0]
+    lat0 = float(np.interp(t0, sol.gpst_s[keep], lat_i[keep]))  # parked: no extrapolation
+    lon0 = float(np.interp(t0, sol.gpst_s[keep], lon_i[keep]))
+    h0 = float(np.interp(t0, sol.gpst_s[keep], h_i[keep]))
+    return Drive(sol, raw, tag, clock, start, noise, fixes, (lat_i, lon_i, h_i), (lat0, lon0, h0))
+
+
+def build_tables(drive: Drive, settings: DriveSettings) -> dict[str, pd.DataFrame]:
+    """The ``imu`` (body axes, mission time, the counter), ``gnss`` (the aiding fixes),
+    ``truth`` (the fixes in the span moved to the IMU, ``withheld`` marked, the antenna's
+    values kept) and, with a constraint σ, ``nhc`` tables (docs/rtklib.md)."""
+    sol, clock, sel = drive.sol, drive.clock, drive.fixes
+    aid, keep = sel.aid, sel.truth
+    lat_i, lon_i, h_i = drive.at_imu
+    tables = {
+        "imu": pd.DataFrame(
+            {
+                "t_s": clock.t_imu,
+                **{f"gyro_{a}_rad_s": clock.w_b[:, i] for i, a in enumerate("xyz")},
+                **{f"accel_{a}_m_s2": clock.f_b[:, i] for i, a in enumerate("xyz")},
+                "counter_ms": drive.raw.counter_ms,
+            }
+        ),
+        "gnss": pd.DataFrame(
+            {
+                "t_s": sel.t[aid],
+                "lat_rad": sol.lat_rad[aid],
+                "lon_rad": sol.lon_rad[aid],
+                "h_m": sol.h_m[aid],
+                "ns": sol.ns[aid],
+                **{f"sd{c}_m": sol.sd_neu[aid, i] for i, c in enumerate("neu")},
+                "pos_line": sol.lines[aid],
+            }
+        ),
+        "truth": pd.DataFrame(
+            {
+                "t_s": sel.t[keep],
+                "lat_rad": lat_i[keep],
+                "lon_rad": lon_i[keep],
+                "h_m": h_i[keep],
+                **{f"v{c}_m_s": sol.v_ned[keep, i] for i, c in enumerate("ned")},
+                "withheld": sel.withheld[keep],
+                "antenna_lat_rad": sol.lat_rad[keep],
+                "antenna_lon_rad": sol.lon_rad[keep],
+                "antenna_h_m": sol.h_m[keep],
+                "pos_line": sol.lines[keep],
+            }
+        ),
+    }
+    if settings.nhc_sigma_m_s is not None:
+        # The constraint holds parked and driving alike, so the stream needs no motion
+        # detection (and nothing from the withheld fixes).
+        t_imu = clock.t_imu
+        t_nhc = np.arange(t_imu[0] + 1.0 / NHC_RATE_HZ, t_imu[-1], 1.0 / NHC_RATE_HZ)
+        tables["nhc"] = pd.DataFrame(
+            {"t_s": t_nhc, "vy_m_s": np.zeros(t_nhc.size), "vz_m_s": np.zeros(t_nhc.size)}
+        )
+    return tables
+
+
+def _noise_section(imu_noise: str, noise: ImuNoise) -> dict[str, list[Any]]:
+    """``[imu.noise]``: the white noise of the chosen model (``measured``, ``driving`` or
+    ``published``; another is a ValueError) and the published bias random walks
+    (docs/rtklib.md, "IMU noise")."""
+    if imu_noise == "measured":
+        section: dict[str, list[Any]] = {
+            "arw": [noise.arw / DEG, "deg/sqrt(s)"],
+            "vrw": [noise.vrw, "m/s/sqrt(s)"],
+        }
+    elif imu_noise == "driving":
+        section = {
+            "arw": [noise.arw_driving / DEG, "deg/sqrt(s)"],
+            "vrw": [noise.vrw_driving, "m/s/sqrt(s)"],
+        }
+    elif imu_noise == "published":
+        section = {
+            "arw": [PUBLISHED_NOISE["gyro_white_deg_s_rthz"], "deg/s/sqrt(Hz)"],
+            "vrw": [PUBLISHED_NOISE["accel_white_ug_rthz"], "ug/sqrt(Hz)"],
+        }
+    else:
+        raise ValueError(f"imu_noise: {imu_noise!r} must be 'measured', 'driving' or 'published'")
+    rrw = PUBLISHED_NOISE["gyro_bias_psd_deg_s2_rthz"] * DEG
+    section["gyro_bias_rrw"] = [rrw, "rad/s/sqrt(s)"]
+    section["accel_bias_arw"] = [
+        PUBLISHED_NOISE["accel_bias_psd_ug_rthz"] * 1e-6 * G0,
+        "m/s^2/sqrt(s)",
+    ]
+    return section
+
+
+def _description(drive: Drive, settings: DriveSettings) -> str:
+    """The mission's description: real data, the fixes as truth and aiding, the outages, the
+    time offset used and the constraint."""
+    return (
+        f"RTKLIB drive {drive.sol.path.stem}: real MEMS IMU ({drive.raw.path.name}) and u-blox "
+        f"RTK solution ({drive.sol.path.name}); the fixed solution (moved to the IMU) is the "
+        f"truth and the aiding, withheld in {len(drive.fixes.windows)} outage window(s); IMU time "
+        f"offset {drive.clock.offset:+.3f} s (import.json)"
+        + (
+            "; a non-holonomic constraint (zero lateral and vertical velocity) aids as a "
+            "pseudo-measurement"
+            if settings.nhc_sigma_m_s is not None
+            else ""
+        )
+    )
+
+
+def _sensors_section(drive: Drive, settings: DriveSettings) -> dict[str, Any]:
+    """``[sensors]``: the GNSS fixes with the antenna's lever arm and, with a constraint σ, the
+    non-holonomic constraint in the vehicle frame turned by the forward-axis angle
+    (docs/rtklib.md, "The non-holonomic constraint")."""
+    g_period = float(np.median(np.diff(drive.sol.gpst_s)))
+    sensors: dict[str, Any] = {
+        "gnss": {
+            "kind": "gnss",
+            "file": "gnss.parquet",
+            "sigma": [[float(v) for v in settings.gnss_sigma_m], "m"],
+            "rate_hz": round(1.0 / g_period, 6),
+            "lever_arm_m": [float(v) for v in ANTENNA_LEVER_ARM_M],
+            "use_height": True,
+            "use": "aid",
+        },
+    }
+    if settings.nhc_sigma_m_s is not None:
+        sensors["nhc"] = {
+            "kind": "nhc",
+            "file": "nhc.parquet",
+            "sigma": [[float(v) for v in settings.nhc_sigma_m_s], "m/s"],
+            "rate_hz": NHC_RATE_HZ,
+            "mounting_rpy_deg": [0.0, 0.0, math.degrees(drive.start.forward)],
+            "use": "aid",
+        }
+    return sensors
+
+
+def build_config(drive: Drive, settings: DriveSettings) -> MissionConfig:
+    """The mission configuration (docs/rtklib.md): the IMU as rates with the chosen noise
+    (:func:`_noise_section`) and the parked gyro bias, the sensors, the parked initial state
+    and the truth."""
+    start, (lat0, lon0, h0) = drive.start, drive.position0
+    noise = _noise_section(settings.imu_noise, drive.noise)
+    period = float(np.median(np.diff(drive.clock.t_imu)))
+    doc: dict[str, Any] = {
+        "mission": {
+            "name": f"rtklib-{drive.sol.path.stem}",
+            "description": _description(drive, settings),
+        },
+        "imu": {
+            "file": "imu.parquet",
+            "format": "rates",
+            "rate_hz": round(1.0 / period, 6),
+            "noise": noise,
+            "initial_bias_sigma": {k: list(v) for k, v in INITIAL_BIAS_SIGMA.items()},
+            "initial_bias": {"gyro": [[float(v) for v in start.gyro_bias], "rad/s"]},
+        },
+        "sensors": _sensors_section(drive, settings),
+        "initial": {
+            "mode": "state",
+            "lat_deg": math.degrees(lat0),
+            "lon_deg": math.degrees(lon0),
+            "h_m": h0,
+            "v_ned_m_s": [0.0, 0.0, 0.0],
+            "rpy_deg": [
+                math.degrees(start.roll),
+                math.degrees(start.pitch),
+                math.degrees(start.yaw),
+            ],
+            "sigma_position_m": INITIAL_SIGMA_POSITION_M,
+            "sigma_velocity_m_s": INITIAL_SIGMA_VELOCITY_M_S,
+            "sigma_attitude_deg": list(INITIAL_SIGMA_ATTITUDE_DEG),
+        },
+        "truth": {"file": "truth.parquet"},
+    }
+    return parse_config(doc, f"RTKLIB drive {drive.sol.path.stem} (import)")
+
+
+def _clock_record(drive: Drive, settings: DriveSettings) -> dict[str, Any]:
+    """import.json's time offset (estimated, published, used) and mounting checks."""
+    clock, start = drive.clock, drive.start
+    return {
+        "imu_time_offset_s": {
+            "estimated": clock.offset_estimated,
+            "published": PUBLISHED_IMU_TIME_OFFSET_S,
+            "used": clock.offset,
+            "meaning": "true (GPST) time = tag time + offset",
+        },
+        "mounting": {
+            "rpy_deg_steps": [list(s) for s in settings.mounting_rpy_deg],
+            "C_bs": clock.C_bs.tolist(),
+            "static_specific_force_body_m_s2": start.f_static.tolist(),
+            "forward_axis_angle_deg": math.degrees(start.forward),
+            "forward_axis_angle_without_the_last_yaw_deg": math.degrees(
+                start.forward_without_last_yaw
+            ),
+        },
+    }
+
+
+def _start_record(drive: Drive, imu_noise: str) -> dict[str, Any]:
+    """import.json's static window, initial state and IMU noise estimates."""
+    start, noise, origin = drive.start, drive.noise, drive.clock.origin
+    lat0, _, h0 = drive.position0
+    excess = float(np.linalg.norm(start.f_static)) - float(earth.gravity(lat0, h0))
+    return {
+        "static_window_s": [start.window[0] - origin, start.window[1] - origin],
+        "initial": {
+            "rpy_deg": [
+                math.degrees(start.roll),
+                math.degrees(start.pitch),
+                math.degrees(start.yaw),
+            ],
+            "gyro_bias_deg_s": np.degrees(start.gyro_bias).tolist(),
+            "static_specific_force_magnitude_minus_g_mg": excess / (1e-3 * G0),
+            **{f"heading_{k}": v for k, v in start.heading_info.items()},
+        },
+        "imu_noise": {
+            "used": imu_noise,
+            "measured_arw_deg_sqrt_s": noise.arw / DEG,
+            "measured_vrw_m_s_sqrt_s": noise.vrw,
+            "driving_arw_deg_sqrt_s": noise.arw_driving / DEG,
+            "driving_vrw_m_s_sqrt_s": noise.vrw_driving,
+            "published": PUBLISHED_NOISE,
+        },
+    }
+
+
+def _fixes_record(drive: Drive, settings: DriveSettings) -> dict[str, Any]:
+    """import.json's GNSS counts (used and left out by reason), outages and constraint."""
+    sol, sel, sigma_nhc = drive.sol, drive.fixes, settings.nhc_sigma_m_s
+    return {
+        "gnss": {
+            "sigma_m": settings.gnss_sigma_m.tolist(),
+            "epochs": int(sol.gpst_s.size),
+            "used": int(sel.aid.sum()),
+            "left_out": {
+                "outside the IMU span": int((~sel.in_span).sum()),
+                "not fixed (Q != 1)": int((sel.in_span & ~sel.fixed).sum()),
+                "withheld in an outage": int(sel.withheld.sum()),
+            },
+            "first_fixed_line": int(sol.lines[int(np.argmax(sel.truth))]),
+        },
+        "outages": sel.per_outage,
+        "nhc": None
+        if sigma_nhc is None
+        else {
+            "sigma_m_s": sigma_nhc.tolist(),
+            "rate_hz": NHC_RATE_HZ,
+            "vehicle_yaw_from_body_deg": math.degrees(drive.start.forward),
+            "lever_arm_m": [0.0, 0.0, 0.0],
+            "meaning": "pseudo-measurement: zero lateral and vertical vehicle-frame velocity at "
+            "the IMU point (semi-synthetic: a model of the car, not a sensor)",
+        },
+    }
+
+
+def build_import_record(
+    drive: Drive, settings: DriveSettings, written: MissionConfig
+) -> dict[str, Any]:
+    """import.json (docs/rtklib.md): the source files' SHA-256, the GPST origin of mission
+    time, every estimate and check (:func:`_clock_record`, :func:`_start_record`), the fixes
+    used and left out (:func:`_fixes_record`), the truth's origin, the corrections, the repairs
+    and the tables written."""
+    sol, raw, origin = drive.sol, drive.raw, drive.clock.origin
+    steps = [list(s) for s in settings.mounting_rpy_deg]
+    return {
+        "importer": "adaptnav.importers.rtklib",
+        "source": {p.name: _sha256(p) for p in (sol.path, raw.path, drive.tag.path)},
+        "gpst_origin_s": origin,
+        "gpst_origin": dt.datetime.fromtimestamp(origin, dt.UTC).isoformat() + " GPST",
+        **_clock_record(drive, settings),
+        **_start_record(drive, settings.imu_noise),
+        **_fixes_record(drive, settings),
+        "truth": "fixed solutions (Q = 1) in the IMU span, moved to the IMU point with the "
+        "course heading; velocity from the solution; no attitude",
+        "corrections": [
+            "IMU time: counter mapped linearly onto the tag's [start, start + last tick]",
+            f"IMU time offset {drive.clock.offset:+.4f} s",
+            f"mounting: roll/pitch/yaw steps {steps} deg",
+            "units: g × 9.80665 → m/s², deg/s → rad/s",
+            f"antenna lever arm {list(ANTENNA_LEVER_ARM_M)} m FRD from the IMU",
+        ],
+        "repairs": [r.__dict__ for r in (*sol.repairs, *raw.repairs)],
+        "mission_files": {
+            "imu": written.imu.file,
+            **{k: s.file for k, s in written.sensors.items()},
+            "truth": written.truth.file,
+        },
+    }
+
+
 def import_drive(
     pos_path: str | Path,
     imu_path: str | Path,
@@ -827,271 +1387,30 @@ def import_drive(
     Mission time ``t_s`` is GPST minus the IMU's first (offset-corrected) sample time, which is
     recorded in import.json with every estimate, check, correction, left-out reading and
     repair. Returns ``out_dir``.
+
+    The steps: :func:`read_pos`, :func:`read_imu_csv`, :func:`read_time_tag`,
+    :func:`check_settings`, :func:`estimate_drive` (:func:`estimate_clock`,
+    :func:`estimate_start`, :func:`estimate_imu_noise`, :func:`select_fixes`),
+    :func:`build_config`, :func:`build_tables` and :func:`build_import_record`.
     """
     imu_p = Path(imu_path)
     tag_p = Path(tag_path) if tag_path is not None else imu_p.with_name(imu_p.name + ".tag")
     sol = read_pos(pos_path)
     raw = read_imu_csv(imu_p)
     tag = read_time_tag(tag_p)
-    sigma_g = np.asarray(gnss_sigma_m, dtype=float)
-    if sigma_g.shape != (3,) or not np.all(np.isfinite(sigma_g) & (sigma_g > 0)):
-        raise ValueError(f"gnss_sigma_m: {gnss_sigma_m!r} is not three numbers > 0")
-    sigma_nhc = None if nhc_sigma_m_s is None else np.asarray(nhc_sigma_m_s, dtype=float)
-    if sigma_nhc is not None and (
-        sigma_nhc.shape != (2,) or not np.all(np.isfinite(sigma_nhc) & (sigma_nhc > 0))
-    ):
-        raise ValueError(f"nhc_sigma_m_s: {nhc_sigma_m_s!r} is not two numbers > 0")
-    C_bs = mounting_dcm(mounting_rpy_deg)
-    f_b, w_b = body_imu(raw, C_bs)
-    t_tag = imu_gpst(raw, tag)
-    # The parked stretch on the tag's clock (a tenth of a second does not move it): for the
-    # offset fit's gyro bias and level.
-    window_tag = static_window(t_tag, sol)
-    static_tag = (t_tag >= window_tag[0]) & (t_tag <= window_tag[1])
-    delta_est = estimate_imu_time_offset(
-        t_tag, w_b, sol, static=static_tag, roll_pitch=level(f_b[static_tag].mean(axis=0))
-    )
-    delta = delta_est if time_offset_s is None else float(time_offset_s)
-    t_gps = t_tag + delta
-    origin = float(t_gps[0])
-    t_imu = t_gps - origin
-
-    window = static_window(t_gps, sol)
-    static = (t_gps >= window[0]) & (t_gps <= window[1])
-    roll0, pitch0 = level(f_b[static].mean(axis=0))
-    yaw0, heading_info = initial_heading(t_gps, f_b, w_b, sol, window)
-    forward = forward_axis_angle(t_gps, f_b, w_b, sol)
-    steps = [tuple(float(v) for v in s) for s in mounting_rpy_deg]
-    no_yaw = [*steps[:-1], (steps[-1][0], steps[-1][1], 0.0)] if steps else []
-    forward_no_yaw = forward_axis_angle(t_gps, *body_imu(raw, mounting_dcm(no_yaw)), sol)
-    lat_f = float(np.interp(t_gps[0], sol.gpst_s, sol.lat_rad))
-    C_nb0 = euler_to_dcm(roll0, pitch0, yaw0)
-    bias_g = w_b[static].mean(axis=0) - C_nb0.T @ earth.earth_rate_n(lat_f)
-    arw, vrw = measured_imu_noise(t_gps, f_b, w_b, window)
-    arw_drive, vrw_drive = driving_imu_noise(t_gps, f_b, w_b, sol)
-
-    in_span = (sol.gpst_s > t_gps[0]) & (sol.gpst_s <= t_gps[-1])
-    fixed = sol.q == 1
-    t_sol = sol.gpst_s - origin
-    span_end = float(t_imu[-1])
-    windows = _check_outages(outages, span_end)
-    withheld = np.zeros(sol.gpst_s.size, dtype=bool)
-    per_outage = []
-    for a, length in windows:
-        w = in_span & fixed & (t_sol > a) & (t_sol <= a + length)
-        withheld |= w
-        per_outage.append({"start_s": a, "length_s": length, "fixes_withheld": int(w.sum())})
-    aid = in_span & fixed & ~withheld
-    lever = np.asarray(ANTENNA_LEVER_ARM_M, dtype=float)
-    heading = _heading_track(sol, yaw0)
-    lat_i, lon_i, h_i = _move_to_imu(sol, heading, lever)
-
-    imu_df = pd.DataFrame(
-        {
-            "t_s": t_imu,
-            **{f"gyro_{a}_rad_s": w_b[:, i] for i, a in enumerate("xyz")},
-            **{f"accel_{a}_m_s2": f_b[:, i] for i, a in enumerate("xyz")},
-            "counter_ms": raw.counter_ms,
-        }
-    )
-    gnss_df = pd.DataFrame(
-        {
-            "t_s": t_sol[aid],
-            "lat_rad": sol.lat_rad[aid],
-            "lon_rad": sol.lon_rad[aid],
-            "h_m": sol.h_m[aid],
-            "ns": sol.ns[aid],
-            **{f"sd{c}_m": sol.sd_neu[aid, i] for i, c in enumerate("neu")},
-            "pos_line": sol.lines[aid],
-        }
-    )
-    keep = in_span & fixed
-    truth_df = pd.DataFrame(
-        {
-            "t_s": t_sol[keep],
-            "lat_rad": lat_i[keep],
-            "lon_rad": lon_i[keep],
-            "h_m": h_i[keep],
-            **{f"v{c}_m_s": sol.v_ned[keep, i] for i, c in enumerate("ned")},
-            "withheld": withheld[keep],
-            "antenna_lat_rad": sol.lat_rad[keep],
-            "antenna_lon_rad": sol.lon_rad[keep],
-            "antenna_h_m": sol.h_m[keep],
-            "pos_line": sol.lines[keep],
-        }
-    )
-    k0 = int(np.argmax(keep))
-    lat0 = float(np.interp(t_gps[0], sol.gpst_s[keep], lat_i[keep]))  # parked: no extrapolation
-    lon0 = float(np.interp(t_gps[0], sol.gpst_s[keep], lon_i[keep]))
-    h0 = float(np.interp(t_gps[0], sol.gpst_s[keep], h_i[keep]))
-    if imu_noise == "measured":
-        noise: dict[str, list[Any]] = {
-            "arw": [arw / DEG, "deg/sqrt(s)"],
-            "vrw": [vrw, "m/s/sqrt(s)"],
-        }
-    elif imu_noise == "driving":
-        noise = {
-            "arw": [arw_drive / DEG, "deg/sqrt(s)"],
-            "vrw": [vrw_drive, "m/s/sqrt(s)"],
-        }
-    elif imu_noise == "published":
-        noise = {
-            "arw": [PUBLISHED_NOISE["gyro_white_deg_s_rthz"], "deg/s/sqrt(Hz)"],
-            "vrw": [PUBLISHED_NOISE["accel_white_ug_rthz"], "ug/sqrt(Hz)"],
-        }
-    else:
-        raise ValueError(f"imu_noise: {imu_noise!r} must be 'measured', 'driving' or 'published'")
-    noise["gyro_bias_rrw"] = [PUBLISHED_NOISE["gyro_bias_psd_deg_s2_rthz"] * DEG, "rad/s/sqrt(s)"]
-    noise["accel_bias_arw"] = [PUBLISHED_NOISE["accel_bias_psd_ug_rthz"] * 1e-6 * G0,
-                               "m/s^2/sqrt(s)"]  # fmt: skip
-    period = float(np.median(np.diff(t_imu)))
-    g_period = float(np.median(np.diff(sol.gpst_s)))
-    name = sol.path.stem
-    description = (
-        f"RTKLIB drive {name}: real MEMS IMU ({raw.path.name}) and u-blox RTK solution "
-        f"({sol.path.name}); the fixed solution (moved to the IMU) is the truth and the aiding, "
-        f"withheld in {len(windows)} outage window(s); IMU time offset {delta:+.3f} s "
-        "(import.json)"
-        + (
-            "; a non-holonomic constraint (zero lateral and vertical velocity) aids as a "
-            "pseudo-measurement"
-            if sigma_nhc is not None
-            else ""
-        )
-    )
-    doc: dict[str, Any] = {
-        "mission": {"name": f"rtklib-{name}", "description": description},
-        "imu": {
-            "file": "imu.parquet",
-            "format": "rates",
-            "rate_hz": round(1.0 / period, 6),
-            "noise": noise,
-            "initial_bias_sigma": {k: list(v) for k, v in INITIAL_BIAS_SIGMA.items()},
-            "initial_bias": {"gyro": [[float(v) for v in bias_g], "rad/s"]},
-        },
-        "sensors": {
-            "gnss": {
-                "kind": "gnss",
-                "file": "gnss.parquet",
-                "sigma": [[float(v) for v in sigma_g], "m"],
-                "rate_hz": round(1.0 / g_period, 6),
-                "lever_arm_m": [float(v) for v in lever],
-                "use_height": True,
-                "use": "aid",
-            },
-        },
-        "initial": {
-            "mode": "state",
-            "lat_deg": math.degrees(lat0),
-            "lon_deg": math.degrees(lon0),
-            "h_m": h0,
-            "v_ned_m_s": [0.0, 0.0, 0.0],
-            "rpy_deg": [math.degrees(roll0), math.degrees(pitch0), math.degrees(yaw0)],
-            "sigma_position_m": INITIAL_SIGMA_POSITION_M,
-            "sigma_velocity_m_s": INITIAL_SIGMA_VELOCITY_M_S,
-            "sigma_attitude_deg": list(INITIAL_SIGMA_ATTITUDE_DEG),
-        },
-        "truth": {"file": "truth.parquet"},
-    }
-    tables = {"imu": imu_df, "gnss": gnss_df, "truth": truth_df}
-    if sigma_nhc is not None:
-        # The constraint holds parked and driving alike, so the stream needs no motion
-        # detection (and nothing from the withheld fixes).
-        t_nhc = np.arange(t_imu[0] + 1.0 / NHC_RATE_HZ, t_imu[-1], 1.0 / NHC_RATE_HZ)
-        tables["nhc"] = pd.DataFrame(
-            {"t_s": t_nhc, "vy_m_s": np.zeros(t_nhc.size), "vz_m_s": np.zeros(t_nhc.size)}
-        )
-        doc["sensors"]["nhc"] = {
-            "kind": "nhc",
-            "file": "nhc.parquet",
-            "sigma": [[float(v) for v in sigma_nhc], "m/s"],
-            "rate_hz": NHC_RATE_HZ,
-            "mounting_rpy_deg": [0.0, 0.0, math.degrees(forward)],
-            "use": "aid",
-        }
-    config = parse_config(doc, f"RTKLIB drive {name} (import)")
+    settings = check_settings(gnss_sigma_m, nhc_sigma_m_s, imu_noise, mounting_rpy_deg)
+    drive = estimate_drive(sol, raw, tag, settings, time_offset_s, outages)
+    config = build_config(drive, settings)
     root = Path(out_dir)
-    written = write_mission(root, config, tables, fmt=fmt)
-    f_static = f_b[static].mean(axis=0)
-    meta: dict[str, Any] = {
-        "importer": "adaptnav.importers.rtklib",
-        "source": {p.name: _sha256(p) for p in (sol.path, raw.path, tag.path)},
-        "gpst_origin_s": origin,
-        "gpst_origin": dt.datetime.fromtimestamp(origin, dt.UTC).isoformat() + " GPST",
-        "imu_time_offset_s": {
-            "estimated": delta_est,
-            "published": PUBLISHED_IMU_TIME_OFFSET_S,
-            "used": delta,
-            "meaning": "true (GPST) time = tag time + offset",
-        },
-        "mounting": {
-            "rpy_deg_steps": [list(s) for s in mounting_rpy_deg],
-            "C_bs": C_bs.tolist(),
-            "static_specific_force_body_m_s2": f_static.tolist(),
-            "forward_axis_angle_deg": math.degrees(forward),
-            "forward_axis_angle_without_the_last_yaw_deg": math.degrees(forward_no_yaw),
-        },
-        "static_window_s": [window[0] - origin, window[1] - origin],
-        "initial": {
-            "rpy_deg": [math.degrees(roll0), math.degrees(pitch0), math.degrees(yaw0)],
-            "gyro_bias_deg_s": np.degrees(bias_g).tolist(),
-            "static_specific_force_magnitude_minus_g_mg": (
-                (float(np.linalg.norm(f_static)) - float(earth.gravity(lat0, h0))) / (1e-3 * G0)
-            ),
-            **{f"heading_{k}": v for k, v in heading_info.items()},
-        },
-        "imu_noise": {
-            "used": imu_noise,
-            "measured_arw_deg_sqrt_s": arw / DEG,
-            "measured_vrw_m_s_sqrt_s": vrw,
-            "driving_arw_deg_sqrt_s": arw_drive / DEG,
-            "driving_vrw_m_s_sqrt_s": vrw_drive,
-            "published": PUBLISHED_NOISE,
-        },
-        "gnss": {
-            "sigma_m": sigma_g.tolist(),
-            "epochs": int(sol.gpst_s.size),
-            "used": int(aid.sum()),
-            "left_out": {
-                "outside the IMU span": int((~in_span).sum()),
-                "not fixed (Q != 1)": int((in_span & ~fixed).sum()),
-                "withheld in an outage": int(withheld.sum()),
-            },
-            "first_fixed_line": int(sol.lines[k0]),
-        },
-        "outages": per_outage,
-        "nhc": None
-        if sigma_nhc is None
-        else {
-            "sigma_m_s": sigma_nhc.tolist(),
-            "rate_hz": NHC_RATE_HZ,
-            "vehicle_yaw_from_body_deg": math.degrees(forward),
-            "lever_arm_m": [0.0, 0.0, 0.0],
-            "meaning": "pseudo-measurement: zero lateral and vertical vehicle-frame velocity at "
-            "the IMU point (semi-synthetic: a model of the car, not a sensor)",
-        },
-        "truth": "fixed solutions (Q = 1) in the IMU span, moved to the IMU point with the "
-        "course heading; velocity from the solution; no attitude",
-        "corrections": [
-            "IMU time: counter mapped linearly onto the tag's [start, start + last tick]",
-            f"IMU time offset {delta:+.4f} s",
-            f"mounting: roll/pitch/yaw steps {[list(s) for s in mounting_rpy_deg]} deg",
-            "units: g × 9.80665 → m/s², deg/s → rad/s",
-            f"antenna lever arm {list(ANTENNA_LEVER_ARM_M)} m FRD from the IMU",
-        ],
-        "repairs": [r.__dict__ for r in (*sol.repairs, *raw.repairs)],
-        "mission_files": {
-            "imu": written.imu.file,
-            **{k: s.file for k, s in written.sensors.items()},
-            "truth": written.truth.file,
-        },
-    }
+    written = write_mission(root, config, build_tables(drive, settings), fmt=fmt)
+    meta = build_import_record(drive, settings, written)
     (root / "import.json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n",
                                       encoding="utf-8")  # fmt: skip
+    aid, withheld = drive.fixes.aid, drive.fixes.withheld
     log.info(
         "RTKLIB drive %s -> %s: IMU time offset %+.3f s (published %+.3f), heading %.1f deg, "
         "%d of %d fixes aiding, %d withheld",
-        name, root, delta, PUBLISHED_IMU_TIME_OFFSET_S, math.degrees(yaw0), int(aid.sum()),
-        int(sol.gpst_s.size), int(withheld.sum()),
+        sol.path.stem, root, drive.clock.offset, PUBLISHED_IMU_TIME_OFFSET_S,
+        math.degrees(drive.start.yaw), int(aid.sum()), int(sol.gpst_s.size), int(withheld.sum()),
     )  # fmt: skip
     return root
