@@ -23,7 +23,6 @@ import sys
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -133,8 +132,8 @@ def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str,
     start = (x0, P0, t0)
     metrics = dict(cmp.metrics)
     variants = {
-        "vb_q": replace(gated, gate_reference="adapted"),
-        "vb_n": replace(gated, gate_reference="nominal"),
+        "vb_q": gated.updated(gate_reference="adapted"),
+        "vb_n": gated.updated(gate_reference="nominal"),
         "vb_t": FilterSettings(kind="vb", vb_dof=VB_DOF),  # heavy-tailed readings, no gate
     }
     for name, settings in variants.items():
