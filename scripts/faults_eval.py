@@ -2,7 +2,7 @@
 
 ``make faults`` runs this with its defaults: for ``paper-1`` and ``paper-2`` and seeds 1..3, the
 mission is simulated and aligned once (cached by
-:func:`adaptnav.experiments.sweep.prepare_mission`), then every filter of
+:func:`adaptnav.experiments.cache.prepare_mission`), then every filter of
 :data:`adaptnav.estimation.settings.FILTER_KINDS` (a kind added there is picked up) runs on the
 clean mission and on one faulted copy per fault of :mod:`adaptnav.sim.faults` (a 1000-m depth spike,
 10 s of depth at +1000 m, the DVL stuck 60 s, a 300-s DVL dropout, 1 % DVL spikes of 1-3 m/s, and
@@ -36,7 +36,8 @@ import pandas as pd
 from adaptnav import __version__
 from adaptnav.estimation.settings import FILTER_KINDS
 from adaptnav.experiments import faultbench as fb
-from adaptnav.experiments.sweep import LABELS, single_threaded_children
+from adaptnav.experiments.figures import LABELS
+from adaptnav.experiments.runner import single_threaded_children
 from adaptnav.sim.faults import ALL, FAULT_KINDS
 from adaptnav.sim.scenarios import PRESETS
 from adaptnav.viz.pages import fmt_number as _f

@@ -9,7 +9,7 @@
 * the gyro-bias process-noise sweep of the paper's Fig. 6 (factors 10^[-2, 2], 9 values) on
   seeds 1..5;
 
-all through the cached, resumable sweep of :mod:`adaptnav.experiments.sweep` (rerun it after an
+all through the cached, resumable sweep of :mod:`adaptnav.experiments.runner` (rerun it after an
 interruption: finished runs are kept), then writes ``docs/results.md``, its figures and the
 table of every run under ``docs/results/``. The section "Where we disagree with the paper and
 why" is ``docs/results-discussion.md`` included verbatim (a marked placeholder until written).
@@ -39,13 +39,28 @@ from adaptnav import __version__
 from adaptnav.analysis.compare import NEES_BAND_TEXT
 from adaptnav.cli._app import PAPER_TABLE3
 from adaptnav.estimation.settings import DEFAULT_GATE_Q
-from adaptnav.experiments import sweep as sw
+from adaptnav.experiments.figures import (
+    LABELS,
+    plot_monte_carlo,
+    plot_process_noise,
+    plot_q_sweep,
+)
+from adaptnav.experiments.runner import run_sweep
+from adaptnav.experiments.spec import (
+    DEFAULT_FILTERS,
+    RunSpec,
+    available_filters,
+    config_tag,
+    monte_carlo_specs,
+    process_noise_specs,
+    q_sweep_specs,
+)
+from adaptnav.experiments.stats import curve, curve_spread, paired_comparison, summarize
 from adaptnav.sim.scenarios import PRESETS
 from adaptnav.sim.sensors import Disturbances
 from adaptnav.viz.pages import fmt_number, git_revision, markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
-LABELS = sw.LABELS
 PAPER_BEST_Q = {
     "paper-1": {"meskf": 600.0, "maeskf": 1800.0, "vb": 2600.0},
     "paper-2": {"meskf": 200.0, "maeskf": 1400.0, "vb": 2600.0},
@@ -145,16 +160,16 @@ NOMINAL_R = Disturbances(dvl_noise_segments=False, dvl_outliers=False, depth_sea
 outliers, no sea-state depth noise (the rest as always)."""
 
 
-def _model_specs(presets: Sequence[str], seeds: Sequence[int]) -> list[sw.RunSpec]:
+def _model_specs(presets: Sequence[str], seeds: Sequence[int]) -> list[RunSpec]:
     variants = [
-        sw.RunSpec(p, s, f, config=cfg)
+        RunSpec(p, s, f, config=cfg)
         for cfg in MODEL_VARIANTS.values()
         for p in presets
         for s in seeds
         for f in MODEL_FILTERS
     ]
     nominal = [
-        sw.RunSpec(p, s, f, disturbances=NOMINAL_R)
+        RunSpec(p, s, f, disturbances=NOMINAL_R)
         for p in presets
         for s in seeds
         for f in MODEL_FILTERS
@@ -171,7 +186,7 @@ def _models(table: pd.DataFrame, presets: Sequence[str]) -> list[str]:
     for preset in presets:
         rows = []
         for name, cfg in MODEL_VARIANTS.items():
-            tag = sw.config_tag(sorted(cfg))
+            tag = config_tag(sorted(cfg))
             for f in MODEL_FILTERS:
                 g = ok[(ok["preset"] == preset) & (ok["config"] == tag) & (ok["filter"] == f)]
                 if g.empty:
@@ -259,8 +274,8 @@ def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
         f"is {NEES_BAND_TEXT}.",
         "",
     ]
-    summary = sw.summarize(mc)
-    comparison = sw.paired_comparison(mc, "vb")
+    summary = summarize(mc)
+    comparison = paired_comparison(mc, "vb")
     for preset in presets:
         s = summary[summary["preset"] == preset]
         if s.empty:
@@ -331,8 +346,8 @@ def _monte_carlo(mc: pd.DataFrame, presets: Sequence[str]) -> list[str]:
 def _spread_section(
     table: pd.DataFrame, parameter: str, presets: Sequence[str], best_paper: bool
 ) -> list[str]:
-    c = sw.curve(table, parameter)
-    spread = sw.curve_spread(c, parameter)
+    c = curve(table, parameter)
+    spread = curve_spread(c, parameter)
     out: list[str] = []
     for preset in presets:
         s = spread[spread["preset"] == preset]
@@ -380,17 +395,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     revision = git_revision(ROOT)  # before this run writes its own outputs
     started = time.perf_counter()
     presets = [p.strip() for p in args.presets.split(",") if p.strip()]
-    filters = sw.available_filters(sw.DEFAULT_FILTERS)
+    filters = available_filters(DEFAULT_FILTERS)
     mc_seeds = list(range(1, args.seeds + 1))
     q_seeds = list(range(1, args.q_seeds + 1))
     pn_seeds = list(range(1, args.pn_seeds + 1))
     q_values = [float(v) for v in np.linspace(200.0, 2600.0, args.q_values)]
     scales = [float(v) for v in np.logspace(-2.0, 2.0, args.scales)]
-    mc_specs = sw.monte_carlo_specs(presets, mc_seeds, filters)
-    q_specs = sw.q_sweep_specs(presets, q_seeds, q_values) if q_values else []
-    pn_specs = sw.process_noise_specs(presets, pn_seeds, scales) if scales else []
+    mc_specs = monte_carlo_specs(presets, mc_seeds, filters)
+    q_specs = q_sweep_specs(presets, q_seeds, q_values) if q_values else []
+    pn_specs = process_noise_specs(presets, pn_seeds, scales) if scales else []
     st_specs = [
-        sw.RunSpec(p, s, "vb", config=(("filter.vb_dof", STUDENT_T_DOF),))
+        RunSpec(p, s, "vb", config=(("filter.vb_dof", STUDENT_T_DOF),))
         for p in presets
         for s in mc_seeds
     ]
@@ -406,7 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"cache {args.cache}",
         file=sys.stderr,
     )
-    outcome = sw.run_sweep(
+    outcome = run_sweep(
         all_specs, args.cache, jobs=args.jobs, progress=args.progress,
         keep_missions=args.keep_missions,
     )  # fmt: skip
@@ -419,9 +434,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     figs = args.figures
     figs.mkdir(parents=True, exist_ok=True)
     outcome.table.to_csv(figs / "runs.csv", index=False)
-    fig_mc = sw.plot_monte_carlo(mc, figs / "monte_carlo.png")
-    fig_q = sw.plot_q_sweep(qt, figs / "q_sweep.png") if q_specs else None
-    fig_pn = sw.plot_process_noise(pn, figs / "process_noise.png") if pn_specs else None
+    fig_mc = plot_monte_carlo(mc, figs / "monte_carlo.png")
+    fig_q = plot_q_sweep(qt, figs / "q_sweep.png") if q_specs else None
+    fig_pn = plot_process_noise(pn, figs / "process_noise.png") if pn_specs else None
     wall = time.perf_counter() - started
 
     def rel(p: Path) -> str:

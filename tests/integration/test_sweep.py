@@ -1,4 +1,4 @@
-"""Sweeps and Monte Carlo (adaptnav.experiments.sweep, `adaptnav sweep`): cache keys, resume,
+"""Sweeps and Monte Carlo (adaptnav.experiments, `adaptnav sweep`): cache keys, resume,
 parallel = serial, q reaching the gate, the gyro-bias scale reaching Q, statistics by hand, the CLI.
 
 One short ``demo`` mission (seed 1, every disturbance on: it has DVL outliers) is simulated
@@ -18,7 +18,27 @@ import pytest
 from typer.testing import CliRunner
 
 from adaptnav.cli import app
-from adaptnav.experiments import sweep as sw
+from adaptnav.experiments import runner as sweep_runner
+from adaptnav.experiments.figures import plot_monte_carlo, plot_process_noise, plot_q_sweep
+from adaptnav.experiments.runner import SweepOutcome, run_sweep
+from adaptnav.experiments.spec import (
+    Q_SCALES,
+    Q_VALUES,
+    RunSpec,
+    available_filters,
+    parse_seeds,
+    process_noise_specs,
+    q_sweep_specs,
+    scale_gyro_bias_q,
+)
+from adaptnav.experiments.stats import (
+    METRICS,
+    NEES_METRICS,
+    curve,
+    curve_spread,
+    paired_comparison,
+    summarize,
+)
 from adaptnav.mission import MissionError, parse_config, with_overrides
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.sim.sensors import Disturbances
@@ -27,19 +47,19 @@ from helpers.missions import config_dict
 runner = CliRunner()
 
 SPECS = [
-    sw.RunSpec("demo", 1, "meskf", q=200.0),
-    sw.RunSpec("demo", 1, "meskf", q=2600.0),
-    sw.RunSpec("demo", 1, "vb", q=200.0),
-    sw.RunSpec("demo", 1, "vb"),
-    sw.RunSpec("demo", 1, "meskf", q_scale=0.01),
-    sw.RunSpec("demo", 1, "meskf", q_scale=100.0),
+    RunSpec("demo", 1, "meskf", q=200.0),
+    RunSpec("demo", 1, "meskf", q=2600.0),
+    RunSpec("demo", 1, "vb", q=200.0),
+    RunSpec("demo", 1, "vb"),
+    RunSpec("demo", 1, "meskf", q_scale=0.01),
+    RunSpec("demo", 1, "meskf", q_scale=100.0),
 ]
 
 
 @pytest.fixture(scope="module")
-def serial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, sw.SweepOutcome]:
+def serial(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, SweepOutcome]:
     cache = tmp_path_factory.mktemp("sweep") / "cache"
-    return cache, sw.run_sweep(SPECS, cache, jobs=1, progress=False)
+    return cache, run_sweep(SPECS, cache, jobs=1, progress=False)
 
 
 def _copy_missions(cache: Path, to: Path) -> Path:
@@ -48,7 +68,7 @@ def _copy_missions(cache: Path, to: Path) -> Path:
 
 
 def _metrics(table: pd.DataFrame) -> pd.DataFrame:
-    cols = [c for c in sw.METRICS if c != "elapsed_s"]
+    cols = [c for c in METRICS if c != "elapsed_s"]
     return table.set_index("key")[cols].sort_index()
 
 
@@ -56,20 +76,20 @@ def _metrics(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def test_key_is_stable_and_normalised() -> None:
-    spec = sw.RunSpec("demo", 1, "vb")
+    spec = RunSpec("demo", 1, "vb")
     # The key is a content hash: a change here invalidates every cache (bump on purpose only).
-    assert spec.key(version="test") == sw.RunSpec("demo", 1, "vb").key(version="test")
+    assert spec.key(version="test") == RunSpec("demo", 1, "vb").key(version="test")
     assert len(spec.key()) == 20 and spec.key() != spec.key(version="other")
-    assert sw.RunSpec("demo", 1, "vb", q_scale=1.0, disturbances=Disturbances()) == spec
-    assert sw.RunSpec("demo", 1, "vb", q_scale=1.0).key() == spec.key()
-    assert sw.RunSpec("demo", 1, "vb", q=600).key() != spec.key()
-    assert sw.RunSpec("demo", 2, "vb").key() != spec.key()
-    off = sw.RunSpec("demo", 1, "vb", disturbances=Disturbances(dvl_outliers=False))
+    assert RunSpec("demo", 1, "vb", q_scale=1.0, disturbances=Disturbances()) == spec
+    assert RunSpec("demo", 1, "vb", q_scale=1.0).key() == spec.key()
+    assert RunSpec("demo", 1, "vb", q=600).key() != spec.key()
+    assert RunSpec("demo", 2, "vb").key() != spec.key()
+    off = RunSpec("demo", 1, "vb", disturbances=Disturbances(dvl_outliers=False))
     assert off.key() != spec.key() and off.mission_name.startswith("demo-s1-d")
     assert spec.mission_name == "demo-s1"
     assert spec.key(version="test") == "2a07df161c05292faf48"
     # Any filter parameter is a config override of the one settings model, e.g. VB's Student-t ν.
-    t = sw.RunSpec("demo", 1, "vb", config=(("filter.vb_dof", 4.0),))
+    t = RunSpec("demo", 1, "vb", config=(("filter.vb_dof", 4.0),))
     assert t.key() != spec.key() and t.as_dict()["config"] == {"filter.vb_dof": 4.0}
 
 
@@ -87,48 +107,48 @@ def test_key_is_stable_and_normalised() -> None:
 def test_bad_spec_raises(kwargs: dict[str, object]) -> None:
     args: dict[str, object] = {"preset": "demo", "seed": 1, "filter": "vb", **kwargs}
     with pytest.raises(ValueError):
-        sw.RunSpec(**args)  # type: ignore[arg-type]
+        RunSpec(**args)  # type: ignore[arg-type]
 
 
 def test_parse_seeds() -> None:
-    assert sw.parse_seeds("1-3,10,2") == [1, 2, 3, 10]
-    assert sw.parse_seeds("7") == [7]
+    assert parse_seeds("1-3,10,2") == [1, 2, 3, 10]
+    assert parse_seeds("7") == [7]
     for bad in ("", "a", "5-1", "1,,2", "-3"):
         with pytest.raises(ValueError):
-            sw.parse_seeds(bad)
+            parse_seeds(bad)
 
 
 def test_specs_of_the_paper_sweeps() -> None:
-    assert len(sw.Q_VALUES) == 25 and sw.Q_VALUES[0] == 200.0 and sw.Q_VALUES[-1] == 2600.0
-    assert len(sw.Q_SCALES) == 9 and math.isclose(sw.Q_SCALES[4], 1.0)
-    q = sw.q_sweep_specs(["demo"], [1, 2])
+    assert len(Q_VALUES) == 25 and Q_VALUES[0] == 200.0 and Q_VALUES[-1] == 2600.0
+    assert len(Q_SCALES) == 9 and math.isclose(Q_SCALES[4], 1.0)
+    q = q_sweep_specs(["demo"], [1, 2])
     gated = [s for s in q if s.q is not None]
     assert len(gated) == 2 * 3 * 25 and {s.filter for s in gated} == {"meskf", "maeskf", "vb"}
     assert {(s.filter, s.q) for s in q if s.q is None} <= {("vb", None), ("oracle", None)}
-    pn = sw.process_noise_specs(["demo"], [1])
+    pn = process_noise_specs(["demo"], [1])
     assert len(pn) == 27 and all(s.q is None for s in pn)
     assert sum(s.q_scale is None for s in pn) == 3  # factor 1: the default run, one cache entry
 
 
 def test_available_filters_dedupes_and_names_the_known_ones() -> None:
-    assert sw.available_filters(["vb", "oracle", "vb", "meskf"]) == ("vb", "oracle", "meskf")
+    assert available_filters(["vb", "oracle", "vb", "meskf"]) == ("vb", "oracle", "meskf")
     with pytest.raises(ValueError, match="'kalman': use one of meskf, maeskf, vb, robust, oracle"):
-        sw.available_filters(["kalman"])
+        available_filters(["kalman"])
 
 
 def test_scale_gyro_bias_q_scales_the_psd_only() -> None:
     gm = ImuNoise(1e-4, 1e-3, gyro_bias_sigma=5e-6, gyro_bias_tau=3600.0, accel_bias_sigma=2e-3)
-    scaled = sw.scale_gyro_bias_q(gm, 100.0)
+    scaled = scale_gyro_bias_q(gm, 100.0)
     assert math.isclose(scaled.gyro_bias_psd, 100.0 * gm.gyro_bias_psd)
     assert scaled.gyro_bias_tau == gm.gyro_bias_tau and scaled.accel_bias_psd == gm.accel_bias_psd
     rw = ImuNoise(1e-4, 1e-3, gyro_bias_rrw=1e-7)
-    assert math.isclose(sw.scale_gyro_bias_q(rw, 0.01).gyro_bias_psd, 0.01 * rw.gyro_bias_psd)
+    assert math.isclose(scale_gyro_bias_q(rw, 0.01).gyro_bias_psd, 0.01 * rw.gyro_bias_psd)
 
 
 # --- running -----------------------------------------------------------------------------------
 
 
-def test_sweep_runs_and_caches(serial: tuple[Path, sw.SweepOutcome]) -> None:
+def test_sweep_runs_and_caches(serial: tuple[Path, SweepOutcome]) -> None:
     cache, out = serial
     assert (out.ran, out.reused, out.failed) == (len(SPECS), 0, 0)
     assert list(out.table["key"]) == [s.key() for s in SPECS]
@@ -140,37 +160,37 @@ def test_sweep_runs_and_caches(serial: tuple[Path, sw.SweepOutcome]) -> None:
     t = out.table
     assert np.all(t["rmse_m"] > 0) and np.all(t["relative_rmse_pct"] > 0)
     assert np.all(t["distance_m"] > 400) and np.all(t["dvl_used"] > 0)
-    for m in sw.NEES_METRICS:  # the simulator's truth has position, velocity and attitude
+    for m in NEES_METRICS:  # the simulator's truth has position, velocity and attitude
         assert np.all(np.isfinite(t[m])) and np.all(t[m] > 0), m
         assert all(record_has(cache, s, m) for s in SPECS), m
 
 
-def record_has(cache: Path, spec: sw.RunSpec, metric: str) -> bool:
+def record_has(cache: Path, spec: RunSpec, metric: str) -> bool:
     record = json.loads((cache / "runs" / f"{spec.key()}.json").read_text())
     return isinstance(record["metrics"].get(metric), float)
 
 
-def test_second_sweep_runs_nothing(serial: tuple[Path, sw.SweepOutcome]) -> None:
+def test_second_sweep_runs_nothing(serial: tuple[Path, SweepOutcome]) -> None:
     cache, first = serial
     files = sorted((cache / "runs").iterdir())
     mtimes = [p.stat().st_mtime_ns for p in files]
-    again = sw.run_sweep([*SPECS, SPECS[0]], cache, jobs=1, progress=False)
+    again = run_sweep([*SPECS, SPECS[0]], cache, jobs=1, progress=False)
     assert (again.ran, again.reused, again.failed) == (0, len(SPECS), 0)
     assert sorted((cache / "runs").iterdir()) == files
     assert [p.stat().st_mtime_ns for p in files] == mtimes
     pd.testing.assert_frame_equal(_metrics(again.table), _metrics(first.table))
 
 
-def test_parallel_equals_serial(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
+def test_parallel_equals_serial(serial: tuple[Path, SweepOutcome], tmp_path: Path) -> None:
     cache, first = serial
     other = _copy_missions(cache, tmp_path / "cache")
-    par = sw.run_sweep(SPECS, other, jobs=2, progress=False, chunk_size=3)
+    par = run_sweep(SPECS, other, jobs=2, progress=False, chunk_size=3)
     assert (par.ran, par.reused, par.failed) == (len(SPECS), 0, 0)
     pd.testing.assert_frame_equal(_metrics(par.table), _metrics(first.table))
     assert par.rows(SPECS[::-1])["key"].tolist() == [s.key() for s in SPECS[::-1]]
 
 
-def test_q_reaches_the_gate(serial: tuple[Path, sw.SweepOutcome]) -> None:
+def test_q_reaches_the_gate(serial: tuple[Path, SweepOutcome]) -> None:
     t = serial[1].table.set_index("key")
     low, high, vb_gated, vb = (t.loc[s.key()] for s in SPECS[:4])
     assert low["gate_q"] == 200.0 and high["gate_q"] == 2600.0
@@ -181,7 +201,7 @@ def test_q_reaches_the_gate(serial: tuple[Path, sw.SweepOutcome]) -> None:
     assert vb["dvl_rejected"] < vb_gated["dvl_rejected"]
 
 
-def test_process_noise_scale_reaches_q(serial: tuple[Path, sw.SweepOutcome]) -> None:
+def test_process_noise_scale_reaches_q(serial: tuple[Path, SweepOutcome]) -> None:
     t = serial[1].table.set_index("key")
     small, large = (t.loc[s.key()] for s in SPECS[4:])
     assert small["q_scale"] == 0.01 and large["q_scale"] == 100.0
@@ -190,16 +210,16 @@ def test_process_noise_scale_reaches_q(serial: tuple[Path, sw.SweepOutcome]) -> 
 
 
 def test_failed_run_is_reported_not_cached(
-    serial: tuple[Path, sw.SweepOutcome], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    serial: tuple[Path, SweepOutcome], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     cache = _copy_missions(serial[0], tmp_path / "cache")
-    spec = sw.RunSpec("demo", 1, "maeskf")
+    spec = RunSpec("demo", 1, "maeskf")
 
     def boom(*args: object) -> dict[str, float]:
         raise RuntimeError("diverged")
 
-    monkeypatch.setattr(sw, "run_one", boom)
-    out = sw.run_sweep([spec], cache, jobs=1, progress=False, keep_missions=False)
+    monkeypatch.setattr(sweep_runner, "run_one", boom)
+    out = run_sweep([spec], cache, jobs=1, progress=False, keep_missions=False)
     assert (out.ran, out.failed) == (0, 1) and "diverged" in out.errors[spec.key()]
     assert out.table["error"].iloc[0].startswith("RuntimeError") and out.table["rmse_m"].isna()[0]
     assert not (cache / "runs" / f"{spec.key()}.json").exists()
@@ -207,15 +227,13 @@ def test_failed_run_is_reported_not_cached(
     assert (cache / "missions" / "demo-s1.alignment.npz").is_file()
 
 
-def test_stale_temporaries_are_removed(
-    serial: tuple[Path, sw.SweepOutcome], tmp_path: Path
-) -> None:
+def test_stale_temporaries_are_removed(serial: tuple[Path, SweepOutcome], tmp_path: Path) -> None:
     cache = _copy_missions(serial[0], tmp_path / "cache")
     dead = 999_999_999  # above any pid_max: no such process
     (cache / "missions" / f".demo-s7.tmp-{dead}").mkdir()
     (cache / "runs").mkdir()
     (cache / "runs" / f".x.json.tmp-{dead}").write_text("{")
-    sw.run_sweep([], cache, jobs=1, progress=False)
+    run_sweep([], cache, jobs=1, progress=False)
     assert not list((cache / "missions").glob(".*")) and not list((cache / "runs").iterdir())
 
 
@@ -235,7 +253,7 @@ def _hand_table() -> pd.DataFrame:
 
 
 def test_summarize_by_hand() -> None:
-    s = sw.summarize(_hand_table()).set_index("filter")
+    s = summarize(_hand_table()).set_index("filter")
     assert "mean_nees_position_mean" not in s.columns  # the table has no NEES
     assert s.loc["meskf", "n"] == 3 and s.loc["vb", "n"] == 3  # the failed run left out
     assert s.loc["meskf", "rmse_m_mean"] == pytest.approx(6.0)
@@ -249,7 +267,7 @@ def test_summarize_nees_by_hand() -> None:
     t = _hand_table()
     t["mean_nees_position"] = [3.0, 4.0, 5.0, 1.0, 2.0, 3.0, 30.0, 40.0, 50.0, math.nan]
     t["nees_attitude_in_95"] = [0.9, 0.8, 0.7, 1.0, 1.0, 1.0, math.nan, 0.5, 0.5, math.nan]
-    s = sw.summarize(t).set_index("filter")
+    s = summarize(t).set_index("filter")
     assert s.loc["meskf", "mean_nees_position_mean"] == pytest.approx(4.0)
     assert s.loc["vb", "mean_nees_position_median"] == pytest.approx(2.0)
     assert s.loc["meskf", "nees_attitude_in_95_mean"] == pytest.approx(0.8)
@@ -258,7 +276,7 @@ def test_summarize_nees_by_hand() -> None:
 
 
 def test_paired_comparison_by_hand() -> None:
-    c = sw.paired_comparison(_hand_table(), "vb").set_index("other")
+    c = paired_comparison(_hand_table(), "vb").set_index("other")
     # vb vs meskf: 2<4 win, 6=6 tie (½), 5<8 win
     assert c.loc["meskf", "n"] == 3 and c.loc["meskf", "wins"] == 2.5
     assert c.loc["meskf", "win_rate"] == pytest.approx(2.5 / 3)
@@ -268,7 +286,7 @@ def test_paired_comparison_by_hand() -> None:
     assert c.loc["oracle", "wins"] == 0.5
     assert c.loc["oracle", "ratio_of_means"] == pytest.approx(13.0 / 9.0)
     with pytest.raises(ValueError):
-        sw.paired_comparison(pd.concat([_hand_table(), _hand_table()]))
+        paired_comparison(pd.concat([_hand_table(), _hand_table()]))
 
 
 def test_curve_and_spread_by_hand() -> None:
@@ -283,16 +301,16 @@ def test_curve_and_spread_by_hand() -> None:
             "error": None,
         }
     )
-    c = sw.curve(t, "q")
+    c = curve(t, "q")
     assert c["q"].tolist() == [200.0, 400.0] and c["mean"].tolist() == [2.0, 0.5]
     assert c["min"].tolist() == [1.0, 0.5] and c["max"].tolist() == [3.0, 0.5]
-    s = sw.curve_spread(c, "q").iloc[0]
+    s = curve_spread(c, "q").iloc[0]
     assert (s["best_at"], s["worst_at"], s["worst_over_best"]) == (400.0, 200.0, 4.0)
 
 
-def test_figures(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
+def test_figures(serial: tuple[Path, SweepOutcome], tmp_path: Path) -> None:
     t = serial[1].table
-    for plot in (sw.plot_q_sweep, sw.plot_process_noise, sw.plot_monte_carlo):
+    for plot in (plot_q_sweep, plot_process_noise, plot_monte_carlo):
         path = plot(t, tmp_path / f"{plot.__name__}.png")
         assert path.stat().st_size > 1000
 
@@ -300,7 +318,7 @@ def test_figures(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
 # --- CLI ---------------------------------------------------------------------------------------
 
 
-def test_cli_json_prints_one_object(serial: tuple[Path, sw.SweepOutcome], tmp_path: Path) -> None:
+def test_cli_json_prints_one_object(serial: tuple[Path, SweepOutcome], tmp_path: Path) -> None:
     cache = _copy_missions(serial[0], tmp_path / "cache")
     args = ["sweep", "seeds", "demo", "--seeds", "1", "--filters", "meskf,vb", "--cache",
             str(cache), "--jobs", "1", "--json", "--no-progress"]  # fmt: skip
@@ -346,11 +364,11 @@ def test_cli_bad_arguments_exit_2(args: list[str], tmp_path: Path) -> None:
 def test_config_overrides_are_part_of_the_spec_and_applied() -> None:
     """A run's mission-config overrides change its key (not the paper's runs' keys) and reach
     the mission the filter runs on."""
-    plain = sw.RunSpec("demo", 1, "vb")
-    over = sw.RunSpec("demo", 1, "vb", config=(("filter.vb_rho", 0.5),))
+    plain = RunSpec("demo", 1, "vb")
+    over = RunSpec("demo", 1, "vb", config=(("filter.vb_rho", 0.5),))
     assert "config" not in plain.as_dict() and over.as_dict()["config"] == {"filter.vb_rho": 0.5}
     assert over.key() != plain.key()
-    assert sw.RunSpec("demo", 1, "vb", config=(("b.x", 1), ("a.y", 2))).config == (
+    assert RunSpec("demo", 1, "vb", config=(("b.x", 1), ("a.y", 2))).config == (
         ("a.y", 2),
         ("b.x", 1),
     )

@@ -9,7 +9,7 @@
   consistency (mean NEES of position, velocity and attitude; docs/metrics.md).
 
 Each writes ``runs.csv`` (every run), ``summary.csv`` and a figure to ``--out``, and prints a
-table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.experiments.sweep`.
+table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.experiments`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, Force, app, console, 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from adaptnav.experiments.sweep import RunSpec, SweepOutcome
+    from adaptnav.experiments.runner import SweepOutcome
+    from adaptnav.experiments.spec import RunSpec
 
 sweep_app = typer.Typer(
     help="Sweeps (q, gyro-bias process noise) and Monte Carlo over seeds, cached and parallel.",
@@ -84,7 +85,7 @@ def _floats(text: str, option: str, geometric: bool) -> list[float]:
 def _common(
     presets: list[str], seeds: str, filters: str, jobs: int | None
 ) -> tuple[list[int], tuple[str, ...]]:
-    from adaptnav.experiments.sweep import available_filters, parse_seeds
+    from adaptnav.experiments.spec import available_filters, parse_seeds
     from adaptnav.sim.scenarios import PRESETS
 
     for p in presets:
@@ -108,7 +109,7 @@ def _common(
 def _execute(
     specs: list[RunSpec], cache: Path, jobs: int | None, progress: bool, keep: bool
 ) -> SweepOutcome:
-    from adaptnav.experiments.sweep import run_sweep
+    from adaptnav.experiments.runner import run_sweep
 
     try:
         return run_sweep(specs, cache, jobs=jobs, progress=progress, keep_missions=keep)
@@ -233,18 +234,20 @@ def q_cmd(
     reference lines. Prints each filter's spread over q (best, worst, worst/best of the mean
     over seeds).
     """
-    from adaptnav.experiments import sweep
+    from adaptnav.experiments.figures import plot_q_sweep
+    from adaptnav.experiments.spec import q_sweep_specs
+    from adaptnav.experiments.stats import curve, curve_spread, summarize
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     q_values = _floats(q, "--q", geometric=False)
-    specs = sweep.q_sweep_specs(presets, seed_list, q_values, names)
+    specs = q_sweep_specs(presets, seed_list, q_values, names)
     folder = out or cache / "q"
     with output(folder, force) as tmp:
         outcome = _execute(specs, cache, jobs, progress, keep_missions)
-        figure = sweep.plot_q_sweep(outcome.table, tmp / "q_sweep.png").name
-        c = sweep.curve(outcome.table, "q")
-        spread = sweep.curve_spread(c, "q")
-        refs = sweep.summarize(outcome.table[outcome.table["q"].isna()])
+        figure = plot_q_sweep(outcome.table, tmp / "q_sweep.png").name
+        c = curve(outcome.table, "q")
+        spread = curve_spread(c, "q")
+        refs = summarize(outcome.table[outcome.table["q"].isna()])
         tables = {"summary": c, "spread": spread, "references": refs}
         _write(outcome, tmp, tables)
     extra = {"presets": presets, "seeds": seed_list, "q": q_values, "filters": list(names)}
@@ -277,17 +280,19 @@ def process_noise_cmd(
     The gyro bias's driving-noise PSD in the filter's Q is multiplied by each factor (the
     mission and its alignment are unchanged); every filter at its default q.
     """
-    from adaptnav.experiments import sweep
+    from adaptnav.experiments.figures import plot_process_noise
+    from adaptnav.experiments.spec import process_noise_specs
+    from adaptnav.experiments.stats import curve, curve_spread
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     scale_values = _floats(scales, "--scales", geometric=True)
-    specs = sweep.process_noise_specs(presets, seed_list, scale_values, names)
+    specs = process_noise_specs(presets, seed_list, scale_values, names)
     folder = out or cache / "process-noise"
     with output(folder, force) as tmp:
         outcome = _execute(specs, cache, jobs, progress, keep_missions)
-        figure = sweep.plot_process_noise(outcome.table, tmp / "process_noise.png").name
-        c = sweep.curve(outcome.table, "q_scale")
-        spread = sweep.curve_spread(c, "q_scale")
+        figure = plot_process_noise(outcome.table, tmp / "process_noise.png").name
+        c = curve(outcome.table, "q_scale")
+        spread = curve_spread(c, "q_scale")
         tables = {"summary": c, "spread": spread}
         _write(outcome, tmp, tables)
     extra = {"presets": presets, "seeds": seed_list, "scales": scale_values, "filters": list(names)}
@@ -320,16 +325,18 @@ def seeds_cmd(
     and attitude with the share of epochs inside the band a consistent filter's NEES stays in
     95 % of the time (mean 3 and 95 % when the filter's covariance matches its errors).
     """
-    from adaptnav.experiments import sweep
+    from adaptnav.experiments.figures import plot_monte_carlo
+    from adaptnav.experiments.spec import monte_carlo_specs
+    from adaptnav.experiments.stats import paired_comparison, summarize
 
     seed_list, names = _common(presets, seeds, filters, jobs)
-    specs = sweep.monte_carlo_specs(presets, seed_list, names)
+    specs = monte_carlo_specs(presets, seed_list, names)
     folder = out or cache / "seeds"
     with output(folder, force) as tmp:
         outcome = _execute(specs, cache, jobs, progress, keep_missions)
-        figure = sweep.plot_monte_carlo(outcome.table, tmp / "monte_carlo.png").name
-        summary = sweep.summarize(outcome.table)
-        comparison = sweep.paired_comparison(outcome.table, "vb")
+        figure = plot_monte_carlo(outcome.table, tmp / "monte_carlo.png").name
+        summary = summarize(outcome.table)
+        comparison = paired_comparison(outcome.table, "vb")
         tables = {"summary": summary, "comparison": comparison}
         _write(outcome, tmp, tables)
     extra = {"presets": presets, "seeds": seed_list, "filters": list(names)}

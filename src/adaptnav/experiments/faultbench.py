@@ -249,14 +249,15 @@ def run_seed(
     keep: bool = False,
 ) -> list[dict[str, Any]]:
     """Worker task of ``scripts/faults_eval.py``: simulate ``preset`` with ``seed`` and align it
-    once into the sweep cache ``cache`` (:func:`adaptnav.experiments.sweep.prepare_mission`, reused
+    once into the sweep cache ``cache`` (:func:`adaptnav.experiments.cache.prepare_mission`, reused
     when there), then :func:`evaluate_mission` with the faulted copies under
     ``cache/faulted/<preset>-s<seed>``. Rows carry ``preset`` too."""
-    from adaptnav.experiments import sweep
+    from adaptnav.experiments.cache import prepare_mission
+    from adaptnav.experiments.spec import RunSpec
 
     root = Path(cache)
-    spec = sweep.RunSpec(preset, seed, FILTER_KINDS[0])
-    folder = sweep.prepare_mission(root, spec)
+    spec = RunSpec(preset, seed, FILTER_KINDS[0])
+    folder = prepare_mission(root, spec)
     with np.load(root / "missions" / f"{spec.mission_name}.alignment.npz") as z:
         initial = (np.array(z["x0"]), np.array(z["P0"]), float(z["t0"]))
     work = root / "faulted" / spec.mission_name

@@ -1,0 +1,415 @@
+"""Running a sweep: one spec on a loaded mission, and many through the cache and a process
+pool (issue 5).
+
+:func:`run_sweep` runs every :class:`~adaptnav.experiments.spec.RunSpec` not yet in the cache
+(:mod:`adaptnav.experiments.cache`) and returns all their metrics as a table
+(:func:`adaptnav.experiments.stats.runs_table`). Runs go to a
+:class:`concurrent.futures.ProcessPoolExecutor` (spawned workers, one per core by default) in
+chunks of specs of one mission, so a worker loads a mission once for many runs; at most one
+mission per worker is being simulated at a time. Progress bars (rich) go to stderr.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import logging
+import math
+import multiprocessing
+import os
+import shutil
+import time
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
+
+import pandas as pd
+
+from adaptnav.estimation.settings import FilterKind
+from adaptnav.experiments.cache import (
+    Alignment,
+    cached_record,
+    load_prepared,
+    mission_dir,
+    mission_ready,
+    prepare_mission,
+    remove_stale_tmp,
+    run_record,
+    store_record,
+)
+from adaptnav.experiments.spec import RunSpec, scale_gyro_bias_q
+from adaptnav.experiments.stats import NEES_METRICS, runs_table
+from adaptnav.mission import with_overrides
+
+if TYPE_CHECKING:
+    from adaptnav.mission import Mission
+
+__all__ = ["CHUNK_SIZE", "SweepOutcome", "run_one", "run_sweep", "single_threaded_children"]
+
+logger = logging.getLogger(__name__)
+
+CHUNK_SIZE = 8
+"""Specs per worker task (one mission each): progress granularity vs. per-task overhead."""
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+
+Reports = list[tuple[str, dict[str, Any] | str]]
+"""What a worker task gives back per spec: (key, cached record) or (key, error text)."""
+
+# --- one run -----------------------------------------------------------------------------------
+
+_LOADED: dict[str, tuple[Mission, Alignment]] = {}
+"""The worker's last loaded mission and alignment (reused by consecutive chunks)."""
+
+
+def _loaded(cache: Path, name: str) -> tuple[Mission, Alignment]:
+    tag = f"{cache.resolve()}::{name}"
+    if tag not in _LOADED:
+        _LOADED.clear()
+        _LOADED[tag] = load_prepared(cache, name)
+    return _LOADED[tag]
+
+
+def run_one(mission: Mission, initial: Alignment, spec: RunSpec) -> dict[str, float]:
+    """Run ``spec``'s filter on a loaded ``mission`` from the shared ``initial`` state and
+    evaluate it against the mission's truth (docs/metrics.md): the
+    :data:`~adaptnav.experiments.stats.METRICS`."""
+    from adaptnav import api
+    from adaptnav.analysis import evaluate
+
+    if spec.config:
+        mission = replace(mission, config=with_overrides(mission.config, spec.config))
+    if mission.truth is None:
+        raise ValueError(f"{mission.root}: no truth table to evaluate against")
+    started = time.perf_counter()
+    cfg = mission.config
+    kind = cast(FilterKind, spec.filter)
+    settings = cfg.filter_settings().with_kind(kind)
+    if spec.q is not None:
+        settings = settings.updated(gate_q={**settings.gate_q, kind: spec.q})
+    noise = None
+    if spec.q_scale is not None:
+        noise = scale_gyro_bias_q(cfg.imu.noise.to_imu_noise(), spec.q_scale)
+    result = api.run(mission, settings=settings, initial=initial, imu_noise=noise)
+    m = evaluate.evaluate(result, mission.truth)
+    dvl = [n for n, s in cfg.sensors.items() if s.kind == "dvl"]
+    counts = {f: sum(m.counts.get(n, {}).get(f, 0) for n in dvl) for f in ("used", "rejected")}
+    dropped = sum(m.counts.get(n, {}).get("dropped", 0) for n in dvl)
+    gated = kind in settings.gate_q and any(settings.gated(n, is_dvl=True) for n in dvl)
+    return {
+        "rmse_m": m.rmse_m,
+        "relative_rmse_pct": m.relative_rmse_pct,
+        "horizontal_rmse_m": m.horizontal_rmse_m,
+        "final_horizontal_error_m": m.final_horizontal_error_m,
+        "distance_m": m.distance_m,
+        "duration_s": m.duration_s,
+        **{k: float(getattr(m, k)) for k in NEES_METRICS},
+        "dvl_used": float(counts["used"]),
+        "dvl_rejected": float(counts["rejected"]),
+        "dvl_dropped": float(dropped),
+        "gate_q": float(settings.gate_q[kind]) if gated else math.nan,
+        "elapsed_s": time.perf_counter() - started,
+    }
+
+
+def _failures(specs: Iterable[RunSpec], exc: BaseException) -> Reports:
+    text = f"{type(exc).__name__}: {exc}"
+    return [(s.key(), text) for s in specs]
+
+
+def _run_chunk(cache: str, specs: Sequence[RunSpec]) -> Reports:
+    """Worker task: run ``specs`` (one mission) and store each finished run; returns (key,
+    record) or (key, error text) per spec."""
+    root = Path(cache)
+    out: Reports = []
+    try:
+        mission, initial = _loaded(root, specs[0].mission_name)
+    except Exception as exc:  # reported per spec, the sweep goes on
+        return _failures(specs, exc)
+    for spec in specs:
+        try:
+            record = run_record(spec, run_one(mission, initial, spec))
+        except Exception as exc:
+            out += _failures([spec], exc)
+            continue
+        store_record(root, record)
+        out.append((spec.key(), record))
+    return out
+
+
+def _prepare(cache: str, spec: RunSpec) -> str:
+    """Worker task: :func:`~adaptnav.experiments.cache.prepare_mission`; returns the mission
+    name."""
+    prepare_mission(Path(cache), spec)
+    return spec.mission_name
+
+
+# --- the sweep ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """What :func:`run_sweep` did.
+
+    ``table``: one row per distinct spec, in the order given
+    (:func:`adaptnav.experiments.stats.runs_table`: the spec's columns, then the metrics, then
+    ``error``: None, or why the run failed: its metrics are NaN). ``ran``: runs computed now;
+    ``reused``: runs read from the cache; ``failed``: runs that raised (not cached: a rerun
+    retries them).
+    """
+
+    table: pd.DataFrame
+    ran: int
+    reused: int
+    failed: int
+    wall_s: float
+    errors: dict[str, str] = field(default_factory=dict)
+
+    def rows(self, specs: Iterable[RunSpec]) -> pd.DataFrame:
+        """The table's rows of ``specs`` (each must have been in the sweep), in their order,
+        duplicates dropped."""
+        keys = list(dict.fromkeys(s.key() for s in specs))
+        return self.table.set_index("key").loc[keys].reset_index()
+
+
+@dataclass
+class _Sweep:
+    """A sweep while it runs: the cache, the runs still to do by mission, the progress bars
+    (missions, runs) and what the runs gave back, by key."""
+
+    root: Path
+    groups: dict[str, list[RunSpec]]
+    chunk_size: int
+    keep_missions: bool
+    bars: Any
+    missions_task: Any
+    runs_task: Any
+    records: dict[str, dict[str, Any]]
+    errors: dict[str, str] = field(default_factory=dict)
+
+    def take(self, results: Reports) -> None:
+        for key, value in results:
+            if isinstance(value, str):
+                self.errors[key] = value
+                logger.warning("run %s failed: %s", key, value)
+            else:
+                self.records[key] = value
+
+    def mission_failed(self, name: str, exc: BaseException) -> None:
+        """Every run of mission ``name`` failed with ``exc`` (simulating or aligning it)."""
+        self.take(_failures(self.groups[name], exc))
+        self.bars.advance(self.runs_task, len(self.groups[name]))
+
+    def chunks(self, name: str) -> list[list[RunSpec]]:
+        group = self.groups[name]
+        return [group[i : i + self.chunk_size] for i in range(0, len(group), self.chunk_size)]
+
+    def done_with(self, name: str) -> None:
+        """All runs of mission ``name`` are finished: drop its folder unless it is kept."""
+        if not self.keep_missions:
+            shutil.rmtree(mission_dir(self.root, name), ignore_errors=True)
+
+
+@contextmanager
+def single_threaded_children() -> Iterator[None]:
+    """Children inherit one-thread settings for BLAS/OpenMP/Numba (one worker per core)."""
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    for k in _THREAD_VARS:
+        os.environ.setdefault(k, "1")
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def run_sweep(
+    specs: Iterable[RunSpec],
+    cache: str | Path,
+    *,
+    jobs: int | None = None,
+    progress: bool = True,
+    keep_missions: bool = True,
+    chunk_size: int = CHUNK_SIZE,
+) -> SweepOutcome:
+    """Run every spec not yet in ``cache`` and return all their metrics (see
+    :mod:`adaptnav.experiments.cache` for the cache).
+
+    Args:
+        specs: the runs; duplicates (equal keys) run once.
+        cache: the cache folder (created).
+        jobs: worker processes (default ``os.cpu_count()``); 1 runs in this process. Workers
+            are spawned, so a script calling this with jobs > 1 needs the
+            ``if __name__ == "__main__":`` guard.
+        progress: rich progress bars on stderr.
+        keep_missions: False deletes a mission's folder once all its runs of this sweep are
+            finished (its alignment file stays); a later sweep needing it simulates it again.
+        chunk_size: specs per worker task.
+    """
+    started = time.perf_counter()
+    root = Path(cache)
+    (root / "runs").mkdir(parents=True, exist_ok=True)
+    (root / "missions").mkdir(parents=True, exist_ok=True)
+    if jobs is not None and jobs < 1:
+        raise ValueError(f"jobs: {jobs} must be >= 1")
+    if chunk_size < 1:
+        raise ValueError(f"chunk_size: {chunk_size} must be >= 1")
+    remove_stale_tmp(root)
+    unique = list({s.key(): s for s in specs}.values())
+    cached = {s.key(): cached_record(root, s.key()) for s in unique}
+    records = {key: rec for key, rec in cached.items() if rec is not None}
+    reused = len(records)
+    todo = [s for s in unique if s.key() not in records]
+    groups: dict[str, list[RunSpec]] = {}
+    for s in todo:
+        groups.setdefault(s.mission_name, []).append(s)
+    n_tasks = sum(math.ceil(len(g) / chunk_size) for g in groups.values())
+    workers = max(1, min(jobs or os.cpu_count() or 1, n_tasks))
+    with _progress(progress) as bars:
+        t_missions = bars.add_task("missions", total=len(groups))
+        t_runs = bars.add_task("runs", total=len(todo))
+        sweep = _Sweep(root, groups, chunk_size, keep_missions, bars, t_missions, t_runs, records)
+        if workers == 1:
+            _run_serial(sweep)
+        else:
+            _run_parallel(sweep, workers)
+    return SweepOutcome(
+        table=runs_table(unique, sweep.records, sweep.errors),
+        ran=len(todo) - len(sweep.errors),
+        reused=reused,
+        failed=len(sweep.errors),
+        wall_s=time.perf_counter() - started,
+        errors=sweep.errors,
+    )
+
+
+def _run_serial(sweep: _Sweep) -> None:
+    """Each mission in turn in this process: prepare it, then run its chunks."""
+    for name, group in sweep.groups.items():
+        try:
+            prepare_mission(sweep.root, group[0])
+        except Exception as exc:
+            sweep.bars.advance(sweep.missions_task)
+            sweep.mission_failed(name, exc)
+            continue
+        sweep.bars.advance(sweep.missions_task)
+        for chunk in sweep.chunks(name):
+            sweep.take(_run_chunk(str(sweep.root), chunk))
+            sweep.bars.advance(sweep.runs_task, len(chunk))
+        sweep.done_with(name)
+
+
+def _run_parallel(sweep: _Sweep, workers: int) -> None:
+    """Prepare at most ``workers`` missions at a time; as each is ready, queue its chunks."""
+    ctx = multiprocessing.get_context("spawn")
+    with single_threaded_children(), cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+        queue = _Queue(sweep, pool, workers)
+        try:
+            queue.next_missions()
+            while queue.pending:
+                done, _ = cf.wait(queue.pending, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    queue.finish(fut)
+                queue.next_missions()
+        except BaseException:
+            for fut in queue.pending:
+                fut.cancel()
+            raise
+
+
+class _Queue:
+    """The pool's pending tasks: missions being prepared (at most one per worker) and chunks of
+    runs, each with its kind (``"mission"`` or ``"runs"``), mission name and chunk."""
+
+    def __init__(self, sweep: _Sweep, pool: cf.Executor, workers: int) -> None:
+        self.sweep = sweep
+        self.pool = pool
+        self.workers = workers
+        self.waiting = list(sweep.groups)
+        self.left = {name: len(g) for name, g in sweep.groups.items()}
+        self.pending: dict[cf.Future[Any], tuple[str, str, list[RunSpec]]] = {}
+
+    def runs(self, name: str) -> None:
+        root = str(self.sweep.root)
+        for chunk in self.sweep.chunks(name):
+            self.pending[self.pool.submit(_run_chunk, root, chunk)] = ("runs", name, chunk)
+
+    def next_missions(self) -> None:
+        s = self.sweep
+        preparing = sum(1 for kind, _, _ in self.pending.values() if kind == "mission")
+        while self.waiting and preparing < self.workers:
+            name = self.waiting.pop(0)
+            if mission_ready(s.root, name):
+                s.bars.advance(s.missions_task)
+                self.runs(name)
+                continue
+            fut = self.pool.submit(_prepare, str(s.root), s.groups[name][0])
+            self.pending[fut] = ("mission", name, [])
+            preparing += 1
+
+    def finish(self, fut: cf.Future[Any]) -> None:
+        """Take a done task's results; a prepared mission's runs are queued."""
+        s = self.sweep
+        kind, name, chunk = self.pending.pop(fut)
+        if kind == "mission":
+            s.bars.advance(s.missions_task)
+            try:
+                fut.result()
+            except Exception as exc:
+                s.mission_failed(name, exc)
+                return
+            self.runs(name)
+            return
+        try:
+            s.take(fut.result())
+        except Exception as exc:  # a worker died
+            s.take(_failures(chunk, exc))
+        s.bars.advance(s.runs_task, len(chunk))
+        self.left[name] -= len(chunk)
+        if self.left[name] <= 0:
+            s.done_with(name)
+
+
+# --- progress ----------------------------------------------------------------------------------
+
+
+class _NoProgress:
+    def add_task(self, *args: Any, **kwargs: Any) -> int:
+        return 0
+
+    def advance(self, *args: Any, **kwargs: Any) -> None:
+        return None
+
+    def update(self, *args: Any, **kwargs: Any) -> None:
+        return None
+
+
+@contextmanager
+def _progress(enabled: bool) -> Iterator[Any]:
+    if not enabled:
+        yield _NoProgress()
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    bars = Progress(
+        TextColumn("{task.description:>8}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=False,
+    )
+    with bars:
+        yield bars
