@@ -34,7 +34,7 @@ Default gate coefficients are the paper's best on its trajectory No. 1 (q = 600 
 and specific-force filter) to the kernel's packed tables (``adaptnav.engine.batch``, the one
 function ``Navigator._build_tables``): each field is declared, constrained and defaulted here
 once, and sweeps describe runs as overrides of it (``filter.<field>`` in
-:class:`adaptnav.experiments.sweep.RunSpec`'s ``config``).
+:class:`adaptnav.experiments.spec.RunSpec`'s ``config``).
 """
 
 from __future__ import annotations
