@@ -576,12 +576,30 @@ def _work(P: Array) -> tuple[Array, Array, Array, Array, int]:
     unroll the column loops instead of vectorizing them. Shapes are not checked in the compiled
     functions; :mod:`adaptnav.engine.propagation` does that.
     """
-    n = P.shape[0] + 1
+    n = min(P.shape[0], 15) + 1  # the core's; declared blocks are propagated by _extra_step
     Pw = np.zeros(15 * _W)
     for i in range(15):
         for j in range(15):
             Pw[i * _W + j] = P[i, j]
     return np.zeros(15 * _W), np.zeros(15 * _W), np.zeros(9 * _W), Pw, n
+
+
+@jit_inline
+def _extra_step(P: Array, PhiT: Array, tmp: Array, q_psd: Array, T: float) -> None:
+    """The declared state blocks beyond the core (errorstate.StateLayout) over one step, in P
+    in place: ``P_ce ← Φ P_ce`` (Φ the core's, from ``PhiT``), ``P_ee ← P_ee + diag(q_e) T``
+    with q_e = ``q_psd[12:]`` (twin: errorstate.augment). Nothing for the core alone; ``tmp``
+    (15) is scratch."""
+    for j in range(15, P.shape[0]):
+        for k in range(15):
+            tmp[k] = P[k, j]
+        for i in range(15):
+            s = 0.0
+            for k in range(15):
+                s += PhiT[k * _W + i] * tmp[k]
+            P[i, j] = s
+            P[j, i] = s
+        P[j, j] += q_psd[12 + j - 15] * T
 
 
 @jit_inline
@@ -658,6 +676,7 @@ def _propagate(
         _fill_At(At, e, h, v, C, f, inv_tau_a, inv_tau_g, T)
         _fill_PhiT(PhiT, At, n - 4)
         _covariance_step(Pw, PhiT, M, C, q_psd, T, n)
+        _extra_step(P, PhiT, M, q_psd, T)
         wp, fp = wc, fc
     _store(x, state)
     _unpad(Pw, P)
@@ -680,7 +699,8 @@ def propagate_run(
     f_lp: Array,
     tau_f: float,
 ) -> None:
-    """Propagate x (16) and P (15×15) over N IMU increments, **in place**.
+    """Propagate x (16 + m) and P ((15 + m)², m declared states) over N IMU increments,
+    **in place**.
 
     Compiled twin of :func:`adaptnav.engine.propagation.propagate_numpy` (use
     :func:`adaptnav.engine.propagation.propagate` for a copying, shape-checking wrapper).

@@ -361,7 +361,7 @@ def linearise(
     """
     for a in range(MAX_DIM):
         if row + a < H.shape[0]:
-            for c in range(N_STATES):
+            for c in range(H.shape[1]):
                 H[row + a, c] = 0.0
     if code == LIN_DVL:
         _lin_dvl(par, x, z, w, y, H, row, 0)
@@ -420,7 +420,7 @@ def compiled_linearisation(model: object) -> LinearisationSpec | None:
 def _active_columns(H: Array, D: int, cols: IntArray) -> int:
     """Indices of the columns of ``H[:D]`` with a nonzero entry, into cols; their count."""
     n = 0
-    for c in range(N_STATES):
+    for c in range(H.shape[1]):
         for r in range(D):
             if H[r, c] != 0.0:
                 cols[n] = c
@@ -578,13 +578,13 @@ N_VEC = 12
 """Rows of ``ws[WS_VEC]``."""
 
 
-def workspace(n_sensors: int) -> Workspace:
+def workspace(n_sensors: int, n_states: int = N_STATES) -> Workspace:
     """Scratch arrays for epochs of up to ``n_sensors`` stacked sensors (D ≤ 3 n_sensors):
     stacked H, y, nominal R blocks, ``H P``, Kᵀ, Eᵀ (D×15), W, S, L, Gᵀ, R used (D×D), VB and
     matching vectors (N_VEC×D), dx, P⁺, and small scratch; allocated once, reused every epoch."""
     n = max(n_sensors, 1)
     Dm = MAX_DIM * n
-    ns = N_STATES
+    ns = n_states
     f = [(Dm, ns), (Dm,), (n, MAX_DIM, MAX_DIM), (Dm, ns), (Dm, ns), (Dm, ns), (Dm, Dm),
          (Dm, Dm), (Dm, Dm), (Dm, Dm), (Dm, Dm), (N_VEC, Dm), (ns,), (ns, ns), (3, 3), (3, ns),
          (3, 3), (3, 3), (3,)]  # fmt: skip
@@ -663,7 +663,7 @@ def correct(P: Array, H: Array, y: Array, R: Array, dx: Array, P_out: Array) -> 
     positive definite."""
     D = y.shape[0]
     ns = P.shape[0]
-    cols = np.empty(N_STATES, np.int64)
+    cols = np.empty(ns, np.int64)
     nc = _active_columns(H, D, cols)
     Ut = np.empty((D, ns))
     W = np.empty((D, D))
@@ -948,6 +948,8 @@ def inject(x: Array, dx: Array) -> None:
         x[6 + k] = q[k] / n
     for k in range(6):
         x[10 + k] += dx[9 + k]
+    for k in range(15, dx.shape[0]):  # declared states (errorstate.StateLayout)
+        x[k + 1] += dx[k]
 
 
 @jit_inline
@@ -955,10 +957,10 @@ def _reset(P: Array, dx: Array, rows: Array, blk: Array) -> None:
     h0, h1, h2 = 0.5 * dx[6], 0.5 * dx[7], 0.5 * dx[8]
     Gs = (1.0, -h2, h1, h2, 1.0, -h0, -h1, h0, 1.0)
     for a in range(3):
-        for j in range(N_STATES):
+        for j in range(P.shape[0]):
             rows[a, j] = Gs[3 * a] * P[6, j] + Gs[3 * a + 1] * P[7, j] + Gs[3 * a + 2] * P[8, j]
     for a in range(3):
-        for j in range(N_STATES):
+        for j in range(P.shape[0]):
             if j < 6 or j > 8:
                 P[6 + a, j] = rows[a, j]
                 P[j, 6 + a] = rows[a, j]
@@ -976,7 +978,7 @@ def _reset(P: Array, dx: Array, rows: Array, blk: Array) -> None:
 def reset(P: Array, dx: Array) -> None:
     """``P ← G P Gᵀ`` in place, ``G = I + ½ [phi×]`` on the attitude block (twin of
     errorstate.reset_jacobian), then symmetrised; P symmetric on entry."""
-    _reset(P, dx, np.empty((3, N_STATES)), np.empty((3, 3)))
+    _reset(P, dx, np.empty((3, P.shape[0])), np.empty((3, 3)))
 
 
 # --- one measurement epoch ----------------------------------------------------------------------
@@ -1035,8 +1037,8 @@ def _event(
 def _inflate(P: Array, k: float) -> None:
     """P ← k P (k >= 1): every variance and covariance scaled, so P stays positive definite
     and its correlations are kept (docs/robustness.md, divergence guard)."""
-    for a in range(N_STATES):
-        for c in range(N_STATES):
+    for a in range(P.shape[0]):
+        for c in range(P.shape[0]):
             P[a, c] *= k
 
 
@@ -1148,6 +1150,8 @@ def epoch(
                     y[D + a] = fb[k, FB_Y + a]
                     for c in range(N_STATES):
                         H[D + a, c] = fb[k, FB_H + N_STATES * a + c]
+                    for c in range(N_STATES, H.shape[1]):  # a Python model's H is the core's
+                        H[D + a, c] = 0.0
                     for c in range(d):
                         Rb[nb, a, c] = fb[k, FB_R + 3 * a + c]
                 _reading_R(st_z, idx, d, Rb, nb)
@@ -1249,11 +1253,11 @@ def epoch(
     inject(x, dx)
     if reset_covariance:
         _reset(P_new, dx, Ut3, S3)
-    for i in range(N_STATES):  # P⁺ and its reset are exactly symmetric
-        for j in range(N_STATES):
+    for i in range(P.shape[0]):  # P⁺ and its reset are exactly symmetric
+        for j in range(P.shape[0]):
             P[i, j] = P_new[i, j]
     healthy = True
-    for i in range(N_STATES):  # the Joseph form keeps P PD; rounding at extreme ranges may not
+    for i in range(P.shape[0]):  # the Joseph form keeps P PD; rounding at extreme ranges may not
         if not P[i, i] > 0.0:
             healthy = False
     if not healthy:
@@ -1289,8 +1293,9 @@ def epoch(
 def _repair(P: Array) -> bool:
     """P ← the nearest symmetric positive definite matrix by eigenvalues clipped at
     ``EIG_FLOOR`` × the largest (twin of health.repair); False if P is not finite."""
-    for a in range(N_STATES):
-        for c in range(N_STATES):
+    n = P.shape[0]
+    for a in range(n):
+        for c in range(n):
             if not math.isfinite(P[a, c]):
                 return False
     Ps = 0.5 * (P + P.T)
@@ -1298,16 +1303,16 @@ def _repair(P: Array) -> bool:
     floor = max(w[-1], 0.0) * EIG_FLOOR
     if not floor > 0.0:
         return False
-    for k in range(N_STATES):
+    for k in range(n):
         w[k] = max(w[k], floor)
-    for a in range(N_STATES):
-        for c in range(N_STATES):
+    for a in range(n):
+        for c in range(n):
             t = 0.0
-            for k in range(N_STATES):
+            for k in range(n):
                 t += V[a, k] * w[k] * V[c, k]
             P[a, c] = t
-    for a in range(N_STATES):
-        for c in range(a + 1, N_STATES):
+    for a in range(n):
+        for c in range(a + 1, n):
             P[c, a] = P[a, c]
     return True
 

@@ -56,6 +56,7 @@ from adaptnav.compiled.propagation import (
     _SERIES_LAT,
     State,
     Vec3,
+    _extra_step,
     _lat_ref,
     _load,
     _store,
@@ -77,7 +78,7 @@ from adaptnav.estimation.noise import (
 )
 from adaptnav.estimation.noise.process import QAdaptation
 from adaptnav.models import errorstate
-from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.errorstate import CORE, N_STATES, StateLayout
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.models.strapdown import NOM_SIZE
 from adaptnav.sensors.base import MeasurementModel
@@ -170,6 +171,9 @@ class EngineConfig:
     q_adaptation: QAdaptation | None = None
     """Q scaled by the whiteness of the innovations (estimation/noise/process.py); None: the
     configured Q throughout (here; the filter settings turn it on)."""
+    layout: StateLayout = CORE
+    """The error state: the 15 core states and any declared blocks (errorstate.StateLayout);
+    x0 and P0 have its sizes."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
@@ -390,6 +394,7 @@ def _advance(
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
             state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
+            _extra_step(P, wk[1], wk[2], q_psd, T)
         if whole:
             for c in range(3):
                 rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
@@ -509,9 +514,12 @@ class Navigator:
         self._index = {c.name: i for i, c in enumerate(channels)}
         self.x = np.array(x0, dtype=float)
         self.P = np.array(P0, dtype=float)
-        if self.x.shape != (NOM_SIZE,) or self.P.shape != (N_STATES, N_STATES):
-            raise ValueError(f"x0 must be ({NOM_SIZE},), P0 ({N_STATES}, {N_STATES})")
-        self._q = errorstate.noise_psd(config.imu_noise)
+        n = config.layout.n
+        if self.x.shape != (config.layout.nominal_size,) or self.P.shape != (n, n):
+            raise ValueError(f"x0 must be ({config.layout.nominal_size},), P0 ({n}, {n})")
+        self._q = np.concatenate(
+            [errorstate.noise_psd(config.imu_noise), config.layout.extra_psd()]
+        )
         self._tau_a = float(config.imu_noise.accel_bias_tau)
         self._tau_g = float(config.imu_noise.gyro_bias_tau)
         self._grid = config.epoch_policy == "grid"
@@ -600,7 +608,7 @@ class Navigator:
                 sf[uk.F_GATE_Q] = ch.gate.q
             _pack_strategy(ch.strategy, R, d, si, sf, sx, self._rings[i])
         self._python_lin = bool(np.any(self._s_int[:, uk.S_CODE] == uk.LIN_PYTHON))
-        self._ws = uk.workspace(n)
+        self._ws = uk.workspace(n, self.config.layout.n)
 
     @property
     def t(self) -> float:
@@ -889,8 +897,9 @@ class Navigator:
         self._reserve_output(1)
         n = int(self._icur[I_N_OUT])
         self._out_t[n] = self.t
-        self._out_x[n] = self.x
-        self._out_p[n, :N_STATES] = np.diag(self.P)
+        # The core's solution; declared states (errorstate.StateLayout) are in x and P.
+        self._out_x[n] = self.x[:NOM_SIZE]
+        self._out_p[n, :N_STATES] = np.diag(self.P)[:N_STATES]
         self._out_p[n, N_STATES:] = cross_terms(self.P)
         self._icur[I_N_OUT] = n + 1
 

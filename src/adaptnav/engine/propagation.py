@@ -44,16 +44,18 @@ def _vec(a: ArrayLike, n: int, name: str) -> Array:
 def _state_inputs(
     x: ArrayLike, P: ArrayLike, w_prev: ArrayLike, f_prev: ArrayLike, q_psd: ArrayLike
 ) -> tuple[Array, Array, Array, Array, Array]:
-    """Validated float64 copies of (x, P, w_prev, f_prev, q_psd)."""
+    """Validated float64 copies of (x, P, w_prev, f_prev, q_psd); with m declared states
+    (errorstate.StateLayout) x has 16 + m numbers, P is (15 + m)², q_psd 12 + m PSDs."""
     Pa = np.array(P, dtype=np.float64)
-    if Pa.shape != (N_STATES, N_STATES):
-        raise ValueError(f"P must be {N_STATES}×{N_STATES}, got {Pa.shape}")
+    if Pa.ndim != 2 or Pa.shape[0] != Pa.shape[1] or Pa.shape[0] < N_STATES:
+        raise ValueError(f"P must be n×n with n >= {N_STATES}, got {Pa.shape}")
+    m = Pa.shape[0] - N_STATES
     return (
-        _vec(x, NOM_SIZE, "x"),
+        _vec(x, NOM_SIZE + m, "x"),
         Pa,
         _vec(w_prev, 3, "w_prev"),
         _vec(f_prev, 3, "f_prev"),
-        _vec(q_psd, N_NOISE, "q_psd"),
+        _vec(q_psd, N_NOISE + m, "q_psd"),
     )
 
 
@@ -106,7 +108,10 @@ def _covariance_numpy(
     """Steps 2-4 of the module docstring over a step of length T."""
     F = errorstate.system_matrix(mid.lat, mid.h, mid.v_n, mid.C_nb, mid.f_n, tau_a, tau_g)
     Phi = errorstate.transition(F, T)
-    Qd = errorstate.discrete_noise(Phi, errorstate.noise_input_matrix(mid.C_nb), q, T)
+    G = errorstate.noise_input_matrix(mid.C_nb)
+    Qd = errorstate.discrete_noise(Phi, G, q[:N_NOISE], T)
+    if P.shape[0] > N_STATES:  # declared blocks: random walks (errorstate.StateLayout)
+        Phi, Qd = errorstate.augment(Phi, Qd, q[N_NOISE:], T)
     return errorstate.predict_covariance(P, Phi, Qd)
 
 
@@ -142,7 +147,9 @@ def propagate_numpy(
     for k in range(dth.shape[0]):
         T = float(dts[k])
         wc, fc = dth[k] / T, dv[k] / T
-        xa, mid = strapdown.propagate(xa, wp, fp, wc, fc, T, 0.0, T, tau_a, tau_g)
+        xa[:NOM_SIZE], mid = strapdown.propagate(
+            xa[:NOM_SIZE], wp, fp, wc, fc, T, 0.0, T, tau_a, tau_g
+        )
         mid = replace(mid, f_n=low_pass(flp, mid.f_n, T, tau_f).copy())
         Pa = _covariance_numpy(Pa, mid, q, T, tau_a, tau_g)
         wp, fp = wc, fc
@@ -180,7 +187,9 @@ def propagate_partial_numpy(
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     wc, fc = _vec(w_cur, 3, "w_cur"), _vec(f_cur, 3, "f_cur")
     flp = _f_state(f_lp)
-    xa, mid = strapdown.propagate(xa, wp, fp, wc, fc, dt, ta, tb, tau_a, tau_g)
+    xa[:NOM_SIZE], mid = strapdown.propagate(
+        xa[:NOM_SIZE], wp, fp, wc, fc, dt, ta, tb, tau_a, tau_g
+    )
     mid = replace(mid, f_n=low_pass(flp, mid.f_n, tb - ta, tau_f).copy())
     return xa, _covariance_numpy(Pa, mid, q, tb - ta, tau_a, tau_g)
 

@@ -22,6 +22,9 @@ Every block is checked against finite differences of the nonlinear mechanization
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -42,6 +45,101 @@ STATE_NAMES: tuple[str, ...] = (
     "dr_N", "dr_E", "dr_D", "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D",
     "dba_x", "dba_y", "dba_z", "dbg_x", "dbg_y", "dbg_z",
 )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class StateBlock:
+    """Error states beyond the core that a sensor or model declares (e.g. a DVL scale factor,
+    an inclinometer bias): the block's name, its states' names and the random-walk PSD driving
+    each (state unit² / s; 0: a constant). Their nominal values follow the core's 16 numbers in
+    the nominal state; feedback adds their error estimate (docs/architecture.md, 'Adding a state
+    block')."""
+
+    name: str
+    states: tuple[str, ...]
+    psd: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if not self.states or len(self.psd) != len(self.states):
+            raise ValueError(f"state block {self.name!r}: one PSD per state, at least one state")
+        if not all(math.isfinite(q) and q >= 0.0 for q in self.psd):
+            raise ValueError(f"state block {self.name!r}: PSDs must be finite and >= 0")
+
+
+CORE_BLOCKS: dict[str, slice] = {
+    "position": POS,
+    "velocity": VEL,
+    "attitude": ATT,
+    "accel_bias": BA,
+    "gyro_bias": BG,
+}
+"""The 15 core states by block (the names of :data:`STATE_NAMES`)."""
+
+
+@dataclass(frozen=True)
+class StateLayout:
+    """The error state: the 15 core states, then the declared blocks in order, with named
+    indices. The compiled kernels take their size from P (``adaptnav.compiled``): the core is
+    propagated with its F, each declared block as a random walk (Φ = I, Qd = PSD·T) coupled to
+    the core only through P and the measurements' H."""
+
+    extra: tuple[StateBlock, ...] = ()
+
+    def __post_init__(self) -> None:
+        names = [*CORE_BLOCKS, *(b.name for b in self.extra)]
+        states = [*STATE_NAMES, *(s for b in self.extra for s in b.states)]
+        if len(set(names)) != len(names) or len(set(states)) != len(states):
+            raise ValueError(f"state layout: block and state names must be unique, got {names}")
+
+    @property
+    def n(self) -> int:
+        """Number of error states."""
+        return N_STATES + sum(len(b.states) for b in self.extra)
+
+    @property
+    def nominal_size(self) -> int:
+        """Length of the nominal state: the core's 16 numbers, then one per declared state."""
+        return NOM_SIZE + self.n - N_STATES
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (*STATE_NAMES, *(s for b in self.extra for s in b.states))
+
+    def slice(self, block: str) -> slice:
+        """The indices of ``block`` (a core block of :data:`CORE_BLOCKS` or a declared one)."""
+        if block in CORE_BLOCKS:
+            return CORE_BLOCKS[block]
+        start = N_STATES
+        for b in self.extra:
+            if b.name == block:
+                return slice(start, start + len(b.states))
+            start += len(b.states)
+        raise KeyError(
+            f"no state block {block!r} (have {[*CORE_BLOCKS, *(b.name for b in self.extra)]})"
+        )
+
+    def extra_psd(self) -> Array:
+        """The declared states' random-walk PSDs, in order (appended to the 12 IMU PSDs of
+        :func:`noise_psd` for the kernels)."""
+        return np.array([q for b in self.extra for q in b.psd], dtype=float)
+
+
+CORE = StateLayout()
+"""The paper's 15-state error model alone."""
+
+
+def augment(Phi: ArrayLike, Qd: ArrayLike, extra_psd: ArrayLike, dt: float) -> tuple[Array, Array]:
+    """Φ and Qd of the whole layout from the core's: ``blockdiag(Φ, I)`` and
+    ``blockdiag(Qd, diag(q_e) dt)`` (the declared blocks are random walks, :class:`StateLayout`)."""
+    q = np.asarray(extra_psd, dtype=float)
+    n = N_STATES + q.size
+    Phi_n, Qd_n = np.eye(n), np.zeros((n, n))
+    Phi_n[:N_STATES, :N_STATES] = Phi
+    Qd_n[:N_STATES, :N_STATES] = Qd
+    Qd_n[N_STATES:, N_STATES:] = np.diag(q * dt)
+    return Phi_n, Qd_n
+
+
 W_A = slice(0, 3)
 W_G = slice(3, 6)
 W_BA = slice(6, 9)
@@ -185,10 +283,13 @@ def inject(x: ArrayLike, dx: ArrayLike) -> Array:
     """
     xa = np.array(x, dtype=float)
     d = np.asarray(dx, dtype=float)
-    if xa.shape != (NOM_SIZE,) or d.shape != (N_STATES,):
+    m = d.size - N_STATES
+    if m < 0 or xa.shape != (NOM_SIZE + m,) or d.ndim != 1:
         raise ValueError(
-            f"inject needs shapes ({NOM_SIZE},) and ({N_STATES},), got {xa.shape}, {d.shape}"
+            f"inject needs shapes ({NOM_SIZE} + m,) and ({N_STATES} + m,) (m declared states), "
+            f"got {xa.shape}, {d.shape}"
         )
+    xa[NOM_SIZE:] += d[N_STATES:]  # declared states (StateLayout): plain addition
     lat, h = xa[0], xa[2]
     xa[0] = lat + d[0] / (earth.meridian_radius(lat) + h)
     xa[1] = xa[1] + d[1] / ((earth.transverse_radius(lat) + h) * np.cos(lat))
@@ -226,8 +327,10 @@ def reset_jacobian(dx: ArrayLike) -> Array:
 
     With the left (n-frame) attitude error, the new error after injecting phi_hat is
     ``phi' = Log(Exp(phi) Exp(-phi_hat)) ≈ phi - phi_hat + ½ phi_hat × phi``, so the attitude
-    block is ``I + ½ [phi_hat×]``; other blocks are identity to first order.
+    block is ``I + ½ [phi_hat×]``; other blocks (and declared ones) are identity to first
+    order.
     """
-    G = np.eye(N_STATES)
-    G[ATT, ATT] += 0.5 * attitude.skew(np.asarray(dx, dtype=float)[ATT])
+    d = np.asarray(dx, dtype=float)
+    G = np.eye(max(d.size, N_STATES))  # declared states (StateLayout): identity
+    G[ATT, ATT] += 0.5 * attitude.skew(d[ATT])
     return G
