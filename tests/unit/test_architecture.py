@@ -135,3 +135,33 @@ def test_the_checker_sees_a_wrong_direction(tmp_path: Path) -> None:
     found = list(_imports("adaptnav.core.x", path))
     assert found == [("adaptnav.engine.batch", 2)]
     assert "engine" not in ALLOWED["core"]
+
+
+def _long_functions(limit: int) -> list[str]:
+    """Functions whose body (from the first statement after the docstring) is over ``limit``
+    lines, outside the Numba kernels (decorated ``jit``/``jit_inline``)."""
+    out = []
+    for path in MODULES.values():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            decorators = {ast.unparse(d).split("(")[0] for d in node.decorator_list}
+            if decorators & {"jit", "jit_inline", "numba.njit", "njit"}:
+                continue
+            body = node.body
+            first = (
+                body[1]
+                if len(body) > 1
+                and isinstance(body[0], ast.Expr)
+                and isinstance(getattr(body[0], "value", None), ast.Constant)
+                else body[0]
+            )
+            lines = (node.end_lineno or node.lineno) - first.lineno + 1
+            if lines > limit:
+                out.append(f"{path.relative_to(SRC)}:{node.lineno} {node.name} ({lines} lines)")
+    return out
+
+
+def test_functions_are_short() -> None:
+    # Readable in one screen; the compiled kernels are exempt (one loop compiled once).
+    assert _long_functions(60) == []
