@@ -107,8 +107,6 @@ def noise_fields(model: type[ImuNoise]) -> tuple[NoiseField, ...]:
 
 NOISE_FIELDS = noise_fields(ImuNoise)
 """The noise terms: name, quantity kind and default of each field of :class:`ImuNoise`."""
-FIELD_KINDS: dict[str, Kind] = {f.name: f.kind for f in NOISE_FIELDS if f.kind is not None}
-"""The quantity kind (hence the accepted datasheet units) of each :class:`ImuNoise` field."""
 
 
 def check_value(name: str, kind: Kind | None, value: object) -> None:
