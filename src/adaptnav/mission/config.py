@@ -15,7 +15,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PureWindowsPath
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +26,7 @@ from pydantic import (
     StrictBool,
     ValidationError,
     ValidationInfo,
+    create_model,
     field_validator,
     model_validator,
 )
@@ -33,7 +34,7 @@ from pydantic import (
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, Kind, UnitError, to_si
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
-from adaptnav.models.imu_noise import FIELD_KINDS, ImuNoise
+from adaptnav.models.imu_noise import NOISE_FIELDS, ImuNoise, check_value, pair_si
 from adaptnav.sensors import registry
 from adaptnav.sensors.kind import StuckDefault
 from adaptnav.sensors.registry import KINDS
@@ -140,22 +141,34 @@ class MissionSection(_Model):
     description: str = ""
 
 
-_NOISE_KINDS: dict[str, Kind] = FIELD_KINDS
+_NOISE_KINDS: dict[str, Kind] = {f.name: f.kind for f in NOISE_FIELDS if f.kind is not None}
+"""The ``[imu.noise]`` keys, one per noise term of :class:`ImuNoise`, and their quantity kinds."""
 _WHITE_NOISE = ("arw", "vrw")
 """``[imu.noise]`` keys that must be > 0 (the bias terms may be 0: no bias)."""
 
+_Section = TypeVar("_Section", bound=BaseModel)
 
+
+def _noise_keys(section: type[_Section]) -> type[_Section]:
+    """``section`` with one ``[value, "unit"]`` key per noise term
+    (:data:`adaptnav.models.imu_noise.NOISE_FIELDS`): required where the term has no default,
+    else optional (absent: the term's default)."""
+    keys: dict[str, Any] = {
+        f.name: (Pair, ...) if f.default is None else (Pair | None, None) for f in NOISE_FIELDS
+    }
+    return create_model(
+        section.__name__,
+        __base__=section,
+        __module__=section.__module__,
+        __doc__=section.__doc__,
+        **keys,
+    )
+
+
+@_noise_keys
 class ImuNoiseConfig(_Model):
-    """``[imu.noise]``: the fields of :meth:`ImuNoise.from_datasheet`, each ``[value, "unit"]``."""
-
-    arw: Pair
-    vrw: Pair
-    gyro_bias_sigma: Pair | None = None
-    gyro_bias_tau: Pair | None = None
-    accel_bias_sigma: Pair | None = None
-    accel_bias_tau: Pair | None = None
-    gyro_bias_rrw: Pair | None = None
-    accel_bias_arw: Pair | None = None
+    """``[imu.noise]``: the fields of :meth:`ImuNoise.from_datasheet`, each ``[value, "unit"]``
+    (its keys come from the noise terms' table: :func:`_noise_keys`)."""
 
     @field_validator("*")
     @classmethod
@@ -163,10 +176,10 @@ class ImuNoiseConfig(_Model):
         if v is None:
             return v
         name = str(info.field_name)
-        si = _pair_si(v, _NOISE_KINDS[name], name)
-        if name.endswith("_tau") and not float(si) > 0.0:
-            raise UnitError(f'{name}: value {v[0]!r} must be > 0 ("inf" for a random walk)')
-        if name in _WHITE_NOISE and not float(si) > 0.0:
+        kind = _NOISE_KINDS[name]
+        si = pair_si(name, kind, v)
+        check_value(name, kind, si)
+        if name in _WHITE_NOISE and not si > 0.0:
             # Zero white noise: a Q with no noise at all makes the filter trust the IMU
             # absolutely (and P singular); no real IMU has it.
             raise UnitError(f"{name}: value {v[0]!r} must be > 0 (no IMU is noise-free)")
@@ -174,18 +187,7 @@ class ImuNoiseConfig(_Model):
 
     def to_imu_noise(self) -> ImuNoise:
         """The SI noise model (``ImuNoise.from_datasheet`` of the given pairs)."""
-        pairs: dict[str, tuple[Any, str]] = {}
-        for name in _NOISE_KINDS:
-            pair = getattr(self, name)
-            if pair is None:
-                continue
-            value, unit = pair
-            kind = _NOISE_KINDS[name]
-            if kind is Kind.TIME and math.isinf(float(_pair_si(pair, kind, name))):
-                pairs[name] = ("inf", unit)  # from_datasheet's spelling of a random walk
-            else:
-                pairs[name] = (value, unit)
-        return ImuNoise.from_datasheet(**pairs)
+        return ImuNoise.from_datasheet(**self.model_dump(exclude_none=True))
 
 
 class InitialBiasSigma(_Model):

@@ -58,93 +58,41 @@ stress case; the mission then says 20 deg/h and 50 mg.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
-from adaptnav.core.units import DEG, G0, Kind, UnitError, to_si
-from adaptnav.models.imu_noise import FIELD_KINDS, ImuNoise
+from adaptnav.core.units import DEG, G0, Kind
+from adaptnav.models.imu_noise import KIND_KEY, NOISE_FIELDS, ImuNoise
 
 Array = NDArray[np.float64]
 
-_KINDS: dict[str, Kind] = {
-    **FIELD_KINDS,
-    "gyro_turn_on_sigma": Kind.ANGULAR_RATE,
-    "accel_turn_on_sigma": Kind.ACCELERATION,
-}
-
 
 @dataclass(frozen=True)
-class ImuErrorModel:
-    """IMU errors in SI units (module docstring for the model).
+class ImuErrorModel(ImuNoise):
+    """IMU errors in SI units (module docstring for the model): the noise terms of
+    :class:`ImuNoise` (white noise, in-run biases; declared, defaulted and checked there), then
+    the simulator's own, checked the same way (:meth:`ImuNoise.from_datasheet` builds either).
 
     Attributes:
-        arw, vrw: white-noise root-PSDs (rad/√s, m/s/√s).
-        gyro_bias_sigma, gyro_bias_tau: in-run gyro bias, Gauss-Markov σ (rad/s) and τ (s);
-            τ = inf: random walk of root-PSD ``gyro_bias_rrw`` (rad/s/√s).
-        accel_bias_sigma, accel_bias_tau, accel_bias_arw: the same for the accelerometers.
         gyro_turn_on_sigma, accel_turn_on_sigma: σ of the turn-on constants (rad/s, m/s²).
-        gyro_scale_sigma, accel_scale_sigma: σ of the scale-factor errors (dimensionless).
+        gyro_scale_sigma, accel_scale_sigma: σ of the scale-factor errors (dimensionless; plain
+            numbers in :meth:`from_datasheet`, 1e-4 = 100 ppm).
     """
 
-    arw: float
-    vrw: float
-    gyro_bias_sigma: float = 0.0
-    gyro_bias_tau: float = math.inf
-    accel_bias_sigma: float = 0.0
-    accel_bias_tau: float = math.inf
-    gyro_bias_rrw: float = 0.0
-    accel_bias_arw: float = 0.0
-    gyro_turn_on_sigma: float = 0.0
-    accel_turn_on_sigma: float = 0.0
+    gyro_turn_on_sigma: float = field(default=0.0, metadata={KIND_KEY: Kind.ANGULAR_RATE})
+    accel_turn_on_sigma: float = field(default=0.0, metadata={KIND_KEY: Kind.ACCELERATION})
     gyro_scale_sigma: float = 0.0
     accel_scale_sigma: float = 0.0
 
-    def __post_init__(self) -> None:
-        for name, v in self.__dict__.items():
-            if not isinstance(v, int | float) or math.isnan(v) or v < 0.0:
-                raise UnitError(f"{name}: value {v!r} must be a number >= 0")
-            if name.endswith("_tau") and v == 0.0:
-                raise UnitError(f"{name}: must be > 0 (inf for a random walk)")
-            if not name.endswith("_tau") and math.isinf(v):
-                raise UnitError(f"{name}: value {v!r} must be finite")
-
-    @classmethod
-    def from_datasheet(
-        cls,
-        gyro_scale_sigma: float = 0.0,
-        accel_scale_sigma: float = 0.0,
-        **pairs: tuple[float | str, str],
-    ) -> ImuErrorModel:
-        """From ``name=(value, unit)`` pairs in datasheet units (:mod:`adaptnav.core.units`);
-        ``"inf"`` is accepted for the τ's; scale factors are plain numbers (1e-4 = 100 ppm)."""
-        si: dict[str, Any] = {}
-        for name, pair in pairs.items():
-            if name not in _KINDS:
-                raise UnitError(f"{name}: unknown IMU error field (known: {', '.join(_KINDS)})")
-            value, unit = pair
-            if isinstance(value, str) and value.strip().lower() == "inf":
-                to_si(1.0, unit, _KINDS[name], name)
-                si[name] = math.inf
-            else:
-                si[name] = to_si(float(value), unit, _KINDS[name], name)
-        return cls(gyro_scale_sigma=gyro_scale_sigma, accel_scale_sigma=accel_scale_sigma, **si)
+    _MODEL_NAME: ClassVar[str] = "IMU error"
 
     def noise(self) -> ImuNoise:
         """The filter's noise model: white noise and in-run biases (turn-on is in P0)."""
-        return ImuNoise(
-            arw=self.arw,
-            vrw=self.vrw,
-            gyro_bias_sigma=self.gyro_bias_sigma,
-            gyro_bias_tau=self.gyro_bias_tau,
-            accel_bias_sigma=self.accel_bias_sigma,
-            accel_bias_tau=self.accel_bias_tau,
-            gyro_bias_rrw=self.gyro_bias_rrw,
-            accel_bias_arw=self.accel_bias_arw,
-        )
+        return ImuNoise(**{f.name: getattr(self, f.name) for f in NOISE_FIELDS})
 
     def calibrated(
         self, gyro_residual: float | None = None, accel_residual: float | None = None
