@@ -569,14 +569,17 @@ def _covariance_step(Pw: Array, PhiT: Array, M: Array, C: Mat3, q: Array, T: flo
 
 
 @jit_inline
-def _work(P: Array) -> tuple[Array, Array, Array, Array, int]:
-    """Zeroed flat work arrays Aᵀ, Φᵀ, M, P copied into the padded flat layout, and n = 16.
+def _work(P: Array, q_psd: Array) -> tuple[Array, Array, Array, Array, int]:
+    """Zeroed flat work arrays Aᵀ, Φᵀ, M, the core of P copied into the padded flat layout, and
+    n = 16.
 
-    n comes from P's shape (15 + 1) at run time on purpose: a compile-time 16 would let LLVM
-    unroll the column loops instead of vectorizing them. Shapes are not checked in the compiled
-    functions; :mod:`adaptnav.engine.propagation` does that.
+    n comes from the sizes of P (15 + m) and q_psd (12 + m, m declared states) at run time on
+    purpose: a compile-time 16 would let LLVM unroll the column loops instead of vectorizing
+    them, and so would a bound it can see (``min(P.shape[0], 15) + 1`` costs a fifth of the
+    propagation's speed). Shapes are not checked in the compiled functions;
+    :mod:`adaptnav.engine.propagation` and the engine do that.
     """
-    n = min(P.shape[0], 15) + 1  # the core's; declared blocks are propagated by _extra_step
+    n = P.shape[0] + 13 - q_psd.shape[0]  # (15 + m) + 1 - m
     Pw = np.zeros(15 * _W)
     for i in range(15):
         for j in range(15):
@@ -652,7 +655,8 @@ def _propagate(
     both.)
     """
     partial = tb >= 0.0
-    At, PhiT, M, Pw, n = _work(P)
+    At, PhiT, M, Pw, n = _work(P, q_psd)
+    extra = P.shape[0] > 15  # declared state blocks (errorstate.StateLayout)
     wp = (w_prev[0], w_prev[1], w_prev[2])
     fp = (f_prev[0], f_prev[1], f_prev[2])
     inv_tau_a, inv_tau_g = 1.0 / tau_a, 1.0 / tau_g
@@ -676,7 +680,8 @@ def _propagate(
         _fill_At(At, e, h, v, C, f, inv_tau_a, inv_tau_g, T)
         _fill_PhiT(PhiT, At, n - 4)
         _covariance_step(Pw, PhiT, M, C, q_psd, T, n)
-        _extra_step(P, PhiT, M, q_psd, T)
+        if extra:
+            _extra_step(P, PhiT, M, q_psd, T)
         wp, fp = wc, fc
     _store(x, state)
     _unpad(Pw, P)

@@ -311,8 +311,9 @@ def _advance(
     Each loop turn chooses one (sub)step, so that the step is compiled once.
     """
     n = tk.shape[0]
-    wk = _work(P)
+    wk = _work(P, q_psd)
     Pw = wk[3]
+    extra = P.shape[0] > N_STATES  # declared state blocks (errorstate.StateLayout)
     state = _load(x)
     ref = _lat_ref(state[0])
     inv_tau = (1.0 / tau_a, 1.0 / tau_g)
@@ -394,7 +395,8 @@ def _advance(
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
             state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
-            _extra_step(P, wk[1], wk[2], q_psd, T)
+            if extra:
+                _extra_step(P, wk[1], wk[2], q_psd, T)
         if whole:
             for c in range(3):
                 rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
