@@ -3,7 +3,7 @@
 A verbatim copy of ``adaptnav.engine.batch`` before ``adaptnav.compiled.update`` (NumPy sensors'
 ``evaluate``, the strategies' ``update``, ``errorstate.inject`` / ``reset_jacobian``, a heap of
 readings, ledger dicts), with the engine's data classes imported rather than redefined.
-``tests/kernels/test_update_kernels.py`` runs it side by side with
+``tests/kernels/test_compiled.update.py`` runs it side by side with
 :class:`adaptnav.engine.batch.Navigator`. Since then it has the guard and the divergence guard, in
 :mod:`adaptnav.estimation.health`'s readable functions (docs/robustness.md).
 """
@@ -97,7 +97,8 @@ class Navigator:
         self._f_cur = np.zeros(3)
         self._w_prev = np.zeros(3)
         self._f_prev = np.zeros(3)
-        self._f_lp = np.full(3, np.nan)  # F's low-passed specific force (kernels._low_pass)
+        # F's low-passed specific force (compiled.propagation._low_pass)
+        self._f_lp = np.full(3, np.nan)
         self._tau_f = config.specific_force_tau_s
         if config.at_rest:
             self._f_lp = -earth.gravity_n(self.x[0], self.x[2])

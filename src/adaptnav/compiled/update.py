@@ -21,10 +21,10 @@ form)
 :func:`epoch`                          one epoch of the engine (the strategies' ``predict``,
                                        ``current_R``, the gate, the update, the feedback, the
                                        ledger rows), as ``tests/helpers/engine_reference.py`` has it
-:func:`step`                           one (sub)step of kernels.propagate_run / _partial
+:func:`step`                           one (sub)step of the propagation kernels' loop
 =====================================  =====================================================
 
-``tests/kernels/test_update_kernels.py`` holds each equal to its twin to 1e-9, and the engine
+``tests/kernels/test_compiled.update.py`` holds each equal to its twin to 1e-9, and the engine
 equal to the previous, readable one (``tests/helpers/engine_reference.py``). What happens when
 (time ordering, epoch policy, propagation between epochs) stays in :mod:`adaptnav.engine.batch`.
 
@@ -1451,7 +1451,7 @@ def _whiteness(
 # --- one propagation (sub)step, for the engine's compiled loop --------------------------------
 
 Work = tuple[Array, Array, Array, Array, int]
-"""The work arrays of kernels._work: Aᵀ, Φᵀ, M, padded P (rows of 16), n = 16."""
+"""The work arrays of compiled.propagation._work: Aᵀ, Φᵀ, M, padded P (rows of 16), n = 16."""
 
 
 @jit_inline
@@ -1472,11 +1472,11 @@ def step(
     f_lp: Array,
 ) -> State:
     """Propagate over [ta, tb] of an interval of length dt: the body of the loop of
-    kernels._propagate (``propagate_run``: ta = 0, tb = dt; ``propagate_partial``), on the
-    state tuple and the padded P of ``wk``. ``wp``, ``fp`` / ``wc``, ``fc``: raw mean rates of
+    compiled.propagation._propagate (``propagate_run``: ta = 0, tb = dt; ``propagate_partial``), on
+    the state tuple and the padded P of ``wk``. ``wp``, ``fp`` / ``wc``, ``fc``: raw mean rates of
     the previous / current interval; ``decay = (exp(-T/τ_a), exp(-T/τ_g), exp(-T/τ_f))`` for
-    T = tb - ta (the last 0 when τ_f = 0); ``inv_tau = (1/τ_a, 1/τ_g)``; ``f_lp``: the
-    low-passed specific force of F (kernels._low_pass), in place."""
+    ``T = tb - ta`` (the last 0 when τ_f = 0); ``inv_tau = (1/τ_a, 1/τ_g)``; ``f_lp``: the
+    low-passed specific force of F (compiled.propagation._low_pass), in place."""
     At, PhiT, M, Pw, n = wk
     T = tb - ta
     state, e, h, v, C, f = _strapdown(state, ref, wp, fp, wc, fc, dt, ta, tb, decay[0], decay[1])

@@ -158,8 +158,8 @@ class EngineConfig:
     """Record the solution every this many IMU intervals (10 → 10 Hz at 100 Hz)."""
     specific_force_tau_s: float = 0.0
     """Time constant of the low-pass filter on the specific force that F is evaluated with
-    (kernels._low_pass; 0: the measured one of each IMU interval, the default). A 1-s low-pass
-    lags turns and waves, so F's ``[f×]`` differs from the true one and the filter claims a
+    (compiled.propagation._low_pass; 0: the measured one of each IMU interval, the default). A 1-s
+    low-pass lags turns and waves, so F's ``[f×]`` differs from the true one and the filter claims a
     heading it does not have: Monte Carlo NEES and RMSE in docs/error-model.md."""
     at_rest: bool = False
     """The vehicle is known to be at rest (static alignment): F is evaluated with the specific
@@ -302,14 +302,13 @@ def _advance(
     """Propagate through the IMU intervals ``(tk - dts, tk]`` from ``icur[I_START]`` on until
     the earliest queued reading, stamped ``t_next`` (inf: none), must be acted on.
 
-    Whole intervals one after the other (the steps of kernels.propagate_run), an output row
-    after every ``output_every``-th completed one; the interval that contains t_next is begun
+    Whole intervals one after the other (the steps of compiled.propagation.propagate_run), an output
+    row after every ``output_every``-th completed one; the interval that contains t_next is begun
     (its rates; the previous ones carried) and propagated to t_next (``exact``, the steps of
-    kernels.propagate_partial) or to its end (``grid``). Returns _ADVANCE_EPOCH (update now,
-    at ``cur[C_T]``; an interval the update ends is completed on the next call),
-    _ADVANCE_LATE (t_next is not after the current time) or _ADVANCE_DONE (chunk used up).
-    Each loop turn chooses one (sub)step, so that the step is compiled once.
-    """
+    compiled.propagation.propagate_partial) or to its end (``grid``). Returns _ADVANCE_EPOCH (update
+    now, at ``cur[C_T]``; an interval the update ends is completed on the next call), _ADVANCE_LATE
+    (t_next is not after the current time) or _ADVANCE_DONE (chunk used up). Each loop turn chooses
+    one (sub)step, so that the step is compiled once."""
     n = tk.shape[0]
     wk = _work(P, q_psd)
     Pw = wk[3]

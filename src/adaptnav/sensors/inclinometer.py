@@ -208,7 +208,7 @@ class PendulumInclinometer(_TwoAxis):
     """Pendulum inclinometer: reads the tilt of the apparent gravity (module docstring).
 
     ``evaluate`` needs the raw accelerometer reading ``f_ib_b`` of the IMU interval the reading
-    falls in (the engine passes it; the compiled twin is ``update_kernels._lin_pendulum``).
+    falls in (the engine passes it; the compiled twin is ``compiled.update._lin_pendulum``).
     """
 
     LIN_CODE: ClassVar[int] = 6

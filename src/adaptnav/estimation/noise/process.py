@@ -32,7 +32,7 @@ their own (an RTK fix's, a non-holonomic constraint's), which no Q explains. β 
 below 1: the configured Q is a floor, the datasheet's promise. Every sensor's readings drive
 the one β of the filter.
 
-The compiled twin is ``update_kernels._whiteness`` (the engine's propagation scales Q by β,
+The compiled twin is ``compiled.update._whiteness`` (the engine's propagation scales Q by β,
 ``engine._advance``); ``tests/helpers/engine_reference.py`` uses this module.
 """
 
