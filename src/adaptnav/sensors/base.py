@@ -18,7 +18,7 @@ Jacobian used by the inclinometer and the heading sensor.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -78,6 +78,31 @@ class MeasurementModel(Protocol):
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
     ) -> Measurement | None: ...
+
+
+class Components:
+    """Component names, their count and the nominal R of a sensor model, from its ``name``, its
+    ``sigma`` (σ per component, or one for all) and the class's component suffixes: one
+    definition for every model here. ``COMPONENTS = ()``: a one-component sensor, named by its
+    name."""
+
+    COMPONENTS: ClassVar[tuple[str, ...]] = ()
+    name: str
+    sigma: float | Array
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}_{c}" for c in self.COMPONENTS) or (self.name,)
+
+    @property
+    def dim(self) -> int:
+        return len(self.names)
+
+    @property
+    def R(self) -> Array:
+        """``diag(σ²)``: the nominal measurement noise covariance."""
+        var = np.asarray(self.sigma, dtype=float) ** 2
+        return np.diag(np.broadcast_to(var, (self.dim,)).copy())
 
 
 # --- validation (configs are checked once, at construction) -------------------------------------

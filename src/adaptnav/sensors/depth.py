@@ -28,6 +28,7 @@ from adaptnav.models.errorstate import ATT, N_STATES, POS
 from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -58,7 +59,7 @@ def jacobian(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class Depth:
+class Depth(Components):
     """Depth sensor.
 
     Attributes:
@@ -82,18 +83,6 @@ class Depth:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
         object.__setattr__(self, "name", check_name("name", self.name))
-
-    @property
-    def dim(self) -> int:
-        return DIM
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    @property
-    def R(self) -> Array:
-        return np.array([[self.sigma**2]])
 
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict`."""

@@ -31,6 +31,7 @@ from adaptnav.models.errorstate import ATT, BG, N_STATES, VEL
 from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_VEL
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -93,7 +94,7 @@ def jacobian(
 
 
 @dataclass(frozen=True, eq=False)
-class DVL:
+class DVL(Components):
     """DVL bottom-track velocity sensor.
 
     Attributes:
@@ -102,6 +103,8 @@ class DVL:
         C_sb: mounting rotation, DVL frame from body frame (identity: DVL axes = body axes).
         name: sensor name; components are named ``{name}_x``, ``_y``, ``_z``.
     """
+
+    COMPONENTS: ClassVar[tuple[str, ...]] = ("x", "y", "z")
 
     LIN_CODE: ClassVar[int] = 0
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
@@ -120,18 +123,6 @@ class DVL:
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
         return pack_params(self.l_b, self.C_sb)
-
-    @property
-    def dim(self) -> int:
-        return DIM
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return (f"{self.name}_x", f"{self.name}_y", f"{self.name}_z")
-
-    @property
-    def R(self) -> Array:
-        return np.diag(np.asarray(self.sigma, dtype=float) ** 2)
 
     def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`predict`; ``omega_ib_b`` is the raw gyro rate (rad/s)."""

@@ -41,6 +41,7 @@ from adaptnav.models.errorstate import ATT, N_STATES, POS
 from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -104,7 +105,7 @@ def jacobian(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0), use_height: bool = 
 
 
 @dataclass(frozen=True, eq=False)
-class GNSS:
+class GNSS(Components):
     """GNSS / USBL position fix.
 
     Attributes:
@@ -114,6 +115,8 @@ class GNSS:
         use_height: also use the height (3 components) or only lat, lon (2).
         name: sensor name; components are ``{name}_N``, ``{name}_E`` (, ``{name}_D``).
     """
+
+    COMPONENTS: ClassVar[tuple[str, ...]] = ("N", "E", "D")
 
     sigma: float | Array
     l_b: Array = field(default_factory=lambda: np.zeros(3))
@@ -141,10 +144,6 @@ class GNSS:
     @property
     def names(self) -> tuple[str, ...]:
         return (f"{self.name}_N", f"{self.name}_E", f"{self.name}_D")[: self.dim]
-
-    @property
-    def R(self) -> Array:
-        return np.diag(np.asarray(self.sigma, dtype=float) ** 2)
 
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict`."""

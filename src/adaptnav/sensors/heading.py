@@ -27,6 +27,7 @@ from adaptnav.models.errorstate import ATT, N_STATES
 from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -66,7 +67,7 @@ def jacobian(x: ArrayLike, C_sb: ArrayLike | None = None) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class Heading:
+class Heading(Components):
     """Heading (yaw) sensor.
 
     Attributes:
@@ -90,18 +91,6 @@ class Heading:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
         object.__setattr__(self, "C_sb", check_rotation("C_sb", self.C_sb))
         object.__setattr__(self, "name", check_name("name", self.name))
-
-    @property
-    def dim(self) -> int:
-        return DIM
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    @property
-    def R(self) -> Array:
-        return np.array([[self.sigma**2]])
 
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict`."""

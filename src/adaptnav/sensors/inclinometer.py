@@ -59,6 +59,7 @@ from adaptnav.models.errorstate import ATT, BA, N_STATES
 from adaptnav.models.strapdown import NOM_ATT, NOM_BA
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -100,7 +101,7 @@ def jacobian(x: ArrayLike, C_sb: ArrayLike | None = None) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class _TwoAxis:
+class _TwoAxis(Components):
     """Settings shared by both inclinometer models.
 
     Attributes:
@@ -108,6 +109,8 @@ class _TwoAxis:
         C_sb: mounting rotation, sensor frame from body frame.
         name: sensor name; components are ``{name}_roll``, ``{name}_pitch``.
     """
+
+    COMPONENTS: ClassVar[tuple[str, ...]] = ("roll", "pitch")
 
     sigma: float | Array
     C_sb: Array = field(default_factory=lambda: np.eye(3))
@@ -117,18 +120,6 @@ class _TwoAxis:
         object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, DIM))
         object.__setattr__(self, "C_sb", check_rotation("C_sb", self.C_sb))
         object.__setattr__(self, "name", check_name("name", self.name))
-
-    @property
-    def dim(self) -> int:
-        return DIM
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return (f"{self.name}_roll", f"{self.name}_pitch")
-
-    @property
-    def R(self) -> Array:
-        return np.diag(np.asarray(self.sigma, dtype=float) ** 2)
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,6 +25,7 @@ from adaptnav.core.units import Kind
 from adaptnav.sensors import dvl
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -63,7 +64,7 @@ def jacobian(
 
 
 @dataclass(frozen=True, eq=False)
-class NonHolonomic:
+class NonHolonomic(Components):
     """Non-holonomic constraint of a land vehicle.
 
     Attributes:
@@ -73,6 +74,8 @@ class NonHolonomic:
         C_sb: vehicle frame from body frame (identity: the IMU's axes are the vehicle's).
         name: sensor name; components are ``{name}_y``, ``{name}_z``.
     """
+
+    COMPONENTS: ClassVar[tuple[str, ...]] = ("y", "z")
 
     sigma: float | Array
     l_b: Array = field(default_factory=lambda: np.zeros(3))
@@ -91,18 +94,6 @@ class NonHolonomic:
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
         object.__setattr__(self, "C_sb", check_rotation("C_sb", self.C_sb))
         object.__setattr__(self, "name", check_name("name", self.name))
-
-    @property
-    def dim(self) -> int:
-        return DIM
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return (f"{self.name}_y", f"{self.name}_z")
-
-    @property
-    def R(self) -> Array:
-        return np.diag(np.asarray(self.sigma, dtype=float) ** 2)
 
     def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`predict`; ``omega_ib_b`` is the raw gyro rate (rad/s)."""

@@ -27,6 +27,7 @@ from adaptnav.models.errorstate import N_STATES, VEL
 from adaptnav.models.strapdown import NOM_VEL
 from adaptnav.sensors.base import (
     Array,
+    Components,
     Measurement,
     check_name,
     check_reading,
@@ -52,13 +53,15 @@ def jacobian(x: ArrayLike) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class ZeroVelocity:
+class ZeroVelocity(Components):
     """Zero-velocity pseudo-measurement for a stationary vehicle.
 
     Attributes:
         sigma: noise σ of each NED velocity component (m/s).
         name: sensor name; components are ``{name}_N``, ``{name}_E``, ``{name}_D``.
     """
+
+    COMPONENTS: ClassVar[tuple[str, ...]] = ("N", "E", "D")
 
     sigma: float = 0.01
     name: str = "zupt"
@@ -73,18 +76,6 @@ class ZeroVelocity:
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
         object.__setattr__(self, "name", check_name("name", self.name))
-
-    @property
-    def dim(self) -> int:
-        return DIM
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        return (f"{self.name}_N", f"{self.name}_E", f"{self.name}_D")
-
-    @property
-    def R(self) -> Array:
-        return np.eye(DIM) * self.sigma**2
 
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict`."""
