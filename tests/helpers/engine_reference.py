@@ -3,7 +3,7 @@
 A verbatim copy of ``adaptnav.engine.batch`` before ``adaptnav.compiled.update`` (NumPy sensors'
 ``evaluate``, the strategies' ``update``, ``errorstate.inject`` / ``reset_jacobian``, a heap of
 readings, ledger dicts), with the engine's data classes imported rather than redefined.
-``tests/kernels/test_compiled.update.py`` runs it side by side with
+``tests/kernels/test_update_kernels.py`` runs it side by side with
 :class:`adaptnav.engine.batch.Navigator`. Since then it has the guard and the divergence guard, in
 :mod:`adaptnav.estimation.health`'s readable functions (docs/robustness.md).
 """

@@ -10,9 +10,9 @@ compiled                               readable twin
 =====================================  =====================================================
 :func:`linearise` (per sensor code)    ``evaluate`` of :mod:`adaptnav.sensors` (y = z - h(x),
                                        H): DVL, depth, inclinometer (attitude
-                                       and pendulum), heading, GNSS, ZUPT
-:func:`correct`                        :func:`adaptnav.estimation.kalman.correct` (x⁻ = 0, Joseph
-form)
+                                       and pendulum), heading, GNSS, ZUPT, NHC
+:func:`correct`                        :func:`adaptnav.estimation.kalman.correct` (x⁻ = 0,
+                                       Joseph form)
 :func:`stacked_update`                 ``update`` of :mod:`adaptnav.estimation.noise` (FixedNoise,
                                        CovarianceMatching IAE/RAE, VariationalBayes
                                        paper eqs. (23)-(28))
@@ -24,7 +24,7 @@ form)
 :func:`step`                           one (sub)step of the propagation kernels' loop
 =====================================  =====================================================
 
-``tests/kernels/test_compiled.update.py`` holds each equal to its twin to 1e-9, and the engine
+``tests/kernels/test_update_kernels.py`` holds each equal to its twin to 1e-9, and the engine
 equal to the previous, readable one (``tests/helpers/engine_reference.py``). What happens when
 (time ordering, epoch policy, propagation between epochs) stays in :mod:`adaptnav.engine.batch`.
 
