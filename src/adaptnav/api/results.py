@@ -121,9 +121,15 @@ class Result:
     meta: dict[str, Any] = field(default_factory=dict)
     repairs: pd.DataFrame = field(default_factory=lambda: empty_repairs())
     events: pd.DataFrame = field(default_factory=lambda: events_frame([]))
+    forward: pd.DataFrame | None = None
+    """A smoothed run's forward solution (``solution`` is then the smoothed one), same columns;
+    None for a run that was not smoothed (docs/smoothing.md)."""
 
     def __post_init__(self) -> None:
-        for name, required in _REQUIRED.items():
+        tables = dict(_REQUIRED)
+        if self.forward is not None:
+            tables["forward"] = REQUIRED_SOLUTION_COLUMNS
+        for name, required in tables.items():
             table = getattr(self, name)
             if not isinstance(table, pd.DataFrame):
                 raise TypeError(f"Result.{name} must be a pandas DataFrame, got {type(table)}")
@@ -145,15 +151,27 @@ class Result:
         """Tables from an engine run. ``kinds`` maps sensor name → kind (adds ``ledger.kind``);
         ``repairs`` is a DataFrame or a list of ``{file, line, field, action, detail}`` rows."""
         ledger = ledger_frame(output.ledger, kinds)
+        forward = solution_frame(output.t, output.x, output.P_diag, output.P_cross)
+        sm = output.smoothed
+        solution = forward if sm is None else solution_frame(sm.t, sm.x, sm.P_diag, sm.P_cross)
+        info = dict(meta or {})
+        if sm is not None:
+            info["smoother"] = {
+                "nodes": sm.nodes,
+                "update_nodes": sm.update_nodes,
+                "failed_nodes": sm.failed,
+                "store_bytes": sm.store_bytes,
+            }
         return cls(
             filter=filter,
             mission=mission,
-            solution=solution_frame(output.t, output.x, output.P_diag, output.P_cross),
+            solution=solution,
             ledger=ledger,
             noise=noise_frame(ledger),
-            meta=dict(meta or {}),
+            meta=info,
             repairs=repairs_frame(repairs),
             events=events_frame(output.events),
+            forward=None if sm is None else forward,
         )
 
 

@@ -163,6 +163,7 @@ def run(
     epoch_policy: engine.EpochPolicy | None = None,
     initial: tuple[np.ndarray, np.ndarray, float] | None = None,
     imu_noise: ImuNoise | None = None,
+    smooth: bool = False,
 ) -> Result:
     """Run one filter on a mission and return its :class:`~adaptnav.api.results.Result`.
 
@@ -179,6 +180,8 @@ def run(
             'Error-state model') instead of the mission's ``[imu.noise]`` (e.g. to scale the
             gyro-bias Q, the paper's Fig. 6, without touching the mission); the alignment of
             ``initial_state`` keeps the mission's.
+        smooth: also run the RTS backward pass (docs/smoothing.md): the result's ``solution``
+            is the smoothed one and ``forward`` the filter's.
     """
     m = mission if isinstance(mission, Mission) else load_mission(mission)
     cfg = m.config
@@ -194,7 +197,7 @@ def run(
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     config = engine.EngineConfig(
         noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
-        q_adaptation=s.q_adaptation,
+        q_adaptation=s.q_adaptation, smooth=smooth,
     )  # fmt: skip
     if cfg.filter.specific_force_tau_s is not None:
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)

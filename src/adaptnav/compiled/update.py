@@ -572,16 +572,20 @@ Workspace = tuple[NDArray[Any], ...]
 WS_H, WS_Y, WS_RB, WS_UT, WS_KT, WS_ET, WS_W, WS_S, WS_L, WS_GT, WS_R_USED = range(11)
 WS_VEC, WS_DX, WS_P_NEW, WS_R_NOW, WS_ROWS3, WS_SMALL3, WS_M3, WS_B3 = range(11, 19)
 WS_COLS, WS_BLK, WS_SEEN = range(19, 22)
+WS_PRIOR = 22
+"""``ws[WS_PRIOR]``: P as the epoch's update starts from it, for the smoother (n×n; 0×0 when
+smoothing is off; ``[0, 0]`` NaN after an epoch without an update)."""
 V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST, V_LAM, V_B = range(10)
 V_LO, V_HI = 10, 11  # bounds on R̂ per component (variances)
 N_VEC = 12
 """Rows of ``ws[WS_VEC]``."""
 
 
-def workspace(n_sensors: int, n_states: int = N_STATES) -> Workspace:
+def workspace(n_sensors: int, n_states: int = N_STATES, smooth: bool = False) -> Workspace:
     """Scratch arrays for epochs of up to ``n_sensors`` stacked sensors (D ≤ 3 n_sensors):
     stacked H, y, nominal R blocks, ``H P``, Kᵀ, Eᵀ (D×15), W, S, L, Gᵀ, R used (D×D), VB and
-    matching vectors (N_VEC×D), dx, P⁺, and small scratch; allocated once, reused every epoch."""
+    matching vectors (N_VEC×D), dx, P⁺, and small scratch; allocated once, reused every epoch.
+    ``smooth``: also the P before each update (:data:`WS_PRIOR`)."""
     n = max(n_sensors, 1)
     Dm = MAX_DIM * n
     ns = n_states
@@ -592,6 +596,7 @@ def workspace(n_sensors: int, n_states: int = N_STATES) -> Workspace:
     return (
         *(np.zeros(shape) for shape in f),
         *(np.zeros(shape, dtype=np.int64) for shape in ints),
+        np.full((ns, ns) if smooth else (0, 0), math.nan),
     )
 
 
@@ -1117,6 +1122,10 @@ def epoch(
         ws[WS_SMALL3],
     )
     M3, b3, cols, blk, seen = ws[WS_M3], ws[WS_B3], ws[WS_COLS], ws[WS_BLK], ws[WS_SEEN]
+    prior = ws[WS_PRIOR]
+    smooth = prior.shape[0] > 0
+    if smooth:
+        prior[0, 0] = math.nan
     for i in range(s_int.shape[0]):
         seen[i] = 0
     blk[2, 0] = 0
@@ -1236,10 +1245,16 @@ def epoch(
         blk[2, nb] = D
     if nb == 0:
         return n_ledger
+    if smooth:  # the smoother's P⁻: after any inflation of this epoch, before the update
+        for i in range(P.shape[0]):
+            for j in range(P.shape[0]):
+                prior[i, j] = P[i, j]
     iterations = stacked_update(
         kind, P, H, y, D, nb, blk[0], blk[2], Rb, s_int, s_flt, s_state, rings, ws
     )
     if iterations < 0:  # P has lost positive definiteness: no update, P repaired
+        if smooth:
+            prior[0, 0] = math.nan
         for b in range(nb):
             _ledger(lg_int, lg_flt, n_ledger, blk[1, b], LEDGER_REJECTED_SINGULAR, t_epoch,
                     math.nan, math.nan, 0, y, 0, R_now, 0, 0)  # fmt: skip

@@ -51,6 +51,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from adaptnav.compiled import smoother as smk
 from adaptnav.compiled import update as uk
 from adaptnav.compiled.propagation import (
     _SERIES_LAT,
@@ -77,6 +78,7 @@ from adaptnav.estimation.noise import (
     VBState,
 )
 from adaptnav.estimation.noise.process import QAdaptation
+from adaptnav.estimation.smoother import Nodes
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import CORE, N_STATES, StateLayout
 from adaptnav.models.imu_noise import ImuNoise
@@ -174,6 +176,9 @@ class EngineConfig:
     layout: StateLayout = CORE
     """The error state: the 15 core states and any declared blocks (errorstate.StateLayout);
     x0 and P0 have its sizes."""
+    smooth: bool = False
+    """Keep what the RTS backward pass needs (compiled.smoother) and give the smoothed
+    solution beside the forward one (:attr:`EngineOutput.smoothed`; docs/smoothing.md)."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
@@ -200,6 +205,26 @@ class _Records:
 
 
 @dataclass(frozen=True)
+class Smoothed:
+    """The RTS-smoothed solution at the forward pass's output rows (docs/smoothing.md): t, the
+    nominal states (N, 16), P's diagonal (N, 15) and off-diagonal block elements (N, 9,
+    :data:`P_CROSS_PAIRS`) as :class:`EngineOutput` has them, and what the store held."""
+
+    t: Array
+    x: Array
+    P_diag: Array
+    P_cross: Array
+    nodes: int
+    """Nodes stored by the forward pass (output rows and measurement epochs)."""
+    update_nodes: int
+    """Nodes with an update (their P before it is stored too)."""
+    failed: int
+    """Nodes whose P before the next node was not positive definite: filtered values kept."""
+    store_bytes: int
+    """Memory the store's nodes took (docs/smoothing.md, 'Memory')."""
+
+
+@dataclass(frozen=True)
 class EngineOutput:
     """What a run produced: solution samples, per-reading ledger rows, final state.
 
@@ -219,6 +244,8 @@ class EngineOutput:
     order."""
     q_scale: float = field(kw_only=True, default=1.0)
     """β at the end: the factor on the IMU white-noise PSDs of Q (estimation/noise/process.py)."""
+    smoothed: Smoothed | None = field(kw_only=True, default=None)
+    """The RTS-smoothed solution when :attr:`EngineConfig.smooth` is on."""
 
 
 def cross_terms(P: Array) -> Array:
@@ -258,11 +285,21 @@ def _row(rates: Array, r: int) -> Vec3:
 
 @jit_inline
 def _interval_done(
-    t: float, state: State, Pw: Array, icur: IntArray, out_t: Array, out_x: Array, out_p: Array
+    t: float,
+    state: State,
+    Pw: Array,
+    icur: IntArray,
+    out_t: Array,
+    out_x: Array,
+    out_p: Array,
+    x: Array,
+    P: Array,
+    sm: smk.Store,
 ) -> None:
     """Count a completed interval; every ``output_every``-th, an output row: t, x, and in
     ``out_p`` P's diagonal (15) then the off-diagonal elements of its position, velocity and
-    attitude blocks (9, :data:`P_CROSS_PAIRS`)."""
+    attitude blocks (9, :data:`P_CROSS_PAIRS`); and when smoothing, its node (x and P are
+    brought up to date for it)."""
     icur[I_DONE] += 1
     if icur[I_DONE] % icur[I_EVERY] == 0:
         o = icur[I_N_OUT]
@@ -276,6 +313,10 @@ def _interval_done(
             out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
             out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
         icur[I_N_OUT] = o + 1
+        if sm[smk.SM_COUNT][smk.K_ON] != 0:
+            _store(x, state)
+            _unpad(Pw, P)
+            smk.output_node(sm, o, t, x, P)
 
 
 @jit
@@ -298,6 +339,7 @@ def _advance(
     out_t: Array,
     out_x: Array,
     out_p: Array,
+    sm: smk.Store,
 ) -> int:
     """Propagate through the IMU intervals ``(tk - dts, tk]`` from ``icur[I_START]`` on until
     the earliest queued reading, stamped ``t_next`` (inf: none), must be acted on.
@@ -328,7 +370,7 @@ def _advance(
     while True:
         if icur[I_CLOSE] != 0:  # an epoch at the end of its interval completed it
             icur[I_CLOSE] = 0
-            _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p)
+            _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
         k = icur[I_START]
         t_start, dt, offset = cur[uk.C_T_START], cur[uk.C_DT], cur[uk.C_OFFSET]
         whole = offset >= dt
@@ -394,6 +436,7 @@ def _advance(
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
             state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
+            smk.accumulate(sm, wk[1])
             if extra:
                 _extra_step(P, wk[1], wk[2], q_psd, T)
         if whole:
@@ -403,7 +446,7 @@ def _advance(
             cur[uk.C_T] = tk[k]
             cur[uk.C_T_START] = tk[k] - dt
             icur[I_START] = k + 1
-            _interval_done(tk[k], state, Pw, icur, out_t, out_x, out_p)
+            _interval_done(tk[k], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
             continue
         cur[uk.C_OFFSET] = tau
         cur[uk.C_T] = t_start + tau if tau < dt else t_start + dt
@@ -411,7 +454,7 @@ def _advance(
             if tau >= dt:
                 icur[I_CLOSE] = 1
             break
-        _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p)
+        _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
     _store(x, state)
     _unpad(Pw, P)
     return status
@@ -450,6 +493,7 @@ def _navigate(
     lg_int: IntArray,
     lg_flt: Array,
     ws: uk.Workspace,
+    sm: smk.Store,
 ) -> int:
     """Run the IMU chunk against the queue (stamps q_t, readings q_idx, sorted; the first
     pending is ``icur[I_HEAD]``): propagate to the next reading; drop it if late; else gather
@@ -464,7 +508,7 @@ def _navigate(
         t_next = q_t[head] if head < nq else math.inf
         status = _advance(
             x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, tau_f,
-            out_t, out_x, out_p,
+            out_t, out_x, out_p, sm,
         )  # fmt: skip
         if status == _ADVANCE_DONE:
             return NAV_DONE
@@ -492,6 +536,8 @@ def _navigate(
             icur[I_N_LEDGER] = -n - 1
             return NAV_SINGULAR
         icur[I_N_LEDGER] = n
+        if sm[smk.SM_COUNT][smk.K_ON] != 0:
+            smk.node(sm, cur[uk.C_T], x, P, ws[uk.WS_DX], ws[uk.WS_PRIOR])
 
 
 class Navigator:
@@ -539,6 +585,8 @@ class Navigator:
         self._icur[I_EVERY] = config.output_every
         self._build_tables()
         self._allocate()
+        self._sm = smk.store(64, 16, config.layout.nominal_size, n, config.smooth)
+        self._smoothed: Smoothed | None = None
         self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
         self._record()
 
@@ -609,7 +657,7 @@ class Navigator:
                 sf[uk.F_GATE_Q] = ch.gate.q
             _pack_strategy(ch.strategy, R, d, si, sf, sx, self._rings[i])
         self._python_lin = bool(np.any(self._s_int[:, uk.S_CODE] == uk.LIN_PYTHON))
-        self._ws = uk.workspace(n, self.config.layout.n)
+        self._ws = uk.workspace(n, self.config.layout.n, self.config.smooth)
 
     @property
     def t(self) -> float:
@@ -742,11 +790,15 @@ class Navigator:
                 f"IMU: t must be (N,), dtheta and dvel (N, 3); got {tk.shape}, {dth.shape}, "
                 f"{dv.shape}"
             )
+        if self._smoothed is not None:
+            raise RuntimeError("the navigator has been smoothed: it takes no more IMU data")
         self._icur[I_START] = 0
         self._reserve_output(n // self.config.output_every + 2)
         self._sort_queue()
         while True:
-            self._reserve_ledger(self._q_idx.size - int(self._icur[I_HEAD]))
+            pending = self._q_idx.size - int(self._icur[I_HEAD])
+            self._reserve_ledger(pending)
+            self._reserve_nodes(n // self.config.output_every + 2, pending)
             status = _navigate(
                 self.x, self.P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
                 self._rates, self._icur, self._q, self._tau_a, self._tau_g,
@@ -754,7 +806,7 @@ class Navigator:
                 self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
                 self._s_flt, self._s_state, self._rings, self._kind,
                 self.config.reset_covariance, self._python_lin, self._lg_int, self._lg_flt,
-                self._ws,
+                self._ws, self._sm,
             )  # fmt: skip
             if status == NAV_DONE:
                 return
@@ -786,6 +838,8 @@ class Navigator:
                 f"the error covariance P is not finite at t = {self.t:.6g} s"
             )
         self._icur[I_N_LEDGER] = n
+        if self.config.smooth:
+            smk.node(self._sm, self.t, self.x, self.P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
 
     def _evaluate_in_python(self, head: int, g: int) -> None:
         """Linearise the group's readings of sensors without a compiled linearisation by their
@@ -896,6 +950,7 @@ class Navigator:
 
     def _record(self) -> None:
         self._reserve_output(1)
+        self._reserve_nodes(1, 0)
         n = int(self._icur[I_N_OUT])
         self._out_t[n] = self.t
         # The core's solution; declared states (errorstate.StateLayout) are in x and P.
@@ -903,6 +958,17 @@ class Navigator:
         self._out_p[n, :N_STATES] = np.diag(self.P)[:N_STATES]
         self._out_p[n, N_STATES:] = cross_terms(self.P)
         self._icur[I_N_OUT] = n + 1
+        if self.config.smooth:
+            smk.output_node(self._sm, n, self.t, self.x, self.P)
+
+    def _reserve_nodes(self, rows: int, readings: int) -> None:
+        """Room in the smoother's store for ``rows`` output rows and ``readings`` epochs."""
+        counts = self._sm[smk.SM_COUNT]
+        self._sm = smk.grown(
+            self._sm,
+            int(counts[smk.K_NODES]) + rows + readings,
+            int(counts[smk.K_PRIORS]) + readings,
+        )
 
     @property
     def records(self) -> _Records:
@@ -958,6 +1024,60 @@ class Navigator:
         self._icur[I_N_LEDGER] = n + rest.size
         self._icur[I_HEAD] = self._q_idx.size
 
+    def smoother_nodes(self) -> Nodes:
+        """The forward pass's node store as the readable smoother takes it
+        (:class:`adaptnav.estimation.smoother.Nodes`: full matrices, Φ with the identity on
+        declared blocks); before :meth:`smooth`, which overwrites the store."""
+        if not self.config.smooth or self._smoothed is not None:
+            raise RuntimeError("no forward store: smoothing is off or the store was smoothed")
+        sm = self._sm
+        counts = sm[smk.SM_COUNT]
+        N, n = int(counts[smk.K_NODES]), self.config.layout.n
+        iu = np.triu_indices(n)
+        P = np.zeros((N, n, n))
+        P[:, iu[0], iu[1]] = sm[smk.SM_P][:N]
+        P = P + np.triu(P, 1).transpose(0, 2, 1)
+        prior_idx = sm[smk.SM_PRIOR][:N]
+        Pm = np.zeros((int(counts[smk.K_PRIORS]), n, n))
+        Pm[:, iu[0], iu[1]] = sm[smk.SM_PM][: Pm.shape[0]]
+        Pm = Pm + np.triu(Pm, 1).transpose(0, 2, 1)
+        P_prior = np.where((prior_idx >= 0)[:, None, None], Pm[np.maximum(prior_idx, 0)], P)
+        Phi = np.tile(np.eye(n), (N, 1, 1))
+        Phi[:, :N_STATES, :N_STATES] = sm[smk.SM_PHI][:N].reshape(N, N_STATES, N_STATES)
+        return Nodes(
+            sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), sm[smk.SM_DX][:N].copy(), P,
+            P_prior, Phi, self.config.reset_covariance,
+            sm[smk.SM_OUT][: int(self._icur[I_N_OUT])].copy(),
+        )  # fmt: skip
+
+    def smooth(self) -> Smoothed:
+        """Run the RTS backward pass over everything fed so far (compiled.smoother.backward) and
+        return the smoothed solution at the output rows; the navigator then takes no more IMU
+        data (the store is smoothed in place). Needs :attr:`EngineConfig.smooth`."""
+        if not self.config.smooth:
+            raise RuntimeError("smoothing needs EngineConfig(smooth=True) from the start")
+        if self._smoothed is None:
+            sm = self._sm
+            smk.backward(sm, self.config.reset_covariance)
+            counts = sm[smk.SM_COUNT]
+            nodes, priors = int(counts[smk.K_NODES]), int(counts[smk.K_PRIORS])
+            rows = int(self._icur[I_N_OUT])
+            idx = sm[smk.SM_OUT][:rows]
+            n = self.config.layout.n
+            packed = sm[smk.SM_P][idx]
+            per_node = sum(sm[k][:1].nbytes for k in smk.NODE_ARRAYS)
+            self._smoothed = Smoothed(
+                self._out_t[:rows].copy(),
+                sm[smk.SM_X][idx, :NOM_SIZE].copy(),
+                packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES)]],
+                packed[:, [smk.packed_index(i, j, n) for i, j in P_CROSS_PAIRS]],
+                nodes,
+                priors,
+                int(counts[smk.K_FAILED]),
+                nodes * per_node + priors * sm[smk.SM_PM][:1].nbytes,
+            )
+        return self._smoothed
+
     def output(self) -> EngineOutput:
         n = int(self._icur[I_N_OUT])
         return EngineOutput(
@@ -970,6 +1090,7 @@ class Navigator:
             P_cross=self._out_p[:n, N_STATES:].copy(),
             events=self._events(),
             q_scale=float(self._rates[uk.R_Q, 0]),
+            smoothed=self.smooth() if self.config.smooth else None,
         )
 
 

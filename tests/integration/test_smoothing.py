@@ -1,0 +1,137 @@
+"""RTS smoothing in the engine (docs/smoothing.md) on synthetic missions whose IMU and sensor
+errors follow the filter's own model (tests/helpers/synthetic.py), without GNSS: storing the
+nodes leaves the forward pass as it was, the compiled backward pass equals the readable one over
+the stored nodes, and over a seeded Monte Carlo the smoothed solution is better than the forward
+one and as consistent."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.engine import batch as engine
+from adaptnav.estimation import smoother
+from adaptnav.estimation.noise import FixedNoise, VariationalBayes
+from adaptnav.models import errorstate
+from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.strapdown import NOM_SIZE
+from helpers import synthetic
+
+NAMES = ("dvl", "depth")
+
+
+def _run(seed: int, smooth: bool, vb: bool = False) -> tuple[engine.Navigator, synthetic.Dataset]:
+    ds = synthetic.make(seed, duration=120.0, sensors=NAMES)
+    periods = synthetic.periods()
+    strategy = VariationalBayes() if vb else FixedNoise()
+    channels = [
+        engine.SensorChannel(ds.models[n], periods[n], strategy)  # type: ignore[arg-type]
+        for n in NAMES
+    ]
+    nav = engine.Navigator(
+        engine.EngineConfig(synthetic.NOISE, smooth=smooth), channels, ds.x0_hat, ds.P0, ds.t0
+    )
+    for n in NAMES:
+        nav.feed_measurements(n, *ds.readings[n])
+    nav.feed_imu(ds.imu_t, ds.dt, ds.dtheta, ds.dvel)
+    nav.flush()
+    return nav, ds
+
+
+@pytest.mark.parametrize("vb", [False, True])
+def test_storing_nodes_leaves_the_forward_pass_bit_for_bit(vb: bool) -> None:
+    plain, with_store = _run(3, False, vb)[0].output(), _run(3, True, vb)[0].output()
+    assert plain.smoothed is None and with_store.smoothed is not None
+    for name in ("t", "x", "P_diag", "P_cross", "x_final", "P_final"):
+        np.testing.assert_array_equal(getattr(plain, name), getattr(with_store, name))
+    assert pd.DataFrame(plain.ledger).equals(pd.DataFrame(with_store.ledger))  # NaN-aware
+
+
+def test_compiled_smoothing_equals_the_readable_pass_over_the_stored_nodes() -> None:
+    nav, _ = _run(4, True, vb=True)
+    nodes = nav.smoother_nodes()
+    assert nodes.rows is not None
+    # Between nodes the store's P⁻ is the propagation of the previous P plus a PSD process
+    # noise: what RTS assumes.
+    for k in range(1, nodes.t.size):
+        Q = nodes.P_prior[k] - nodes.Phi[k] @ nodes.P[k - 1] @ nodes.Phi[k].T
+        d = np.sqrt(np.diag(nodes.P_prior[k]))
+        assert np.linalg.eigvalsh(Q / np.outer(d, d)).min() > -1e-9
+    x_s, P_s, _ = smoother.rts(nodes)
+    out = nav.output()
+    sm = out.smoothed
+    assert sm is not None and sm.failed == 0
+    rows = nodes.rows
+    np.testing.assert_allclose(sm.x, x_s[rows, :NOM_SIZE], rtol=0, atol=1e-9)
+    diag = np.diagonal(P_s[rows], axis1=1, axis2=2)[:, :N_STATES]
+    np.testing.assert_allclose(sm.P_diag, diag, rtol=1e-9)
+    np.testing.assert_array_equal(sm.t, out.t)
+    # the last row has nothing after it; every output row and epoch is a node
+    np.testing.assert_array_equal(sm.x[-1], out.x[-1])
+    assert sm.nodes == nodes.t.size and sm.update_nodes == int(np.sum(np.any(nodes.dx, axis=1)))
+    with pytest.raises(RuntimeError, match="smoothed"):
+        nav.feed_imu([1e9], 0.01, np.zeros((1, 3)), np.zeros((1, 3)))
+
+
+def _errors(out: engine.Smoothed | engine.EngineOutput, ds: synthetic.Dataset) -> np.ndarray:
+    idx = np.searchsorted(ds.truth_t, out.t - 1e-9)
+    return np.array(
+        [errorstate.difference(ds.truth[i], x)[:9] for i, x in zip(idx, out.x, strict=True)]
+    )
+
+
+def _nees(out: engine.Smoothed | engine.EngineOutput, errors: np.ndarray) -> list[float]:
+    """Mean NEES of the position, velocity and attitude blocks over the run."""
+    P = np.zeros((out.t.size, N_STATES, N_STATES))
+    P[:, range(N_STATES), range(N_STATES)] = out.P_diag
+    for (i, j), c in zip(engine.P_CROSS_PAIRS, out.P_cross.T, strict=True):
+        P[:, i, j] = P[:, j, i] = c
+    blocks = (slice(0, 3), slice(3, 6), slice(6, 9))
+    return [
+        float(
+            np.mean(
+                [e[b] @ np.linalg.solve(Pk[b, b], e[b]) for e, Pk in zip(errors, P, strict=True)]
+            )
+        )
+        for b in blocks
+    ]
+
+
+def test_monte_carlo_smoothed_is_better_where_observable_and_as_consistent() -> None:
+    """Ten seeds, 2 minutes each, DVL and depth (no GNSS). What the data observe - velocity,
+    depth, roll and pitch - the smoothed solution has with a clearly lower RMSE; horizontal
+    position and heading are not observed (their forward errors are the initial ones), so
+    smoothing cannot improve them and must not make them worse. Mean NEES of each block in the
+    band of tests/integration/test_consistency.py ([1, 4.5]; χ²(3) mean 3)."""
+    rms_f, rms_s, nees = [], [], []
+    for seed in range(20, 30):
+        nav, ds = _run(seed, True)
+        out = nav.output()
+        assert out.smoothed is not None
+        ef, es = _errors(out, ds), _errors(out.smoothed, ds)
+        rms_f.append(np.sqrt(np.mean(ef**2, axis=0)))
+        rms_s.append(np.sqrt(np.mean(es**2, axis=0)))
+        nees.append(_nees(out.smoothed, es))
+    f, s = np.mean(rms_f, axis=0), np.mean(rms_s, axis=0)
+    detail = f"RMSE forward {f.round(5)}, smoothed {s.round(5)}, NEES {np.round(nees, 2).tolist()}"
+    assert np.linalg.norm(s[3:6]) < 0.8 * np.linalg.norm(f[3:6]), detail  # velocity
+    assert s[2] < 0.5 * f[2], detail  # depth
+    assert np.linalg.norm(s[6:8]) < 0.9 * np.linalg.norm(f[6:8]), detail  # roll, pitch
+    assert np.linalg.norm(s[:2]) < 1.02 * np.linalg.norm(f[:2]), detail  # unobserved
+    assert s[8] < 1.02 * f[8], detail
+    for block, value in zip(
+        ("position", "velocity", "attitude"), np.mean(nees, axis=0), strict=True
+    ):
+        assert 1.0 <= value <= 4.5, f"{block}: {detail}"
+
+
+def test_smoothing_needs_its_store_from_the_start() -> None:
+    nav, _ = _run(3, False)
+    with pytest.raises(RuntimeError, match="smooth=True"):
+        nav.smooth()
+    with pytest.raises(RuntimeError, match="no forward store"):
+        nav.smoother_nodes()
+    assert replace(nav.config, smooth=True).smooth

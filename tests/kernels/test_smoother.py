@@ -1,0 +1,197 @@
+"""The RTS smoother (docs/smoothing.md): the readable backward pass against the exact posterior
+of a linear-Gaussian model, and the compiled pass (compiled/smoother.py) against it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+from adaptnav.compiled import smoother as smk
+from adaptnav.core import attitude
+from adaptnav.estimation import smoother
+from adaptnav.models.strapdown import NOM_SIZE
+
+Array = NDArray[np.float64]
+
+
+def _spd(rng: np.random.Generator, n: int, scales: Array) -> Array:
+    """A random SPD matrix with standard deviations ``scales`` and moderate correlations."""
+    A = rng.normal(size=(n, n))
+    C = A @ A.T + n * np.eye(n)
+    d = 1.0 / np.sqrt(np.diag(C))
+    return np.asarray(C * np.outer(d, d) * np.outer(scales, scales), dtype=float)
+
+
+def _nominal(rng: np.random.Generator, N: int, m: int) -> Array:
+    """N plausible nominal states (16 + m): position near 26.8° N, random attitude."""
+    x = np.zeros((N, NOM_SIZE + m))
+    x[:, 0] = math.radians(26.8) + rng.normal(0.0, 1e-4, N)
+    x[:, 1] = math.radians(56.0) + rng.normal(0.0, 1e-4, N)
+    x[:, 2] = rng.normal(0.0, 5.0, N)
+    x[:, 3:6] = rng.normal(0.0, 2.0, (N, 3))
+    for j in range(N):
+        x[j, 6:10] = attitude.euler_to_quat(*rng.uniform(-0.3, 0.3, 3))
+    x[:, 10:] = rng.normal(0.0, 1e-3, (N, 6 + m))
+    return x
+
+
+@pytest.fixture(name="linear")
+def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
+    """A closed-loop Kalman filter on a random linear-Gaussian model (15 states, 24 nodes, an
+    update at some of them, none at others - consecutive ones included), its nodes and its
+    filtered means; and the model, for the batch posterior."""
+    rng = np.random.default_rng(5)
+    n, N, d = 15, 24, 4
+    scales = np.logspace(1, -5, n)  # m-sized beside rad/s-sized states
+    Phi = np.stack([np.eye(n) + 0.05 * rng.normal(size=(n, n)) * np.outer(scales, 1 / scales)
+                    for _ in range(N)])  # fmt: skip
+    Q = np.stack([_spd(rng, n, 0.05 * scales) for _ in range(N)])
+    H = rng.normal(size=(d, n)) / scales
+    R = np.diag(rng.uniform(0.5, 2.0, d))
+    P0 = _spd(rng, n, scales)
+    updated = rng.random(N) < 0.6
+    updated[[5, 6, 7]] = False
+    truth = rng.multivariate_normal(np.zeros(n), P0)
+    z = np.zeros((N, d))
+    mean, P = np.zeros(n), P0.copy()
+    means, Ps, priors, dxs = [], [], [], []
+    for j in range(N):
+        if j > 0:
+            truth = Phi[j] @ truth + rng.multivariate_normal(np.zeros(n), Q[j])
+            mean, P = Phi[j] @ mean, Phi[j] @ P @ Phi[j].T + Q[j]
+        priors.append(P.copy())
+        dx = np.zeros(n)
+        if updated[j]:
+            z[j] = H @ truth + rng.multivariate_normal(np.zeros(d), R)
+            S = H @ P @ H.T + R
+            K = np.linalg.solve(S, H @ P).T
+            dx = K @ (z[j] - H @ mean)
+            IKH = np.eye(n) - K @ H
+            P = IKH @ P @ IKH.T + K @ R @ K.T
+            mean = mean + dx
+        means.append(mean.copy())
+        Ps.append(P.copy())
+        dxs.append(dx)
+    nodes = smoother.Nodes(
+        np.arange(N, dtype=float), _nominal(rng, N, 0), np.array(dxs), np.array(Ps),
+        np.array(priors), Phi, reset=False,
+    )  # fmt: skip
+    model = {"Phi": Phi, "Q": Q, "H": H, "R": R, "P0": P0, "z": z, "updated": updated}
+    return nodes, np.array(means), model
+
+
+def _batch_posterior(model: dict[str, Array]) -> tuple[Array, Array]:
+    """Mean and covariance of all the states given all the readings, from the joint Gaussian's
+    information form: prior N(0, P0) on the first state, x_j = Φ_j x_{j-1} + w_j,
+    z_j = H x_j + v_j where updated."""
+    Phi, Q, H, R, P0 = model["Phi"], model["Q"], model["H"], model["R"], model["P0"]
+    N, n = Phi.shape[0], Phi.shape[1]
+    J = np.zeros((N * n, N * n))
+    h = np.zeros(N * n)
+    J[:n, :n] += np.linalg.inv(P0)
+    for j in range(1, N):
+        Qi = np.linalg.inv(Q[j])
+        a, b = slice((j - 1) * n, j * n), slice(j * n, (j + 1) * n)
+        J[a, a] += Phi[j].T @ Qi @ Phi[j]
+        J[a, b] -= Phi[j].T @ Qi
+        J[b, a] -= Qi @ Phi[j]
+        J[b, b] += Qi
+    Ri = np.linalg.inv(R)
+    for j in np.flatnonzero(model["updated"]):
+        b = slice(j * n, (j + 1) * n)
+        J[b, b] += H.T @ Ri @ H
+        h[b] += H.T @ Ri @ model["z"][j]
+    cov = np.linalg.inv(J)
+    return (cov @ h).reshape(N, n), cov
+
+
+def test_rts_is_the_exact_posterior_of_a_linear_gaussian_model(
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]],
+) -> None:
+    nodes, means, model = linear
+    _, P_s, e_s = smoother.rts(nodes)
+    mu, cov = _batch_posterior(model)
+    n = means.shape[1]
+    for j in range(means.shape[0]):
+        block = cov[j * n : (j + 1) * n, j * n : (j + 1) * n]
+        sd = np.sqrt(np.diag(block))
+        np.testing.assert_allclose((means[j] + e_s[j] - mu[j]) / sd, 0.0, atol=1e-7)
+        np.testing.assert_allclose(P_s[j] / np.outer(sd, sd), block / np.outer(sd, sd),
+                                   atol=1e-7)  # fmt: skip
+    # the smoother used what came after: it differs from the filter but at the last node
+    assert np.abs(e_s[:-1]).max() > 0.0 and np.all(e_s[-1] == 0.0)
+    assert np.all(np.diag(P_s[0]) < np.diag(nodes.P[0]))
+
+
+def _store(nodes: smoother.Nodes) -> smk.Store:
+    """The compiled store holding ``nodes``, filled as the forward pass fills it."""
+    N, n = nodes.dx.shape
+    sm = smk.store(1, 1, nodes.x.shape[1], n, True)
+    sm = smk.grown(sm, N, N)
+    for j in range(N):
+        sm[smk.SM_ACC][: smk.CORE] = nodes.Phi[j][: smk.CORE, : smk.CORE]
+        has_update = bool(np.any(nodes.dx[j] != 0.0))
+        prior = nodes.P_prior[j] if has_update else np.empty((0, 0))
+        smk.node(sm, nodes.t[j], nodes.x[j], nodes.P[j], nodes.dx[j], prior)
+    return sm
+
+
+@pytest.mark.parametrize("declared", [0, 4])
+def test_compiled_backward_equals_the_twin(
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int
+) -> None:
+    """With the reset Jacobian and real nominal states; ``declared`` states beyond the core
+    (random walks, Φ = I there, as errorstate.StateLayout has them)."""
+    base, _, _ = linear
+    rng = np.random.default_rng(11)
+    N, n = base.dx.shape[0], 15 + declared
+    grow = np.eye(n)[None].repeat(N, axis=0)
+    P, P_prior, Phi = grow.copy(), grow.copy(), grow.copy()
+    extra = slice(15, n)
+    P[:, :15, :15], P_prior[:, :15, :15], Phi[:, :15, :15] = base.P, base.P_prior, base.Phi
+    P[:, extra, extra] *= 1e-4
+    P_prior[:, extra, extra] = P[:, extra, extra] + 1e-6 * np.eye(declared)
+    has_update = np.any(base.dx != 0.0, axis=1)
+    P_prior = np.where(has_update[:, None, None], P_prior, P)  # no update: P⁻ is P
+    dx = np.zeros((N, n))
+    dx[:, :15] = base.dx
+    dx[:, 6:9] = np.where(base.dx[:, 6:9] != 0.0, rng.normal(0.0, 0.02, (N, 3)), 0.0)
+    nodes = smoother.Nodes(base.t, _nominal(rng, N, declared), dx, P, P_prior, Phi, reset=True)
+    x_s, P_s, _ = smoother.rts(nodes)
+    sm = _store(nodes)
+    smk.backward(sm, True)
+    assert sm[smk.SM_COUNT][smk.K_FAILED] == 0
+    np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
+    got = np.zeros((N, n, n))
+    for j in range(N):
+        smk.unpack(sm[smk.SM_P][j], got[j])
+    sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
+    np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
+                               P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip
+
+
+def test_reset_inverse_undoes_the_reset_jacobian() -> None:
+    from adaptnav.models.errorstate import reset_jacobian
+
+    dx = np.zeros(15)
+    dx[6:9] = (0.03, -0.02, 0.05)
+    np.testing.assert_allclose(
+        smoother.reset_inverse(dx, 15, True) @ reset_jacobian(dx), np.eye(15), atol=1e-15
+    )
+    assert np.array_equal(smoother.reset_inverse(dx, 15, False), np.eye(15))
+
+
+def test_a_node_whose_prior_is_not_positive_definite_keeps_its_filtered_values(
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]],
+) -> None:
+    nodes, _, _ = linear
+    bad = nodes.P_prior.copy()
+    j = int(np.flatnonzero(np.any(nodes.dx != 0.0, axis=1))[-1])
+    bad[j] = -np.eye(15)
+    sm = _store(smoother.Nodes(nodes.t, nodes.x, nodes.dx, nodes.P, bad, nodes.Phi, False))
+    smk.backward(sm, False)
+    assert sm[smk.SM_COUNT][smk.K_FAILED] == 1
+    np.testing.assert_array_equal(sm[smk.SM_X][j - 1], nodes.x[j - 1])
