@@ -269,3 +269,26 @@ def test_load_errors(tmp_path: Path) -> None:
     (folder / "summary.json").write_text("{not json")
     with pytest.raises(RunFolderError, match=r"summary\.json"):
         load(folder)
+
+
+def test_a_smoothed_run_keeps_its_forward_solution(tmp_path: Path) -> None:
+    """docs/smoothing.md: ``solution`` is the smoothed one, ``forward.parquet`` the filter's; a
+    run saved later into the same folder without smoothing leaves no forward table behind."""
+    from dataclasses import replace
+
+    from adaptnav.engine.batch import Smoothed
+
+    out = synthetic_output()
+    smoothed = Smoothed(out.t, out.x + 1e-7, 0.5 * out.P_diag, 0.5 * out.P_cross, 9, 4, 0, 1234)
+    res = Result.from_engine(replace(out, smoothed=smoothed), "vb", "m1", {})
+    assert res.forward is not None and res.meta["smoother"]["store_bytes"] == 1234
+    np.testing.assert_array_equal(res.forward["lat_rad"], out.x[:, 0])
+    np.testing.assert_array_equal(res.solution["lat_rad"], out.x[:, 0] + 1e-7)
+    folder = save(res, tmp_path / "run")
+    assert (folder / "forward.parquet").is_file()
+    back = load(folder)
+    assert back.forward is not None
+    pd.testing.assert_frame_equal(back.forward, res.forward)
+    pd.testing.assert_frame_equal(back.solution, res.solution)
+    save(Result.from_engine(out, "vb", "m1", {}), folder)
+    assert not (folder / "forward.parquet").exists() and load(folder).forward is None

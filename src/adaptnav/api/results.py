@@ -26,10 +26,13 @@ units in the column names:
   ``file, line, field, action, detail`` (may be empty; ``line`` missing for a repair of a
   whole table or sensor).
 
+* ``forward``: a smoothed run's forward solution (its ``solution`` is then the RTS-smoothed
+  one, docs/smoothing.md), same columns; absent for a run that was not smoothed.
+
 A run folder holds ``solution.parquet``, ``ledger.parquet``, ``noise.parquet``,
-``repairs.parquet``, ``events.parquet`` and ``summary.json`` (filter, mission, meta, ledger
-counts per sensor and fate, event counts); :func:`save` writes it and :func:`load` reads it
-back.
+``repairs.parquet``, ``events.parquet``, ``forward.parquet`` for a smoothed run, and
+``summary.json`` (filter, mission, meta, ledger counts per sensor and fate, event counts);
+:func:`save` writes it and :func:`load` reads it back.
 """
 
 from __future__ import annotations
@@ -91,8 +94,9 @@ TABLE_FILES: dict[str, str] = {
     "noise": "noise.parquet",
     "repairs": "repairs.parquet",
     "events": "events.parquet",
+    "forward": "forward.parquet",
 }
-OPTIONAL_TABLES = ("events",)
+OPTIONAL_TABLES = ("events", "forward")
 """Tables a run folder written by an older version may lack (read as empty)."""
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "solution": REQUIRED_SOLUTION_COLUMNS,
@@ -100,6 +104,7 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
     "noise": NOISE_COLUMNS,
     "repairs": REPAIR_COLUMNS,
     "events": EVENT_COLUMNS,
+    "forward": REQUIRED_SOLUTION_COLUMNS,
 }
 _LEDGER_INT = ("row", "iterations")
 _LEDGER_STR = ("sensor", "fate", "reason")
@@ -126,11 +131,10 @@ class Result:
     None for a run that was not smoothed (docs/smoothing.md)."""
 
     def __post_init__(self) -> None:
-        tables = dict(_REQUIRED)
-        if self.forward is not None:
-            tables["forward"] = REQUIRED_SOLUTION_COLUMNS
-        for name, required in tables.items():
+        for name, required in _REQUIRED.items():
             table = getattr(self, name)
+            if table is None and name == "forward":
+                continue
             if not isinstance(table, pd.DataFrame):
                 raise TypeError(f"Result.{name} must be a pandas DataFrame, got {type(table)}")
             missing = [c for c in required if c not in table.columns]
@@ -402,7 +406,10 @@ def save(result: Result, run_dir: str | Path) -> Path:
     folder = Path(run_dir)
     folder.mkdir(parents=True, exist_ok=True)
     for name, filename in TABLE_FILES.items():
-        table: pd.DataFrame = getattr(result, name)
+        table: pd.DataFrame | None = getattr(result, name)
+        if table is None:  # not smoothed: no forward table, and none left from before
+            (folder / filename).unlink(missing_ok=True)
+            continue
         table.to_parquet(folder / filename, index=False)
     text = json.dumps(summary(result), indent=2, allow_nan=False)
     (folder / SUMMARY_FILE).write_text(text + "\n", encoding="utf-8")
@@ -445,7 +452,8 @@ def load(run_dir: str | Path) -> Result:
     for name, filename in TABLE_FILES.items():
         table_path = folder / filename
         if not table_path.is_file() and name in OPTIONAL_TABLES:
-            tables[name] = events_frame([])
+            if name == "events":
+                tables[name] = events_frame([])
             continue
         if not table_path.is_file():
             raise RunFolderError(f"run folder {folder}: missing {filename}")
@@ -466,4 +474,5 @@ def load(run_dir: str | Path) -> Result:
         meta=info["meta"],
         repairs=tables["repairs"],
         events=tables["events"],
+        forward=tables.get("forward"),
     )
