@@ -156,9 +156,9 @@ def _filter_mission(n: int, dt: float = 0.01, seed: int = 1) -> FilterMission:
     return FilterMission(x, np.diag(sd**2), t, dt, dth, dv, readings, sensors)
 
 
-def _run_filter(kind: FilterKind, m: FilterMission) -> engine.EngineOutput:
+def _run_filter(kind: FilterKind, m: FilterMission, smooth: bool = False) -> engine.EngineOutput:
     channels = build_channels(FilterSettings(kind=kind), m.sensors)
-    config = engine.EngineConfig(FILTER_NOISE)
+    config = engine.EngineConfig(FILTER_NOISE, smooth=smooth)
     return engine.run_batch(
         config, channels, m.x0, m.P0, 0.0, m.imu_t, m.dt, m.dtheta, m.dvel, m.readings
     )
@@ -205,7 +205,37 @@ def bench_filters() -> list[str]:
     return lines
 
 
-BENCHMARKS: list[Callable[[], list[str]]] = [bench_propagation, bench_filters]
+def bench_smoother() -> list[str]:
+    """RTS smoothing (docs/smoothing.md) on the mission of :func:`bench_filters`: the forward
+    pass that stores its nodes plus the backward pass, against the forward pass alone, round-robin,
+    best of 3 each; and the memory the store took per hour of 100-Hz IMU."""
+    n = 360_000
+    mission = _filter_mission(n)
+    warm = _filter_mission(500)
+    lines = []
+    for kind in ("vb", "robust"):
+        _run_filter(kind, warm, smooth=True)
+        forward, smoothed = (
+            partial(_run_filter, kind, mission),
+            partial(_run_filter, kind, mission, True),
+        )
+        best = [math.inf, math.inf]
+        for _ in range(3):
+            best[0] = min(best[0], best_time(forward, 1))
+            best[1] = min(best[1], best_time(smoothed, 1))
+        out = smoothed()
+        assert out.smoothed is not None
+        hours = n * mission.dt / 3600.0
+        lines.append(
+            f"smoother {kind}: {n / best[1]:.0f} IMU samples/s forward + backward (ratio to the "
+            f"forward pass alone, {n / best[0]:.0f}/s: {best[0] / best[1]:.2f}); store "
+            f"{out.smoothed.store_bytes / hours / 1e6:.0f} MB per hour of 100-Hz IMU "
+            f"({out.smoothed.nodes} nodes, {out.smoothed.update_nodes} with an update)"
+        )
+    return lines
+
+
+BENCHMARKS: list[Callable[[], list[str]]] = [bench_propagation, bench_filters, bench_smoother]
 
 
 def main() -> None:

@@ -33,7 +33,8 @@ CORE = 15
 
 Store = tuple[NDArray[Any], ...]
 """``(t (N,), x (N, 16 + m), dx (N, n), P (N, n(n+1)/2), Phi (N, 225), prior (N,) int64,
-P_prior (M, n(n+1)/2), acc (24, 15): Φ_acc and scratch rows, counters (N_COUNT,) int64,
+P_prior (M, n(n+1)/2), acc (24, 16): Φ_acc (rows 0-14, columns 0-14) and scratch,
+counters (N_COUNT,) int64,
 out (N,) int64: the node of each output row)``."""
 SM_T, SM_X, SM_DX, SM_P, SM_PHI, SM_PRIOR, SM_PM, SM_ACC, SM_COUNT, SM_OUT = range(10)
 K_NODES, K_PRIORS, K_STEPS, K_ON, K_FAILED = range(5)
@@ -64,7 +65,7 @@ def store(capacity: int, n_priors: int, nominal_size: int, n: int, on: bool) -> 
     return (
         np.zeros(c), np.zeros((c, nominal_size)), np.zeros((c, n)), np.zeros((c, k)),
         np.zeros((c, CORE * CORE)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
-        np.vstack([np.eye(CORE), np.zeros((9, CORE))]), counts, np.zeros(c, dtype=np.int64),
+        np.eye(CORE + 9, _W), counts, np.zeros(c, dtype=np.int64),
     )  # fmt: skip
 
 
@@ -123,18 +124,23 @@ def accumulate(sm: Store, PhiT: Array) -> None:
     if sm[SM_COUNT][K_ON] == 0:
         return
     acc = sm[SM_ACC]
+    # Rows padded to 16 (a zero column) with the width known only at run time: LLVM then
+    # vectorizes the row updates instead of unrolling them (as compiled.propagation does).
+    nw = acc.shape[1]
     for i in range(9):
-        for j in range(CORE):
-            s = 0.0
-            for k in range(CORE):
-                s += PhiT[k * _W + i] * acc[k, j]
-            acc[CORE + i, j] = s
+        r = CORE + i
+        for j in range(nw):
+            acc[r, j] = 0.0
+        for k in range(CORE):
+            a = PhiT[k * _W + i]
+            for j in range(nw):
+                acc[r, j] += a * acc[k, j]
     for i in range(9, CORE):
         d = PhiT[i * _W + i]
-        for j in range(CORE):
+        for j in range(nw):
             acc[i, j] *= d
     for i in range(9):
-        for j in range(CORE):
+        for j in range(nw):
             acc[i, j] = acc[CORE + i, j]
     sm[SM_COUNT][K_STEPS] += 1
 
@@ -272,15 +278,15 @@ def backward(sm: Store, reset: bool) -> None:
         unpack(sm[SM_P][j], Pj)
         Pf[:, :] = Pj
         phi = sm[SM_PHI][k]
-        for i in range(n):  # B = Φ P_j (Φ = I on declared blocks)
+        for i in range(n):  # B = Φ P_j (Φ = I on declared blocks); inner loops along rows
             for c in range(n):
-                if i < CORE:
-                    s = 0.0
-                    for m in range(CORE):
-                        s += phi[i * CORE + m] * Pj[m, c]
-                    B[i, c] = s
-                else:
-                    B[i, c] = Pj[i, c]
+                B[i, c] = 0.0 if i < CORE else Pj[i, c]
+            if i < CORE:
+                for m in range(CORE):
+                    a = phi[i * CORE + m]
+                    if a != 0.0:
+                        for c in range(n):
+                            B[i, c] += a * Pj[m, c]
         if not _gain_transpose(Pm, B, L, d):
             counts[K_FAILED] += 1
             for i in range(n):
@@ -294,16 +300,19 @@ def backward(sm: Store, reset: bool) -> None:
             e_s[i] = s
         for i in range(n):  # T = (P⁻s - P⁻) X
             for c in range(n):
-                s = 0.0
-                for m in range(n):
-                    s += Ps[i, m] * B[m, c]
-                T[i, c] = s
-        for i in range(n):  # P^s_j = P_j + Xᵀ T, symmetric
+                T[i, c] = 0.0
+            for m in range(n):
+                a = Ps[i, m]
+                for c in range(n):
+                    T[i, c] += a * B[m, c]
+        for i in range(n):  # P^s_j = P_j + Xᵀ T, upper triangle, then mirrored
             for c in range(i, n):
-                s = 0.0
-                for m in range(n):
-                    s += B[m, i] * T[m, c]
-                Ps[i, c] = Pj[i, c] + s
+                Ps[i, c] = Pj[i, c]
+        for m in range(n):
+            for i in range(n):
+                a = B[m, i]
+                for c in range(i, n):
+                    Ps[i, c] += a * T[m, c]
         for i in range(n):
             for c in range(i):
                 Ps[i, c] = Ps[c, i]
