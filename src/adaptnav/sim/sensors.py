@@ -152,15 +152,15 @@ MAX_CALIBRATION_ANGLE = 10.0 * DEG
 larger rotation is a mounting, which the mission states (``mounting_rpy_deg``)."""
 
 
-def _small_angles(name: str, values: Any, n: int) -> tuple[float, ...]:
+def _small_angles(label: str, values: Any, n: int) -> tuple[float, ...]:
     """``values`` as n finite floats within ±:data:`MAX_CALIBRATION_ANGLE` (rad)."""
     out = tuple(float(v) for v in values)
     if len(out) != n:
-        raise ValueError(f"{name} needs {n} angles, got {len(out)}")
+        raise ValueError(f"{label} needs {n} angles, got {len(out)}")
     for a in out:
         if not abs(a) <= MAX_CALIBRATION_ANGLE:  # also refuses NaN
             raise ValueError(
-                f"{name} angle {math.degrees(a):g}° is beyond ±{MAX_CALIBRATION_ANGLE / DEG:g}°"
+                f"{label} angle {math.degrees(a):g}° is beyond ±{MAX_CALIBRATION_ANGLE / DEG:g}°"
             )
     return out
 
@@ -196,8 +196,11 @@ class Calibration:
             raise ValueError(f"depth bias {b:g} m is not a finite number")
         object.__setattr__(self, "dvl_scale", s)
         object.__setattr__(self, "depth_bias", b)
-        for name, n in (("dvl_misalignment", 3), ("inclinometer_bias", 2)):
-            object.__setattr__(self, name, _small_angles(name, getattr(self, name), n))
+        for name, label, n in (
+            ("dvl_misalignment", "DVL misalignment", 3),
+            ("inclinometer_bias", "inclinometer bias", 2),
+        ):
+            object.__setattr__(self, name, _small_angles(label, getattr(self, name), n))
 
     def dvl(self, clean: Array) -> Array:
         """The DVL's readings (N, 3) from its error-free ones z: ``s C_mis z``."""
