@@ -21,14 +21,17 @@ The mission written (docs/data-format.md, docs/simulation.md):
   :func:`adaptnav.sim.kinematics.imu_increments` (exact) corrupted by
   :mod:`adaptnav.sim.imu_model`;
 * ``dvl``, ``depth``, ``inclinometer`` (use ``aid``), ``gps`` (use ``init``), ``heading`` (use
-  ``off``) tables by :mod:`adaptnav.sim.sensors`, with the injected truth in extra columns;
+  ``off``) tables by :mod:`adaptnav.sim.sensors`, with the injected truth in extra columns,
+  and one (use ``aid``) per :attr:`Scenario.extra_sensors`;
 * ``truth.parquet`` at 10 Hz, with the true biases and the sea-state level as extra columns;
 * ``mission.toml``: alignment over the static window, position from the GPS fixes in it,
   heading from the quay's charted bearing (σ 1°, :attr:`Scenario.initial_heading_sigma`), the
   IMU noise model and the *residual* turn-on σ as ``imu.initial_bias_sigma`` (what the
   alignment can calibrate: :mod:`adaptnav.sim.imu_model`), every sensor's nominal σ;
 * ``simulation.json``: seed, switches, the realised turn-on biases and scale factors, the
-  given heading's error, the DVL's segments, dropouts and outlier counts, clock offsets.
+  given heading's error, the DVL's segments, dropouts and outlier counts, clock offsets, and
+  the sensors' true calibration errors when there are some (``calibration``;
+  docs/simulation.md, 'Calibration errors').
 """
 
 from __future__ import annotations
