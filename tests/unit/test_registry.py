@@ -25,6 +25,7 @@ from adaptnav.sensors.kind import (
 )
 from adaptnav.sensors.registry import KINDS, LINEARISED
 from adaptnav.sim import kinematics, scenarios
+from adaptnav.sim import trajectory as tr
 from adaptnav.sim.sensors import GenericSpec
 from helpers.missions import config_dict
 
@@ -83,11 +84,22 @@ def test_a_kind_ideal_reading_is_what_its_model_predicts(name: str, model: str |
         np.testing.assert_allclose(meas.y, 0.0, atol=1e-9)
 
 
-def test_the_nhc_cannot_be_simulated() -> None:
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        (GenericSpec("nhc", 1.0, 0.1), "'nhc' declares no ideal_reading"),
+        (GenericSpec("gnss", 1.0, 2.0), r"columns \('lat_rad', 'lon_rad'\) are not all in m"),
+        (GenericSpec("depth", 1.0, 0.1), r"extra sensors \['depth'\]: each needs a name"),
+    ],
+    ids=["no ideal reading", "columns not in the unit of sigma", "a taken name"],
+)
+def test_what_the_generic_simulation_cannot_make_is_refused(
+    spec: GenericSpec, message: str
+) -> None:
     assert KINDS["nhc"].ideal_reading is None
-    sc = dataclasses.replace(scenarios.demo(), extra_sensors=(GenericSpec("nhc", 1.0, 0.1),))
-    with pytest.raises(ValueError, match="'nhc' declares no ideal_reading"):
-        scenarios.generate(sc, 1)
+    sc = dataclasses.replace(scenarios.demo(), extra_sensors=(spec,))
+    with pytest.raises(ValueError, match=message):
+        scenarios.sensor_tables(sc, tr.build(sc.trajectory), 1)
 
 
 def test_linearisation_codes_are_unique_and_packed() -> None:

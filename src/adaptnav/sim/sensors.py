@@ -204,7 +204,7 @@ class Calibration:
 
     def dvl(self, clean: Array) -> Array:
         """The DVL's readings (N, 3) from its error-free ones z: ``s C_mis z``."""
-        if any(self.dvl_misalignment):  # C_mis = I skipped: keeps an exact table's -0.0 signs
+        if any(self.dvl_misalignment):  # else C_mis = I: a product would only cost time
             # rows: (C_mis z)ᵀ = zᵀ C_misᵀ = zᵀ euler_to_dcm(δ)
             clean = clean @ attitude.euler_to_dcm(*self.dvl_misalignment)
         return self.dvl_scale * clean
