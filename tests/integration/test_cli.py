@@ -139,3 +139,48 @@ def test_bad_mission_gives_a_clear_error_not_a_traceback(tmp_path: Path) -> None
 def test_evaluate_needs_a_run_folder(tmp_path: Path) -> None:
     res = runner.invoke(app, ["evaluate", str(tmp_path / "nothing"), "--json"])
     assert res.exit_code == 2 and "Traceback" not in res.output
+
+
+# --- simulate: the sensors' true calibration errors (docs/simulation.md) ----------------------
+
+
+def test_simulate_calibration_flags_reach_simulation_json(tmp_path: Path) -> None:
+    out = tmp_path / "m"
+    args = ["simulate", "demo", "--out", str(out), "--dvl-scale", "1.01"]
+    args += ["--dvl-misalignment-deg", "0.5,-0.25,1", "--depth-bias-m", "-0.3"]
+    args += ["--inclinometer-bias-deg", "-0.5,0.2"]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    truth = json.loads((out / "simulation.json").read_text())["calibration"]
+    assert truth["dvl_scale_factor"] == 1.01 and truth["depth_bias_m"] == -0.3
+    assert truth["dvl_misalignment_deg"] == pytest.approx([0.5, -0.25, 1.0])
+    assert truth["dvl_misalignment_rad"] == pytest.approx(np.radians([0.5, -0.25, 1.0]).tolist())
+    assert truth["inclinometer_bias_deg"] == pytest.approx([-0.5, 0.2])
+    assert truth["inclinometer_bias_rad"] == pytest.approx(np.radians([-0.5, 0.2]).tolist())
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--dvl-scale", "abc"], "'abc' is not a number"),
+        (["--dvl-scale", "0"], "scale factor 0 is not within 1 ± 0.5"),
+        (["--dvl-scale", "101"], "scale factor 101 is not within"),
+        (["--dvl-misalignment-deg", "1,2"], "is not 3 comma-separated numbers (got 2 values)"),
+        (["--dvl-misalignment-deg", "0,x,1"], "'0,x,1' is not 3 comma-separated numbers"),
+        (["--dvl-misalignment-deg", "0,0,12"], "angle 12° is beyond ±10°"),
+        (["--depth-bias-m", "nan"], "depth bias nan m is not a finite number"),
+        (["--inclinometer-bias-deg", "0.1"], "is not 2 comma-separated numbers (got 1 values)"),
+        (["--inclinometer-bias-deg=-10.5,0"], "angle -10.5° is beyond ±10°"),
+    ],
+)
+def test_simulate_refuses_bad_calibration_values(
+    tmp_path: Path, args: list[str], message: str
+) -> None:
+    out = tmp_path / "m"
+    res = runner.invoke(app, ["simulate", "demo", "--out", str(out), *args])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    flag = args[0].split("=")[0]
+    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {flag}: "), res.output
+    assert message in lines[0]
+    assert not out.exists()

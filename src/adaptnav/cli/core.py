@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 
     from adaptnav.analysis.evaluate import Metrics
     from adaptnav.api.results import Result
+    from adaptnav.sim.sensors import Calibration
 
 
 @app.command()
@@ -242,6 +243,32 @@ def _ledger_table(metrics: Metrics) -> Table:
     return counts
 
 
+DvlScale = Annotated[
+    str | None,
+    typer.Option("--dvl-scale", metavar="S", help="true DVL scale factor (1.01: reads 1 % high)"),
+]
+DvlMisalignment = Annotated[
+    str | None,
+    typer.Option(
+        "--dvl-misalignment-deg",
+        metavar="ROLL,PITCH,YAW",
+        help="true DVL misalignment (deg): ZYX Euler angles of the true DVL frame from the "
+        "nominal one",
+    ),
+]
+DepthBias = Annotated[
+    str | None, typer.Option("--depth-bias-m", metavar="B", help="true depth-meter bias (m)")
+]
+InclinometerBias = Annotated[
+    str | None,
+    typer.Option(
+        "--inclinometer-bias-deg", metavar="ROLL,PITCH", help="true inclinometer biases (deg)"
+    ),
+]
+"""The ``simulate`` flags of the sensors' true calibration errors (docs/simulation.md,
+'Calibration errors'), parsed by :func:`_calibration`."""
+
+
 @app.command()
 def simulate(
     preset: Annotated[str, typer.Argument(help="paper-1 | paper-2 | demo")],
@@ -264,6 +291,10 @@ def simulate(
     disable: Annotated[
         list[str] | None, typer.Option("--disable", help="turn a disturbance off (repeatable)")
     ] = None,
+    dvl_scale: DvlScale = None,
+    dvl_misalignment_deg: DvlMisalignment = None,
+    depth_bias_m: DepthBias = None,
+    inclinometer_bias_deg: InclinometerBias = None,
     force: Force = False,
 ) -> None:
     """Simulate one of the paper's sea trials (or a short demo) as a mission folder.
@@ -275,13 +306,16 @@ def simulate(
     Disturbance names: waves, imu_white_noise, imu_in_run_bias, imu_turn_on_bias,
     imu_uncalibrated_turn_on, imu_scale_factor, sensor_noise, dvl_noise_segments,
     dvl_outliers, dvl_dropouts, depth_sea_state, inclinometer_pendulum, clock_offsets,
-    clock_jitter (see docs/simulation.md).
+    clock_jitter (see docs/simulation.md). The sensors are perfectly calibrated unless
+    --dvl-scale, --dvl-misalignment-deg, --depth-bias-m or --inclinometer-bias-deg give them
+    true calibration errors (saved in simulation.json; docs/simulation.md, 'Calibration
+    errors'); e.g. --dvl-misalignment-deg 0,0,1 --inclinometer-bias-deg=-0.2,0.1.
     """
     from dataclasses import fields, replace
 
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
-    from adaptnav.sim.sensors import Disturbances
+    from adaptnav.sim.sensors import NO_CALIBRATION, Disturbances
 
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
@@ -294,11 +328,58 @@ def simulate(
             if name not in known:
                 _fail(f"unknown disturbance {name!r}; known: {', '.join(sorted(known))}")
             d = replace(d, **{name: value})
+    cal = _calibration(dvl_scale, dvl_misalignment_deg, depth_bias_m, inclinometer_bias_deg)
     with output(out, force) as tmp:
-        run_simulation(preset, seed, tmp, d)
+        run_simulation(preset, seed, tmp, d, cal)
     on = [k for k, v in d.as_dict().items() if v]
     console.print(f"mission {preset} (seed {seed}) written to {out}")
     console.print(f"disturbances on: {', '.join(on) or 'none'}")
+    if cal != NO_CALIBRATION:
+        console.print("true calibration errors: in simulation.json")
+
+
+def _calibration(
+    dvl_scale: str | None,
+    dvl_misalignment_deg: str | None,
+    depth_bias_m: str | None,
+    inclinometer_bias_deg: str | None,
+) -> Calibration:
+    """The sensors' true calibration errors from ``simulate``'s flags (degrees to rad); a bad
+    value fails naming its flag (docs/simulation.md, 'Calibration errors')."""
+    from dataclasses import replace
+
+    from adaptnav.core.units import DEG
+    from adaptnav.sim.sensors import NO_CALIBRATION
+
+    given = (
+        ("--dvl-scale", dvl_scale, "dvl_scale", 1, 1.0),
+        ("--dvl-misalignment-deg", dvl_misalignment_deg, "dvl_misalignment", 3, DEG),
+        ("--depth-bias-m", depth_bias_m, "depth_bias", 1, 1.0),
+        ("--inclinometer-bias-deg", inclinometer_bias_deg, "inclinometer_bias", 2, DEG),
+    )
+    cal = NO_CALIBRATION
+    for flag, text, name, count, unit in given:
+        if text is None:
+            continue
+        values = tuple(v * unit for v in _numbers(flag, text, count))
+        value: Any = values if count > 1 else values[0]
+        try:
+            cal = replace(cal, **{name: value})
+        except ValueError as exc:
+            _fail(f"{flag}: {exc}")
+    return cal
+
+
+def _numbers(flag: str, text: str, count: int) -> tuple[float, ...]:
+    """``count`` comma-separated numbers of ``flag``'s value ``text``, or a failure naming it."""
+    parts = text.split(",")
+    wanted = "a number" if count == 1 else f"{count} comma-separated numbers"
+    if len(parts) != count:
+        _fail(f"{flag}: {text!r} is not {wanted} (got {len(parts)} values)")
+    try:
+        return tuple(float(p) for p in parts)
+    except ValueError:
+        _fail(f"{flag}: {text!r} is not {wanted}")
 
 
 @app.command()

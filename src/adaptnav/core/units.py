@@ -96,6 +96,11 @@ def factor(unit: str, kind: Kind, field: str = "value") -> float:
     return table[key]
 
 
+def si_unit(kind: Kind) -> str:
+    """The SI spelling of a quantity of ``kind`` (its unit of factor 1): ``"m/s"``, ``"rad"``."""
+    return next(u for u, f in _FACTORS[kind].items() if f == 1.0)
+
+
 def to_si(
     value: float, unit: str, kind: Kind, field: str = "value", allow_negative: bool = False
 ) -> float:

@@ -36,7 +36,13 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.sensors.kind import SLOW_STUCK_S, SensorKind, StuckDefault, pack_params
+from adaptnav.sensors.kind import (
+    SLOW_STUCK_S,
+    IdealInput,
+    SensorKind,
+    StuckDefault,
+    pack_params,
+)
 
 DIM = 1
 
@@ -105,6 +111,11 @@ class Depth(Components):
         return Measurement(zz - self.predict(x), self.jacobian(x), self.R, self.names)
 
 
+def ideal(t: IdealInput) -> Array:
+    """Error-free readings (N, 1): :func:`predict` at each true state."""
+    return t.each(lambda i: predict(t.x[i], t.l_b), DIM)
+
+
 DEPTH_RESOLUTION_M = 1e-4
 """0.1 mm: a tenth of the 1 mm step of a fine depth meter's output."""
 
@@ -117,6 +128,7 @@ KIND = SensorKind(
     stuck=StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
     lever_arm=True,
     linearised=(Depth,),
+    ideal_reading=ideal,
 )
 """The depth meter as a sensor kind (sensors/kind.py): depth in [-100, 12000] m (above the
 surface / below the deepest trench); stuck after 60 s within 0.1 mm (docs/robustness.md)."""

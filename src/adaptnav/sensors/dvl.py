@@ -43,6 +43,7 @@ from adaptnav.sensors.base import (
 from adaptnav.sensors.kind import (
     MAX_SPEED_M_S,
     SPEED_RESOLUTION_M_S,
+    IdealInput,
     SensorKind,
     StuckDefault,
     pack_params,
@@ -152,6 +153,12 @@ vector is a frozen driver; it is longer than a ping interval, even in deep water
 holds the last ping until the next one repeats it that long)."""
 COLUMNS = ("vx_m_s", "vy_m_s", "vz_m_s")
 
+
+def ideal(t: IdealInput) -> Array:
+    """Error-free readings (N, 3): :func:`predict` at each true state and body rate."""
+    return t.each(lambda i: predict(t.x[i], t.omega_ib_b[i], t.l_b, t.C_sb), DIM)
+
+
 KIND = SensorKind(
     name="dvl",
     columns=COLUMNS,
@@ -163,6 +170,7 @@ KIND = SensorKind(
     mounting=True,
     options=frozenset({"zero_is_lost", "status_column"}),
     linearised=(DVL,),
+    ideal_reading=ideal,
 )
 """The DVL as a sensor kind (sensors/kind.py): |velocity| <= 20 m/s per axis; stuck after 10 s
 within 0.01 mm/s (docs/robustness.md)."""

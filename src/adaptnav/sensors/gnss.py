@@ -49,7 +49,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.sensors.kind import SensorKind, StuckDefault, pack_params
+from adaptnav.sensors.kind import IdealInput, SensorKind, StuckDefault, pack_params
 
 
 def _lever_n(x: Array, l_b: ArrayLike) -> Array:
@@ -167,6 +167,12 @@ class GNSS(Components):
         return Measurement(y, self.jacobian(x), self.R, self.names)
 
 
+def ideal(t: IdealInput) -> Array:
+    """Error-free fixes (N, 3) of the antenna, height included: :func:`predict` at each true
+    state."""
+    return t.each(lambda i: predict(t.x[i], t.l_b, use_height=True), 3)
+
+
 LATLON_RESOLUTION_RAD = 1e-11
 """0.06 mm on the earth: below the steps of RTKLIB's output (1e-7° = 1.7e-9 rad in the car
 data of docs/rtklib.md, 1e-9° at its finest)."""
@@ -197,6 +203,7 @@ KIND = SensorKind(
     options=frozenset({"use_height"}),
     optional_columns=1,
     linearised=(GNSS,),
+    ideal_reading=ideal,
 )
 """GNSS (or USBL) fixes as a sensor kind (sensors/kind.py): latitude within ±90°, longitude in
 [-180°, 360°], height in [-12 km, 100 km]; no stuck detection (docs/robustness.md)."""

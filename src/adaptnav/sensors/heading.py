@@ -39,6 +39,7 @@ from adaptnav.sensors.base import (
 from adaptnav.sensors.kind import (
     ANGLE_RESOLUTION_RAD,
     SLOW_STUCK_S,
+    IdealInput,
     SensorKind,
     StuckDefault,
     pack_params,
@@ -114,6 +115,11 @@ class Heading(Components):
         return Measurement(y, self.jacobian(x), self.R, self.names)
 
 
+def ideal(t: IdealInput) -> Array:
+    """Error-free readings (N, 1): :func:`predict` at each true state."""
+    return t.each(lambda i: predict(t.x[i], t.C_sb), DIM)
+
+
 KIND = SensorKind(
     name="heading",
     columns=("yaw_rad",),
@@ -123,6 +129,7 @@ KIND = SensorKind(
     stuck=StuckDefault(SLOW_STUCK_S, {"yaw_rad": ANGLE_RESOLUTION_RAD}),
     mounting=True,
     linearised=(Heading,),
+    ideal_reading=ideal,
 )
 """The heading sensor as a sensor kind (sensors/kind.py): heading within ±360°; stuck after
 60 s within 1e-6 rad (docs/robustness.md)."""

@@ -72,6 +72,7 @@ from adaptnav.sensors.kind import (
     ANGLE_RESOLUTION_RAD,
     HALF_PI,
     SLOW_STUCK_S,
+    IdealInput,
     SensorKind,
     SensorSetup,
     StuckDefault,
@@ -249,6 +250,15 @@ def _build(s: SensorSetup) -> Inclinometer | PendulumInclinometer:
     return PendulumInclinometer(s.sigma, s.C_sb, s.name)
 
 
+def ideal(t: IdealInput) -> Array:
+    """Error-free readings (N, 2) of the ``model`` :func:`_build` would make: the attitude's
+    roll and pitch (:func:`predict`) for ``"attitude"``, else the pendulum's tilt of the true
+    specific force at the sensor, ``tilt(C_sb f_b)`` (module docstring)."""
+    if t.model == "attitude":
+        return t.each(lambda i: predict(t.x[i], t.C_sb), DIM)
+    return tilt(t.f_b if t.C_sb is None else t.f_b @ np.asarray(t.C_sb, dtype=float).T)
+
+
 KIND = SensorKind(
     name="inclinometer",
     columns=("roll_rad", "pitch_rad"),
@@ -259,6 +269,7 @@ KIND = SensorKind(
     mounting=True,
     options=frozenset({"model"}),
     linearised=(Inclinometer, PendulumInclinometer),
+    ideal_reading=ideal,
 )
 """The inclinometer as a sensor kind (sensors/kind.py): angles within ±90°; stuck after 60 s
 within 1e-6 rad (docs/robustness.md); ``model``: docs/inclinometer.md."""

@@ -4,9 +4,11 @@ compiled epoch need to know about it, declared once in the sensor's own module.
 Each sensor module (``sensors/dvl.py``, ...) ends with ``KIND = SensorKind(...)``: its table
 columns, the unit of its σ, whether it has a lever arm and a mounting rotation, its plausible
 ranges and stuck-reading defaults (docs/robustness.md), the kind-specific options of its
-``[sensors.<name>]`` section and how to build its measurement model from them (the simulator
-still generates each kind's readings in its own function, ``adaptnav.sim.sensors``).
-:mod:`adaptnav.sensors.registry` lists the kinds; docs/architecture.md, 'Adding a sensor'.
+``[sensors.<name>]`` section, how to build its measurement model from them, and
+``ideal_reading``: its error-free readings of the true motion, which the simulator
+(``adaptnav.sim.sensors``) starts every reading of the kind from before adding the kind's
+disturbances (docs/simulation.md). :mod:`adaptnav.sensors.registry` lists the kinds;
+docs/architecture.md, 'Adding a sensor'.
 
 A model class with a compiled linearisation declares ``LIN_CODE`` (its branch in the kernel's
 ``linearise``, ``adaptnav.compiled.update``) and ``lin_params()``, its parameters packed as
@@ -86,6 +88,33 @@ class SensorSetup:
     model: str | None = None
 
 
+@dataclass(frozen=True, eq=False)
+class IdealInput:
+    """The truth a kind's ``ideal_reading`` reads, at N sampling instants, and the sensor's
+    installation (what the simulator hands it; docs/simulation.md, 'Aiding sensors')."""
+
+    x: Array
+    """True nominal states (N, 16), laid out as models/strapdown.py (biases zero)."""
+    omega_ib_b: Array
+    """True body rate (N, 3), rad/s."""
+    f_b: Array
+    """True specific force at the IMU (N, 3), m/s²."""
+    l_b: Array = field(default_factory=lambda: np.zeros(3))
+    """Lever arm from the IMU to the sensor, body FRD (m)."""
+    C_sb: Array | None = None
+    """Mounting rotation, sensor frame from body frame; None: aligned with the body."""
+    model: str | None = None
+    """The kind's ``model`` option, for a kind with several (the inclinometer's)."""
+
+    def each(self, h: Callable[[int], ArrayLike], dim: int) -> Array:
+        """(N, dim): ``h(i)`` of every instant i, for the readable models' one-state
+        ``predict`` functions."""
+        out = np.empty((self.x.shape[0], dim))
+        for i in range(out.shape[0]):
+            out[i] = h(i)
+        return out
+
+
 @dataclass(frozen=True)
 class SensorKind:
     """One kind of aiding sensor (module docstring)."""
@@ -107,6 +136,10 @@ class SensorKind:
     """Trailing columns present only with an option (the GNSS height, with ``use_height``)."""
     linearised: tuple[type, ...] = field(default=())
     """Its model classes that have a compiled linearisation (``LIN_CODE``, ``lin_params``)."""
+    ideal_reading: Callable[[IdealInput], Array] | None = None
+    """Its error-free readings (N, len(columns)) of the true motion, in the SI units of
+    :attr:`columns` (optional ones included): the filter's own ``predict`` at the truth, so that
+    the simulator and the filter share every convention. None: the simulator cannot make it."""
 
     def dims(self) -> tuple[int, ...]:
         """The numbers of components it can have (with and without its optional columns)."""

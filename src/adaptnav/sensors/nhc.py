@@ -128,4 +128,5 @@ KIND = SensorKind(
     linearised=(NonHolonomic,),
 )
 """The non-holonomic constraint as a sensor kind (sensors/kind.py); its readings are zeros
-(the RTKLIB importer writes them, docs/rtklib.md)."""
+(the RTKLIB importer writes them, docs/rtklib.md), so it has no ``ideal_reading``: the simulator
+does not make it."""

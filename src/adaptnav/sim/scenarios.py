@@ -21,14 +21,17 @@ The mission written (docs/data-format.md, docs/simulation.md):
   :func:`adaptnav.sim.kinematics.imu_increments` (exact) corrupted by
   :mod:`adaptnav.sim.imu_model`;
 * ``dvl``, ``depth``, ``inclinometer`` (use ``aid``), ``gps`` (use ``init``), ``heading`` (use
-  ``off``) tables by :mod:`adaptnav.sim.sensors`, with the injected truth in extra columns;
+  ``off``) tables by :mod:`adaptnav.sim.sensors`, with the injected truth in extra columns,
+  and one (use ``aid``) per :attr:`Scenario.extra_sensors`;
 * ``truth.parquet`` at 10 Hz, with the true biases and the sea-state level as extra columns;
 * ``mission.toml``: alignment over the static window, position from the GPS fixes in it,
   heading from the quay's charted bearing (σ 1°, :attr:`Scenario.initial_heading_sigma`), the
   IMU noise model and the *residual* turn-on σ as ``imu.initial_bias_sigma`` (what the
   alignment can calibrate: :mod:`adaptnav.sim.imu_model`), every sensor's nominal σ;
 * ``simulation.json``: seed, switches, the realised turn-on biases and scale factors, the
-  given heading's error, the DVL's segments, dropouts and outlier counts, clock offsets.
+  given heading's error, the DVL's segments, dropouts and outlier counts, clock offsets, and
+  the sensors' true calibration errors when there are some (``calibration``;
+  docs/simulation.md, 'Calibration errors').
 """
 
 from __future__ import annotations
@@ -46,15 +49,18 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.core import attitude
-from adaptnav.core.units import DEG, G0
+from adaptnav.core.units import DEG, G0, si_unit
 from adaptnav.mission import MissionConfig, parse_config, write_mission
+from adaptnav.sensors.registry import KINDS
 from adaptnav.sim import imu_model, kinematics, sensors
 from adaptnav.sim import trajectory as tr
 from adaptnav.sim.imu_model import PAPER_IMU, ImuErrorModel, ImuErrors
 from adaptnav.sim.sensors import (
+    Calibration,
     DepthSpec,
     Disturbances,
     DvlSpec,
+    GenericSpec,
     GpsSpec,
     HeadingSpec,
     InclinometerSpec,
@@ -65,7 +71,9 @@ Array = NDArray[np.float64]
 
 __all__ = [
     "PRESETS",
+    "Calibration",
     "Disturbances",
+    "GenericSpec",
     "Scenario",
     "SimulatedMission",
     "generate",
@@ -108,6 +116,9 @@ class Scenario:
             the simulator applies unless ``Disturbances.imu_uncalibrated_turn_on``.
         imu_rate_hz, truth_rate_hz: rates of the IMU and truth tables.
         dvl, depth, inclinometer, heading, gps: the sensors.
+        extra_sensors: registered kinds without a function of their own in
+            :mod:`adaptnav.sim.sensors`, simulated from their declarations (``ideal_reading``
+            plus white noise) and written with ``use = "aid"``; none in the presets.
         cruise_speed: speed (m/s) at which the DVL's nominal σ is written to the config.
         initial_heading_sigma: σ (rad) of the heading written to ``[initial]`` (the quay's
             bearing; the alignment uses it if the gyrocompass is worse); None: none written.
@@ -126,6 +137,7 @@ class Scenario:
     inclinometer: InclinometerSpec = field(default_factory=InclinometerSpec)
     heading: HeadingSpec = field(default_factory=HeadingSpec)
     gps: GpsSpec = field(default_factory=GpsSpec)
+    extra_sensors: tuple[GenericSpec, ...] = ()
     cruise_speed: float = 2.3
     initial_heading_sigma: float | None = 1.0 * DEG
     paper_distance: float | None = None
@@ -365,11 +377,40 @@ def _sensor_sections(sc: Scenario, pendulum: bool) -> dict[str, Any]:
             "lever_arm_m": list(sc.gps.lever_arm),
             "use": "init",
         },
+        **{g.key: _generic_section(g) for g in sc.extra_sensors},
     }
 
 
-def _streams(seed: int) -> dict[str, np.random.SeedSequence]:
-    return dict(zip(_STREAMS, np.random.SeedSequence(seed).spawn(len(_STREAMS)), strict=True))
+def _generic_section(g: GenericSpec) -> dict[str, Any]:
+    """``[sensors.<name>]`` of a kind simulated from its declaration: σ in its SI unit."""
+    kind = KINDS[g.kind]
+    section: dict[str, Any] = {
+        "kind": g.kind,
+        "file": f"{g.key}.parquet",
+        "sigma": [g.sigma, si_unit(kind.sigma_kind)],
+        "rate_hz": g.rate_hz,
+        "use": "aid",
+    }
+    if kind.lever_arm:
+        section["lever_arm_m"] = list(g.lever_arm)
+    return section
+
+
+def _streams(seed: int, extra: tuple[str, ...] = ()) -> dict[str, np.random.SeedSequence]:
+    """The error sources' streams by name: :data:`_STREAMS`, then a clock and a noise stream
+    per extra sensor (spawned after the fixed ones, which they leave unchanged)."""
+    names = _STREAMS + tuple(f"{k}_{s}" for k in extra for s in ("clock", "noise"))
+    return dict(zip(names, np.random.SeedSequence(seed).spawn(len(names)), strict=True))
+
+
+def _extra_keys(sc: Scenario) -> tuple[str, ...]:
+    """The extra sensors' names, refused if they repeat or take a table's name."""
+    keys = tuple(g.key for g in sc.extra_sensors)
+    taken = {"imu", "truth", "dvl", "depth", "inclinometer", "heading", "gps"}
+    clash = sorted(k for k in set(keys) if keys.count(k) > 1 or k in taken)
+    if clash:
+        raise ValueError(f"extra sensors {clash}: each needs a name of its own")
+    return keys
 
 
 def sensor_tables(
@@ -377,14 +418,19 @@ def sensor_tables(
     trajectory: tr.Trajectory,
     seed: int,
     disturbances: Disturbances | None = None,
+    calibration: Calibration | None = None,
 ) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
-    """The aiding sensors' tables (keyed dvl, depth, inclinometer, heading, gps) of
-    ``scenario`` on its built ``trajectory``, exactly as :func:`generate` makes them for this
-    seed, and what was injected (``simulation.json``'s ``dvl`` and ``clock_first_sample_s``).
+    """The aiding sensors' tables (keyed dvl, depth, inclinometer, heading, gps and the extra
+    sensors' names) of ``scenario`` on its built ``trajectory``, exactly as :func:`generate`
+    makes them for this seed, and what was injected (``simulation.json``'s ``dvl`` and
+    ``clock_first_sample_s``). ``calibration``: the sensors' true calibration errors (default
+    none; docs/simulation.md, 'Calibration errors').
     """
     sc = scenario
     dist = disturbances if disturbances is not None else Disturbances()
-    rngs = {k: np.random.default_rng(s) for k, s in _streams(seed).items() if k != "imu"}
+    cal = calibration if calibration is not None else sensors.NO_CALIBRATION
+    streams = _streams(seed, _extra_keys(sc))
+    rngs = {k: np.random.default_rng(s) for k, s in streams.items() if k != "imu"}
     duration = trajectory.duration
 
     def clock(name: str, rate_hz: float, jitter: float) -> Truth:
@@ -395,19 +441,25 @@ def sensor_tables(
 
     dvl_truth = clock("dvl", sc.dvl.rate_hz, sc.dvl.jitter)
     dvl_rng = {k: rngs[f"dvl_{k}"] for k in ("noise", "segments", "outliers", "dropouts")}
-    dvl_df, dvl_info = sensors.dvl(sc.dvl, dvl_truth, trajectory.static_end, dvl_rng, dist)
+    dvl_df, dvl_info = sensors.dvl(sc.dvl, dvl_truth, trajectory.static_end, dvl_rng, dist, cal)
     depth_truth = clock("depth", sc.depth.rate_hz, sc.depth.jitter)
     incl_truth = clock("inclinometer", sc.inclinometer.rate_hz, sc.inclinometer.jitter)
     head_truth = clock("heading", sc.heading.rate_hz, sc.heading.jitter)
     gps_truth = clock("gps", sc.gps.rate_hz, sc.gps.jitter)
     tables = {
         "dvl": dvl_df,
-        "depth": sensors.depth(sc.depth, depth_truth, rngs["depth_noise"], dist),
+        "depth": sensors.depth(sc.depth, depth_truth, rngs["depth_noise"], dist, cal),
         "inclinometer": sensors.inclinometer(
-            sc.inclinometer, incl_truth, rngs["inclinometer_noise"], dist
+            sc.inclinometer, incl_truth, rngs["inclinometer_noise"], dist, cal
         ),
         "heading": sensors.heading(sc.heading, head_truth, rngs["heading_noise"], dist),
         "gps": sensors.gps(sc.gps, gps_truth, rngs["gps_noise"], dist),
+        **{
+            g.key: sensors.generic(
+                g, clock(g.key, g.rate_hz, g.jitter), rngs[f"{g.key}_noise"], dist
+            )
+            for g in sc.extra_sensors
+        },
     }
     info: dict[str, Any] = {
         "dvl": dvl_info,
@@ -419,9 +471,13 @@ def sensor_tables(
 
 
 def generate(
-    scenario: Scenario, seed: int, disturbances: Disturbances | None = None
+    scenario: Scenario,
+    seed: int,
+    disturbances: Disturbances | None = None,
+    calibration: Calibration | None = None,
 ) -> SimulatedMission:
-    """Generate the mission of ``scenario`` in memory (see the module docstring)."""
+    """Generate the mission of ``scenario`` in memory (see the module docstring), with the
+    sensors' true ``calibration`` errors (default none)."""
     sc = scenario
     dist = disturbances if disturbances is not None else Disturbances()
     streams = _streams(seed)
@@ -429,7 +485,7 @@ def generate(
     model = sc.imu if dist.imu_uncalibrated_turn_on else sc.calibrated_imu
     imu_df, errs = _imu_table(sc, traj, model, streams["imu"], dist)
     truth_df = _truth_table(sc, traj, errs, dist)
-    sensor_dfs, sensor_info = sensor_tables(sc, traj, seed, dist)
+    sensor_dfs, sensor_info = sensor_tables(sc, traj, seed, dist, calibration)
     heading_err, heading_deg = _initial_heading(
         sc, traj, np.random.default_rng(streams["initial_heading"]), dist
     )
@@ -464,6 +520,8 @@ def generate(
         **sensor_info,
         "segments": [[s.kind, s.start, s.end] for s in traj.spans],
     }
+    if calibration is not None and calibration != sensors.NO_CALIBRATION:
+        meta["calibration"] = calibration.as_dict()
     tables = {"imu": imu_df, **sensor_dfs, "truth": truth_df}
     return SimulatedMission(config, tables, errs, traj, meta)
 
@@ -552,10 +610,14 @@ def _initial_heading(
 
 
 def simulate_scenario(
-    scenario: Scenario, seed: int, out: Path, disturbances: Disturbances | None = None
+    scenario: Scenario,
+    seed: int,
+    out: Path,
+    disturbances: Disturbances | None = None,
+    calibration: Calibration | None = None,
 ) -> Path:
     """Generate ``scenario`` and write it to the folder ``out``; returns the folder."""
-    sim = generate(scenario, seed, disturbances)
+    sim = generate(scenario, seed, disturbances, calibration)
     root = Path(out)
     write_mission(root, sim.config, sim.tables, fmt="parquet")
     (root / "simulation.json").write_text(
@@ -564,12 +626,19 @@ def simulate_scenario(
     return root
 
 
-def simulate(preset: str, seed: int, out: Path, disturbances: Disturbances | None = None) -> Path:
+def simulate(
+    preset: str,
+    seed: int,
+    out: Path,
+    disturbances: Disturbances | None = None,
+    calibration: Calibration | None = None,
+) -> Path:
     """Simulate the preset ``paper-1``, ``paper-2`` or ``demo`` with ``seed`` into ``out``
-    (a mission folder, created if needed) and return it; ``disturbances`` default: all on."""
+    (a mission folder, created if needed) and return it; ``disturbances`` default: all on;
+    ``calibration`` (the sensors' true calibration errors) default: none."""
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r} (known: {', '.join(PRESETS)})")
-    return simulate_scenario(PRESETS[preset](), seed, out, disturbances)
+    return simulate_scenario(PRESETS[preset](), seed, out, disturbances, calibration)
 
 
 def table_hashes(folder: Path) -> dict[str, str]:

@@ -1,8 +1,9 @@
 """Aiding sensors of the simulator: clean readings by the filter's own models, then disturbances.
 
-Every clean reading is the sensor model's ``predict`` (:mod:`adaptnav.sensors`) at the true
-state, so the simulator and the filter share one convention for every frame, lever arm and
-angle. What is added on top (docs/simulation.md, 'What makes adaptation matter'):
+Every clean reading is the error-free reading its kind declares, ``ideal_reading`` in
+``sensors/<kind>.py`` (:func:`ideal`), which is the filter's ``predict`` at the true state, so
+the simulator and the filter share one convention for every frame, lever arm and angle. What is
+added on top (docs/simulation.md, 'What makes adaptation matter'):
 
 DVL (3 Hz), per axis of the DVL frame::
 
@@ -49,6 +50,14 @@ Clocks: each sensor starts at its own offset, ``U(0, T)`` after t = 0, and sampl
 T with a white jitter (σ a few ms, clipped at ±T/4). Stamps are the true sampling instants (no
 latency), so the streams are truly asynchronous but exactly time-tagged.
 
+Calibration errors (:class:`Calibration`; docs/simulation.md, 'Calibration errors'): the DVL's
+scale factor and misalignment, ``z = s C_mis z_clean``, the depth meter's bias and the
+inclinometer's roll and pitch biases, added to the angles it outputs. The truth columns stay the
+error-free readings. None by default.
+
+A registered kind without a function of its own (:class:`GenericSpec`, :func:`generic`): its
+``ideal_reading`` plus white noise of the given σ, on its own clock.
+
 What was injected is saved in each table's extra columns (the loader keeps them in
 ``Mission.tables`` and ignores them for the filter); ``docs/simulation.md`` lists them.
 """
@@ -64,12 +73,9 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.core import attitude, earth
-from adaptnav.core.units import DEG
-from adaptnav.sensors import depth as depth_model
-from adaptnav.sensors import dvl as dvl_model
-from adaptnav.sensors import gnss as gnss_model
-from adaptnav.sensors import heading as heading_model
-from adaptnav.sensors import inclinometer as incl_model
+from adaptnav.core.units import DEG, Kind, si_unit
+from adaptnav.sensors.kind import IdealInput
+from adaptnav.sensors.registry import KINDS
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -136,6 +142,88 @@ class Disturbances:
 
     def as_dict(self) -> dict[str, bool]:
         return {k: bool(v) for k, v in asdict(self).items()}
+
+
+MAX_SCALE_ERROR = 0.5
+"""A DVL scale factor s beyond 1 ± this is refused: such a DVL is broken, not miscalibrated
+(and 101 or 0.01 for 1.01 are typos)."""
+MAX_CALIBRATION_ANGLE = 10.0 * DEG
+"""A misalignment or tilt bias beyond ±10° is refused: calibration errors are small angles; a
+larger rotation is a mounting, which the mission states (``mounting_rpy_deg``)."""
+
+
+def _small_angles(label: str, values: Any, n: int) -> tuple[float, ...]:
+    """``values`` as n finite floats within ±:data:`MAX_CALIBRATION_ANGLE` (rad)."""
+    out = tuple(float(v) for v in values)
+    if len(out) != n:
+        raise ValueError(f"{label} needs {n} angles, got {len(out)}")
+    for a in out:
+        if not abs(a) <= MAX_CALIBRATION_ANGLE:  # also refuses NaN
+            raise ValueError(
+                f"{label} angle {math.degrees(a):g}° is beyond ±{MAX_CALIBRATION_ANGLE / DEG:g}°"
+            )
+    return out
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The sensors' true calibration errors (docs/simulation.md, 'Calibration errors'); the
+    default is none, with the tables of a perfectly calibrated set.
+
+    Attributes:
+        dvl_scale: s in ``z = s C_mis C_sb (C_nbᵀ v_n + ω_ib_b × l_b)``; 1.01 reads 1 % high.
+        dvl_misalignment: ZYX Euler angles (roll, pitch, yaw) of the true DVL frame from the
+            nominal one (rad): ``C_mis = euler_to_dcm(roll, pitch, yaw)ᵀ ≈ I - [δ×]``.
+        depth_bias: b (m) in ``z = depth + b``.
+        inclinometer_bias: (b_roll, b_pitch) (rad) added to the angles the inclinometer
+            outputs (the pendulum's tilt, or the attitude's roll and pitch).
+    """
+
+    dvl_scale: float = 1.0
+    dvl_misalignment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    depth_bias: float = 0.0
+    inclinometer_bias: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        s = float(self.dvl_scale)
+        if not abs(s - 1.0) <= MAX_SCALE_ERROR:  # also refuses NaN
+            raise ValueError(
+                f"DVL scale factor {s:g} is not within 1 ± {MAX_SCALE_ERROR:g} "
+                "(1.01 reads 1 % high)"
+            )
+        b = float(self.depth_bias)
+        if not math.isfinite(b):
+            raise ValueError(f"depth bias {b:g} m is not a finite number")
+        object.__setattr__(self, "dvl_scale", s)
+        object.__setattr__(self, "depth_bias", b)
+        for name, label, n in (
+            ("dvl_misalignment", "DVL misalignment", 3),
+            ("inclinometer_bias", "inclinometer bias", 2),
+        ):
+            object.__setattr__(self, name, _small_angles(label, getattr(self, name), n))
+
+    def dvl(self, clean: Array) -> Array:
+        """The DVL's readings (N, 3) from its error-free ones z: ``s C_mis z``."""
+        if any(self.dvl_misalignment):  # else C_mis = I: a product would only cost time
+            # rows: (C_mis z)ᵀ = zᵀ C_misᵀ = zᵀ euler_to_dcm(δ)
+            clean = clean @ attitude.euler_to_dcm(*self.dvl_misalignment)
+        return self.dvl_scale * clean
+
+    def as_dict(self) -> dict[str, Any]:
+        """``simulation.json``'s ``calibration``: the true values, angles in rad and degrees."""
+        return {
+            "convention": "docs/simulation.md, 'Calibration errors'",
+            "dvl_scale_factor": self.dvl_scale,
+            "dvl_misalignment_rad": list(self.dvl_misalignment),
+            "dvl_misalignment_deg": [math.degrees(a) for a in self.dvl_misalignment],
+            "depth_bias_m": self.depth_bias,
+            "inclinometer_bias_rad": list(self.inclinometer_bias),
+            "inclinometer_bias_deg": [math.degrees(a) for a in self.inclinometer_bias],
+        }
+
+
+NO_CALIBRATION = Calibration()
+"""No calibration error."""
 
 
 # --- specifications ---------------------------------------------------------------------------
@@ -210,6 +298,33 @@ class GpsSpec:
     def sigma(self) -> float:
         """Total σ per axis (m)."""
         return math.hypot(self.sigma_white, self.sigma_gm)
+
+
+@dataclass(frozen=True)
+class GenericSpec:
+    """A registered sensor kind without a function of its own here, simulated from its
+    declaration alone (:func:`generic`): its ``ideal_reading`` plus white noise.
+
+    Attributes:
+        kind: its name in the registry (sensors/registry.py).
+        rate_hz: sampling rate.
+        sigma: white-noise σ of every column, in the SI unit of the kind's σ.
+        lever_arm: from the IMU, body FRD (m); zeros for a kind without one.
+        jitter: clock jitter σ (s).
+        name: the table's and its ``[sensors.<name>]`` section's name; None: the kind's.
+    """
+
+    kind: str
+    rate_hz: float
+    sigma: float
+    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    jitter: float = 0.005
+    name: str | None = None
+
+    @property
+    def key(self) -> str:
+        """The table's and section's name."""
+        return self.name or self.kind
 
 
 # --- clocks and random placement -------------------------------------------------------------
@@ -305,20 +420,35 @@ class Truth:
     """Sea-state level E(t) (0 when the waves are off)."""
 
 
+def ideal(
+    kind: str,
+    truth: Truth,
+    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    model: str | None = None,
+) -> Array:
+    """The error-free readings (N, d) of the registered ``kind`` at the truth's instants: its
+    declared ``ideal_reading`` (sensors/kind.py) of a sensor at ``lever_arm``, aligned with the
+    body (the simulated sensors have no mounting rotation)."""
+    hook = KINDS[kind].ideal_reading
+    if hook is None:
+        raise ValueError(f"sensor kind {kind!r} declares no ideal_reading: it cannot be simulated")
+    lever = np.asarray(lever_arm, dtype=float)
+    return hook(IdealInput(truth.x, truth.omega_ib_b, truth.f_b, lever, model=model))
+
+
 def dvl(
     spec: DvlSpec,
     truth: Truth,
     nav_start: float,
     rng: dict[str, np.random.Generator],
     dist: Disturbances,
+    calibration: Calibration = NO_CALIBRATION,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """DVL table and what was injected (module docstring). ``rng`` keys: noise, segments,
-    outliers, dropouts."""
+    outliers, dropouts. The truth columns are the error-free readings; ``calibration``'s scale
+    factor and misalignment act on the readings."""
     n = truth.t.size
-    lever = np.asarray(spec.lever_arm, dtype=float)
-    clean = np.empty((n, 3))
-    for i in range(n):
-        clean[i] = dvl_model.predict(truth.x[i], truth.omega_ib_b[i], lever)
+    clean = ideal("dvl", truth, spec.lever_arm)
     speed = np.linalg.norm(clean, axis=1)
     sigma = spec.sigma_scale * speed + spec.sigma_floor
     t_end = float(truth.t[-1]) if n else nav_start
@@ -337,7 +467,7 @@ def dvl(
     is_drop = in_intervals(truth.t, drop)
     eligible = np.flatnonzero((truth.t > nav_start) & ~is_drop)
     spikes, is_out, events = _dvl_outliers(spec, eligible, n, rng, dist)
-    z = clean + noise + spikes
+    z = calibration.dvl(clean) + noise + spikes
     z[is_drop] = np.nan
     df = pd.DataFrame(
         {
@@ -436,18 +566,19 @@ def depth(
     truth: Truth,
     rng: np.random.Generator,
     dist: Disturbances,
+    calibration: Calibration = NO_CALIBRATION,
 ) -> pd.DataFrame:
-    """Depth table: ``depth.predict`` plus sea-state noise (module docstring)."""
+    """Depth table: the error-free depth (the truth column) plus ``calibration``'s bias and
+    sea-state noise (module docstring)."""
     n = truth.t.size
-    lever = np.asarray(spec.lever_arm, dtype=float)
-    clean = np.array([depth_model.predict(truth.x[i], lever)[0] for i in range(n)])
+    clean = ideal("depth", truth, spec.lever_arm)[:, 0]
     if dist.depth_sea_state:
         sigma = spec.sigma_calm + (spec.sigma_nominal - spec.sigma_calm) * truth.sea_state**2
     else:
         sigma = np.full(n, spec.sigma_nominal)
     if not dist.sensor_noise:
         sigma = np.zeros(n)
-    z = clean + sigma * rng.standard_normal(n)
+    z = clean + calibration.depth_bias + sigma * rng.standard_normal(n)
     return pd.DataFrame(
         {"t_s": truth.t, "depth_m": z, "true_depth_m": clean, "sigma_m": sigma,
          "sea_state": truth.sea_state}
@@ -459,16 +590,19 @@ def inclinometer(
     truth: Truth,
     rng: np.random.Generator,
     dist: Disturbances,
+    calibration: Calibration = NO_CALIBRATION,
 ) -> pd.DataFrame:
-    """Inclinometer table: true roll/pitch (``inclinometer.predict``), the pendulum's
-    acceleration error and white noise (module docstring)."""
+    """Inclinometer table: true roll/pitch (the attitude model's error-free reading), the
+    pendulum's acceleration error (its error-free reading less the attitude's), ``calibration``'s
+    biases on the angles it outputs, and white noise (module docstring)."""
     n = truth.t.size
-    true = np.array([incl_model.predict(truth.x[i]) for i in range(n)]).reshape(n, 2)
-    accel_err = attitude.wrap_angle(incl_model.tilt(truth.f_b) - true)
+    true = ideal("inclinometer", truth, model="attitude")
+    accel_err = attitude.wrap_angle(ideal("inclinometer", truth, model="pendulum") - true)
     if not dist.inclinometer_pendulum:
         accel_err = np.zeros_like(accel_err)
     sigma = spec.sigma if dist.sensor_noise else 0.0
-    z = attitude.wrap_angle(true + accel_err + sigma * rng.standard_normal((n, 2)))
+    bias = np.asarray(calibration.inclinometer_bias)
+    z = attitude.wrap_angle(true + accel_err + bias + sigma * rng.standard_normal((n, 2)))
     return pd.DataFrame(
         {
             "t_s": truth.t,
@@ -489,9 +623,9 @@ def heading(
     rng: np.random.Generator,
     dist: Disturbances,
 ) -> pd.DataFrame:
-    """Heading table: ``heading.predict`` plus white noise, wrapped to (-π, π]."""
+    """Heading table: the error-free yaw plus white noise, wrapped to (-π, π]."""
     n = truth.t.size
-    true = np.array([heading_model.predict(truth.x[i])[0] for i in range(n)])
+    true = ideal("heading", truth)[:, 0]
     sigma = spec.sigma if dist.sensor_noise else 0.0
     z = attitude.wrap_angle(true + sigma * rng.standard_normal(n))
     return pd.DataFrame(
@@ -505,11 +639,10 @@ def gps(
     rng: np.random.Generator,
     dist: Disturbances,
 ) -> pd.DataFrame:
-    """GPS table: antenna ``gnss.predict`` plus white and Gauss-Markov errors in N, E metres."""
+    """GPS table: the antenna's error-free fix plus white and Gauss-Markov errors in N, E
+    metres (no height: the missions use the GPS horizontally)."""
     n = truth.t.size
-    lever = np.asarray(spec.lever_arm, dtype=float)
-    clean = np.array([gnss_model.predict(truth.x[i], lever, use_height=False) for i in range(n)])
-    clean = clean.reshape(n, 2)
+    clean = ideal("gnss", truth, spec.lever_arm)[:, :2]
     white = spec.sigma_white * rng.standard_normal((n, 2))
     gm = np.zeros((n, 2))
     xi = rng.standard_normal((n, 2))
@@ -534,5 +667,34 @@ def gps(
             "err_n_m": err[:, 0],
             "err_e_m": err[:, 1],
             "sigma_m": np.full(n, spec.sigma if dist.sensor_noise else 0.0),
+        }
+    )
+
+
+def generic(
+    spec: GenericSpec, truth: Truth, rng: np.random.Generator, dist: Disturbances
+) -> pd.DataFrame:
+    """Table of a kind simulated by its declaration (:class:`GenericSpec`): its error-free
+    readings of its columns (optional ones left out) as ``true_<column>``, and those plus
+    N(0, σ²) per column, angles wrapped to (-π, π]; ``sigma_<unit>`` the σ applied."""
+    kind = KINDS[spec.kind]
+    unit = si_unit(kind.sigma_kind).replace("/", "_")
+    columns = kind.columns[: kind.dim(use_height=False)]
+    if not all(c.endswith(f"_{unit}") for c in columns):
+        raise ValueError(
+            f"sensor kind {spec.kind!r}: columns {columns} are not all in {unit}, the unit of "
+            "its σ, so white noise of σ cannot be added to them: it needs a function of its own"
+        )
+    clean = ideal(spec.kind, truth, spec.lever_arm)[:, : len(columns)]
+    sigma = spec.sigma if dist.sensor_noise else 0.0
+    z = clean + sigma * rng.standard_normal(clean.shape)
+    if kind.sigma_kind is Kind.ANGLE:
+        z = attitude.wrap_angle(z)
+    return pd.DataFrame(
+        {
+            "t_s": truth.t,
+            **{c: z[:, j] for j, c in enumerate(columns)},
+            **{f"true_{c}": clean[:, j] for j, c in enumerate(columns)},
+            f"sigma_{unit}": np.full(truth.t.size, sigma),
         }
     )
