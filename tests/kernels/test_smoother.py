@@ -48,6 +48,7 @@ def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
     scales = np.logspace(1, -5, n)  # m-sized beside rad/s-sized states
     Phi = np.stack([np.eye(n) + 0.05 * rng.normal(size=(n, n)) * np.outer(scales, 1 / scales)
                     for _ in range(N)])  # fmt: skip
+    Phi[:, 9:, :] *= np.eye(n)[9:]  # rows 9-14 diagonal, as the biases' are
     Q = np.stack([_spd(rng, n, 0.05 * scales) for _ in range(N)])
     H = rng.normal(size=(d, n)) / scales
     R = np.diag(rng.uniform(0.5, 2.0, d))

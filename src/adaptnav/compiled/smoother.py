@@ -12,8 +12,9 @@ are random walks uncoupled in Φ (errorstate.StateLayout), so their part of Φ i
 and is not stored. The store is sized by the engine before each IMU chunk (at most one node per
 output row and per queued reading), so these kernels never grow it.
 
-Memory per node: (1 + 16 + m) + n + n(n+1)/2 + 225 float64 and one int64 (n = 15 + m error
-states, m declared), 3.1 KB for the core, plus n(n+1)/2 float64 (0.94 KB) per update node.
+Memory per node: (1 + 16 + m) + n + n(n+1)/2 + 141 float64 and two int64 (n = 15 + m error
+states, m declared; Φ's rows 9-14 are diagonal and only their diagonal is kept), 2.4 KB for the
+core, plus n(n+1)/2 float64 (0.94 KB) per update node.
 """
 
 from __future__ import annotations
@@ -32,11 +33,15 @@ IntArray = NDArray[np.int64]
 CORE = 15
 
 Store = tuple[NDArray[Any], ...]
-"""``(t (N,), x (N, 16 + m), dx (N, n), P (N, n(n+1)/2), Phi (N, 225), prior (N,) int64,
+"""``(t (N,), x (N, 16 + m), dx (N, n), P (N, n(n+1)/2), Phi (N, N_PHI), prior (N,) int64,
 P_prior (M, n(n+1)/2), acc (24, 16): Φ_acc (rows 0-14, columns 0-14) and scratch,
 counters (N_COUNT,) int64,
 out (N,) int64: the node of each output row)``."""
 SM_T, SM_X, SM_DX, SM_P, SM_PHI, SM_PRIOR, SM_PM, SM_ACC, SM_COUNT, SM_OUT = range(10)
+PHI_DIAG = 9 * CORE
+"""A stored Φ: its rows 0-8 (row-major, 135 numbers), then the diagonal of rows 9-14, the
+whole of those rows (the biases' Gauss-Markov dynamics: :func:`accumulate`)."""
+N_PHI = PHI_DIAG + 6
 K_NODES, K_PRIORS, K_STEPS, K_ON, K_FAILED = range(5)
 """Counters: nodes and update nodes stored, steps accumulated into Φ since the last node,
 smoothing on (1) or off (0), nodes where the backward gain could not be formed."""
@@ -64,7 +69,7 @@ def store(capacity: int, n_priors: int, nominal_size: int, n: int, on: bool) -> 
     counts[K_ON] = int(on)
     return (
         np.zeros(c), np.zeros((c, nominal_size)), np.zeros((c, n)), np.zeros((c, k)),
-        np.zeros((c, CORE * CORE)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
+        np.zeros((c, N_PHI)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
         np.eye(CORE + 9, _W), counts, np.zeros(c, dtype=np.int64),
     )  # fmt: skip
 
@@ -145,7 +150,7 @@ def accumulate(sm: Store, PhiT: Array) -> None:
     sm[SM_COUNT][K_STEPS] += 1
 
 
-@jit_inline
+@jit
 def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> int:
     """Store a node at t: x and P after it, and when ``prior`` holds the P an update started
     from (``prior[0, 0]`` not NaN), dx and that P (else dx is zero and may be empty); Φ_acc
@@ -157,9 +162,14 @@ def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> in
         sm[SM_X][j, i] = x[i]
     pack(P, sm[SM_P][j])
     acc = sm[SM_ACC]
+    phi = sm[SM_PHI][j]
+    for i in range(9):
+        for c in range(CORE):
+            phi[i * CORE + c] = acc[i, c]
+    for a in range(6):
+        phi[PHI_DIAG + a] = acc[9 + a, 9 + a]
     for i in range(CORE):
         for c in range(CORE):
-            sm[SM_PHI][j, i * CORE + c] = acc[i, c]
             acc[i, c] = 1.0 if i == c else 0.0
     updated = prior.shape[0] > 0 and not math.isnan(prior[0, 0])
     for i in range(sm[SM_DX].shape[1]):
@@ -176,7 +186,7 @@ def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> in
     return j
 
 
-@jit_inline
+@jit
 def output_node(sm: Store, o: int, t: float, x: Array, P: Array) -> None:
     """Output row o's node: the last node if nothing was propagated since it (an update at the
     row's time), else a new node at t with x and P."""
@@ -281,12 +291,16 @@ def backward(sm: Store, reset: bool) -> None:
         for i in range(n):  # B = Φ P_j (Φ = I on declared blocks); inner loops along rows
             for c in range(n):
                 B[i, c] = 0.0 if i < CORE else Pj[i, c]
-            if i < CORE:
+            if i < 9:
                 for m in range(CORE):
                     a = phi[i * CORE + m]
                     if a != 0.0:
                         for c in range(n):
                             B[i, c] += a * Pj[m, c]
+            elif i < CORE:
+                a = phi[PHI_DIAG + i - 9]
+                for c in range(n):
+                    B[i, c] = a * Pj[i, c]
         if not _gain_transpose(Pm, B, L, d):
             counts[K_FAILED] += 1
             for i in range(n):

@@ -1043,7 +1043,9 @@ class Navigator:
         Pm = Pm + np.triu(Pm, 1).transpose(0, 2, 1)
         P_prior = np.where((prior_idx >= 0)[:, None, None], Pm[np.maximum(prior_idx, 0)], P)
         Phi = np.tile(np.eye(n), (N, 1, 1))
-        Phi[:, :N_STATES, :N_STATES] = sm[smk.SM_PHI][:N].reshape(N, N_STATES, N_STATES)
+        stored = sm[smk.SM_PHI][:N]
+        Phi[:, :9, :N_STATES] = stored[:, : smk.PHI_DIAG].reshape(N, 9, N_STATES)
+        Phi[:, range(9, N_STATES), range(9, N_STATES)] = stored[:, smk.PHI_DIAG :]
         return Nodes(
             sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), sm[smk.SM_DX][:N].copy(), P,
             P_prior, Phi, self.config.reset_covariance,
