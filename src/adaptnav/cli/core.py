@@ -34,6 +34,7 @@ def demo(
     ] = Path("runs/demo"),
     preset: Annotated[str, typer.Option(help="paper-1 | paper-2 | demo")] = "paper-1",
     seed: Annotated[int, typer.Option(help="simulation seed")] = 1,
+    smooth: Smooth = False,
     force: Force = False,
 ) -> None:
     """The main job: simulate a paper trajectory, compare the filters, write the HTML report.
@@ -42,7 +43,8 @@ def demo(
     over the static window and runs MESKF, MAESKF, VB-MAESKF, robust and the oracle from that
     same start (as `adaptnav compare` does), writes the comparison folder to --out (runs,
     comparison.csv/json, figures) and the HTML report --out/report.html, and prints the table
-    beside the paper's Table 3 and the report's path.
+    beside the paper's Table 3 and the report's path. With --smooth each filter is
+    RTS-smoothed and shown beside its forward solution (docs/smoothing.md).
     """
     from adaptnav.analysis.compare import compare
     from adaptnav.cli.compare import comparison_table
@@ -56,7 +58,7 @@ def demo(
     with output(out, force) as tmp:
         console.print(f"simulating {preset} (seed {seed}) ...")
         mission_dir = run_simulation(preset, seed, tmp / "mission")
-        cmp = compare(mission_dir, filters, progress=console.print)
+        cmp = compare(mission_dir, filters, progress=console.print, smooth=smooth)
         console.print(f"writing runs, comparison and figures to {out}/ ...")
         # Written in a temporary folder renamed to --out at the end: record the final paths.
         cmp.save(
