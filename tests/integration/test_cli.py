@@ -1,4 +1,5 @@
-"""End to end through the CLI: a mission folder → `adaptnav run` → `adaptnav evaluate`."""
+"""End to end through the CLI: a mission folder → `adaptnav run` → `adaptnav evaluate`, also
+RTS-smoothed (`run --smooth`, docs/smoothing.md)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+from adaptnav.analysis import evaluate
+from adaptnav.api import results
 from adaptnav.cli import app
 from adaptnav.core import attitude
 from adaptnav.mission import parse_config, write_mission
@@ -109,14 +112,43 @@ def test_run_then_evaluate_json(tmp_path: Path, kind: str) -> None:
     for block in ("position", "velocity", "attitude"):
         assert f"mean_nees_{block}" in d and f"nees_{block}_in_95" in d
     assert d["mean_nees_position"] > 0.0 and d["nees_uses_correlations"] is True
+    # not smoothed: no forward solution anywhere
+    assert not (out / "forward.parquet").exists()
+    assert not [k for k in d if "forward" in k]
     res = runner.invoke(app, ["evaluate", str(out)])
     assert res.exit_code == 0 and "RMSE (m)" in res.stdout
     assert "mean NEES, attitude" in res.stdout
+    assert "forward" not in res.stdout and "smoothed" not in res.stdout
+
+
+def test_run_smooth_keeps_the_forward_solution_and_evaluate_scores_both(tmp_path: Path) -> None:
+    mission = _mission(tmp_path)
+    out = tmp_path / "run"
+    res = runner.invoke(app, ["run", str(mission), "-f", "vb", "--smooth", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "RTS-smoothed" in res.stdout and "nodes" in res.stdout and "MiB" in res.stdout
+    assert (out / "forward.parquet").is_file()
+    res = runner.invoke(app, ["evaluate", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    # Scored here straight from the run folder's tables, not through the command.
+    r, truth = results.load(out), pd.read_parquet(out / "truth.parquet")
+    assert r.forward is not None
+    forward = evaluate.rmse(evaluate.position_errors(r.forward, truth))
+    smoothed = evaluate.rmse(evaluate.position_errors(r.solution, truth))
+    assert d["forward_rmse_m"] == pytest.approx(forward, rel=1e-12)
+    assert d["forward_relative_rmse_pct"] == pytest.approx(100 * forward / d["distance_m"])
+    nees = evaluate.nees_position(r.forward, truth)["nees"]
+    assert d["forward_mean_nees_position"] == pytest.approx(np.nanmean(nees), rel=1e-12)
+    assert d["rmse_m"] == pytest.approx(smoothed, rel=1e-12)
+    assert abs(d["rmse_m"] - d["forward_rmse_m"]) > 1e-3 * d["forward_rmse_m"]
+    res = runner.invoke(app, ["evaluate", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "RTS-smoothed" in res.stdout and "forward" in res.stdout
+    assert f"{d['forward_rmse_m']:.3f}" in res.stdout and f"{d['rmse_m']:.3f}" in res.stdout
 
 
 def test_every_reading_has_a_fate(tmp_path: Path) -> None:
-    from adaptnav.api import results
-
     mission = _mission(tmp_path, duration=20.0)
     out = tmp_path / "run"
     assert runner.invoke(app, ["run", str(mission), "--out", str(out)]).exit_code == 0

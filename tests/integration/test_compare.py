@@ -1,5 +1,6 @@
 """compare(): several filters from one alignment, tabulated and saved; the `compare` and `demo`
-commands. One short simulated mission (the ``demo`` preset, ≈ 3 s) serves the whole module."""
+commands, also RTS-smoothed (`compare --smooth`, docs/smoothing.md). One short simulated mission
+(the ``demo`` preset, ≈ 3 s) serves the whole module."""
 
 from __future__ import annotations
 
@@ -79,6 +80,10 @@ def test_table_has_one_row_per_filter_equal_to_evaluate_on_the_saved_runs(
     saved_csv = pd.read_csv(out / COMPARISON_CSV)
     assert list(saved_csv["filter"]) == list(FILTERS)
     np.testing.assert_allclose(saved_csv["rmse_m"], table["rmse_m"], rtol=1e-12)
+    # not smoothed: no forward solution anywhere
+    assert not cmp.forward and not [c for c in saved_csv.columns if "forward" in c]
+    assert not [k for entry in cmp.to_json().values() for k in entry if "forward" in k]
+    assert not list(out.glob("*/forward.parquet"))
 
 
 def test_every_filter_starts_from_the_one_alignment(saved: tuple[Comparison, Path]) -> None:
@@ -182,6 +187,64 @@ def test_floor_baseline_is_scored_over_the_same_span(
     assert list(cmp.table()["filter"]) == ["vb", "floor"]
 
 
+@pytest.fixture(scope="module")
+def smoothed(mission_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
+    """(what `compare --smooth` printed, its comparison folder) of two filters and the floor."""
+    out = tmp_path_factory.mktemp("smoothed") / "cmp"
+    res = runner.invoke(
+        app, ["compare", str(mission_dir), "-f", "meskf,vb,floor", "--smooth", "-o", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    return res.stdout, out
+
+
+def test_compare_smooth_scores_the_smoothed_solutions_beside_the_forward_ones(
+    smoothed: tuple[str, Path],
+) -> None:
+    printed, out = smoothed
+    table = pd.read_csv(out / COMPARISON_CSV).set_index("filter")
+    doc = json.loads((out / COMPARISON_JSON).read_text())["results"]
+    for name in ("meskf", "vb"):
+        # Scored here straight from the saved run folder's tables.
+        r = results.load(out / name)
+        truth = pd.read_parquet(out / name / "truth.parquet")
+        assert r.forward is not None and r.meta["smoother"]["nodes"] > 0
+        m_smoothed = evaluate.evaluate(r, truth)
+        m_forward = evaluate.evaluate(dataclasses.replace(r, solution=r.forward), truth)
+        for key in ("rmse_m", "relative_rmse_pct", "mean_nees_position"):
+            for value, expected in (
+                (table.loc[name, key], getattr(m_smoothed, key)),
+                (doc[name][key], getattr(m_smoothed, key)),
+                (table.loc[name, f"forward_{key}"], getattr(m_forward, key)),
+                (doc[name][f"forward_{key}"], getattr(m_forward, key)),
+            ):
+                assert value == pytest.approx(expected, rel=1e-12), (name, key)
+        assert abs(m_smoothed.rmse_m - m_forward.rmse_m) > 1e-3 * m_forward.rmse_m, name
+    # The floor is not a filter: nothing smoothed, nothing forward.
+    assert not (out / "floor" / "forward.parquet").exists()
+    assert table.loc["floor", ["forward_rmse_m", "forward_relative_rmse_pct"]].isna().all()
+    assert doc["floor"]["forward_rmse_m"] is None
+    assert "RTS-smoothed" in printed and "fwd." in printed
+    assert f"{table.loc['vb', 'forward_relative_rmse_pct']:.3f}" in printed
+
+
+def test_smoothed_position_error_figure_shows_forward_beside_smoothed(
+    smoothed: tuple[str, Path], saved: tuple[Comparison, Path]
+) -> None:
+    cmp = saved[0]
+    assert len(plots.position_error(cmp.results, cmp.truth).axes) == 2
+    out = smoothed[1]
+    runs = {n: results.load(out / n) for n in ("meskf", "vb")}
+    fig = plots.position_error(runs, cmp.truth)
+    assert [ax.get_title() for ax in fig.axes[:2]] == ["forward filter", "RTS-smoothed"]
+    for k, r in enumerate(runs.values()):
+        for ax, solution in ((fig.axes[0], r.forward), (fig.axes[1], r.solution)):
+            assert solution is not None
+            err = evaluate.position_errors(solution, cmp.truth)
+            expected = plots.envelope(err["t_s"].to_numpy(), err["error_m"].to_numpy())[1]
+            np.testing.assert_array_equal(ax.lines[k].get_ydata(), expected)
+
+
 def test_parse_filters() -> None:
     assert parse_filters("meskf, VB,floor") == ("meskf", "vb", "floor")
     for bad, word in (("meskf,kalman", "kalman"), ("vb,vb", "vb"), (" , ", "no filter")):
@@ -250,6 +313,19 @@ def test_cli_demo_writes_the_comparison_and_the_report(tmp_path: Path) -> None:
     table = pd.read_csv(out / COMPARISON_CSV)
     assert list(table["filter"]) == list(FILTERS)
     assert "report:" in res.stdout and "VB-MAESKF" in res.stdout
+    assert "forward_rmse_m" not in table.columns and "smooth" not in res.stdout
+
+
+def test_cli_demo_smooth_shows_forward_beside_smoothed(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    args = ["demo", "--preset", "demo", "--seed", "2", "--smooth", "--out", str(out)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(out / COMPARISON_CSV)
+    assert list(table["filter"]) == list(FILTERS)
+    assert table["forward_rmse_m"].notna().all() and "RTS-smoothed" in res.stdout
+    assert all((out / name / "forward.parquet").is_file() for name in FILTERS)
+    assert "RTS-smoothed (docs/smoothing.md)" in (out / "report.html").read_text(encoding="utf-8")
 
 
 def test_figures_do_not_modify_the_mission_tables(saved: tuple[Comparison, Path]) -> None:

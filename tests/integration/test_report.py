@@ -146,6 +146,39 @@ def test_report_shows_each_filters_nees(report: tuple[Path, Path]) -> None:
     assert "horizontal length of the reference track" in text
 
 
+@pytest.fixture(scope="module")
+def smoothed_report(report: tuple[Path, Path], tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of two filters RTS-smoothed (docs/smoothing.md) on the same mission."""
+    out = tmp_path_factory.mktemp("smoothed-report")
+    cmp = compare(report[0] / "mission", ("meskf", "vb"), smooth=True)
+    cmp.save(out, figures=plots.comparison_figures(cmp))
+    return write_report(out)
+
+
+def test_report_of_smoothed_runs_shows_forward_beside_smoothed(smoothed_report: Path) -> None:
+    doc = json.loads((smoothed_report.parent / COMPARISON_JSON).read_text())["results"]
+    page = _parse(smoothed_report)
+    for row, name in zip(page.rows, ("meskf", "vb"), strict=True):
+        r = doc[name]
+        assert float(row[1]) == pytest.approx(r["rmse_m"], abs=0.05)
+        assert float(row[2]) == pytest.approx(r["relative_rmse_pct"], abs=5e-4)
+        assert float(row[3]) == pytest.approx(r["forward_rmse_m"], abs=0.05)
+        assert float(row[4]) == pytest.approx(r["forward_relative_rmse_pct"], abs=5e-4)
+    for row, name in zip(page.tables["consistency"], ("meskf", "vb"), strict=True):
+        assert float(row[-1]) == pytest.approx(doc[name]["forward_mean_nees_position"], abs=0.005)
+    text = smoothed_report.read_text(encoding="utf-8")
+    for needle in ("smoothed RMSE (m)", "forward RMSE (m)", "forward mean NEES, position"):
+        assert needle in text, needle
+    assert "solution is RTS-smoothed (docs/smoothing.md)" in text
+    (caption,) = [c for c in page.captions if "3-D (top) and horizontal" in c]
+    assert "forward solution" in caption and "RTS-smoothed" in caption
+
+
+def test_report_of_unsmoothed_runs_says_nothing_of_smoothing(report: tuple[Path, Path]) -> None:
+    text = report[1].read_text(encoding="utf-8")
+    assert "smooth" not in text.lower() and "forward" not in text.lower()
+
+
 def test_report_is_self_contained(report: tuple[Path, Path]) -> None:
     text = report[1].read_text(encoding="utf-8")
     for needle in ('src="http', "src='http", "<script", "<link", "url(", "@import", "//cdn"):

@@ -21,6 +21,12 @@ per-sensor counts. :meth:`Comparison.table` sets them beside the paper's Table 3
 (:data:`PAPER_TABLE3`) when the mission is one of the paper presets (``paper-1``, ``paper-2``,
 docs/simulation.md).
 
+With ``smooth`` every filter's run is RTS-smoothed (docs/smoothing.md; the floor is not a
+filter and is not): the metrics above are then the smoothed solution's, and the forward
+solution's (:func:`adaptnav.analysis.evaluate.forward_metrics`) are kept in
+:attr:`Comparison.forward` and shown beside them as ``forward_<key>``
+(:data:`adaptnav.analysis.evaluate.FORWARD_KEYS`) in the table and the JSON.
+
 :meth:`Comparison.save` writes a comparison folder::
 
     OUT/
@@ -147,6 +153,8 @@ class Comparison:
     ``results`` and ``metrics`` are keyed by filter name (:data:`FILTER_NAMES`) in the order
     run; ``initial`` is the shared start: ``t0_s``, position and attitude, the alignment's
     report (heading source, σ's). ``mission`` is the loaded mission (its tables feed Fig. 10).
+    ``forward``: for the smoothed runs, the metrics of their forward solution (``metrics`` are
+    then the smoothed ones; docs/smoothing.md); empty when nothing was smoothed.
     """
 
     mission_name: str
@@ -154,6 +162,7 @@ class Comparison:
     results: dict[str, Result]
     metrics: dict[str, Metrics]
     initial: dict[str, Any] = field(default_factory=dict)
+    forward: dict[str, Metrics] = field(default_factory=dict)
 
     @property
     def filters(self) -> tuple[str, ...]:
@@ -174,6 +183,18 @@ class Comparison:
         """The paper's (RMSE m, relative RMSE %) for filter ``name`` on this mission, or NaNs."""
         return PAPER_TABLE3.get(self.mission_name, {}).get(name, (math.nan, math.nan))
 
+    def forward_columns(self, name: str) -> dict[str, float]:
+        """``forward_<key>`` of filter ``name``'s forward solution
+        (:func:`adaptnav.analysis.evaluate.forward_columns`): NaN for a run that was not
+        smoothed (the floor) in a smoothed comparison, nothing when none was smoothed."""
+        from adaptnav.analysis.evaluate import FORWARD_KEYS, forward_columns
+
+        if not self.forward:
+            return {}
+        if name not in self.forward:
+            return {f"forward_{key}": math.nan for key in FORWARD_KEYS}
+        return forward_columns(self.forward[name])
+
     def sensors(self) -> list[str]:
         """Every sensor in any run's ledger, sorted."""
         return sorted({s for m in self.metrics.values() for s in m.counts})
@@ -182,7 +203,8 @@ class Comparison:
         """One row per filter: ``filter, label, rmse_m, relative_rmse_pct, horizontal_rmse_m,
         max_horizontal_error_m, distance_m, duration_min``, the consistency
         :data:`NEES_COLUMNS` (``mean_nees_<block>``, ``nees_<block>_in_95`` for position,
-        velocity, attitude; NaN where the reference lacks the block), then ``<sensor>_used``,
+        velocity, attitude; NaN where the reference lacks the block), for a smoothed comparison
+        the forward solution's :meth:`forward_columns`, then ``<sensor>_used``,
         ``<sensor>_rejected``, ``<sensor>_dropped`` per sensor, then ``paper_rmse_m,
         paper_relative_rmse_pct`` (NaN where the paper has no figure)."""
         import pandas as pd
@@ -200,6 +222,7 @@ class Comparison:
                 "distance_m": m.distance_m,
                 "duration_min": m.duration_s / 60.0,
                 **{c: getattr(m, c) for c in NEES_COLUMNS},
+                **self.forward_columns(name),
             }
             for sensor in sensors:
                 counts = m.counts.get(sensor, {})
@@ -214,7 +237,8 @@ class Comparison:
         horizontal_rmse_m, max_horizontal_error_m, final_horizontal_error_m, mean_nees_position,
         mean_nees_velocity, mean_nees_attitude, nees_position_in_95, nees_velocity_in_95,
         nees_attitude_in_95, nees_uses_correlations, counts, mean_nis, paper_rmse_m,
-        paper_relative_rmse_pct}}``, plain JSON types (NaN → None)."""
+        paper_relative_rmse_pct}}`` and, for a smoothed comparison, the forward solution's
+        :meth:`forward_columns`; plain JSON types (NaN → None)."""
         from adaptnav.api.results import jsonable
 
         out: dict[str, Any] = {}
@@ -235,6 +259,7 @@ class Comparison:
                 "mean_nis": m.mean_nis,
                 "paper_rmse_m": paper_rmse,
                 "paper_relative_rmse_pct": paper_rel,
+                **self.forward_columns(name),
             }
         result: dict[str, Any] = jsonable(out, "comparison")
         return result
@@ -331,6 +356,7 @@ def compare(
     *,
     settings: FilterSettings | None = None,
     progress: Progress | None = None,
+    smooth: bool = False,
 ) -> Comparison:
     """Run ``filters`` on ``mission`` from one shared alignment and score each run.
 
@@ -340,6 +366,8 @@ def compare(
         settings: filter settings overriding the mission's ``[filter]`` section (each filter
             gets them with its own kind); ``floor`` ignores them.
         progress: called with one short line before each step (e.g. to print to stderr).
+        smooth: RTS-smooth every filter's run (not the floor's): ``metrics`` score the smoothed
+            solutions and ``forward`` the forward ones (docs/smoothing.md).
 
     Raises:
         ValueError: an unknown or repeated filter name, a mission without a reference, or
@@ -371,14 +399,19 @@ def compare(
 
     results: dict[str, Result] = {}
     metrics: dict[str, Metrics] = {}
+    forward: dict[str, Metrics] = {}
     for n in names:
-        say(f"running {FILTER_LABELS[n]} ...")
+        say(f"running {FILTER_LABELS[n]}{' (smoothed)' if smooth and n != 'floor' else ''} ...")
         if n == "floor":
             results[n] = _run_floor(m, None if start is None else start[2])
         else:
-            results[n] = api.run(m, cast("FilterKind", n), settings=settings, initial=start)
+            kind = cast("FilterKind", n)
+            results[n] = api.run(m, kind, settings=settings, initial=start, smooth=smooth)
         metrics[n] = evaluate.evaluate(results[n], truth)
-    return Comparison(name, m, results, metrics, initial)
+        fwd = evaluate.forward_metrics(results[n], truth)
+        if fwd is not None:
+            forward[n] = fwd
+    return Comparison(name, m, results, metrics, initial, forward)
 
 
 def _run_floor(mission: Mission, t0: float | None) -> Result:

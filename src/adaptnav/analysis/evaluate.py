@@ -24,6 +24,11 @@ matter to any metric here.)
   consistent filter with independent innovations ``K mean ~ chi²(sum_k d_k)``, which gives
   the two-sided 95 % bounds of the mean.
 
+A smoothed run (``Result.forward`` set, docs/smoothing.md) is scored on its RTS-smoothed
+``solution``; :func:`forward_metrics` scores its forward solution by the same :func:`evaluate`,
+and :func:`forward_columns` gives the :data:`FORWARD_KEYS` of that score as ``forward_<key>``,
+to be read beside the smoothed ones.
+
 The definitions, in words and equations, are in docs/metrics.md.
 """
 
@@ -31,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any, Literal, get_args
 
 import numpy as np
@@ -71,6 +76,9 @@ NEES_BAND: tuple[float, float] = (
 """Two-sided 95 % interval of one epoch's NEES for a consistent filter, χ²(3) quantiles
 0.025 and 0.975: about [0.216, 9.348]."""
 assert all(n in STATE_NAMES for names in NEES_STATES.values() for n in names)
+FORWARD_KEYS: tuple[str, ...] = ("rmse_m", "relative_rmse_pct", "mean_nees_position")
+"""The metrics of a smoothed run's forward solution shown beside the smoothed ones, each as
+``forward_<key>`` (:func:`forward_columns`)."""
 
 
 def _column(frame: pd.DataFrame, name: str) -> Array:
@@ -526,3 +534,18 @@ def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
         mean_nis={k: v.mean for k, v in nis.items()},
         nis=nis,
     )
+
+
+def forward_metrics(result: Result, truth: pd.DataFrame) -> Metrics | None:
+    """The metrics of a smoothed run's forward solution, ``result.forward`` (its ``solution``
+    is then the RTS-smoothed one, docs/smoothing.md), by :func:`evaluate` itself; None for a
+    run that was not smoothed."""
+    if result.forward is None:
+        return None
+    return evaluate(replace(result, solution=result.forward, forward=None), truth)
+
+
+def forward_columns(forward: Metrics) -> dict[str, float]:
+    """``{forward_<key>: value}`` for the :data:`FORWARD_KEYS` of a forward solution's
+    metrics (:func:`forward_metrics`)."""
+    return {f"forward_{key}": getattr(forward, key) for key in FORWARD_KEYS}

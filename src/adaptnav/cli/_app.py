@@ -65,6 +65,16 @@ Force = Annotated[
 ]
 """The ``--force`` option of every command that writes a folder."""
 
+Smooth = Annotated[
+    bool,
+    typer.Option(
+        "--smooth",
+        help="RTS-smooth each filter's solution; its forward one is kept beside it "
+        "(docs/smoothing.md)",
+    ),
+]
+"""The ``--smooth`` option of the commands that run filters (docs/smoothing.md)."""
+
 
 @contextmanager
 def output(out: Path, force: bool, inputs: Iterable[Path] = ()) -> Iterator[Path]:

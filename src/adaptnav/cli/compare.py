@@ -4,7 +4,8 @@
   alignment, every filter from it (:func:`adaptnav.analysis.compare.compare`), the comparison folder
   written to ``--out`` (runs, ``comparison.csv/json``, figures) and a table of ours beside the
   paper's Table 3; with ``--json`` only one JSON object on stdout (filter → metrics), progress
-  on stderr.
+  on stderr. With ``--smooth`` every filter is RTS-smoothed and its forward solution's RMSE is
+  shown beside the smoothed one (docs/smoothing.md).
 * ``adaptnav report COMPARE_DIR [--out FILE]``: the self-contained HTML report of a comparison
   folder (:func:`adaptnav.viz.report.write_report`); prints its path.
 
@@ -22,7 +23,16 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import FILTER_LABELS, Force, app, console, err_console, fail, output
+from adaptnav.cli._app import (
+    FILTER_LABELS,
+    Force,
+    Smooth,
+    app,
+    console,
+    err_console,
+    fail,
+    output,
+)
 from adaptnav.viz import plots
 
 if TYPE_CHECKING:
@@ -34,11 +44,14 @@ reference attitude, so both are asked for by name."""
 
 
 def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
-    """A rich table of a comparison that fits 100 columns: RMSE and relative RMSE, the paper's
-    Table 3 beside them where it applies, the largest horizontal error, the mean NEES of
-    position, velocity and attitude (docs/metrics.md), and the readings each gated sensor's
-    gate rejected; the caption gives the horizontal distance and the duration scored and what
-    a consistent filter's NEES does. ``name`` stands for the mission's name in the title."""
+    """A rich table of a comparison that fits 100 columns (110 when smoothed beside the paper's
+    Table 3): RMSE and relative RMSE, the paper's Table 3 beside them where it applies, the
+    largest horizontal error, the mean NEES of position, velocity and attitude
+    (docs/metrics.md), and the readings each gated sensor's gate rejected; the caption gives
+    the horizontal distance and the duration scored and what a consistent filter's NEES does.
+    ``name`` stands for the mission's name in the title. A smoothed comparison's numbers are
+    the smoothed solutions', with the forward solutions' RMSE and relative RMSE beside them
+    (docs/smoothing.md)."""
     from adaptnav.analysis.compare import NEES_BAND_TEXT, PAPER_TABLE3
 
     frame = cmp.table()
@@ -53,9 +66,15 @@ def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
         f"{first['duration_min']:.1f} min scored; NEES: mean over the epochs, for a "
         f"consistent filter {NEES_BAND_TEXT}"
     )
-    table = Table(title=f"{name or cmp.mission_name}: ours{beside}", caption=caption)
+    smoothed = bool(cmp.forward)
+    if smoothed and caption is not None:
+        caption += "; RTS-smoothed solutions, fwd.: the forward ones'"
+    title = f"{name or cmp.mission_name}: ours{' (RTS-smoothed)' if smoothed else ''}{beside}"
+    table = Table(title=title, caption=caption)
     # two-line headers keep the columns as narrow as their numbers (100 columns in all)
     columns = ["filter", "RMSE\nm", "rel.\n%"]
+    if smoothed:
+        columns += ["fwd.\nm", "fwd.\n%"]
     if paper:
         columns += ["paper\nm", "paper\n%"]
     columns += ["max h.\nm", "NEES\npos", "NEES\nvel", "NEES\natt"]
@@ -72,6 +91,8 @@ def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
             f(r["rmse_m"], "{:.1f}"),
             f(r["relative_rmse_pct"], "{:.3f}"),
         ]
+        if smoothed:
+            cells += [f(r["forward_rmse_m"], "{:.1f}"), f(r["forward_relative_rmse_pct"], "{:.3f}")]
         if paper:
             cells += [f(r["paper_rmse_m"], "{:.0f}"), f(r["paper_relative_rmse_pct"], "{:.2f}")]
         cells.append(f(r["max_horizontal_error_m"], "{:.1f}"))
@@ -98,14 +119,17 @@ def compare_cmd(
     as_json: Annotated[
         bool, typer.Option("--json", help="print only one JSON object (filter → metrics)")
     ] = False,
+    smooth: Smooth = False,
     force: Force = False,
 ) -> None:
     """Run several filters on one mission from one shared alignment and compare them.
 
     Writes each run (`adaptnav evaluate OUT/<filter>` works), comparison.csv/json and the
     figures to --out, and prints RMSE and relative RMSE beside the paper's Table 3 when the
-    mission is one of its trajectories (paper-1, paper-2). Make the HTML page with
-    `adaptnav report OUT`.
+    mission is one of its trajectories (paper-1, paper-2). With --smooth each filter is
+    RTS-smoothed: the metrics are the smoothed solutions' and the forward ones' RMSE and
+    relative RMSE are shown beside them (forward_ columns; docs/smoothing.md). Make the HTML
+    page with `adaptnav report OUT`.
     """
     from adaptnav.analysis.compare import compare, parse_filters
     from adaptnav.core.units import UnitError
@@ -118,7 +142,9 @@ def compare_cmd(
     with output(out, force, inputs=[mission_dir]) as tmp:
         try:
             mission = load_mission(mission_dir)
-            cmp = compare(mission, names, progress=lambda line: err_console.print(line))
+            cmp = compare(
+                mission, names, progress=lambda line: err_console.print(line), smooth=smooth
+            )
         except (MissionError, UnitError, ValueError, OSError) as exc:
             # ValueError covers the alignment, the oracle's and floor's missing columns, and a
             # mission without a reference; OSError a missing or unreadable folder.

@@ -11,6 +11,7 @@ from rich.table import Table
 from adaptnav.cli._app import (
     FILTER_CHOICES,
     Force,
+    Smooth,
     app,
     console,
     output,
@@ -34,6 +35,7 @@ def demo(
     ] = Path("runs/demo"),
     preset: Annotated[str, typer.Option(help="paper-1 | paper-2 | demo")] = "paper-1",
     seed: Annotated[int, typer.Option(help="simulation seed")] = 1,
+    smooth: Smooth = False,
     force: Force = False,
 ) -> None:
     """The main job: simulate a paper trajectory, compare the filters, write the HTML report.
@@ -42,7 +44,8 @@ def demo(
     over the static window and runs MESKF, MAESKF, VB-MAESKF, robust and the oracle from that
     same start (as `adaptnav compare` does), writes the comparison folder to --out (runs,
     comparison.csv/json, figures) and the HTML report --out/report.html, and prints the table
-    beside the paper's Table 3 and the report's path.
+    beside the paper's Table 3 and the report's path. With --smooth each filter is
+    RTS-smoothed and shown beside its forward solution (docs/smoothing.md).
     """
     from adaptnav.analysis.compare import compare
     from adaptnav.cli.compare import comparison_table
@@ -56,7 +59,7 @@ def demo(
     with output(out, force) as tmp:
         console.print(f"simulating {preset} (seed {seed}) ...")
         mission_dir = run_simulation(preset, seed, tmp / "mission")
-        cmp = compare(mission_dir, filters, progress=console.print)
+        cmp = compare(mission_dir, filters, progress=console.print, smooth=smooth)
         console.print(f"writing runs, comparison and figures to {out}/ ...")
         # Written in a temporary folder renamed to --out at the end: record the final paths.
         cmp.save(
@@ -90,15 +93,18 @@ def run_cmd(
     epoch_policy: Annotated[
         str, typer.Option(help="exact (default) | grid (the paper's); default: the mission's")
     ] = "",
+    smooth: Smooth = False,
     force: Force = False,
 ) -> None:
     """Run one filter on a mission; write the solution, every reading's fate and R to --out.
 
     The run folder holds the navigation solution with its standard deviations, one row per
     sensor reading saying whether it was used, rejected (and by which test) or dropped (and
-    why), and the measurement noise variance R the filter used at each reading. --out is
-    written whole at the end (a temporary folder beside it renamed into place); a non-empty
-    --out is refused unless --force, which replaces it."""
+    why), and the measurement noise variance R the filter used at each reading. With --smooth
+    the solution is the RTS-smoothed one and the filter's own is kept beside it as
+    forward.parquet (docs/smoothing.md). --out is written whole at the end (a temporary folder
+    beside it renamed into place); a non-empty --out is refused unless --force, which replaces
+    it."""
     from adaptnav import api
     from adaptnav.api import results
     from adaptnav.engine.align import AlignmentError
@@ -111,13 +117,22 @@ def run_cmd(
     with output(out, force, inputs=[mission_dir]) as tmp:
         try:
             mission = load_mission(mission_dir)
-            result = api.run(mission, filter or None, epoch_policy=epoch_policy or None)  # type: ignore[arg-type]
+            policy = epoch_policy or None
+            result = api.run(mission, filter or None, epoch_policy=policy, smooth=smooth)  # type: ignore[arg-type]
         except (MissionError, AlignmentError, UnitError, ValueError) as exc:
             # ValueError also covers the oracle on a mission without the simulator's truth.
             _fail(str(exc))
         results.save(result, tmp)
         if mission.truth is not None:
             mission.truth.to_parquet(tmp / "truth.parquet", index=False)
+    _print_run(result, out)
+
+
+def _print_run(result: Result, out: Path) -> None:
+    """What ``run`` prints: the ledger counts per sensor, the speed and, for a smoothed run, the
+    smoother's nodes and the memory their store took (docs/smoothing.md)."""
+    from adaptnav.api import results
+
     counts = results.ledger_counts(result.ledger)
     table = Table(title=f"{result.filter} on {result.mission}")
     for col in ("sensor", "used", "rejected", "dropped"):
@@ -127,6 +142,13 @@ def run_cmd(
     console.print(table)
     rate = result.meta.get("imu_samples_per_s", float("nan"))
     console.print(f"{result.meta['imu_samples']} IMU samples, {rate:,.0f} samples/s; run in {out}/")
+    sm = result.meta.get("smoother")
+    if sm is not None:
+        console.print(
+            f"RTS-smoothed: {sm['nodes']:,} nodes, {sm['update_nodes']:,} with an update, "
+            f"{sm['failed_nodes']} failed; store {sm['store_bytes'] / 2**20:,.1f} MiB; "
+            "forward solution in forward.parquet"
+        )
 
 
 @app.command("evaluate")
@@ -145,22 +167,27 @@ def evaluate_cmd(
     estimation error squared) of position, velocity and attitude, with the full 3x3
     covariance blocks: its mean is 3 for a filter whose covariance matches its errors, and
     95 % of the epochs should lie in [0.216, 9.348]; velocity and attitude need them in the
-    reference. Definitions: docs/metrics.md.
+    reference. Definitions: docs/metrics.md. A smoothed run (`adaptnav run --smooth`) is scored
+    on its RTS-smoothed solution, and its forward one beside it (the forward_ keys of --json;
+    docs/smoothing.md).
     """
     from adaptnav.analysis import evaluate
+    from adaptnav.api.results import jsonable
 
     result, truth, source = _run_and_reference(run_dir, mission)
     try:
         metrics = evaluate.evaluate(result, truth)
+        forward = evaluate.forward_metrics(result, truth)
     except ValueError as exc:  # a reference without the columns or times it needs
         _fail(f"{source}: {exc}")
     d = metrics.to_dict()
     if as_json:
         import json
 
-        typer.echo(json.dumps({"filter": result.filter, **d}, default=str))
+        extra = {} if forward is None else evaluate.forward_columns(forward)
+        typer.echo(json.dumps({"filter": result.filter, **d, **jsonable(extra)}, default=str))
         return
-    console.print(_metrics_table(result, metrics, d))
+    console.print(_metrics_table(result, metrics, d, forward))
     console.print(_ledger_table(metrics))
 
 
@@ -193,15 +220,21 @@ def _run_and_reference(run_dir: Path, mission: Path | None) -> tuple[Result, pd.
     return result, truth, source
 
 
-def _metrics_table(result: Result, metrics: Metrics, d: dict[str, Any]) -> Table:
+def _metrics_table(
+    result: Result, metrics: Metrics, d: dict[str, Any], forward: Metrics | None = None
+) -> Table:
     """The ``evaluate`` table: RMSE, relative RMSE, distance and NEES (docs/metrics.md) from
-    ``d``, the metrics as a dict."""
+    ``d``, the metrics as a dict; for a smoothed run (``forward``: the metrics of its forward
+    solution) a column of the smoothed values and one of the forward ones (docs/smoothing.md)."""
     from adaptnav.analysis import evaluate
 
     lo, hi = evaluate.NEES_BAND
-    table = Table(title=f"{result.filter} on {result.mission} (against the reference)")
+    smoothed = "" if forward is None else "RTS-smoothed, "
+    table = Table(title=f"{result.filter} on {result.mission} ({smoothed}against the reference)")
     table.add_column("metric")
-    table.add_column("value")
+    columns = [d] if forward is None else [d, forward.to_dict()]
+    for name in ["value"] if forward is None else ["smoothed", "forward"]:
+        table.add_column(name)
     for key, label, fmt in (
         ("rmse_m", "RMSE (m)", "{:.3f}"),
         ("relative_rmse_pct", "relative RMSE (%)", "{:.3f}"),
@@ -222,8 +255,8 @@ def _metrics_table(result: Result, metrics: Metrics, d: dict[str, Any]) -> Table
             )
         ),
     ):
-        value = d.get(key)
-        table.add_row(label, "n/a" if value is None else fmt.format(value))
+        values = [c.get(key) for c in columns]
+        table.add_row(label, *("n/a" if v is None else fmt.format(v) for v in values))
     if not metrics.nees_uses_correlations:
         table.caption = "NEES from P's diagonal only: the run folder has no cov_ columns"
     return table

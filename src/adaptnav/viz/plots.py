@@ -2,7 +2,8 @@
 
 * :func:`trajectory`: estimated tracks over the reference, east vs north from the start, with a
   zoom on the end (Figs. 7, 8);
-* :func:`position_error`: 3-D and horizontal position error over time (Fig. 9);
+* :func:`position_error`: 3-D and horizontal position error over time (Fig. 9); for smoothed
+  runs the forward solutions' (left) beside the RTS-smoothed ones (right; docs/smoothing.md);
 * :func:`noise_variance`: one aiding sensor's measurements and, on a log scale, the noise
   variance R̂ each adaptive filter used at each reading (``Result.noise``), beside the nominal R
   and, for a simulated mission, the true σ² (Fig. 10);
@@ -236,26 +237,56 @@ def _zoom_on_end(
 def position_error(
     results: Mapping[str, Result], truth: pd.DataFrame, *, t0: float | None = None
 ) -> Figure:
-    """Fig. 9: 3-D and horizontal position error (estimate minus reference) over time."""
+    """Fig. 9: 3-D and horizontal position error (estimate minus reference) over time.
+
+    When some run is smoothed (``Result.forward``, docs/smoothing.md) two columns of panels on
+    the same axes: the forward solutions (left) and the RTS-smoothed ones (right); a run that
+    was not smoothed (the floor) is drawn alike in both."""
     start = _start_time(results, t0)
-    fig = Figure(figsize=(11, 6.5), layout="constrained")
-    ax3, axh = fig.subplots(2, 1, sharex=True)
-    for name, r in results.items():
-        err = position_errors(r.solution, truth)
+    if all(r.forward is None for r in results.values()):
+        fig = Figure(figsize=(11, 6.5), layout="constrained")
+        ax3, axh = fig.subplots(2, 1, sharex=True)
+        _error_panels(ax3, axh, {n: r.solution for n, r in results.items()}, truth, start)
+        ax3.set_title("position error against the reference")
+        return fig
+    fig = Figure(figsize=(14, 6.5), layout="constrained")
+    axes = fig.subplots(2, 2, sharex=True, sharey="row")
+    forward = {n: r.solution if r.forward is None else r.forward for n, r in results.items()}
+    _error_panels(axes[0, 0], axes[1, 0], forward, truth, start)
+    smoothed = {n: r.solution for n, r in results.items()}
+    _error_panels(axes[0, 1], axes[1, 1], smoothed, truth, start, outer=False)
+    axes[0, 0].set_title("forward filter")
+    axes[0, 1].set_title("RTS-smoothed")
+    fig.suptitle("position error against the reference: forward and smoothed")
+    return fig
+
+
+def _error_panels(
+    ax3: Axes,
+    axh: Axes,
+    solutions: Mapping[str, pd.DataFrame],
+    truth: pd.DataFrame,
+    start: float,
+    *,
+    outer: bool = True,
+) -> None:
+    """Fig. 9's 3-D (``ax3``) and horizontal (``axh``) error panels of the ``solutions``, by
+    filter name; the y labels and the legend only on the ``outer`` (left) column."""
+    for name, solution in solutions.items():
+        err = position_errors(solution, truth)
         colour, dash = _style(name)
         t = err["t_s"].to_numpy(dtype=float)
         for ax, col in ((ax3, "error_m"), (axh, "horizontal_m")):
             te, ye = envelope(t, err[col].to_numpy(dtype=float))
             ax.plot(_minutes(te, start), ye, color=colour, ls=dash, lw=1.3, label=_label(name))
-    ax3.set_ylabel("3-D position error (m)")
-    axh.set_ylabel("horizontal position error (m)")
     axh.set_xlabel("time since navigation start (min)")
-    ax3.set_title("position error against the reference")
     for ax in (ax3, axh):
         ax.grid(True, alpha=0.3)
         ax.set_ylim(bottom=0.0)
-    ax3.legend(loc="upper left", fontsize=8)
-    return fig
+    if outer:
+        ax3.set_ylabel("3-D position error (m)")
+        axh.set_ylabel("horizontal position error (m)")
+        ax3.legend(loc="upper left", fontsize=8)
 
 
 def _nominal_r(mission: Mission, sensor: str, dim: int) -> Array:

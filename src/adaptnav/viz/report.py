@@ -18,7 +18,9 @@ into one HTML file a person reads from top to bottom:
    the horizontal length of the reference track) beside the paper's Table 3
    (``<table id="comparison">``, one row per filter), then each filter's consistency: the mean
    NEES of position, velocity and attitude and the share of epochs inside the χ²(3) 95 % band
-   (``<table id="consistency">``, docs/metrics.md);
+   (``<table id="consistency">``, docs/metrics.md); for a smoothed comparison (``adaptnav
+   compare --smooth``) the numbers are the RTS-smoothed solutions' and the forward solutions'
+   RMSE, relative RMSE and mean position NEES stand beside them (docs/smoothing.md);
 5. every figure (the paper's Figs. 7-10, ledger counts, NIS) as a ``<figure>`` with its PNG as a
    ``data:`` URI and a caption saying what to look at;
 6. the ledger counts (``<table id="ledger">``), the divergence guard's events
@@ -215,6 +217,9 @@ class ResultRow:
     final_horizontal_error_m: Num
     distance_km: float | None
     duration_min: float | None
+    forward_rmse_m: Num = None
+    """A smoothed run's forward solution's RMSE (docs/smoothing.md); None otherwise."""
+    forward_relative_rmse_pct: Num = None
 
 
 @dataclass(frozen=True)
@@ -244,6 +249,8 @@ class NeesRow:
 
     label: str
     blocks: tuple[tuple[Num, float | None], ...]
+    forward_position: Num = None
+    """A smoothed run's forward solution's mean position NEES (docs/smoothing.md)."""
 
 
 @dataclass(frozen=True)
@@ -321,6 +328,9 @@ class ReportData:
     settings: tuple[FilterRow, ...]
     results: tuple[ResultRow, ...]
     summary: Summary
+    smoothed: bool
+    """The runs are RTS-smoothed (``adaptnav compare --smooth``, docs/smoothing.md): the
+    forward solutions' scores are shown beside theirs."""
     nees_blocks: tuple[str, ...]
     nees_band: str
     nees: tuple[NeesRow, ...]
@@ -576,6 +586,8 @@ def _result_row(mission: str, name: str, r: Mapping[str, Any]) -> ResultRow:
         final_horizontal_error_m=_number(r.get("final_horizontal_error_m")),
         distance_km=_div(r.get("distance_m"), 1000.0),
         duration_min=_div(r.get("duration_s"), 60.0),
+        forward_rmse_m=_number(r.get("forward_rmse_m")),
+        forward_relative_rmse_pct=_number(r.get("forward_relative_rmse_pct")),
     )
 
 
@@ -632,6 +644,7 @@ def _nees_row(name: str, r: Mapping[str, Any]) -> NeesRow:
             (_number(r.get(f"mean_nees_{b}")), _mul(r.get(f"nees_{b}_in_95"), 100.0))
             for b in _NEES_BLOCKS
         ),
+        forward_position=_number(r.get("forward_mean_nees_position")),
     )
 
 
@@ -665,7 +678,17 @@ _CAPTIONS: dict[str, str] = {
 }
 
 
-def _caption(stem: str, sim: bool) -> str:
+_SMOOTHED_POSITION_ERROR = (
+    " Left: each filter's forward solution, as it ran; right: the same run RTS-smoothed "
+    "(docs/smoothing.md), every reading used both ways in time, on the same axes (a baseline "
+    "that is not a filter, the DVL dead reckoning, is drawn alike in both): look at how much "
+    "of each jump the smoother takes out."
+)
+
+
+def _caption(stem: str, sim: bool, smoothed: bool = False) -> str:
+    if stem == "position_error" and smoothed:
+        return _CAPTIONS[stem] + _SMOOTHED_POSITION_ERROR
     if stem in _CAPTIONS:
         return _CAPTIONS[stem]
     if stem.startswith("noise_"):
@@ -696,7 +719,9 @@ def _caption(stem: str, sim: bool) -> str:
     return f"Figure {stem}."
 
 
-def _figures(compare_dir: Path, files: Sequence[Any], sim: bool) -> tuple[Figure, ...]:
+def _figures(
+    compare_dir: Path, files: Sequence[Any], sim: bool, smoothed: bool = False
+) -> tuple[Figure, ...]:
     figures = []
     for k, rel in enumerate(files, start=1):
         path = compare_dir / str(rel)
@@ -705,7 +730,7 @@ def _figures(compare_dir: Path, files: Sequence[Any], sim: bool) -> tuple[Figure
             data = base64.b64encode(path.read_bytes()).decode("ascii")
         except OSError as exc:
             raise ReportError(f"{path}: figure missing ({exc.strerror})") from exc
-        figures.append(Figure(stem, k, data, _caption(stem, sim)))
+        figures.append(Figure(stem, k, data, _caption(stem, sim, smoothed)))
     return tuple(figures)
 
 
@@ -823,6 +848,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
     shown = folder.resolve() if shown_as is None else Path(shown_as)
     if mission_dir is not None and shown_as is not None and mission_dir == folder / MISSION_SUBDIR:
         mission_dir = shown / MISSION_SUBDIR
+    smoothed = any("forward_rmse_m" in r for r in results.values())
     return ReportData(
         title=title,
         filters=tuple(_label(n) for n in names),
@@ -835,13 +861,14 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
             _result_row(str(doc.get("mission", "")), n, results.get(n, {})) for n in scored
         ),
         summary=_summary(str(doc.get("mission", "")), names, results),
+        smoothed=smoothed,
         nees_blocks=_NEES_BLOCKS,
         nees_band=NEES_BAND_TEXT,
         nees=tuple(_nees_row(n, results.get(n, {})) for n in scored),
         nees_diagonal=tuple(
             _label(n) for n in scored if results.get(n, {}).get("nees_uses_correlations") is False
         ),
-        figures=_figures(folder, doc.get("figures") or [], sim is not None),
+        figures=_figures(folder, doc.get("figures") or [], sim is not None, smoothed),
         ledger=tuple(_ledger(scored, results)),
         events=tuple(_events(folder, n) for n in names),
         initial=_initial(doc.get("initial") or {}),
