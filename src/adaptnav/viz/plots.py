@@ -240,8 +240,9 @@ def position_error(
     """Fig. 9: 3-D and horizontal position error (estimate minus reference) over time.
 
     When some run is smoothed (``Result.forward``, docs/smoothing.md) two columns of panels on
-    the same axes: the forward solutions (left) and the RTS-smoothed ones (right); a run that
-    was not smoothed (the floor) is drawn alike in both."""
+    the same axes: the forward solutions (left) and the RTS-smoothed ones (right), each
+    horizontal error with the claimed 2σ (dotted, ``2 √(σ_N² + σ_E²)``); a run that was not
+    smoothed (the floor) is drawn alike in both."""
     start = _start_time(results, t0)
     if all(r.forward is None for r in results.values()):
         fig = Figure(figsize=(11, 6.5), layout="constrained")
@@ -252,9 +253,9 @@ def position_error(
     fig = Figure(figsize=(14, 6.5), layout="constrained")
     axes = fig.subplots(2, 2, sharex=True, sharey="row")
     forward = {n: r.solution if r.forward is None else r.forward for n, r in results.items()}
-    _error_panels(axes[0, 0], axes[1, 0], forward, truth, start)
+    _error_panels(axes[0, 0], axes[1, 0], forward, truth, start, sigma=True)
     smoothed = {n: r.solution for n, r in results.items()}
-    _error_panels(axes[0, 1], axes[1, 1], smoothed, truth, start, outer=False)
+    _error_panels(axes[0, 1], axes[1, 1], smoothed, truth, start, outer=False, sigma=True)
     axes[0, 0].set_title("forward filter")
     axes[0, 1].set_title("RTS-smoothed")
     fig.suptitle("position error against the reference: forward and smoothed")
@@ -269,9 +270,11 @@ def _error_panels(
     start: float,
     *,
     outer: bool = True,
+    sigma: bool = False,
 ) -> None:
     """Fig. 9's 3-D (``ax3``) and horizontal (``axh``) error panels of the ``solutions``, by
-    filter name; the y labels and the legend only on the ``outer`` (left) column."""
+    filter name; the y labels and the legend only on the ``outer`` (left) column; ``sigma``:
+    the claimed horizontal 2σ, dotted, in the horizontal panel."""
     for name, solution in solutions.items():
         err = position_errors(solution, truth)
         colour, dash = _style(name)
@@ -279,6 +282,12 @@ def _error_panels(
         for ax, col in ((ax3, "error_m"), (axh, "horizontal_m")):
             te, ye = envelope(t, err[col].to_numpy(dtype=float))
             ax.plot(_minutes(te, start), ye, color=colour, ls=dash, lw=1.3, label=_label(name))
+        if sigma:
+            t_sol = solution["t_s"].to_numpy(dtype=float)
+            sd_n, sd_e = (solution[c].to_numpy(dtype=float) for c in ("sd_dr_N", "sd_dr_E"))
+            two_sd = 2.0 * np.hypot(sd_n, sd_e)
+            ts, ys = envelope(t_sol, two_sd)
+            axh.plot(_minutes(ts, start), ys, color=colour, ls=":", lw=0.9)
     axh.set_xlabel("time since navigation start (min)")
     for ax in (ax3, axh):
         ax.grid(True, alpha=0.3)
