@@ -105,6 +105,7 @@ LIN_HEADING, LIN_GNSS, LIN_ZUPT = Heading.LIN_CODE, GNSS.LIN_CODE, ZeroVelocity.
 N_PAR = sensor_kind.N_PAR
 """Packed parameters (sensors/kind.py): ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
 PAR_LB, PAR_CSB, PAR_FLAG = sensor_kind.PAR_LB, sensor_kind.PAR_CSB, sensor_kind.PAR_FLAG
+PAR_CAL = sensor_kind.PAR_CAL
 
 # --- per-sensor tables (rows: sensors) ----------------------------------------------------------
 
@@ -267,6 +268,75 @@ def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: in
             H[k, 3 + c] = row[c]
             H[k, 6 + c] = h_phi[c]
             H[k, 12 + c] = h_bg[c]
+    if a0 == 0 and (par[PAR_CAL] >= 0.0 or par[PAR_CAL + 1] >= 0.0):
+        _calibrate_dvl(par, x, z, pred, y, H, r)
+
+
+@jit_inline
+def _rot_x(r: float, d: bool) -> Mat3:
+    """Rx(r) of attitude.euler_to_dcm, or its derivative (``d``), row-major."""
+    s, c = math.sin(r), math.cos(r)
+    if d:
+        return (0.0, 0.0, 0.0, 0.0, -s, -c, 0.0, c, -s)
+    return (1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+
+
+@jit_inline
+def _rot_y(p: float, d: bool) -> Mat3:
+    s, c = math.sin(p), math.cos(p)
+    if d:
+        return (-s, 0.0, c, 0.0, 0.0, 0.0, -c, 0.0, -s)
+    return (c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+
+
+@jit_inline
+def _rot_z(y: float, d: bool) -> Mat3:
+    s, c = math.sin(y), math.cos(y)
+    if d:
+        return (-s, -c, 0.0, c, -s, 0.0, 0.0, 0.0, 0.0)
+    return (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+
+
+@jit_inline
+def _t_vec(A: Mat3, v: Vec3) -> Vec3:
+    """``Aᵀ v``."""
+    return (
+        A[0] * v[0] + A[3] * v[1] + A[6] * v[2],
+        A[1] * v[0] + A[4] * v[1] + A[7] * v[2],
+        A[2] * v[0] + A[5] * v[1] + A[8] * v[2],
+    )
+
+
+@jit_inline
+def _misaligned(d: Vec3, which: int, v: Vec3) -> Vec3:
+    """``M(δ) v = Rxᵀ Ryᵀ Rzᵀ v`` (sensors/calibration.misalignment), or ``(∂M/∂δ_which) v``
+    (which = 0, 1, 2: roll, pitch, yaw; -1: M itself)."""
+    w = _t_vec(_rot_z(d[2], which == 2), v)
+    w = _t_vec(_rot_y(d[1], which == 1), w)
+    return _t_vec(_rot_x(d[0], which == 0), w)
+
+
+@jit_inline
+def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, r: int) -> None:
+    """The DVL's calibration states (twin: sensors.dvl.calibrate): ``h = (1 + s) M(δ) p``,
+    H's core rows mixed by ``(1 + s) M``, ``M p`` on s, ``(1 + s) (∂M/∂δ_i) p`` on δ."""
+    ks, km = int(par[PAR_CAL]), int(par[PAR_CAL + 1])
+    g = 1.0 + x[ks + 1] if ks >= 0 else 1.0
+    d = (x[km + 1], x[km + 2], x[km + 3]) if km >= 0 else (0.0, 0.0, 0.0)
+    mp = _misaligned(d, -1, p)
+    for c in range(N_STATES):
+        col = _misaligned(d, -1, (H[r, c], H[r + 1, c], H[r + 2, c]))
+        for a in range(3):
+            H[r + a, c] = g * col[a]
+    for a in range(3):
+        y[r + a] = z[a] - g * mp[a]
+        if ks >= 0:
+            H[r + a, ks] = mp[a]
+    if km >= 0:
+        for i in range(3):
+            dp = _misaligned(d, i, p)
+            for a in range(3):
+                H[r + a, km + i] = g * dp[a]
 
 
 @jit_inline
@@ -277,6 +347,18 @@ def _lin_depth(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> No
     H[r, 2] = 1.0
     H[r, 6] = a[1]
     H[r, 7] = -a[0]
+    _bias(par, x, y, H, r, 1)
+
+
+@jit_inline
+def _bias(par: Array, x: Array, y: Array, H: Array, r: int, d: int) -> None:
+    """A reading plus its bias states from error index ``par[PAR_CAL]`` (-1: none): ``y -= b``,
+    1 on each bias (twin: sensors.calibration.with_bias)."""
+    kb = int(par[PAR_CAL])
+    if kb >= 0:
+        for a in range(d):
+            y[r + a] -= x[kb + 1 + a]
+            H[r + a, kb + a] = 1.0
 
 
 @jit_inline
@@ -297,12 +379,16 @@ def _lin_attitude(
         H[r, 7] = sy * tp
         H[r, 8] = 1.0
     else:
-        y[r] = _wrap(z[0] - roll)
-        y[r + 1] = _wrap(z[1] - pitch)
+        kb = int(par[PAR_CAL])
+        b0, b1 = (x[kb + 1], x[kb + 2]) if kb >= 0 else (0.0, 0.0)
+        y[r] = _wrap(z[0] - (roll + b0))
+        y[r + 1] = _wrap(z[1] - (pitch + b1))
         H[r, 6] = cy / cp
         H[r, 7] = sy / cp
         H[r + 1, 6] = -sy
         H[r + 1, 7] = cy
+        if kb >= 0:
+            H[r, kb], H[r + 1, kb + 1] = 1.0, 1.0
 
 
 @jit_inline
@@ -314,8 +400,12 @@ def _lin_pendulum(par: Array, x: Array, z: Array, f: Array, y: Array, H: Array, 
     rho2 = fs[1] * fs[1] + fs[2] * fs[2]
     rho = math.sqrt(rho2)
     n2 = rho2 + fs[0] * fs[0]
-    y[r] = _wrap(z[0] - math.atan2(-fs[1], -fs[2]))
-    y[r + 1] = _wrap(z[1] - math.atan2(fs[0], rho))
+    kb = int(par[PAR_CAL])
+    b0, b1 = (x[kb + 1], x[kb + 2]) if kb >= 0 else (0.0, 0.0)
+    y[r] = _wrap(z[0] - (math.atan2(-fs[1], -fs[2]) + b0))
+    y[r + 1] = _wrap(z[1] - (math.atan2(fs[0], rho) + b1))
+    if kb >= 0:
+        H[r, kb], H[r + 1, kb + 1] = 1.0, 1.0
     j_roll = (0.0, fs[2] / rho2, -fs[1] / rho2)
     j_pitch = (rho / n2, -fs[0] * fs[1] / (rho * n2), -fs[0] * fs[2] / (rho * n2))
     for c in range(3):

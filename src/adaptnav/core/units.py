@@ -25,6 +25,9 @@ class Kind(StrEnum):
     LENGTH = "length"  # → m
     RATE_RANDOM_WALK = "rate random walk"  # → rad/s/√s
     ACCEL_RANDOM_WALK = "acceleration random walk"  # → m/s²/√s
+    RATIO = "ratio"  # → 1 (a scale-factor error)
+    RATIO_RANDOM_WALK = "ratio random walk"  # → 1/√s
+    LENGTH_RANDOM_WALK = "length random walk"  # → m/√s
 
 
 _FACTORS: dict[Kind, dict[str, float]] = {
@@ -70,6 +73,13 @@ _FACTORS: dict[Kind, dict[str, float]] = {
         "ug/sqrt(h)": 1e-6 * G0 / 60.0,
         "mg/sqrt(h)": 1e-3 * G0 / 60.0,
     },
+    Kind.RATIO: {"1": 1.0, "%": 1e-2, "ppm": 1e-6},
+    Kind.RATIO_RANDOM_WALK: {
+        "1/sqrt(s)": 1.0,
+        "%/sqrt(h)": 1e-2 / 60.0,
+        "ppm/sqrt(h)": 1e-6 / 60.0,
+    },
+    Kind.LENGTH_RANDOM_WALK: {"m/sqrt(s)": 1.0, "m/sqrt(h)": 1.0 / 60.0, "cm/sqrt(h)": 1e-2 / 60.0},
 }
 
 

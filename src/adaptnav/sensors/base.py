@@ -34,10 +34,11 @@ _ROTATION_TOL = 1e-9
 
 @dataclass(frozen=True, eq=False)
 class Measurement:
-    """One linearised measurement: residual y (d,), H (d, 15), nominal R (d, d), names (d).
+    """One linearised measurement: residual y (d,), H (d, 15 + m), nominal R (d, d), names (d).
 
     ``y = z - h(x_hat)`` in the sensor's residual units (m, m/s, rad), ``H = ∂h(x_hat ⊕ dx)/∂dx``
-    and ``R`` the sensor's nominal (configured) noise covariance. ``names`` label the components
+    (15 columns, or one per error state with m declared states: errorstate.StateLayout) and
+    ``R`` the sensor's nominal (configured) noise covariance. ``names`` label the components
     (``"dvl_x"``, ``"gnss_N"``...) for logs and per-component adaptation.
     """
 
@@ -48,9 +49,11 @@ class Measurement:
 
     def __post_init__(self) -> None:
         d = len(self.names)
-        if self.y.shape != (d,) or self.H.shape != (d, N_STATES) or self.R.shape != (d, d):
+        H_ok = self.H.ndim == 2 and self.H.shape[0] == d and self.H.shape[1] >= N_STATES
+        if self.y.shape != (d,) or not H_ok or self.R.shape != (d, d):
             raise ValueError(
-                f"Measurement with {d} names needs y ({d},), H ({d}, {N_STATES}), R ({d}, {d}); "
+                f"Measurement with {d} names needs y ({d},), H ({d}, {N_STATES} + m), "
+                f"R ({d}, {d}); "
                 f"got y {self.y.shape}, H {self.H.shape}, R {self.R.shape}"
             )
 

@@ -12,6 +12,8 @@ Linearisation for ``dx = x_true ⊖ x_hat`` (``h_true = h - dr_D``, ``C_true = E
 ``a = C_nb l_b``: ``-h_true = -h + dr_D`` and ``(Exp(phi) a)_D ≈ a_D + (phi × a)_D``, so::
 
     H_drD = 1,    H_phi = -[a×]_(D row) = [a_E, -a_N, 0].
+
+With its bias state b (docs/calibration.md) it reads ``z + b``; H has 1 on b.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from numpy.typing import ArrayLike
 from adaptnav.core import attitude
 from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, N_STATES, POS
-from adaptnav.models.strapdown import NOM_ATT
+from adaptnav.models.strapdown import NOM_ATT, NOM_SIZE
 from adaptnav.sensors.base import (
     Array,
     Components,
@@ -36,6 +38,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
+from adaptnav.sensors.calibration import DEPTH_BIAS, with_bias
 from adaptnav.sensors.kind import (
     SLOW_STUCK_S,
     IdealInput,
@@ -72,31 +75,39 @@ class Depth(Components):
         sigma: nominal noise σ (m).
         l_b: lever arm from the IMU to the pressure port, body FRD (m).
         name: sensor name, also the component's name.
+        cal_bias: error-state index of its bias state (docs/calibration.md); -1: none.
     """
 
     sigma: float
     l_b: Array = field(default_factory=lambda: np.zeros(3))
     name: str = "depth"
+    cal_bias: int = -1
 
     LIN_CODE: ClassVar[int] = 1
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(self.l_b)
+        return pack_params(self.l_b, calibration=(self.cal_bias, -1))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
         object.__setattr__(self, "name", check_name("name", self.name))
 
+    def _biased(self, x: ArrayLike) -> tuple[Array, Array]:
+        xa = np.asarray(x, dtype=float)
+        core = xa[:NOM_SIZE]
+        h, H = predict(core, self.l_b), jacobian(core, self.l_b)
+        return (h, H) if xa.size == NOM_SIZE else with_bias(xa, h, H, self.cal_bias)
+
     def predict(self, x: ArrayLike) -> Array:
-        """See :func:`predict`."""
-        return predict(x, self.l_b)
+        """See :func:`predict` (plus the bias state, if any: sensors/calibration.py)."""
+        return self._biased(x)[0]
 
     def jacobian(self, x: ArrayLike) -> Array:
-        """See :func:`jacobian`."""
-        return jacobian(x, self.l_b)
+        """See :func:`jacobian`; a column per error state of x (15 + m)."""
+        return self._biased(x)[1]
 
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
@@ -108,7 +119,8 @@ class Depth(Components):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        return Measurement(zz - self.predict(x), self.jacobian(x), self.R, self.names)
+        h, H = self._biased(x)
+        return Measurement(zz - h, H, self.R, self.names)
 
 
 def ideal(t: IdealInput) -> Array:
@@ -123,11 +135,14 @@ KIND = SensorKind(
     name="depth",
     columns=("depth_m",),
     sigma_kind=Kind.LENGTH,
-    build=lambda s: Depth(float(np.asarray(s.sigma).reshape(-1)[0]), s.l_b, s.name),
+    build=lambda s: Depth(
+        float(np.asarray(s.sigma).reshape(-1)[0]), s.l_b, s.name, s.calibration.get("bias", -1)
+    ),
     limits={"depth_m": (-100.0, 12000.0)},
     stuck=StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
     lever_arm=True,
     linearised=(Depth,),
+    calibration={"bias": DEPTH_BIAS},
     ideal_reading=ideal,
 )
 """The depth meter as a sensor kind (sensors/kind.py): depth in [-100, 12000] m (above the

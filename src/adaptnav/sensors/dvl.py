@@ -15,6 +15,10 @@ and ``b_g,true = b_g + db_g``::
     H_dv   = C_sb Cᵀ
     H_phi  = C_sb Cᵀ [v_n×]              (-Cᵀ phi × v = Cᵀ v × phi)
     H_dbg  = C_sb [l_b×]                 (-(db_g × l) = l × db_g)
+
+With its calibration states (docs/calibration.md), scale s and misalignment δ, the DVL reads
+``z = (1 + s) M(δ) h``, M of sensors/calibration.py: H becomes ``(1 + s) M H``, and its columns
+are ``M h`` on s and ``(1 + s) (∂M/∂δ_i) h`` on δ (:func:`calibrate`).
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from numpy.typing import ArrayLike
 from adaptnav.core import attitude
 from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, BG, N_STATES, VEL
-from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_VEL
+from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_SIZE, NOM_VEL
 from adaptnav.sensors.base import (
     Array,
     Components,
@@ -39,6 +43,12 @@ from adaptnav.sensors.base import (
     check_sigma,
     check_state,
     check_vector3,
+)
+from adaptnav.sensors.calibration import (
+    MISALIGNMENT,
+    SCALE,
+    misalignment,
+    misalignment_derivatives,
 )
 from adaptnav.sensors.kind import (
     MAX_SPEED_M_S,
@@ -94,6 +104,26 @@ def jacobian(
     return H
 
 
+def calibrate(x: ArrayLike, h: Array, H: Array, scale: int, mis: int) -> tuple[Array, Array]:
+    """The calibrated reading and H (module docstring) from the error-free ``h`` and the core's
+    ``H`` (3×15), for the error-state indices ``scale``, ``mis`` of the scale and the first
+    misalignment state (-1: not estimated; nominal values at index + 1). H gets a column per
+    error state of x (15 + m)."""
+    xa = np.asarray(x, dtype=float)
+    n = xa.size - 1
+    gain = 1.0 + xa[scale + 1] if scale >= 0 else 1.0
+    d = xa[mis + 1 : mis + 4] if mis >= 0 else np.zeros(3)
+    M = misalignment(d)
+    out = np.zeros((DIM, max(n, N_STATES)))
+    out[:, :N_STATES] = gain * M @ H
+    if scale >= 0:
+        out[:, scale] = M @ h
+    if mis >= 0:
+        for i, dM in enumerate(misalignment_derivatives(d)):
+            out[:, mis + i] = gain * dM @ h
+    return np.asarray(gain * M @ h, dtype=float), out
+
+
 @dataclass(frozen=True, eq=False)
 class DVL(Components):
     """DVL bottom-track velocity sensor.
@@ -103,6 +133,8 @@ class DVL(Components):
         l_b: lever arm from the IMU to the DVL, body FRD (m).
         C_sb: mounting rotation, DVL frame from body frame (identity: DVL axes = body axes).
         name: sensor name; components are named ``{name}_x``, ``_y``, ``_z``.
+        cal_scale, cal_misalignment: error-state indices of its scale state and its first
+            misalignment state (docs/calibration.md); -1: not estimated.
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("x", "y", "z")
@@ -114,6 +146,8 @@ class DVL(Components):
     l_b: Array = field(default_factory=lambda: np.zeros(3))
     C_sb: Array = field(default_factory=lambda: np.eye(3))
     name: str = "dvl"
+    cal_scale: int = -1
+    cal_misalignment: int = -1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, DIM))
@@ -123,15 +157,30 @@ class DVL(Components):
 
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(self.l_b, self.C_sb)
+        return pack_params(self.l_b, self.C_sb, calibration=(self.cal_scale, self.cal_misalignment))
+
+    def _calibrated(self, x: ArrayLike, omega_ib_b: ArrayLike | None) -> tuple[Array, Array]:
+        """h and H of the state ``x`` (16, or 16 + m with declared states)."""
+        xa = np.asarray(x, dtype=float)
+        core = xa[:NOM_SIZE]
+        h = predict(core, omega_ib_b, self.l_b, self.C_sb)
+        H = jacobian(core, self.l_b, self.C_sb)
+        if xa.size == NOM_SIZE:
+            return h, H
+        return calibrate(xa, h, H, self.cal_scale, self.cal_misalignment)
 
     def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
-        """See :func:`predict`; ``omega_ib_b`` is the raw gyro rate (rad/s)."""
-        return predict(x, omega_ib_b, self.l_b, self.C_sb)
+        """See :func:`predict` (and :func:`calibrate` for a state with declared states);
+        ``omega_ib_b`` is the raw gyro rate (rad/s)."""
+        return self._calibrated(x, omega_ib_b)[0]
 
-    def jacobian(self, x: ArrayLike) -> Array:
-        """See :func:`jacobian`."""
-        return jacobian(x, self.l_b, self.C_sb)
+    def jacobian(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
+        """See :func:`jacobian` (and :func:`calibrate`: 3 × (15 + m) for a state with m
+        declared states; it needs the rate then, for the lever arm's part of h)."""
+        xa = np.asarray(x, dtype=float)
+        if xa.size == NOM_SIZE:
+            return jacobian(xa, self.l_b, self.C_sb)
+        return self._calibrated(xa, omega_ib_b)[1]
 
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
@@ -143,8 +192,8 @@ class DVL(Components):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        y = zz - self.predict(x, omega_ib_b)
-        return Measurement(y, self.jacobian(x), self.R, self.names)
+        h, H = self._calibrated(x, omega_ib_b)
+        return Measurement(zz - h, H, self.R, self.names)
 
 
 DVL_STUCK_S = 10.0
@@ -163,13 +212,21 @@ KIND = SensorKind(
     name="dvl",
     columns=COLUMNS,
     sigma_kind=Kind.SPEED,
-    build=lambda s: DVL(s.sigma, s.l_b, s.C_sb, s.name),
+    build=lambda s: DVL(
+        s.sigma,
+        s.l_b,
+        s.C_sb,
+        s.name,
+        s.calibration.get("scale", -1),
+        s.calibration.get("misalignment", -1),
+    ),
     limits={c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in COLUMNS},
     stuck=StuckDefault(DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in COLUMNS}),
     lever_arm=True,
     mounting=True,
     options=frozenset({"zero_is_lost", "status_column"}),
     linearised=(DVL,),
+    calibration={q.name: q for q in (SCALE, MISALIGNMENT)},
     ideal_reading=ideal,
 )
 """The DVL as a sensor kind (sensors/kind.py): |velocity| <= 20 m/s per axis; stuck after 10 s

@@ -56,7 +56,7 @@ from numpy.typing import ArrayLike
 from adaptnav.core import attitude
 from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, BA, N_STATES
-from adaptnav.models.strapdown import NOM_ATT, NOM_BA
+from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_SIZE
 from adaptnav.sensors.base import (
     Array,
     Components,
@@ -68,6 +68,7 @@ from adaptnav.sensors.base import (
     check_state,
     euler_jacobian,
 )
+from adaptnav.sensors.calibration import TILT_BIAS, with_bias
 from adaptnav.sensors.kind import (
     ANGLE_RESOLUTION_RAD,
     HALF_PI,
@@ -109,6 +110,8 @@ class _TwoAxis(Components):
         sigma: nominal noise σ of [roll, pitch] (rad); a scalar applies to both.
         C_sb: mounting rotation, sensor frame from body frame.
         name: sensor name; components are ``{name}_roll``, ``{name}_pitch``.
+        cal_bias: error-state index of its roll bias state, the pitch bias's next
+            (docs/calibration.md: it reads the angles plus the biases); -1: none.
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("roll", "pitch")
@@ -116,6 +119,11 @@ class _TwoAxis(Components):
     sigma: float | Array
     C_sb: Array = field(default_factory=lambda: np.eye(3))
     name: str = "inclinometer"
+    cal_bias: int = -1
+
+    def lin_params(self) -> Array:
+        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
+        return pack_params(C_sb=self.C_sb, calibration=(self.cal_bias, -1))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, DIM))
@@ -130,17 +138,19 @@ class Inclinometer(_TwoAxis):
     LIN_CODE: ClassVar[int] = 2
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
-    def lin_params(self) -> Array:
-        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(C_sb=self.C_sb)
+    def _biased(self, x: ArrayLike) -> tuple[Array, Array]:
+        xa = np.asarray(x, dtype=float)
+        core = xa[:NOM_SIZE]
+        h, H = predict(core, self.C_sb), jacobian(core, self.C_sb)
+        return (h, H) if xa.size == NOM_SIZE else with_bias(xa, h, H, self.cal_bias)
 
     def predict(self, x: ArrayLike) -> Array:
-        """See :func:`predict`."""
-        return predict(x, self.C_sb)
+        """See :func:`predict` (plus the bias states, if any)."""
+        return self._biased(x)[0]
 
     def jacobian(self, x: ArrayLike) -> Array:
-        """See :func:`jacobian`."""
-        return jacobian(x, self.C_sb)
+        """See :func:`jacobian`; a column per error state of x (15 + m)."""
+        return self._biased(x)[1]
 
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
@@ -152,8 +162,8 @@ class Inclinometer(_TwoAxis):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        y = attitude.wrap_angle(zz - self.predict(x))
-        return Measurement(y, self.jacobian(x), self.R, self.names)
+        h, H = self._biased(x)
+        return Measurement(attitude.wrap_angle(zz - h), H, self.R, self.names)
 
 
 def tilt(f_s: ArrayLike) -> Array:
@@ -206,17 +216,19 @@ class PendulumInclinometer(_TwoAxis):
     LIN_CODE: ClassVar[int] = 6
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
-    def lin_params(self) -> Array:
-        """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(C_sb=self.C_sb)
+    def _biased(self, x: ArrayLike, f_ib_b: ArrayLike | None) -> tuple[Array, Array]:
+        xa = np.asarray(x, dtype=float)
+        core, f = xa[:NOM_SIZE], _need_force(f_ib_b)
+        h, H = pendulum_predict(core, f, self.C_sb), pendulum_jacobian(core, f, self.C_sb)
+        return (h, H) if xa.size == NOM_SIZE else with_bias(xa, h, H, self.cal_bias)
 
     def predict(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
-        """See :func:`pendulum_predict`."""
-        return pendulum_predict(x, _need_force(f_ib_b), self.C_sb)
+        """See :func:`pendulum_predict` (plus the bias states, if any)."""
+        return self._biased(x, f_ib_b)[0]
 
     def jacobian(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
-        """See :func:`pendulum_jacobian`."""
-        return pendulum_jacobian(x, _need_force(f_ib_b), self.C_sb)
+        """See :func:`pendulum_jacobian`; a column per error state of x (15 + m)."""
+        return self._biased(x, f_ib_b)[1]
 
     def evaluate(
         self,
@@ -230,8 +242,8 @@ class PendulumInclinometer(_TwoAxis):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        y = attitude.wrap_angle(zz - self.predict(x, f_ib_b))
-        return Measurement(y, self.jacobian(x, f_ib_b), self.R, self.names)
+        h, H = self._biased(x, f_ib_b)
+        return Measurement(attitude.wrap_angle(zz - h), H, self.R, self.names)
 
 
 def _need_force(f_ib_b: ArrayLike | None) -> Array:
@@ -245,9 +257,10 @@ def _need_force(f_ib_b: ArrayLike | None) -> Array:
 
 def _build(s: SensorSetup) -> Inclinometer | PendulumInclinometer:
     """``model = "attitude"``: it reads roll and pitch; else (the default) a pendulum."""
+    bias = s.calibration.get("bias", -1)
     if s.model == "attitude":
-        return Inclinometer(s.sigma, s.C_sb, s.name)
-    return PendulumInclinometer(s.sigma, s.C_sb, s.name)
+        return Inclinometer(s.sigma, s.C_sb, s.name, bias)
+    return PendulumInclinometer(s.sigma, s.C_sb, s.name, bias)
 
 
 def ideal(t: IdealInput) -> Array:
@@ -269,6 +282,7 @@ KIND = SensorKind(
     mounting=True,
     options=frozenset({"model"}),
     linearised=(Inclinometer, PendulumInclinometer),
+    calibration={"bias": TILT_BIAS},
     ideal_reading=ideal,
 )
 """The inclinometer as a sensor kind (sensors/kind.py): angles within ±90°; stuck after 60 s

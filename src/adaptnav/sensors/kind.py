@@ -27,19 +27,27 @@ from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.core.units import Kind
 from adaptnav.sensors.base import MeasurementModel
+from adaptnav.sensors.calibration import Quantity
 
 Array = NDArray[np.float64]
 
 N_PAR = 16
-"""Packed linearisation parameters: ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
-PAR_LB, PAR_CSB, PAR_FLAG = 0, 3, 12
+"""Packed linearisation parameters: ``[l_b (3) | C_sb (9, row-major) | flag | calibration
+state indices (2) | unused]``."""
+PAR_LB, PAR_CSB, PAR_FLAG, PAR_CAL = 0, 3, 12, 13
+"""``par[PAR_CAL]``, ``par[PAR_CAL + 1]``: error-state indices of the model's calibration blocks
+(sensors/calibration.py; -1: none), as the model's class defines them."""
 
 
 def pack_params(
-    l_b: ArrayLike | None = None, C_sb: ArrayLike | None = None, flag: float = 0.0
+    l_b: ArrayLike | None = None,
+    C_sb: ArrayLike | None = None,
+    flag: float = 0.0,
+    calibration: tuple[int, int] = (-1, -1),
 ) -> Array:
     """A model's parameters as the compiled ``linearise`` reads them (:data:`N_PAR`)."""
     par = np.zeros(N_PAR)
+    par[PAR_CAL : PAR_CAL + 2] = calibration
     par[PAR_CSB : PAR_CSB + 9] = np.eye(3).ravel()
     if l_b is not None:
         par[PAR_LB : PAR_LB + 3] = np.asarray(l_b, dtype=float)
@@ -86,6 +94,9 @@ class SensorSetup:
     """Sensor frame from body frame; identity for a kind without a mounting rotation."""
     use_height: bool = False
     model: str | None = None
+    calibration: Mapping[str, int] = field(default_factory=dict)
+    """Error-state index of the first state of each calibration quantity estimated
+    (:attr:`SensorKind.calibration`; docs/calibration.md)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,6 +147,9 @@ class SensorKind:
     """Trailing columns present only with an option (the GNSS height, with ``use_height``)."""
     linearised: tuple[type, ...] = field(default=())
     """Its model classes that have a compiled linearisation (``LIN_CODE``, ``lin_params``)."""
+    calibration: Mapping[str, Quantity] = field(default_factory=dict)
+    """What it can estimate about itself (``[sensors.<name>] estimate``), by name
+    (sensors/calibration.py)."""
     ideal_reading: Callable[[IdealInput], Array] | None = None
     """Its error-free readings (N, len(columns)) of the true motion, in the SI units of
     :attr:`columns` (optional ones included): the filter's own ``predict`` at the truth, so that

@@ -1,0 +1,120 @@
+"""What an aiding sensor can estimate about itself: its calibration (docs/calibration.md).
+
+A kind declares its quantities (``SensorKind.calibration``): the DVL its scale factor and its
+mounting misalignment, the depth meter a bias, the inclinometer roll and pitch biases. A mission
+asks for them per sensor (``[sensors.<name>] estimate = ["scale", "misalignment"]``); each becomes
+a block of random-walk states of the error state (models/errorstate.StateLayout) with a prior σ
+and a random-walk density, in datasheet units, the defaults below. The sensor's model reads the
+block's nominal values from the state and its H has columns for them.
+
+Conventions (the simulator's, docs/simulation.md, 'Calibration errors'):
+
+* scale ``s``: the sensor reads ``(1 + s)`` times the true value (0.01: 1 % high);
+* misalignment ``δ = (roll, pitch, yaw)``: the true sensor frame is the configured one rotated by
+  the ZYX Euler angles δ, so a reading is ``M(δ) z_nominal``, ``M = euler_to_dcm(δ)ᵀ``
+  (``≈ I - [δ×]``);
+* bias ``b``: the sensor reads the true value plus b.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav.core import attitude
+from adaptnav.core.units import Kind
+from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.strapdown import NOM_SIZE
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One calibration quantity of a sensor kind: its states, default prior σ and random walk
+    (SI), their unit kinds (for ``mission.toml``), and the unit it is reported in."""
+
+    name: str
+    states: tuple[str, ...]
+    """Names of its states after the sensor's name: ``dvl.scale``, ``dvl.misalignment_yaw``."""
+    sigma: float
+    random_walk: float
+    """Random-walk density (SI per √s); 0: a constant."""
+    sigma_kind: Kind
+    random_walk_kind: Kind
+    unit: str
+    """Unit of ``calibration.json`` and the report."""
+    factor: float
+    """SI → :attr:`unit`."""
+
+
+SCALE = Quantity("scale", ("scale",), 0.01, 0.0, Kind.RATIO, Kind.RATIO_RANDOM_WALK, "%", 100.0)
+"""A DVL's scale factor: 1 % a priori (datasheets give 0.2-1 %), constant."""
+MISALIGNMENT = Quantity(
+    "misalignment",
+    ("misalignment_roll", "misalignment_pitch", "misalignment_yaw"),
+    math.radians(2.0),
+    0.0,
+    Kind.ANGLE,
+    Kind.ANGLE_RANDOM_WALK,
+    "deg",
+    180.0 / math.pi,
+)
+"""A mounting misalignment: 2° per angle a priori (a bracket measured with a tape), constant."""
+DEPTH_BIAS = Quantity("bias", ("bias",), 0.5, 0.0, Kind.LENGTH, Kind.LENGTH_RANDOM_WALK, "m", 1.0)
+"""A depth meter's bias (atmospheric pressure, density, the transducer's zero): 0.5 m."""
+TILT_BIAS = Quantity(
+    "bias",
+    ("bias_roll", "bias_pitch"),
+    math.radians(0.5),
+    0.0,
+    Kind.ANGLE,
+    Kind.ANGLE_RANDOM_WALK,
+    "deg",
+    180.0 / math.pi,
+)
+"""An inclinometer's roll and pitch biases (its mounting and zero): 0.5° each."""
+
+
+def misalignment(d: ArrayLike) -> Array:
+    """``M(δ) = euler_to_dcm(δ)ᵀ`` (module docstring)."""
+    a = np.asarray(d, dtype=float)
+    return np.asarray(attitude.euler_to_dcm(a[0], a[1], a[2]).T, dtype=float)
+
+
+def misalignment_derivatives(d: ArrayLike) -> Array:
+    """``∂M/∂δ_i`` (3, 3, 3), i = roll, pitch, yaw: with ``euler_to_dcm = Rz Ry Rx``,
+    ``M = Rxᵀ Ryᵀ Rzᵀ`` and each derivative replaces one factor by its own derivative."""
+    r, p, y = np.asarray(d, dtype=float)
+    sr, cr, sp, cp, sy, cy = np.sin(r), np.cos(r), np.sin(p), np.cos(p), np.sin(y), np.cos(y)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    Ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    Rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    dRx = np.array([[0.0, 0.0, 0.0], [0.0, -sr, -cr], [0.0, cr, -sr]])
+    dRy = np.array([[-sp, 0.0, cp], [0.0, 0.0, 0.0], [-cp, 0.0, -sp]])
+    dRz = np.array([[-sy, -cy, 0.0], [cy, -sy, 0.0], [0.0, 0.0, 0.0]])
+    return np.array([dRx.T @ Ry.T @ Rz.T, Rx.T @ dRy.T @ Rz.T, Rx.T @ Ry.T @ dRz.T])
+
+
+def widen(x: ArrayLike, H: Array) -> Array:
+    """H (d×15) with a zero column per declared state of ``x`` (16 + m: 15 + m columns)."""
+    n = np.asarray(x).size - NOM_SIZE + N_STATES
+    out = np.zeros((H.shape[0], n))
+    out[:, :N_STATES] = H
+    return out
+
+
+def with_bias(x: ArrayLike, h: Array, H: Array, first: int) -> tuple[Array, Array]:
+    """``z = h + b``: the error-free ``h`` (d,) and core ``H`` (d×15) of a sensor reading d
+    components with a bias each, the biases' error states from index ``first`` (-1: none; their
+    nominal values at index + 1); H widened to x's error states, 1 on each bias."""
+    xa = np.asarray(x, dtype=float)
+    out = widen(xa, H)
+    if first < 0:
+        return h, out
+    d = h.size
+    out[:, first : first + d] += np.eye(d)
+    return np.asarray(h + xa[first + 1 : first + 1 + d], dtype=float), out
