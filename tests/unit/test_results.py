@@ -279,7 +279,11 @@ def test_a_smoothed_run_keeps_its_forward_solution(tmp_path: Path) -> None:
     from adaptnav.engine.batch import Smoothed
 
     out = synthetic_output()
-    smoothed = Smoothed(out.t, out.x + 1e-7, 0.5 * out.P_diag, 0.5 * out.P_cross, 9, 4, 0, 1234)
+    none = np.zeros((out.t.size, 0))
+    smoothed = Smoothed(
+        out.t, out.x + 1e-7, 0.5 * out.P_diag, 0.5 * out.P_cross, 9, 4, 0, 1234,
+        declared=none, declared_var=none,
+    )  # fmt: skip
     res = Result.from_engine(replace(out, smoothed=smoothed), "vb", "m1", {})
     assert res.forward is not None and res.meta["smoother"]["store_bytes"] == 1234
     np.testing.assert_array_equal(res.forward["lat_rad"], out.x[:, 0])

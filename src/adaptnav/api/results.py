@@ -88,6 +88,8 @@ EVENT_COLUMNS: tuple[str, ...] = EVENT_KEYS
 FATES: tuple[str, ...] = ("used", "rejected", "dropped")
 
 SUMMARY_FILE = "summary.json"
+CALIBRATION_FILE = "calibration.json"
+"""The calibration states' final estimates and σ (docs/calibration.md), when there are any."""
 TABLE_FILES: dict[str, str] = {
     "solution": "solution.parquet",
     "ledger": "ledger.parquet",
@@ -155,9 +157,16 @@ class Result:
         """Tables from an engine run. ``kinds`` maps sensor name → kind (adds ``ledger.kind``);
         ``repairs`` is a DataFrame or a list of ``{file, line, field, action, detail}`` rows."""
         ledger = ledger_frame(output.ledger, kinds)
-        forward = solution_frame(output.t, output.x, output.P_diag, output.P_cross)
+        names = output.declared_names
+        forward = with_declared(
+            solution_frame(output.t, output.x, output.P_diag, output.P_cross),
+            names, output.declared, output.declared_var,
+        )  # fmt: skip
         sm = output.smoothed
-        solution = forward if sm is None else solution_frame(sm.t, sm.x, sm.P_diag, sm.P_cross)
+        solution = forward
+        if sm is not None:
+            table = solution_frame(sm.t, sm.x, sm.P_diag, sm.P_cross)
+            solution = with_declared(table, names, sm.declared, sm.declared_var)
         info = dict(meta or {})
         if sm is not None:
             info["smoother"] = {
@@ -247,6 +256,20 @@ def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = No
         cs,
     ]
     return pd.DataFrame(np.hstack(blocks), columns=list(SOLUTION_COLUMNS))
+
+
+def with_declared(
+    solution: pd.DataFrame, names: Sequence[str], values: Array, variances: Array
+) -> pd.DataFrame:
+    """The solution with a column per declared state (e.g. the calibration states of
+    docs/calibration.md, ``dvl.scale``; SI: ratio, rad, m) and its ``sd_`` column."""
+    if not names:
+        return solution
+    extra = {}
+    for j, name in enumerate(names):
+        extra[name] = values[:, j]
+        extra[f"sd_{name}"] = np.sqrt(np.maximum(variances[:, j], 0.0))
+    return pd.concat([solution, pd.DataFrame(extra, index=solution.index)], axis=1)
 
 
 def has_covariances(solution: pd.DataFrame, names: Sequence[str]) -> bool:
@@ -411,6 +434,11 @@ def save(result: Result, run_dir: str | Path) -> Path:
             (folder / filename).unlink(missing_ok=True)
             continue
         table.to_parquet(folder / filename, index=False)
+    calibration = folder / CALIBRATION_FILE
+    calibration.unlink(missing_ok=True)
+    if result.meta.get("calibration"):
+        text = json.dumps(result.meta["calibration"], indent=2, allow_nan=False)
+        calibration.write_text(text + "\n", encoding="utf-8")
     text = json.dumps(summary(result), indent=2, allow_nan=False)
     (folder / SUMMARY_FILE).write_text(text + "\n", encoding="utf-8")
     return folder

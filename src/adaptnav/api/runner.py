@@ -25,11 +25,11 @@ from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align
 from adaptnav.engine.channels import build_channels
 from adaptnav.estimation.settings import FilterKind, FilterSettings
-from adaptnav.mission import Mission, MissionError, load_mission
+from adaptnav.mission import Mission, MissionError, calibration, load_mission
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
-from adaptnav.models.strapdown import NOM_BA, NOM_BG, NavState
+from adaptnav.models.strapdown import NOM_BA, NOM_BG, NOM_SIZE, NavState
 
 __all__ = ["FilterError", "initial_state", "run"]
 
@@ -193,11 +193,13 @@ def run(
 
     started = time.perf_counter()
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
-    feed = _feed(m, s, t0)
+    states = calibration.calibration_states(cfg)
+    x0, P0 = calibration.extend(x0[:NOM_SIZE], P0[:N_STATES, :N_STATES], states)
+    feed = _feed(m, s, t0, states)
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     config = engine.EngineConfig(
         noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
-        q_adaptation=s.q_adaptation, smooth=smooth,
+        q_adaptation=s.q_adaptation, smooth=smooth, layout=calibration.layout(states),
     )  # fmt: skip
     if cfg.filter.specific_force_tau_s is not None:
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
@@ -222,7 +224,31 @@ def run(
     }
     kinds: Mapping[str, str] = {n: c.kind for n, c in cfg.sensors.items()}
     repairs = [r.__dict__ for r in m.repairs]
-    return Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds)
+    result = Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds)
+    if not states:
+        return result
+    return replace(
+        result, meta={**result.meta, "calibration": _calibration(states, result.solution)}
+    )
+
+
+def _calibration(
+    states: tuple[calibration.CalibrationState, ...], solution: Any
+) -> dict[str, dict[str, Any]]:
+    """Each calibration state's estimate and σ at the end of the run (smoothed: the whole
+    run's), with its prior σ, in its report unit (docs/calibration.md; ``calibration.json``)."""
+    out: dict[str, dict[str, Any]] = {}
+    last = solution.iloc[-1]
+    for st in states:
+        f = st.quantity.factor
+        for name in st.names:
+            out[name] = {
+                "estimate": float(last[name]) * f,
+                "sigma": float(last[f"sd_{name}"]) * f,
+                "prior_sigma": st.sigma * f,
+                "unit": st.quantity.unit,
+            }
+    return out
 
 
 @dataclass(frozen=True)
@@ -239,7 +265,9 @@ class _Feed:
     """The oracle's true noise per sensor (empty for every other kind)."""
 
 
-def _feed(m: Mission, s: FilterSettings, t0: float) -> _Feed:
+def _feed(
+    m: Mission, s: FilterSettings, t0: float, states: tuple[calibration.CalibrationState, ...]
+) -> _Feed:
     """The channels and readings of the aiding sensors after the navigation start ``t0``;
     every other reading (dropped at load, of a sensor off or used only to initialise, inside
     the alignment, or a known outlier for the oracle) gets its ledger row with the reason."""
@@ -278,7 +306,8 @@ def _feed(m: Mission, s: FilterSettings, t0: float) -> _Feed:
         # A single-sample table has no median interval; its period matters only to VB's
         # irregular-rate variant, where one sample makes it moot.
         period = data.period if math.isfinite(data.period) else 1.0
-        sensors.append((build_sensor_model(name, scfg), period))
+        model = build_sensor_model(name, scfg, calibration.indices(states, name))
+        sensors.append((model, period))
         overrides[name] = scfg.overrides()
     return _Feed(build_channels(s, sensors, overrides), readings, kept, extra, known)
 

@@ -222,6 +222,9 @@ class Smoothed:
     """Nodes whose P before the next node was not positive definite: filtered values kept."""
     store_bytes: int
     """Memory the store's nodes took (docs/smoothing.md, 'Memory')."""
+    declared: Array = field(kw_only=True)
+    """The declared states' smoothed values (N, m) and variances, as in :class:`EngineOutput`."""
+    declared_var: Array = field(kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -246,6 +249,12 @@ class EngineOutput:
     """β at the end: the factor on the IMU white-noise PSDs of Q (estimation/noise/process.py)."""
     smoothed: Smoothed | None = field(kw_only=True, default=None)
     """The RTS-smoothed solution when :attr:`EngineConfig.smooth` is on."""
+    declared_names: tuple[str, ...] = field(kw_only=True, default=())
+    """The declared states beyond the core (errorstate.StateLayout), e.g. calibration states."""
+    declared: Array = field(kw_only=True, default_factory=lambda: np.zeros((0, 0)))
+    """Their nominal values (N, m) at the solution samples."""
+    declared_var: Array = field(kw_only=True, default_factory=lambda: np.zeros((0, 0)))
+    """Their variances (N, m), P's diagonal, at the solution samples."""
 
 
 def cross_terms(P: Array) -> Array:
@@ -313,6 +322,9 @@ def _interval_done(
             out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
             out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
         icur[I_N_OUT] = o + 1
+        for k in range(NOM_SIZE, x.shape[0]):  # declared states (errorstate.StateLayout)
+            out_x[o, k] = x[k]
+            out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
         if sm[smk.SM_COUNT][smk.K_ON] != 0:
             _store(x, state)
             _unpad(Pw, P)
@@ -609,8 +621,10 @@ class Navigator:
         self._lg_int = np.zeros((64, uk.N_LINT), dtype=np.int64)
         self._lg_flt = np.zeros((64, uk.N_LFLT))
         self._out_t = np.zeros(64)
-        self._out_x = np.zeros((64, NOM_SIZE))
-        self._out_p = np.zeros((64, N_STATES + N_CROSS))  # diag P, then P_CROSS_PAIRS
+        layout = self.config.layout
+        self._out_x = np.zeros((64, layout.nominal_size))
+        # diag P, P_CROSS_PAIRS, the declared states' variances
+        self._out_p = np.zeros((64, N_STATES + N_CROSS + layout.n - N_STATES))
 
     def _build_tables(self) -> None:
         """Per-sensor settings, linearisations and initial adaptation states, packed."""
@@ -954,9 +968,10 @@ class Navigator:
         n = int(self._icur[I_N_OUT])
         self._out_t[n] = self.t
         # The core's solution; declared states (errorstate.StateLayout) are in x and P.
-        self._out_x[n] = self.x[:NOM_SIZE]
+        self._out_x[n] = self.x
         self._out_p[n, :N_STATES] = np.diag(self.P)[:N_STATES]
-        self._out_p[n, N_STATES:] = cross_terms(self.P)
+        self._out_p[n, N_STATES : N_STATES + N_CROSS] = cross_terms(self.P)
+        self._out_p[n, N_STATES + N_CROSS :] = np.diag(self.P)[N_STATES:]
         self._icur[I_N_OUT] = n + 1
         if self.config.smooth:
             smk.output_node(self._sm, n, self.t, self.x, self.P)
@@ -976,10 +991,10 @@ class Navigator:
         n = int(self._icur[I_N_OUT])
         return _Records(
             self._out_t[:n].copy(),
-            self._out_x[:n].copy(),
+            self._out_x[:n, :NOM_SIZE].copy(),
             self._out_p[:n, :N_STATES].copy(),
             self._ledger(),
-            self._out_p[:n, N_STATES:].copy(),
+            self._out_p[:n, N_STATES : N_STATES + N_CROSS].copy(),
             self._events(),
         )
 
@@ -1077,6 +1092,8 @@ class Navigator:
                 priors,
                 int(counts[smk.K_FAILED]),
                 nodes * per_node + priors * sm[smk.SM_PM][:1].nbytes,
+                declared=sm[smk.SM_X][idx, NOM_SIZE:].copy(),
+                declared_var=packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES, n)]],
             )
         return self._smoothed
 
@@ -1084,12 +1101,15 @@ class Navigator:
         n = int(self._icur[I_N_OUT])
         return EngineOutput(
             self._out_t[:n].copy(),
-            self._out_x[:n].copy(),
+            self._out_x[:n, :NOM_SIZE].copy(),
             self._out_p[:n, :N_STATES].copy(),
             self._ledger(),
             self.x.copy(),
             self.P.copy(),
-            P_cross=self._out_p[:n, N_STATES:].copy(),
+            P_cross=self._out_p[:n, N_STATES : N_STATES + N_CROSS].copy(),
+            declared_names=self.config.layout.names[N_STATES:],
+            declared=self._out_x[:n, NOM_SIZE:].copy(),
+            declared_var=self._out_p[:n, N_STATES + N_CROSS :].copy(),
             events=self._events(),
             q_scale=float(self._rates[uk.R_Q, 0]),
             smoothed=self.smooth() if self.config.smooth else None,

@@ -300,6 +300,15 @@ def _check_table_file(v: str) -> str:
     return v
 
 
+class CalibrationConfig(_Model):
+    """``[sensors.<name>.calibration.<quantity>]``: the prior σ and the random-walk density of
+    an estimated calibration quantity, ``[value, "unit"]`` (docs/calibration.md); each left
+    out takes the kind's default (sensors/calibration.py)."""
+
+    sigma: Pair | None = None
+    random_walk: Pair | None = None
+
+
 class SensorConfig(_Model):
     """``[sensors.<name>]``: one aiding sensor; ``kind`` picks the model (adaptnav.sensors)."""
 
@@ -345,6 +354,12 @@ class SensorConfig(_Model):
     taken as stuck (a frozen sensor or driver): the readings of such a run after its first are
     dropped at load (ledger: "stuck"). 0: no detection; None: the kind's default,
     :data:`STUCK_DEFAULTS`. docs/robustness.md."""
+    estimate: tuple[str, ...] | None = None
+    """Calibration quantities to estimate as states of the filter (docs/calibration.md): of the
+    DVL ``scale`` and ``misalignment``, of the depth meter and the inclinometer ``bias``;
+    None: none."""
+    calibration: dict[str, CalibrationConfig] | None = None
+    """Per estimated quantity, its prior σ and random walk (defaults: the kind's)."""
     resolution: NonNegative | dict[str, NonNegative] | None = None
     """How far, in the SI unit of its column, a component may move from the run's first
     reading and still count as unchanged for :attr:`stuck_s`: one value for every component, or
@@ -426,6 +441,7 @@ class SensorConfig(_Model):
                     f"sigma: {s.size} values given, {self.kind} with use_height = "
                     f"{str(bool(self.use_height)).lower()} has {self.dim} components"
                 )
+        self._check_calibration()
         if not kind.lever_arm and self.lever_arm_m not in (None, (0.0, 0.0, 0.0)):
             raise ValueError(f"lever_arm_m: a {self.kind} sensor has no lever arm (leave it out)")
         if not kind.mounting and self.mounting_rpy_deg not in (None, (0.0, 0.0, 0.0)):
@@ -433,6 +449,38 @@ class SensorConfig(_Model):
                 f"mounting_rpy_deg: a {self.kind} sensor has no mounting rotation (leave it out)"
             )
         return self
+
+    def _check_calibration(self) -> None:
+        known = KINDS[self.kind].calibration
+        estimate = self.estimate or ()
+        for name in estimate:
+            if name not in known:
+                can = ", ".join(known) or "nothing"
+                raise ValueError(f"estimate: a {self.kind} sensor cannot estimate {name!r} ({can})")
+        if len(set(estimate)) != len(estimate):
+            raise ValueError(f"estimate: {list(estimate)} names a quantity twice")
+        for name in self.calibration or {}:
+            if name not in estimate:
+                raise ValueError(f"calibration.{name}: not in estimate = {list(estimate)}")
+        for name, spec in self.calibration_si().items():
+            if not spec[0] > 0.0:
+                raise ValueError(f"calibration.{name}.sigma: must be > 0")
+
+    def calibration_si(self) -> dict[str, tuple[float, float]]:
+        """Prior σ and random-walk density (SI) of each estimated quantity, by name."""
+        out = {}
+        for name in self.estimate or ():
+            q = KINDS[self.kind].calibration[name]
+            given = (self.calibration or {}).get(name, CalibrationConfig())
+            at = f"calibration.{name}"
+            sigma = q.sigma if given.sigma is None else _pair_si(given.sigma, q.sigma_kind, at)
+            rw = (
+                q.random_walk
+                if given.random_walk is None
+                else _pair_si(given.random_walk, q.random_walk_kind, f"{at}.random_walk")
+            )
+            out[name] = (float(sigma), float(rw))
+        return out
 
     @property
     def dim(self) -> int:

@@ -570,10 +570,14 @@ def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
 # --- sensor models ------------------------------------------------------------------------------
 
 
-def build_sensor_model(name: str, cfg: SensorConfig) -> MeasurementModel:
+def build_sensor_model(
+    name: str, cfg: SensorConfig, calibration: Mapping[str, int] | None = None
+) -> MeasurementModel:
     """The measurement model of ``[sensors.<name>]``, built by its kind (``KIND.build`` in
     ``sensors/<kind>.py``): σ in SI, l_b, C_sb = C_bsᵀ where
-    ``C_bs = euler_to_dcm(mounting_rpy_deg)`` rotates sensor axes into body axes."""
+    ``C_bs = euler_to_dcm(mounting_rpy_deg)`` rotates sensor axes into body axes;
+    ``calibration``: the error-state index of each calibration quantity it estimates
+    (mission/calibration.py)."""
     setup = SensorSetup(
         name,
         cfg.sigma_si(),
@@ -581,6 +585,7 @@ def build_sensor_model(name: str, cfg: SensorConfig) -> MeasurementModel:
         cfg.sensor_from_body(),
         bool(cfg.use_height),
         cfg.model,
+        dict(calibration or {}),
     )
     return KINDS[cfg.kind].build(setup)
 
