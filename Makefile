@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo reproduce akit faults rtklib test lint bench clean
+.PHONY: demo reproduce akit faults rtklib smoothing test lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -29,6 +29,10 @@ faults: $(STAMP)
 # The filters over GNSS outages on the RTKLIB car drive (real MEMS IMU + RTK).
 rtklib: $(STAMP)
 	$(BIN)/python scripts/rtklib_eval.py
+
+# RTS smoothing against forward on paper-1/2 (seeds 1-10, reproduce's missions) -> docs/results-smoothing.md.
+smoothing: $(STAMP)
+	$(BIN)/python scripts/smoothing_eval.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench scripts
