@@ -161,10 +161,11 @@ def _plain_rmse(cache: Path, preset: str, seed: int, kind: str) -> float:
 
 
 def run_seed(
-    cache: str, preset: str, seed: int, filters: Sequence[str], trace: bool
+    cache: str, preset: str, seed: int, filters: Sequence[str], traced: Sequence[str]
 ) -> list[dict[str, Any]]:
     """Every filter of ``filters`` smoothed on mission (preset, seed), prepared in ``cache``
-    once: one row per filter (``error`` says why a run failed; its numbers are then NaN)."""
+    once: one row per filter (``error`` says why a run failed; its numbers are then NaN); the
+    rows of the filters in ``traced`` keep their error traces."""
     from adaptnav.experiments.cache import load_prepared, prepare_mission
     from adaptnav.experiments.spec import RunSpec
 
@@ -177,7 +178,8 @@ def run_seed(
         base = {"preset": preset, "seed": seed, "filter": kind,
                 "plain_relative_rmse_pct": _plain_rmse(root, preset, seed, kind)}  # fmt: skip
         try:
-            rows.append({**base, **_run_filter(mission, initial, kind, trace), "error": None})
+            row = _run_filter(mission, initial, kind, kind in traced)
+            rows.append({**base, **row, "error": None})
         except Exception as exc:  # reported on the page, the other runs go on
             rows.append({**base, "error": f"{type(exc).__name__}: {exc}"})
     return rows
@@ -188,8 +190,8 @@ def run_all(
     traced: tuple[str, int],
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Every (preset, seed) task through :func:`run_seed`, ``jobs`` at a time (spawned
-    workers; 1: in this process); the ``traced`` task keeps its error traces. Progress on
-    stderr."""
+    workers; 1: in this process); on the ``traced`` task the filters of :func:`_figure_filters`
+    keep their error traces. Progress on stderr."""
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
 
@@ -199,21 +201,27 @@ def run_all(
               f"{time.perf_counter() - started:.0f} s", file=sys.stderr)  # fmt: skip
         rows.extend(out)
 
+    def trace(task: tuple[str, int]) -> list[str]:
+        return _figure_filters(filters) if task == traced else []
+
     if jobs == 1:  # in process (no pickling: also when this file is loaded by path)
         for preset, seed in tasks:
-            report(
-                preset, seed, run_seed(str(cache), preset, seed, filters, traced == (preset, seed))
-            )
+            report(preset, seed, run_seed(str(cache), preset, seed, filters, trace((preset, seed))))
         return rows
     ctx = multiprocessing.get_context("spawn")
     with single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
         futures = {
-            pool.submit(run_seed, str(cache), p, s, list(filters), traced == (p, s)): (p, s)
+            pool.submit(run_seed, str(cache), p, s, list(filters), trace((p, s))): (p, s)
             for p, s in tasks
         }
         for fut in cf.as_completed(futures):
             report(*futures[fut], fut.result())
     return rows
+
+
+def _figure_filters(filters: Sequence[str]) -> list[str]:
+    """The filters the figure draws: those of the targets that ran, else the first."""
+    return [f for f in filters if f in TARGET_FILTERS] or list(filters[:1])
 
 
 # --- the summary -------------------------------------------------------------------------------
@@ -339,10 +347,11 @@ def _plain_check(table: pd.DataFrame) -> str:
     if both.empty:
         return "No plain run of these specs is in the cache to compare the forward solutions with."
     diff = (both["forward_relative_rmse_pct"] - both["plain_relative_rmse_pct"]).abs().max()
+    same = "are equal" if diff == 0.0 else f"differ by at most {diff:.1e} %"
     return (
         f"The forward solution of a smoothed run is the filter's own: on the {len(both)} runs "
         f"whose plain (unsmoothed) run is in the cache (docs/results.md's Monte Carlo), the "
-        f"relative RMSEs differ by at most {diff:.1e} %."
+        f"relative RMSEs {same}."
     )
 
 
