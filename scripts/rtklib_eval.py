@@ -79,7 +79,9 @@ def _smoothed_rows(
     """``kind`` run again from ``start`` with the RTS backward pass (docs/smoothing.md): per
     outage the smoothed horizontal error and claimed σ at its end and the smoothed maximum inside
     it, beside the forward drift ``drift`` of the plain run (whose solution is ``forward``;
-    ``forward_identical``: the smoothed run's forward solution is that one, as it must be)."""
+    ``forward_identical``: the smoothed run's forward solution is that one, as it must be), and
+    how long after the outage's end the filter used its first fix again (``next_fix_used_s``: the
+    guard's lockout can reject the first ones, and the smoother has nothing before that)."""
     from adaptnav import api
     from adaptnav.analysis import evaluate
     from adaptnav.importers import rtklib
@@ -89,8 +91,12 @@ def _smoothed_rows(
     elapsed = time.perf_counter() - t_start
     smoothed = evaluate.outage_drift(run.solution, mission.truth, rtklib.DEFAULT_OUTAGES_S)
     same = run.forward is not None and run.forward.equals(forward)
-    return [
-        {
+    ledger = run.ledger
+    used = ledger[(ledger["kind"] == "gnss") & (ledger["fate"] == "used")]["t"].to_numpy()
+    rows = []
+    for f, s in zip(drift.itertuples(), smoothed.itertuples(), strict=True):
+        end = f.start_s + f.length_s
+        rows.append({
             "filter": kind,
             "outage": int(f.outage),
             "start_s": f.start_s,
@@ -100,12 +106,12 @@ def _smoothed_rows(
             "smoothed_end_horizontal_m": s.end_horizontal_m,
             "smoothed_max_horizontal_m": s.max_horizontal_m,
             "smoothed_claimed_sd_horizontal_m": s.claimed_sd_horizontal_m,
+            "next_fix_used_s": float(np.min(used[used > end], initial=np.inf)) - end,
             "forward_identical": same,
             "failed_nodes": run.meta["smoother"]["failed_nodes"],
             "smoothed_run_s": elapsed,
-        }
-        for f, s in zip(drift.itertuples(), smoothed.itertuples(), strict=True)
-    ]
+        })  # fmt: skip
+    return rows
 
 
 def _run(src: Path, work: Path, noise: str, nhc: bool, smooth: bool = False) -> dict[str, Any]:
@@ -215,7 +221,8 @@ def _smoothing_section(sm: pd.DataFrame, fig_rel: str) -> list[str]:
         g = sm[sm["filter"] == f].sort_values("outage")
         every.append([LABELS[f], *[
             f"{r.smoothed_end_horizontal_m:.2f} ({r.smoothed_claimed_sd_horizontal_m:.2f}; "
-            f"max {r.smoothed_max_horizontal_m:.2f})" for r in g.itertuples()]])  # fmt: skip
+            f"max {r.smoothed_max_horizontal_m:.2f}; next fix +{r.next_fix_used_s:.1f} s)"
+            for r in g.itertuples()]])  # fmt: skip
     same = "identical" if sm["forward_identical"].all() else "**not** identical"
     return [
         f"## Smoothed (RTS), {_aiding(nhc)}, IMU noise in Q: {noise}",
@@ -232,7 +239,10 @@ def _smoothing_section(sm: pd.DataFrame, fig_rel: str) -> list[str]:
         "",
         *[f"- {v}" for v in verdicts],
         "",
-        "Every outage, smoothed: horizontal error at the end m (claimed σ m; max inside m):",
+        "Every outage, smoothed: horizontal error at the end m (claimed σ m; max inside m; the "
+        "first fix the filter used after the outage's end: its guard, a χ² test on 100 × the "
+        "nominal R with a 30-s lockout, can reject the first ones, and until then the smoothed "
+        "solution has no fix after the outage either):",
         "",
         markdown_table(["filter", *[f"{x:.0f} s" for x in lengths]], every),
         "",
