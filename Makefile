@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo reproduce akit faults rtklib calibration test lint bench clean
+.PHONY: demo reproduce akit faults rtklib smoothing calibration test lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -30,7 +30,11 @@ faults: $(STAMP)
 rtklib: $(STAMP)
 	$(BIN)/python scripts/rtklib_eval.py
 
-# Issue 14: DVL scale and misalignment estimated on paper-1 -> docs/results-calibration.md.
+# RTS smoothing against forward on paper-1/2 (seeds 1-10, reproduce's missions) -> docs/results-smoothing.md.
+smoothing: $(STAMP)
+	$(BIN)/python scripts/smoothing_eval.py
+
+# Issue 14: DVL scale and misalignment estimated on paper-1 and A-KIT -> docs/results-calibration.md.
 calibration: $(STAMP)
 	$(BIN)/python scripts/calibration_eval.py
 

@@ -59,6 +59,11 @@ FAULT_SEED_BASE = 100
 """Faulted segment N uses seed FAULT_SEED_BASE + N (clean: seed N), so every run is fixed; the
 per-trajectory tables are of this draw, the other ``--fault-seeds`` bases go into one table of
 means."""
+SMOOTH_FILTERS = ("vb", "robust", "meskf", "maeskf")
+"""The filters whose clean runs are also smoothed (RTS, docs/smoothing.md); the issue's target
+names the first two."""
+SMOOTH_RATIO_TARGET = 0.85
+"""Mean smoothed relative RMSE over the trajectories ≤ 0.85 × the mean forward one (clean DVL)."""
 
 
 def _args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -107,6 +112,35 @@ def _parse_segments(spec: str) -> list[int]:
     return sorted(set(out))
 
 
+def _smoothed(cmp: Any, start: Any, n: int) -> list[dict[str, Any]]:
+    """Each of :data:`SMOOTH_FILTERS` run again from ``start`` with the RTS backward pass
+    (docs/smoothing.md), its forward and smoothed solutions scored (docs/metrics.md);
+    ``forward_identical``: the forward solution is the comparison's run of that filter, as it
+    must be."""
+    import dataclasses
+
+    from adaptnav import api
+    from adaptnav.analysis import evaluate
+
+    rows = []
+    for kind in SMOOTH_FILTERS:
+        run = api.run(cmp.mission, kind, initial=start, smooth=True)
+        forward = dataclasses.replace(run, solution=run.forward, forward=None)
+        row: dict[str, Any] = {"trajectory": n, "filter": kind}
+        for name, result in (("forward", forward), ("smoothed", run)):
+            m = evaluate.evaluate(result, cmp.truth)
+            row |= {
+                f"{name}_rmse_m": m.rmse_m,
+                f"{name}_relative_rmse_pct": m.relative_rmse_pct,
+                f"{name}_mean_nees_position": m.mean_nees_position,
+                f"{name}_mean_nees_attitude": m.mean_nees_attitude,
+            }
+        row["forward_identical"] = bool(run.forward.equals(cmp.results[kind].solution))
+        row["failed_nodes"] = run.meta["smoother"]["failed_nodes"]
+        rows.append(row)
+    return rows
+
+
 def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str, Any]:
     """Import segment n (clean for seed_base 0, else faulted with seed seed_base + n), compare
     every filter, save the comparison folder; ``keep``: return the comparison (for figures)."""
@@ -139,6 +173,7 @@ def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str,
     for name, settings in variants.items():
         run = api.run(cmp.mission, "vb", settings=settings, initial=start)
         metrics[name] = evaluate.evaluate(run, cmp.truth)
+    smoothed = [] if faults else _smoothed(cmp, start, n)
     t_run = time.perf_counter() - t_start - t_import
     rows = []
     for name in FILTERS:
@@ -170,6 +205,7 @@ def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str,
         "import_s": t_import,
         "run_s": t_run,
         "comparison": cmp if keep else None,
+        "smoothed": smoothed,
     }
 
 
@@ -254,6 +290,58 @@ def _targets(df: pd.DataFrame) -> list[tuple[str, float, float, bool]]:
     return out
 
 
+def _smoothing_targets(sm: pd.DataFrame) -> list[tuple[str, float, float, float, bool]]:
+    """(filter, mean forward relative RMSE, mean smoothed, their ratio, met) per smoothed
+    filter: the issue's target, ratio ≤ :data:`SMOOTH_RATIO_TARGET`, over the trajectories."""
+    out = []
+    for f in SMOOTH_FILTERS:
+        g = sm[sm["filter"] == f]
+        fwd, smo = g["forward_relative_rmse_pct"].mean(), g["smoothed_relative_rmse_pct"].mean()
+        ok = smo <= SMOOTH_RATIO_TARGET * fwd and int(g["failed_nodes"].sum()) == 0
+        out.append((f, fwd, smo, smo / fwd, ok))
+    return out
+
+
+def _smoothing_section(sm: pd.DataFrame, fig_rel: str) -> list[str]:
+    """The page's lines on the smoothed clean runs: the target per filter, then per trajectory
+    the forward and smoothed relative RMSE."""
+    header = ["filter", "mean relative RMSE % forward", "smoothed", "ratio",
+              f"≤ {SMOOTH_RATIO_TARGET:g}", "mean NEES pos / att forward", "smoothed"]  # fmt: skip
+    target_rows = []
+    for f, fwd, smo, ratio, ok in _smoothing_targets(sm):
+        g = sm[sm["filter"] == f]
+        nees = [
+            " / ".join(f"{g[f'{name}_mean_nees_{b}'].mean():.2f}" for b in ("position", "attitude"))
+            for name in ("forward", "smoothed")
+        ]
+        target_rows.append([LABELS[f], f"{fwd:.3f}", f"{smo:.3f}", f"{ratio:.3f}",
+                            "PASS" if ok else "**FAIL**", *nees])  # fmt: skip
+    rel = {
+        name: sm.pivot(index="trajectory", columns="filter", values=f"{name}_relative_rmse_pct")
+        for name in ("forward", "smoothed")
+    }
+    rows = [[str(n), *[f"{rel['forward'].loc[n, f]:.3f} → {rel['smoothed'].loc[n, f]:.3f}"
+                       for f in SMOOTH_FILTERS]] for n in rel["forward"].index]  # fmt: skip
+    same = "identical" if sm["forward_identical"].all() else "**not** identical"
+    return [
+        "## Smoothed (RTS), clean DVL: mean relative RMSE over the trajectories",
+        "",
+        "The clean runs of these filters again from the same start with the RTS backward pass "
+        "(`adaptnav.api.run(..., smooth=True)`, docs/smoothing.md), the forward and the "
+        f"smoothed solution scored alike; target (the issue's, for {LABELS['vb']} and robust): "
+        f"the mean smoothed relative RMSE ≤ {SMOOTH_RATIO_TARGET:g} × the mean forward one. The "
+        f"forward solutions are {same} to the clean runs above (every column, every row); the "
+        f"table of these runs: [`smoothed.csv`]({fig_rel}/smoothed.csv).",
+        "",
+        markdown_table(header, target_rows),
+        "",
+        "Relative RMSE (%) per trajectory, forward → smoothed:",
+        "",
+        markdown_table(["traj.", *[LABELS[f] for f in SMOOTH_FILTERS]], rows),
+        "",
+    ]
+
+
 def _figure_bars(df: pd.DataFrame, path: Path) -> None:
     import matplotlib
 
@@ -329,6 +417,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     df = every[every["fault_seed_base"].isin([0, base])]  # clean and the tabulated fault draw
     args.figures.mkdir(parents=True, exist_ok=True)
     every.to_csv(args.figures / "runs.csv", index=False, float_format="%.6g")
+    sm = pd.DataFrame([r for o in outs for r in o["smoothed"]])
+    sm.to_csv(args.figures / "smoothed.csv", index=False, float_format="%.6g")
     _figure_bars(df, args.figures / "relative_rmse.png")
     figs: list[str] = []
     for o in outs:
@@ -418,6 +508,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         _nees_table(df),
         "",
+        *_smoothing_section(sm, fig_rel),
         "## Every fault draw: mean relative RMSE (%) over the trajectories, and × the clean mean",
         "",
         _draws_table(every, args.seed_bases),
@@ -439,6 +530,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"wrote {args.out} ({wall:.0f} s)")
     for w, v, lim, ok in targets:
         print(f"{w}: {v:.3f} (target <= {lim}) {'met' if ok else 'NOT met'}")
+    for f, fwd, smo, ratio, ok in _smoothing_targets(sm):
+        print(f"{LABELS[f]} smoothed / forward: {smo:.3f} / {fwd:.3f} = {ratio:.3f} "
+              f"(target <= {SMOOTH_RATIO_TARGET}) {'met' if ok else 'NOT met'}")  # fmt: skip
     return 0
 
 

@@ -377,3 +377,12 @@ def test_akit_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
     assert set(runs["filter"]) == set(mod.FILTERS) and set(runs["case"]) == {"clean", "faulted"}
     assert set(runs["fault_seed_base"]) == {0, 100, 200}
     assert (runs["rmse_m"] > 0).all() and (figs / "relative_rmse.png").stat().st_size > 10_000
+    # the clean runs of the smoothed filters, again with the backward pass: the same forward runs
+    assert "## Smoothed (RTS), clean DVL" in text
+    smoothed = pd.read_csv(figs / "smoothed.csv")
+    assert list(smoothed["filter"]) == list(mod.SMOOTH_FILTERS)
+    assert smoothed["forward_identical"].all() and (smoothed["failed_nodes"] == 0).all()
+    clean = runs[runs["case"] == "clean"].set_index("filter")["relative_rmse_pct"]
+    np.testing.assert_allclose(
+        smoothed["forward_relative_rmse_pct"], clean.loc[list(mod.SMOOTH_FILTERS)], rtol=1e-5
+    )

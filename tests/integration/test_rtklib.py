@@ -384,3 +384,14 @@ def test_rtklib_evaluation_script_writes_the_results_page(tmp_path: Path) -> Non
     assert len(runs) == 2 * len(mod.FILTERS) * len(rtklib.DEFAULT_OUTAGES_S)  # ± NHC
     assert set(runs["nhc"]) == {True, False}
     assert (runs["end_horizontal_m"] > 0).all() and (figs / "track.png").stat().st_size > 10_000
+    # measured Q with the NHC: every filter also smoothed, its forward run the plain one
+    assert "## Smoothed (RTS), GNSS + NHC, IMU noise in Q: measured" in text
+    smoothed = pd.read_csv(figs / "smoothed.csv")
+    assert len(smoothed) == len(mod.FILTERS) * len(rtklib.DEFAULT_OUTAGES_S)
+    assert smoothed["forward_identical"].all() and (smoothed["failed_nodes"] == 0).all()
+    plain = runs[runs["nhc"]].set_index(["filter", "outage"])["end_horizontal_m"]
+    keyed = smoothed.set_index(["filter", "outage"])["forward_end_horizontal_m"]
+    np.testing.assert_allclose(keyed, plain.loc[keyed.index], rtol=1e-5)  # CSV: 6 digits
+    assert (smoothed["length_s"] == mod.SMOOTH_OUTAGE_S).sum() == 2 * len(mod.FILTERS)
+    # a verdict per filter in the table and in its line
+    assert text.count("PASS") + text.count("FAIL") == 2 * len(mod.FILTERS)

@@ -1,0 +1,74 @@
+"""scripts/smoothing_eval.py (make smoothing): the page of forward against RTS-smoothed runs on
+the simulated sea trials, on the short demo mission, and its verdicts (docs/smoothing.md)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from adaptnav.analysis.evaluate import NEES_BAND
+from helpers.script_loader import load_script
+
+SCRIPT = load_script("smoothing_eval")
+
+
+def test_smoothing_evaluation_script_writes_the_results_page(tmp_path: Path) -> None:
+    mod = SCRIPT
+    out, figs = tmp_path / "s.md", tmp_path / "figs"
+    args = ["--presets", "demo", "--seeds", "1", "--filters", "vb,meskf", "--jobs", "1", "--cache",
+            str(tmp_path / "cache"), "--out", str(out), "--figures", str(figs)]  # fmt: skip
+    assert mod.main(args) == 0
+    text = out.read_text()
+    for heading in ("## Targets", "## Every filter", "## Appendix: every run",
+                    "position_error.png", "runs.csv"):  # fmt: skip
+        assert heading in text
+    runs = pd.read_csv(figs / "runs.csv")
+    assert list(runs["filter"]) == ["vb", "meskf"] and runs["error"].isna().all()
+    assert (runs["failed_nodes"] == 0).all() and (runs["store_mb_per_h"] > 0).all()
+    ratio = runs["smoothed_relative_rmse_pct"] / runs["forward_relative_rmse_pct"]
+    np.testing.assert_allclose(runs["relative_rmse_ratio"], ratio, rtol=1e-5)  # CSV: 6 digits
+    assert (figs / "position_error.png").stat().st_size > 10_000
+    # only VB-MAESKF is a target filter: one verdict line, both verdicts on it
+    assert text.count("- demo VB-MAESKF: smoothed / forward relative RMSE") == 1
+    assert "demo MESKF: smoothed" not in text
+
+
+def _row(
+    seed: int, forward: float, smoothed: float, nees: tuple[float, float]
+) -> dict[str, object]:
+    """One run of the table of runs: relative RMSE forward and smoothed, position NEES both."""
+    row: dict[str, object] = {"preset": "p", "filter": "vb", "seed": seed, "error": None}
+    for name in ("forward", "smoothed"):
+        row |= {f"{name}_{k}": 1.0 for k in SCRIPT.SCORES}
+    row |= {
+        "forward_relative_rmse_pct": forward,
+        "smoothed_relative_rmse_pct": smoothed,
+        "relative_rmse_ratio": smoothed / forward,
+        "forward_mean_nees_position": nees[0],
+        "smoothed_mean_nees_position": nees[1],
+        "store_mb_per_h": 1.0, "run_s": 1.0, "imu_hours": 1.0, "failed_nodes": 0,
+    }  # fmt: skip
+    return row
+
+
+def test_the_verdicts_are_on_the_ratio_of_the_means_and_the_nees_band() -> None:
+    mod = SCRIPT
+    assert [mod.nees_class(x) for x in (0.1, 3.0, 20.0, math.nan)] == [
+        "below", "inside", "above", "-",
+    ]  # fmt: skip
+    assert mod.nees_class(NEES_BAND[0]) == mod.nees_class(NEES_BAND[1]) == "inside"
+    # per-seed ratios 0.2 and 0.9 (mean 0.55), ratio of the means 2.0 / 3.0: judged on the latter
+    table = pd.DataFrame([_row(1, 1.0, 0.2, (3.0, 2.0)), _row(2, 2.0, 1.8, (3.0, 4.0))])
+    (row,) = mod.summarize(table).to_dict("records")
+    assert math.isclose(row["ratio_mean"], 0.55) and math.isclose(row["ratio_of_means"], 2 / 3)
+    assert not row["rmse_ok"] and row["nees_ok"]
+    table = pd.DataFrame([_row(1, 1.0, 0.5, (3.0, 12.0))])
+    (row,) = mod.summarize(table).to_dict("records")
+    assert row["rmse_ok"] and not row["nees_ok"]  # consistent forward, overconfident smoothed
+    failed = pd.DataFrame([_row(1, 1.0, 0.5, (3.0, 3.0)), {**_row(2, 1.0, 0.5, (3.0, 3.0)),
+                                                           "error": "ValueError: x"}])  # fmt: skip
+    (row,) = mod.summarize(failed).to_dict("records")
+    assert row["seeds"] == 1 and row["failed"] == 1 and not row["rmse_ok"] and not row["nees_ok"]
