@@ -20,10 +20,8 @@ Smoke test: ``python scripts/faults_eval.py --presets paper-2 --seeds 1 --filter
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import datetime as dt
 import math
-import multiprocessing
 import os
 import sys
 import time
@@ -37,9 +35,8 @@ from adaptnav import __version__
 from adaptnav.estimation.settings import FILTER_KINDS
 from adaptnav.experiments import faultbench as fb
 from adaptnav.experiments.figures import LABELS
-from adaptnav.experiments.runner import single_threaded_children
+from adaptnav.experiments.runner import check_sweep_arguments, run_tasks, sweep_arguments
 from adaptnav.sim.faults import ALL, FAULT_KINDS
-from adaptnav.sim.scenarios import PRESETS
 from adaptnav.viz.pages import fmt_number as _f
 from adaptnav.viz.pages import git_revision, markdown_table
 
@@ -60,16 +57,9 @@ DROPOUT_CASES = ("dvl_dropout", ALL)
 
 def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--presets", default="paper-1,paper-2", help="comma-separated presets")
-    p.add_argument("--seeds", type=int, default=3, help="simulation seeds 1..N [3]")
-    p.add_argument(
-        "--filters",
-        default=",".join(FILTER_KINDS),
-        help=f"comma-separated filter kinds [{','.join(FILTER_KINDS)}]",
-    )
+    sweep_arguments(p, FILTER_KINDS, 3, min(DEFAULT_JOBS, os.cpu_count() or 1))
     p.add_argument("--cases", default=",".join(fb.CASES), help="clean is always run [all cases]")
     p.add_argument("--cache", type=Path, default=ROOT / "runs" / "faults-cache")
-    p.add_argument("--jobs", type=int, default=min(DEFAULT_JOBS, os.cpu_count() or 1))
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-faults.md")
     p.add_argument("--csv", type=Path, default=ROOT / "docs" / "results-faults")
     p.add_argument(
@@ -79,24 +69,13 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="keep the faulted copies under <cache>/faulted (they are rebuilt each run anyway)",
     )
     a = p.parse_args(argv)
-    a.preset_list = [x.strip() for x in a.presets.split(",") if x.strip()]
-    unknown = [x for x in a.preset_list if x not in PRESETS]
-    if unknown or not a.preset_list:
-        p.error(f"--presets: {unknown or a.presets!r}; use {', '.join(PRESETS)}")
-    a.filter_list = [x.strip() for x in a.filters.split(",") if x.strip()]
-    bad = [f for f in a.filter_list if f not in FILTER_KINDS]
-    if bad or not a.filter_list:
-        p.error(f"--filters: {bad or a.filters!r}; use {', '.join(FILTER_KINDS)}")
+    check_sweep_arguments(p, a)
     a.case_list = [fb.CLEAN] + [
         x.strip() for x in a.cases.split(",") if x.strip() and x.strip() != fb.CLEAN
     ]
     bad = [c for c in a.case_list if c not in fb.CASES]
     if bad:
         p.error(f"--cases: {bad}; use {', '.join(fb.CASES)}")
-    if a.seeds < 1:
-        p.error("--seeds must be >= 1")
-    if a.jobs < 1:
-        p.error("--jobs must be >= 1")
     return a
 
 
@@ -114,30 +93,17 @@ def run_all(
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
 
-    def report(preset: str, seed: int, out: list[dict[str, Any]]) -> None:
+    def report(task: tuple[Any, ...], out: list[dict[str, Any]]) -> None:
         cpu = sum(r["elapsed_s"] for r in out)
         print(
-            f"{preset} seed {seed}: {len(out)} runs ({cpu:.0f} s of filters) done at "
+            f"{task[1]} seed {task[2]}: {len(out)} runs ({cpu:.0f} s of filters) done at "
             f"{time.perf_counter() - started:.0f} s",
             file=sys.stderr,
         )
         rows.extend(out)
 
-    if jobs == 1:
-        for preset, seed in tasks:
-            report(preset, seed, fb.run_seed(cache, preset, seed, filters, cases, keep))
-        return rows
-    ctx = multiprocessing.get_context("spawn")
-    with single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
-        futures = {
-            pool.submit(fb.run_seed, str(cache), preset, seed, list(filters), list(cases), keep): (
-                preset,
-                seed,
-            )
-            for preset, seed in tasks
-        }
-        for fut in cf.as_completed(futures):
-            report(*futures[fut], fut.result())
+    work = [(str(cache), p, s, list(filters), list(cases), keep) for p, s in tasks]
+    run_tasks(fb.run_seed, work, jobs, report)
     return rows
 
 

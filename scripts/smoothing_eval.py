@@ -20,11 +20,9 @@ Smoke test: ``python scripts/smoothing_eval.py --presets demo --seeds 1 --filter
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import dataclasses
 import datetime as dt
 import math
-import multiprocessing
 import os
 import sys
 import time
@@ -37,10 +35,8 @@ import pandas as pd
 
 from adaptnav import __version__
 from adaptnav.analysis.evaluate import NEES_BAND
-from adaptnav.estimation.settings import FILTER_KINDS
 from adaptnav.experiments.figures import LABELS
-from adaptnav.experiments.runner import single_threaded_children
-from adaptnav.sim.scenarios import PRESETS
+from adaptnav.experiments.runner import check_sweep_arguments, run_tasks, sweep_arguments
 from adaptnav.viz.pages import fmt_number as _f
 from adaptnav.viz.pages import git_revision, markdown_table
 
@@ -63,15 +59,8 @@ SCORES = (
 
 def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--presets", default="paper-1,paper-2", help="comma-separated presets")
-    p.add_argument("--seeds", type=int, default=10, help="simulation seeds 1..N [10]")
-    p.add_argument(
-        "--filters",
-        default=",".join(DEFAULT_FILTERS),
-        help=f"comma-separated filter kinds [{','.join(DEFAULT_FILTERS)}]",
-    )
+    sweep_arguments(p, DEFAULT_FILTERS, 10, min(DEFAULT_JOBS, os.cpu_count() or 1))
     p.add_argument("--cache", type=Path, default=ROOT / "runs" / "reproduce-cache")
-    p.add_argument("--jobs", type=int, default=min(DEFAULT_JOBS, os.cpu_count() or 1))
     p.add_argument("--figure-seed", type=int, default=1, help="seed of the figure [1]")
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-smoothing.md")
     p.add_argument(
@@ -81,20 +70,9 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="folder of the figure and runs.csv (every run)",
     )
     a = p.parse_args(argv)
-    a.preset_list = [x.strip() for x in a.presets.split(",") if x.strip()]
-    unknown = [x for x in a.preset_list if x not in PRESETS]
-    if unknown or not a.preset_list:
-        p.error(f"--presets: {unknown or a.presets!r}; use {', '.join(PRESETS)}")
-    a.filter_list = list(dict.fromkeys(x.strip() for x in a.filters.split(",") if x.strip()))
-    bad = [f for f in a.filter_list if f not in FILTER_KINDS]
-    if bad or not a.filter_list:
-        p.error(f"--filters: {bad or a.filters!r}; use {', '.join(FILTER_KINDS)}")
-    if a.seeds < 1:
-        p.error("--seeds must be >= 1")
+    check_sweep_arguments(p, a)
     if not 1 <= a.figure_seed <= a.seeds:
         p.error(f"--figure-seed must be in 1..{a.seeds}")
-    if a.jobs < 1:
-        p.error("--jobs must be >= 1")
     return a
 
 
@@ -195,27 +173,18 @@ def run_all(
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
 
-    def report(preset: str, seed: int, out: list[dict[str, Any]]) -> None:
+    def report(task: tuple[Any, ...], out: list[dict[str, Any]]) -> None:
         runs = sum(r.get("run_s", 0.0) for r in out)
-        print(f"{preset} seed {seed}: {len(out)} runs ({runs:.0f} s of runs) done at "
+        print(f"{task[1]} seed {task[2]}: {len(out)} runs ({runs:.0f} s of runs) done at "
               f"{time.perf_counter() - started:.0f} s", file=sys.stderr)  # fmt: skip
         rows.extend(out)
 
     def trace(task: tuple[str, int]) -> list[str]:
         return _figure_filters(filters) if task == traced else []
 
-    if jobs == 1:  # in process (no pickling: also when this file is loaded by path)
-        for preset, seed in tasks:
-            report(preset, seed, run_seed(str(cache), preset, seed, filters, trace((preset, seed))))
-        return rows
-    ctx = multiprocessing.get_context("spawn")
-    with single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
-        futures = {
-            pool.submit(run_seed, str(cache), p, s, list(filters), trace((p, s))): (p, s)
-            for p, s in tasks
-        }
-        for fut in cf.as_completed(futures):
-            report(*futures[fut], fut.result())
+    # jobs = 1 runs in this process (no pickling: also when this file is loaded by path)
+    work = [(str(cache), p, s, list(filters), trace((p, s))) for p, s in tasks]
+    run_tasks(run_seed, work, jobs, report)
     return rows
 
 

@@ -11,6 +11,7 @@ mission per worker is being simulated at a time. Progress bars (rich) go to stde
 
 from __future__ import annotations
 
+import argparse
 import concurrent.futures as cf
 import logging
 import math
@@ -18,7 +19,7 @@ import multiprocessing
 import os
 import shutil
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -224,6 +225,61 @@ def single_threaded_children() -> Iterator[None]:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def run_tasks(
+    fn: Callable[..., Any],
+    tasks: Sequence[tuple[Any, ...]],
+    jobs: int,
+    on_done: Callable[[tuple[Any, ...], Any], None],
+) -> None:
+    """``fn(*task)`` for every task, ``jobs`` at a time in spawned workers with one thread each
+    (1: in this process, in order), ``on_done(task, result)`` as each one finishes: the loop of
+    the results scripts (``scripts/faults_eval.py``, ``scripts/smoothing_eval.py``)."""
+    if jobs == 1:
+        for task in tasks:
+            on_done(task, fn(*task))
+        return
+    ctx = multiprocessing.get_context("spawn")
+    with single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+        futures = {pool.submit(fn, *task): task for task in tasks}
+        for fut in cf.as_completed(futures):
+            on_done(futures[fut], fut.result())
+
+
+def sweep_arguments(
+    p: argparse.ArgumentParser, filters: Sequence[str], seeds: int, jobs: int
+) -> None:
+    """The options the results scripts share: ``--presets``, ``--seeds``, ``--filters``,
+    ``--jobs``; :func:`check_sweep_arguments` reads them."""
+    p.add_argument("--presets", default="paper-1,paper-2", help="comma-separated presets")
+    p.add_argument("--seeds", type=int, default=seeds, help=f"simulation seeds 1..N [{seeds}]")
+    p.add_argument(
+        "--filters",
+        default=",".join(filters),
+        help=f"comma-separated filter kinds [{','.join(filters)}]",
+    )
+    p.add_argument("--jobs", type=int, default=jobs)
+
+
+def check_sweep_arguments(p: argparse.ArgumentParser, a: argparse.Namespace) -> None:
+    """``a.preset_list`` and ``a.filter_list`` (each once, in order) from :func:`sweep_arguments`'
+    options, or the parser's error naming the option."""
+    from adaptnav.estimation.settings import FILTER_KINDS
+    from adaptnav.sim.scenarios import PRESETS
+
+    a.preset_list = list(dict.fromkeys(x.strip() for x in a.presets.split(",") if x.strip()))
+    unknown = [x for x in a.preset_list if x not in PRESETS]
+    if unknown or not a.preset_list:
+        p.error(f"--presets: {unknown or a.presets!r}; use {', '.join(PRESETS)}")
+    a.filter_list = list(dict.fromkeys(x.strip() for x in a.filters.split(",") if x.strip()))
+    bad = [f for f in a.filter_list if f not in FILTER_KINDS]
+    if bad or not a.filter_list:
+        p.error(f"--filters: {bad or a.filters!r}; use {', '.join(FILTER_KINDS)}")
+    if a.seeds < 1:
+        p.error("--seeds must be >= 1")
+    if a.jobs < 1:
+        p.error("--jobs must be >= 1")
 
 
 def run_sweep(
