@@ -72,6 +72,7 @@ __all__ = [
     "Comparison",
     "compare",
     "parse_filters",
+    "simulation_info",
 ]
 
 PAPER_TABLE3: dict[str, dict[str, tuple[float, float]]] = {
@@ -134,7 +135,7 @@ def parse_filters(spec: str | Iterable[str]) -> tuple[str, ...]:
     return names
 
 
-def _simulation_info(root: Path) -> dict[str, Any] | None:
+def simulation_info(root: Path) -> dict[str, Any] | None:
     """The simulator's ``simulation.json`` of a mission folder, or None (a real mission)."""
     path = root / SIMULATION_FILE
     if not path.is_file():
@@ -304,7 +305,7 @@ class Comparison:
             figure_files.append(f"{FIGURES_DIR}/{stem}.png")
 
         root = Path(self.mission.root).resolve()
-        sim = _simulation_info(root)
+        sim = simulation_info(root)
         doc = {
             "format": FORMAT_NAME,
             "version": FORMAT_VERSION,
