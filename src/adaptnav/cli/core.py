@@ -141,7 +141,7 @@ def _print_run(result: Result, out: Path) -> None:
         table.add_row(sensor, *(str(c.get(k, 0)) for k in ("used", "rejected", "dropped")))
     console.print(table)
     if result.meta.get("calibration"):
-        console.print(_calibration_table(result.meta["calibration"]))
+        console.print(_calibration_table(result.meta["calibration"], result.forward is not None))
     rate = result.meta.get("imu_samples_per_s", float("nan"))
     console.print(f"{result.meta['imu_samples']} IMU samples, {rate:,.0f} samples/s; run in {out}/")
     sm = result.meta.get("smoother")
@@ -153,10 +153,12 @@ def _print_run(result: Result, out: Path) -> None:
         )
 
 
-def _calibration_table(found: dict[str, dict[str, Any]]) -> Table:
+def _calibration_table(found: dict[str, dict[str, Any]], smoothed: bool) -> Table:
     """The run's calibration states (``calibration.json``; docs/calibration.md): each final
-    estimate ± σ and the prior σ, in the state's report unit."""
-    table = Table(title="calibration states at the end of the run")
+    estimate ± σ (of a ``smoothed`` run, the smoothed one: the whole run's) and the prior σ, in
+    the state's report unit."""
+    when = "RTS-smoothed over the run" if smoothed else "at the end of the run"
+    table = Table(title=f"calibration states {when}")
     for col in ("state", "estimate ± σ", "prior σ"):
         table.add_column(col)
     for name, c in found.items():
