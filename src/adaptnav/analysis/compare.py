@@ -35,7 +35,8 @@ solution's (:func:`adaptnav.analysis.evaluate.forward_metrics`) are kept in
       comparison.csv           Comparison.table()
       comparison.json          format, mission (name, folder, preset, seed), the initial state,
                                the filters, the figures, and ``results`` = Comparison.to_json()
-      figures/*.png            adaptnav.viz.plots (the paper's Figs. 7-10, ledger counts, NIS)
+      figures/*.png            adaptnav.viz.plots (the paper's Figs. 7-10, ledger counts, NIS,
+                               the calibration states when some run estimated them)
 
 which :func:`adaptnav.viz.report.write_report` turns into one HTML page.
 
