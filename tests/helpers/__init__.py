@@ -5,6 +5,8 @@
 * :mod:`helpers.synthetic`: missions made from known motion for the filter tests;
 * :mod:`helpers.badinput`: the tiny simulated mission of the bad-input tests;
 * :mod:`helpers.missions`: minimal mission folders (a ``mission.toml`` dict, IMU and DVL tables);
+* :mod:`helpers.calibrated`: the demo mission with known calibration errors, estimating them or
+  not;
 * :mod:`helpers.engine_reference`: the readable engine the compiled one is held to;
 * :mod:`helpers.golden`: the golden run (also a script: ``python tests/helpers/golden.py``);
 * :mod:`helpers.script_loader`: a file of ``scripts/`` loaded as a module.

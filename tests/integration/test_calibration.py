@@ -1,6 +1,7 @@
 """Calibration states end to end (docs/calibration.md): a simulated mission with known sensor
 calibration errors (docs/simulation.md, 'Calibration errors'), estimated by the filter and
-scored against the truth; the run folder's calibration.json."""
+scored against the truth; the run folder's calibration.json; `adaptnav run`'s table of them and
+`adaptnav evaluate`'s errors against the truth (docs/metrics.md, 'Calibration')."""
 
 from __future__ import annotations
 
@@ -10,24 +11,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 import adaptnav.api as api
 from adaptnav.analysis import evaluate
 from adaptnav.api.results import CALIBRATION_FILE, load, save
+from adaptnav.cli import app
 from adaptnav.mission import load_mission
-from adaptnav.sim.scenarios import simulate
-from adaptnav.sim.sensors import Calibration
+from helpers import calibrated
+from helpers.calibrated import TRUTH
 
-TRUTH = {
-    "dvl.scale": 0.01,
-    "dvl.misalignment_roll": 0.0,
-    "dvl.misalignment_pitch": 0.0,
-    "dvl.misalignment_yaw": math.radians(1.0),
-    "depth.bias": 0.3,
-    "inclinometer.bias_roll": math.radians(0.3),
-    "inclinometer.bias_pitch": math.radians(-0.2),
-}
-ESTIMATE = {"dvl": '["scale", "misalignment"]', "depth": '["bias"]', "inclinometer": '["bias"]'}
+runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
@@ -35,18 +29,10 @@ def missions(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """The demo mission with the calibration errors of TRUTH, as simulated (nothing estimated)
     and with every quantity estimated."""
     root = tmp_path_factory.mktemp("calibration")
-    cal = Calibration(1.01, (0.0, 0.0, math.radians(1.0)), 0.3,
-                      (math.radians(0.3), math.radians(-0.2)))  # fmt: skip
-    plain = simulate("demo", 4, root / "plain", calibration=cal)
-    est = simulate("demo", 4, root / "est", calibration=cal)
-    toml = est / "mission.toml"
-    text = toml.read_text()
-    for sensor, quantities in ESTIMATE.items():
-        head = f'[sensors.{sensor}]\nkind = "{sensor}"\n'
-        assert head in text
-        text = text.replace(head, f"{head}estimate = {quantities}\n")
-    toml.write_text(text)
-    return plain, est
+    return (
+        calibrated.mission(root / "plain", estimate=False),
+        calibrated.mission(root / "est", estimate=True),
+    )
 
 
 def test_estimates_cover_the_true_calibration_and_improve_the_solution(
@@ -91,3 +77,52 @@ def test_a_smoothed_run_estimates_them_too(missions: tuple[Path, Path]) -> None:
     # the states are constants: the smoothed value everywhere is the forward one at the end
     np.testing.assert_allclose(r.solution["dvl.scale"], r.forward["dvl.scale"].iloc[-1], atol=1e-9)
     assert r.solution["sd_dvl.scale"].iloc[0] < r.forward["sd_dvl.scale"].iloc[0]
+
+
+def test_run_prints_the_estimates_and_evaluate_scores_them_against_the_truth(
+    missions: tuple[Path, Path], tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    res = runner.invoke(app, ["run", str(missions[1]), "-f", "vb", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    found = json.loads((out / CALIBRATION_FILE).read_text())
+    assert "calibration states at the end of the run" in res.stdout
+    for name, c in found.items():
+        cells = f"{c['estimate']:.3f} ± {c['sigma']:.3f} {c['unit']}"
+        (line,) = [ln for ln in res.stdout.splitlines() if f" {name} " in ln]
+        assert cells in line and f"{c['prior_sigma']:.3f} {c['unit']}" in line, line
+    res = runner.invoke(app, ["evaluate", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    scored = json.loads(res.stdout)["calibration"]
+    true = calibrated.true_states(missions[1])
+    assert list(scored) == list(TRUTH) == list(found)
+    for name, s in scored.items():
+        error = found[name]["estimate"] - true[name]
+        assert s["true"] == pytest.approx(true[name], rel=1e-12, abs=1e-12), name
+        assert s["estimate"] == found[name]["estimate"] and s["sigma"] == found[name]["sigma"]
+        assert s["error"] == pytest.approx(error, rel=1e-9, abs=1e-12), name
+        assert s["error_over_sigma"] == pytest.approx(error / found[name]["sigma"], rel=1e-9)
+        assert s["unit"] == found[name]["unit"]
+    res = runner.invoke(app, ["evaluate", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "calibration states against the simulator's true errors" in res.stdout
+    yaw = scored["dvl.misalignment_yaw"]
+    assert (
+        f"{yaw['error']:+.3f} deg" in res.stdout and f"{yaw['error_over_sigma']:+.2f}" in res.stdout
+    )
+
+
+def test_without_calibration_states_run_and_evaluate_say_nothing_of_them(
+    missions: tuple[Path, Path], tmp_path: Path
+) -> None:
+    out = tmp_path / "run"
+    res = runner.invoke(app, ["run", str(missions[0]), "-f", "vb", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    printed = res.stdout.replace(str(out), "RUN")  # the test's own folder names "calibration"
+    assert "calibration" not in printed and not (out / CALIBRATION_FILE).exists()
+    # the mission's simulation.json has the true errors: the run estimated none of them
+    res = runner.invoke(app, ["evaluate", str(out), "--json", "--mission", str(missions[0])])
+    assert res.exit_code == 0, res.output
+    assert "calibration" not in json.loads(res.stdout)
+    res = runner.invoke(app, ["evaluate", str(out)])
+    assert res.exit_code == 0 and "calibration" not in res.stdout

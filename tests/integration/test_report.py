@@ -22,10 +22,12 @@ import pytest
 from typer.testing import CliRunner
 
 from adaptnav.analysis.compare import COMPARISON_JSON, compare
+from adaptnav.api.results import CALIBRATION_FILE
 from adaptnav.cli import app
 from adaptnav.sim.scenarios import simulate
 from adaptnav.viz import plots
 from adaptnav.viz.report import ReportError, write_report
+from helpers import calibrated
 
 runner = CliRunner()
 
@@ -177,6 +179,78 @@ def test_report_of_smoothed_runs_shows_forward_beside_smoothed(smoothed_report: 
 def test_report_of_unsmoothed_runs_says_nothing_of_smoothing(report: tuple[Path, Path]) -> None:
     text = report[1].read_text(encoding="utf-8")
     assert "smooth" not in text.lower() and "forward" not in text.lower()
+
+
+@pytest.fixture(scope="module")
+def calibrated_report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(comparison folder, mission folder): MESKF and VB-MAESKF estimating the calibration of
+    the demo mission with known errors (helpers.calibrated; docs/calibration.md), compared and
+    reported through the command line, the mission outside the comparison folder."""
+    root = tmp_path_factory.mktemp("calibrated-report")
+    mission = calibrated.mission(root / "mission", estimate=True)
+    out = root / "cmp"
+    res = runner.invoke(app, ["compare", str(mission), "--filters", "meskf,vb", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["report", str(out)])
+    assert res.exit_code == 0, res.output
+    return out, mission
+
+
+def test_report_of_runs_estimating_calibration_has_their_figure_and_table(
+    calibrated_report: tuple[Path, Path],
+) -> None:
+    folder, mission = calibrated_report
+    assert (
+        "figures/calibration.png" in json.loads((folder / COMPARISON_JSON).read_text())["figures"]
+    )
+    path = folder / "report.html"
+    text = path.read_text(encoding="utf-8")
+    png = re.search(
+        r'<figure id="fig-calibration">\s*<img src="data:image/png;base64,([^"]+)"', text
+    )
+    assert png is not None and base64.b64decode(png.group(1))[:8] == PNG
+    page = _parse(path)
+    (caption,) = [c for c in page.captions if "calibration states the filters estimated" in c]
+    assert "±2σ" in caption and "true value" in caption
+    assert 'href="#calibration"' in text
+    true = calibrated.true_states(mission)
+    found = {n: json.loads((folder / n / CALIBRATION_FILE).read_text()) for n in ("meskf", "vb")}
+    rows = page.tables["calibration-estimates"]
+    assert [r[0] for r in rows] == list(calibrated.TRUTH)
+    for state, unit, prior, shown_true, *cells in rows:
+        c = found["vb"][state]
+        assert unit == c["unit"] and prior == f"{c['prior_sigma']:.3f}"
+        assert float(shown_true) == pytest.approx(true[state], abs=5e-4)
+        for cell, name in zip(cells, ("meskf", "vb"), strict=True):
+            c = found[name][state]
+            z = (c["estimate"] - true[state]) / c["sigma"]
+            assert cell == f"{c['estimate']:.3f} ± {c['sigma']:.3f} ({z:+.1f} σ)", (name, state)
+
+
+def test_evaluate_finds_the_true_calibration_of_a_compared_run(
+    calibrated_report: tuple[Path, Path],
+) -> None:
+    folder, mission = calibrated_report
+    res = runner.invoke(app, ["evaluate", str(folder / "vb"), "--json"])
+    assert res.exit_code == 0, res.output
+    scored = json.loads(res.stdout)["calibration"]
+    found = json.loads((folder / "vb" / CALIBRATION_FILE).read_text())
+    true = calibrated.true_states(mission)
+    assert list(scored) == list(found)
+    for state, s in scored.items():
+        assert s["error"] == pytest.approx(found[state]["estimate"] - true[state], abs=1e-9)
+
+
+def test_report_without_calibration_states_has_no_calibration_figure_or_table(
+    report: tuple[Path, Path],
+) -> None:
+    folder, path = report
+    assert not any(
+        "calibration" in f for f in json.loads((folder / COMPARISON_JSON).read_text())["figures"]
+    )
+    text = path.read_text(encoding="utf-8")
+    assert 'id="calibration' not in text and "fig-calibration" not in text
+    assert "Calibration states" not in text and "±2σ" not in text
 
 
 def test_report_is_self_contained(report: tuple[Path, Path]) -> None:

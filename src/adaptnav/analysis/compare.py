@@ -35,7 +35,8 @@ solution's (:func:`adaptnav.analysis.evaluate.forward_metrics`) are kept in
       comparison.csv           Comparison.table()
       comparison.json          format, mission (name, folder, preset, seed), the initial state,
                                the filters, the figures, and ``results`` = Comparison.to_json()
-      figures/*.png            adaptnav.viz.plots (the paper's Figs. 7-10, ledger counts, NIS)
+      figures/*.png            adaptnav.viz.plots (the paper's Figs. 7-10, ledger counts, NIS,
+                               the calibration states when some run estimated them)
 
 which :func:`adaptnav.viz.report.write_report` turns into one HTML page.
 
@@ -72,6 +73,7 @@ __all__ = [
     "Comparison",
     "compare",
     "parse_filters",
+    "simulation_info",
 ]
 
 PAPER_TABLE3: dict[str, dict[str, tuple[float, float]]] = {
@@ -134,7 +136,7 @@ def parse_filters(spec: str | Iterable[str]) -> tuple[str, ...]:
     return names
 
 
-def _simulation_info(root: Path) -> dict[str, Any] | None:
+def simulation_info(root: Path) -> dict[str, Any] | None:
     """The simulator's ``simulation.json`` of a mission folder, or None (a real mission)."""
     path = root / SIMULATION_FILE
     if not path.is_file():
@@ -304,7 +306,7 @@ class Comparison:
             figure_files.append(f"{FIGURES_DIR}/{stem}.png")
 
         root = Path(self.mission.root).resolve()
-        sim = _simulation_info(root)
+        sim = simulation_info(root)
         doc = {
             "format": FORMAT_NAME,
             "version": FORMAT_VERSION,

@@ -140,6 +140,8 @@ def _print_run(result: Result, out: Path) -> None:
     for sensor, c in counts.items():
         table.add_row(sensor, *(str(c.get(k, 0)) for k in ("used", "rejected", "dropped")))
     console.print(table)
+    if result.meta.get("calibration"):
+        console.print(_calibration_table(result.meta["calibration"], result.forward is not None))
     rate = result.meta.get("imu_samples_per_s", float("nan"))
     console.print(f"{result.meta['imu_samples']} IMU samples, {rate:,.0f} samples/s; run in {out}/")
     sm = result.meta.get("smoother")
@@ -149,6 +151,22 @@ def _print_run(result: Result, out: Path) -> None:
             f"{sm['failed_nodes']} failed; store {sm['store_bytes'] / 2**20:,.1f} MiB; "
             "forward solution in forward.parquet"
         )
+
+
+def _calibration_table(found: dict[str, dict[str, Any]], smoothed: bool) -> Table:
+    """The run's calibration states (``calibration.json``; docs/calibration.md): each final
+    estimate ± σ (of a ``smoothed`` run, the smoothed one: the whole run's) and the prior σ, in
+    the state's report unit."""
+    when = "RTS-smoothed over the run" if smoothed else "at the end of the run"
+    table = Table(title=f"calibration states {when}")
+    for col in ("state", "estimate ± σ", "prior σ"):
+        table.add_column(col)
+    for name, c in found.items():
+        unit = c["unit"]
+        table.add_row(
+            name, f"{c['estimate']:.3f} ± {c['sigma']:.3f} {unit}", f"{c['prior_sigma']:.3f} {unit}"
+        )
+    return table
 
 
 @app.command("evaluate")
@@ -169,7 +187,10 @@ def evaluate_cmd(
     95 % of the epochs should lie in [0.216, 9.348]; velocity and attitude need them in the
     reference. Definitions: docs/metrics.md. A smoothed run (`adaptnav run --smooth`) is scored
     on its RTS-smoothed solution, and its forward one beside it (the forward_ keys of --json;
-    docs/smoothing.md).
+    docs/smoothing.md). A run with calibration states on a simulated mission whose
+    simulation.json has the true calibration errors (--mission, else the mission folder the run
+    records) has each state's true value, estimate, error and error/σ too (the calibration key
+    of --json; docs/metrics.md, 'Calibration').
     """
     from adaptnav.analysis import evaluate
     from adaptnav.api.results import jsonable
@@ -181,14 +202,50 @@ def evaluate_cmd(
     except ValueError as exc:  # a reference without the columns or times it needs
         _fail(f"{source}: {exc}")
     d = metrics.to_dict()
+    cal = _calibration_errors(result, mission)
     if as_json:
         import json
 
-        extra = {} if forward is None else evaluate.forward_columns(forward)
+        extra: dict[str, Any] = {} if forward is None else evaluate.forward_columns(forward)
+        if cal:
+            extra["calibration"] = cal
         typer.echo(json.dumps({"filter": result.filter, **d, **jsonable(extra)}, default=str))
         return
     console.print(_metrics_table(result, metrics, d, forward))
     console.print(_ledger_table(metrics))
+    if cal:
+        console.print(_calibration_errors_table(cal))
+
+
+def _calibration_errors(result: Result, mission: Path | None) -> dict[str, dict[str, Any]]:
+    """The run's calibration estimates against the simulator's true values
+    (:func:`adaptnav.analysis.calibration.calibration_errors`), from ``--mission`` or else the
+    mission folder the run records (``meta.mission_dir``); empty when the run has no
+    calibration states or that folder no true calibration errors."""
+    from adaptnav.analysis.calibration import calibration_errors, mission_truth
+
+    folder = mission if mission is not None else result.meta.get("mission_dir")
+    if not result.meta.get("calibration") or folder is None:
+        return {}
+    return calibration_errors(result, mission_truth(folder))
+
+
+def _calibration_errors_table(cal: dict[str, dict[str, Any]]) -> Table:
+    """Each calibration state's true value, estimate ± σ, error and error/σ (docs/metrics.md,
+    'Calibration')."""
+    table = Table(title="calibration states against the simulator's true errors")
+    for col in ("state", "true", "estimate ± σ", "error", "error / σ"):
+        table.add_column(col)
+    for name, c in cal.items():
+        unit = c["unit"]
+        table.add_row(
+            name,
+            f"{c['true']:.3f} {unit}",
+            f"{c['estimate']:.3f} ± {c['sigma']:.3f} {unit}",
+            f"{c['error']:+.3f} {unit}",
+            f"{c['error_over_sigma']:+.2f}",
+        )
+    return table
 
 
 def _run_and_reference(run_dir: Path, mission: Path | None) -> tuple[Result, pd.DataFrame, Path]:

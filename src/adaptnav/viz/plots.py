@@ -10,6 +10,8 @@
 * :func:`ledger_counts`: readings used, rejected by the gate and dropped per sensor and filter;
 * :func:`nis`: a running mean of the normalised innovation squared per reading dimension
   (about 1 for a consistent filter; docs/metrics.md, 'NIS');
+* :func:`calibration`: each calibration state's estimate ± 2σ over time per filter, beside its
+  true value when the simulator recorded it (docs/calibration.md, docs/metrics.md, 'Calibration');
 * :func:`comparison_figures`: all of them for a :class:`~adaptnav.analysis.compare.Comparison`.
 
 Figures are built as :class:`matplotlib.figure.Figure` objects without pyplot, so nothing is
@@ -43,6 +45,7 @@ Array = NDArray[np.float64]
 __all__ = [
     "MAX_POINTS",
     "STYLES",
+    "calibration",
     "comparison_figures",
     "envelope",
     "ledger_counts",
@@ -559,6 +562,61 @@ def nis(results: Mapping[str, Result], *, t0: float | None = None) -> Figure:
     return fig
 
 
+def calibration(
+    results: Mapping[str, Result],
+    units: Mapping[str, tuple[float, str]],
+    truth: Mapping[str, float] | None = None,
+    *,
+    t0: float | None = None,
+) -> Figure:
+    """One panel per calibration state (``units``: state → (factor from SI, unit), e.g.
+    :func:`adaptnav.analysis.calibration.units`): each filter's estimate (its line style) and
+    ±2σ (dotted) over time, and the true value in black where ``truth`` has it (report units,
+    :func:`adaptnav.analysis.calibration.true_values`). A smoothed run is drawn as its forward
+    solution, the filter learning the state as it ran (docs/smoothing.md)."""
+    start = _start_time(results, t0)
+    states = list(units)
+    ncols = min(len(states), 3)
+    nrows = math.ceil(len(states) / ncols)
+    fig = Figure(figsize=(4.6 * ncols, 2.7 * nrows + 0.8), layout="constrained")
+    axes = np.asarray(fig.subplots(nrows, ncols, sharex=True, squeeze=False)).reshape(-1)
+    for ax, state in zip(axes, states, strict=False):
+        factor, unit = units[state]
+        for name, r in results.items():
+            sol = r.solution if r.forward is None else r.forward
+            if state not in sol.columns:
+                continue
+            colour, dash = _style(name)
+            s = _stride(len(sol))
+            t = _minutes(sol["t_s"].to_numpy(dtype=float)[s], start)
+            est = sol[state].to_numpy(dtype=float)[s] * factor
+            two_sd = 2.0 * sol[f"sd_{state}"].to_numpy(dtype=float)[s] * factor
+            ax.plot(t, est, color=colour, ls=dash, lw=1.3, label=_label(name))
+            for band in (est - two_sd, est + two_sd):
+                ax.plot(t, band, color=colour, ls=":", lw=0.9)
+        if truth is not None and state in truth:
+            ax.axhline(truth[state], color="black", lw=1.4, label="true value")
+        ax.set_title(state)
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+    for ax in axes[len(states) :]:
+        ax.set_visible(False)
+    for ax in axes[max(len(states) - ncols, 0) : len(states)]:
+        # the bottom panel of each column, above a hidden one in a short last row
+        ax.xaxis.set_tick_params(labelbottom=True)
+        ax.set_xlabel("time since navigation start (min)")
+    legend: dict[str, Any] = {}  # one entry per label, whichever panel drew it first
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    fig.legend(
+        list(legend.values()), list(legend), loc="outside lower center", ncols=len(legend),
+        fontsize=8,
+    )  # fmt: skip
+    fig.suptitle("calibration states: estimate and ±2σ (dotted) over time")
+    return fig
+
+
 def aided_sensors(mission: Mission) -> list[str]:
     """The mission's sensors with ``use = "aid"`` and a table, in configuration order."""
     return [
@@ -570,7 +628,12 @@ def aided_sensors(mission: Mission) -> list[str]:
 
 def comparison_figures(cmp: Comparison) -> dict[str, Figure]:
     """Every figure of a comparison, keyed by file stem: ``trajectory``, ``position_error``,
-    ``noise_<sensor>`` per aided sensor, ``ledger_counts``, ``nis``."""
+    ``noise_<sensor>`` per aided sensor, ``ledger_counts``, ``nis`` and, when some run
+    estimates calibration states, ``calibration`` (true values from the mission's
+    ``simulation.json`` when it has them)."""
+    from adaptnav.analysis import calibration as cal
+    from adaptnav.analysis.compare import simulation_info
+
     t0 = cmp.t0
     figs = {
         "trajectory": trajectory(cmp.results, cmp.truth, t0=t0),
@@ -582,4 +645,8 @@ def comparison_figures(cmp: Comparison) -> dict[str, Figure]:
         figs["ledger_counts"] = ledger_counts(cmp.results, cmp.metrics, t0=t0)
     if any((r.ledger["fate"] == "used").any() for r in cmp.results.values()):
         figs["nis"] = nis(cmp.results, t0=t0)
+    if any(r.meta.get("calibration") for r in cmp.results.values()):
+        units = cal.units(cmp.mission.config)
+        truth = cal.true_values(cmp.mission.config, simulation_info(cmp.mission.root))
+        figs["calibration"] = calibration(cmp.results, units, truth, t0=t0)
     return figs

@@ -20,9 +20,13 @@ into one HTML file a person reads from top to bottom:
    NEES of position, velocity and attitude and the share of epochs inside the χ²(3) 95 % band
    (``<table id="consistency">``, docs/metrics.md); for a smoothed comparison (``adaptnav
    compare --smooth``) the numbers are the RTS-smoothed solutions' and the forward solutions'
-   RMSE, relative RMSE and mean position NEES stand beside them (docs/smoothing.md);
-5. every figure (the paper's Figs. 7-10, ledger counts, NIS) as a ``<figure>`` with its PNG as a
-   ``data:`` URI and a caption saying what to look at;
+   RMSE, relative RMSE and mean position NEES stand beside them (docs/smoothing.md); when some
+   run estimated calibration states (docs/calibration.md), their final estimates ± σ per filter
+   from the run folders' ``calibration.json``, beside the true values of ``simulation.json``
+   when known (``<table id="calibration-estimates">``,
+   :func:`adaptnav.analysis.calibration.true_values`; docs/metrics.md, 'Calibration');
+5. every figure (the paper's Figs. 7-10, ledger counts, NIS, the calibration states) as a
+   ``<figure>`` with its PNG as a ``data:`` URI and a caption saying what to look at;
 6. the ledger counts (``<table id="ledger">``), the divergence guard's events
    (docs/robustness.md) and the shared initial alignment (docs/alignment.md).
 
@@ -44,6 +48,7 @@ from typing import Any
 
 import jinja2
 
+from adaptnav.analysis.calibration import true_values
 from adaptnav.analysis.compare import (
     COMPARISON_JSON,
     FILTER_LABELS,
@@ -52,6 +57,7 @@ from adaptnav.analysis.compare import (
     PAPER_TABLE3,
     SIMULATION_FILE,
 )
+from adaptnav.api.results import CALIBRATION_FILE
 from adaptnav.mission import MissionConfig, MissionError, load_config
 
 __all__ = ["REPORT_FILE", "ReportData", "ReportError", "report_data", "write_report"]
@@ -254,6 +260,31 @@ class NeesRow:
 
 
 @dataclass(frozen=True)
+class CalibrationRow:
+    """One calibration state: its prior σ, its true value when known, and each filter's final
+    estimate (docs/calibration.md), in the state's report unit."""
+
+    state: str
+    unit: str
+    prior_sigma: Num
+    true: float | None
+    estimates: tuple[tuple[Num, Num, float | None] | None, ...]
+    """Per filter of :attr:`Calibration.filters`: (estimate, σ, error / σ or None when the true
+    value is unknown); None: the filter did not estimate this state."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The runs' calibration states (the runs' ``calibration.json``)."""
+
+    filters: tuple[str, ...]
+    """Labels of the filters that estimated some."""
+    rows: tuple[CalibrationRow, ...]
+    truth_known: bool
+    """Some state has a true value (a simulated mission's ``simulation.json``)."""
+
+
+@dataclass(frozen=True)
 class Figure:
     """One figure: its PNG as base64 and its caption."""
 
@@ -336,6 +367,8 @@ class ReportData:
     nees: tuple[NeesRow, ...]
     nees_diagonal: tuple[str, ...]
     """Filters whose NEES use P's diagonal only."""
+    calibration: Calibration | None
+    """None: no run estimated calibration states."""
     figures: tuple[Figure, ...]
     ledger: tuple[LedgerRow, ...]
     events: tuple[EventRow, ...]
@@ -678,6 +711,17 @@ _CAPTIONS: dict[str, str] = {
 }
 
 
+_CALIBRATION_CAPTION = (
+    "The sensors' calibration states the filters estimated (docs/calibration.md), one panel "
+    "per state: each filter's estimate over time (its line) and its claimed ±2σ (dotted), and "
+    "the true value the simulator injected (black) where it is known. Look at whether an "
+    "estimate settles on the true value inside its own 2σ, and how fast σ shrinks: a state "
+    "the motion does not make observable keeps its prior σ."
+)
+_SMOOTHED_CALIBRATION = (
+    " The runs are RTS-smoothed (docs/smoothing.md): drawn are the forward solutions, the "
+    "filters learning the states as they ran; the table gives the smoothed final estimates."
+)
 _SMOOTHED_POSITION_ERROR = (
     " Left: each filter's forward solution, as it ran; right: the same run RTS-smoothed "
     "(docs/smoothing.md), every reading used both ways in time, on the same axes (a baseline "
@@ -689,6 +733,8 @@ _SMOOTHED_POSITION_ERROR = (
 def _caption(stem: str, sim: bool, smoothed: bool = False) -> str:
     if stem == "position_error" and smoothed:
         return _CAPTIONS[stem] + _SMOOTHED_POSITION_ERROR
+    if stem == "calibration":
+        return _CALIBRATION_CAPTION + (_SMOOTHED_CALIBRATION if smoothed else "")
     if stem in _CAPTIONS:
         return _CAPTIONS[stem]
     if stem.startswith("noise_"):
@@ -732,6 +778,50 @@ def _figures(
             raise ReportError(f"{path}: figure missing ({exc.strerror})") from exc
         figures.append(Figure(stem, k, data, _caption(stem, sim, smoothed)))
     return tuple(figures)
+
+
+def _calibration(
+    folder: Path, names: Sequence[Any], config: MissionConfig | None, sim: Mapping[str, Any] | None
+) -> Calibration | None:
+    """The calibration states of the runs that estimated some (their ``calibration.json``),
+    in the order the runs list them, with the true values the simulator recorded
+    (:func:`adaptnav.analysis.calibration.true_values`) when the mission is known."""
+    found: dict[str, dict[str, Any]] = {}
+    for name in names:
+        doc = _optional_json(folder / str(name) / CALIBRATION_FILE)
+        if doc:
+            found[str(name)] = doc
+    if not found:
+        return None
+    truth = true_values(config, sim) if config is not None else {}
+    rows = []
+    for state in dict.fromkeys(s for doc in found.values() for s in doc):
+        entries = [doc.get(state) for doc in found.values()]
+        first = next((e for e in entries if isinstance(e, dict)), None)
+        if first is None:  # a malformed file: no entry of this state to show
+            continue
+        true = truth.get(state)
+        rows.append(
+            CalibrationRow(
+                state=state,
+                unit=str(first.get("unit", "")),
+                prior_sigma=_number(first.get("prior_sigma")),
+                true=true,
+                estimates=tuple(_estimate(e, true) for e in entries),
+            )
+        )
+    return Calibration(tuple(_label(n) for n in found), tuple(rows), bool(truth))
+
+
+def _estimate(entry: Any, true: float | None) -> tuple[Num, Num, float | None] | None:
+    """(estimate, σ, error / σ) of one state's ``calibration.json`` entry; None without one."""
+    if not isinstance(entry, dict):
+        return None
+    estimate, sigma = _number(entry.get("estimate")), _number(entry.get("sigma"))
+    z = None
+    if true is not None and isinstance(estimate, float) and isinstance(sigma, float) and sigma > 0:
+        z = (estimate - true) / sigma
+    return (estimate, sigma, z)
 
 
 def _ledger(names: Sequence[Any], results: Mapping[str, Mapping[str, Any]]) -> list[LedgerRow]:
@@ -868,6 +958,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
         nees_diagonal=tuple(
             _label(n) for n in scored if results.get(n, {}).get("nees_uses_correlations") is False
         ),
+        calibration=_calibration(folder, names, config, sim),
         figures=_figures(folder, doc.get("figures") or [], sim is not None, smoothed),
         ledger=tuple(_ledger(scored, results)),
         events=tuple(_events(folder, n) for n in names),
