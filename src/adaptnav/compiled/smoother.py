@@ -121,7 +121,7 @@ def unpack(packed: Array, out: Array) -> None:
             k += 1
 
 
-@jit_inline
+@jit
 def accumulate(sm: Store, PhiT: Array) -> None:
     """``Φ_acc ← Φ Φ_acc`` for one propagation step's Φ (given as the flat ``Φᵀ`` of the
     propagation kernels, row stride 16); counts the step. Rows 9-14 of Φ are diagonal (the

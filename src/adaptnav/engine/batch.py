@@ -326,9 +326,18 @@ def _interval_done(
             out_x[o, k] = x[k]
             out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
         if sm[smk.SM_COUNT][smk.K_ON] != 0:
-            _store(x, state)
-            _unpad(Pw, P)
-            smk.output_node(sm, o, t, x, P)
+            _smoothing_row(sm, o, t, state, Pw, x, P)
+
+
+@jit
+def _smoothing_row(
+    sm: smk.Store, o: int, t: float, state: State, Pw: Array, x: Array, P: Array
+) -> None:
+    """Output row o's smoother node (compiled.smoother.output_node), x and P brought up to date
+    for it; not inlined, so that the propagation loop stays as lean as without smoothing."""
+    _store(x, state)
+    _unpad(Pw, P)
+    smk.output_node(sm, o, t, x, P)
 
 
 @jit
@@ -379,6 +388,7 @@ def _advance(
             q_psd[c] *= beta
     status = _ADVANCE_DONE
     last = -1  # end of the run of whole intervals under way (-1: none)
+    smooth = sm[smk.SM_COUNT][smk.K_ON] != 0
     while True:
         if icur[I_CLOSE] != 0:  # an epoch at the end of its interval completed it
             icur[I_CLOSE] = 0
@@ -448,7 +458,8 @@ def _advance(
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
             state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
-            smk.accumulate(sm, wk[1])
+            if smooth:
+                smk.accumulate(sm, wk[1])
             if extra:
                 _extra_step(P, wk[1], wk[2], q_psd, T)
         if whole:
