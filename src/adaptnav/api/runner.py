@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from adaptnav.api import oracle
 from adaptnav.api.results import Result
@@ -233,7 +234,7 @@ def run(
 
 
 def _calibration(
-    states: tuple[calibration.CalibrationState, ...], solution: Any
+    states: tuple[calibration.CalibrationState, ...], solution: pd.DataFrame
 ) -> dict[str, dict[str, Any]]:
     """Each calibration state's estimate and σ at the end of the run (smoothed: the whole
     run's), with its prior σ, in its report unit (docs/calibration.md; ``calibration.json``)."""
