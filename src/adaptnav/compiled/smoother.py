@@ -125,9 +125,7 @@ def unpack(packed: Array, out: Array) -> None:
 def accumulate(sm: Store, PhiT: Array) -> None:
     """``Φ_acc ← Φ Φ_acc`` for one propagation step's Φ (given as the flat ``Φᵀ`` of the
     propagation kernels, row stride 16); counts the step. Rows 9-14 of Φ are diagonal (the
-    biases' Gauss-Markov dynamics), rows 0-8 full."""
-    if sm[SM_COUNT][K_ON] == 0:
-        return
+    biases' Gauss-Markov dynamics), rows 0-8 full. The caller calls it only when smoothing."""
     acc = sm[SM_ACC]
     # Rows padded to 16 (a zero column) with the width known only at run time: LLVM then
     # vectorizes the row updates instead of unrolling them (as compiled.propagation does).

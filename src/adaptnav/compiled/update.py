@@ -318,8 +318,9 @@ def _misaligned(d: Vec3, which: int, v: Vec3) -> Vec3:
 
 @jit_inline
 def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, r: int) -> None:
-    """The DVL's calibration states (twin: sensors.dvl.calibrate): ``h = (1 + s) M(δ) p``,
-    H's core rows mixed by ``(1 + s) M``, ``M p`` on s, ``(1 + s) (∂M/∂δ_i) p`` on δ."""
+    """The DVL's calibration states (twin: sensors.dvl.calibrate, calibrate_jacobian):
+    ``h = (1 + s) M(δ) p``, H's core rows mixed by ``(1 + s) M``, ``M p`` on s,
+    ``(1 + s) (∂M/∂δ_i) p`` on δ."""
     ks, km = int(par[PAR_CAL]), int(par[PAR_CAL + 1])
     g = 1.0 + x[ks + 1] if ks >= 0 else 1.0
     d = (x[km + 1], x[km + 2], x[km + 3]) if km >= 0 else (0.0, 0.0, 0.0)
@@ -353,7 +354,7 @@ def _lin_depth(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> No
 @jit_inline
 def _bias(par: Array, x: Array, y: Array, H: Array, r: int, d: int) -> None:
     """A reading plus its bias states from error index ``par[PAR_CAL]`` (-1: none): ``y -= b``,
-    1 on each bias (twin: sensors.calibration.with_bias)."""
+    1 on each bias (twin: sensors.calibration.bias, bias_jacobian)."""
     kb = int(par[PAR_CAL])
     if kb >= 0:
         for a in range(d):

@@ -634,8 +634,8 @@ class Navigator:
         self._out_t = np.zeros(64)
         layout = self.config.layout
         self._out_x = np.zeros((64, layout.nominal_size))
-        # diag P, P_CROSS_PAIRS, the declared states' variances
-        self._out_p = np.zeros((64, N_STATES + N_CROSS + layout.n - N_STATES))
+        # diag P (the core's), P_CROSS_PAIRS, the declared states' variances
+        self._out_p = np.zeros((64, layout.n + N_CROSS))
 
     def _build_tables(self) -> None:
         """Per-sensor settings, linearisations and initial adaptation states, packed."""
@@ -978,7 +978,6 @@ class Navigator:
         self._reserve_nodes(1, 0)
         n = int(self._icur[I_N_OUT])
         self._out_t[n] = self.t
-        # The core's solution; declared states (errorstate.StateLayout) are in x and P.
         self._out_x[n] = self.x
         self._out_p[n, :N_STATES] = np.diag(self.P)[:N_STATES]
         self._out_p[n, N_STATES : N_STATES + N_CROSS] = cross_terms(self.P)
@@ -1059,14 +1058,9 @@ class Navigator:
         sm = self._sm
         counts = sm[smk.SM_COUNT]
         N, n = int(counts[smk.K_NODES]), self.config.layout.n
-        iu = np.triu_indices(n)
-        P = np.zeros((N, n, n))
-        P[:, iu[0], iu[1]] = sm[smk.SM_P][:N]
-        P = P + np.triu(P, 1).transpose(0, 2, 1)
+        P = _unpacked(sm[smk.SM_P][:N], n)
         prior_idx = sm[smk.SM_PRIOR][:N]
-        Pm = np.zeros((int(counts[smk.K_PRIORS]), n, n))
-        Pm[:, iu[0], iu[1]] = sm[smk.SM_PM][: Pm.shape[0]]
-        Pm = Pm + np.triu(Pm, 1).transpose(0, 2, 1)
+        Pm = _unpacked(sm[smk.SM_PM][: int(counts[smk.K_PRIORS])], n)
         P_prior = np.where((prior_idx >= 0)[:, None, None], Pm[np.maximum(prior_idx, 0)], P)
         Phi = np.tile(np.eye(n), (N, 1, 1))
         stored = sm[smk.SM_PHI][:N]
@@ -1125,6 +1119,15 @@ class Navigator:
             q_scale=float(self._rates[uk.R_Q, 0]),
             smoothed=self.smooth() if self.config.smooth else None,
         )
+
+
+def _unpacked(packed: Array, n: int) -> Array:
+    """(k, n, n) symmetric matrices from their packed upper triangles (k, n(n+1)/2), as
+    compiled.smoother.pack lays them out."""
+    iu = np.triu_indices(n)
+    out = np.zeros((packed.shape[0], n, n))
+    out[:, iu[0], iu[1]] = packed
+    return out + np.triu(out, 1).transpose(0, 2, 1)
 
 
 def _strategy_kind(channels: Sequence[SensorChannel]) -> int:

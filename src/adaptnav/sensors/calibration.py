@@ -107,14 +107,21 @@ def widen(x: ArrayLike, H: Array) -> Array:
     return out
 
 
-def with_bias(x: ArrayLike, h: Array, H: Array, first: int) -> tuple[Array, Array]:
-    """``z = h + b``: the error-free ``h`` (d,) and core ``H`` (d×15) of a sensor reading d
-    components with a bias each, the biases' error states from index ``first`` (-1: none; their
-    nominal values at index + 1); H widened to x's error states, 1 on each bias."""
+def bias(x: ArrayLike, first: int, d: int) -> Array:
+    """``b`` of ``z = h + b``: the nominal values of the d bias states whose error states start
+    at index ``first`` (their nominal values at index + 1); zeros for ``first`` = -1 or a state
+    without declared states."""
     xa = np.asarray(x, dtype=float)
-    out = widen(xa, H)
-    if first < 0:
-        return h, out
-    d = h.size
-    out[:, first : first + d] += np.eye(d)
-    return np.asarray(h + xa[first + 1 : first + 1 + d], dtype=float), out
+    if first < 0 or xa.size == NOM_SIZE:
+        return np.zeros(d)
+    return np.asarray(xa[first + 1 : first + 1 + d], dtype=float)
+
+
+def bias_jacobian(x: ArrayLike, H: Array, first: int) -> Array:
+    """H of ``z = h + b`` from the core's ``H`` (d×15): widened to x's error states, 1 on each
+    bias (from error index ``first``; -1: none)."""
+    out = widen(x, H)
+    if first >= 0 and out.shape[1] > N_STATES:
+        d = H.shape[0]
+        out[:, first : first + d] += np.eye(d)
+    return out

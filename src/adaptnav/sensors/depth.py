@@ -38,7 +38,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.sensors.calibration import DEPTH_BIAS, with_bias
+from adaptnav.sensors.calibration import DEPTH_BIAS, bias, bias_jacobian
 from adaptnav.sensors.kind import (
     SLOW_STUCK_S,
     IdealInput,
@@ -95,19 +95,15 @@ class Depth(Components):
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
         object.__setattr__(self, "name", check_name("name", self.name))
 
-    def _biased(self, x: ArrayLike) -> tuple[Array, Array]:
-        xa = np.asarray(x, dtype=float)
-        core = xa[:NOM_SIZE]
-        h, H = predict(core, self.l_b), jacobian(core, self.l_b)
-        return (h, H) if xa.size == NOM_SIZE else with_bias(xa, h, H, self.cal_bias)
-
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict` (plus the bias state, if any: sensors/calibration.py)."""
-        return self._biased(x)[0]
+        xa = np.asarray(x, dtype=float)
+        return predict(xa[:NOM_SIZE], self.l_b) + bias(xa, self.cal_bias, DIM)
 
     def jacobian(self, x: ArrayLike) -> Array:
         """See :func:`jacobian`; a column per error state of x (15 + m)."""
-        return self._biased(x)[1]
+        xa = np.asarray(x, dtype=float)
+        return bias_jacobian(xa, jacobian(xa[:NOM_SIZE], self.l_b), self.cal_bias)
 
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
@@ -119,8 +115,7 @@ class Depth(Components):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        h, H = self._biased(x)
-        return Measurement(zz - h, H, self.R, self.names)
+        return Measurement(zz - self.predict(x), self.jacobian(x), self.R, self.names)
 
 
 def ideal(t: IdealInput) -> Array:

@@ -18,7 +18,8 @@ and ``b_g,true = b_g + db_g``::
 
 With its calibration states (docs/calibration.md), scale s and misalignment δ, the DVL reads
 ``z = (1 + s) M(δ) h``, M of sensors/calibration.py: H becomes ``(1 + s) M H``, and its columns
-are ``M h`` on s and ``(1 + s) (∂M/∂δ_i) h`` on δ (:func:`calibrate`).
+are ``M h`` on s and ``(1 + s) (∂M/∂δ_i) h`` on δ (:func:`calibrate`,
+:func:`calibrate_jacobian`).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ from adaptnav.sensors.calibration import (
     SCALE,
     misalignment,
     misalignment_derivatives,
+    widen,
 )
 from adaptnav.sensors.kind import (
     MAX_SPEED_M_S,
@@ -104,24 +106,33 @@ def jacobian(
     return H
 
 
-def calibrate(x: ArrayLike, h: Array, H: Array, scale: int, mis: int) -> tuple[Array, Array]:
-    """The calibrated reading and H (module docstring) from the error-free ``h`` and the core's
-    ``H`` (3×15), for the error-state indices ``scale``, ``mis`` of the scale and the first
-    misalignment state (-1: not estimated; nominal values at index + 1). H gets a column per
-    error state of x (15 + m)."""
+def _calibration(x: Array, scale: int, mis: int) -> tuple[float, Array]:
+    """``(1 + s, δ)`` of the state x, for the error-state indices ``scale``, ``mis`` of the
+    scale and the first misalignment state (-1: not estimated, 0 and zeros; nominal values at
+    index + 1)."""
+    gain = 1.0 + x[scale + 1] if scale >= 0 else 1.0
+    return gain, (x[mis + 1 : mis + 4] if mis >= 0 else np.zeros(3))
+
+
+def calibrate(x: ArrayLike, h: Array, scale: int, mis: int) -> Array:
+    """The calibrated reading ``(1 + s) M(δ) h`` of the error-free ``h`` (module docstring)."""
+    gain, d = _calibration(np.asarray(x, dtype=float), scale, mis)
+    return np.asarray(gain * misalignment(d) @ h, dtype=float)
+
+
+def calibrate_jacobian(x: ArrayLike, h: Array, H: Array, scale: int, mis: int) -> Array:
+    """H of the calibrated reading (module docstring) from the error-free ``h`` and the core's
+    ``H`` (3×15): a column per error state of x (15 + m)."""
     xa = np.asarray(x, dtype=float)
-    n = xa.size - 1
-    gain = 1.0 + xa[scale + 1] if scale >= 0 else 1.0
-    d = xa[mis + 1 : mis + 4] if mis >= 0 else np.zeros(3)
+    gain, d = _calibration(xa, scale, mis)
     M = misalignment(d)
-    out = np.zeros((DIM, max(n, N_STATES)))
-    out[:, :N_STATES] = gain * M @ H
+    out = widen(xa, gain * M @ H)
     if scale >= 0:
         out[:, scale] = M @ h
     if mis >= 0:
         for i, dM in enumerate(misalignment_derivatives(d)):
             out[:, mis + i] = gain * dM @ h
-    return np.asarray(gain * M @ h, dtype=float), out
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,24 +170,28 @@ class DVL(Components):
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
         return pack_params(self.l_b, self.C_sb, calibration=(self.cal_scale, self.cal_misalignment))
 
-    def _calibrated(self, x: ArrayLike, omega_ib_b: ArrayLike | None) -> tuple[Array, Array]:
-        """h and H of the state ``x`` (16, or 16 + m with declared states)."""
-        xa = np.asarray(x, dtype=float)
-        core = xa[:NOM_SIZE]
+    def _calibrated(self, x: Array, omega_ib_b: ArrayLike | None) -> tuple[Array, Array]:
+        """The error-free h of ``x``'s core and H (:func:`calibrate_jacobian`; 3 × 15 on the
+        core alone)."""
+        core = x[:NOM_SIZE]
         h = predict(core, omega_ib_b, self.l_b, self.C_sb)
         H = jacobian(core, self.l_b, self.C_sb)
-        if xa.size == NOM_SIZE:
+        if x.size == NOM_SIZE:
             return h, H
-        return calibrate(xa, h, H, self.cal_scale, self.cal_misalignment)
+        return h, calibrate_jacobian(x, h, H, self.cal_scale, self.cal_misalignment)
 
     def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`predict` (and :func:`calibrate` for a state with declared states);
         ``omega_ib_b`` is the raw gyro rate (rad/s)."""
-        return self._calibrated(x, omega_ib_b)[0]
+        xa = np.asarray(x, dtype=float)
+        h = predict(xa[:NOM_SIZE], omega_ib_b, self.l_b, self.C_sb)
+        if xa.size == NOM_SIZE:
+            return h
+        return calibrate(xa, h, self.cal_scale, self.cal_misalignment)
 
     def jacobian(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
-        """See :func:`jacobian` (and :func:`calibrate`: 3 × (15 + m) for a state with m
-        declared states; it needs the rate then, for the lever arm's part of h)."""
+        """See :func:`jacobian` (and :func:`calibrate_jacobian`: 3 × (15 + m) for a state with
+        m declared states; it needs the rate then, for the lever arm's part of h)."""
         xa = np.asarray(x, dtype=float)
         if xa.size == NOM_SIZE:
             return jacobian(xa, self.l_b, self.C_sb)
@@ -192,7 +207,10 @@ class DVL(Components):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        h, H = self._calibrated(x, omega_ib_b)
+        xa = np.asarray(x, dtype=float)
+        h, H = self._calibrated(xa, omega_ib_b)
+        if xa.size > NOM_SIZE:
+            h = calibrate(xa, h, self.cal_scale, self.cal_misalignment)
         return Measurement(zz - h, H, self.R, self.names)
 
 

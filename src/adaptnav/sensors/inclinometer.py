@@ -68,7 +68,7 @@ from adaptnav.sensors.base import (
     check_state,
     euler_jacobian,
 )
-from adaptnav.sensors.calibration import TILT_BIAS, with_bias
+from adaptnav.sensors.calibration import TILT_BIAS, bias, bias_jacobian
 from adaptnav.sensors.kind import (
     ANGLE_RESOLUTION_RAD,
     HALF_PI,
@@ -138,19 +138,15 @@ class Inclinometer(_TwoAxis):
     LIN_CODE: ClassVar[int] = 2
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
-    def _biased(self, x: ArrayLike) -> tuple[Array, Array]:
-        xa = np.asarray(x, dtype=float)
-        core = xa[:NOM_SIZE]
-        h, H = predict(core, self.C_sb), jacobian(core, self.C_sb)
-        return (h, H) if xa.size == NOM_SIZE else with_bias(xa, h, H, self.cal_bias)
-
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict` (plus the bias states, if any)."""
-        return self._biased(x)[0]
+        xa = np.asarray(x, dtype=float)
+        return predict(xa[:NOM_SIZE], self.C_sb) + bias(xa, self.cal_bias, DIM)
 
     def jacobian(self, x: ArrayLike) -> Array:
         """See :func:`jacobian`; a column per error state of x (15 + m)."""
-        return self._biased(x)[1]
+        xa = np.asarray(x, dtype=float)
+        return bias_jacobian(xa, jacobian(xa[:NOM_SIZE], self.C_sb), self.cal_bias)
 
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
@@ -162,8 +158,8 @@ class Inclinometer(_TwoAxis):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        h, H = self._biased(x)
-        return Measurement(attitude.wrap_angle(zz - h), H, self.R, self.names)
+        y = attitude.wrap_angle(zz - self.predict(x))
+        return Measurement(y, self.jacobian(x), self.R, self.names)
 
 
 def tilt(f_s: ArrayLike) -> Array:
@@ -216,19 +212,17 @@ class PendulumInclinometer(_TwoAxis):
     LIN_CODE: ClassVar[int] = 6
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
-    def _biased(self, x: ArrayLike, f_ib_b: ArrayLike | None) -> tuple[Array, Array]:
-        xa = np.asarray(x, dtype=float)
-        core, f = xa[:NOM_SIZE], _need_force(f_ib_b)
-        h, H = pendulum_predict(core, f, self.C_sb), pendulum_jacobian(core, f, self.C_sb)
-        return (h, H) if xa.size == NOM_SIZE else with_bias(xa, h, H, self.cal_bias)
-
     def predict(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`pendulum_predict` (plus the bias states, if any)."""
-        return self._biased(x, f_ib_b)[0]
+        xa = np.asarray(x, dtype=float)
+        h = pendulum_predict(xa[:NOM_SIZE], _need_force(f_ib_b), self.C_sb)
+        return h + bias(xa, self.cal_bias, DIM)
 
     def jacobian(self, x: ArrayLike, f_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`pendulum_jacobian`; a column per error state of x (15 + m)."""
-        return self._biased(x, f_ib_b)[1]
+        xa = np.asarray(x, dtype=float)
+        H = pendulum_jacobian(xa[:NOM_SIZE], _need_force(f_ib_b), self.C_sb)
+        return bias_jacobian(xa, H, self.cal_bias)
 
     def evaluate(
         self,
@@ -242,8 +236,8 @@ class PendulumInclinometer(_TwoAxis):
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
-        h, H = self._biased(x, f_ib_b)
-        return Measurement(attitude.wrap_angle(zz - h), H, self.R, self.names)
+        y = attitude.wrap_angle(zz - self.predict(x, f_ib_b))
+        return Measurement(y, self.jacobian(x, f_ib_b), self.R, self.names)
 
 
 def _need_force(f_ib_b: ArrayLike | None) -> Array:
