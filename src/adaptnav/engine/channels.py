@@ -23,7 +23,7 @@ def build_channels(
         o = ov.get(model.name, SensorOverrides())
         out.append(
             SensorChannel(
-                model, period, settings.strategy(o),
+                model, period, settings.strategy(o, getattr(model, "CONSTRAINT", False)),
                 settings.gate(model.name, o, is_dvl=isinstance(model, DVL)), settings.guard(o),
             )
         )  # fmt: skip

@@ -72,6 +72,12 @@ DEFAULT_GUARD_PROBABILITY = 1e-6
 """The guard's false-alarm probability per reading for a consistent filter (gate.Guard)."""
 DEFAULT_R_BOUNDS: dict[FilterKind, tuple[float, float]] = {"robust": (0.1, 100.0)}
 """[floor, ceiling] of R̂ as factors of the nominal variance, per kind (estimation/noise/vb.py)."""
+CONSTRAINT_R_FLOOR = 1.0
+"""Under bounded R̂, a motion constraint's (NHC, ZUPT) R̂ never falls below its nominal R: its
+residuals are small because the filter bends the solution to it, and a VB that took them for
+a precise sensor made it stiffer than the model holds, overconfident in GNSS outages (robust,
+RTKLIB drive, driving Q, GNSS + NHC: mean 60-s outage drift 22.5 → 13.3 m, MESKF's 12.3 m;
+docs/robustness.md, 'Bounded R̂')."""
 DEFAULT_DIVERGENCE: dict[FilterKind, DivergenceGuard] = {}
 """The windowed NIS test per kind (estimation/health.py); a kind absent here runs without it. None
 by default: on the adapted R it fires in the simulated trials' noise segments (robust with
@@ -179,9 +185,15 @@ class FilterSettings(BaseModel):
         not check them)."""
         return type(self).model_validate({**dict(self), **changes})
 
-    def strategy(self, overrides: SensorOverrides = SensorOverrides()) -> NoiseStrategy:
-        """The R strategy of this filter kind for one sensor."""
+    def strategy(
+        self, overrides: SensorOverrides = SensorOverrides(), constraint: bool = False
+    ) -> NoiseStrategy:
+        """The R strategy of this filter kind for one sensor; a ``constraint`` (a motion
+        model's pseudo-measurement, ``Components.CONSTRAINT``) under bounded R̂ has its floor
+        raised to :data:`CONSTRAINT_R_FLOOR` (docs/robustness.md, 'Bounded R̂')."""
         floor, ceiling = self.r_bounds.get(self.kind, (0.0, math.inf))
+        if constraint and self.kind in self.r_bounds:
+            floor = max(floor, CONSTRAINT_R_FLOOR)
         if self.kind in ("meskf", "oracle"):
             return FixedNoise()
         if self.kind == "maeskf":

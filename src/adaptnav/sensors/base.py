@@ -90,6 +90,11 @@ class Components:
     name."""
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ()
+    CONSTRAINT: ClassVar[bool] = False
+    """A pseudo-measurement of a motion model (the NHC, ZUPT), not a sensor: its σ is how well
+    the modeller says the model holds, and its residuals are what the filter made of it, so a
+    filter that bounds R̂ keeps this one's at its nominal R or above (docs/robustness.md,
+    'Bounded R̂')."""
     name: str
     sigma: float | Array
 

@@ -76,6 +76,7 @@ class NonHolonomic(Components):
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("y", "z")
+    CONSTRAINT: ClassVar[bool] = True
 
     sigma: float | Array
     l_b: Array = field(default_factory=lambda: np.zeros(3))

@@ -62,6 +62,7 @@ class ZeroVelocity(Components):
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("N", "E", "D")
+    CONSTRAINT: ClassVar[bool] = True
 
     sigma: float = 0.01
     name: str = "zupt"
