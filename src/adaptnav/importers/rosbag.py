@@ -658,3 +658,192 @@ def import_bag(
     for note in built.notes:
         log.info("%s", note)
     return root
+
+
+# --- export -------------------------------------------------------------------------------------
+
+POSITION = ("dr_N", "dr_E", "dr_D")
+VELOCITY = ("dv_N", "dv_E", "dv_D")
+ATTITUDE = ("phi_N", "phi_E", "phi_D")
+UNKNOWN_VARIANCE = -1.0
+"""The twist's angular-rate variances: the solution has no angular rate (sensor_msgs' mark of
+a quantity not provided)."""
+
+
+def run_stamp_origin(meta: Mapping[str, Any]) -> int:
+    """The stamp of mission time 0 for a run (ns): the stamp origin of its mission's
+    import.json when the mission came from a bag (:func:`import_bag`), else 0 (stamps are
+    mission seconds)."""
+    folder = meta.get("mission_dir")
+    record = Path(folder) / "import.json" if isinstance(folder, str) else None
+    if record is None or not record.is_file():
+        return 0
+    info = json.loads(record.read_text(encoding="utf-8"))
+    if info.get("importer") != "adaptnav.importers.rosbag":
+        return 0
+    return int(info["stamp_origin_ns"])
+
+
+@dataclass(frozen=True, eq=False)
+class OdometryRows:
+    """A solution in ROS terms (docs/rosbag.md, 'Export'): stamps (ns), position in the
+    local ENU frame at the datum (m), ``q_enu_flu`` ``[x, y, z, w]``, velocity in body FLU,
+    and the 6×6 pose and twist covariances (row-major, 36 numbers)."""
+
+    t_ns: NDArray[np.int64]
+    datum: tuple[float, float, float]
+    r_enu: Array
+    q_xyzw: Array
+    v_flu: Array
+    pose_cov: Array
+    twist_cov: Array
+
+
+def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
+    """Convert a run's solution table (docs/data-format.md, run folder) to ROS frames: the
+    datum is the first row's position; P's NED position and attitude blocks turned into ENU
+    (``C P Cᵀ`` with ``C = C_NED_ENU``: the attitude error φ is a world-frame rotation), the
+    velocity block into FLU (``C_FRD_FLU C_bn P_v C_nb C_FRD_FLU``); no position-attitude
+    correlation is kept in a solution table, so that block is zero."""
+    from adaptnav.api.results import covariance_block
+    from adaptnav.core import earth
+    from adaptnav.core.attitude import euler_to_dcm
+
+    lat, lon, h = (solution[c].to_numpy(dtype=float) for c in ("lat_rad", "lon_rad", "h_m"))
+    datum = (float(lat[0]), float(lon[0]), float(h[0]))
+    r_enu = rosmsg.enu_to_ned(earth.geodetic_to_ned(lat, lon, h, *datum))
+    rpy = solution[["roll_rad", "pitch_rad", "yaw_rad"]].to_numpy(dtype=float)
+    to_flu = np.array([rosmsg.C_FRD_FLU @ euler_to_dcm(*a).T for a in rpy]).reshape(-1, 3, 3)
+    v_n = solution[["vn_m_s", "ve_m_s", "vd_m_s"]].to_numpy(dtype=float)
+    C = rosmsg.C_NED_ENU
+    n = len(solution)
+    pose = np.zeros((n, 6, 6))
+    pose[:, :3, :3] = C @ covariance_block(solution, POSITION) @ C.T
+    pose[:, 3:, 3:] = C @ covariance_block(solution, ATTITUDE) @ C.T
+    twist = np.zeros((n, 6, 6))
+    twist[:, :3, :3] = to_flu @ covariance_block(solution, VELOCITY) @ to_flu.transpose(0, 2, 1)
+    twist[:, [3, 4, 5], [3, 4, 5]] = UNKNOWN_VARIANCE
+    t_ns = origin_ns + np.round(solution["t_s"].to_numpy(dtype=float) * NS).astype(np.int64)
+    return OdometryRows(
+        t_ns,
+        datum,
+        r_enu,
+        rosmsg.nav_to_ros_quaternions(rpy),
+        np.einsum("nij,nj->ni", to_flu, v_n),
+        pose.reshape(n, 36),
+        twist.reshape(n, 36),
+    )
+
+
+@dataclass(frozen=True)
+class ExportTopics:
+    """Where :func:`export_run` writes: the odometry and datum topics, the world frame (a
+    local ENU tangent plane at the datum) and the body frame (FLU)."""
+
+    odometry: str = "/adaptnav/odometry"
+    datum: str = "/adaptnav/datum"
+    frame_id: str = "map"
+    child_frame_id: str = "base_link"
+
+
+DEFAULT_TOPICS = ExportTopics()
+
+
+def _odometry_messages(rows: OdometryRows, names: ExportTopics, store: Any) -> Iterator[Any]:
+    T = store.types
+    for k in range(rows.t_ns.size):
+        ns = int(rows.t_ns[k])
+        head = T["std_msgs/msg/Header"](
+            T["builtin_interfaces/msg/Time"](ns // NS, ns % NS), names.frame_id
+        )
+        pose = T["geometry_msgs/msg/Pose"](
+            T["geometry_msgs/msg/Point"](*rows.r_enu[k]),
+            T["geometry_msgs/msg/Quaternion"](*rows.q_xyzw[k]),
+        )
+        twist = T["geometry_msgs/msg/Twist"](
+            T["geometry_msgs/msg/Vector3"](*rows.v_flu[k]),
+            T["geometry_msgs/msg/Vector3"](0.0, 0.0, 0.0),
+        )
+        yield T[ODOMETRY](
+            head,
+            names.child_frame_id,
+            T["geometry_msgs/msg/PoseWithCovariance"](pose, rows.pose_cov[k]),
+            T["geometry_msgs/msg/TwistWithCovariance"](twist, rows.twist_cov[k]),
+        )
+
+
+def _datum_message(rows: OdometryRows, names: ExportTopics, store: Any) -> Any:
+    """The datum as one NavSatFix (degrees, ellipsoidal height; covariance unknown)."""
+    T = store.types
+    ns = int(rows.t_ns[0])
+    lat, lon, h = rows.datum
+    return T[NAVSATFIX](
+        T["std_msgs/msg/Header"](
+            T["builtin_interfaces/msg/Time"](ns // NS, ns % NS), names.frame_id
+        ),
+        T["sensor_msgs/msg/NavSatStatus"](0, 1),
+        math.degrees(lat),
+        math.degrees(lon),
+        h,
+        np.zeros(9),
+        0,
+    )
+
+
+def write_odometry(
+    rows: OdometryRows, folder: Path, name: str, storage: Storage, names: ExportTopics
+) -> None:
+    """Write the odometry and the datum as a rosbag2 bag into the existing, empty
+    ``folder``; its storage file is named after ``name`` (the bag's final folder name)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    plugin = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}[storage]
+    staging = folder / name
+    with Writer(staging, version=9, storage_plugin=plugin) as w:
+        datum = w.add_connection(names.datum, NAVSATFIX, typestore=store)
+        w.write(
+            datum,
+            int(rows.t_ns[0]),
+            store.serialize_cdr(_datum_message(rows, names, store), NAVSATFIX),
+        )
+        odo = w.add_connection(names.odometry, ODOMETRY, typestore=store)
+        for t, msg in zip(rows.t_ns, _odometry_messages(rows, names, store), strict=True):
+            w.write(odo, int(t), store.serialize_cdr(msg, ODOMETRY))
+    for item in staging.iterdir():  # metadata.yaml names the storage file relative to it
+        item.rename(folder / item.name)
+    staging.rmdir()
+
+
+def export_run(
+    run_dir: str | Path,
+    folder: str | Path,
+    *,
+    name: str | None = None,
+    storage: Storage = "sqlite3",
+    names: ExportTopics = DEFAULT_TOPICS,
+    stamp_origin_ns: int | None = None,
+) -> dict[str, Any]:
+    """Write a run's solution as a ROS 2 bag (docs/rosbag.md, 'Export') into ``folder``
+    (existing and empty, or new): ``nav_msgs/msg/Odometry`` on ``names.odometry`` (pose in
+    ``names.frame_id``, a local ENU frame at the datum, twist in ``names.child_frame_id``,
+    FLU) and the datum as one NavSatFix on ``names.datum``. Stamps are mission time plus
+    ``stamp_origin_ns`` (default :func:`run_stamp_origin`). Returns what was written."""
+    from adaptnav.api.results import load
+
+    result = load(run_dir)
+    origin = run_stamp_origin(result.meta) if stamp_origin_ns is None else stamp_origin_ns
+    rows = odometry_rows(result.solution, origin)
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    write_odometry(rows, out, name or out.name, storage, names)
+    lat, lon, h = rows.datum
+    return {
+        "messages": int(rows.t_ns.size),
+        "storage": storage,
+        "stamp_origin_ns": origin,
+        "datum_deg_m": [math.degrees(lat), math.degrees(lon), h],
+        "topics": [names.odometry, names.datum],
+        "frames": [names.frame_id, names.child_frame_id],
+    }
