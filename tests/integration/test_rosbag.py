@@ -1,0 +1,377 @@
+"""ROS 2 bags: a simulated mission written as a bag by ``rosbags``' own writer imports back to
+the same tables and the same run; frames on known motion; errors and repairs; the run's
+solution exported as Odometry reads back (adaptnav.importers.rosbag, docs/rosbag.md)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from rosbags.highlevel import AnyReader
+from typer.testing import CliRunner
+
+from adaptnav import api
+from adaptnav.analysis import evaluate
+from adaptnav.cli import app
+from adaptnav.core import earth
+from adaptnav.importers.rosbag import RosbagError, import_bag
+from adaptnav.mission import load_mission
+from adaptnav.sim.scenarios import simulate
+from helpers import rosbags_writer as rw
+
+SENSOR_TOPICS = {
+    "dvl": "/dvl/twist",
+    "depth": "/depth/pressure",
+    "inclinometer": "/inclinometer",
+    "heading": "/heading",
+    "gnss": "/gps/fix",
+}
+COLUMNS = {
+    "dvl": ["t_s", "vx_m_s", "vy_m_s", "vz_m_s"],
+    "depth": ["t_s", "depth_m"],
+    "inclinometer": ["t_s", "roll_rad", "pitch_rad"],
+    "heading": ["t_s", "yaw_rad"],
+    "gps": ["t_s", "lat_rad", "lon_rad"],
+}
+STAMP_TOL_S = 1e-9
+"""Stamps are whole nanoseconds: mission time comes back to within 0.5 ns."""
+
+
+class Trip:
+    """The demo mission (seed 1), its sqlite3 bag and the bag's import, made once."""
+
+    def __init__(self, root: Path) -> None:
+        self.original = simulate("demo", 1, root / "original")
+        self.bag = rw.mission_to_bag(self.original, root / "bag", "sqlite3")
+        self.imported = import_bag(
+            self.bag,
+            root / "imported",
+            topics=SENSOR_TOPICS | {"imu": "/imu"},
+            config=self.original / "mission.toml",
+        )
+        self.root = root
+
+
+@pytest.fixture(scope="module")
+def trip(tmp_path_factory: pytest.TempPathFactory) -> Trip:
+    return Trip(tmp_path_factory.mktemp("rosbag"))
+
+
+def _assert_tables_equal(original: Path, imported: Path, t_max: float = math.inf) -> None:
+    """Readings equal to float precision (the IMU through rate = increment / interval and
+    back: 1e-9 relative), stamps to the nanosecond."""
+    a = pd.read_parquet(original / "imu.parquet")
+    a = a[a["t_s"] < t_max]
+    b = pd.read_parquet(imported / "imu.parquet")
+    np.testing.assert_allclose(b["t_s"], a["t_s"], rtol=0, atol=STAMP_TOL_S)
+    np.testing.assert_allclose(b.iloc[:, 1:], a.iloc[:, 1:], rtol=1e-9, atol=1e-15)
+    for table, cols in COLUMNS.items():
+        a = pd.read_parquet(original / f"{table}.parquet")[cols]
+        a = a[a["t_s"] < t_max]
+        b = pd.read_parquet(imported / f"{table}.parquet")[cols]
+        np.testing.assert_allclose(b["t_s"], a["t_s"], rtol=0, atol=STAMP_TOL_S)
+        np.testing.assert_allclose(b.iloc[:, 1:], a.iloc[:, 1:], rtol=1e-12, atol=1e-12)
+
+
+def test_sqlite3_round_trip_gives_the_original_tables(trip: Trip) -> None:
+    _assert_tables_equal(trip.original, trip.imported)
+    info = json.loads((trip.imported / "import.json").read_text())
+    assert info["stamp_origin_ns"] == rw.STAMP0_NS and info["repairs"] == []
+    assert info["roles"]["dvl"]["frame_ids"] == ["dvl_link"]
+    assert info["roles"]["dvl"]["sigma_source"] == "config"
+
+
+def test_imported_mission_runs_to_the_original_rmse(trip: Trip) -> None:
+    """The issue's target: the run on the imported mission within 1 % of the original's
+    RMSE (both scored against the simulator's truth, same filter, own alignment)."""
+    original = load_mission(trip.original)
+    rmse = []
+    for mission in (original, load_mission(trip.imported)):
+        result = api.run(mission, "robust")
+        rmse.append(evaluate.rmse(evaluate.position_errors(result.solution, original.truth)))
+    print(f"RMSE original {rmse[0]:.9f} m, imported {rmse[1]:.9f} m")
+    assert abs(rmse[1] / rmse[0] - 1.0) < 0.01
+
+
+def test_mcap_round_trip(trip: Trip, tmp_path: Path) -> None:
+    """The MCAP storage: the first 60 s of the mission through a bag and back."""
+    short = tmp_path / "short"
+    short.mkdir()
+    (short / "mission.toml").write_text((trip.original / "mission.toml").read_text())
+    for f in ("imu", "dvl", "depth", "inclinometer", "heading", "gps"):
+        t = pd.read_parquet(trip.original / f"{f}.parquet")
+        t[t["t_s"] < 60.0].to_parquet(short / f"{f}.parquet")
+    bag = rw.mission_to_bag(short, tmp_path / "bag", "mcap")
+    assert next(bag.glob("*.mcap")).is_file()
+    out = import_bag(bag, tmp_path / "m", topics=SENSOR_TOPICS, config=short / "mission.toml")
+    _assert_tables_equal(trip.original, out, t_max=60.0)
+
+
+# --- frames on known motion -------------------------------------------------------------------
+
+
+def _known_motion_bag(path: Path) -> Path:
+    """A level vehicle heading east (ROS yaw 0), nose up 0.1 rad (ROS pitch -0.1), turning
+    left at 0.1 rad/s (ROS +z), at rest in gravity (ROS +z up 9.8 m/s²), DVL 1 m/s forward
+    and 0.5 m/s to the left, 10 m of water, a fix with ENU variances (1, 4, 9) m²."""
+    n, q_east = 5, rw.quat_zyx(0.0, -0.1, 0.0)
+    imu = [
+        (
+            0.01 * k,
+            rw.T["sensor_msgs/msg/Imu"](
+                rw.header(0.01 * k, "base_link"),
+                q_east,
+                rw.diag(3, [1e-4] * 3),
+                rw.vec(0.0, 0.0, 0.1),
+                rw.diag(3, [1e-6] * 3),
+                rw.vec(0.0, 0.0, 9.8),
+                rw.diag(3, [4e-4] * 3),
+            ),
+        )
+        for k in range(1, 101)
+    ]
+    tw = rw.T["geometry_msgs/msg/Twist"](rw.vec(1.0, 0.5, 0.0), rw.vec(0.0, 0.0, 0.0))
+    cov = np.zeros(36)
+    cov[[0, 7, 14]] = 0.01**2
+    dvl = [
+        (
+            0.2 * k,
+            rw.T["geometry_msgs/msg/TwistWithCovarianceStamped"](
+                rw.header(0.2 * k, "dvl_link"),
+                rw.T["geometry_msgs/msg/TwistWithCovariance"](tw, cov),
+            ),
+        )
+        for k in range(1, n)
+    ]
+    pressure = [
+        (
+            0.2 * k,
+            rw.T["sensor_msgs/msg/FluidPressure"](
+                rw.header(0.2 * k, "p"), rw.P_ATM + rw.RHO * rw.G * 10.0, (rw.RHO * rw.G * 0.1) ** 2
+            ),
+        )
+        for k in range(1, n)
+    ]
+    fix = [
+        (
+            0.2 * k,
+            rw.T["sensor_msgs/msg/NavSatFix"](
+                rw.header(0.2 * k, "gps"),
+                rw.T["sensor_msgs/msg/NavSatStatus"](0, 1),
+                26.8,
+                56.0,
+                3.0,
+                rw.diag(3, [1.0, 4.0, 9.0]),
+                2,
+            ),
+        )
+        for k in range(1, n)
+    ]
+    return rw.write_bag(
+        path,
+        {
+            "/imu": ("sensor_msgs/msg/Imu", imu),
+            "/dvl": ("geometry_msgs/msg/TwistWithCovarianceStamped", dvl),
+            "/p": ("sensor_msgs/msg/FluidPressure", pressure),
+            "/fix": ("sensor_msgs/msg/NavSatFix", fix),
+            "/q": (
+                "geometry_msgs/msg/QuaternionStamped",
+                [(0.1, rw.T["geometry_msgs/msg/QuaternionStamped"](rw.header(0.1, "q"), q_east))],
+            ),
+        },
+    )
+
+
+def test_frames_units_and_covariances_on_known_motion(tmp_path: Path) -> None:
+    bag = _known_motion_bag(tmp_path / "bag")
+    out = import_bag(
+        bag,
+        tmp_path / "m",
+        topics={"dvl": "/dvl", "gnss": "/fix", "heading": "/imu", "inclinometer": "/imu"},
+    )
+    imu = pd.read_parquet(out / "imu.parquet")
+    np.testing.assert_allclose(
+        imu[["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"]].iloc[1:],
+        [[0.0, 0.0, -0.1 * 0.01]] * 99,
+        atol=1e-15,
+    )  # FRD z is down
+    np.testing.assert_allclose(imu["dvel_z_m_s"], -9.8 * 0.01, rtol=1e-9)
+    heading = pd.read_parquet(out / "heading.parquet")
+    np.testing.assert_allclose(heading["yaw_rad"], math.pi / 2, atol=1e-12)  # east
+    incl = pd.read_parquet(out / "inclinometer.parquet")
+    np.testing.assert_allclose(incl[["roll_rad", "pitch_rad"]], [[0.0, 0.1]] * 100, atol=1e-12)
+    dvl = pd.read_parquet(out / "dvl.parquet")
+    np.testing.assert_allclose(dvl[["vx_m_s", "vy_m_s", "vz_m_s"]], [[1.0, -0.5, 0.0]] * 4)
+    gps = pd.read_parquet(out / "gnss.parquet")
+    np.testing.assert_allclose(
+        gps[["lat_rad", "lon_rad", "h_m"]], [[math.radians(26.8), math.radians(56.0), 3.0]] * 4
+    )
+    cfg = load_mission(out).config
+    assert cfg.sensors["gnss"].use_height is True  # no depth topic: the fix's height is used
+    assert cfg.sensors["gnss"].sigma == ([2.0, 1.0, 3.0], "m")  # N, E, D from ENU (1, 4, 9)
+    assert cfg.sensors["dvl"].sigma == ([0.01, 0.01, 0.01], "m/s")
+    assert cfg.sensors["heading"].sigma[0] == pytest.approx([0.01])
+    arw = cfg.imu.noise.arw
+    assert arw[1] == "rad/sqrt(s)" and arw[0] == pytest.approx(1e-3 * math.sqrt(0.01))
+    assert cfg.imu.rate_hz == pytest.approx(100.0)
+    depth = import_bag(bag, tmp_path / "d", topics={"depth": "/p", "gnss": "/fix"})
+    np.testing.assert_allclose(pd.read_parquet(depth / "depth.parquet")["depth_m"], 10.0)
+    assert load_mission(depth).config.sensors["depth"].sigma[0] == pytest.approx([0.1])
+
+
+# --- errors and repairs -----------------------------------------------------------------------
+
+
+def _cli(*args: str) -> tuple[int, str]:
+    res = CliRunner().invoke(app, list(args))
+    return res.exit_code, res.output
+
+
+def test_bad_bags_and_topics_exit_2(tmp_path: Path) -> None:
+    bag = _known_motion_bag(tmp_path / "bag")
+    out = str(tmp_path / "m")
+    code, text = _cli("import", "rosbag", str(bag), "--out", out, "--dvl", "/nope")
+    assert (
+        code == 2 and "no topic /nope (--dvl)" in text and "/fix (sensor_msgs/msg/NavSatFix" in text
+    )
+    code, text = _cli("import", "rosbag", str(bag), "--out", out, "--dvl", "/fix")
+    assert (
+        code == 2
+        and "/fix is sensor_msgs/msg/NavSatFix, --dvl takes geometry_msgs/msg/Twist" in text
+    )
+    code, text = _cli("import", "rosbag", str(tmp_path), "--out", out)
+    assert code == 2 and "not a readable ROS 2 bag" in text and "Traceback" not in text
+    no_imu = rw.write_bag(tmp_path / "no-imu", {"/fix": ("sensor_msgs/msg/NavSatFix", [])})
+    code, text = _cli("import", "rosbag", str(no_imu), "--out", out)
+    assert code == 2 and "no sensor_msgs/msg/Imu topics" in text
+    code, text = _cli("import", "rosbag", str(bag), "--out", out, "--heading", "/dvl")
+    assert code == 2 and "--heading takes" in text
+    assert not Path(out).exists()
+
+
+def test_no_covariance_and_no_config_is_an_error(tmp_path: Path) -> None:
+    imu = pd.DataFrame(
+        {
+            "t_s": [0.01, 0.02],
+            **dict.fromkeys(
+                ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dvel_x_m_s", "dvel_y_m_s"], 0.0
+            ),
+            "dvel_z_m_s": -0.098,
+        }
+    )
+    plain = rw.write_bag(
+        tmp_path / "plain",
+        {"/imu": ("sensor_msgs/msg/Imu", rw.imu_messages(imu, 100.0, cov=False))},
+    )
+    with pytest.raises(RosbagError, match=r"topic /imu \(--imu\).*--config"):
+        import_bag(plain, tmp_path / "m", topics={})
+    bag = _known_motion_bag(tmp_path / "bag")
+    with pytest.raises(RosbagError, match=r"/q \(--heading\): its messages carry no covariance"):
+        import_bag(bag, tmp_path / "m", topics={"gnss": "/fix", "heading": "/q"})
+
+
+def test_out_of_order_repeated_and_unset_stamps_are_repaired(tmp_path: Path) -> None:
+    """Bag order is arrival order: a message stamped before its predecessor is sorted, a
+    repeated IMU stamp dropped, an unset (zero) stamp replaced by the log time, a fix with
+    no fix left out; each recorded in import.json, and the mission loads."""
+    ts = [0.01 * k for k in range(1, 51)]
+    order = [*ts[:10], ts[11], ts[10], *ts[12:20], ts[19], *ts[20:]]
+    imu = []
+    for t in order:
+        m = rw.T["sensor_msgs/msg/Imu"](
+            rw.header(t, "b"),
+            rw.quat_zyx(0, 0, 0),
+            rw.NOT_PROVIDED,
+            rw.vec(0, 0, 0.1),
+            rw.diag(3, [1e-6] * 3),
+            rw.vec(0, 0, 9.8),
+            rw.diag(3, [1e-4] * 3),
+        )
+        imu.append((0.01 * (len(imu) + 1) + 0.001, m))  # arrival order, 1 ms late
+    imu[30][1].header.stamp = rw.T["builtin_interfaces/msg/Time"](0, 0)
+    fixes = [
+        (
+            t,
+            rw.T["sensor_msgs/msg/NavSatFix"](
+                rw.header(t, "gps"),
+                rw.T["sensor_msgs/msg/NavSatStatus"](-1 if k == 2 else 0, 1),
+                26.8,
+                56.0,
+                0.0,
+                rw.diag(3, [1.0, 1.0, 1.0]),
+                2,
+            ),
+        )
+        for k, t in enumerate(ts[::5])
+    ]
+    bag = rw.write_bag(
+        tmp_path / "bag",
+        {"/imu": ("sensor_msgs/msg/Imu", imu), "/fix": ("sensor_msgs/msg/NavSatFix", fixes)},
+    )
+    out = import_bag(bag, tmp_path / "m", topics={"gnss": "/fix"})
+    actions = [r["action"] for r in json.loads((out / "import.json").read_text())["repairs"]]
+    assert actions == [
+        "zero stamp: bag log time used",
+        "sorted by header stamp",
+        "repeated stamp: later message dropped",
+        "no fix: left out",
+    ]
+    m = load_mission(out)
+    stamps = sorted({*ts[:29], 0.311, *ts[30:]})  # order[30] = ts[29]: log time 0.311 instead
+    np.testing.assert_allclose(m.imu.t, np.array(stamps), atol=STAMP_TOL_S)
+    assert m.sensors["gnss"].t.size == 9
+
+
+# --- export ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_export_odometry_reads_back(trip: Trip, tmp_path: Path, storage: str) -> None:
+    run = tmp_path / "run"
+    api.results.save(api.run(load_mission(trip.imported), "meskf"), run)
+    code, text = _cli(
+        "export", "rosbag", str(run), "--out", str(tmp_path / "odo"), "--storage", storage
+    )
+    assert code == 0, text
+    sol = api.results.load(run).solution
+    with AnyReader([tmp_path / "odo"], default_typestore=rw.TYPESTORE) as r:
+        assert {c.topic: c.msgtype for c in r.connections} == {
+            "/adaptnav/odometry": "nav_msgs/msg/Odometry",
+            "/adaptnav/datum": "sensor_msgs/msg/NavSatFix",
+        }
+        msgs = {
+            c.topic: [r.deserialize(raw, c.msgtype) for c, _, raw in r.messages([c])]
+            for c in r.connections
+        }
+    odo, (datum,) = msgs["/adaptnav/odometry"], msgs["/adaptnav/datum"]
+    assert len(odo) == len(sol) and odo[0].header.frame_id == "map"
+    k = len(sol) // 2
+    stamp = odo[k].header.stamp
+    assert stamp.sec * 10**9 + stamp.nanosec - rw.STAMP0_NS == round(sol["t_s"].iloc[k] * 1e9)
+    ned = earth.geodetic_to_ned(
+        sol["lat_rad"].iloc[k],
+        sol["lon_rad"].iloc[k],
+        sol["h_m"].iloc[k],
+        math.radians(datum.latitude),
+        math.radians(datum.longitude),
+        datum.altitude,
+    )
+    p = odo[k].pose.pose.position
+    np.testing.assert_allclose([p.y, p.x, -p.z], ned, atol=1e-6)  # ENU
+    cov = odo[k].pose.covariance
+    np.testing.assert_allclose(cov[[0, 7, 14]], sol[["sd_dr_E", "sd_dr_N", "sd_dr_D"]].iloc[k] ** 2)
+    q = odo[k].pose.pose.orientation
+    expect = rw.ros_quat(*sol[["roll_rad", "pitch_rad", "yaw_rad"]].iloc[k])
+    assert (
+        abs(abs(np.dot([q.x, q.y, q.z, q.w], [expect.x, expect.y, expect.z, expect.w])) - 1) < 1e-12
+    )
+    speed = np.hypot(*sol[["vn_m_s", "ve_m_s", "vd_m_s"]].iloc[k].to_numpy()[:2])
+    v = odo[k].twist.twist.linear
+    assert math.hypot(v.x, v.y, v.z) == pytest.approx(
+        np.linalg.norm(sol[["vn_m_s", "ve_m_s", "vd_m_s"]].iloc[k]), rel=1e-9
+    )
+    assert speed > 0.1 and v.x > 0.9 * speed  # under way, mostly forward in FLU
