@@ -1,2 +1,3 @@
 """Applications that turn other formats into mission folders: the Snapir AUV (A-KIT) segments
-(:mod:`~adaptnav.importers.akit`) and the RTKLIB car drive (:mod:`~adaptnav.importers.rtklib`)."""
+(:mod:`~adaptnav.importers.akit`), the RTKLIB car drive (:mod:`~adaptnav.importers.rtklib`) and
+NMEA 0183 logs (:mod:`~adaptnav.importers.nmea`)."""
