@@ -457,7 +457,7 @@ def _increasing(
         if last is not None and t <= last[1]:
             detail = f"{r.kind} {t - last[1]:+.3f} s after line {last[0].line}"
             journal.repair(names[r.file], r.line, "(time)", "time does not increase", detail)
-        elif nxt <= t and (last is None or nxt > last[1]):
+        elif nxt < t and (last is None or nxt > last[1]):
             detail = f"{r.kind} {t - nxt:+.3f} s after the next one, line {rows[i + 1][0].line}"
             journal.repair(names[r.file], r.line, "(time)", "time jumps ahead", detail)
         else:
