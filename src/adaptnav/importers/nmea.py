@@ -46,6 +46,7 @@ import pynmea2
 from adaptnav.mission.config import (
     MissionConfig,
     MissionError,
+    SensorConfig,
     dumps_toml,
     load_config,
     parse_config,
@@ -63,6 +64,7 @@ __all__ = [
     "VDOP_PER_HDOP",
     "NmeaError",
     "NmeaLog",
+    "Options",
     "fix_sigma",
     "import_nmea",
     "read_nmea",
@@ -860,6 +862,8 @@ def import_nmea(
         (root / CONFIG_NAME).write_text(merged.dump_toml(), encoding="utf-8")
         record["mission"] = {"source": str(mission), **_check_span(root, tables)}
     else:
+        for doc in sections.values():
+            SensorConfig.model_validate(doc)  # what a mission.toml will check
         head = f"# NMEA import: t_s = UTC - {record['time']['t0_utc']} (import.json)\n"
         text = dumps_toml({"sensors": sections})
         (root / "sensors.toml").write_text(head + text, encoding="utf-8")
