@@ -5,12 +5,14 @@ One module per group of commands, each registering on the one :data:`app`:
 :mod:`~adaptnav.cli.compare` (compare, report);
 :mod:`~adaptnav.cli.importers` (import akit, import rtklib);
 :mod:`~adaptnav.cli.rosbag` (import rosbag, export rosbag);
+:mod:`~adaptnav.cli.nmea` (import nmea);
 :mod:`~adaptnav.cli.sweep` (sweep q, sweep process-noise, sweep seeds).
 """
 
 from adaptnav.cli import compare as compare
 from adaptnav.cli import core as core
 from adaptnav.cli import importers as importers
+from adaptnav.cli import nmea as nmea
 from adaptnav.cli import rosbag as rosbag
 from adaptnav.cli import sweep as sweep
 from adaptnav.cli._app import app

@@ -198,7 +198,8 @@ def show(value: object) -> str:
 
 
 def _unit(file: str) -> str:
-    return "line" if file.lower().endswith(".csv") else "row"
+    """``row`` (0-based data row) for a Parquet table, ``line`` (1-based) for a text file."""
+    return "row" if file.lower().endswith((".parquet", ".pq")) else "line"
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,0 +1,873 @@
+"""Importer of NMEA 0183 logs: GGA fixes and HDT headings as GNSS and heading tables
+(docs/nmea.md).
+
+A log is text, one sentence a line (``$GPGGA,...*47``). Each line is framed and its checksum
+checked by ``pynmea2.parse(line, check=True)``; the fields are then read here, one by one, so
+that a bad field is a repair naming the file, line and field, never an exception:
+
+* **GGA** (UTC time of day, position, fix quality, satellites, HDOP, altitude above the geoid
+  and the geoid separation): the GNSS fixes, ``h = altitude + separation`` (ellipsoidal);
+* **HDT** (true heading): the heading readings. HDT carries no time: it takes the time of the
+  last timed sentence (GGA, RMC or ZDA) before it in the same file;
+* **RMC** (time, status, speed and course over ground, date) and **ZDA** (time and date): the
+  UTC date, and with **VTG** (course and speed, no time: as HDT) the speed and course over
+  ground. The project's GNSS kind measures position only, so these go to an extra table
+  beside the mission that the filter does not read (``<gnss>_velocity``).
+
+Time (docs/nmea.md, "Time"): UTC = date + time of day; the date comes from the RMC/ZDA
+sentences (or ``date=`` when the log has none); the time of day going back by more than 12 h
+is the day rolling over at midnight. Mission time is ``t_s = UTC - t0``.
+
+σ model (docs/nmea.md, "σ model"): per fix, from its quality and HDOP,
+``σ_N = σ_E = HDOP × UERE / √2`` (HDOP × UERE is the horizontal DRMS),
+``σ_D = VDOP_PER_HDOP × HDOP × UERE``; fixed σ for RTK fixed and float fixes. The mission format
+has one σ per sensor: the section gets the median of the used fixes' σ, and the per-fix σ are
+kept as extra columns.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+import logging
+import math
+import shutil
+from collections import Counter
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+import pynmea2
+
+from adaptnav.mission.config import (
+    MissionConfig,
+    MissionError,
+    SensorConfig,
+    dumps_toml,
+    load_config,
+    parse_config,
+)
+from adaptnav.mission.loader import CONFIG_NAME, load_mission
+from adaptnav.mission.tables import Journal, Repair, write_table
+
+log = logging.getLogger("adaptnav.importers.nmea")
+
+__all__ = [
+    "KNOTS_M_S",
+    "RTK_FIXED_SIGMA_M",
+    "RTK_FLOAT_SIGMA_M",
+    "UERE_M",
+    "VDOP_PER_HDOP",
+    "NmeaError",
+    "NmeaLog",
+    "Options",
+    "fix_sigma",
+    "import_nmea",
+    "read_nmea",
+]
+
+KNOTS_M_S = 1852.0 / 3600.0
+"""One knot in m/s."""
+UERE_M = 3.0
+"""Default σ of the user-equivalent range error of a standalone (SPS) fix (m); an assumption
+for a single-frequency receiver in open sky; ``uere_m=`` (``--uere-m``) sets it."""
+DGNSS_UERE_M = 1.0
+"""σ of the range error of a differential (DGPS, SBAS) fix (m); assumed."""
+VDOP_PER_HDOP = 1.5
+"""VDOP / HDOP assumed for the vertical σ (GGA gives no VDOP; about 1.3-2 in open sky, where
+there are no satellites below the horizon to fix the height)."""
+RTK_FIXED_SIGMA_M = (0.02, 0.02, 0.04)
+"""σ (N, E, D) of an RTK fixed fix (m): a few times the receiver's centimetre-level internal
+σ, for multipath and the antenna's phase centre (as docs/rtklib.md)."""
+RTK_FLOAT_SIGMA_M = (0.5, 0.5, 1.0)
+"""σ (N, E, D) of an RTK float fix (m): decimetres to a metre while the ambiguities converge;
+assumed."""
+ASSUMED_HDOP = 2.0
+"""HDOP taken for a fix whose HDOP field is empty or not positive (recorded as a repair)."""
+HEADING_SIGMA_DEG = 0.5
+"""Default σ of an HDT heading (deg) when neither the options nor the mission give one; an
+assumption: use the device's datasheet."""
+QUALITY_NAMES = {
+    1: "GPS (SPS)", 2: "DGPS", 3: "PPS", 4: "RTK fixed", 5: "RTK float", 6: "dead reckoning",
+    7: "manual input", 8: "simulator", 9: "SBAS",
+}  # fmt: skip
+"""GGA fix quality indicator (NMEA 0183 v4.x; 9 as u-blox and others output SBAS)."""
+NOT_MEASURED = frozenset({6, 7, 8})
+"""Qualities that are not measurements (an extrapolation, a typed-in or simulated position)."""
+TALKERS = frozenset({"GP", "GL", "GA", "GB", "BD", "GQ", "GI", "GN", "HE", "IN", "II"})
+"""Talkers accepted for the sentences used: GNSS constellations and combined (GN), north-seeking
+gyro (HE), integrated navigation (IN) and instrumentation (II)."""
+USED = ("GGA", "RMC", "VTG", "HDT", "ZDA")
+TIMED = frozenset({"GGA", "RMC", "ZDA"})
+HALF_DAY_S = 43200.0
+DAY_S = 86400.0
+MAX_DISTINCT_PROBLEMS = 3
+"""Problems quoted in the message of a file with no usable sentence."""
+
+
+class NmeaError(MissionError):
+    """An NMEA log that cannot be imported (no usable sentence, no date, a bad option): a
+    :class:`~adaptnav.mission.MissionError` naming the file."""
+
+
+class _LineError(Exception):
+    """A sentence that is not used: the field and the reason, for the repair log."""
+
+    def __init__(self, fld: str, action: str, detail: str = "") -> None:
+        super().__init__(action)
+        self.field, self.action, self.detail = fld, action, detail
+
+
+@dataclass(frozen=True)
+class _Record:
+    """What one sentence says: its type, where it is, its UTC time of day (None: untimed),
+    its date (RMC, ZDA) and values; ``unused`` is why a timed sentence gives no reading (its
+    time still counts, e.g. a GGA of fix quality 0)."""
+
+    kind: str
+    file: int
+    line: int
+    tod_s: float | None
+    date: dt.date | None = None
+    values: Mapping[str, float] = field(default_factory=dict)
+    unused: tuple[str, str, str] | None = None
+
+
+# --- fields -------------------------------------------------------------------------------------
+
+
+def _field(msg: pynmea2.TalkerSentence, name: str) -> str:
+    """The raw text of field ``name``; a sentence cut short before it is a :class:`_LineError`."""
+    idx = msg.name_to_idx[name]
+    if idx >= len(msg.data):
+        raise _LineError(name, "sentence cut short", f"{len(msg.data)} fields, no {name}")
+    return str(msg.data[idx]).strip()
+
+
+def _required(msg: pynmea2.TalkerSentence, name: str) -> str:
+    text = _field(msg, name)
+    if not text:
+        raise _LineError(name, "empty field", f"{msg.sentence_type} without {name}")
+    return text
+
+
+def _number(msg: pynmea2.TalkerSentence, name: str, *, optional: bool = False) -> float:
+    """A finite number; an empty optional field is NaN."""
+    text = _field(msg, name) if optional else _required(msg, name)
+    if not text:
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        raise _LineError(name, "bad field", f"{name} = {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise _LineError(name, "bad field", f"{name} = {text!r} is not finite")
+    return value
+
+
+def _time_of_day(msg: pynmea2.TalkerSentence) -> float:
+    """``hhmmss(.ss)`` → seconds of the UTC day (a leap second 60 allowed)."""
+    text = _required(msg, "timestamp")
+    head, _, frac = text.partition(".")
+    if len(head) != 6 or not head.isdigit() or not (frac == "" or frac.isdigit()):
+        raise _LineError("timestamp", "bad field", f"time {text!r} is not hhmmss.ss")
+    h, m, s = int(head[:2]), int(head[2:4]), float(head[4:] + "." + (frac or "0"))
+    if h > 23 or m > 59 or s >= 61.0:
+        raise _LineError("timestamp", "bad field", f"time {text!r} out of range")
+    return 3600.0 * h + 60.0 * m + s
+
+
+def _angle(msg: pynmea2.TalkerSentence, name: str, hemispheres: str, limit: float) -> float:
+    """``(d)ddmm.mmmm`` with its hemisphere letter → signed degrees; minutes < 60."""
+    text, hemi = _required(msg, name), _required(msg, name + "_dir").upper()
+    head, _, frac = text.partition(".")
+    if len(head) < 3 or not head.isdigit() or not (frac == "" or frac.isdigit()):
+        raise _LineError(name, "bad field", f"{name} = {text!r} is not (d)ddmm.mmmm")
+    minutes = float(head[-2:] + "." + (frac or "0"))
+    deg = int(head[:-2]) + minutes / 60.0
+    if minutes >= 60.0 or deg > limit or hemi not in hemispheres:
+        raise _LineError(name, "bad field", f"{name} = {text!r} {hemi!r} out of range")
+    return -deg if hemi == hemispheres[1] else deg
+
+
+def _day(year: int, month: int, day: int, fld: str, text: str) -> dt.date:
+    try:
+        return dt.date(year, month, day)
+    except ValueError:
+        raise _LineError(fld, "bad field", f"date {text!r} is not a calendar date") from None
+
+
+# --- sentences ----------------------------------------------------------------------------------
+
+
+def _gga(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """A GGA fix; a quality that is not a measurement keeps the time only (``unused``)."""
+    tod = _time_of_day(msg)
+    q_text = _required(msg, "gps_qual")
+    if not q_text.isdigit():
+        raise _LineError("gps_qual", "bad field", f"fix quality {q_text!r} is not a number")
+    quality = int(q_text)
+    if quality == 0:
+        return _Record("GGA", *where, tod, unused=("gps_qual", "fix invalid", "quality 0"))
+    if quality in NOT_MEASURED or quality not in QUALITY_NAMES:
+        name = QUALITY_NAMES.get(quality, "unknown")
+        why = ("gps_qual", "not a measurement", f"quality {quality} ({name})")
+        return _Record("GGA", *where, tod, unused=why)
+    alt, sep = _number(msg, "altitude"), _number(msg, "geo_sep", optional=True)
+    values = {
+        "lat_deg": _angle(msg, "lat", "NS", 90.0),
+        "lon_deg": _angle(msg, "lon", "EW", 180.0),
+        "h_m": alt + (0.0 if math.isnan(sep) else sep),
+        "geoid_separation_m": sep,
+        "quality": float(quality),
+        "hdop": _number(msg, "horizontal_dil", optional=True),
+        "n_sats": _number(msg, "num_sats", optional=True),
+    }
+    return _Record("GGA", *where, tod, values=values)
+
+
+def _rmc(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """An RMC: time, date, speed and course; status V (void) is not used at all."""
+    status = _field(msg, "status").upper()
+    if status != "A":
+        raise _LineError("status", "void", f"RMC status {status!r}, not A (valid)")
+    tod = _time_of_day(msg)
+    text = _required(msg, "datestamp")
+    if len(text) != 6 or not text.isdigit():
+        raise _LineError("datestamp", "bad field", f"date {text!r} is not ddmmyy")
+    yy = int(text[4:])
+    date = _day(2000 + yy if yy < 80 else 1900 + yy, int(text[2:4]), int(text[:2]), "datestamp",
+                text)  # fmt: skip
+    values = {
+        "sog_m_s": _number(msg, "spd_over_grnd") * KNOTS_M_S,
+        "cog_deg": _number(msg, "true_course", optional=True),
+    }
+    return _Record("RMC", *where, tod, date, values)
+
+
+def _vtg(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """A VTG: speed (km/h field, else knots) and true course (empty when slow)."""
+    kmph = _number(msg, "spd_over_grnd_kmph", optional=True)
+    speed = kmph / 3.6 if math.isfinite(kmph) else _number(msg, "spd_over_grnd_kts") * KNOTS_M_S
+    values = {"sog_m_s": speed, "cog_deg": _number(msg, "true_track", optional=True)}
+    return _Record("VTG", *where, None, values=values)
+
+
+def _hdt(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """An HDT true heading in [0, 360] deg."""
+    heading = _number(msg, "heading")
+    if _field(msg, "hdg_true").upper() != "T":
+        raise _LineError("hdg_true", "bad field", "HDT heading not marked T (true)")
+    if not 0.0 <= heading <= 360.0:
+        raise _LineError("heading", "bad field", f"heading {heading} outside [0, 360] deg")
+    return _Record("HDT", *where, None, values={"heading_deg": heading})
+
+
+def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """A ZDA: UTC time and date."""
+    tod = _time_of_day(msg)
+    parts = [_required(msg, k) for k in ("year", "month", "day")]
+    if not all(p.isdigit() for p in parts):
+        raise _LineError("day", "bad field", f"date {'-'.join(parts)!r} is not numeric")
+    date = _day(int(parts[0]), int(parts[1]), int(parts[2]), "day", "-".join(parts))
+    return _Record("ZDA", *where, tod, date)
+
+
+_READERS = {"GGA": _gga, "RMC": _rmc, "VTG": _vtg, "HDT": _hdt, "ZDA": _zda}
+
+
+def _message(exc: ValueError) -> str:
+    """The message of a pynmea2 error (its first argument is a (message, data) pair)."""
+    first = exc.args[0] if exc.args else ""
+    return str(first[0] if isinstance(first, tuple) and first else first)
+
+
+def _sentence(text: str) -> pynmea2.NMEASentence | str:
+    """The framed, checksum-checked sentence, or the name of an ignored kind of line."""
+    if text.startswith("!"):
+        return "encapsulated (!)"
+    if not text.startswith("$"):
+        raise _LineError("(line)", "not an NMEA sentence", f"does not start with $: {text[:20]!r}")
+    try:
+        msg = pynmea2.parse(text, check=True)
+    except pynmea2.ChecksumError as exc:
+        message = _message(exc)
+        if "missing" in message:
+            raise _LineError("(checksum)", "no checksum", "no *hh at the end: truncated?") from None
+        given, _, computed = message.rpartition(": ")[2].partition(" != ")
+        raise _LineError(
+            "(checksum)", "checksum mismatch", f"*{given} given, *{computed} computed"
+        ) from None
+    except pynmea2.SentenceTypeError:
+        raise _LineError("(type)", "unknown sentence type", text.split(",", 1)[0][:12]) from None
+    except (pynmea2.ParseError, ValueError) as exc:
+        raise _LineError("(line)", "not an NMEA sentence", _message(exc)[:60]) from None
+    if not isinstance(msg, pynmea2.TalkerSentence):
+        return "proprietary" if isinstance(msg, pynmea2.ProprietarySentence) else "query"
+    return msg
+
+
+def _record(text: str, where: tuple[int, int], ignored: Counter[str]) -> _Record | None:
+    """The record of one line; None for a sentence that is read but not used (counted in
+    ``ignored``); a :class:`_LineError` for a line that goes to the repair log."""
+    msg = _sentence(text)
+    if isinstance(msg, str):
+        ignored[msg] += 1
+        return None
+    if msg.sentence_type not in _READERS:
+        ignored[msg.sentence_type] += 1
+        return None
+    if msg.talker not in TALKERS:
+        raise _LineError("(talker)", "unknown talker", f"{msg.talker}{msg.sentence_type}")
+    return _READERS[msg.sentence_type](msg, where)
+
+
+# --- files --------------------------------------------------------------------------------------
+
+
+def _lines(path: Path) -> Iterator[tuple[int, bytes]]:
+    """(1-based line number, bytes without the line end) of each non-blank line."""
+    try:
+        data = path.read_bytes()
+    except IsADirectoryError:
+        raise NmeaError(f"{path}: is a folder, not an NMEA log", file=str(path)) from None
+    except OSError as exc:
+        raise NmeaError(f"{path}: cannot read ({exc.strerror})", file=str(path)) from None
+    for no, raw in enumerate(data.split(b"\n"), start=1):
+        if raw.strip():
+            yield no, raw.rstrip(b"\r")
+
+
+def _read_file(index: int, path: Path, journal: Journal, ignored: Counter[str]) -> list[_Record]:
+    """The records of one log; every line not used goes to the repair log or ``ignored``. A
+    file without a single usable sentence is an :class:`NmeaError`."""
+    records: list[_Record] = []
+    problems: Counter[str] = Counter()
+    n_lines = 0
+    for no, raw in _lines(path):
+        n_lines += 1
+        try:
+            try:
+                text = raw.decode("ascii").strip()
+            except UnicodeDecodeError:
+                raise _LineError("(line)", "not ASCII text", f"{len(raw)} bytes, binary?") from None
+            rec = _record(text, (index, no), ignored)
+        except _LineError as bad:
+            journal.repair(path.name, no, bad.field, bad.action, bad.detail)
+            problems[bad.action] += 1
+            continue
+        if rec is not None:
+            records.append(rec)
+    if not records:
+        seen = ", ".join(f"{a}: {n}" for a, n in problems.most_common(MAX_DISTINCT_PROBLEMS))
+        raise NmeaError(
+            f"{path.name}: no usable NMEA sentence ({', '.join(USED)}) in {n_lines} line(s)"
+            + (f" ({seen})" if seen else ""),
+            file=path.name,
+        )
+    return records
+
+
+# --- time ---------------------------------------------------------------------------------------
+
+
+def _days(
+    records: Sequence[_Record], names: Sequence[str], journal: Journal
+) -> tuple[list[tuple[_Record, int, float]], int]:
+    """(record, day index, UTC time of day) of each record with a time, and the number of
+    midnight roll-overs. An untimed sentence (VTG, HDT) takes the last timed sentence's time in
+    its file, none before the first (repair). The time of day going back by more than 12 h
+    is a new day (forward by more than 12 h: the day before)."""
+    out: list[tuple[_Record, int, float]] = []
+    day, rollovers = 0, 0
+    last_tod: float | None = None
+    context: tuple[int, float] | None = None
+    last_file = -1
+    for r in records:
+        if r.file != last_file:
+            context, last_file = None, r.file
+        if r.tod_s is None:
+            if context is None:
+                why = f"{r.kind} before any timed sentence (GGA, RMC, ZDA) in the file"
+                journal.repair(names[r.file], r.line, "(time)", "no time", why)
+            else:
+                out.append((r, *context))
+            continue
+        if last_tod is not None and r.tod_s < last_tod - HALF_DAY_S:
+            day, rollovers = day + 1, rollovers + 1
+        elif last_tod is not None and r.tod_s > last_tod + HALF_DAY_S:
+            day -= 1
+        last_tod, context = r.tod_s, (day, r.tod_s)
+        out.append((r, day, r.tod_s))
+    return out, rollovers
+
+
+def _midnight_s(day: dt.date) -> float:
+    return dt.datetime(day.year, day.month, day.day, tzinfo=dt.UTC).timestamp()
+
+
+def _utc(
+    timed: Sequence[tuple[_Record, int, float]], date: dt.date | None, names: Sequence[str]
+) -> tuple[list[float], str]:
+    """UTC (s since 1970) of each timed record and where the date came from. The date of day
+    index d is ``base + d`` with ``base`` from the first RMC/ZDA date (re-anchored at every
+    later one, so a log with gaps of days stays right), else ``date`` (the date of the first
+    timed sentence); with both, they must agree."""
+    dated = [(r, d) for r, d, _ in timed if r.date is not None]
+    if dated:
+        first, d0 = dated[0]
+        assert first.date is not None
+        base = first.date - dt.timedelta(days=d0)
+        source = f"{first.kind} ({names[first.file]} line {first.line})"
+        if date is not None and date != base:
+            raise NmeaError(
+                f"--date {date.isoformat()} disagrees with {names[first.file]} line {first.line}: "
+                f"{first.kind} gives {base.isoformat()} for the first timed sentence",
+                file=names[first.file],
+                line=first.line,
+            )
+    elif date is not None:
+        base, source = date, "--date"
+    else:
+        raise NmeaError(
+            f"{', '.join(sorted(set(names)))}: no date (no valid RMC or ZDA sentence); give the "
+            "UTC date of the first sentence with --date YYYY-MM-DD",
+            file=names[0],
+        )
+    utc = []
+    for r, d, tod in timed:
+        if r.date is not None:
+            base = r.date - dt.timedelta(days=d)
+        utc.append(_midnight_s(base + dt.timedelta(days=d)) + tod)
+    return utc, source
+
+
+def _increasing(
+    rows: Sequence[tuple[_Record, float]], names: Sequence[str], journal: Journal
+) -> list[tuple[_Record, float]]:
+    """The rows whose time increases; a row not later than the last kept one, or later than
+    the next row while the next is later than the last kept (a time that jumps ahead), goes
+    to the repair log."""
+    kept: list[tuple[_Record, float]] = []
+    for i, (r, t) in enumerate(rows):
+        last = kept[-1] if kept else None
+        nxt = rows[i + 1][1] if i + 1 < len(rows) else math.inf
+        if last is not None and t <= last[1]:
+            detail = f"{r.kind} {t - last[1]:+.3f} s after line {last[0].line}"
+            journal.repair(names[r.file], r.line, "(time)", "time does not increase", detail)
+        elif nxt < t and (last is None or nxt > last[1]):
+            detail = f"{r.kind} {t - nxt:+.3f} s after the next one, line {rows[i + 1][0].line}"
+            journal.repair(names[r.file], r.line, "(time)", "time jumps ahead", detail)
+        else:
+            kept.append((r, t))
+    return kept
+
+
+# --- σ model and tables -------------------------------------------------------------------------
+
+
+def fix_sigma(quality: int, hdop: float, uere_m: float = UERE_M) -> tuple[float, float, float]:
+    """σ (N, E, D) in m of a GGA fix (docs/nmea.md, "σ model"): RTK fixed and float get
+    :data:`RTK_FIXED_SIGMA_M`, :data:`RTK_FLOAT_SIGMA_M`; the others
+    ``σ_N = σ_E = HDOP·U/√2``, ``σ_D = VDOP_PER_HDOP·HDOP·U`` with U = ``uere_m`` (GPS, PPS)
+    or :data:`DGNSS_UERE_M` (DGPS, SBAS): HDOP·U is the horizontal DRMS,
+    ``√(σ_N² + σ_E²)``."""
+    if quality == 4:
+        return RTK_FIXED_SIGMA_M
+    if quality == 5:
+        return RTK_FLOAT_SIGMA_M
+    u = DGNSS_UERE_M if quality in (2, 9) else uere_m
+    horizontal = hdop * u / math.sqrt(2.0)
+    return horizontal, horizontal, VDOP_PER_HDOP * hdop * u
+
+
+def _gnss_rows(
+    rows: Sequence[tuple[_Record, float]], uere_m: float, names: Sequence[str], journal: Journal
+) -> pd.DataFrame:
+    """The GNSS table (``utc_s``, ``lat_rad``, ``lon_rad``, ``h_m`` and the extra columns
+    ``quality, hdop, n_sats, sigma_n_m, sigma_e_m, sigma_d_m, nmea_file, nmea_line``)."""
+    out = []
+    for r, t in rows:
+        v, name = r.values, names[r.file]
+        quality, hdop = int(v["quality"]), v["hdop"]
+        if quality not in (4, 5) and not hdop > 0.0:
+            journal.repair(name, r.line, "horizontal_dil", "assumed HDOP",
+                           f"HDOP {hdop} taken as {ASSUMED_HDOP}")  # fmt: skip
+            hdop = ASSUMED_HDOP
+        if math.isnan(v["geoid_separation_m"]):
+            why = "h_m is the altitude above the geoid (separation taken as 0)"
+            journal.repair(name, r.line, "geo_sep", "no geoid separation", why)
+        sn, se, sd = fix_sigma(quality, hdop, uere_m)
+        out.append({
+            "utc_s": t, "lat_rad": math.radians(v["lat_deg"]),
+            "lon_rad": math.radians(v["lon_deg"]), "h_m": v["h_m"], "quality": quality,
+            "hdop": v["hdop"], "n_sats": v["n_sats"], "sigma_n_m": sn, "sigma_e_m": se,
+            "sigma_d_m": sd, "nmea_file": r.file, "nmea_line": r.line,
+        })  # fmt: skip
+    return pd.DataFrame(out, columns=list(GNSS_COLUMNS))
+
+
+GNSS_COLUMNS = ("utc_s", "lat_rad", "lon_rad", "h_m", "quality", "hdop", "n_sats", "sigma_n_m",
+                "sigma_e_m", "sigma_d_m", "nmea_file", "nmea_line")  # fmt: skip
+HEADING_COLUMNS = ("utc_s", "yaw_rad", "nmea_file", "nmea_line")
+VELOCITY_COLUMNS = ("utc_s", "sog_m_s", "cog_rad", "sentence", "nmea_file", "nmea_line")
+
+
+def _table(rows: Sequence[tuple[_Record, float]], columns: Sequence[str]) -> pd.DataFrame:
+    """The heading or velocity table of stamped HDT, or RMC and VTG, records."""
+    out = []
+    for r, t in rows:
+        v = r.values
+        if "heading_deg" in v:
+            values: dict[str, Any] = {"yaw_rad": math.radians(v["heading_deg"])}
+        else:
+            values = {"sog_m_s": v["sog_m_s"], "cog_rad": math.radians(v["cog_deg"]),
+                      "sentence": r.kind}  # fmt: skip
+        out.append({"utc_s": t, **values, "nmea_file": r.file, "nmea_line": r.line})
+    return pd.DataFrame(out, columns=list(columns))
+
+
+# --- reading a log ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class NmeaLog:
+    """What :func:`read_nmea` read. Tables have ``utc_s`` (UTC, s since 1970) first:
+    ``gnss`` (:data:`GNSS_COLUMNS`: the used GGA fixes and their σ model), ``heading``
+    (:data:`HEADING_COLUMNS`), ``velocity`` (:data:`VELOCITY_COLUMNS`: speed and course over
+    ground of RMC and VTG); ``nmea_file`` indexes ``files``. ``sentences``: records read per
+    sentence type; ``ignored``: well-formed lines of other types, by type; ``repairs``: every
+    line not used (or used with an assumption) with its reason."""
+
+    files: tuple[Path, ...]
+    gnss: pd.DataFrame
+    heading: pd.DataFrame
+    velocity: pd.DataFrame
+    repairs: tuple[Repair, ...]
+    sentences: dict[str, int]
+    ignored: dict[str, int]
+    date_source: str
+    rollovers: int
+    uere_m: float
+
+
+def read_nmea(
+    paths: Sequence[str | Path], *, date: dt.date | None = None, uere_m: float = UERE_M
+) -> NmeaLog:
+    """Read NMEA 0183 logs, in the order given, as one stream (docs/nmea.md).
+
+    Args:
+        paths: the log files; each must hold at least one usable sentence.
+        date: the UTC date of the first timed sentence, for logs without RMC/ZDA dates.
+        uere_m: σ of the user-equivalent range error of a standalone fix (:func:`fix_sigma`).
+
+    Raises :class:`NmeaError` for a file without a usable sentence, no date, or a log with
+    neither a GNSS fix nor a heading; every other problem is a repair (:attr:`NmeaLog.repairs`,
+    logged).
+    """
+    if not (math.isfinite(uere_m) and uere_m > 0.0):
+        raise NmeaError(f"--uere-m: {uere_m} must be finite and > 0", field="uere_m")
+    files = tuple(Path(p) for p in paths)
+    short = [p.name for p in files]
+    names = [n if short.count(n) == 1 else str(p) for n, p in zip(short, files, strict=True)]
+    journal, ignored = Journal(), Counter[str]()
+    records = [r for i, p in enumerate(files) for r in _read_file(i, p, journal, ignored)]
+    timed, rollovers = _days(records, names, journal)
+    utc, source = _utc(timed, date, names)
+    stamped = [(r, t) for (r, _, _), t in zip(timed, utc, strict=True)]
+    for r, _ in stamped:
+        if r.unused is not None:
+            journal.repair(names[r.file], r.line, *r.unused)
+
+    def select(*kinds: str) -> list[tuple[_Record, float]]:
+        rows = [(r, t) for r, t in stamped if r.kind in kinds and r.unused is None]
+        return _increasing(rows, names, journal)
+
+    velocity = _table(sorted(select("RMC") + select("VTG"), key=lambda rt: rt[1]),
+                      VELOCITY_COLUMNS)  # fmt: skip
+    log_ = NmeaLog(
+        files, _gnss_rows(select("GGA"), uere_m, names, journal),
+        _table(select("HDT"), HEADING_COLUMNS), velocity,
+        tuple(sorted(journal.repairs, key=lambda r: (names.index(r.file), r.line or 0))),
+        dict(Counter(r.kind for r in records)), dict(ignored), source, rollovers, uere_m,
+    )  # fmt: skip
+    journal.summarise()
+    if log_.gnss.empty and log_.heading.empty:
+        raise NmeaError(
+            f"{', '.join(names)}: no GNSS fix (GGA of a measured quality) and no HDT heading "
+            f"({len(journal.repairs)} line(s) in the repair log)",
+            file=names[0],
+        )
+    return log_
+
+
+# --- sections and folders -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Options:
+    """The sensor sections' choices of :func:`import_nmea` (docs/nmea.md, "Usage"); None:
+    the replaced section's value, else the default."""
+
+    gnss_name: str = "gnss"
+    heading_name: str = "heading"
+    sigma_m: tuple[float, ...] | None = None
+    """σ (N, E, D) or one for all, m, instead of the median of the per-fix model."""
+    heading_sigma_deg: float | None = None
+    lever_arm_m: tuple[float, float, float] | None = None
+    use_height: bool | None = None
+    fmt: Literal["parquet", "csv"] = "parquet"
+
+    def __post_init__(self) -> None:
+        sigmas = (*(self.sigma_m or ()), *((self.heading_sigma_deg,) if self.heading_sigma_deg
+                                           is not None else ()))  # fmt: skip
+        if not all(math.isfinite(v) and v > 0.0 for v in sigmas):
+            raise NmeaError(f"σ {list(sigmas)}: every σ must be finite and > 0", field="sigma")
+        if self.sigma_m is not None and len(self.sigma_m) not in (1, 3):
+            raise NmeaError(f"--sigma-m {list(self.sigma_m)}: give one σ or three (N, E, D)")
+        if self.gnss_name == self.heading_name:
+            raise NmeaError(f"--gnss-name and --heading-name are both {self.gnss_name!r}")
+
+
+def _old_section(config: MissionConfig | None, name: str, kind: str) -> dict[str, Any] | None:
+    """The mission's ``[sensors.<name>]`` as data (None if absent); another kind is an error."""
+    if config is None or name not in config.sensors:
+        return None
+    old = config.sensors[name]
+    if old.kind != kind:
+        raise NmeaError(
+            f"sensors.{name} of the mission is a {old.kind} sensor, not {kind}: choose another "
+            f"--{kind}-name",
+            field=f"sensors.{name}",
+        )
+    # the NMEA rate is not the replaced table's: it is taken from the new table's intervals
+    return {k: v for k, v in old.model_dump(mode="python", exclude_none=True).items()
+            if k != "rate_hz"}  # fmt: skip
+
+
+def _gnss_section(
+    old: dict[str, Any] | None, gnss: pd.DataFrame, opts: Options
+) -> tuple[dict[str, Any], str]:
+    """``[sensors.<gnss>]``: the replaced one's keys, or a new ``use = "aid"`` section, with
+    the new file and σ (``opts.sigma_m``, else the median per-fix σ); and σ's source."""
+    doc: dict[str, Any] = dict(old) if old is not None else {"kind": "gnss", "use": "aid"}
+    height = opts.use_height if opts.use_height is not None else bool(doc.get("use_height"))
+    if opts.sigma_m is not None:
+        sigma = list(opts.sigma_m) * (3 if len(opts.sigma_m) == 1 else 1)
+        source = "--sigma-m"
+    else:
+        cols = ("sigma_n_m", "sigma_e_m", "sigma_d_m")
+        sigma = [round(float(np.median(gnss[c])), 4) for c in cols]
+        source = "median of the per-fix σ model"
+    doc.update(file=f"{opts.gnss_name}.{opts.fmt}", sigma=[sigma[: 3 if height else 2], "m"],
+               use_height=height)  # fmt: skip
+    if opts.lever_arm_m is not None:
+        doc["lever_arm_m"] = list(opts.lever_arm_m)
+    return doc, source
+
+
+def _heading_section(old: dict[str, Any] | None, opts: Options) -> tuple[dict[str, Any], str]:
+    """``[sensors.<heading>]``: the replaced one's keys, or a new ``use = "aid"`` section, with
+    the new file and σ (``opts.heading_sigma_deg``, the replaced σ, else
+    :data:`HEADING_SIGMA_DEG`); and σ's source."""
+    doc: dict[str, Any] = dict(old) if old is not None else {"kind": "heading", "use": "aid"}
+    doc["file"] = f"{opts.heading_name}.{opts.fmt}"
+    if opts.heading_sigma_deg is not None:
+        doc["sigma"], source = [opts.heading_sigma_deg, "deg"], "--heading-sigma-deg"
+    elif old is not None:
+        source = "the mission's"
+    else:
+        doc["sigma"], source = [HEADING_SIGMA_DEG, "deg"], "default (assumed)"
+    return doc, source
+
+
+def _mission_time(df: pd.DataFrame, t0: float) -> pd.DataFrame:
+    """``t_s = utc_s - t0`` as the first column; ``utc_s`` kept as an extra column."""
+    return pd.concat([pd.DataFrame({"t_s": df["utc_s"] - t0}), df], axis=1)
+
+
+def _copy_mission_tables(source: Path, config: MissionConfig, out: Path, skip: set[str]) -> None:
+    """Copy the tables ``config`` names from ``source`` to ``out``, except ``skip``."""
+    files = {config.imu.file, *(s.file for s in config.sensors.values())}
+    if config.truth.file is not None:
+        files.add(config.truth.file)
+    for file in sorted(files - skip):
+        src = source / file
+        if not src.is_file():
+            raise NmeaError(f"{src}: table of the mission not found", file=str(src))
+        (out / file).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(src, out / file)
+
+
+def _merged_config(
+    config: MissionConfig, sections: Mapping[str, dict[str, Any]], written: set[str]
+) -> MissionConfig:
+    """The mission's configuration with ``sections`` added or replaced; a file we write that
+    another stream of the mission reads is an error."""
+    doc = config.document()
+    doc["sensors"] = {**doc.get("sensors", {}), **sections}
+    merged = parse_config(doc, "mission.toml (with the NMEA sensors)")
+    for name, s in merged.sensors.items():
+        if name not in sections and s.file in written:
+            raise NmeaError(
+                f"{s.file}: also the table of sensors.{name} in the mission; choose another "
+                "--gnss-name / --heading-name",
+                field=f"sensors.{name}.file",
+            )
+    if merged.imu.file in written or merged.truth.file in written:
+        raise NmeaError(f"{sorted(written)}: a table name of the mission's IMU or truth")
+    return merged
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _quantiles(values: pd.Series) -> list[float]:
+    return [round(float(q), 4) for q in np.quantile(values, (0.1, 0.5, 0.9))] if len(values) else []
+
+
+def _record_of(
+    nmea: NmeaLog,
+    t0: float,
+    t0_source: str,
+    sections: Mapping[str, dict[str, Any]],
+    sources: Mapping[str, str],
+) -> dict[str, Any]:
+    """import.json: the files, the time mapping, what was used and how, the σ model and every
+    repair (docs/nmea.md, "import.json")."""
+    g, v = nmea.gnss, nmea.velocity
+    return {
+        "importer": "nmea",
+        "files": [{"path": str(p), "sha256": _sha256(p)} for p in nmea.files],
+        "sentences_used": nmea.sentences,
+        "sentences_ignored": nmea.ignored,
+        "time": {
+            "t0_utc": dt.datetime.fromtimestamp(t0, dt.UTC).isoformat(),
+            "t0_source": t0_source, "date_source": nmea.date_source,
+            "midnight_rollovers": nmea.rollovers,
+            "rule": "t_s = UTC - t0_utc; HDT and VTG take the time of the last timed sentence",
+        },
+        "gnss": {
+            "fixes": len(g),
+            "by_quality": {QUALITY_NAMES[q]: n for q, n in
+                           sorted(Counter(g["quality"].astype(int).tolist()).items())},
+            "sigma_model": {"uere_m": nmea.uere_m,
+                            "dgnss_uere_m": DGNSS_UERE_M, "vdop_per_hdop": VDOP_PER_HDOP,
+                            "rtk_fixed_m": RTK_FIXED_SIGMA_M, "rtk_float_m": RTK_FLOAT_SIGMA_M,
+                            "assumed_hdop": ASSUMED_HDOP},
+            "per_fix_sigma_n_m_p10_p50_p90": _quantiles(g["sigma_n_m"]),
+            "per_fix_sigma_d_m_p10_p50_p90": _quantiles(g["sigma_d_m"]),
+            "sigma_source": sources.get("gnss"),
+        },
+        "heading": {"readings": len(nmea.heading), "sigma_source": sources.get("heading")},
+        "velocity": {
+            "rows": len(v), "by_sentence": {str(k): int(n) for k, n in
+                                            v["sentence"].value_counts().items()},
+            "sog_m_s_p10_p50_p90": _quantiles(v["sog_m_s"]),
+            "max_sog_m_s": round(float(v["sog_m_s"].max()), 3) if len(v) else None,
+            "note": "not used by the filter: the GNSS kind measures position only",
+        },
+        "sections": dict(sections),
+        "repairs": [r.__dict__ for r in nmea.repairs],
+        "repairs_by_action": dict(Counter(r.action for r in nmea.repairs)),
+    }  # fmt: skip
+
+
+def _tables(nmea: NmeaLog, t0: float, opts: Options) -> dict[str, tuple[str, pd.DataFrame]]:
+    """The tables to write, keyed gnss / heading / velocity: (file name, table in mission
+    time); an empty one is left out."""
+    named = {
+        "gnss": (f"{opts.gnss_name}.{opts.fmt}", nmea.gnss),
+        "heading": (f"{opts.heading_name}.{opts.fmt}", nmea.heading),
+        "velocity": (f"{opts.gnss_name}_velocity.{opts.fmt}", nmea.velocity),
+    }
+    return {k: (f, _mission_time(df, t0)) for k, (f, df) in named.items() if not df.empty}
+
+
+def _sections(
+    nmea: NmeaLog, config: MissionConfig | None, opts: Options
+) -> tuple[dict[str, dict[str, Any]], dict[str, str]]:
+    """The ``[sensors.*]`` sections to add or replace, by sensor name, and each σ's source."""
+    sections: dict[str, dict[str, Any]] = {}
+    sources: dict[str, str] = {}
+    if not nmea.gnss.empty:
+        old = _old_section(config, opts.gnss_name, "gnss")
+        sections[opts.gnss_name], sources["gnss"] = _gnss_section(old, nmea.gnss, opts)
+    if not nmea.heading.empty:
+        old = _old_section(config, opts.heading_name, "heading")
+        sections[opts.heading_name], sources["heading"] = _heading_section(old, opts)
+    return sections, sources
+
+
+def _check_span(out: Path, tables: Mapping[str, tuple[str, pd.DataFrame]]) -> dict[str, Any]:
+    """Load the written mission (its own checks) and count the readings inside the IMU's time
+    span; none inside is an :class:`NmeaError` (a wrong t0)."""
+    m = load_mission(out)
+    lo, hi = float(m.imu.start), float(m.imu.t[-1])
+    inside = {k: int(((df["t_s"] >= lo) & (df["t_s"] <= hi)).sum()) for k, (_, df) in
+              tables.items() if k != "velocity"}  # fmt: skip
+    if not any(inside.values()):
+        spans = {k: [round(float(df["t_s"].min()), 3), round(float(df["t_s"].max()), 3)]
+                 for k, (_, df) in tables.items()}  # fmt: skip
+        raise NmeaError(
+            f"no NMEA reading inside the mission's IMU time [{lo:.3f}, {hi:.3f}] s (readings at "
+            f"t_s {spans}): check --t0-utc, the UTC time of the mission's t_s = 0"
+        )
+    return {"imu_span_s": [lo, hi], "readings_in_span": inside}
+
+
+def import_nmea(
+    paths: Sequence[str | Path],
+    out_dir: str | Path,
+    *,
+    mission: str | Path | None = None,
+    t0_utc: dt.datetime | None = None,
+    date: dt.date | None = None,
+    uere_m: float = UERE_M,
+    options: Options = Options(),
+) -> Path:
+    """Import NMEA logs (docs/nmea.md) into ``out_dir``.
+
+    With ``mission``: a copy of that mission (``mission.toml`` and the tables it names) with
+    the GNSS and heading sections added or replaced (``options.gnss_name``,
+    ``heading_name``); ``t0_utc``, the UTC time of the mission's ``t_s = 0``, is required
+    (missions carry no epoch) and the result is loaded to check it. Without: the tables and
+    ``sensors.toml``, the sections to paste into a ``mission.toml``; ``t0_utc`` defaults to
+    the first reading's time. Both write ``<gnss>_velocity`` (speed and course over ground,
+    not read by the filter) and ``import.json`` (:func:`_record_of`). Returns ``out_dir``.
+    """
+    if mission is not None and t0_utc is None:
+        raise NmeaError("--t0-utc is required with --mission: a mission's t_s has no epoch; "
+                        "give the UTC time of its t_s = 0", field="t0_utc")  # fmt: skip
+    config = load_config(Path(mission) / CONFIG_NAME) if mission is not None else None
+    nmea = read_nmea(paths, date=date, uere_m=uere_m)
+    first = min(float(df["utc_s"].min()) for df in (nmea.gnss, nmea.heading) if not df.empty)
+    t0 = t0_utc.timestamp() if t0_utc is not None else first
+    sections, sources = _sections(nmea, config, options)
+    tables = _tables(nmea, t0, options)
+    root = Path(out_dir)
+    root.mkdir(parents=True, exist_ok=True)
+    for file, df in tables.values():
+        write_table(df, root / file)
+    record = _record_of(nmea, t0, "--t0-utc" if t0_utc else "first reading", sections, sources)
+    if config is not None and mission is not None:
+        written = {f for f, _ in tables.values()}
+        merged = _merged_config(config, sections, written)
+        _copy_mission_tables(Path(mission), merged, root, written)
+        (root / CONFIG_NAME).write_text(merged.dump_toml(), encoding="utf-8")
+        record["mission"] = {"source": str(mission), **_check_span(root, tables)}
+    else:
+        for doc in sections.values():
+            SensorConfig.model_validate(doc)  # what a mission.toml will check
+        head = f"# NMEA import: t_s = UTC - {record['time']['t0_utc']} (import.json)\n"
+        text = dumps_toml({"sensors": sections})
+        (root / "sensors.toml").write_text(head + text, encoding="utf-8")
+    (root / "import.json").write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+    log.info("NMEA %s -> %s: %d fixes, %d headings, %d repairs", [p.name for p in nmea.files],
+             root, len(nmea.gnss), len(nmea.heading), len(nmea.repairs))  # fmt: skip
+    return root

@@ -1,0 +1,384 @@
+"""NMEA 0183 import (docs/nmea.md): a simulated mission's GNSS and heading written as NMEA text
+(checksums computed here, independently of pynmea2), imported back, and run.
+
+* the published GGA/RMC example sentences read to their known values;
+* the round trip: positions, heights, times and headings back to the NMEA resolution, the
+  midnight roll-over and a log split in two files; a run on the imported mission matches the
+  original's position RMSE;
+* bad input: each kind of bad line in the repair log with its line and reason, the refusals
+  (exit 2), and corrupted logs drawn by hypothesis that never end in a traceback nor drop a
+  line silently.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from adaptnav import api
+from adaptnav.analysis import evaluate
+from adaptnav.cli import app
+from adaptnav.importers.nmea import NmeaError, fix_sigma, read_nmea
+from adaptnav.mission import load_config, load_mission, write_config
+from helpers import badinput
+
+runner = CliRunner()
+
+T0 = dt.datetime(2024, 3, 10, 23, 59, 30, tzinfo=dt.UTC)
+"""UTC of the simulated mission's t_s = 0: midnight falls 30 s into it."""
+MINUTE_DECIMALS = 7
+"""Decimals of the minutes of latitude and longitude written (1e-7 min = 0.19 mm)."""
+KNOT = 1852.0 / 3600.0
+SEED = 16
+
+
+# --- writing NMEA, independently of the importer -------------------------------------------------
+
+
+def sentence(body: str) -> str:
+    """``$body*hh``: the checksum is the XOR of the bytes between ``$`` and ``*``."""
+    check = 0
+    for byte in body.encode("ascii"):
+        check ^= byte
+    return f"${body}*{check:02X}"
+
+
+def ddmm(deg: float, width: int, hemispheres: str) -> str:
+    """Degrees → ``(d)ddmm.mmmmmmm,H`` with ``width`` degree digits."""
+    a = abs(deg)
+    d = int(a)
+    m = round((a - d) * 60.0, MINUTE_DECIMALS)
+    if m >= 60.0:
+        d, m = d + 1, 0.0
+    hemi = hemispheres[0] if deg >= 0 else hemispheres[1]
+    return f"{d:0{width}d}{m:0{3 + MINUTE_DECIMALS}.{MINUTE_DECIMALS}f},{hemi}"
+
+
+def utc_fields(t_s: float) -> tuple[str, str]:
+    """(``hhmmss.ss``, ``ddmmyy``) of mission time ``t_s`` at :data:`T0`, to the centisecond."""
+    cs = round((T0.timestamp() + t_s) * 100.0)
+    when = dt.datetime.fromtimestamp(cs // 100, dt.UTC)
+    return f"{when:%H%M%S}.{cs % 100:02d}", f"{when:%d%m%y}"
+
+
+def epoch_lines(t: float, lat: float, lon: float, h: float, yaw: float, v: tuple[float, float]):
+    """One epoch as a receiver writes it: RMC, GGA, HDT, VTG and a GSV (not used)."""
+    hms, dmy = utc_fields(t)
+    sog = math.hypot(*v) / KNOT
+    cog = math.degrees(math.atan2(v[1], v[0])) % 360.0
+    pos = f"{ddmm(math.degrees(lat), 2, 'NS')},{ddmm(math.degrees(lon), 3, 'EW')}"
+    sep = 21.3
+    return [
+        sentence(f"GPRMC,{hms},A,{pos},{sog:.3f},{cog:.2f},{dmy},,,A"),
+        sentence(f"GNGGA,{hms},{pos},1,09,1.4,{h - sep:.3f},M,{sep:.1f},M,,"),
+        sentence(f"HEHDT,{math.degrees(yaw) % 360.0:.2f},T"),
+        sentence(f"GPVTG,{cog:.2f},T,,M,{sog:.3f},N,{sog * 1.852:.3f},K,A"),
+        sentence("GPGSV,3,1,11,03,03,111,00,04,15,270,00,06,01,010,00,13,06,292,00"),
+    ]
+
+
+# --- the simulated mission -----------------------------------------------------------------------
+
+
+def _interp(t: np.ndarray, truth: pd.DataFrame, col: str) -> np.ndarray:
+    values = truth[col].to_numpy()
+    if col == "yaw_rad":
+        values = np.unwrap(values)
+    return np.interp(t, truth["t_s"].to_numpy(), values)
+
+
+@pytest.fixture(scope="module")
+def original(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny simulated mission with its GPS aiding (heights added) and a heading sensor at
+    the GPS epochs (truth + 0.5° noise), both ``use = "aid"``."""
+    root = badinput.tiny_mission(tmp_path_factory.mktemp("orig"), fmt="parquet")
+    truth = pd.read_parquet(root / "truth.parquet")
+    gps = pd.read_parquet(root / "gps.parquet")
+    rng = np.random.default_rng(SEED)
+    t = gps["t_s"].to_numpy()
+    gps["h_m"] = _interp(t, truth, "h_m") + rng.normal(0.0, 3.0, t.size)
+    yaw = _interp(t, truth, "yaw_rad") + rng.normal(0.0, math.radians(0.5), t.size)
+    gps.to_parquet(root / "gps.parquet", index=False)
+    pd.DataFrame({"t_s": t, "yaw_rad": yaw}).to_parquet(root / "heading.parquet", index=False)
+    config = load_config(root / "mission.toml")
+    sensors = dict(config.sensors)
+    sensors["gps"] = sensors["gps"].model_copy(update={"use": "aid"})
+    sensors["heading"] = sensors["heading"].model_copy(update={"use": "aid"})
+    write_config(config.model_copy(update={"sensors": sensors}), root / "mission.toml")
+    return root
+
+
+@pytest.fixture(scope="module")
+def logs(original: Path, tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """The original's GPS and heading as NMEA, split in two files after 35 epochs."""
+    gps = pd.read_parquet(original / "gps.parquet")
+    head = pd.read_parquet(original / "heading.parquet")
+    truth = pd.read_parquet(original / "truth.parquet")
+    t = gps["t_s"].to_numpy()
+    vn, ve = _interp(t, truth, "vn_m_s"), _interp(t, truth, "ve_m_s")
+    lines = [
+        line
+        for k in range(t.size)
+        for line in epoch_lines(
+            t[k], gps["lat_rad"][k], gps["lon_rad"][k], gps["h_m"][k], head["yaw_rad"][k],
+            (vn[k], ve[k]),
+        )
+    ]  # fmt: skip
+    folder = tmp_path_factory.mktemp("logs")
+    cut = 35 * 5
+    paths = [folder / "a.nmea", folder / "b.nmea"]
+    paths[0].write_text("\r\n".join(lines[:cut]) + "\r\n", encoding="ascii")
+    paths[1].write_text("\r\n".join(lines[cut:]) + "\r\n", encoding="ascii")
+    return paths
+
+
+@pytest.fixture(scope="module")
+def imported(original: Path, logs: list[Path], tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("imp") / "mission"
+    result = runner.invoke(
+        app,
+        ["import", "nmea", *map(str, logs), "--mission", str(original), "--t0-utc",
+         T0.isoformat(), "--gnss-name", "gps", "--sigma-m", "2.915", "--out", str(out)],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    return out
+
+
+# --- known sentences -----------------------------------------------------------------------------
+
+
+def test_published_example_sentences(tmp_path: Path) -> None:
+    """The GGA and RMC examples of the NMEA literature (checksums 47 and 6A as published):
+    48°07.038' N, 11°31.000' E, 545.4 m above the geoid which is 46.9 m above the ellipsoid,
+    12:35:19 UTC on 23 March 1994, HDOP 0.9."""
+    log = tmp_path / "example.nmea"
+    log.write_text(
+        "$GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W*6A\n"
+        "$GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*47\n",
+        encoding="ascii",
+    )
+    nmea = read_nmea([log], uere_m=4.0)
+    fix = nmea.gnss.iloc[0]
+    assert fix["utc_s"] == dt.datetime(1994, 3, 23, 12, 35, 19, tzinfo=dt.UTC).timestamp()
+    assert math.degrees(fix["lat_rad"]) == pytest.approx(48.0 + 7.038 / 60.0, abs=1e-12)
+    assert math.degrees(fix["lon_rad"]) == pytest.approx(11.0 + 31.0 / 60.0, abs=1e-12)
+    assert fix["h_m"] == pytest.approx(545.4 + 46.9)
+    # HDOP × UERE is the horizontal DRMS: 0.9 × 4 = 3.6 m, 2.546 m per axis; VDOP = 1.5 HDOP
+    assert fix["sigma_n_m"] == pytest.approx(3.6 / math.sqrt(2.0))
+    assert fix["sigma_d_m"] == pytest.approx(1.5 * 0.9 * 4.0)
+    speed = nmea.velocity.iloc[0]
+    assert speed["sog_m_s"] == pytest.approx(22.4 * 1852.0 / 3600.0)
+    assert math.degrees(speed["cog_rad"]) == pytest.approx(84.4)
+    assert nmea.repairs == ()
+
+
+def test_rtk_sigmas_do_not_depend_on_hdop() -> None:
+    assert fix_sigma(4, 9.9) == fix_sigma(4, 0.5) == (0.02, 0.02, 0.04)
+    assert fix_sigma(2, 1.0, uere_m=10.0) == pytest.approx((1 / math.sqrt(2),) * 2 + (1.5,))
+
+
+# --- round trip ----------------------------------------------------------------------------------
+
+
+def test_round_trip_to_the_nmea_resolution(original: Path, imported: Path) -> None:
+    gps = pd.read_parquet(original / "gps.parquet")
+    head = pd.read_parquet(original / "heading.parquet")
+    got = pd.read_parquet(imported / "gps.parquet")
+    got_head = pd.read_parquet(imported / "heading.parquet")
+    assert len(got) == len(gps) and len(got_head) == len(head)
+    minute = math.radians(1.0 / 60.0)
+    assert np.abs(got["t_s"] - gps["t_s"]).max() <= 0.005 + 1e-6  # centiseconds
+    assert np.abs(got["lat_rad"] - gps["lat_rad"]).max() <= 0.5e-7 * minute * 1.001
+    assert np.abs(got["lon_rad"] - gps["lon_rad"]).max() <= 0.5e-7 * minute * 1.001
+    assert np.abs(got["h_m"] - gps["h_m"]).max() <= 0.0005 + 1e-9  # mm altitude, 0.1 m sep exact
+    dyaw = np.angle(np.exp(1j * (got_head["yaw_rad"] - head["yaw_rad"])))
+    assert np.abs(dyaw).max() <= math.radians(0.005) * 1.001
+    np.testing.assert_array_equal(got_head["t_s"], got["t_s"])  # HDT: the GGA's time
+    info = json.loads((imported / "import.json").read_text(encoding="utf-8"))
+    assert info["time"]["midnight_rollovers"] == 1
+    assert info["repairs"] == []
+    assert info["sentences_ignored"] == {"GSV": len(gps)}
+    assert info["gnss"]["by_quality"] == {"GPS (SPS)": len(gps)}
+
+
+def test_imported_mission_keeps_the_replaced_sections(original: Path, imported: Path) -> None:
+    before, after = load_config(original / "mission.toml"), load_config(imported / "mission.toml")
+    assert after.sensors["gps"].lever_arm_m == before.sensors["gps"].lever_arm_m
+    assert after.sensors["heading"].sigma == before.sensors["heading"].sigma
+    assert after.sensors["gps"].sigma == ([2.915, 2.915], "m")  # N, E: no height
+    assert after.sensors.keys() == before.sensors.keys()
+    assert (imported / "gps_velocity.parquet").is_file()
+
+
+def test_run_on_the_imported_mission_matches_the_original(original: Path, imported: Path) -> None:
+    """Same fixes to 0.2 mm and 5 ms, same σ: the position RMSE agrees within 1 % (a t0 off
+    by 1 s moves it by 4 %)."""
+    rmse = {}
+    for name, root in (("original", original), ("imported", imported)):
+        m = load_mission(root)
+        errors = evaluate.position_errors(api.run(m, "meskf").solution, m.truth)
+        rmse[name] = evaluate.rmse(errors)
+    assert rmse["imported"] == pytest.approx(rmse["original"], rel=0.01), rmse
+
+
+# --- bad input -----------------------------------------------------------------------------------
+
+
+def _good_epochs(n: int, start_s: float = 10.0) -> list[str]:
+    """n epochs of a track heading north-east at 2 m/s from 26.8° N, 56.0° E."""
+    out = []
+    for k in range(n):
+        t = start_s + k
+        lat = math.radians(26.8) + 2.0 * t * math.cos(0.8) / 6.37e6
+        lon = math.radians(56.0) + 2.0 * t * math.sin(0.8) / (6.37e6 * math.cos(0.47))
+        out += epoch_lines(t, lat, lon, 10.0, 0.8, (2 * math.cos(0.8), 2 * math.sin(0.8)))[:4]
+    return out
+
+
+def test_each_bad_line_is_repaired_with_its_reason(tmp_path: Path) -> None:
+    """Epochs of RMC, GGA, HDT, VTG after a leading HDT (file line = index + 2): the GGA of
+    each of the first five epochs spoilt one way, the last GGA repeated at the end."""
+    lines = _good_epochs(8)
+    hms, _ = utc_fields(12.0)
+    lines[1] = lines[1][:-2] + ("00" if lines[1][-2:] != "00" else "01")  # line 3: checksum
+    lines[5] = lines[5][:30]  # line 7: cut short, no checksum
+    lines[9] = sentence(f"GPGGA,{hms},,,,,0,00,99.9,,M,,M,,")  # line 11: no fix
+    lines[13] = "\x00\x9f\xff garbage"  # line 15: binary
+    lines[17] = sentence("GPXYZ,1,2,3")  # line 19: unknown sentence type
+    lines.append(lines[29])  # line 34: the last epoch's GGA again: time does not increase
+    log = tmp_path / "bad.nmea"
+    log.write_bytes(("\n".join([sentence("HEHDT,10.0,T"), *lines]) + "\n").encode("latin-1"))
+    nmea = read_nmea([log])
+    got = {(r.line, r.action) for r in nmea.repairs}
+    assert got == {
+        (1, "no time"),
+        (3, "checksum mismatch"),
+        (7, "no checksum"),
+        (11, "fix invalid"),
+        (15, "not ASCII text"),
+        (19, "unknown sentence type"),
+        (34, "time does not increase"),
+    }
+    assert nmea.gnss["nmea_line"].tolist() == [23, 27, 31]
+    assert len(nmea.heading) == 8 and len(nmea.velocity) == 16
+
+
+def test_day_rolls_over_without_rmc(tmp_path: Path) -> None:
+    log = tmp_path / "gga.nmea"
+    log.write_text(
+        "\n".join(line for line in _good_epochs(40) if line[3:6] == "GGA") + "\n",
+        encoding="ascii",
+    )
+    nmea = read_nmea([log], date=dt.date(2024, 3, 10))
+    expected = T0.timestamp() + 10.0 + np.arange(40)
+    np.testing.assert_allclose(nmea.gnss["utc_s"], expected, atol=1e-6)
+    assert nmea.rollovers == 1 and nmea.date_source == "--date"
+
+
+@pytest.mark.parametrize(
+    ("content", "args", "message"),
+    [
+        (b"\x00\x01binary\xff\n$GPGGA,1,2\n", [], "no usable NMEA sentence"),
+        ("GGA-only", [], "no date"),
+        ("ok", ["--date", "2020-01-01"], "--date 2020-01-01 disagrees"),
+        ("ok", ["--mission", "{mission}"], "--t0-utc is required"),
+        ("ok", ["--mission", "{mission}", "--t0-utc", "2030-01-01T00:00:00"], "no NMEA reading"),
+        ("ok", ["--sigma-m", "1,2"], "--sigma-m"),
+        ("ok", ["--t0-utc", "yesterday"], "--t0-utc"),
+        ("ok", ["--gnss-name", "dvl", "--mission", "{mission}", "--t0-utc", "2024-03-10"],
+         "dvl sensor, not gnss"),
+    ],
+)  # fmt: skip
+def test_refused_input_exits_2(
+    tmp_path: Path, original: Path, content: str | bytes, args: list[str], message: str
+) -> None:
+    log = tmp_path / "log.nmea"
+    good = _good_epochs(3)
+    if content == "GGA-only":
+        content = "\n".join(line for line in good if line[3:6] == "GGA")
+    elif content == "ok":
+        content = "\n".join(good)
+    log.write_bytes(content if isinstance(content, bytes) else content.encode())
+    args = [a.replace("{mission}", str(original)) for a in args]
+    result = runner.invoke(app, ["import", "nmea", str(log), "--out", str(tmp_path / "o"), *args])
+    assert result.exit_code == 2, result.output
+    assert message in " ".join(result.output.split()), result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "o").exists()
+
+
+# --- fuzz ----------------------------------------------------------------------------------------
+
+CLEAN = _good_epochs(8)
+
+
+def _refield(line: bytes, pos: int, data: bytes) -> bytes:
+    """The sentence with field ``pos`` replaced by printable ``data`` (empty: the field
+    removed) and its checksum recomputed: a well-framed sentence with a bad field."""
+    body = line[1:].partition(b"*")[0].decode("ascii")
+    fields = body.split(",")
+    k = 1 + pos % max(1, len(fields) - 1)
+    text = "".join(chr(32 + b % 95) for b in data).replace("*", "")
+    fields[k : k + 1] = [text] if len(data) > 1 else []
+    return sentence(",".join(fields)).encode("ascii")
+
+
+def _corrupt(lines: list[str], edits: list[tuple[int, int, int, bytes]]) -> bytes:
+    """Apply (kind, line, position, bytes) edits: overwrite bytes, truncate, insert bytes,
+    repeat a line elsewhere (a time out of order), or change a field keeping the checksum
+    right."""
+    raw = [line.encode("ascii") for line in lines]
+    for kind, i, pos, data in edits:
+        i %= len(raw)
+        p = pos % (len(raw[i]) + 1)
+        if kind == 0:
+            raw[i] = raw[i][:p] + data + raw[i][p + len(data) :]
+        elif kind == 1:
+            raw[i] = raw[i][:p]
+        elif kind == 2:
+            raw[i] = raw[i][:p] + data + raw[i][p:]
+        elif kind == 3:
+            raw.insert(pos % len(raw), raw[i])
+        elif raw[i].startswith(b"$") and raw[i].isascii():
+            raw[i] = _refield(raw[i], pos, data)
+    return b"\n".join(raw) + b"\n"
+
+
+EDITS = st.lists(
+    st.tuples(
+        st.integers(0, 4), st.integers(0, 99), st.integers(0, 99), st.binary(min_size=1, max_size=4)
+    ),
+    min_size=1,
+    max_size=8,
+)
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(edits=EDITS)
+def test_corrupted_logs_never_traceback_nor_drop_silently(tmp_path: Path, edits: list) -> None:
+    log = tmp_path / "fuzz.nmea"
+    data = _corrupt(CLEAN, edits)
+    log.write_bytes(data)
+    try:
+        nmea = read_nmea([log], date=dt.date(2024, 3, 10))
+    except NmeaError as exc:
+        assert "fuzz.nmea" in str(exc)
+        return
+    lines = [no for no, raw in enumerate(data.split(b"\n"), start=1) if raw.strip()]
+    placed = {r.line for r in nmea.repairs}
+    for table in (nmea.gnss, nmea.heading, nmea.velocity):
+        placed |= set(table["nmea_line"].tolist())
+    # every line is in a table, in the repair log, or counted among the ignored sentence types
+    assert len(placed) + sum(nmea.ignored.values()) == len(lines)
+    assert placed <= set(lines)
