@@ -129,6 +129,8 @@ class Stream:
         self._seen = 0
         self._fed = 0
         self._started = math.nan
+        self._hold = math.inf
+        """The oldest stamp a screen holds back (inf: none): the IMU must not pass it."""
         self.result: Result | None = None
         if initial is not None:
             x0, P0, t0 = initial
@@ -164,7 +166,7 @@ class Stream:
                 f"IMU sample t = {tt!r} s, dt = {step!r} s: the stamp must be finite and after "
                 f"the previous sample's ({self._t_imu!r} s), dt > 0"
             )
-        if not (np.all(np.isfinite(dth)) and np.all(np.isfinite(dv))):
+        if not math.isfinite(float(dth.sum() + dv.sum())):  # a NaN or inf anywhere: NaN or inf
             raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
         self._t_imu = tt
         self._imu.append((tt, step, dth, dv))
@@ -192,6 +194,7 @@ class Stream:
         r = row if row is not None else self._rows[sensor]
         self._rows[sensor] = r + 1
         self._route(sensor, *self._screens[sensor].push(Reading(float(t), zz, int(r)), lock))
+        self._hold = min(s.held_from for s in self._screens.values())
         return self._advance()
 
     def push_item(self, item: Item) -> list[Row]:
@@ -209,6 +212,7 @@ class Stream:
             return self.result
         for name, screen in self._screens.items():
             self._route(name, *screen.close())
+        self._hold = math.inf
         self._advance()
         nav = self._nav
         if nav is None:
@@ -259,16 +263,12 @@ class Stream:
             assert self._nav is not None
             self._nav.feed_measurement(sensor, r.t, r.z, row=r.row)
 
-    def _held_from(self) -> float:
-        """The oldest stamp a screen holds back: the IMU must not pass it."""
-        return min((s.held_from for s in self._screens.values()), default=math.inf)
-
     def _advance(self) -> list[Row]:
         """Start the filter if it can start, integrate the IMU samples no held reading waits
         for, and return the solution rows that determined."""
         if self._nav is None and not self._try_start():
             return []
-        self._feed_imu(self._held_from())
+        self._feed_imu(self._hold)
         return self._new_rows()
 
     def _feed_imu(self, before: float) -> None:
@@ -291,7 +291,7 @@ class Stream:
             if imu[-1][0] <= start + ini.alignment_s:  # before the median: once per sample
                 return False
             stop = start + ini.alignment_s + 0.5 * float(np.median([s[1] for s in imu]))
-            if imu[-1][0] <= stop or self._held_from() <= stop:  # as align._window_samples
+            if imu[-1][0] <= stop or self._hold <= stop:  # as align._window_samples
                 return False
         fixes: dict[str, SensorData] = {}
         if self._fix_sensor is not None and self._fixes:
