@@ -217,9 +217,9 @@ class Stream:
         nav = self._nav
         if nav is None:
             raise MissionError(
-                f"{CONFIG_NAME}: the stream ended before the filter started: the alignment "
-                f"window (initial.alignment_s = {self.config.initial.alignment_s:g} s) was not "
-                f"covered by the IMU samples pushed ({len(self._imu)})",
+                f"{CONFIG_NAME}: the stream ended before the filter started: {len(self._imu)} "
+                "IMU sample(s) pushed, not enough to cover the alignment window "
+                f"(initial.alignment_s = {self.config.initial.alignment_s:g} s)",
                 file=CONFIG_NAME,
             )
         self._feed_imu(math.inf)
