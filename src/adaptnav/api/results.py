@@ -227,7 +227,13 @@ def event_counts(events: pd.DataFrame) -> dict[str, int]:
 def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = None) -> pd.DataFrame:
     """The ``solution`` table from times (N,), nominal states (N, 16), P's diagonal (N, 15)
     and the off-diagonal elements of its position, velocity and attitude blocks (N, 9,
-    :data:`COV_COLUMNS`; None: NaN, unknown).
+    :data:`COV_COLUMNS`; None: NaN, unknown): :func:`solution_rows` with its column names."""
+    return pd.DataFrame(solution_rows(t, x, P_diag, P_cross), columns=list(SOLUTION_COLUMNS))
+
+
+def solution_rows(t: Array, x: Array, P_diag: Array, P_cross: Array | None = None) -> Array:
+    """The ``solution`` table's values (N, :data:`SOLUTION_COLUMNS`), arguments as for
+    :func:`solution_frame`; also one row at a time (adaptnav.api.stream).
 
     ``sd_<name> = sqrt(P_ii)``; a negative diagonal element (a broken covariance) gives NaN.
     """
@@ -255,7 +261,7 @@ def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = No
         sd,
         cs,
     ]
-    return pd.DataFrame(np.hstack(blocks), columns=list(SOLUTION_COLUMNS))
+    return np.hstack(blocks)
 
 
 def with_declared(
@@ -265,11 +271,18 @@ def with_declared(
     docs/calibration.md, ``dvl.scale``; SI: ratio, rad, m) and its ``sd_`` column."""
     if not names:
         return solution
+    extra = declared_columns(names, values, variances)
+    return pd.concat([solution, pd.DataFrame(extra, index=solution.index)], axis=1)
+
+
+def declared_columns(names: Sequence[str], values: Array, variances: Array) -> dict[str, Array]:
+    """The columns :func:`with_declared` adds: each declared state's values (N,) and its
+    ``sd_`` (the square root of its variance, 0 for a negative one)."""
     extra = {}
     for j, name in enumerate(names):
         extra[name] = values[:, j]
         extra[f"sd_{name}"] = np.sqrt(np.maximum(variances[:, j], 0.0))
-    return pd.concat([solution, pd.DataFrame(extra, index=solution.index)], axis=1)
+    return extra
 
 
 def has_covariances(solution: pd.DataFrame, names: Sequence[str]) -> bool:

@@ -26,19 +26,37 @@ from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align
 from adaptnav.engine.channels import build_channels
 from adaptnav.estimation.settings import FilterKind, FilterSettings
-from adaptnav.mission import Mission, MissionError, calibration, load_mission
+from adaptnav.mission import (
+    ImuData,
+    Mission,
+    MissionConfig,
+    MissionError,
+    SensorData,
+    calibration,
+    load_mission,
+)
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.models.strapdown import NOM_BA, NOM_BG, NOM_SIZE, NavState
 
-__all__ = ["FilterError", "initial_state", "run"]
+__all__ = [
+    "FilterError",
+    "engine_config",
+    "initial_state",
+    "ledger_row",
+    "run",
+    "sensor_channels",
+    "start_state",
+]
 
 
 OFF_REASON = "sensor off"
 """Ledger reason of every reading of a sensor with ``use = "off"``."""
 BEFORE_START_REASON = "before navigation start (alignment)"
 """Ledger reason of the readings inside the static alignment window (docs/alignment.md)."""
+INIT_REASON = "sensor used only for initialisation"
+"""Ledger reason of every reading of a sensor with ``use = "init"``."""
 
 
 class FilterError(MissionError):
@@ -47,7 +65,7 @@ class FilterError(MissionError):
     where in time."""
 
 
-def _ledger_row(sensor: str, row: int, t: float, reason: str) -> dict[str, Any]:
+def ledger_row(sensor: str, row: int, t: float, reason: str) -> dict[str, Any]:
     """A ledger row for a reading dropped before the engine (same keys as the engine's)."""
     rec: dict[str, Any] = {
         "t": t,
@@ -67,23 +85,30 @@ def _ledger_row(sensor: str, row: int, t: float, reason: str) -> dict[str, Any]:
 
 
 def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict[str, Any]]:
-    """(x0, P0, t0, info) from the mission's ``[initial]`` section (docs/alignment.md).
+    """(x0, P0, t0, info) from the mission's ``[initial]`` section (docs/alignment.md), over its
+    IMU and sensors: :func:`start_state`."""
+    return start_state(mission.config, mission.imu, mission.sensors)
+
+
+def start_state(
+    cfg: MissionConfig, imu: ImuData, sensors: Mapping[str, SensorData]
+) -> tuple[np.ndarray, np.ndarray, float, dict[str, Any]]:
+    """(x0, P0, t0, info) from ``[initial]`` of ``cfg`` (docs/alignment.md), given the IMU
+    intervals and the loaded readings (a GNSS sensor's fixes may give the position).
 
     ``alignment``: coarse + fine static alignment over the first ``alignment_s`` seconds, at the
     configured position (or the mean of GNSS fixes in the window); navigation starts at its end.
     ``state``: the configured state and σ's (biases from ``[imu.initial_bias]``, else zero),
     from the IMU's first interval start.
     """
-    cfg = mission.config
-    imu = mission.imu
     noise = cfg.imu.noise.to_imu_noise()
     gyro_sigma, accel_sigma = cfg.imu.initial_bias_sigma.si(noise)
     ini = cfg.initial
     t_start = float(imu.t[0] - imu.dt[0])
     if ini.mode == "state":
-        x0, P0 = _configured_state(mission, accel_sigma, gyro_sigma)
+        x0, P0 = _configured_state(cfg, accel_sigma, gyro_sigma)
         return x0, P0, t_start, {"initial": "state"}
-    position = _alignment_position(mission, t_start + ini.alignment_s)
+    position = _alignment_position(cfg, sensors, t_start + ini.alignment_s)
     heading = math.radians(ini.rpy_deg[2]) if ini.rpy_deg is not None else None
     heading_sigma = float(ini.sigma_attitude_rad()[2]) if heading is not None else None
     a = align(
@@ -103,11 +128,10 @@ def initial_state(mission: Mission) -> tuple[np.ndarray, np.ndarray, float, dict
 
 
 def _configured_state(
-    mission: Mission, accel_sigma: float, gyro_sigma: float
+    cfg: MissionConfig, accel_sigma: float, gyro_sigma: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """``initial.mode = "state"``: x0 and a diagonal P0 from ``[initial]`` and
     ``[imu.initial_bias]`` (docs/alignment.md)."""
-    cfg = mission.config
     ini = cfg.initial
     assert ini.lat_deg is not None and ini.lon_deg is not None and ini.rpy_deg is not None
     roll, pitch, yaw = np.radians(ini.rpy_deg)
@@ -125,21 +149,22 @@ def _configured_state(
     return x0, np.diag(sig**2)
 
 
-def _alignment_position(mission: Mission, window_end: float) -> tuple[float, float, float]:
+def _alignment_position(
+    cfg: MissionConfig, sensors: Mapping[str, SensorData], window_end: float
+) -> tuple[float, float, float]:
     """Where to align: the configured position, else the mean of the first GNSS sensor's valid
     fixes inside the static window (docs/alignment.md); an error naming the file if neither."""
-    cfg = mission.config
     ini = cfg.initial
     if ini.lat_deg is not None and ini.lon_deg is not None:
         return (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
     gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
-    if not (gnss and gnss[0] in mission.sensors):
+    if not (gnss and gnss[0] in sensors):
         raise MissionError(
             f"{CONFIG_NAME}: alignment: no position to align at (initial.lat_deg/lon_deg, or a "
             "GNSS sensor with readings)",
             file=CONFIG_NAME,
         )
-    g = mission.sensors[gnss[0]]
+    g = sensors[gnss[0]]
     inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
     if not np.any(inside):
         file = cfg.sensors[gnss[0]].file
@@ -198,12 +223,7 @@ def run(
     x0, P0 = calibration.extend(x0[:NOM_SIZE], P0[:N_STATES, :N_STATES], states)
     feed = _feed(m, s, t0, states)
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
-    config = engine.EngineConfig(
-        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
-        q_adaptation=s.q_adaptation, smooth=smooth, layout=calibration.layout(states),
-    )  # fmt: skip
-    if cfg.filter.specific_force_tau_s is not None:
-        config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
+    config = engine_config(cfg, s, policy, noise, states, smooth)
     out = _run_engine(m, s.kind, config, feed, (x0, P0, t0), nav_from)
     elapsed = time.perf_counter() - started
     out = _with_file_rows(out, m, feed)
@@ -231,6 +251,26 @@ def run(
     return replace(
         result, meta={**result.meta, "calibration": _calibration(states, result.solution)}
     )
+
+
+def engine_config(
+    cfg: MissionConfig,
+    s: FilterSettings,
+    policy: engine.EpochPolicy,
+    noise: ImuNoise,
+    states: tuple[calibration.CalibrationState, ...],
+    smooth: bool = False,
+) -> engine.EngineConfig:
+    """The engine's settings for filter ``s`` on a mission configured by ``cfg``: Q from
+    ``noise``, the epoch policy, the output rate, the divergence guard, Q adaptation, the state
+    layout with the calibration states, F's specific-force low-pass if configured."""
+    config = engine.EngineConfig(
+        noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
+        q_adaptation=s.q_adaptation, smooth=smooth, layout=calibration.layout(states),
+    )  # fmt: skip
+    if cfg.filter.specific_force_tau_s is not None:
+        config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
+    return config
 
 
 def _calibration(
@@ -273,23 +313,21 @@ def _feed(
     every other reading (dropped at load, of a sensor off or used only to initialise, inside
     the alignment, or a known outlier for the oracle) gets its ledger row with the reason."""
     cfg = m.config
-    extra = [_ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
+    extra = [ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
     for name, data in m.off.items():
         extra += _rows(name, data.rows, data.t, OFF_REASON)
     aiding = [n for n in m.sensors if cfg.sensors[n].use == "aid"]
     known = oracle.mission_noise(m, aiding) if s.kind == "oracle" else {}
-    sensors, overrides, kept = [], {}, {}
+    periods, kept = {}, {}
     readings: dict[str, tuple[np.ndarray, ...]] = {}
     for name, data in m.sensors.items():
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
-            why = "sensor used only for initialisation" if scfg.use == "init" else OFF_REASON
+            why = INIT_REASON if scfg.use == "init" else OFF_REASON
             extra += _rows(name, data.rows, data.t, why)
             continue
         before = data.t <= t0
-        extra += _rows(
-            name, data.rows[before], data.t[before], "before navigation start (alignment)"
-        )
+        extra += _rows(name, data.rows[before], data.t[before], BEFORE_START_REASON)
         keep = ~before
         if name in known:
             outlier = known[name].outlier
@@ -304,17 +342,34 @@ def _feed(
             if r_diag is None
             else (data.t[keep], data.z[keep], r_diag[keep])
         )
+        periods[name] = data.period
+    return _Feed(sensor_channels(cfg, s, periods, states), readings, kept, extra, known)
+
+
+def sensor_channels(
+    cfg: MissionConfig,
+    s: FilterSettings,
+    periods: Mapping[str, float],
+    states: tuple[calibration.CalibrationState, ...],
+) -> list[engine.SensorChannel]:
+    """The engine channels of the aiding sensors ``periods`` names (in its order, with their
+    nominal periods, s): each sensor's model (``[sensors.<name>]``, its calibration states)
+    with the filter's R strategy, gate and guard (engine/channels.py)."""
+    sensors = [
         # A single-sample table has no median interval; its period matters only to VB's
         # irregular-rate variant, where one sample makes it moot.
-        period = data.period if math.isfinite(data.period) else 1.0
-        model = build_sensor_model(name, scfg, calibration.indices(states, name))
-        sensors.append((model, period))
-        overrides[name] = scfg.overrides()
-    return _Feed(build_channels(s, sensors, overrides), readings, kept, extra, known)
+        (
+            build_sensor_model(n, cfg.sensors[n], calibration.indices(states, n)),
+            p if math.isfinite(p) else 1.0,
+        )
+        for n, p in periods.items()
+    ]
+    overrides = {n: cfg.sensors[n].overrides() for n in periods}
+    return build_channels(s, sensors, overrides)
 
 
 def _rows(name: str, rows: np.ndarray, t: np.ndarray, reason: str) -> list[dict[str, Any]]:
-    return [_ledger_row(name, int(r), float(tt), reason) for r, tt in zip(rows, t, strict=True)]
+    return [ledger_row(name, int(r), float(tt), reason) for r, tt in zip(rows, t, strict=True)]
 
 
 def _run_engine(

@@ -636,6 +636,8 @@ class Navigator:
         self._out_x = np.zeros((64, layout.nominal_size))
         # diag P (the core's), P_CROSS_PAIRS, the declared states' variances
         self._out_p = np.zeros((64, layout.n + N_CROSS))
+        # One IMU interval for feed_imu_sample: t, dt (1,), dtheta, dvel (1, 3).
+        self._one = (np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)))
 
     def _build_tables(self) -> None:
         """Per-sensor settings, linearisations and initial adaptation states, packed."""
@@ -815,8 +817,23 @@ class Navigator:
                 f"IMU: t must be (N,), dtheta and dvel (N, 3); got {tk.shape}, {dth.shape}, "
                 f"{dv.shape}"
             )
+        self._run(tk, dts, dth, dv)
+
+    def feed_imu_sample(self, t: float, dt: float, dtheta: ArrayLike, dvel: ArrayLike) -> None:
+        """:meth:`feed_imu` of one interval ``(t - dt, t]``, for a caller that has its samples one
+        at a time (adaptnav.api.stream): the same loop, without the conversions of a chunk's
+        arrays (docs/streaming.md, 'Latency')."""
+        one = self._one
+        one[0][0], one[1][0] = t, dt
+        one[2][0], one[3][0] = dtheta, dvel
+        self._run(*one)
+
+    def _run(self, tk: Array, dts: Array, dth: Array, dv: Array) -> None:
+        """The compiled loop over the IMU chunk, returning to Python only for the epochs of
+        sensors linearised by their ``evaluate``."""
         if self._smoothed is not None:
             raise RuntimeError("the navigator has been smoothed: it takes no more IMU data")
+        n = tk.size
         self._icur[I_START] = 0
         self._reserve_output(n // self.config.output_every + 2)
         self._sort_queue()
@@ -1007,6 +1024,24 @@ class Navigator:
             self._out_p[:n, N_STATES : N_STATES + N_CROSS].copy(),
             self._events(),
         )
+
+    @property
+    def n_rows(self) -> int:
+        """How many solution rows have been recorded so far (the first at t0)."""
+        return int(self._icur[I_N_OUT])
+
+    def rows(self, start: int) -> tuple[Array, Array, Array, Array, Array, Array]:
+        """The solution rows from ``start`` on, as :meth:`output` has them (copies): t, the
+        nominal states (k, 16), P's diagonal (k, 15), its block elements (k, 9,
+        :data:`P_CROSS_PAIRS`), the declared states' values and variances (k, m); what a caller
+        feeding sample by sample reads after each sample, without :attr:`records`' ledger."""
+        n = int(self._icur[I_N_OUT])
+        x, p = self._out_x[start:n], self._out_p[start:n]
+        return (
+            self._out_t[start:n].copy(), x[:, :NOM_SIZE].copy(), p[:, :N_STATES].copy(),
+            p[:, N_STATES : N_STATES + N_CROSS].copy(), x[:, NOM_SIZE:].copy(),
+            p[:, N_STATES + N_CROSS :].copy(),
+        )  # fmt: skip
 
     def adaptation_state(self, sensor: str) -> Any:
         """The current noise-adaptation state of ``sensor`` (VB α, β; matching window; ...).

@@ -388,11 +388,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     for r in np.flatnonzero(keep & outside.any(axis=1)):
         keep[r] = False
         c = int(np.flatnonzero(outside[r])[0])
-        lo, hi = limits[c]
-        reason = (
-            f"implausible: {cfg.columns[c]} = {z[r, c]:.6g} outside [{lo:.6g}, {hi:.6g}] "
-            f"{_UNIT[cfg.columns[c].rsplit('_', 1)[-1]]}"
-        )
+        reason = implausible_reason(cfg, c, float(z[r, c]), limits)
         journal.drop(
             table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
         )
@@ -421,7 +417,7 @@ def _drop_lost_lock(
     lock: the ``status_column`` flag 0, or (``zero_is_lost``) all zeros (docs/data-format.md)."""
     if cfg.status_column is not None:
         lost = ~flag(table, cfg.status_column)
-        reason = f"DVL bottom lock lost: {cfg.status_column} = 0 (status_column)"
+        reason = lost_status_reason(cfg.status_column)
         for r in np.flatnonzero(keep & lost):
             keep[r] = False
             journal.drop(
@@ -464,14 +460,33 @@ def _drop_stuck(
         zk = np.where(np.all(zk == 0.0, axis=1)[:, None], np.nan, zk)
     resolution = cfg.resolution_si()
     for a, b in stuck_runs(t[kept], zk, resolution, stuck_s).tolist():
-        t_a, t_b = float(t[kept[a]]), float(t[kept[b]])
-        reason = (
-            f"stuck: {', '.join(cfg.columns)} unchanged within {_within(cfg, resolution)} for "
-            f"{t_b - t_a:.1f} s (t = {t_a:.3f} .. {t_b:.3f} s)"
-        )
+        reason = stuck_reason(cfg, resolution, float(t[kept[a]]), float(t[kept[b]]))
         for r in kept[a + 1 : b + 1].tolist():
             keep[r] = False
             journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
+
+
+def implausible_reason(cfg: SensorConfig, c: int, value: float, limits: Array) -> str:
+    """The ledger reason of a reading whose column ``c`` is outside its plausible range."""
+    lo, hi = limits[c]
+    return (
+        f"implausible: {cfg.columns[c]} = {value:.6g} outside [{lo:.6g}, {hi:.6g}] "
+        f"{_UNIT[cfg.columns[c].rsplit('_', 1)[-1]]}"
+    )
+
+
+def lost_status_reason(column: str) -> str:
+    """The ledger reason of a DVL reading whose ``status_column`` flag says no bottom lock."""
+    return f"DVL bottom lock lost: {column} = 0 (status_column)"
+
+
+def stuck_reason(cfg: SensorConfig, resolution: Array, t_a: float, t_b: float) -> str:
+    """The ledger reason of the readings of a stuck run from ``t_a`` to ``t_b`` after its
+    first (docs/robustness.md, 'Stuck readings')."""
+    return (
+        f"stuck: {', '.join(cfg.columns)} unchanged within {_within(cfg, resolution)} for "
+        f"{t_b - t_a:.1f} s (t = {t_a:.3f} .. {t_b:.3f} s)"
+    )
 
 
 def _within(cfg: SensorConfig, resolution: Array) -> str:

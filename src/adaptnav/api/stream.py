@@ -1,0 +1,420 @@
+"""The filter fed one reading at a time: ``adaptnav.api.stream`` (docs/streaming.md).
+
+:class:`Stream` is the batch run (:func:`adaptnav.api.run`) taken apart in time: built from a
+mission's configuration, a filter kind and an initial state (given, the configured one, or the
+same static alignment over the first IMU samples it is fed), it takes IMU intervals
+(:meth:`Stream.push_imu`) and sensor readings (:meth:`Stream.push`) one at a time, screens each
+reading as the loader screens a table (:class:`adaptnav.mission.live.LiveScreen`), hands them to
+the engine's :class:`~adaptnav.engine.batch.Navigator` and returns each solution row (the batch
+solution table's columns and units, :data:`adaptnav.api.results.SOLUTION_COLUMNS`) from the push
+that determined it. :meth:`Stream.close` gives the run's :class:`~adaptnav.api.results.Result`,
+ledger and events included.
+
+Fed a recorded mission in time order (:func:`replay`), the rows and the ledger are the batch
+run's to 1e-9 (tests/integration/test_stream.py). What is held back, and why: the IMU until the
+alignment window is covered; an IMU sample while a reading stamped at or before it is held by
+the stuck-run screen (docs/streaming.md, 'Screening'). A reading stamped at or before the time
+the filter has integrated to is dropped by the engine as ``late``, in the ledger.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav.api import runner
+from adaptnav.api.results import SOLUTION_COLUMNS, Result, declared_columns, solution_rows
+from adaptnav.engine import batch as engine
+from adaptnav.estimation.settings import FilterKind, FilterSettings
+from adaptnav.mission import (
+    ImuData,
+    Mission,
+    MissionConfig,
+    MissionError,
+    SensorData,
+    calibration,
+    load_config,
+)
+from adaptnav.mission.live import LiveScreen, Reading
+from adaptnav.mission.loader import CONFIG_NAME
+from adaptnav.mission.tables import DroppedRow
+from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.strapdown import NOM_SIZE
+
+__all__ = ["IMU", "Item", "Stream", "replay"]
+
+Array = NDArray[np.float64]
+Row = dict[str, float]
+"""A solution row: column of the batch solution table → value."""
+IMU = "imu"
+"""The sensor name of IMU items (:class:`Item`)."""
+START_EPS_S = 1e-9
+"""IMU samples stamped within this of the start are the alignment's (api.runner.run)."""
+
+
+class Item(NamedTuple):
+    """One pushed input: an IMU interval (``sensor == IMU``, ``z`` = Δθ (3) then Δv (3), ``dt``
+    its length) or a sensor reading (``z`` its values in SI units, ``row`` its row)."""
+
+    sensor: str
+    t: float
+    z: Array
+    row: int = -1
+    dt: float = math.nan
+
+
+class Stream:
+    """A filter run fed one reading at a time (the module's docstring; docs/streaming.md).
+
+    Args:
+        mission: a loaded :class:`~adaptnav.mission.Mission` (its sensors' periods are the
+            batch run's), its folder or ``mission.toml`` (only the configuration is read: every
+            aiding sensor needs ``rate_hz``), or a :class:`~adaptnav.mission.MissionConfig`.
+        filter: ``"robust"``, ``"meskf"``, ``"maeskf"`` or ``"vb"``; default the mission's.
+            The oracle needs the simulator's truth for every reading and is batch only.
+        settings, epoch_policy: as for :func:`adaptnav.api.run`.
+        initial: (x0, P0, t0) to start from; default the mission's ``[initial]``: the configured
+            state from the first IMU interval's start, or the static alignment over the first
+            ``alignment_s`` of IMU samples pushed.
+        on_row: called with each solution row as it is determined (besides being returned).
+    """
+
+    def __init__(
+        self,
+        mission: Mission | MissionConfig | str | Path,
+        filter: FilterKind | None = None,
+        *,
+        settings: FilterSettings | None = None,
+        epoch_policy: engine.EpochPolicy | None = None,
+        initial: tuple[ArrayLike, ArrayLike, float] | None = None,
+        on_row: Callable[[Row], None] | None = None,
+    ) -> None:
+        cfg, periods, self._root = _configuration(mission)
+        s = settings if settings is not None else cfg.filter_settings()
+        s = s.with_kind(filter) if filter is not None else s
+        if s.kind == "oracle":
+            raise ValueError(
+                "the oracle filter needs the simulator's true noise of every reading: run it "
+                "in batch (adaptnav.api.run); a stream takes robust, meskf, maeskf or vb"
+            )
+        self.config, self.settings, self._on_row = cfg, s, on_row
+        self.policy = epoch_policy or cfg.filter.epoch_policy
+        self._states = calibration.calibration_states(cfg)
+        self._engine = runner.engine_config(
+            cfg, s, self.policy, cfg.imu.noise.to_imu_noise(), self._states
+        )
+        self._channels = runner.sensor_channels(cfg, s, periods, self._states)
+        self._aiding = set(periods)
+        self._screens = {n: LiveScreen(n, c) for n, c in cfg.sensors.items()}
+        self._rows = dict.fromkeys(cfg.sensors, 0)
+        gnss = [n for n, c in cfg.sensors.items() if c.kind == "gnss" and c.use != "off"]
+        self._fix_sensor = gnss[0] if gnss else None
+        self._fixes: list[Reading] = []
+        self._early: list[tuple[str, Reading]] = []
+        self._extra: list[dict[str, Any]] = []
+        self._imu: deque[tuple[float, float, Array, Array]] = deque()
+        self._t_imu = -math.inf
+        self._nav: engine.Navigator | None = None
+        self._t0 = math.nan
+        self._info: dict[str, Any] = {}
+        self._seen = 0
+        self._fed = 0
+        self._started = math.nan
+        self._hold = math.inf
+        """The oldest stamp a screen holds back (inf: none): the IMU must not pass it."""
+        self.result: Result | None = None
+        if initial is not None:
+            x0, P0, t0 = initial
+            self._start(np.asarray(x0, dtype=float), np.asarray(P0, dtype=float), float(t0))
+            self._info = {"initial": "given"}
+
+    # --- the user's side ------------------------------------------------------------------------
+
+    @property
+    def t(self) -> float:
+        """The time the filter has integrated to (NaN before it starts): a reading stamped at or
+        before it is ``late``."""
+        return self._nav.t if self._nav is not None else math.nan
+
+    def push_imu(
+        self, t: float, dtheta: ArrayLike, dvel: ArrayLike, dt: float | None = None
+    ) -> list[Row]:
+        """One IMU interval ``(t - dt, t]`` with its increments Δθ (rad) and Δv (m/s), body
+        axes; ``dt`` defaults to the time since the previous sample (the first: 1 /
+        ``imu.rate_hz``, as the loader). Returns the solution rows it determined.
+
+        ValueError, the stream unchanged, for a stamp not after the previous sample's, a
+        non-positive ``dt`` or a non-finite value."""
+        self._check_open()
+        tt = float(t)
+        step = float(dt) if dt is not None else tt - self._t_imu
+        if not math.isfinite(self._t_imu) and dt is None:
+            step = 1.0 / self.config.imu.rate_hz
+        dth = np.asarray(dtheta, dtype=float).reshape(3)
+        dv = np.asarray(dvel, dtype=float).reshape(3)
+        if not (tt > self._t_imu and step > 0.0 and math.isfinite(tt + step)):
+            raise ValueError(
+                f"IMU sample t = {tt!r} s, dt = {step!r} s: the stamp must be finite and after "
+                f"the previous sample's ({self._t_imu!r} s), dt > 0"
+            )
+        if not math.isfinite(float(dth.sum() + dv.sum())):  # a NaN or inf anywhere: NaN or inf
+            raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
+        self._t_imu = tt
+        self._imu.append((tt, step, dth, dv))
+        return self._advance()
+
+    def push(
+        self, sensor: str, t: float, z: ArrayLike, *, row: int | None = None, lock: bool = True
+    ) -> list[Row]:
+        """One reading of ``sensor`` stamped ``t`` (s), values ``z`` in SI units (the table's
+        columns, docs/data-format.md); ``row`` its number in the ledger (default: how many
+        readings of the sensor came before it); ``lock``: the DVL's bottom-lock flag when
+        ``status_column`` is configured. Screened as the loader screens a table, then queued
+        for the filter; returns the solution rows it determined (a reading the screen had held
+        back may let the IMU go on). KeyError for a sensor not configured, ValueError for a
+        reading of the wrong size."""
+        self._check_open()
+        if sensor not in self._screens:
+            raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._screens)}")
+        cfg = self.config.sensors[sensor]
+        if cfg.use == "aid" and sensor not in self._aiding:
+            raise KeyError(f"sensor {sensor!r} has no channel: the mission has no readings of it")
+        zz = np.atleast_1d(np.asarray(z, dtype=float))
+        if zz.shape != (cfg.dim,):
+            raise ValueError(f"{sensor}: a reading has {cfg.dim} value(s) {cfg.columns}, got {zz}")
+        r = row if row is not None else self._rows[sensor]
+        self._rows[sensor] = r + 1
+        self._route(sensor, *self._screens[sensor].push(Reading(float(t), zz, int(r)), lock))
+        self._hold = min(s.held_from for s in self._screens.values())
+        return self._advance()
+
+    def push_item(self, item: Item) -> list[Row]:
+        """:meth:`push_imu` or :meth:`push` of an :class:`Item` (what :func:`replay` yields)."""
+        if item.sensor == IMU:
+            return self.push_imu(item.t, item.z[:3], item.z[3:], item.dt)
+        return self.push(item.sensor, item.t, item.z, row=item.row)
+
+    def close(self) -> Result:
+        """End the stream: the screens release or drop what they held, the IMU samples still
+        buffered are integrated, readings stamped after the last IMU sample are dropped (ledger)
+        and the run's :class:`~adaptnav.api.results.Result` is returned (also :attr:`result`).
+        A stream that never started (alignment window not covered) is a MissionError."""
+        if self.result is not None:
+            return self.result
+        for name, screen in self._screens.items():
+            self._route(name, *screen.close())
+        self._hold = math.inf
+        self._advance()
+        nav = self._nav
+        if nav is None:
+            raise MissionError(
+                f"{CONFIG_NAME}: the stream ended before the filter started: {len(self._imu)} "
+                "IMU sample(s) pushed, not enough to cover the alignment window "
+                f"(initial.alignment_s = {self.config.initial.alignment_s:g} s)",
+                file=CONFIG_NAME,
+            )
+        self._feed_imu(math.inf)
+        nav.flush()
+        self.result = self._result(nav.output())
+        return self.result
+
+    def __enter__(self) -> Stream:
+        return self
+
+    def __exit__(self, kind: object, exc: object, tb: object) -> None:
+        if exc is None:
+            self.close()
+
+    # --- inside ---------------------------------------------------------------------------------
+
+    def _check_open(self) -> None:
+        if self.result is not None:
+            raise RuntimeError("the stream is closed")
+
+    def _route(self, sensor: str, released: list[Reading], dropped: list[DroppedRow]) -> None:
+        """Each screened reading to its fate: dropped at the screen, of a sensor off or used to
+        initialise (a GNSS sensor's fixes kept for the alignment), before the start, or queued."""
+        self._extra += [runner.ledger_row(d.sensor, d.row, d.t, d.reason) for d in dropped]
+        use = self.config.sensors[sensor].use
+        for r in released:
+            if sensor == self._fix_sensor and self._nav is None:
+                self._fixes.append(r)
+            if use != "aid" or sensor not in self._aiding:
+                why = runner.INIT_REASON if use == "init" else runner.OFF_REASON
+                self._extra.append(runner.ledger_row(sensor, r.row, r.t, why))
+            elif self._nav is None:
+                self._early.append((sensor, r))
+            else:
+                self._queue(sensor, r)
+
+    def _queue(self, sensor: str, r: Reading) -> None:
+        if r.t <= self._t0:
+            self._extra.append(runner.ledger_row(sensor, r.row, r.t, runner.BEFORE_START_REASON))
+        else:
+            assert self._nav is not None
+            self._nav.feed_measurement(sensor, r.t, r.z, row=r.row)
+
+    def _advance(self) -> list[Row]:
+        """Start the filter if it can start, integrate the IMU samples no held reading waits
+        for, and return the solution rows that determined."""
+        if self._nav is None and not self._try_start():
+            return []
+        self._feed_imu(self._hold)
+        return self._new_rows()
+
+    def _feed_imu(self, before: float) -> None:
+        nav, imu = self._nav, self._imu
+        assert nav is not None
+        while imu and imu[0][0] < before:
+            t, dt, dth, dv = imu.popleft()
+            nav.feed_imu_sample(t, dt, dth, dv)
+            self._fed += 1
+
+    def _try_start(self) -> bool:
+        """Start the filter from the mission's ``[initial]`` once the IMU allows: the configured
+        state at the first sample, the alignment once its window is covered (and no reading
+        inside it is held back)."""
+        if not self._imu:
+            return False
+        ini, imu = self.config.initial, self._imu
+        if ini.mode == "alignment":
+            start = imu[0][0] - imu[0][1]
+            if imu[-1][0] <= start + ini.alignment_s:  # before the median: once per sample
+                return False
+            stop = start + ini.alignment_s + 0.5 * float(np.median([s[1] for s in imu]))
+            if imu[-1][0] <= stop or self._hold <= stop:  # as align._window_samples
+                return False
+        fixes: dict[str, SensorData] = {}
+        if self._fix_sensor is not None and self._fixes:
+            fixes[self._fix_sensor] = _sensor_data(self._fix_sensor, self._fixes)
+        t, dt, dth, dv = self._imu_arrays()
+        x0, P0, t0, self._info = runner.start_state(self.config, ImuData(t, dt, dth, dv), fixes)
+        self._start(x0, P0, t0)
+        while self._imu and self._imu[0][0] < t0 + START_EPS_S:
+            self._imu.popleft()
+        return True
+
+    def _start(self, x0: Array, P0: Array, t0: float) -> None:
+        x, P = calibration.extend(x0[:NOM_SIZE], P0[:N_STATES, :N_STATES], self._states)
+        self._nav = engine.Navigator(self._engine, self._channels, x, P, t0)
+        self._t0 = t0
+        self._started = time.perf_counter()
+        early, self._early = self._early, []
+        for sensor, r in early:
+            self._queue(sensor, r)
+
+    def _imu_arrays(self) -> tuple[Array, Array, Array, Array]:
+        imu = self._imu
+        return (
+            np.array([s[0] for s in imu]), np.array([s[1] for s in imu]),
+            np.array([s[2] for s in imu]).reshape(-1, 3),
+            np.array([s[3] for s in imu]).reshape(-1, 3),
+        )  # fmt: skip
+
+    def _new_rows(self) -> list[Row]:
+        """The solution rows recorded since the last call, as the batch table has them."""
+        nav = self._nav
+        assert nav is not None
+        if nav.n_rows == self._seen:
+            return []
+        t, x, p_diag, p_cross, dec, dec_var = nav.rows(self._seen)
+        self._seen = nav.n_rows
+        names = self._engine.layout.names[N_STATES:]
+        columns = list(SOLUTION_COLUMNS)
+        values = solution_rows(t, x, p_diag, p_cross)
+        extra = declared_columns(names, dec, dec_var)
+        rows = []
+        for k in range(t.size):
+            row = dict(zip(columns, values[k].tolist(), strict=True))
+            row.update({c: float(v[k]) for c, v in extra.items()})
+            rows.append(row)
+            if self._on_row is not None:
+                self._on_row(row)
+        return rows
+
+    def _result(self, out: engine.EngineOutput) -> Result:
+        """The run's Result, as :func:`adaptnav.api.run` builds it (the ledger's rows are the
+        pushed readings' rows; the readings that never reached the engine appended)."""
+        out = replace(out, ledger=out.ledger + self._extra)
+        meta: dict[str, Any] = {
+            "mission_dir": self._root,
+            "filter_settings": self.settings.as_dict(),
+            "epoch_policy": self.policy,
+            "imu_samples": self._fed,
+            "q_scale_final": out.q_scale,
+            "elapsed_s": time.perf_counter() - self._started,
+            "stream": True,
+            **self._info,
+        }
+        kinds = {n: c.kind for n, c in self.config.sensors.items()}
+        cfg = self.config
+        return Result.from_engine(out, self.settings.kind, cfg.mission.name, meta, [], kinds)
+
+
+def _configuration(
+    mission: Mission | MissionConfig | str | Path,
+) -> tuple[MissionConfig, dict[str, float], str]:
+    """The configuration, each aiding sensor's nominal period (s) and the mission folder: a
+    Mission's periods are its tables' (as the batch run's), a configuration's its ``rate_hz``."""
+    if isinstance(mission, Mission):
+        cfg = mission.config
+        periods = {n: d.period for n, d in mission.sensors.items() if cfg.sensors[n].use == "aid"}
+        return cfg, periods, str(mission.root)
+    if isinstance(mission, MissionConfig):
+        cfg, root = mission, ""
+    else:
+        path = Path(mission)
+        path = path / CONFIG_NAME if path.is_dir() else path
+        cfg, root = load_config(path), str(path.parent)
+    periods = {}
+    for n, c in cfg.sensors.items():
+        if c.use != "aid":
+            continue
+        if c.rate_hz is None:
+            raise MissionError(
+                f"{CONFIG_NAME}: [sensors.{n}] rate_hz is needed to stream (a batch run takes "
+                "the median interval of the sensor's table)",
+                file=CONFIG_NAME,
+                field=f"sensors.{n}.rate_hz",
+            )
+        periods[n] = 1.0 / c.rate_hz
+    return cfg, periods, root
+
+
+def _sensor_data(name: str, readings: list[Reading]) -> SensorData:
+    """Readings as the loader's SensorData (the alignment's GNSS fixes)."""
+    return SensorData(
+        name, "gnss", np.array([r.t for r in readings]), np.array([r.z for r in readings]),
+        np.array([r.row for r in readings], dtype=np.int64),
+    )  # fmt: skip
+
+
+def replay(mission: Mission) -> Iterator[Item]:
+    """A recorded mission's inputs as a stream would receive them: every IMU interval and every
+    reading the loader kept (of every configured sensor, off ones included), in time order; at
+    one stamp, readings before the IMU sample (the batch engine's order: a reading stamped at the
+    end of an interval is used in it)."""
+    imu = mission.imu
+    z = np.hstack([imu.dtheta, imu.dvel])
+    streams = [_keyed(IMU, 1, imu.t, z, np.arange(imu.t.size), imu.dt)]
+    for name, d in {**mission.sensors, **mission.off}.items():
+        streams.append(_keyed(name, 0, d.t, d.z, d.rows, np.full(d.t.size, math.nan)))
+    for _, _, item in heapq.merge(*streams, key=lambda e: (e[0], e[1])):
+        yield item
+
+
+def _keyed(
+    sensor: str, order: int, t: Array, z: Array, rows: NDArray[np.int64], dt: Array
+) -> Iterator[tuple[float, int, Item]]:
+    """One table's items with their merge key (stamp, readings before the IMU)."""
+    for k, tk in enumerate(t.tolist()):
+        yield tk, order, Item(sensor, tk, z[k], int(rows[k]), float(dt[k]))

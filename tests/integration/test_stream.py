@@ -1,0 +1,129 @@
+"""The streaming API (adaptnav.api.stream, docs/streaming.md) against the batch run.
+
+The mission is the golden one (tests/helpers/golden.py: 5 minutes, every disturbance on, the
+alignment's position from the GPS fixes). Fed reading by reading in time order, every filter
+kind a stream runs must give the batch run's solution and ledger to 1e-9: the batch run is the
+reference, computed independently of the stream's path (whole tables, one IMU chunk).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav import api
+from adaptnav.api.results import SOLUTION_COLUMNS
+from adaptnav.api.stream import Stream, replay
+from adaptnav.mission import Mission, MissionError, load_mission
+from adaptnav.mission.live import OUT_OF_ORDER_REASON
+from helpers import golden
+
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "streaming.md"
+KINDS = ("meskf", "maeskf", "vb", "robust")
+
+
+@pytest.fixture(scope="module")
+def mission(tmp_path_factory: pytest.TempPathFactory) -> Mission:
+    return load_mission(golden.mission(tmp_path_factory.mktemp("stream") / "mission"))
+
+
+def _sorted(ledger: pd.DataFrame) -> pd.DataFrame:
+    return ledger.sort_values(["sensor", "row"], kind="stable").reset_index(drop=True)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_stream_fed_in_time_order_is_the_batch_run(mission: Mission, kind: str) -> None:
+    batch = api.run(mission, kind)  # type: ignore[arg-type]
+    rows = []
+    with Stream(mission, kind) as stream:  # type: ignore[arg-type]
+        for item in replay(mission):
+            rows += stream.push_item(item)
+    assert stream.result is not None
+    pushed = pd.DataFrame(rows)
+    assert list(pushed.columns) == list(batch.solution.columns)
+    a, b = pushed.to_numpy(), batch.solution.to_numpy()
+    assert a.shape == b.shape and len(a) > 2000
+    scale = np.maximum(np.nanmax(np.abs(b), axis=0), 1e-300)
+    assert np.all(np.abs(a - b) <= 1e-9 * scale)
+    # The rows returned as they were determined are the run's solution, bit for bit.
+    np.testing.assert_array_equal(stream.result.solution.to_numpy(), a)
+    la, lb = _sorted(stream.result.ledger), _sorted(batch.ledger)
+    assert la.columns.tolist() == lb.columns.tolist()
+    for c in la.columns:
+        if la[c].dtype.kind == "f":
+            np.testing.assert_allclose(la[c], lb[c], rtol=1e-9, atol=1e-12, equal_nan=True)
+        else:
+            assert la[c].tolist() == lb[c].tolist(), c
+    assert {"used", "dropped"} <= set(la["fate"])
+    assert stream.result.events.shape == batch.events.shape
+
+
+def test_late_and_out_of_order_readings_are_in_the_ledger(mission: Mission) -> None:
+    start = api.initial_state(mission)[:3]
+    imu, dvl = mission.imu, mission.sensors["dvl"]
+    stream = Stream(mission, "robust", initial=start)
+    first = int(np.searchsorted(imu.t, start[2] + 1e-9))
+    rows = []
+    for k in range(first, first + 300):  # 3 s of IMU: 30 rows at 10 Hz
+        rows += stream.push_imu(imu.t[k], imu.dtheta[k], imu.dvel[k], dt=imu.dt[k])
+    assert len(rows) == 30 + 1  # and the start's
+    assert [r["t_s"] for r in rows] == pytest.approx(start[2] + 0.1 * np.arange(31), abs=1e-6)
+    now = stream.t
+    stream.push("dvl", now - 0.5, dvl.z[0], row=7)  # stamped before the filter's time
+    stream.push("dvl", now + 0.5, dvl.z[1], row=8)
+    stream.push("dvl", now + 0.2, dvl.z[2], row=9)  # before the sensor's previous reading
+    for k in range(first + 300, first + 400):
+        stream.push_imu(imu.t[k], imu.dtheta[k], imu.dvel[k], dt=imu.dt[k])
+    ledger = stream.close().ledger.set_index("row")
+    assert ledger.loc[7, "fate"] == "dropped" and ledger.loc[7, "reason"].startswith("late")
+    assert ledger.loc[8, "fate"] in ("used", "rejected")
+    assert ledger.loc[8, "t_epoch"] == pytest.approx(now + 0.5)
+    assert (ledger.loc[9, "fate"], ledger.loc[9, "reason"]) == ("dropped", OUT_OF_ORDER_REASON)
+
+
+def test_bad_input_is_refused_and_the_stream_goes_on(mission: Mission) -> None:
+    with pytest.raises(ValueError, match="oracle"):
+        Stream(mission, "oracle")
+    start = api.initial_state(mission)[:3]
+    stream = Stream(mission, "meskf", initial=start)
+    t = start[2] + 0.01
+    stream.push_imu(t, np.zeros(3), [0.0, 0.0, -0.098])
+    with pytest.raises(ValueError, match="after the previous sample"):
+        stream.push_imu(t, np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="non-finite"):
+        stream.push_imu(t + 0.01, [math.nan, 0.0, 0.0], np.zeros(3))
+    with pytest.raises(KeyError, match="unknown sensor 'sonar'"):
+        stream.push("sonar", t, [1.0])
+    with pytest.raises(ValueError, match="3 value"):
+        stream.push("dvl", t + 0.1, [1.0, 2.0])
+    assert len(stream.push_imu(t + 0.01, np.zeros(3), [0.0, 0.0, -0.098])) == 0
+    assert stream.t == pytest.approx(t + 0.01)
+
+
+def test_a_stream_that_never_covers_the_alignment_window_says_so(mission: Mission) -> None:
+    stream = Stream(mission, "robust")
+    for k in range(100):
+        assert stream.push_imu(mission.imu.t[k], mission.imu.dtheta[k], mission.imu.dvel[k]) == []
+    with pytest.raises(MissionError, match="alignment window"):
+        stream.close()
+
+
+def test_the_example_of_the_docs_runs(mission: Mission) -> None:
+    code = re.search(r"```python\n(.*?)```", DOCS.read_text(encoding="utf-8"), re.S)
+    assert code is not None
+    out = io.StringIO()
+    scope = {"MISSION_DIR": str(mission.root)}
+    with contextlib.redirect_stdout(out):
+        exec(code.group(1), scope)
+    times = [float(line.split()[0]) for line in out.getvalue().splitlines() if " s  lat" in line]
+    # The golden mission: aligned over its first 60 s, 213 s after that; a row every 10 s.
+    assert times == list(range(60, 280, 10))
+    assert "used" in out.getvalue()
+    assert list(scope["stream"].result.solution.columns) == list(SOLUTION_COLUMNS)

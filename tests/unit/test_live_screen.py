@@ -1,0 +1,77 @@
+"""Screening one reading at a time (mission/live.py) against the loader screening the table.
+
+A DVL table with every defect the loader screens (a repeated stamp, all-zero readings with
+``zero_is_lost``, an implausible value, a NaN, a stuck run and a quiet run too short to be
+stuck) is loaded; pushed row by row, :class:`LiveScreen` must release exactly the readings the
+loader kept and drop exactly its rows with its reasons: the loader is the reference.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.mission import load_mission
+from adaptnav.mission.live import OUT_OF_ORDER_REASON, LiveScreen, Reading
+from helpers.missions import config_dict, imu_rates, write_dir
+
+
+def _dvl(seed: int) -> pd.DataFrame:
+    rng = np.random.default_rng(seed)
+    n = 400
+    t = 10.0 + 0.5 * np.arange(n)
+    z = 1.0 + 0.05 * rng.standard_normal((n, 3))
+    t[20] = t[19]  # repeated stamp
+    z[30] = z[31] = 0.0  # lost bottom lock
+    z[40, 0] = 50.0  # implausible speed
+    z[50, 1] = math.nan
+    z[100:250] = z[100]  # stuck for 74.5 s (the DVL's stuck_s: 10 s): 101..249 dropped
+    z[300:316] = z[300] + 1e-6  # quiet for 7.5 s: too short, kept
+    z[250] = z[100] + 1e-6  # within the resolution of the stuck run's first: one more
+    return pd.DataFrame({"t_s": t, "vx_m_s": z[:, 0], "vy_m_s": z[:, 1], "vz_m_s": z[:, 2]})
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_live_screen_keeps_and_drops_what_the_loader_does(tmp_path: Path, seed: int) -> None:
+    cfg = config_dict()
+    cfg["sensors"]["dvl"]["zero_is_lost"] = True
+    dvl = _dvl(seed)
+    m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl}))
+    screen = LiveScreen("dvl", m.config.sensors["dvl"])
+    released: list[Reading] = []
+    dropped = []
+    for r, row in enumerate(dvl.to_numpy()):
+        out, drops = screen.push(Reading(float(row[0]), row[1:].copy(), r))
+        released += out
+        dropped += drops
+    out, drops = screen.close()
+    released += out
+    dropped += drops
+    kept = m.sensors["dvl"]
+    assert [r.row for r in released] == kept.rows.tolist()
+    np.testing.assert_array_equal(np.array([r.z for r in released]), kept.z)
+    expected = sorted((d.row, d.t, d.reason) for d in m.dropped)
+    assert sorted((d.row, d.t, d.reason) for d in dropped) == expected
+    reasons = {d.reason.split(":")[0] for d in dropped}
+    assert {"duplicate timestamp", "implausible", "stuck"} <= reasons
+    assert len(expected) == 1 + 2 + 1 + 149 + 1
+
+
+def test_a_run_of_unchanged_readings_is_held_until_it_ends(tmp_path: Path) -> None:
+    m = load_mission(
+        write_dir(tmp_path, config_dict(), {"imu.csv": imu_rates(), "dvl.csv": _dvl(1)})
+    )
+    screen = LiveScreen("dvl", m.config.sensors["dvl"])
+    v = np.array([1.0, 0.1, 0.0])
+    out, _ = screen.push(Reading(1.0, v, 0))
+    assert [r.row for r in out] == [0]  # a run's first reading is released at once
+    assert screen.push(Reading(2.0, v.copy(), 1)) == ([], [])
+    assert screen.held_from == 2.0
+    out, drops = screen.push(Reading(3.0, v + 0.01, 2))  # the run ends, not stuck
+    assert [r.row for r in out] == [1, 2] and drops == [] and screen.held_from == math.inf
+    out, drops = screen.push(Reading(2.5, v, 3))
+    assert out == [] and [d.reason for d in drops] == [OUT_OF_ORDER_REASON]
