@@ -52,7 +52,6 @@ from adaptnav.viz.series import (
     outliers,
     r_hat,
     start_time,
-    stride,
     true_sigma_column,
 )
 
@@ -218,18 +217,22 @@ def noise_variance(
 
 
 def _measurements(legend: _Legend, table: pd.DataFrame, col: str, scale: float, j: int) -> None:
-    """Fig. 10's top panel for component ``j``: the measured series (enveloped: its legend says
-    how many readings each min/max pair stands for), the true value and the outliers."""
+    """Fig. 10's top panel for component ``j``: the measured series and the simulator's true
+    value, both enveloped (the legend says how many readings, and about how many seconds, each
+    min/max pair stands for: a zoom shows each bucket's range, not single readings), and the
+    injected outliers, every one of them."""
     t = table["t_s"].to_numpy(dtype=float)
     z = table[col].to_numpy(dtype=float) * scale
     k = bucket_size(len(t))
+    name = "measured"
+    if k > 1:
+        seconds = k * float(np.median(np.diff(t)))
+        name += f" (min and max of every {k} readings, ≈{seconds:.2g} s)"
     te, ze = envelope(t, z)
-    name = "measured" if k == 1 else f"measured (min and max of every {k} readings)"
     legend.line(te, ze, (1, j), "measured", name, line={"color": "#8c8c8c", "width": 0.8})
     if f"true_{col}" in table.columns:
-        s = stride(len(t))
-        true = table[f"true_{col}"].to_numpy(dtype=float)[s] * scale
-        legend.line(t[s], true, (1, j), "true", "true", line={"color": "black", "width": 0.9})
+        te, ye = envelope(t, table[f"true_{col}"].to_numpy(dtype=float) * scale)
+        legend.line(te, ye, (1, j), "true", "true", line={"color": "black", "width": 0.9})
     out = outliers(table, col)
     if out is not None and out.any():
         legend.line(
