@@ -362,6 +362,23 @@ def test_user_strings_are_escaped(report: tuple[Path, Path], tmp_path: Path) -> 
     assert shown["layout"]["title"]["text"] == spec["layout"]["title"]["text"]
 
 
+def test_a_folder_without_interactive_figures_gets_its_pngs_and_no_script(
+    report: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A comparison folder written before interactive figures existed (no ``interactive`` in
+    comparison.json) is reported as before: every figure a PNG, no Plotly, no script."""
+    folder, _ = report
+    copy = tmp_path / "cmp"
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("mission", "*.plotly.json"))
+    doc = json.loads((copy / COMPARISON_JSON).read_text())
+    del doc["interactive"]
+    (copy / COMPARISON_JSON).write_text(json.dumps(doc))
+    out = write_report(copy, tmp_path / "r.html")
+    page = _parse(out)
+    assert len(page.figure_imgs) == page.figures == len(doc["figures"]) and page.plots == []
+    assert "<script" not in out.read_text(encoding="utf-8")
+
+
 def test_report_command(report: tuple[Path, Path], tmp_path: Path) -> None:
     folder, _ = report
     target = tmp_path / "sub" / "page.html"
