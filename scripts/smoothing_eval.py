@@ -345,13 +345,14 @@ def figure(traces: dict[str, dict[str, pd.DataFrame]], path: Path, title: str) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from adaptnav.viz.plots import STYLES, envelope
+    from adaptnav.analysis.compare import filter_colour
+    from adaptnav.viz.plots import envelope
 
     fig, (ax3, axh) = plt.subplots(2, 1, figsize=(11, 7), sharex=True, constrained_layout=True)
     t0 = min(float(tr["forward"]["t_s"].iloc[0]) for tr in traces.values())
     first = next(iter(traces))
     for kind, tr in traces.items():
-        colour = STYLES.get(kind, ("tab:brown", "-"))[0]
+        colour = filter_colour(kind)
         for name, dash, lw in (("forward", "--", 1.0), ("smoothed", "-", 1.4)):
             e = tr[name]
             t = e["t_s"].to_numpy(dtype=float)

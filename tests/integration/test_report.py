@@ -1,6 +1,8 @@
-"""The HTML report: parsed without a browser (table rows, one data-URI <img> per figure, no
-external reference, escaped strings) and rendered in headless Chromium (every image decodes,
-the table has one row per filter, no network request), with a screenshot kept as an artifact.
+"""The HTML report: parsed without a browser (table rows, each figure either an interactive
+Plotly figure or a data-URI <img>, no external reference, escaped strings, one colour per
+filter in every figure) and rendered in headless Chromium (every interactive figure drawn,
+every image decodes, the table has one row per filter, no console error, no request leaving
+the file), with a screenshot kept as an artifact.
 
 Chromium is Debian's ``chromium`` package, driven by Playwright with that executable (never
 ``playwright install``). Without either the browser test is skipped, except under CI (``CI``
@@ -17,15 +19,19 @@ import re
 import shutil
 from html.parser import HTMLParser
 from pathlib import Path
+from typing import Any
 
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from adaptnav.analysis.compare import COMPARISON_JSON, compare
+from adaptnav.analysis import compare as compare_mod
+from adaptnav.analysis.compare import COMPARISON_JSON, Comparison, compare
 from adaptnav.api.results import CALIBRATION_FILE
 from adaptnav.cli import app
+from adaptnav.experiments import figures as sweep_figures
 from adaptnav.sim.scenarios import simulate
-from adaptnav.viz import plots
+from adaptnav.viz import interactive, plots
 from adaptnav.viz.report import ReportError, write_report
 from helpers import calibrated
 
@@ -40,14 +46,29 @@ CHROMIUM_ARGS = [
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
+INTERACTIVE = {"position_error", "noise_dvl", "noise_depth", "noise_inclinometer", "nis"}
+"""The demo's figures that the report shows interactive (time series); the others are PNGs."""
+
+
+def _save(cmp: Comparison, out: Path) -> Path:
+    return cmp.save(
+        out, figures=plots.comparison_figures(cmp), interactive=interactive.comparison_figures(cmp)
+    )
+
+
 @pytest.fixture(scope="module")
-def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """(comparison folder, report file) of the demo preset, mission inside the folder."""
+def compared(tmp_path_factory: pytest.TempPathFactory) -> tuple[Comparison, Path]:
+    """The comparison of the demo preset and its folder, mission inside the folder."""
     out = tmp_path_factory.mktemp("report")
     mission = simulate("demo", 4, out / "mission")
     cmp = compare(mission, FILTERS)
-    cmp.save(out, figures=plots.comparison_figures(cmp))
-    return out, write_report(out)
+    return cmp, _save(cmp, out)
+
+
+@pytest.fixture(scope="module")
+def report(compared: tuple[Comparison, Path]) -> tuple[Path, Path]:
+    """(comparison folder, report file) of the demo preset."""
+    return compared[1], write_report(compared[1])
 
 
 class _Page(HTMLParser):
@@ -63,6 +84,11 @@ class _Page(HTMLParser):
         self.captions: list[str] = []
         self.figure_imgs: list[str] = []
         self.imgs: list[str] = []
+        self.plots: list[str] = []
+        """Ids of the JSON specifications of the interactive figures' <div>s."""
+        self.scripts: dict[str, str] = {}
+        """Text of the <script> elements by id (``""`` for one without)."""
+        self._script: tuple[str, list[str]] | None = None
         self._cell: list[str] | None = None
         self._caption: list[str] | None = None
 
@@ -79,6 +105,11 @@ class _Page(HTMLParser):
             self.figures += 1
         if tag == "figcaption":
             self._caption = []
+        if tag == "div" and "plotly-figure" in (a.get("class") or "") and "figure" in self.stack:
+            self.plots.append(a.get("data-spec") or "")
+        if tag == "script":
+            assert "src" not in a, "a script from a file or the network"
+            self._script = (a.get("id") or "", [])
         if tag == "img":
             self.imgs.append(a.get("src") or "")
             if "figure" in self.stack:
@@ -92,6 +123,9 @@ class _Page(HTMLParser):
             self._cell = None
         if tag == "table":
             self.table = None
+        if tag == "script" and self._script is not None:
+            self.scripts[self._script[0]] = "".join(self._script[1])
+            self._script = None
         if tag == "figcaption" and self._caption is not None:
             self.captions.append("".join(self._caption).strip())
             self._caption = None
@@ -103,6 +137,8 @@ class _Page(HTMLParser):
         return self.tables.get("comparison", [])
 
     def handle_data(self, data: str) -> None:
+        if self._script is not None:
+            self._script[1].append(data)
         if self._cell is not None:
             self._cell.append(data)
         if self._caption is not None:
@@ -123,12 +159,18 @@ def test_report_has_the_table_and_every_figure(report: tuple[Path, Path]) -> Non
     assert [r[0] for r in page.rows] == [doc["labels"][n] for n in FILTERS]
     for row, name in zip(page.rows, FILTERS, strict=True):
         assert float(row[1]) == pytest.approx(doc["results"][name]["rmse_m"], abs=0.05)
-    assert page.figures == len(doc["figures"]) == len(page.figure_imgs) == len(page.imgs)
+    assert set(doc["interactive"]) == INTERACTIVE
+    assert page.figures == len(doc["figures"]) == len(page.figure_imgs) + len(page.plots)
+    assert len(page.imgs) == len(page.figure_imgs) == len(doc["figures"]) - len(INTERACTIVE)
+    assert sorted(page.plots) == sorted(f"spec-{stem}" for stem in INTERACTIVE)
     assert len(page.captions) == page.figures and all(len(c) > 40 for c in page.captions)
     for src in page.figure_imgs:
         head, data = src.split(",", 1)
         assert head == "data:image/png;base64"
         assert base64.b64decode(data)[:8] == PNG
+    for spec in page.plots:
+        figure = json.loads(page.scripts[spec])
+        assert figure["data"] and all(t["type"] == "scatter" for t in figure["data"])
 
 
 def test_report_shows_each_filters_nees(report: tuple[Path, Path]) -> None:
@@ -153,8 +195,7 @@ def smoothed_report(report: tuple[Path, Path], tmp_path_factory: pytest.TempPath
     """The report of two filters RTS-smoothed (docs/smoothing.md) on the same mission."""
     out = tmp_path_factory.mktemp("smoothed-report")
     cmp = compare(report[0] / "mission", ("meskf", "vb"), smooth=True)
-    cmp.save(out, figures=plots.comparison_figures(cmp))
-    return write_report(out)
+    return write_report(_save(cmp, out))
 
 
 def test_report_of_smoothed_runs_shows_forward_beside_smoothed(smoothed_report: Path) -> None:
@@ -176,8 +217,14 @@ def test_report_of_smoothed_runs_shows_forward_beside_smoothed(smoothed_report: 
     assert "forward solution" in caption and "RTS-smoothed" in caption
 
 
+def _outside_scripts(path: Path) -> str:
+    """The page's text without its <script> elements (the Plotly library and the figures'
+    data, whose words are not the page's)."""
+    return re.sub(r"<script[^>]*>.*?</script>", "", path.read_text(encoding="utf-8"), flags=re.S)
+
+
 def test_report_of_unsmoothed_runs_says_nothing_of_smoothing(report: tuple[Path, Path]) -> None:
-    text = report[1].read_text(encoding="utf-8")
+    text = _outside_scripts(report[1])
     assert "smooth" not in text.lower() and "forward" not in text.lower()
 
 
@@ -205,11 +252,11 @@ def test_report_of_runs_estimating_calibration_has_their_figure_and_table(
     )
     path = folder / "report.html"
     text = path.read_text(encoding="utf-8")
-    png = re.search(
-        r'<figure id="fig-calibration">\s*<img src="data:image/png;base64,([^"]+)"', text
-    )
-    assert png is not None and base64.b64decode(png.group(1))[:8] == PNG
     page = _parse(path)
+    assert "spec-calibration" in page.plots
+    spec = json.loads(page.scripts["spec-calibration"])
+    assert [a["text"] for a in spec["layout"]["annotations"]] == list(calibrated.TRUTH)
+    assert {t["legendgroup"] for t in spec["data"]} == {"meskf", "vb"}
     (caption,) = [c for c in page.captions if "calibration states the filters estimated" in c]
     assert "±2σ" in caption and "true value" in caption
     assert 'href="#calibration"' in text
@@ -254,9 +301,23 @@ def test_report_without_calibration_states_has_no_calibration_figure_or_table(
 
 
 def test_report_is_self_contained(report: tuple[Path, Path]) -> None:
+    """Nothing outside the scripts points elsewhere, no script has a source, the Plotly library
+    is inlined once and its config offers no way out of the page."""
     text = report[1].read_text(encoding="utf-8")
-    for needle in ('src="http', "src='http", "<script", "<link", "url(", "@import", "//cdn"):
-        assert needle not in text.lower(), needle
+    page = _parse(report[1])  # fails on a <script src=...>
+    outside = _outside_scripts(report[1]).lower()
+    for needle in ('src="http', "src='http", "<link", "url(", "@import", "//cdn", "http:"):
+        assert needle not in outside, needle
+    assert page.scripts["plotly-library"].startswith("/**\n* plotly.js v")
+    assert text.count("* plotly.js v") == 1  # inlined once, not once per figure
+    assert set(page.scripts) == {"plotly-library", "plotly-config", "render-figures"} | set(
+        page.plots
+    )
+    config = json.loads(page.scripts["plotly-config"])
+    assert config["displaylogo"] is False and config["showLink"] is False
+    assert config["typesetMath"] is False and "http" not in json.dumps(config)
+    for spec in page.plots:  # the figures' own data name no address either
+        assert "http" not in page.scripts[spec] and "mathjax" not in page.scripts[spec].lower()
 
 
 def test_report_ids_are_unique_and_every_link_lands(report: tuple[Path, Path]) -> None:
@@ -287,10 +348,35 @@ def test_user_strings_are_escaped(report: tuple[Path, Path], tmp_path: Path) -> 
     doc["mission"] = "<script>alert('x')</script>"
     doc["mission_dir"] = str(tmp_path / "<b>elsewhere</b>")
     (copy / COMPARISON_JSON).write_text(json.dumps(doc))
-    text = write_report(copy, tmp_path / "r.html").read_text(encoding="utf-8")
-    assert "<script" not in text and "<b>elsewhere" not in text
+    # A name inside an interactive figure's JSON must not close its <script> element either.
+    spec_file = copy / doc["interactive"]["nis"]
+    spec = json.loads(spec_file.read_text())
+    spec["layout"]["title"]["text"] = "</script><script>alert('y')</script>&"
+    spec_file.write_text(json.dumps(spec))
+    out = write_report(copy, tmp_path / "r.html")
+    text = out.read_text(encoding="utf-8")
+    assert "<script>alert" not in text and "<b>elsewhere" not in text
     assert "&lt;script&gt;alert(" in text and doc["mission"] in html.unescape(text)
     assert "mission.toml not found" in text
+    shown = json.loads(_parse(out).scripts["spec-nis"])
+    assert shown["layout"]["title"]["text"] == spec["layout"]["title"]["text"]
+
+
+def test_a_folder_without_interactive_figures_gets_its_pngs_and_no_script(
+    report: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A comparison folder written before interactive figures existed (no ``interactive`` in
+    comparison.json) is reported as before: every figure a PNG, no Plotly, no script."""
+    folder, _ = report
+    copy = tmp_path / "cmp"
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("mission", "*.plotly.json"))
+    doc = json.loads((copy / COMPARISON_JSON).read_text())
+    del doc["interactive"]
+    (copy / COMPARISON_JSON).write_text(json.dumps(doc))
+    out = write_report(copy, tmp_path / "r.html")
+    page = _parse(out)
+    assert len(page.figure_imgs) == page.figures == len(doc["figures"]) and page.plots == []
+    assert "<script" not in out.read_text(encoding="utf-8")
 
 
 def test_report_command(report: tuple[Path, Path], tmp_path: Path) -> None:
@@ -342,6 +428,8 @@ def test_a_missing_browser_skips_only_outside_ci(
 
 
 def test_report_renders_in_headless_chromium(report: tuple[Path, Path], tmp_path: Path) -> None:
+    """Every interactive figure is drawn (its SVG has a plot area and one line per trace of its
+    specification), every image decodes, no script fails and no request leaves the file."""
     executable = _chromium()
     from playwright.sync_api import sync_playwright
 
@@ -351,12 +439,20 @@ def test_report_renders_in_headless_chromium(report: tuple[Path, Path], tmp_path
     artifacts.mkdir(parents=True, exist_ok=True)
     shot = artifacts / "report.png"
     requests: list[str] = []
+    problems: list[str] = []
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS, timeout=60_000)
         try:
             page = browser.new_page(viewport={"width": 1280, "height": 900})
             page.on("request", lambda r: requests.append(r.url))
+            page.on("console", lambda m: problems.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: problems.append(str(e)))
             page.goto(path.resolve().as_uri(), wait_until="load")
+            drawn = page.evaluate(
+                "Array.from(document.querySelectorAll('div.plotly-figure')).map(d => [d.id, "
+                "d.querySelectorAll('.main-svg').length, d.querySelectorAll('g.trace').length, "
+                "d.getBoundingClientRect().height, (d.data || []).length])"
+            )
             images = page.evaluate(
                 "Array.from(document.images).map(i => [i.complete, i.naturalWidth, "
                 "i.naturalHeight, i.getBoundingClientRect().width])"
@@ -366,12 +462,106 @@ def test_report_renders_in_headless_chromium(report: tuple[Path, Path], tmp_path
             page.screenshot(path=str(shot), full_page=True)
         finally:
             browser.close()
-    assert len(images) == len(doc["figures"]) > 0
+    assert problems == []
+    assert sorted(d[0] for d in drawn) == sorted(f"plot-{stem}" for stem in INTERACTIVE)
+    for div, svgs, traces, height, data in drawn:
+        assert svgs > 0 and height > 200, div
+        assert traces == data > 0, div  # each trace of the specification drawn
+    assert len(images) == len(doc["figures"]) - len(INTERACTIVE) > 0
     for complete, width, height, shown in images:
         assert complete and width > 0 and height > 0 and shown > 0
     assert rows == len(FILTERS)
     assert [c.strip() for c in first_cells] == [doc["labels"][n] for n in FILTERS]
-    external = [u for u in requests if not u.startswith(("file:", "data:"))]
+    page_url = path.resolve().as_uri()
+    external = [u for u in requests if u != page_url and not u.startswith(("data:", "blob:"))]
     assert external == []
     assert shot.read_bytes()[:8] == PNG
     print(f"screenshot of the report: {shot}")
+
+
+# --- one colour per filter ---------------------------------------------------------------------
+
+SENTINEL = "#123456"
+"""A colour no figure module knows: given to VB-MAESKF in the one mapping, every figure must
+draw VB-MAESKF in it."""
+
+
+def _plotly_colours(figure: dict[str, Any]) -> list[tuple[str, str]]:
+    """(filter, colour) of each trace of an interactive figure that belongs to a filter."""
+    return [
+        (t["legendgroup"], (t.get("line") or {}).get("color") or t["marker"]["color"])
+        for t in figure["data"]
+        if t.get("legendgroup") in compare_mod.FILTER_NAMES
+    ]
+
+
+def _hex(colour: Any) -> str:
+    from matplotlib.colors import to_hex
+
+    return str(to_hex(colour))
+
+
+def _matplotlib_colours(fig: Any, labels: dict[str, str]) -> list[tuple[str, str]]:
+    """(filter, colour) of each line and bar drawn with a filter's label (``labels``: display
+    name → filter)."""
+    found = []
+    for ax in fig.axes:
+        for line in ax.lines:
+            if line.get_label() in labels:
+                found.append((labels[line.get_label()], _hex(line.get_color())))
+        for bars in ax.containers:
+            if bars.get_label() in labels:
+                found += [(labels[bars.get_label()], _hex(b.get_facecolor()[:3])) for b in bars]
+    return found
+
+
+def _sweep_table() -> pd.DataFrame:
+    """A hand-made sweep: two seeds, two gate coefficients, MESKF and VB-MAESKF."""
+    rows = [
+        {"preset": "p", "seed": seed, "filter": f, "q": q, "q_scale": qs, "rmse_m": 1.0,
+         "relative_rmse_pct": 0.1 * seed + q / 1000.0, "error": None}
+        for seed in (1, 2) for f in ("meskf", "vb") for q, qs in ((200.0, 1.0), (400.0, 10.0))
+    ]  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_every_figure_takes_each_filters_colour_from_the_one_mapping(
+    compared: tuple[Comparison, Path],
+    report: tuple[Path, Path],
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+) -> None:
+    """The report's interactive figures (as embedded), and, with VB-MAESKF's colour changed in
+    ``FILTER_COLOURS``, the interactive, the static and the sweep figures drawn again."""
+    cmp, _ = compared
+    page = _parse(report[1])
+    for spec in page.plots:
+        for name, colour in _plotly_colours(json.loads(page.scripts[spec])):
+            assert colour == compare_mod.FILTER_COLOURS[name], (spec, name)
+    monkeypatch.setitem(compare_mod.FILTER_COLOURS, "vb", SENTINEL)
+    colours = dict(compare_mod.FILTER_COLOURS)
+    labels = {compare_mod.FILTER_LABELS[n]: n for n in FILTERS}
+    drawn: list[tuple[str, str]] = []
+    for figure in interactive.comparison_figures(cmp).values():
+        drawn += _plotly_colours(json.loads(figure.to_json()))
+    for fig in plots.comparison_figures(cmp).values():
+        drawn += _matplotlib_colours(fig, labels)
+    figs: list[Any] = []
+    monkeypatch.setattr(sweep_figures, "_save", lambda fig, path, dpi: figs.append(fig) or path)
+    for plot in (sweep_figures.plot_q_sweep, sweep_figures.plot_monte_carlo):
+        plot(_sweep_table(), tmp_path / "sweep.png")
+    short = {sweep_figures.LABELS[n]: n for n in ("meskf", "vb")}
+    sweep = [c for fig in figs for c in _matplotlib_colours(fig, short)]
+    # The box plot's points carry no label: one point set per filter, in the ticks' order.
+    (box,) = figs[1].axes
+    points = [ln for ln in box.lines if ln.get_marker() == "o"]
+    ticks = [short[t.get_text()] for t in box.get_xticklabels()]
+    sweep += [(n, _hex(ln.get_color())) for n, ln in zip(ticks, points, strict=True)]
+    assert {n for n, _ in drawn} == set(FILTERS) and {n for n, _ in sweep} == {"meskf", "vb"}
+    wrong = [(n, c) for n, c in drawn + sweep if c.lower() != colours[n]]
+    assert wrong == []
+    assert ("vb", SENTINEL) in drawn and ("vb", SENTINEL) in sweep
+    import matplotlib.pyplot as plt
+
+    for fig in figs:  # drawn through pyplot, and not closed by the replaced _save
+        plt.close(fig)

@@ -37,6 +37,8 @@ solution's (:func:`adaptnav.analysis.evaluate.forward_metrics`) are kept in
                                the filters, the figures, and ``results`` = Comparison.to_json()
       figures/*.png            adaptnav.viz.plots (the paper's Figs. 7-10, ledger counts, NIS,
                                the calibration states when some run estimated them)
+      figures/*.plotly.json    adaptnav.viz.interactive: the time series among them as
+                               interactive figures (Plotly), listed under ``interactive``
 
 which :func:`adaptnav.viz.report.write_report` turns into one HTML page.
 
@@ -52,7 +54,7 @@ import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -65,13 +67,16 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_FILTERS",
+    "FILTER_COLOURS",
     "FILTER_LABELS",
     "FILTER_NAMES",
     "NEES_BAND_TEXT",
     "NEES_COLUMNS",
+    "OTHER_COLOUR",
     "PAPER_TABLE3",
     "Comparison",
     "compare",
+    "filter_colour",
     "parse_filters",
     "simulation_info",
 ]
@@ -107,6 +112,20 @@ FILTER_LABELS: dict[str, str] = {
     "oracle": "oracle ESKF (true R)",
     "floor": "DVL dead reckoning",
 }
+FILTER_COLOURS: dict[str, str] = {
+    "meskf": "#d62728",
+    "maeskf": "#1f77b4",
+    "vb": "#2ca02c",
+    "robust": "#bcbd22",
+    "oracle": "#9467bd",
+    "floor": "#ff7f0e",
+}
+"""The one colour of each filter in every figure: the report's static (matplotlib) and
+interactive (Plotly) figures, the sweep figures (:mod:`adaptnav.experiments.figures`) and the
+results pages' scripts all take it from here (:func:`filter_colour`; docs/report.md). Hex codes
+of matplotlib's tab10 palette, which both libraries read; black is kept for the reference."""
+OTHER_COLOUR = "#8c564b"
+"""The colour of a name outside :data:`FILTER_COLOURS` (tab10's brown)."""
 
 FORMAT_NAME = "adaptnav-comparison"
 FORMAT_VERSION = 1
@@ -116,8 +135,25 @@ FIGURES_DIR = "figures"
 TRUTH_FILE = "truth.parquet"
 SIMULATION_FILE = "simulation.json"
 FIGURE_DPI = 110
+INTERACTIVE_SUFFIX = ".plotly.json"
+"""File ending of an interactive figure's specification (Plotly's JSON) in ``figures/``."""
+
+
+class SupportsToJson(Protocol):
+    """An interactive figure: anything that writes its specification as JSON text (a Plotly
+    figure)."""
+
+    def to_json(self) -> str:
+        """The figure's specification."""
+        ...
+
 
 Progress = Callable[[str], None]
+
+
+def filter_colour(name: str) -> str:
+    """The colour of filter ``name`` in every figure (:data:`FILTER_COLOURS`)."""
+    return FILTER_COLOURS.get(name, OTHER_COLOUR)
 
 
 def parse_filters(spec: str | Iterable[str]) -> tuple[str, ...]:
@@ -272,11 +308,15 @@ class Comparison:
         *,
         mission_dir: str | Path | None = None,
         figures: Mapping[str, Figure] | None = None,
+        interactive: Mapping[str, SupportsToJson] | None = None,
     ) -> Path:
         """Write the comparison folder (see the module docstring); returns it.
 
         ``figures``: the figures to write into ``figures/`` by file stem
         (``adaptnav.viz.plots.comparison_figures(self)``; the analysis layer draws nothing).
+        ``interactive``: interactive versions of some of them, by the same stems
+        (``adaptnav.viz.interactive.comparison_figures(self)``), written as
+        ``figures/<stem>.plotly.json`` for the report to embed (docs/report.md).
 
         ``mission_dir``: the mission folder to record in comparison.json and in each run's
         meta instead of the mission's root, e.g. where a mission written into a temporary
@@ -304,6 +344,10 @@ class Comparison:
         for stem, fig in (figures or {}).items():
             fig.savefig(fig_dir / f"{stem}.png", dpi=FIGURE_DPI)
             figure_files.append(f"{FIGURES_DIR}/{stem}.png")
+        interactive_files = {}
+        for stem, spec in (interactive or {}).items():
+            (fig_dir / f"{stem}{INTERACTIVE_SUFFIX}").write_text(spec.to_json(), encoding="utf-8")
+            interactive_files[stem] = f"{FIGURES_DIR}/{stem}{INTERACTIVE_SUFFIX}"
 
         root = Path(self.mission.root).resolve()
         sim = simulation_info(root)
@@ -319,6 +363,7 @@ class Comparison:
             "labels": {n: FILTER_LABELS.get(n, n) for n in self.results},
             "initial": self.initial,
             "figures": figure_files,
+            "interactive": interactive_files,
             "results": self.to_json(),
         }
         text = json.dumps(jsonable(doc, "comparison.json"), indent=2, allow_nan=False)

@@ -134,6 +134,7 @@ def compare_cmd(
     from adaptnav.analysis.compare import compare, parse_filters
     from adaptnav.core.units import UnitError
     from adaptnav.mission import MissionError, load_mission
+    from adaptnav.viz import interactive  # Plotly: imported only when a comparison is drawn
 
     try:
         names = parse_filters(filters)
@@ -150,7 +151,11 @@ def compare_cmd(
             # mission without a reference; OSError a missing or unreadable folder.
             fail(str(exc))
         err_console.print(f"writing {out}/ ...")
-        cmp.save(tmp, figures=plots.comparison_figures(cmp))
+        cmp.save(
+            tmp,
+            figures=plots.comparison_figures(cmp),
+            interactive=interactive.comparison_figures(cmp),
+        )
     if as_json:
         typer.echo(json.dumps(cmp.to_json(), allow_nan=False))
         return

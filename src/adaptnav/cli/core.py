@@ -51,6 +51,7 @@ def demo(
     from adaptnav.cli.compare import comparison_table
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
+    from adaptnav.viz import interactive
     from adaptnav.viz.report import write_report
 
     if preset not in PRESETS:
@@ -66,6 +67,7 @@ def demo(
             tmp,
             mission_dir=out.absolute() / "mission",
             figures=plots.comparison_figures(cmp),
+            interactive=interactive.comparison_figures(cmp),
         )
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from adaptnav.analysis.compare import filter_colour
 from adaptnav.experiments.stats import curve, finished
 
 __all__ = ["LABELS", "plot_monte_carlo", "plot_process_noise", "plot_q_sweep"]
@@ -22,11 +23,8 @@ __all__ = ["LABELS", "plot_monte_carlo", "plot_process_noise", "plot_q_sweep"]
 LABELS = {
     "meskf": "MESKF", "maeskf": "MAESKF", "vb": "VB-MAESKF", "robust": "robust", "oracle": "oracle",
 }  # fmt: skip
-"""Display names of the filters in the figures."""
-_COLORS = {
-    "meskf": "tab:red", "maeskf": "tab:orange", "vb": "tab:blue", "robust": "tab:olive",
-    "oracle": "tab:gray",
-}  # fmt: skip
+"""Display names of the filters in the figures (short: the sweep legends are narrow). Their
+colours are the report's (:func:`adaptnav.analysis.compare.filter_colour`)."""
 
 
 def _axes(n: int, title: str) -> tuple[Any, list[Any]]:
@@ -59,7 +57,7 @@ def _curve_plot(
     ok = finished(table)
     for ax, preset in zip(axes, presets, strict=False):
         for filt, g in c[c["preset"] == preset].groupby("filter", sort=False):
-            color = _COLORS.get(str(filt))
+            color = filter_colour(str(filt))
             x = g[parameter].to_numpy(dtype=float)
             ax.plot(x, g["mean"], "o-", ms=3, color=color, label=f"{LABELS.get(str(filt), filt)}")
             ax.fill_between(x, g["min"], g["max"], color=color, alpha=0.15, lw=0)
@@ -69,7 +67,7 @@ def _curve_plot(
                 mean = float(g["relative_rmse_pct"].mean())
                 style = "--" if filt == "vb" else ":"
                 name = f"{LABELS.get(str(filt), filt)}{', no gate' if filt == 'vb' else ''}"
-                ax.axhline(mean, ls=style, color=_COLORS.get(str(filt)), label=name)
+                ax.axhline(mean, ls=style, color=filter_colour(str(filt)), label=name)
         n_seeds = ok[ok["preset"] == preset]["seed"].nunique()
         ax.set_title(f"{preset} ({n_seeds} seed{'s' if n_seeds != 1 else ''}; band: min-max)")
         ax.set_xlabel(xlabel)
@@ -111,7 +109,7 @@ def plot_monte_carlo(table: pd.DataFrame, path: Path, dpi: int = 100) -> Path:
             ax.set_xticks(range(1, len(filters) + 1), [LABELS.get(f, f) for f in filters])
         for i, (f, v) in enumerate(zip(filters, data, strict=True), start=1):
             x = i + rng.uniform(-0.12, 0.12, v.size)
-            ax.plot(x, v, "o", ms=3, alpha=0.6, color=_COLORS.get(f))
+            ax.plot(x, v, "o", ms=3, alpha=0.6, color=filter_colour(f))
         ax.set_title(f"{preset} ({g['seed'].nunique()} seeds)")
         ax.set_ylabel("relative RMSE (%)")
         ax.grid(True, axis="y", alpha=0.3)

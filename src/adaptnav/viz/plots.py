@@ -16,9 +16,12 @@
 
 Figures are built as :class:`matplotlib.figure.Figure` objects without pyplot, so nothing is
 registered in pyplot's global figure manager and nothing needs closing; ``fig.savefig`` renders
-them with the Agg canvas. Long series are reduced to a few thousand points by a min/max
-envelope (:func:`envelope`), which keeps spikes (outliers, R̂ jumps) that plain striding would
-drop. Times are minutes since the shared navigation start; angles are shown in degrees.
+them with the Agg canvas. The series they draw come from :mod:`adaptnav.viz.series`, shared
+with the report's interactive figures (:mod:`adaptnav.viz.interactive`); each filter's colour is
+:func:`adaptnav.analysis.compare.filter_colour`. Long series are reduced to a few thousand
+points by a min/max envelope (:func:`envelope`), which keeps spikes (outliers, R̂ jumps) that
+plain striding would drop. Times are minutes since the shared navigation start; angles are
+shown in degrees.
 """
 
 from __future__ import annotations
@@ -33,8 +36,27 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from adaptnav.analysis.compare import filter_colour
 from adaptnav.analysis.evaluate import Metrics, position_errors
 from adaptnav.api.results import Result
+from adaptnav.viz.series import (
+    ADAPTIVE,
+    DISPLAY,
+    MAX_POINTS,
+    NIS_WINDOW,
+    actual_error2,
+    aided_sensors,
+    envelope,
+    filter_label,
+    minutes,
+    nis_means,
+    nominal_r,
+    outliers,
+    r_hat,
+    start_time,
+    stride,
+    true_sigma_column,
+)
 
 if TYPE_CHECKING:
     from adaptnav.analysis.compare import Comparison
@@ -44,7 +66,8 @@ Array = NDArray[np.float64]
 
 __all__ = [
     "MAX_POINTS",
-    "STYLES",
+    "NIS_WINDOW",
+    "aided_sensors",
     "calibration",
     "comparison_figures",
     "envelope",
@@ -55,93 +78,23 @@ __all__ = [
     "trajectory",
 ]
 
-MAX_POINTS = 4000
-"""Most points drawn per series (after :func:`envelope` or striding)."""
-
-STYLES: dict[str, tuple[str, Any]] = {
-    "meskf": ("tab:red", "--"),
-    "maeskf": ("tab:blue", "-."),
-    "vb": ("tab:green", "-"),
-    "robust": ("tab:olive", (0, (8, 2))),
-    "oracle": ("tab:purple", ":"),
-    "floor": ("tab:orange", (0, (6, 1.5, 1, 1.5, 1, 1.5))),
+_DASHES: dict[str, Any] = {
+    "meskf": "--",
+    "maeskf": "-.",
+    "vb": "-",
+    "robust": (0, (8, 2)),
+    "oracle": ":",
+    "floor": (0, (6, 1.5, 1, 1.5, 1, 1.5)),
 }
-"""Colour and line style per filter: colours and dashes both differ, so the lines stay apart
-in grey print too. The reference is always black."""
-_OTHER_STYLE = ("tab:brown", (0, (3, 1)))
-_LABELS = {
-    "meskf": "MESKF",
-    "maeskf": "MAESKF",
-    "vb": "VB-MAESKF",
-    "robust": "robust (VB, bounded R̂)",
-    "oracle": "oracle ESKF (true R)",
-    "floor": "DVL dead reckoning",
-}
-_ADAPTIVE = ("maeskf", "vb", "robust")
-"""Filters whose R̂ Fig. 10 shows (MESKF's is the nominal R, the oracle's the true σ²)."""
+"""Line style per filter; its colour is :func:`adaptnav.analysis.compare.filter_colour`, read
+at each drawing. Colours and dashes both differ, so the lines stay apart in grey print too.
+The reference is always black."""
+_OTHER_DASH = (0, (3, 1))
 _HATCHES = ("", "//", "..", "xx", "\\\\", "oo")
-
-# Per sensor kind: a scale from SI to the shown unit, the shown unit, component names.
-_DISPLAY: dict[str, tuple[float, str, tuple[str, ...]]] = {
-    "dvl": (1.0, "m/s", ("x (forward)", "y (right)", "z (down)")),
-    "depth": (1.0, "m", ("depth",)),
-    "inclinometer": (180.0 / math.pi, "deg", ("roll", "pitch")),
-    "heading": (180.0 / math.pi, "deg", ("yaw",)),
-    "gnss": (1.0, "m", ("north", "east", "height")),
-    "nhc": (1.0, "m/s", ("y (lateral)", "z (vertical)")),
-}
-ERROR_WINDOW = 30
-"""Readings per running mean of the actual squared measurement error in :func:`noise_variance`."""
-_TRUE_SIGMA_COLUMNS = ("sigma_m_s", "sigma_m", "sigma_rad")
-"""The simulator's per-reading true σ column, one of these per sensor table."""
 
 
 def _style(name: str) -> tuple[str, Any]:
-    return STYLES.get(name, _OTHER_STYLE)
-
-
-def _label(name: str) -> str:
-    return _LABELS.get(name, name)
-
-
-def envelope(t: Array, y: Array, max_points: int = MAX_POINTS) -> tuple[Array, Array]:
-    """At most ``max_points`` of the series ``y(t)`` keeping each bucket's minimum and maximum
-    in time order, so a one-sample spike survives. NaN gaps stay gaps (an all-NaN bucket gives
-    NaN)."""
-    t = np.asarray(t, dtype=float)
-    y = np.asarray(y, dtype=float)
-    n = t.size
-    if n <= max_points:
-        return t, y
-    buckets = max(max_points // 2, 1)
-    k = math.ceil(n / buckets)
-    pad = buckets * k - n
-    yp = np.concatenate([y, np.full(pad, np.nan)]).reshape(buckets, k)
-    finite = np.isfinite(yp)
-    i_min = np.argmin(np.where(finite, yp, np.inf), axis=1)
-    i_max = np.argmax(np.where(finite, yp, -np.inf), axis=1)
-    base = np.arange(buckets) * k
-    first = base + np.minimum(i_min, i_max)
-    second = base + np.maximum(i_min, i_max)
-    idx = np.stack([first, second], axis=1).reshape(-1)
-    idx = np.minimum(idx, n - 1)
-    empty = np.repeat(~finite.any(axis=1), 2)
-    ys = np.where(empty, np.nan, y[idx])
-    return t[idx], ys
-
-
-def _stride(n: int, max_points: int = MAX_POINTS) -> slice:
-    return slice(None, None, max(1, math.ceil(n / max_points)))
-
-
-def _minutes(t: Array, t0: float) -> Array:
-    return (np.asarray(t, dtype=float) - t0) / 60.0
-
-
-def _start_time(results: Mapping[str, Result], t0: float | None) -> float:
-    if t0 is not None and math.isfinite(t0):
-        return t0
-    return min(float(r.solution["t_s"].iloc[0]) for r in results.values())
+    return filter_colour(name), _DASHES.get(name, _OTHER_DASH)
 
 
 def _ne(lat: Array, lon: Array, h: Array, origin: tuple[float, float, float]) -> Array:
@@ -155,14 +108,14 @@ def trajectory(
 ) -> Figure:
     """Figs. 7/8: each run's track (east, north from the reference's position at the start)
     over the reference, and a zoom on the end of the run, where the errors have grown."""
-    start = _start_time(results, t0)
+    start = start_time(results, t0)
     ref_ne, tracks = _tracks(results, truth, start)
     extent = float(np.ptp(ref_ne[:, :2], axis=0).max()) if len(ref_ne) > 1 else 0.0
     scale, unit = (1000.0, "km") if extent > 5000.0 else (1.0, "m")
 
     fig = Figure(figsize=(12, 5.6), layout="constrained")
     ax_all, ax_end = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.4, 1.0]})
-    s = _stride(len(ref_ne))
+    s = stride(len(ref_ne))
     for ax in (ax_all, ax_end):
         ax.plot(
             ref_ne[s, 1] / scale, ref_ne[s, 0] / scale, color="black", lw=2.4, label="reference"
@@ -171,7 +124,7 @@ def trajectory(
             colour, dash = _style(name)
             ax.plot(
                 track[:, 1] / scale, track[:, 0] / scale,
-                color=colour, ls=dash, lw=1.4, label=_label(name),
+                color=colour, ls=dash, lw=1.4, label=filter_label(name),
             )  # fmt: skip
         ax.set_xlabel(f"east of the start ({unit})")
         ax.set_ylabel(f"north of the start ({unit})")
@@ -207,7 +160,7 @@ def _tracks(
     for name, r in results.items():
         sol = r.solution
         sol = sol[sol["t_s"].to_numpy(dtype=float) >= start]
-        s = _stride(len(sol))
+        s = stride(len(sol))
         tracks[name] = _ne(
             sol["lat_rad"].to_numpy(dtype=float)[s],
             sol["lon_rad"].to_numpy(dtype=float)[s],
@@ -246,7 +199,7 @@ def position_error(
     the same axes: the forward solutions (left) and the RTS-smoothed ones (right), each
     horizontal error with the claimed 2σ (dotted, ``2 √(σ_N² + σ_E²)``); a run that was not
     smoothed (the floor) is drawn alike in both."""
-    start = _start_time(results, t0)
+    start = start_time(results, t0)
     if all(r.forward is None for r in results.values()):
         fig = Figure(figsize=(11, 6.5), layout="constrained")
         ax3, axh = fig.subplots(2, 1, sharex=True)
@@ -284,13 +237,13 @@ def _error_panels(
         t = err["t_s"].to_numpy(dtype=float)
         for ax, col in ((ax3, "error_m"), (axh, "horizontal_m")):
             te, ye = envelope(t, err[col].to_numpy(dtype=float))
-            ax.plot(_minutes(te, start), ye, color=colour, ls=dash, lw=1.3, label=_label(name))
+            ax.plot(minutes(te, start), ye, color=colour, ls=dash, lw=1.3, label=filter_label(name))
         if sigma:
             t_sol = solution["t_s"].to_numpy(dtype=float)
             sd_n, sd_e = (solution[c].to_numpy(dtype=float) for c in ("sd_dr_N", "sd_dr_E"))
             two_sd = 2.0 * np.hypot(sd_n, sd_e)
             ts, ys = envelope(t_sol, two_sd)
-            axh.plot(_minutes(ts, start), ys, color=colour, ls=":", lw=0.9)
+            axh.plot(minutes(ts, start), ys, color=colour, ls=":", lw=0.9)
     axh.set_xlabel("time since navigation start (min)")
     for ax in (ax3, axh):
         ax.grid(True, alpha=0.3)
@@ -301,37 +254,28 @@ def _error_panels(
         ax3.legend(loc="upper left", fontsize=8)
 
 
-def _nominal_r(mission: Mission, sensor: str, dim: int) -> Array:
-    sigma = np.atleast_1d(np.asarray(mission.config.sensors[sensor].sigma_si(), dtype=float))
-    return np.broadcast_to(sigma**2, (dim,)).astype(float)
-
-
-def _true_sigma_column(table: pd.DataFrame) -> str | None:
-    return next((c for c in _TRUE_SIGMA_COLUMNS if c in table.columns), None)
-
-
 def noise_variance(
     results: Mapping[str, Result],
     mission: Mission,
     sensor: str,
     *,
     t0: float | None = None,
-    filters: Sequence[str] = _ADAPTIVE,
+    filters: Sequence[str] = ADAPTIVE,
 ) -> Figure:
     """Fig. 10 for one aiding sensor: its measurements per component (top; the simulator's
     true value in black and its injected outliers as red crosses when the table has them) and
     the R̂ that each of ``filters`` used at each reading (bottom, log scale), with the nominal
     R (grey dashes) and, for a simulated mission, the true σ² (black)."""
     cfg = mission.config.sensors[sensor]
-    scale, unit, comp_names = _DISPLAY.get(cfg.kind, (1.0, "SI", ()))
+    scale, unit, comp_names = DISPLAY.get(cfg.kind, (1.0, "SI", ()))
     columns = cfg.columns
     dim = len(columns)
-    start = _start_time(results, t0)
+    start = start_time(results, t0)
     table = mission.tables.get(sensor)
     if table is not None:
         table = table[table["t_s"].to_numpy(dtype=float) > start]
-    nominal = _nominal_r(mission, sensor, dim)
-    sigma_col = None if table is None else _true_sigma_column(table)
+    nominal = nominal_r(mission, sensor, dim)
+    sigma_col = None if table is None else true_sigma_column(table)
 
     fig = Figure(figsize=(max(5.0 * dim, 7.0), 6.5), layout="constrained")
     axes = np.asarray(fig.subplots(2, dim, sharex=True, squeeze=False))
@@ -355,7 +299,7 @@ def noise_variance(
                 table["t_s"].to_numpy(dtype=float),
                 (table[sigma_col].to_numpy(dtype=float) * scale) ** 2,
             )
-            ax_r.plot(_minutes(te, start), se, color="black", lw=1.0, zorder=4, label="true σ²")
+            ax_r.plot(minutes(te, start), se, color="black", lw=1.0, zorder=4, label="true σ²")
         ax_r.axhline(
             nominal[j] * scale**2, color="0.45", ls=(0, (4, 2)), lw=1.2, zorder=4,
             label="nominal R",
@@ -381,23 +325,17 @@ def _measurements(ax: Axes, table: pd.DataFrame, col: str, scale: float, start: 
     and its injected outliers when the table has them."""
     t = table["t_s"].to_numpy(dtype=float)
     te, ze = envelope(t, table[col].to_numpy(dtype=float) * scale)
-    ax.plot(_minutes(te, start), ze, color="tab:gray", lw=0.8, label="measured")
+    ax.plot(minutes(te, start), ze, color="tab:gray", lw=0.8, label="measured")
     if f"true_{col}" in table.columns:
-        s = _stride(len(table))
+        s = stride(len(table))
         truth = table[f"true_{col}"].to_numpy(dtype=float) * scale
-        ax.plot(_minutes(t[s], start), truth[s], color="black", lw=0.7, label="true")
-    if "is_outlier" in table.columns:
-        out = table["is_outlier"].to_numpy(dtype=bool)
-        # An outlier event spikes only some axes: mark it on those (spike_<axis>_m_s).
-        spike = f"spike_{col.split('_')[0][-1]}_m_s"
-        if spike in table.columns:
-            # Not in place: to_numpy may be a (read-only) view of the mission's table.
-            out = out & (table[spike].to_numpy(dtype=float) != 0.0)
-        if out.any():
-            ax.plot(
-                _minutes(t[out], start), table[col].to_numpy(dtype=float)[out] * scale,
-                "x", color="tab:red", ms=4, label="injected outlier",
-            )  # fmt: skip
+        ax.plot(minutes(t[s], start), truth[s], color="black", lw=0.7, label="true")
+    out = outliers(table, col)
+    if out is not None and out.any():
+        ax.plot(
+            minutes(t[out], start), table[col].to_numpy(dtype=float)[out] * scale,
+            "x", color="tab:red", ms=4, label="injected outlier",
+        )  # fmt: skip
 
 
 def _filter_variances(
@@ -414,19 +352,16 @@ def _filter_variances(
     for name in filters:
         if name not in results:
             continue
-        noise = results[name].noise
-        rows = noise[(noise["sensor"] == sensor) & (noise["component"] == component)]
-        if rows.empty:
+        found = r_hat(results[name], sensor, component)
+        if found is None:
             continue
         colour, dash = _style(name)
-        te, re = envelope(
-            rows["t_s"].to_numpy(dtype=float), rows["r_hat"].to_numpy(dtype=float) * scale**2
-        )
+        te, re = envelope(found[0], found[1] * scale**2)
         # Layers: the noisy matching estimate (MAESKF) translucent at the bottom, the
         # references over it, VB-MAESKF's smooth estimate on top.
         last = name == filters[-1]
         ax.plot(
-            _minutes(te, start), re, color=colour, ls=dash, lw=1.2, label=_label(name),
+            minutes(te, start), re, color=colour, ls=dash, lw=1.2, label=filter_label(name),
             zorder=5 if last else 2, alpha=1.0 if last else 0.55,
         )  # fmt: skip
 
@@ -434,15 +369,10 @@ def _filter_variances(
 def _actual_error(ax: Axes, table: pd.DataFrame, col: str, scale: float, start: float) -> None:
     """A running mean of the squared measurement error (measured minus the simulator's true
     value) over :data:`ERROR_WINDOW` readings or more, on Fig. 10's bottom panel."""
-    # What the errors really were (pendulum error and outliers included, which the
-    # simulator's σ leaves out): the reference an estimate of R can be held against.
-    # A longer mission gets a longer mean, so the drawn curve stays a line, not a band.
-    window = max(ERROR_WINDOW, len(table) // 500)
-    err = table[col].to_numpy(dtype=float) - table[f"true_{col}"].to_numpy(dtype=float)
-    err2 = pd.Series((err * scale) ** 2).rolling(window, min_periods=window // 2).mean()
-    te, ee = envelope(table["t_s"].to_numpy(dtype=float), err2.to_numpy(dtype=float))
+    window, t, err2 = actual_error2(table, col, scale)
+    te, ee = envelope(t, err2)
     ax.plot(
-        _minutes(te, start), ee, color="black", ls=":", lw=1.1, zorder=4,
+        minutes(te, start), ee, color="black", ls=":", lw=1.1, zorder=4,
         label=f"actual error², mean of {window}",
     )  # fmt: skip
 
@@ -483,7 +413,7 @@ def ledger_counts(
     window and initialisation-only sensors are left out). ``metrics`` is accepted for symmetry and
     unused: its counts are totals over the whole mission, alignment window included."""
     del metrics
-    start = _start_time(results, t0)
+    start = start_time(results, t0)
     # A baseline without a ledger (the DVL dead reckoning) has no readings to count.
     results = {n: r for n, r in results.items() if not r.ledger.empty}
     sensors, counts = _navigation_counts(results, start)
@@ -505,7 +435,7 @@ def ledger_counts(
             bars = ax.bar(
                 x + (i - (len(names) - 1) / 2) * width, values, width,
                 color=colour, hatch=_HATCHES[i % len(_HATCHES)], edgecolor="black", lw=0.5,
-                label=_label(name),
+                label=filter_label(name),
             )  # fmt: skip
             ax.bar_label(bars, fontsize=7, rotation=90, padding=2)
             top = max(top, *values, 0)
@@ -521,28 +451,12 @@ def ledger_counts(
     return fig
 
 
-NIS_WINDOW = 100
-"""Readings per running mean in :func:`nis`."""
-
-
 def nis(results: Mapping[str, Result], *, t0: float | None = None) -> Figure:
     """Running mean (over :data:`NIS_WINDOW` used readings) of each reading's NIS divided by
     its dimension, per aided sensor and filter; 1 is what a consistent filter gives
     (docs/metrics.md, 'NIS')."""
-    start = _start_time(results, t0)
-    per_sensor: dict[str, dict[str, tuple[Array, Array]]] = {}
-    r_cols = [c for c in next(iter(results.values())).ledger.columns if c.startswith("r_")]
-    for name, r in results.items():
-        ledger = r.ledger
-        used = ledger[(ledger["fate"] == "used") & np.isfinite(ledger["statistic"].astype(float))]
-        for sensor, rows in used.groupby("sensor"):
-            dim = np.isfinite(rows[r_cols].to_numpy(dtype=float)).sum(axis=1)
-            value = rows["statistic"].to_numpy(dtype=float) / np.maximum(dim, 1)
-            mean = pd.Series(value).rolling(NIS_WINDOW, min_periods=1).mean().to_numpy()
-            per_sensor.setdefault(str(sensor), {})[name] = (
-                rows["t"].to_numpy(dtype=float),
-                np.asarray(mean, dtype=float),
-            )
+    start = start_time(results, t0)
+    per_sensor = nis_means(results)
     sensors = sorted(per_sensor)
     fig = Figure(figsize=(11, 2.6 * max(len(sensors), 1) + 0.6), layout="constrained")
     axes = np.atleast_1d(fig.subplots(max(len(sensors), 1), 1, sharex=True, squeeze=False)[:, 0])
@@ -550,7 +464,7 @@ def nis(results: Mapping[str, Result], *, t0: float | None = None) -> Figure:
         for name, (t, mean) in per_sensor[sensor].items():
             colour, dash = _style(name)
             te, me = envelope(t, mean)
-            ax.plot(_minutes(te, start), me, color=colour, ls=dash, lw=1.2, label=_label(name))
+            ax.plot(minutes(te, start), me, color=colour, ls=dash, lw=1.2, label=filter_label(name))
         ax.axhline(1.0, color="black", lw=1.0, label="consistent (1)")
         ax.set_yscale("log")
         ax.set_ylabel(f"{sensor}: NIS / dim")
@@ -574,7 +488,7 @@ def calibration(
     ±2σ (dotted) over time, and the true value in black where ``truth`` has it (report units,
     :func:`adaptnav.analysis.calibration.true_values`). A smoothed run is drawn as its forward
     solution, the filter learning the state as it ran (docs/smoothing.md)."""
-    start = _start_time(results, t0)
+    start = start_time(results, t0)
     states = list(units)
     ncols = min(len(states), 3)
     nrows = math.ceil(len(states) / ncols)
@@ -587,11 +501,11 @@ def calibration(
             if state not in sol.columns:
                 continue
             colour, dash = _style(name)
-            s = _stride(len(sol))
-            t = _minutes(sol["t_s"].to_numpy(dtype=float)[s], start)
+            s = stride(len(sol))
+            t = minutes(sol["t_s"].to_numpy(dtype=float)[s], start)
             est = sol[state].to_numpy(dtype=float)[s] * factor
             two_sd = 2.0 * sol[f"sd_{state}"].to_numpy(dtype=float)[s] * factor
-            ax.plot(t, est, color=colour, ls=dash, lw=1.3, label=_label(name))
+            ax.plot(t, est, color=colour, ls=dash, lw=1.3, label=filter_label(name))
             for band in (est - two_sd, est + two_sd):
                 ax.plot(t, band, color=colour, ls=":", lw=0.9)
         if truth is not None and state in truth:
@@ -615,15 +529,6 @@ def calibration(
     )  # fmt: skip
     fig.suptitle("calibration states: estimate and ±2σ (dotted) over time")
     return fig
-
-
-def aided_sensors(mission: Mission) -> list[str]:
-    """The mission's sensors with ``use = "aid"`` and a table, in configuration order."""
-    return [
-        name
-        for name, cfg in mission.config.sensors.items()
-        if cfg.use == "aid" and name in mission.tables
-    ]
 
 
 def comparison_figures(cmp: Comparison) -> dict[str, Figure]:

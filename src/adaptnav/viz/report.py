@@ -26,12 +26,18 @@ into one HTML file a person reads from top to bottom:
    when known (``<table id="calibration-estimates">``,
    :func:`adaptnav.analysis.calibration.true_values`; docs/metrics.md, 'Calibration');
 5. every figure (the paper's Figs. 7-10, ledger counts, NIS, the calibration states) as a
-   ``<figure>`` with its PNG as a ``data:`` URI and a caption saying what to look at;
+   ``<figure>`` with a caption saying what to look at: the time series that ``comparison.json``
+   lists under ``interactive`` (position error, each sensor's measurements and R̂, NIS,
+   calibration states; :mod:`adaptnav.viz.interactive`) as zoomable Plotly figures, the others
+   (trajectory, ledger counts) as their PNG in a ``data:`` URI;
 6. the ledger counts (``<table id="ledger">``), the divergence guard's events
    (docs/robustness.md) and the shared initial alignment (docs/alignment.md).
 
-The page needs nothing else: no scripts, no external style sheets, fonts or images, and every
-string from the files is escaped (the templates are rendered with ``autoescape``).
+The page needs nothing else (docs/report.md): the Plotly library is inlined once, each
+interactive figure's data sits in a ``<script type="application/json">`` element and one small
+script (``templates/render.js``) draws them; there are no external scripts, style sheets, fonts
+or images and nothing is fetched. Every string from the files is escaped (the templates are
+rendered with ``autoescape``; the figures' JSON by :func:`_script_json`).
 """
 
 from __future__ import annotations
@@ -47,6 +53,7 @@ from pathlib import Path
 from typing import Any
 
 import jinja2
+from markupsafe import Markup
 
 from adaptnav.analysis.calibration import true_values
 from adaptnav.analysis.compare import (
@@ -59,6 +66,7 @@ from adaptnav.analysis.compare import (
 )
 from adaptnav.api.results import CALIBRATION_FILE
 from adaptnav.mission import MissionConfig, MissionError, load_config
+from adaptnav.viz.series import MAX_POINTS
 
 __all__ = ["REPORT_FILE", "ReportData", "ReportError", "report_data", "write_report"]
 
@@ -66,6 +74,16 @@ REPORT_FILE = "report.html"
 MISSION_SUBDIR = "mission"
 TEMPLATE = "report.html.j2"
 EVENTS_SHOWN = 12
+PLOTLY_CONFIG: dict[str, Any] = {
+    "displaylogo": False,
+    "showLink": False,
+    "showSendToCloud": False,
+    "typesetMath": False,
+    "responsive": True,
+    "toImageButtonOptions": {"format": "png", "scale": 2},
+}
+"""The interactive figures' Plotly config: no link or button leads out of the page (no Plotly
+logo, no 'send to cloud'), no MathJax; the camera button saves a PNG locally."""
 """Most events listed per filter in the report (all are in the run's events.parquet)."""
 
 Num = float | str | None
@@ -286,12 +304,16 @@ class Calibration:
 
 @dataclass(frozen=True)
 class Figure:
-    """One figure: its PNG as base64 and its caption."""
+    """One figure: its caption and either its interactive specification or its PNG."""
 
     stem: str
     number: int
-    png_base64: str
+    png_base64: str | None
+    """The PNG as base64; None when the figure is shown interactive."""
     caption: str
+    spec: Markup | None = None
+    """The interactive figure's Plotly JSON, escaped to sit inside a ``<script>`` element
+    (:func:`_script_json`); None: the PNG is shown."""
 
 
 @dataclass(frozen=True)
@@ -370,6 +392,12 @@ class ReportData:
     calibration: Calibration | None
     """None: no run estimated calibration states."""
     figures: tuple[Figure, ...]
+    plotly_js: Markup | None
+    """The Plotly library, inlined once when some figure is interactive; None otherwise."""
+    plotly_config: Markup
+    """The interactive figures' Plotly ``config`` (:data:`PLOTLY_CONFIG`) as escaped JSON."""
+    max_points: int
+    """Most points per series of an interactive figure (the envelope rule, docs/report.md)."""
     ledger: tuple[LedgerRow, ...]
     events: tuple[EventRow, ...]
     initial: Initial | None
@@ -730,6 +758,15 @@ _SMOOTHED_POSITION_ERROR = (
 )
 
 
+_INTERACTIVE: dict[str, str] = {
+    "position_error": (
+        " Dotted (bottom): each filter's claimed horizontal 2σ, 2 √(σ_N² + σ_E²): an error "
+        "that stays under it is one the filter knew it could have."
+    ),
+}
+"""What an interactive figure shows beyond its static version, added to its caption."""
+
+
 def _caption(stem: str, sim: bool, smoothed: bool = False) -> str:
     if stem == "position_error" and smoothed:
         return _CAPTIONS[stem] + _SMOOTHED_POSITION_ERROR
@@ -766,18 +803,59 @@ def _caption(stem: str, sim: bool, smoothed: bool = False) -> str:
 
 
 def _figures(
-    compare_dir: Path, files: Sequence[Any], sim: bool, smoothed: bool = False
+    compare_dir: Path,
+    files: Sequence[Any],
+    specs: Mapping[str, Any],
+    sim: bool,
+    smoothed: bool = False,
 ) -> tuple[Figure, ...]:
+    """The figures ``files`` lists, each interactive when ``specs`` (``comparison.json``'s
+    ``interactive``: stem → file) has it, else its PNG."""
     figures = []
     for k, rel in enumerate(files, start=1):
-        path = compare_dir / str(rel)
         stem = Path(str(rel)).stem
+        caption = _caption(stem, sim, smoothed)
+        if stem in specs:
+            spec = _spec(compare_dir / str(specs[stem]))
+            figures.append(Figure(stem, k, None, caption + _INTERACTIVE.get(stem, ""), spec))
+            continue
+        path = compare_dir / str(rel)
         try:
             data = base64.b64encode(path.read_bytes()).decode("ascii")
         except OSError as exc:
             raise ReportError(f"{path}: figure missing ({exc.strerror})") from exc
-        figures.append(Figure(stem, k, data, _caption(stem, sim, smoothed)))
+        figures.append(Figure(stem, k, data, caption))
     return tuple(figures)
+
+
+def _spec(path: Path) -> Markup:
+    """An interactive figure's Plotly JSON (``figures/<stem>.plotly.json``), checked and
+    escaped for a ``<script>`` element."""
+    doc = _read_json(path)
+    if not (isinstance(doc, dict) and isinstance(doc.get("data"), list)):
+        raise ReportError(f"{path}: not a Plotly figure (no 'data' list)")
+    try:
+        return _script_json(doc)
+    except ValueError as exc:  # NaN or infinity, which JSON.parse refuses
+        raise ReportError(f"{path}: not valid JSON for the page ({exc})") from exc
+
+
+def _script_json(value: Any) -> Markup:
+    """``value`` as JSON that may sit inside ``<script type="application/json">``: ``<``, ``>``
+    and ``&`` (which JSON has only inside strings) written as ``\\u`` escapes, so no string
+    from the files can close the element."""
+    text = json.dumps(value, separators=(",", ":"), allow_nan=False)
+    for char in "<>&":
+        text = text.replace(char, f"\\u{ord(char):04x}")
+    return Markup(text)
+
+
+def _plotly_js() -> Markup:
+    """The Plotly library of the installed ``plotly`` package, to inline in the page."""
+    from plotly.offline import get_plotlyjs
+
+    # A "</script" inside the library would end its element early; it has none today.
+    return Markup(get_plotlyjs().replace("</script", "<\\/script"))
 
 
 def _calibration(
@@ -939,6 +1017,9 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
     if mission_dir is not None and shown_as is not None and mission_dir == folder / MISSION_SUBDIR:
         mission_dir = shown / MISSION_SUBDIR
     smoothed = any("forward_rmse_m" in r for r in results.values())
+    specs = doc.get("interactive")
+    specs = specs if isinstance(specs, dict) else {}
+    figures = _figures(folder, doc.get("figures") or [], specs, sim is not None, smoothed)
     return ReportData(
         title=title,
         filters=tuple(_label(n) for n in names),
@@ -959,7 +1040,10 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
             _label(n) for n in scored if results.get(n, {}).get("nees_uses_correlations") is False
         ),
         calibration=_calibration(folder, names, config, sim),
-        figures=_figures(folder, doc.get("figures") or [], sim is not None, smoothed),
+        figures=figures,
+        plotly_js=_plotly_js() if any(f.spec is not None for f in figures) else None,
+        plotly_config=_script_json(PLOTLY_CONFIG),
+        max_points=MAX_POINTS,
         ledger=tuple(_ledger(scored, results)),
         events=tuple(_events(folder, n) for n in names),
         initial=_initial(doc.get("initial") or {}),
