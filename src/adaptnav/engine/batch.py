@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import gc
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -1191,6 +1191,14 @@ def _nominal_R(model: MeasurementModel) -> Array:
     return np.asarray(R() if callable(R) else R, dtype=float)
 
 
+Phase = Literal["aligning", "filtering", "smoothing"]
+"""The steps of a run a caller may show (``adaptnav.api.run``'s ``progress``): the static
+alignment, the forward filter, the RTS backward pass (docs/smoothing.md)."""
+
+Progress = Callable[[Phase], None]
+"""Called with each :data:`Phase` as it begins."""
+
+
 def run_batch(
     config: EngineConfig,
     channels: Sequence[SensorChannel],
@@ -1202,15 +1210,34 @@ def run_batch(
     dtheta: ArrayLike,
     dvel: ArrayLike,
     readings: Mapping[str, tuple[ArrayLike, ...]],
+    progress: Progress | None = None,
 ) -> EngineOutput:
     """Run a whole mission: every reading queued, then the IMU fed through one Navigator.
 
     ``readings[name] = (t (n,), z (n, d))`` or ``(t, z, r_diag (n, d))`` with each reading's
-    own variances; row numbers in the ledger index those arrays.
+    own variances; row numbers in the ledger index those arrays. ``progress`` hears
+    ``"filtering"`` before the IMU is fed and, for a smoothed run, ``"smoothing"`` before the
+    backward pass; the IMU goes in one piece either way (chunks would move the kernel's series
+    reference latitude, which it takes afresh on each call, and change the last bits).
     """
+    say = progress or (lambda _phase: None)
     nav = Navigator(config, channels, x0, P0, t0)
     for name, (t, z, *r_diag) in readings.items():
         nav.feed_measurements(name, t, z, r_diag=r_diag[0] if r_diag else None)
+    say("filtering")
     nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
     nav.flush()
+    if config.smooth:
+        say("smoothing")
     return nav.output()
+
+
+def kernels_cached() -> bool | None:
+    """Whether the engine's compiled loop is in Numba's on-disk cache for this source (False:
+    the next run compiles the kernels first, a minute or two); None when Numba does not say.
+    Reads the cache's index only, as Numba does to decide (a missing or stale index: compile)."""
+    cache = getattr(_navigate, "_cache", None)
+    try:
+        return bool(cache._cache_file._load_index())  # type: ignore[union-attr]
+    except Exception:  # a Numba without this cache layout: no answer, not a failure
+        return None
