@@ -1217,8 +1217,9 @@ def run_batch(
     ``readings[name] = (t (n,), z (n, d))`` or ``(t, z, r_diag (n, d))`` with each reading's
     own variances; row numbers in the ledger index those arrays. ``progress`` hears
     ``"filtering"`` before the IMU is fed and, for a smoothed run, ``"smoothing"`` before the
-    backward pass; the IMU goes in one piece either way (chunks would move the kernel's series
-    reference latitude, which it takes afresh on each call, and change the last bits).
+    backward pass. The IMU goes in one piece either way: fed in 50 chunks (for a progress bar)
+    a run differed from the one-piece run by up to 5e-16 in the solution (probably the series
+    reference latitude, which the compiled loop takes afresh on each call).
     """
     say = progress or (lambda _phase: None)
     nav = Navigator(config, channels, x0, P0, t0)
