@@ -21,6 +21,7 @@ from adaptnav.analysis import evaluate
 from adaptnav.analysis.compare import (
     COMPARISON_CSV,
     COMPARISON_JSON,
+    FILTER_LABELS,
     NEES_BAND_TEXT,
     NEES_COLUMNS,
     PAPER_TABLE3,
@@ -130,6 +131,34 @@ def test_printed_table_shows_the_nees_within_100_columns(saved: tuple[Comparison
         assert all(math.isfinite(row[c]) for c in NEES_COLUMNS), row["filter"]
     lo, hi = evaluate.NEES_BAND
     assert f"[{lo:.3f}, {hi:.3f}]" in NEES_BAND_TEXT
+
+
+@pytest.mark.parametrize("smoothed", [False, True])
+def test_printed_table_3_is_whole_in_80_columns(
+    saved: tuple[Comparison, Path], smoothed: bool
+) -> None:
+    """Beside the paper's Table 3 (and with the forward columns of a smoothed comparison) the
+    table fits an 80-column terminal whole: no cell or header cut to an ellipsis, every
+    filter's name and numbers there."""
+    from rich.cells import cell_len
+    from rich.console import Console
+
+    cmp, _ = saved
+    cmp = dataclasses.replace(
+        cmp, mission_name="paper-1", forward=dict(cmp.metrics) if smoothed else {}
+    )
+    console = Console(width=80, record=True)
+    console.print(comparison_table(cmp))
+    text = console.export_text()
+    assert "…" not in text
+    assert max(cell_len(line) for line in text.splitlines()) <= 80  # R̂ is one cell wide
+    assert text.split("─")[0].split().count("paper") == 2  # both paper headers whole
+    words = text.split()
+    for _, row in cmp.table().iterrows():
+        assert all(w in words for w in FILTER_LABELS[row["filter"]].split()), row["filter"]
+        assert f"{row['rmse_m']:.1f}" in words and f"{row['relative_rmse_pct']:.3f}" in words
+        if smoothed:
+            assert f"{row['forward_rmse_m']:.1f}" in words
 
 
 def test_saved_folder_json_and_figures(saved: tuple[Comparison, Path]) -> None:

@@ -412,7 +412,8 @@ def compare(
         filters: names from :data:`FILTER_NAMES` (``meskf, maeskf, vb, oracle, floor``).
         settings: filter settings overriding the mission's ``[filter]`` section (each filter
             gets them with its own kind); ``floor`` ignores them.
-        progress: called with one short line before each step (e.g. to print to stderr).
+        progress: called with the name of each step as it begins (the alignment, each
+            filter, each RTS backward pass), e.g. to print it to stderr.
         smooth: RTS-smooth every filter's run (not the floor's): ``metrics`` score the smoothed
             solutions and ``forward`` the forward ones (docs/smoothing.md).
 
@@ -439,7 +440,7 @@ def compare(
     initial: dict[str, Any] = {}
     start: tuple[Any, Any, float] | None = None
     if any(n != "floor" for n in names):
-        say("aligning once over the static window ...")
+        say("aligning once over the static window")
         x0, P0, t0, info = api.initial_state(m)
         start = (x0, P0, t0)
         initial = _initial_info(x0, P0, t0, info)
@@ -448,17 +449,27 @@ def compare(
     metrics: dict[str, Metrics] = {}
     forward: dict[str, Metrics] = {}
     for n in names:
-        say(f"running {FILTER_LABELS[n]}{' (smoothed)' if smooth and n != 'floor' else ''} ...")
+        label = FILTER_LABELS[n]
+        say(f"running {label}")
         if n == "floor":
             results[n] = _run_floor(m, None if start is None else start[2])
         else:
             kind = cast("FilterKind", n)
-            results[n] = api.run(m, kind, settings=settings, initial=start, smooth=smooth)
+            results[n] = api.run(
+                m, kind, settings=settings, initial=start, smooth=smooth,
+                progress=_backward_pass_said(say, label),
+            )  # fmt: skip
         metrics[n] = evaluate.evaluate(results[n], truth)
         fwd = evaluate.forward_metrics(results[n], truth)
         if fwd is not None:
             forward[n] = fwd
     return Comparison(name, m, results, metrics, initial, forward)
+
+
+def _backward_pass_said(say: Progress, label: str) -> Callable[[str], None]:
+    """The progress of one filter's run in a comparison: of its steps (``api.run``'s
+    ``progress``) only the RTS backward pass is a step of its own; its start was said."""
+    return lambda phase: say(f"RTS smoothing {label}") if phase == "smoothing" else None
 
 
 def _run_floor(mission: Mission, t0: float | None) -> Result:

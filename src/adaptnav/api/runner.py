@@ -190,6 +190,7 @@ def run(
     initial: tuple[np.ndarray, np.ndarray, float] | None = None,
     imu_noise: ImuNoise | None = None,
     smooth: bool = False,
+    progress: engine.Progress | None = None,
 ) -> Result:
     """Run one filter on a mission and return its :class:`~adaptnav.api.results.Result`.
 
@@ -208,6 +209,9 @@ def run(
             ``initial_state`` keeps the mission's.
         smooth: also run the RTS backward pass (docs/smoothing.md): the result's ``solution``
             is the smoothed one and ``forward`` the filter's.
+        progress: called with each step as it begins: ``"aligning"`` (unless ``initial`` is
+            given or the mission starts from a configured state), ``"filtering"``,
+            ``"smoothing"`` (:data:`adaptnav.engine.batch.Phase`); it does not change the run.
     """
     m = mission if isinstance(mission, Mission) else load_mission(mission)
     cfg = m.config
@@ -218,13 +222,15 @@ def run(
     noise = imu_noise if imu_noise is not None else cfg.imu.noise.to_imu_noise()
 
     started = time.perf_counter()
+    if initial is None and cfg.initial.mode != "state" and progress is not None:
+        progress("aligning")
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
     states = calibration.calibration_states(cfg)
     x0, P0 = calibration.extend(x0[:NOM_SIZE], P0[:N_STATES, :N_STATES], states)
     feed = _feed(m, s, t0, states)
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     config = engine_config(cfg, s, policy, noise, states, smooth)
-    out = _run_engine(m, s.kind, config, feed, (x0, P0, t0), nav_from)
+    out = _run_engine(m, s.kind, config, feed, (x0, P0, t0), nav_from, progress)
     elapsed = time.perf_counter() - started
     out = _with_file_rows(out, m, feed)
     imu_samples = int(m.imu.t.size - nav_from)
@@ -379,6 +385,7 @@ def _run_engine(
     feed: _Feed,
     start: tuple[np.ndarray, np.ndarray, float],
     nav_from: int,
+    progress: engine.Progress | None,
 ) -> engine.EngineOutput:
     """The engine over the IMU samples after the start; a numerical breakdown is a
     :class:`FilterError` naming the mission, not a traceback (docs/robustness.md)."""
@@ -387,7 +394,7 @@ def _run_engine(
     try:
         return engine.run_batch(
             config, feed.channels, x0, P0, t0, imu.t[nav_from:], imu.dt[nav_from:],
-            imu.dtheta[nav_from:], imu.dvel[nav_from:], feed.readings,
+            imu.dtheta[nav_from:], imu.dvel[nav_from:], feed.readings, progress,
         )  # fmt: skip
     except np.linalg.LinAlgError as exc:
         raise FilterError(

@@ -1,17 +1,22 @@
 """The typer application and what every command module shares: consoles, the failure exit,
-the output folder, filter names and the paper's Table 3."""
+the output folder, the stages a long command shows on stderr (``--quiet``), filter names and
+the paper's Table 3."""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Iterator
+import time
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, NoReturn
+from types import TracebackType
+from typing import Annotated, Any, NoReturn
 
 import typer
+import typer.core
 from rich.console import Console
 from rich.markup import escape
+from rich.progress import Progress, SpinnerColumn, TaskID, TextColumn, TimeElapsedColumn
 
 from adaptnav.analysis.compare import FILTER_LABELS as FILTER_LABELS  # single sources, re-exported
 from adaptnav.analysis.compare import PAPER_TABLE3 as PAPER_TABLE3
@@ -24,6 +29,28 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
+
+
+def _hide_flag_types() -> None:
+    """Typer 0.29's rich help shows a type beside every option, flags too (``--force <bool>``,
+    ``--help <bool>``), though a flag takes no value (its plain help shows none). Flags get an
+    empty type column here; every other option stays as typer shows it. A typer without
+    ``display_type_rich`` is left alone."""
+    display = getattr(typer.core.TyperOption, "display_type_rich", None)
+    if display is None:
+        return
+
+    def display_type_rich(self: typer.core.TyperOption, ctx: Any) -> str | None:
+        if self.is_flag:
+            return None
+        shown: str | None = display(self, ctx)
+        return shown
+
+    typer.core.TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+
+
+_hide_flag_types()
+
 PIPE_WIDTH = 120
 """Columns of output that goes to a file or pipe (rich's own default there is 80, which cuts
 the comparison table); ``COLUMNS`` in the environment still wins."""
@@ -88,3 +115,109 @@ def output(out: Path, force: bool, inputs: Iterable[Path] = ()) -> Iterator[Path
             yield tmp
     except OutputError as exc:
         fail(str(exc))
+
+
+Quiet = Annotated[
+    bool,
+    typer.Option(
+        "--quiet", "-q", help="no progress on stderr: only errors and the command's result"
+    ),
+]
+"""The ``--quiet`` option of every command that shows its stages (:class:`Stages`)."""
+
+COMPILING = "compiling the kernels first, about 1-2 min on a first run"
+"""What a stage that first calls the compiled kernels says while their cache is cold."""
+
+
+class Stages:
+    """The stages of a long command on stderr, each named and timed; nothing with ``quiet``.
+
+    ``with Stages(quiet) as st: st.begin("aligning"); ...; st.begin("running MESKF"); ...``:
+    a stage lasts until the next begins or the block ends. On a terminal a live line shows the
+    stage and its time so far, and each finished stage stays as one line with its time.
+    Elsewhere (a CI log, a pipe) each stage is one plain line as it begins, stamped with the
+    time since the command began, and the last line gives the total: no animation.
+    ``begin(..., compiles=True)`` marks the stages that call the compiled kernels: the first
+    of them says so while the kernels' cache is cold (a first run compiles them)."""
+
+    def __init__(self, quiet: bool) -> None:
+        self.quiet = quiet
+        self.console = err_console
+        self._live = not quiet and self.console.is_terminal
+        self._progress: Progress | None = None
+        self._task: TaskID | None = None
+        self._name = ""
+        self._started = self._stage_started = time.perf_counter()
+        self._compile_note: bool | None = None  # None: not yet asked
+
+    def __enter__(self) -> Stages:
+        if self._live:
+            self._progress = Progress(
+                SpinnerColumn(),
+                TextColumn("{task.description}"),
+                TimeElapsedColumn(),
+                console=self.console,
+                transient=True,
+            )
+            self._progress.start()
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self._end()
+        if self._progress is not None:
+            self._progress.stop()
+        if kind is not None or self.quiet:
+            return
+        if self._live:
+            self.console.print(f"[dim]done in {time.perf_counter() - self._started:.1f} s[/]")
+        else:
+            self._line("done")
+
+    def begin(self, name: str, compiles: bool = False) -> None:
+        """End the running stage and begin ``name`` (``compiles``: it may be the first to call
+        the compiled kernels)."""
+        self._end()
+        if compiles and self._compile_note is None and not self.quiet:
+            from adaptnav.engine.batch import kernels_cached
+
+            self._compile_note = kernels_cached() is False
+            if self._compile_note:
+                name = f"{name}; {COMPILING}"
+        self._name, self._stage_started = name, time.perf_counter()
+        if self._progress is not None:
+            self._task = self._progress.add_task(name, total=None)
+        elif not self.quiet:
+            self._line(name)
+
+    def compiling_step(self, name: str) -> None:
+        """:meth:`begin` for a library's progress callback whose steps call the kernels
+        (:func:`adaptnav.analysis.compare.compare`'s ``progress``)."""
+        self.begin(name, compiles=True)
+
+    def _end(self) -> None:
+        if self._progress is None or self._task is None:
+            return
+        seconds = time.perf_counter() - self._stage_started
+        self._progress.remove_task(self._task)
+        self._task = None
+        self.console.print(f"[green]✓[/] {escape(self._name)} [dim]{seconds:.1f} s[/]")
+
+    def _line(self, text: str) -> None:
+        stamp = time.perf_counter() - self._started
+        self.console.print(
+            f"[{stamp:6.1f} s] {text}", markup=False, highlight=False, soft_wrap=True
+        )
+
+
+def run_progress(stages: Stages, kind: str) -> Callable[[str], None]:
+    """``adaptnav.api.run``'s ``progress`` as stages: the alignment, the ``kind`` filter, its
+    RTS backward pass (:data:`adaptnav.engine.batch.Phase`)."""
+    label = FILTER_LABELS.get(kind, kind)
+    names = {
+        "aligning": "aligning over the static window",
+        "filtering": f"running {label}",
+        "smoothing": f"RTS smoothing {label}",
+    }
+    return lambda phase: stages.begin(names.get(phase, phase), compiles=phase != "smoothing")

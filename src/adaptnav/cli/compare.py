@@ -21,19 +21,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+from rich import box
 from rich.table import Table
 
 from adaptnav.cli._app import (
     FILTER_LABELS,
     Force,
+    Quiet,
     Smooth,
+    Stages,
     app,
     console,
-    err_console,
     fail,
     output,
 )
-from adaptnav.viz import plots
 
 if TYPE_CHECKING:
     from adaptnav.analysis.compare import Comparison
@@ -44,14 +45,14 @@ reference attitude, so both are asked for by name."""
 
 
 def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
-    """A rich table of a comparison that fits 100 columns (110 when smoothed beside the paper's
-    Table 3): RMSE and relative RMSE, the paper's Table 3 beside them where it applies, the
-    largest horizontal error, the mean NEES of position, velocity and attitude
-    (docs/metrics.md), and the readings each gated sensor's gate rejected; the caption gives
-    the horizontal distance and the duration scored and what a consistent filter's NEES does.
-    ``name`` stands for the mission's name in the title. A smoothed comparison's numbers are
-    the smoothed solutions', with the forward solutions' RMSE and relative RMSE beside them
-    (docs/smoothing.md)."""
+    """A rich table of a comparison that fits an 80-column terminal (smoothed and beside the
+    paper's Table 3 too; the filter names wrap if they must): RMSE and relative RMSE, the
+    paper's Table 3 beside them where it applies, the largest horizontal error, the mean NEES
+    of position, velocity and attitude (docs/metrics.md), and the readings each gated sensor's
+    gate rejected; the caption gives the horizontal distance and the duration scored and what
+    a consistent filter's NEES does. ``name`` stands for the mission's name in the title. A
+    smoothed comparison's numbers are the smoothed solutions', with the forward solutions'
+    RMSE and relative RMSE beside them (docs/smoothing.md)."""
     from adaptnav.analysis.compare import NEES_BAND_TEXT, PAPER_TABLE3
 
     frame = cmp.table()
@@ -70,8 +71,11 @@ def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
     if smoothed and caption is not None:
         caption += "; RTS-smoothed solutions, fwd.: the forward ones'"
     title = f"{name or cmp.mission_name}: ours{' (RTS-smoothed)' if smoothed else ''}{beside}"
-    table = Table(title=title, caption=caption)
-    # two-line headers keep the columns as narrow as their numbers (100 columns in all)
+    # Two-line headers keep the columns as narrow as their numbers; no rules or padding but the
+    # one space between columns, and filter names that may wrap, keep the table in 80 columns.
+    table = Table(
+        title=title, caption=caption, box=box.SIMPLE_HEAD, show_edge=False, padding=(0, 0)
+    )
     columns = ["filter", "RMSE\nm", "rel.\n%"]
     if smoothed:
         columns += ["fwd.\nm", "fwd.\n%"]
@@ -80,7 +84,10 @@ def comparison_table(cmp: Comparison, name: str | None = None) -> Table:
     columns += ["max h.\nm", "NEES\npos", "NEES\nvel", "NEES\natt"]
     columns += [f"{s}\nrej." for s in gated]
     for i, col in enumerate(columns):
-        table.add_column(col, justify="left" if i == 0 else "right", no_wrap=True)
+        if i == 0:
+            table.add_column(col, overflow="fold")
+        else:
+            table.add_column(col, justify="right", no_wrap=True)
 
     def f(value: float, fmt: str) -> str:
         return "-" if value is None or not math.isfinite(value) else fmt.format(value)
@@ -121,41 +128,40 @@ def compare_cmd(
     ] = False,
     smooth: Smooth = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Run several filters on one mission from one shared alignment and compare them.
 
-    Writes each run (`adaptnav evaluate OUT/<filter>` works), comparison.csv/json and the
+    Writes each run (adaptnav evaluate OUT/FILTER works), comparison.csv/json and the
     figures to --out, and prints RMSE and relative RMSE beside the paper's Table 3 when the
     mission is one of its trajectories (paper-1, paper-2). With --smooth each filter is
     RTS-smoothed: the metrics are the smoothed solutions' and the forward ones' RMSE and
     relative RMSE are shown beside them (forward_ columns; docs/smoothing.md). Make the HTML
-    page with `adaptnav report OUT`.
+    page with adaptnav report OUT.
     """
     from adaptnav.analysis.compare import compare, parse_filters
     from adaptnav.core.units import UnitError
     from adaptnav.mission import MissionError, load_mission
-    from adaptnav.viz import interactive  # Plotly: imported only when a comparison is drawn
+    from adaptnav.viz import interactive, plots  # plotting: imported only when drawn
 
     try:
         names = parse_filters(filters)
     except ValueError as exc:
         fail(f"--filters: {exc}")
-    with output(out, force, inputs=[mission_dir]) as tmp:
+    with output(out, force, inputs=[mission_dir]) as tmp, Stages(quiet) as st:
         try:
+            st.begin(f"loading {mission_dir}")
             mission = load_mission(mission_dir)
-            cmp = compare(
-                mission, names, progress=lambda line: err_console.print(line), smooth=smooth
-            )
+            cmp = compare(mission, names, progress=st.compiling_step, smooth=smooth)
         except (MissionError, UnitError, ValueError, OSError) as exc:
             # ValueError covers the alignment, the oracle's and floor's missing columns, and a
             # mission without a reference; OSError a missing or unreadable folder.
             fail(str(exc))
-        err_console.print(f"writing {out}/ ...")
-        cmp.save(
-            tmp,
-            figures=plots.comparison_figures(cmp),
-            interactive=interactive.comparison_figures(cmp),
-        )
+        st.begin("drawing the figures")
+        figures = plots.comparison_figures(cmp)
+        zoomable = interactive.comparison_figures(cmp)
+        st.begin(f"writing {out}/")
+        cmp.save(tmp, figures=figures, interactive=zoomable)
     if as_json:
         typer.echo(json.dumps(cmp.to_json(), allow_nan=False))
         return
@@ -166,17 +172,21 @@ def compare_cmd(
 @app.command("report")
 def report_cmd(
     compare_dir: Annotated[
-        Path, typer.Argument(help="comparison folder written by `adaptnav compare`")
+        Path, typer.Argument(help="comparison folder written by adaptnav compare")
     ],
     out: Annotated[
-        Path | None, typer.Option("--out", "-o", help="HTML file [COMPARE_DIR/report.html]")
+        Path | None,
+        typer.Option("--out", "-o", help="HTML file (default: COMPARE_DIR/report.html)"),
     ] = None,
+    quiet: Quiet = False,
 ) -> None:
     """Write one self-contained HTML report of a comparison folder and print its path."""
     from adaptnav.viz.report import ReportError, write_report
 
-    try:
-        path = write_report(compare_dir, out)
-    except ReportError as exc:
-        fail(str(exc))
+    with Stages(quiet) as st:
+        st.begin(f"writing the report of {compare_dir}")
+        try:
+            path = write_report(compare_dir, out)
+        except ReportError as exc:
+            fail(str(exc))
     typer.echo(str(path))

@@ -11,14 +11,16 @@ from rich.table import Table
 from adaptnav.cli._app import (
     FILTER_CHOICES,
     Force,
+    Quiet,
     Smooth,
+    Stages,
     app,
     console,
     output,
+    run_progress,
 )
 from adaptnav.cli._app import fail as _fail
 from adaptnav.core.units import UnitError
-from adaptnav.viz import plots
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -37,38 +39,41 @@ def demo(
     seed: Annotated[int, typer.Option(help="simulation seed")] = 1,
     smooth: Smooth = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """The main job: simulate a paper trajectory, compare the filters, write the HTML report.
 
     Simulates the preset with every disturbance on (seeded) into --out/mission, aligns once
     over the static window and runs MESKF, MAESKF, VB-MAESKF, robust and the oracle from that
-    same start (as `adaptnav compare` does), writes the comparison folder to --out (runs,
+    same start (as adaptnav compare does), writes the comparison folder to --out (runs,
     comparison.csv/json, figures) and the HTML report --out/report.html, and prints the table
     beside the paper's Table 3 and the report's path. With --smooth each filter is
     RTS-smoothed and shown beside its forward solution (docs/smoothing.md).
     """
     from adaptnav.analysis.compare import compare
     from adaptnav.cli.compare import comparison_table
+    from adaptnav.mission import load_mission
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
-    from adaptnav.viz import interactive
+    from adaptnav.viz import interactive, plots
     from adaptnav.viz.report import write_report
 
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
     filters = ["meskf", "maeskf", "vb", "robust", "oracle"]
-    with output(out, force) as tmp:
-        console.print(f"simulating {preset} (seed {seed}) ...")
+    with output(out, force) as tmp, Stages(quiet) as st:
+        st.begin(f"simulating {preset} (seed {seed})")
         mission_dir = run_simulation(preset, seed, tmp / "mission")
-        cmp = compare(mission_dir, filters, progress=console.print, smooth=smooth)
-        console.print(f"writing runs, comparison and figures to {out}/ ...")
+        st.begin("loading the mission")
+        mission = load_mission(mission_dir)
+        cmp = compare(mission, filters, progress=st.compiling_step, smooth=smooth)
+        st.begin("drawing the figures")
+        figures = plots.comparison_figures(cmp)
+        zoomable = interactive.comparison_figures(cmp)
+        st.begin(f"writing the runs, comparison and figures to {out}/")
         # Written in a temporary folder renamed to --out at the end: record the final paths.
-        cmp.save(
-            tmp,
-            mission_dir=out.absolute() / "mission",
-            figures=plots.comparison_figures(cmp),
-            interactive=interactive.comparison_figures(cmp),
-        )
+        cmp.save(tmp, mission_dir=out.absolute() / "mission", figures=figures, interactive=zoomable)
+        st.begin("writing the report")
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"
     console.print(comparison_table(cmp, f"{preset} (seed {seed})"))
@@ -97,6 +102,7 @@ def run_cmd(
     ] = "",
     smooth: Smooth = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Run one filter on a mission; write the solution, every reading's fate and R to --out.
 
@@ -116,14 +122,18 @@ def run_cmd(
         _fail(f"--filter: {filter!r} is not one of {', '.join(FILTER_CHOICES)}")
     if epoch_policy and epoch_policy not in ("exact", "grid"):
         _fail(f"--epoch-policy: {epoch_policy!r} is not 'exact' or 'grid'")
-    with output(out, force, inputs=[mission_dir]) as tmp:
+    with output(out, force, inputs=[mission_dir]) as tmp, Stages(quiet) as st:
         try:
+            st.begin(f"loading {mission_dir}")
             mission = load_mission(mission_dir)
-            policy = epoch_policy or None
-            result = api.run(mission, filter or None, epoch_policy=policy, smooth=smooth)  # type: ignore[arg-type]
+            result = api.run(
+                mission, filter or None, epoch_policy=epoch_policy or None, smooth=smooth,  # type: ignore[arg-type]
+                progress=run_progress(st, filter or mission.config.filter.kind),
+            )  # fmt: skip
         except (MissionError, AlignmentError, UnitError, ValueError) as exc:
             # ValueError also covers the oracle on a mission without the simulator's truth.
             _fail(str(exc))
+        st.begin(f"writing {out}/")
         results.save(result, tmp)
         if mission.truth is not None:
             mission.truth.to_parquet(tmp / "truth.parquet", index=False)
@@ -173,11 +183,12 @@ def _calibration_table(found: dict[str, dict[str, Any]], smoothed: bool) -> Tabl
 
 @app.command("evaluate")
 def evaluate_cmd(
-    run_dir: Annotated[Path, typer.Argument(help="run folder written by `adaptnav run`")],
+    run_dir: Annotated[Path, typer.Argument(help="run folder written by adaptnav run")],
     as_json: Annotated[bool, typer.Option("--json", help="print one JSON object")] = False,
     mission: Annotated[
         Path | None, typer.Option(help="mission folder to take the reference from")
     ] = None,
+    quiet: Quiet = False,
 ) -> None:
     """RMSE, relative RMSE, distance, NEES and reading counts of a run against the reference.
 
@@ -187,7 +198,7 @@ def evaluate_cmd(
     estimation error squared) of position, velocity and attitude, with the full 3x3
     covariance blocks: its mean is 3 for a filter whose covariance matches its errors, and
     95 % of the epochs should lie in [0.216, 9.348]; velocity and attitude need them in the
-    reference. Definitions: docs/metrics.md. A smoothed run (`adaptnav run --smooth`) is scored
+    reference. Definitions: docs/metrics.md. A smoothed run (adaptnav run --smooth) is scored
     on its RTS-smoothed solution, and its forward one beside it (the forward_ keys of --json;
     docs/smoothing.md). A run with calibration states on a simulated mission whose
     simulation.json has the true calibration errors (--mission, else the mission folder the run
@@ -197,14 +208,17 @@ def evaluate_cmd(
     from adaptnav.analysis import evaluate
     from adaptnav.api.results import jsonable
 
-    result, truth, source = _run_and_reference(run_dir, mission)
-    try:
-        metrics = evaluate.evaluate(result, truth)
-        forward = evaluate.forward_metrics(result, truth)
-    except ValueError as exc:  # a reference without the columns or times it needs
-        _fail(f"{source}: {exc}")
+    with Stages(quiet) as st:
+        st.begin(f"loading {run_dir} and its reference")
+        result, truth, source = _run_and_reference(run_dir, mission)
+        st.begin("scoring against the reference")
+        try:
+            metrics = evaluate.evaluate(result, truth)
+            forward = evaluate.forward_metrics(result, truth)
+        except ValueError as exc:  # a reference without the columns or times it needs
+            _fail(f"{source}: {exc}")
+        cal = _calibration_errors(result, mission)
     d = metrics.to_dict()
-    cal = _calibration_errors(result, mission)
     if as_json:
         import json
 
@@ -388,6 +402,7 @@ def simulate(
     depth_bias_m: DepthBias = None,
     inclinometer_bias_deg: InclinometerBias = None,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Simulate one of the paper's sea trials (or a short demo) as a mission folder.
 
@@ -421,7 +436,8 @@ def simulate(
                 _fail(f"unknown disturbance {name!r}; known: {', '.join(sorted(known))}")
             d = replace(d, **{name: value})
     cal = _calibration(dvl_scale, dvl_misalignment_deg, depth_bias_m, inclinometer_bias_deg)
-    with output(out, force) as tmp:
+    with output(out, force) as tmp, Stages(quiet) as st:
+        st.begin(f"simulating {preset} (seed {seed})")
         run_simulation(preset, seed, tmp, d, cal)
     on = [k for k, v in d.as_dict().items() if v]
     console.print(f"mission {preset} (seed {seed}) written to {out}")

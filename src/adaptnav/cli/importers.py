@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import Force, app, console, fail, output
+from adaptnav.cli._app import Force, Quiet, Stages, app, console, fail, output
 
 import_app = typer.Typer(
     help="Import external recordings as mission folders (docs/akit.md, docs/rtklib.md).",
@@ -60,6 +60,7 @@ def akit(
     ] = 0.05,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Import one Snapir AUV (A-KIT) segment as a mission folder.
 
@@ -74,7 +75,8 @@ def akit(
 
     if not depth_sigma_m > 0.0:
         fail(f"--depth-sigma-m: {depth_sigma_m} must be > 0")
-    with output(out, force, inputs=[src]) as tmp:
+    with output(out, force, inputs=[src]) as tmp, Stages(quiet) as st:
+        st.begin(f"importing A-KIT segment {trajectory} from {src}")
         try:
             import_segment(
                 src,
@@ -155,18 +157,22 @@ def rtklib(
     imu: Annotated[Path, typer.Option(help="raw IMU CSV: acc (g), gyro (deg/s), counter (ms)")],
     out: Annotated[Path, typer.Option("--out", "-o", help="mission folder to write")],
     tag: Annotated[
-        Path | None, typer.Option(help="the IMU file's RTKLIB time tag [IMU + .tag]")
+        Path | None,
+        typer.Option(help="the IMU file's RTKLIB time tag (default: the IMU file + .tag)"),
     ] = None,
     outages: Annotated[
         str,
         typer.Option(
             help="GNSS outages START+LENGTH (s from the first IMU sample), comma-separated, or "
-            "'none' [the five of docs/rtklib.md]"
+            "'none' (default: the five of docs/rtklib.md)",
+            show_default=False,
         ),
     ] = "default",
     time_offset_s: Annotated[
         float | None,
-        typer.Option(help="IMU time offset (s; true = tag + offset) [estimated from the data]"),
+        typer.Option(
+            help="IMU time offset (s; true = tag + offset) (default: estimated from the data)"
+        ),
     ] = None,
     imu_noise: Annotated[
         str, typer.Option(help="IMU white noise: measured (parked), driving or published")
@@ -180,6 +186,7 @@ def rtklib(
     ] = True,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Import an RTKLIB-logged GNSS + IMU drive as a mission folder.
 
@@ -195,7 +202,8 @@ def rtklib(
     if imu_noise not in ("measured", "driving", "published"):
         fail(f"--imu-noise: {imu_noise!r} must be measured, driving or published")
     windows = list(DEFAULT_OUTAGES_S) if outages == "default" else _parse_outages(outages)
-    with output(out, force, inputs=[pos, imu]) as tmp:
+    with output(out, force, inputs=[pos, imu]) as tmp, Stages(quiet) as st:
+        st.begin(f"importing the drive {pos.name} + {imu.name}")
         try:
             import_drive(
                 pos,
