@@ -10,7 +10,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import Force, console, fail, output
+from adaptnav.cli._app import Force, Quiet, Stages, console, fail, output
 from adaptnav.cli.importers import _first_line, import_app
 from adaptnav.importers.nmea import UERE_M
 
@@ -64,7 +64,10 @@ def nmea(
     ] = None,
     t0_utc: Annotated[
         str | None,
-        typer.Option(help="UTC time of t_s = 0, ISO 8601 [needed with --mission; else the first]"),
+        typer.Option(
+            help="UTC time of t_s = 0, ISO 8601, needed with --mission "
+            "(default: the first reading's)"
+        ),
     ] = None,
     date: Annotated[
         str | None, typer.Option(help="UTC date of the first sentence, for logs without RMC/ZDA")
@@ -75,20 +78,25 @@ def nmea(
         float, typer.Option(help="UERE σ (m) of a standalone fix: σ_N = HDOP × UERE / √2")
     ] = UERE_M,
     sigma_m: Annotated[
-        str | None, typer.Option(help="GNSS σ (m), one or N,E,D [median of the per-fix model]")
+        str | None,
+        typer.Option(help="GNSS σ (m), one or N,E,D (default: median of the per-fix model)"),
     ] = None,
     heading_sigma_deg: Annotated[
-        float | None, typer.Option(help="heading σ (deg) [the mission's, else 0.5]")
+        float | None, typer.Option(help="heading σ (deg) (default: the mission's, else 0.5)")
     ] = None,
     lever_arm_m: Annotated[
-        str | None, typer.Option(help="antenna from the IMU, X,Y,Z m body FRD [mission's, 0]")
+        str | None,
+        typer.Option(help="antenna from the IMU, X,Y,Z m body FRD (default: mission's, 0)"),
     ] = None,
     use_height: Annotated[
         bool | None,
-        typer.Option("--use-height/--no-use-height", help="aid with the height [mission's, no]"),
+        typer.Option(
+            "--use-height/--no-use-height", help="aid with the height (default: mission's, no)"
+        ),
     ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Import NMEA 0183 GGA/HDT (and RMC/VTG/ZDA) logs as GNSS and heading tables.
 
@@ -101,7 +109,9 @@ def nmea(
 
     lever = _floats("--lever-arm-m", lever_arm_m, (3,))
     t0, day = _utc(t0_utc), _date(date)
-    with output(out, force, inputs=[*logs, *([mission] if mission else [])]) as tmp:
+    inputs = [*logs, *([mission] if mission else [])]
+    with output(out, force, inputs=inputs) as tmp, Stages(quiet) as st:
+        st.begin(f"reading {len(logs)} NMEA log(s)")
         try:
             opts = Options(
                 gnss_name, heading_name, _floats("--sigma-m", sigma_m, (1, 3)),

@@ -10,7 +10,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import Force, app, console, fail, output
+from adaptnav.cli._app import Force, Quiet, Stages, app, console, fail, output
 from adaptnav.cli.importers import import_app
 
 export_app = typer.Typer(
@@ -28,7 +28,9 @@ def _topic(role: str, types: str) -> Any:
 def import_rosbag(
     bag: Annotated[Path, typer.Argument(help="rosbag2 folder (sqlite3 or MCAP) or its file")],
     out: Annotated[Path, typer.Option("--out", "-o", help="mission folder to write")],
-    imu: Annotated[str | None, _topic("imu", "sensor_msgs/msg/Imu [the bag's one]")] = None,
+    imu: Annotated[
+        str | None, _topic("imu", "sensor_msgs/msg/Imu (default: the bag's one)")
+    ] = None,
     dvl: Annotated[
         str | None, _topic("dvl", "geometry_msgs/msg/TwistWithCovarianceStamped")
     ] = None,
@@ -60,6 +62,7 @@ def import_rosbag(
     ] = "mean",
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Import a ROS 2 bag (sqlite3 or MCAP) as a mission folder.
 
@@ -84,7 +87,8 @@ def import_rosbag(
         "inclinometer": inclinometer,
         "heading": heading,
     }
-    with output(out, force, inputs=[bag]) as tmp:
+    with output(out, force, inputs=[bag]) as tmp, Stages(quiet) as st:
+        st.begin(f"reading {bag} and writing the mission")
         try:
             import_bag(
                 bag,
@@ -138,9 +142,10 @@ def export_rosbag(
     child_frame_id: Annotated[str, typer.Option(help="body frame (FLU)")] = "base_link",
     stamp_origin_ns: Annotated[
         int | None,
-        typer.Option(help="stamp of mission time 0 (ns) [the imported bag's, else 0]"),
+        typer.Option(help="stamp of mission time 0 (ns) (default: the imported bag's, else 0)"),
     ] = None,
     force: Force = False,
+    quiet: Quiet = False,
 ) -> None:
     """Write a run's solution as a ROS 2 bag of nav_msgs/msg/Odometry.
 
@@ -154,7 +159,8 @@ def export_rosbag(
     if storage not in ("sqlite3", "mcap"):
         fail(f"--storage: {storage!r} must be sqlite3 or mcap")
     names = ExportTopics(odometry=topic, frame_id=frame_id, child_frame_id=child_frame_id)
-    with output(out, force, inputs=[run]) as tmp:
+    with output(out, force, inputs=[run]) as tmp, Stages(quiet) as st:
+        st.begin(f"writing {out}")
         try:
             info = export_run(
                 run,
