@@ -92,6 +92,8 @@ def test_scheduler_precedence(monkeypatch: pytest.MonkeyPatch) -> None:
         # Nothing listens on port 1: the connection is retried until the timeout.
         ("tcp://127.0.0.1:1", None, "'tcp://127.0.0.1:1' (from --scheduler)"),
         (None, "nonsense", "'nonsense' (from ADAPTNAV_SCHEDULER)"),
+        # .invalid never resolves (RFC 2606): fails at once, before any connection.
+        ("tcp://no-such-host.invalid:8786", None, "'tcp://no-such-host.invalid:8786'"),
     ],
 )
 def test_unreachable_scheduler_is_one_clear_error(

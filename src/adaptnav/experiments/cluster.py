@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from distributed import Client, LocalCluster
+from distributed.comm.addressing import resolve_address
 
 from adaptnav import __version__
 
@@ -102,6 +103,9 @@ def _check_workers(client: Client, where: str, cache: Path | None) -> None:
 def _remote(remote: Remote) -> Client:
     where = f"dask scheduler {remote.address!r} (from {remote.source})"
     try:
+        # A malformed address or an unknown host fails here at once; a Client that failed on
+        # one would hang for 20 s at exit, closing itself.
+        resolve_address(remote.address)
         return Client(remote.address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, ValueError, TypeError) as exc:  # unreachable, or not an address
         raise SchedulerError(f"cannot reach the {where}: {exc}") from exc
@@ -131,6 +135,9 @@ def connect(
         threads_per_worker=1,
         processes=True,
         dashboard_address=None,
+        # The scheduler's HTTP endpoints (health, metrics; no dashboard) on any free local port,
+        # not 8787: sweeps side by side need no free port.
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
         env=env,
         preload=["adaptnav.experiments.runner"],  # imported by all workers at once, at start
         # The sweep reports every failed task itself; dask's own messages (a worker's heartbeat

@@ -20,7 +20,7 @@ import os
 import shutil
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -333,15 +333,17 @@ def run_sweep(
     n_tasks = sum(math.ceil(len(g) / chunk_size) for g in groups.values())
     workers = max(1, min(jobs or os.cpu_count() or 1, n_tasks))
     target = resolve(scheduler) if n_tasks else None
-    with _progress(progress) as bars:
+    in_process = target is None and workers == 1
+    # Connected before the progress bars start: an unreachable scheduler is one error line.
+    cluster = nullcontext() if in_process else connect(target, workers, root)
+    with cluster as client, _progress(progress) as bars:
         t_missions = bars.add_task("missions", total=len(groups))
         t_runs = bars.add_task("runs", total=len(todo))
         sweep = _Sweep(root, groups, chunk_size, keep_missions, bars, t_missions, t_runs, records)
-        if target is None and workers == 1:
+        if client is None:
             _run_serial(sweep)
         else:
-            with connect(target, workers, root) as client:
-                _run_parallel(sweep, client)
+            _run_parallel(sweep, client)
     return SweepOutcome(
         table=runs_table(unique, sweep.records, sweep.errors),
         ran=len(todo) - len(sweep.errors),
