@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+import dask
 from distributed import Client, LocalCluster
 from distributed.comm.addressing import resolve_address
 
@@ -29,6 +30,7 @@ __all__ = [
     "LOCAL",
     "SCHEDULER_ENV",
     "THREAD_VARS",
+    "WORKER_ENVIRON",
     "Remote",
     "Scheduler",
     "SchedulerError",
@@ -44,7 +46,12 @@ LOCAL = "local"
 CONNECT_TIMEOUT_S = 10.0
 """How long to try to reach a scheduler before giving up: a typo fails in seconds."""
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
-"""Thread pools a local worker limits to one (unless set here already): one worker per core."""
+"""Thread pools a local worker limits to one: one worker per core."""
+WORKER_ENVIRON: dict[str, int] = dict.fromkeys(THREAD_VARS, 1)
+"""Set in a local worker's environment before it starts, unless set in this process's (dask's
+``distributed.nanny.pre-spawn-environ``): :data:`THREAD_VARS`, and, unlike dask's default, no
+``MALLOC_TRIM_THRESHOLD_``, which turns off glibc's adaptive mmap threshold: the simulator ran
+2 × slower with it (docs/scale-out.md)."""
 
 Scheduler = Client | str | None
 """What a caller may pass: a connected client, a scheduler address (or ``"local"``), or None:
@@ -129,20 +136,24 @@ def connect(
             _check_workers(client, f"dask scheduler {target.address!r} ({target.source})", cache)
             yield client
         return
-    env = {k: os.environ.get(k, "1") for k in THREAD_VARS}
-    cluster = LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        # The scheduler's HTTP endpoints (health, metrics; no dashboard) on any free local port,
-        # not 8787: sweeps side by side need no free port.
-        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-        env=env,
-        preload=["adaptnav.experiments.runner"],  # imported by all workers at once, at start
-        # The sweep reports every failed task itself; dask's own messages (a worker's heartbeat
-        # racing the shutdown, on a busy machine) would only clutter the progress display.
-        silence_logs=logging.CRITICAL,
-    )
-    with cluster, Client(cluster, set_as_default=False) as client:
+    with _local_cluster(workers) as cluster, Client(cluster, set_as_default=False) as client:
         yield client
+
+
+def _local_cluster(workers: int) -> LocalCluster:
+    """``workers`` single-threaded worker processes and a scheduler on this machine, started
+    with :data:`WORKER_ENVIRON`."""
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": WORKER_ENVIRON}):
+        return LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            # The scheduler's HTTP endpoints (health, metrics; no dashboard) on any free local
+            # port, not 8787: sweeps side by side need no free port.
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+            preload=["adaptnav.experiments.runner"],  # imported by all workers at once, at start
+            # The sweep reports every failed task itself; dask's own messages (a worker's
+            # heartbeat racing the shutdown on a busy machine) would clutter the progress bars.
+            silence_logs=logging.CRITICAL,
+        )
