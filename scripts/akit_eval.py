@@ -22,7 +22,6 @@ import os
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +30,7 @@ import pandas as pd
 
 from adaptnav import __version__
 from adaptnav.analysis.compare import NEES_BAND_TEXT
+from adaptnav.experiments.runner import run_tasks, scheduler_argument
 from adaptnav.viz import plots
 from adaptnav.viz.pages import git_revision, markdown_table
 
@@ -74,6 +74,7 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-akit.md")
     p.add_argument("--figures", type=Path, default=ROOT / "docs" / "results-akit")
     p.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    scheduler_argument(p)
     p.add_argument(
         "--fault-seeds",
         default="100,200,300",
@@ -404,14 +405,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     tasks = [
         (n, b, n == keep_n and b == base) for n in args.segments for b in (0, *args.seed_bases)
     ]
-    outs = []
-    if args.jobs == 1:  # in process (no pickling: also when this file is loaded by path)
-        results = (_one(args.src, args.work, *task) for task in tasks)
-        outs = [_report(o) for o in results]
-    else:
-        with ProcessPoolExecutor(max_workers=min(args.jobs, len(tasks))) as pool:
-            futures = [pool.submit(_one, args.src, args.work, *task) for task in tasks]
-            outs = [_report(fut.result()) for fut in futures]
+    # Absolute paths: the workers of a remote cluster need them (docs/scale-out.md).
+    work = [(args.src.resolve(), args.work.resolve(), *task) for task in tasks]
+    done: dict[tuple[Any, ...], dict[str, Any]] = {}
+    run_tasks(_one, work, args.jobs, lambda t, o: done.update({t: _report(o)}), args.scheduler)
+    outs = [done[task] for task in work]  # in task order, whatever order they finished in
     wall = time.perf_counter() - t0
     every = pd.DataFrame([r for o in outs for r in o["rows"]])
     df = every[every["fault_seed_base"].isin([0, base])]  # clean and the tabulated fault draw

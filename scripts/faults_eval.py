@@ -86,10 +86,11 @@ def run_all(
     cases: Sequence[str],
     jobs: int,
     keep: bool,
+    scheduler: str | None = None,
 ) -> list[dict[str, Any]]:
-    """Every (preset, seed) task through :func:`adaptnav.experiments.faultbench.run_seed`, ``jobs``
-    at a
-    time (spawned workers); progress on stderr."""
+    """Every (preset, seed) task through :func:`adaptnav.experiments.faultbench.run_seed` on a
+    dask cluster (``scheduler``, else ``$ADAPTNAV_SCHEDULER``, else ``jobs`` local workers; 1:
+    in this process); progress on stderr."""
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
 
@@ -102,8 +103,8 @@ def run_all(
         )
         rows.extend(out)
 
-    work = [(str(cache), p, s, list(filters), list(cases), keep) for p, s in tasks]
-    run_tasks(fb.run_seed, work, jobs, report)
+    work = [(str(cache.resolve()), p, s, list(filters), list(cases), keep) for p, s in tasks]
+    run_tasks(fb.run_seed, work, jobs, report, scheduler)
     return rows
 
 
@@ -346,7 +347,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_length = sorted(args.preset_list, key=lambda p: p != "paper-1")
     tasks = [(p, s) for p in by_length for s in range(1, args.seeds + 1)]
     rows = run_all(
-        args.cache, tasks, args.filter_list, args.case_list, args.jobs, args.keep_missions
+        args.cache,
+        tasks,
+        args.filter_list,
+        args.case_list,
+        args.jobs,
+        args.keep_missions,
+        args.scheduler,
     )
     wall = time.perf_counter() - started
     table = pd.DataFrame(rows)

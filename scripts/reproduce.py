@@ -45,7 +45,7 @@ from adaptnav.experiments.figures import (
     plot_process_noise,
     plot_q_sweep,
 )
-from adaptnav.experiments.runner import run_sweep
+from adaptnav.experiments.runner import run_sweep, scheduler_argument
 from adaptnav.experiments.spec import (
     DEFAULT_FILTERS,
     RunSpec,
@@ -83,7 +83,8 @@ def _args(argv: Sequence[str]) -> argparse.Namespace:
         "--model-seeds", type=int, default=5, help="estimator-model comparison seeds 1..N [5]"
     )
     p.add_argument("--cache", type=Path, default=ROOT / "runs" / "reproduce-cache")
-    p.add_argument("--jobs", type=int, default=None, help="worker processes [cores]")
+    p.add_argument("--jobs", type=int, default=None, help="local workers, 1: in process [cores]")
+    scheduler_argument(p)
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results.md")
     p.add_argument("--figures", type=Path, default=ROOT / "docs" / "results")
     p.add_argument("--discussion", type=Path, default=ROOT / "docs" / "results-discussion.md")
@@ -423,7 +424,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     outcome = run_sweep(
         all_specs, args.cache, jobs=args.jobs, progress=args.progress,
-        keep_missions=args.keep_missions,
+        keep_missions=args.keep_missions, scheduler=args.scheduler,
     )  # fmt: skip
     mc = outcome.rows(mc_specs)
     qt = outcome.rows(q_specs) if q_specs else outcome.table.iloc[0:0]

@@ -165,11 +165,11 @@ def run_seed(
 
 def run_all(
     cache: Path, tasks: Sequence[tuple[str, int]], filters: Sequence[str], jobs: int,
-    traced: tuple[str, int],
+    traced: tuple[str, int], scheduler: str | None = None,
 ) -> list[dict[str, Any]]:  # fmt: skip
-    """Every (preset, seed) task through :func:`run_seed`, ``jobs`` at a time (spawned
-    workers; 1: in this process); on the ``traced`` task the filters of :func:`_figure_filters`
-    keep their error traces. Progress on stderr."""
+    """Every (preset, seed) task through :func:`run_seed` on a dask cluster (``scheduler``, else
+    ``$ADAPTNAV_SCHEDULER``, else ``jobs`` local workers; 1: in this process); on the ``traced``
+    task the filters of :func:`_figure_filters` keep their error traces. Progress on stderr."""
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
 
@@ -183,8 +183,8 @@ def run_all(
         return _figure_filters(filters) if task == traced else []
 
     # jobs = 1 runs in this process (no pickling: also when this file is loaded by path)
-    work = [(str(cache), p, s, list(filters), trace((p, s))) for p, s in tasks]
-    run_tasks(run_seed, work, jobs, report)
+    work = [(str(cache.resolve()), p, s, list(filters), trace((p, s))) for p, s in tasks]
+    run_tasks(run_seed, work, jobs, report, scheduler)
     return rows
 
 
@@ -462,7 +462,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_length = sorted(args.preset_list, key=lambda p: p != "paper-1")
     tasks = [(p, s) for p in by_length for s in range(1, args.seeds + 1)]
     traced = (args.preset_list[0], args.figure_seed)
-    rows = run_all(args.cache, tasks, args.filter_list, args.jobs, traced)
+    rows = run_all(args.cache, tasks, args.filter_list, args.jobs, traced, args.scheduler)
     wall = time.perf_counter() - started
     table = _sorted(rows, args.preset_list, args.filter_list)
     summary = summarize(table)

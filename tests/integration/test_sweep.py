@@ -1,5 +1,5 @@
 """Sweeps and Monte Carlo (adaptnav.experiments, `adaptnav sweep`): cache keys, resume,
-parallel = serial, q reaching the gate, the gyro-bias scale reaching Q, statistics by hand, the CLI.
+q reaching the gate, the gyro-bias scale reaching Q, statistics by hand, the CLI.
 
 One short ``demo`` mission (seed 1, every disturbance on: it has DVL outliers) is simulated
 once for the module and shared through copies of its cache folder.
@@ -181,15 +181,6 @@ def test_second_sweep_runs_nothing(serial: tuple[Path, SweepOutcome]) -> None:
     pd.testing.assert_frame_equal(_metrics(again.table), _metrics(first.table))
 
 
-def test_parallel_equals_serial(serial: tuple[Path, SweepOutcome], tmp_path: Path) -> None:
-    cache, first = serial
-    other = _copy_missions(cache, tmp_path / "cache")
-    par = run_sweep(SPECS, other, jobs=2, progress=False, chunk_size=3)
-    assert (par.ran, par.reused, par.failed) == (len(SPECS), 0, 0)
-    pd.testing.assert_frame_equal(_metrics(par.table), _metrics(first.table))
-    assert par.rows(SPECS[::-1])["key"].tolist() == [s.key() for s in SPECS[::-1]]
-
-
 def test_q_reaches_the_gate(serial: tuple[Path, SweepOutcome]) -> None:
     t = serial[1].table.set_index("key")
     low, high, vb_gated, vb = (t.loc[s.key()] for s in SPECS[:4])
@@ -225,16 +216,6 @@ def test_failed_run_is_reported_not_cached(
     assert not (cache / "runs" / f"{spec.key()}.json").exists()
     assert not (cache / "missions" / "demo-s1").exists()  # keep_missions=False
     assert (cache / "missions" / "demo-s1.alignment.npz").is_file()
-
-
-def test_stale_temporaries_are_removed(serial: tuple[Path, SweepOutcome], tmp_path: Path) -> None:
-    cache = _copy_missions(serial[0], tmp_path / "cache")
-    dead = 999_999_999  # above any pid_max: no such process
-    (cache / "missions" / f".demo-s7.tmp-{dead}").mkdir()
-    (cache / "runs").mkdir()
-    (cache / "runs" / f".x.json.tmp-{dead}").write_text("{")
-    run_sweep([], cache, jobs=1, progress=False)
-    assert not list((cache / "missions").glob(".*")) and not list((cache / "runs").iterdir())
 
 
 # --- statistics --------------------------------------------------------------------------------

@@ -9,7 +9,9 @@
   consistency (mean NEES of position, velocity and attitude; docs/metrics.md).
 
 Each writes ``runs.csv`` (every run), ``summary.csv`` and a figure to ``--out``, and prints a
-table (or, with ``--json``, one JSON object). The library is :mod:`adaptnav.experiments`.
+table (or, with ``--json``, one JSON object). The runs go to a local dask cluster of ``--jobs``
+workers (1: in this process), or to the cluster of ``--scheduler`` / ``$ADAPTNAV_SCHEDULER``
+(docs/scale-out.md). The library is :mod:`adaptnav.experiments`.
 """
 
 from __future__ import annotations
@@ -45,7 +47,22 @@ Out = Annotated[
     Path | None,
     typer.Option(help="folder for runs.csv, summary.csv, the figure (default: CACHE/<sweep kind>)"),
 ]
-Jobs = Annotated[int | None, typer.Option(help="worker processes (default: the number of cores)")]
+Jobs = Annotated[
+    int | None,
+    typer.Option(
+        "--jobs",
+        "-j",
+        help="worker processes of the local cluster (default: the number of cores; 1: in this "
+        "process); ignored with a scheduler",
+    ),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        help="dask scheduler address (tcp://host:8786) to run on an existing cluster, or "
+        "'local'; default: $ADAPTNAV_SCHEDULER, else a local cluster (docs/scale-out.md)"
+    ),
+]
 AsJson = Annotated[bool, typer.Option("--json", help="print one JSON object, no table")]
 ShowProgress = Annotated[bool, typer.Option(help="progress bars on stderr")]
 KeepMissions = Annotated[
@@ -107,12 +124,22 @@ def _common(
 
 
 def _execute(
-    specs: list[RunSpec], cache: Path, jobs: int | None, progress: bool, keep: bool
+    specs: list[RunSpec],
+    cache: Path,
+    jobs: int | None,
+    scheduler: str | None,
+    progress: bool,
+    keep: bool,
 ) -> SweepOutcome:
+    from adaptnav.experiments.cluster import SchedulerError
     from adaptnav.experiments.runner import run_sweep
 
     try:
-        return run_sweep(specs, cache, jobs=jobs, progress=progress, keep_missions=keep)
+        return run_sweep(
+            specs, cache, jobs=jobs, progress=progress, keep_missions=keep, scheduler=scheduler
+        )
+    except SchedulerError as exc:
+        fail(str(exc))
     except OSError as exc:
         fail(f"{cache}: {exc}")
 
@@ -221,6 +248,7 @@ def q_cmd(
     cache: Cache = DEFAULT_CACHE,
     out: Out = None,
     jobs: Jobs = None,
+    scheduler: SchedulerOption = None,
     as_json: AsJson = False,
     progress: ShowProgress = True,
     keep_missions: KeepMissions = True,
@@ -243,7 +271,7 @@ def q_cmd(
     specs = q_sweep_specs(presets, seed_list, q_values, names)
     folder = out or cache / "q"
     with output(folder, force) as tmp:
-        outcome = _execute(specs, cache, jobs, progress, keep_missions)
+        outcome = _execute(specs, cache, jobs, scheduler, progress, keep_missions)
         figure = plot_q_sweep(outcome.table, tmp / "q_sweep.png").name
         c = curve(outcome.table, "q")
         spread = curve_spread(c, "q")
@@ -270,6 +298,7 @@ def process_noise_cmd(
     cache: Cache = DEFAULT_CACHE,
     out: Out = None,
     jobs: Jobs = None,
+    scheduler: SchedulerOption = None,
     as_json: AsJson = False,
     progress: ShowProgress = True,
     keep_missions: KeepMissions = True,
@@ -289,7 +318,7 @@ def process_noise_cmd(
     specs = process_noise_specs(presets, seed_list, scale_values, names)
     folder = out or cache / "process-noise"
     with output(folder, force) as tmp:
-        outcome = _execute(specs, cache, jobs, progress, keep_missions)
+        outcome = _execute(specs, cache, jobs, scheduler, progress, keep_missions)
         figure = plot_process_noise(outcome.table, tmp / "process_noise.png").name
         c = curve(outcome.table, "q_scale")
         spread = curve_spread(c, "q_scale")
@@ -312,6 +341,7 @@ def seeds_cmd(
     cache: Cache = DEFAULT_CACHE,
     out: Out = None,
     jobs: Jobs = None,
+    scheduler: SchedulerOption = None,
     as_json: AsJson = False,
     progress: ShowProgress = True,
     keep_missions: KeepMissions = True,
@@ -333,7 +363,7 @@ def seeds_cmd(
     specs = monte_carlo_specs(presets, seed_list, names)
     folder = out or cache / "seeds"
     with output(folder, force) as tmp:
-        outcome = _execute(specs, cache, jobs, progress, keep_missions)
+        outcome = _execute(specs, cache, jobs, scheduler, progress, keep_missions)
         figure = plot_monte_carlo(outcome.table, tmp / "monte_carlo.png").name
         summary = summarize(outcome.table)
         comparison = paired_comparison(outcome.table, "vb")

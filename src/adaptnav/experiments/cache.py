@@ -10,10 +10,12 @@ A mission is simulated once per (preset, seed[, disturbances]) and its alignment
 (:func:`adaptnav.api.initial_state`) computed once and shared by every filter and parameter
 on it, as the paper's comparison does. ``key`` is a SHA-256 of the spec and the package
 version (:meth:`adaptnav.experiments.spec.RunSpec.key`); a finished run is never rerun, so an
-interrupted sweep resumes. Files are written atomically (temporary file ``.<name>.tmp-<pid>``
-+ ``os.replace``); temporaries of killed processes are removed by :func:`remove_stale_tmp`.
-The cache does not notice code changes within one package version: use a fresh cache folder
-after changing the code.
+interrupted sweep resumes. Files and folders are written atomically: to a temporary sibling
+``.<name>.tmp-<random>``, unique across the processes and machines of a cluster sharing the
+cache, then ``os.replace``; a failed write removes its temporary, only a killed worker leaves
+one behind (hidden, never read; safe to delete when no sweep runs; docs/scale-out.md). The
+cache does not notice code changes within one package version: use a fresh cache folder after
+changing the code.
 """
 
 from __future__ import annotations
@@ -21,9 +23,11 @@ from __future__ import annotations
 import json
 import math
 import os
+import secrets
 import shutil
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -42,7 +46,6 @@ __all__ = [
     "mission_dir",
     "mission_ready",
     "prepare_mission",
-    "remove_stale_tmp",
     "run_record",
     "store_record",
 ]
@@ -51,10 +54,22 @@ Alignment = tuple[np.ndarray, np.ndarray, float]
 """A mission's static alignment: initial state x0, covariance P0 and time t0."""
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+def _tmp_path(path: Path) -> Path:
+    """A temporary sibling of ``path`` no other writer uses: 64 random bits, since process ids
+    repeat across the machines of a cluster."""
+    return path.with_name(f".{path.name}.tmp-{secrets.token_hex(8)}")
+
+
+@contextmanager
+def _atomic(path: Path) -> Iterator[Path]:
+    """A temporary file to write; renamed to ``path`` when the block ends, removed if it
+    fails."""
+    tmp = _tmp_path(path)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)  # gone after a successful rename
 
 
 def mission_dir(cache: Path, name: str) -> Path:
@@ -75,28 +90,6 @@ def mission_ready(cache: Path, name: str) -> bool:
     return (mission_dir(cache, name) / "mission.toml").is_file() and _alignment_path(
         cache, name
     ).is_file()
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # e.g. another user's process
-        return True
-    return True
-
-
-def remove_stale_tmp(root: Path) -> None:
-    """Remove temporary files and folders (``.<name>.tmp-<pid>``) left by killed processes."""
-    for folder in (root / "missions", root / "runs"):
-        for p in folder.glob(".*.tmp-*"):
-            pid = p.name.rpartition(".tmp-")[2]
-            if pid.isdigit() and not _pid_alive(int(pid)):
-                if p.is_dir():
-                    shutil.rmtree(p, ignore_errors=True)
-                else:
-                    p.unlink(missing_ok=True)
 
 
 def cached_record(cache: Path, key: str) -> dict[str, Any] | None:
@@ -123,7 +116,8 @@ def run_record(spec: RunSpec, metrics: Mapping[str, float]) -> dict[str, Any]:
 
 def store_record(cache: Path, record: Mapping[str, Any]) -> None:
     """Write ``record`` (:func:`run_record`) atomically to ``runs/<key>.json``."""
-    _write_atomic(_run_path(cache, record["key"]), json.dumps(record, indent=1, sort_keys=True))
+    with _atomic(_run_path(cache, record["key"])) as tmp:
+        tmp.write_text(json.dumps(record, indent=1, sort_keys=True), encoding="utf-8")
 
 
 def prepare_mission(cache: Path, spec: RunSpec) -> Path:
@@ -131,30 +125,35 @@ def prepare_mission(cache: Path, spec: RunSpec) -> Path:
     alignment once (unless there); returns the mission folder. Both are written atomically."""
     from adaptnav import api
     from adaptnav.mission import load_mission
-    from adaptnav.sim.scenarios import simulate
 
     name = spec.mission_name
     folder = mission_dir(cache, name)
     folder.parent.mkdir(parents=True, exist_ok=True)
     if not (folder / "mission.toml").is_file():
         shutil.rmtree(folder, ignore_errors=True)
-        tmp = folder.with_name(f".{name}.tmp-{os.getpid()}")
-        shutil.rmtree(tmp, ignore_errors=True)
-        simulate(spec.preset, spec.seed, tmp, spec.disturbances)
-        try:
-            os.replace(tmp, folder)
-        except OSError:
-            if not (folder / "mission.toml").is_file():
-                raise
-            shutil.rmtree(tmp, ignore_errors=True)
+        _simulate_into(folder, spec)
     align_path = _alignment_path(cache, name)
     if not align_path.is_file():
         x0, P0, t0, _ = api.initial_state(load_mission(folder))
-        tmp_align = align_path.with_name(f".{align_path.name}.tmp-{os.getpid()}")
-        with tmp_align.open("wb") as fh:
+        with _atomic(align_path) as tmp, tmp.open("wb") as fh:
             np.savez(fh, x0=x0, P0=P0, t0=np.array(t0))
-        os.replace(tmp_align, align_path)
     return folder
+
+
+def _simulate_into(folder: Path, spec: RunSpec) -> None:
+    """Simulate ``spec``'s mission into a temporary sibling and rename it to ``folder``; if
+    another worker got there first, its mission (the same, seeded) is kept."""
+    from adaptnav.sim.scenarios import simulate
+
+    tmp = _tmp_path(folder)
+    try:
+        simulate(spec.preset, spec.seed, tmp, spec.disturbances)
+        os.replace(tmp, folder)
+    except OSError:
+        if not (folder / "mission.toml").is_file():
+            raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def load_prepared(cache: Path, name: str) -> tuple[Mission, Alignment]:

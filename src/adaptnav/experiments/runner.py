@@ -1,31 +1,32 @@
-"""Running a sweep: one spec on a loaded mission, and many through the cache and a process
-pool (issue 5).
+"""Running a sweep: one spec on a loaded mission, and many through the cache and a dask
+cluster (issues 5 and 16; docs/scale-out.md).
 
 :func:`run_sweep` runs every :class:`~adaptnav.experiments.spec.RunSpec` not yet in the cache
 (:mod:`adaptnav.experiments.cache`) and returns all their metrics as a table
-(:func:`adaptnav.experiments.stats.runs_table`). Runs go to a
-:class:`concurrent.futures.ProcessPoolExecutor` (spawned workers, one per core by default) in
-chunks of specs of one mission, so a worker loads a mission once for many runs; at most one
-mission per worker is being simulated at a time. Progress bars (rich) go to stderr.
+(:func:`adaptnav.experiments.stats.runs_table`). Runs go to a ``dask.distributed`` cluster
+(:mod:`adaptnav.experiments.cluster`: a scheduler address or client, ``$ADAPTNAV_SCHEDULER``, or
+a local cluster of single-threaded worker processes, one per core by default) in chunks of specs
+of one mission, so a worker loads a mission once for many runs; at most one mission per worker
+thread is being simulated at a time. One job and no scheduler runs everything in this process:
+the reference the cluster's results equal exactly. Progress bars (rich) go to stderr.
 """
 
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import logging
 import math
-import multiprocessing
 import os
 import shutil
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 import pandas as pd
+from distributed import Client, Future, as_completed
 
 from adaptnav.estimation.settings import FilterKind
 from adaptnav.experiments.cache import (
@@ -35,10 +36,10 @@ from adaptnav.experiments.cache import (
     mission_dir,
     mission_ready,
     prepare_mission,
-    remove_stale_tmp,
     run_record,
     store_record,
 )
+from adaptnav.experiments.cluster import LOCAL, SCHEDULER_ENV, Scheduler, connect, resolve
 from adaptnav.experiments.spec import RunSpec, scale_gyro_bias_q
 from adaptnav.experiments.stats import NEES_METRICS, runs_table
 from adaptnav.mission import with_overrides
@@ -46,13 +47,12 @@ from adaptnav.mission import with_overrides
 if TYPE_CHECKING:
     from adaptnav.mission import Mission
 
-__all__ = ["CHUNK_SIZE", "SweepOutcome", "run_one", "run_sweep", "single_threaded_children"]
+__all__ = ["CHUNK_SIZE", "SweepOutcome", "run_one", "run_sweep", "run_tasks"]
 
 logger = logging.getLogger(__name__)
 
 CHUNK_SIZE = 8
 """Specs per worker task (one mission each): progress granularity vs. per-task overhead."""
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 Reports = list[tuple[str, dict[str, Any] | str]]
 """What a worker task gives back per spec: (key, cached record) or (key, error text)."""
@@ -211,47 +211,48 @@ class _Sweep:
             shutil.rmtree(mission_dir(self.root, name), ignore_errors=True)
 
 
-@contextmanager
-def single_threaded_children() -> Iterator[None]:
-    """Children inherit one-thread settings for BLAS/OpenMP/Numba (one worker per core)."""
-    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
-    for k in _THREAD_VARS:
-        os.environ.setdefault(k, "1")
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def run_tasks(
     fn: Callable[..., Any],
     tasks: Sequence[tuple[Any, ...]],
     jobs: int,
     on_done: Callable[[tuple[Any, ...], Any], None],
+    scheduler: Scheduler = None,
 ) -> None:
-    """``fn(*task)`` for every task, ``jobs`` at a time in spawned workers with one thread each
-    (1: in this process, in order), ``on_done(task, result)`` as each one finishes: the loop of
-    the results scripts (``scripts/faults_eval.py``, ``scripts/smoothing_eval.py``)."""
-    if jobs == 1:
+    """``fn(*task)`` for every task on a dask cluster (:mod:`adaptnav.experiments.cluster`:
+    ``scheduler``, else ``$ADAPTNAV_SCHEDULER``, else a local cluster of ``jobs`` single-threaded
+    workers; with neither a scheduler nor more than one job: in this process, in order), and
+    ``on_done(task, result)`` as each one finishes: the loop of the results scripts
+    (``scripts/faults_eval.py``, ``scripts/smoothing_eval.py``, ``scripts/akit_eval.py``)."""
+    target = resolve(scheduler)
+    if target is None and (jobs == 1 or len(tasks) <= 1):
         for task in tasks:
             on_done(task, fn(*task))
         return
-    ctx = multiprocessing.get_context("spawn")
-    with single_threaded_children(), cf.ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
-        futures = {pool.submit(fn, *task): task for task in tasks}
-        for fut in cf.as_completed(futures):
-            on_done(futures[fut], fut.result())
+    with connect(target, min(jobs, len(tasks))) as client:
+        futures = {client.submit(fn, *task, pure=False): task for task in tasks}
+        try:
+            for fut in as_completed(futures):
+                on_done(futures[fut], fut.result())
+        except BaseException:
+            client.cancel(list(futures))
+            raise
+
+
+def scheduler_argument(p: argparse.ArgumentParser) -> None:
+    """``--scheduler``: where the runs go (:func:`adaptnav.experiments.cluster.resolve`)."""
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help=f"dask scheduler address (tcp://host:8786) or {LOCAL!r} (a local cluster of --jobs "
+        f"workers) [${SCHEDULER_ENV}, else local]; docs/scale-out.md",
+    )
 
 
 def sweep_arguments(
     p: argparse.ArgumentParser, filters: Sequence[str], seeds: int, jobs: int
 ) -> None:
     """The options the results scripts share: ``--presets``, ``--seeds``, ``--filters``,
-    ``--jobs``; :func:`check_sweep_arguments` reads them."""
+    ``--jobs``, ``--scheduler``; :func:`check_sweep_arguments` reads them."""
     p.add_argument("--presets", default="paper-1,paper-2", help="comma-separated presets")
     p.add_argument("--seeds", type=int, default=seeds, help=f"simulation seeds 1..N [{seeds}]")
     p.add_argument(
@@ -259,7 +260,8 @@ def sweep_arguments(
         default=",".join(filters),
         help=f"comma-separated filter kinds [{','.join(filters)}]",
     )
-    p.add_argument("--jobs", type=int, default=jobs)
+    p.add_argument("--jobs", type=int, default=jobs, help=f"local workers, 1: in process [{jobs}]")
+    scheduler_argument(p)
 
 
 def check_sweep_arguments(p: argparse.ArgumentParser, a: argparse.Namespace) -> None:
@@ -290,30 +292,36 @@ def run_sweep(
     progress: bool = True,
     keep_missions: bool = True,
     chunk_size: int = CHUNK_SIZE,
+    scheduler: Scheduler = None,
 ) -> SweepOutcome:
     """Run every spec not yet in ``cache`` and return all their metrics (see
     :mod:`adaptnav.experiments.cache` for the cache).
 
     Args:
         specs: the runs; duplicates (equal keys) run once.
-        cache: the cache folder (created).
-        jobs: worker processes (default ``os.cpu_count()``); 1 runs in this process. Workers
-            are spawned, so a script calling this with jobs > 1 needs the
-            ``if __name__ == "__main__":`` guard.
+        cache: the cache folder (created); workers of a remote cluster must see it at the
+            same absolute path.
+        jobs: worker processes of the local cluster (default ``os.cpu_count()``); 1 (and no
+            scheduler) runs in this process. Local workers are spawned, so a script calling
+            this with jobs > 1 needs the ``if __name__ == "__main__":`` guard. Ignored with a
+            scheduler.
         progress: rich progress bars on stderr.
         keep_missions: False deletes a mission's folder once all its runs of this sweep are
             finished (its alignment file stays); a later sweep needing it simulates it again.
         chunk_size: specs per worker task.
+        scheduler: a :class:`distributed.Client` (left open), a scheduler address, ``"local"``,
+            or None: ``$ADAPTNAV_SCHEDULER``, else the local cluster
+            (:func:`adaptnav.experiments.cluster.resolve`). An unreachable scheduler raises
+            :class:`~adaptnav.experiments.cluster.SchedulerError`.
     """
     started = time.perf_counter()
-    root = Path(cache)
+    root = Path(cache).resolve()  # workers may run elsewhere: give them the absolute path
     (root / "runs").mkdir(parents=True, exist_ok=True)
     (root / "missions").mkdir(parents=True, exist_ok=True)
     if jobs is not None and jobs < 1:
         raise ValueError(f"jobs: {jobs} must be >= 1")
     if chunk_size < 1:
         raise ValueError(f"chunk_size: {chunk_size} must be >= 1")
-    remove_stale_tmp(root)
     unique = list({s.key(): s for s in specs}.values())
     cached = {s.key(): cached_record(root, s.key()) for s in unique}
     records = {key: rec for key, rec in cached.items() if rec is not None}
@@ -324,14 +332,18 @@ def run_sweep(
         groups.setdefault(s.mission_name, []).append(s)
     n_tasks = sum(math.ceil(len(g) / chunk_size) for g in groups.values())
     workers = max(1, min(jobs or os.cpu_count() or 1, n_tasks))
-    with _progress(progress) as bars:
+    target = resolve(scheduler) if n_tasks else None
+    in_process = target is None and workers == 1
+    # Connected before the progress bars start: an unreachable scheduler is one error line.
+    cluster = nullcontext() if in_process else connect(target, workers, root)
+    with cluster as client, _progress(progress) as bars:
         t_missions = bars.add_task("missions", total=len(groups))
         t_runs = bars.add_task("runs", total=len(todo))
         sweep = _Sweep(root, groups, chunk_size, keep_missions, bars, t_missions, t_runs, records)
-        if workers == 1:
+        if client is None:
             _run_serial(sweep)
         else:
-            _run_parallel(sweep, workers)
+            _run_parallel(sweep, client)
     return SweepOutcome(
         table=runs_table(unique, sweep.records, sweep.errors),
         ran=len(todo) - len(sweep.errors),
@@ -358,55 +370,58 @@ def _run_serial(sweep: _Sweep) -> None:
         sweep.done_with(name)
 
 
-def _run_parallel(sweep: _Sweep, workers: int) -> None:
-    """Prepare at most ``workers`` missions at a time; as each is ready, queue its chunks."""
-    ctx = multiprocessing.get_context("spawn")
-    with single_threaded_children(), cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-        queue = _Queue(sweep, pool, workers)
-        try:
+def _run_parallel(sweep: _Sweep, client: Client) -> None:
+    """Prepare at most one mission per worker thread at a time; as each is ready, queue its
+    chunks; take results as they come."""
+    queue = _Queue(sweep, client)
+    try:
+        queue.next_missions()
+        for fut in queue.done:  # grows as missions are ready
+            queue.finish(fut)
             queue.next_missions()
-            while queue.pending:
-                done, _ = cf.wait(queue.pending, return_when=cf.FIRST_COMPLETED)
-                for fut in done:
-                    queue.finish(fut)
-                queue.next_missions()
-        except BaseException:
-            for fut in queue.pending:
-                fut.cancel()
-            raise
+    except BaseException:
+        client.cancel(list(queue.pending))
+        raise
 
 
 class _Queue:
-    """The pool's pending tasks: missions being prepared (at most one per worker) and chunks of
-    runs, each with its kind (``"mission"`` or ``"runs"``), mission name and chunk."""
+    """The cluster's pending tasks: missions being prepared (at most one per worker thread) and
+    chunks of runs, each with its kind (``"mission"`` or ``"runs"``), mission name and chunk;
+    ``done`` yields each as it finishes."""
 
-    def __init__(self, sweep: _Sweep, pool: cf.Executor, workers: int) -> None:
+    def __init__(self, sweep: _Sweep, client: Client) -> None:
         self.sweep = sweep
-        self.pool = pool
-        self.workers = workers
+        self.client = client
         self.waiting = list(sweep.groups)
         self.left = {name: len(g) for name, g in sweep.groups.items()}
-        self.pending: dict[cf.Future[Any], tuple[str, str, list[RunSpec]]] = {}
+        self.pending: dict[Future[Any], tuple[str, str, list[RunSpec]]] = {}
+        self.done = as_completed(loop=client.loop)
+
+    def _submit(self, kind: str, name: str, chunk: list[RunSpec], fn: Any, *args: Any) -> None:
+        fut = self.client.submit(fn, *args, pure=False)  # state on disk: never deduplicate
+        self.pending[fut] = (kind, name, chunk)
+        self.done.add(fut)
 
     def runs(self, name: str) -> None:
         root = str(self.sweep.root)
         for chunk in self.sweep.chunks(name):
-            self.pending[self.pool.submit(_run_chunk, root, chunk)] = ("runs", name, chunk)
+            self._submit("runs", name, chunk, _run_chunk, root, chunk)
 
     def next_missions(self) -> None:
         s = self.sweep
         preparing = sum(1 for kind, _, _ in self.pending.values() if kind == "mission")
-        while self.waiting and preparing < self.workers:
+        # Read each time: an adaptive cluster's workers come and go.
+        threads = max(1, sum(self.client.nthreads().values()))
+        while self.waiting and preparing < threads:
             name = self.waiting.pop(0)
             if mission_ready(s.root, name):
                 s.bars.advance(s.missions_task)
                 self.runs(name)
                 continue
-            fut = self.pool.submit(_prepare, str(s.root), s.groups[name][0])
-            self.pending[fut] = ("mission", name, [])
+            self._submit("mission", name, [], _prepare, str(s.root), s.groups[name][0])
             preparing += 1
 
-    def finish(self, fut: cf.Future[Any]) -> None:
+    def finish(self, fut: Future[Any]) -> None:
         """Take a done task's results; a prepared mission's runs are queued."""
         s = self.sweep
         kind, name, chunk = self.pending.pop(fut)
@@ -421,7 +436,7 @@ class _Queue:
             return
         try:
             s.take(fut.result())
-        except Exception as exc:  # a worker died
+        except Exception as exc:  # a worker died (dask's KilledWorker) or the task was lost
             s.take(_failures(chunk, exc))
         s.bars.advance(s.runs_task, len(chunk))
         self.left[name] -= len(chunk)
