@@ -169,3 +169,12 @@ def test_a_cold_kernel_cache_is_announced_once(
     lines = STAGE.findall(capsys.readouterr().err)
     assert lines[0] == ("aligning; " + _app.COMPILING if noted else "aligning")
     assert lines[1:] == ["running MESKF", "done"]
+
+
+@pytest.mark.parametrize(("path", "cmd"), COMMANDS, ids=IDS)
+def test_every_command_that_writes_a_folder_can_be_quiet(path: list[str], cmd: Any) -> None:
+    """A command with ``--force`` writes a folder and may take minutes: it shows its stages or
+    progress, and so takes ``--quiet``."""
+    options = {o for p in cmd.params for o in getattr(p, "opts", [])}
+    if "--force" in options:
+        assert {"--quiet", "-q"} <= options, path

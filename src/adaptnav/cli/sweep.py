@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.table import Table
 
-from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, Force, app, console, fail, output
+from adaptnav.cli._app import FILTER_LABELS, PAPER_TABLE3, Force, Quiet, app, console, fail, output
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -251,6 +251,7 @@ def q_cmd(
     scheduler: SchedulerOption = None,
     as_json: AsJson = False,
     progress: ShowProgress = True,
+    quiet: Quiet = False,
     keep_missions: KeepMissions = True,
     force: Force = False,
 ) -> None:
@@ -271,7 +272,7 @@ def q_cmd(
     specs = q_sweep_specs(presets, seed_list, q_values, names)
     folder = out or cache / "q"
     with output(folder, force) as tmp:
-        outcome = _execute(specs, cache, jobs, scheduler, progress, keep_missions)
+        outcome = _execute(specs, cache, jobs, scheduler, progress and not quiet, keep_missions)
         figure = plot_q_sweep(outcome.table, tmp / "q_sweep.png").name
         c = curve(outcome.table, "q")
         spread = curve_spread(c, "q")
@@ -301,6 +302,7 @@ def process_noise_cmd(
     scheduler: SchedulerOption = None,
     as_json: AsJson = False,
     progress: ShowProgress = True,
+    quiet: Quiet = False,
     keep_missions: KeepMissions = True,
     force: Force = False,
 ) -> None:
@@ -318,7 +320,7 @@ def process_noise_cmd(
     specs = process_noise_specs(presets, seed_list, scale_values, names)
     folder = out or cache / "process-noise"
     with output(folder, force) as tmp:
-        outcome = _execute(specs, cache, jobs, scheduler, progress, keep_missions)
+        outcome = _execute(specs, cache, jobs, scheduler, progress and not quiet, keep_missions)
         figure = plot_process_noise(outcome.table, tmp / "process_noise.png").name
         c = curve(outcome.table, "q_scale")
         spread = curve_spread(c, "q_scale")
@@ -344,6 +346,7 @@ def seeds_cmd(
     scheduler: SchedulerOption = None,
     as_json: AsJson = False,
     progress: ShowProgress = True,
+    quiet: Quiet = False,
     keep_missions: KeepMissions = True,
     force: Force = False,
 ) -> None:
@@ -363,7 +366,7 @@ def seeds_cmd(
     specs = monte_carlo_specs(presets, seed_list, names)
     folder = out or cache / "seeds"
     with output(folder, force) as tmp:
-        outcome = _execute(specs, cache, jobs, scheduler, progress, keep_missions)
+        outcome = _execute(specs, cache, jobs, scheduler, progress and not quiet, keep_missions)
         figure = plot_monte_carlo(outcome.table, tmp / "monte_carlo.png").name
         summary = summarize(outcome.table)
         comparison = paired_comparison(outcome.table, "vb")
