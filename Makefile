@@ -52,6 +52,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/csv_bench.py
 	$(BIN)/python bench/stream_bench.py
 	$(BIN)/python bench/sweep_bench.py
+	$(BIN)/python bench/day_bench.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache
