@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Literal, NoReturn
 
 import numpy as np
 import pandas as pd
@@ -63,6 +63,8 @@ MAX_ACCEL_M_S2 = 20.0 * G0
 """|accel| above this (m/s², 20 g) is taken as wrong units."""
 RATE_MISMATCH = 0.1
 """Relative difference between the median IMU interval and 1/rate_hz that is warned about."""
+CHECK_BLOCK = 1 << 20
+"""IMU rows checked at a time for wrong units: temporaries of 48 MB, not of the whole table."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -236,7 +238,8 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
             f"{table.label} (imu): {rows.size} valid sample(s), at least {need} needed",
             file=table.label,
         )
-    _check_magnitudes(table, v[rows], own_dt, rows, used, rates)
+    v = _kept(v, rows)
+    _check_magnitudes(table, v, own_dt, rows, used, rates)
     tk = t[rows]
     gaps = np.diff(tk)
     _check_gaps(table, tk, gaps, rows, cfg.gap_limit_s)
@@ -249,16 +252,21 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
             cfg.rate_hz,
             1.0 / cfg.rate_hz,
         )
-    vv = v[rows]
     if rates:
-        dtheta, dvel = rates_to_increments(vv[:, :3], vv[:, 3:], gaps)
+        dtheta, dvel = rates_to_increments(v[:, :3], v[:, 3:], gaps)
         return ImuData(tk[1:].copy(), gaps, dtheta, dvel)
     # A row dropped for NaN leaves a hole: the next interval is stretched back to the previous
     # kept sample and its increments scaled by the ratio (constant rate over the hole), so that
     # gravity and the measured specific force stay integrated over the same time.
     dt = np.concatenate([own_dt[:1], gaps])
     scale = (dt / own_dt)[:, None]
-    return ImuData(tk.copy(), dt, vv[:, :3] * scale, vv[:, 3:] * scale)
+    return ImuData(tk.copy(), dt, v[:, :3] * scale, v[:, 3:] * scale)
+
+
+def _kept(v: Array, rows: NDArray[np.int64]) -> Array:
+    """``v[rows]`` for the sorted, unique ``rows`` the checks kept; ``v`` itself when they kept
+    every row (the usual case: no copy of a day of IMU, docs/robustness.md 'Memory')."""
+    return v if rows.size == len(v) else v[rows]
 
 
 def _drop_duplicate_rows(table: Table, t: Array, v: Array, journal: Journal) -> NDArray[np.bool_]:
@@ -290,7 +298,7 @@ def _finite_rows(
 ) -> NDArray[np.bool_]:
     """Which of ``rows`` have every IMU value finite; the others are dropped, each a repair
     naming its first non-finite column (docs/data-format.md)."""
-    finite = np.all(np.isfinite(v[rows]), axis=1)
+    finite = np.all(np.isfinite(_kept(v, rows)), axis=1)
     for j in np.flatnonzero(~finite):
         r = int(rows[j])
         bad = used[1 + int(np.flatnonzero(~np.isfinite(v[r]))[0])]
@@ -312,13 +320,30 @@ def _check_magnitudes(
     used: list[str],
     rates: bool,
 ) -> None:
-    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units."""
-    w = v if rates else v / own_dt[:, None]
+    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units.
+    Checked a block of rows at a time: a day of IMU needs no full-size temporaries."""
     limits = np.array([MAX_GYRO_RAD_S] * 3 + [MAX_ACCEL_M_S2] * 3)
-    over = np.abs(w) > limits
-    if not over.any():
-        return
-    j, c = (int(i) for i in np.argwhere(over)[0])
+    for start in range(0, len(v), CHECK_BLOCK):
+        block = slice(start, start + CHECK_BLOCK)
+        w = v[block] if rates else v[block] / own_dt[block, None]
+        over = np.abs(w) > limits
+        if over.any():
+            j, c = (int(i) for i in np.argwhere(over)[0])
+            _magnitude_error(table, v, own_dt, rows, used, rates, start + j, c)
+
+
+def _magnitude_error(
+    table: Table,
+    v: Array,
+    own_dt: Array,
+    rows: NDArray[np.int64],
+    used: list[str],
+    rates: bool,
+    j: int,
+    c: int,
+) -> NoReturn:
+    """The wrong-units error of :func:`_check_magnitudes` for kept row ``j``, column ``c``."""
+    w = v[j] if rates else v[j] / own_dt[j]
     r = int(rows[j])
     col = used[1 + c]
     gyro = c < 3
@@ -327,7 +352,7 @@ def _check_magnitudes(
     what = (
         f"value {show(v[j, c])}"
         if rates
-        else f"value {show(v[j, c])} over dt = {own_dt[j]:.6g} s is a rate of {w[j, c]:.6g}"
+        else f"value {show(v[j, c])} over dt = {own_dt[j]:.6g} s is a rate of {w[c]:.6g}"
     )
     raise table.error(r, col, f"{what} exceeds {limit}: wrong units? ({hint})")
 

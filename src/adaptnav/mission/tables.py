@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa  # type: ignore[import-untyped]
 import pyarrow.csv as pa_csv  # type: ignore[import-untyped]
+import pyarrow.parquet as pq  # type: ignore[import-untyped]
 from numpy.typing import NDArray
 
 from adaptnav.core.units import DEG
@@ -259,7 +260,9 @@ def read_table(path: Path, label: str, journal: Journal) -> Table:
 
 def _read_parquet(path: Path, label: str) -> Table:
     try:
-        df = pd.read_parquet(path)
+        # Column by column, each Arrow buffer freed as it is converted: a day of IMU is read
+        # with one copy in memory at a time, not three (pd.read_parquet's consolidation).
+        df = pq.read_table(path).to_pandas(self_destruct=True, split_blocks=True)
     except Exception as exc:  # pyarrow raises many kinds; all mean "not a readable Parquet file"
         raise MissionError(
             f"{label}: not a readable Parquet file ({type(exc).__name__}: {exc})", file=label
