@@ -51,6 +51,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/sim_bench.py
 	$(BIN)/python bench/csv_bench.py
 	$(BIN)/python bench/stream_bench.py
+	$(BIN)/python bench/cold_bench.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache
