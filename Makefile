@@ -53,6 +53,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/stream_bench.py
 	$(BIN)/python bench/sweep_bench.py
 	$(BIN)/python bench/day_bench.py
+	$(BIN)/python bench/cold_bench.py
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -329,12 +330,17 @@ class Comparison:
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        truth = self.truth
+        truth_file: Path | None = None
         for name, result in self.results.items():
             if mission_dir is not None:
                 result = replace(result, meta={**result.meta, "mission_dir": str(mission_dir)})
             run_dir = results_mod.save(result, out / name)
-            truth.to_parquet(run_dir / TRUTH_FILE, index=False)
+            # Every run folder gets the same reference: encoded once, copied byte for byte.
+            if truth_file is None:
+                truth_file = run_dir / TRUTH_FILE
+                self.truth.to_parquet(truth_file, index=False)
+            else:
+                shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
         self.table().to_csv(out / COMPARISON_CSV, index=False)
 
         fig_dir = out / FIGURES_DIR

@@ -319,10 +319,10 @@ def ledger_frame(
     With ``kinds`` (sensor name → kind) a ``kind`` column follows ``sensor``; every sensor in
     the ledger must have a kind.
     """
-    extra = sorted({k for r in rows for k in r} - set(LEDGER_COLUMNS))
+    extra = sorted(set().union(*rows) - set(LEDGER_COLUMNS))
     columns = [*LEDGER_COLUMNS, *extra]
-    data = {c: [r.get(c, math.nan) for r in rows] for c in columns}
-    frame = pd.DataFrame(data, columns=columns)
+    # pandas reads the dicts column by column in C; a key a row lacks becomes NaN.
+    frame = pd.DataFrame(list(rows), columns=columns)
     for c in columns:
         if c in _LEDGER_INT:
             frame[c] = frame[c].astype("int64")
@@ -331,7 +331,7 @@ def ledger_frame(
         elif c in LEDGER_COLUMNS:
             frame[c] = frame[c].astype("float64")
     if kinds is not None:
-        unknown = sorted(set(frame["sensor"]) - set(kinds))
+        unknown = sorted(set(frame["sensor"].unique()) - set(kinds))
         if unknown:
             raise ValueError(f"kinds: no kind given for sensors {unknown}")
         kind = frame["sensor"].map(dict(kinds)).astype("str")
@@ -391,7 +391,7 @@ def ledger_counts(ledger: pd.DataFrame) -> dict[str, dict[str, int]]:
     if ledger.empty:
         return counts
     table = ledger.groupby(["sensor", "fate"]).size().reset_index(name="n")
-    for sensor in sorted(set(ledger["sensor"])):
+    for sensor in sorted(set(ledger["sensor"].unique())):
         counts[str(sensor)] = {fate: 0 for fate in FATES}
     for sensor, fate, n in zip(table["sensor"], table["fate"], table["n"], strict=True):
         counts[str(sensor)][str(fate)] = int(n)

@@ -114,14 +114,15 @@ def _times(t: ArrayLike) -> Array:
     return ta
 
 
-def _euler_to_dcm(e: Array) -> Array:
-    """``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` for an (N, 3) array of ``[φ, θ, ψ]`` → (N, 3, 3).
+def _euler_to_dcm(sin_e: Array, cos_e: Array) -> Array:
+    """``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` from the sines and cosines (N, 3) of ``[φ, θ, ψ]`` →
+    (N, 3, 3); the caller takes them once, as it needs them again.
 
     The vectorised twin of :func:`adaptnav.core.attitude.euler_to_dcm`.
     """
-    sr, cr = np.sin(e[:, 0]), np.cos(e[:, 0])
-    sp, cp = np.sin(e[:, 1]), np.cos(e[:, 1])
-    sy, cy = np.sin(e[:, 2]), np.cos(e[:, 2])
+    sr, cr = sin_e[:, 0], cos_e[:, 0]
+    sp, cp = sin_e[:, 1], cos_e[:, 1]
+    sy, cy = sin_e[:, 2], cos_e[:, 2]
     rows = [
         np.stack([cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy], axis=-1),
         np.stack([cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy], axis=-1),
@@ -181,9 +182,10 @@ def true_kinematics(motion: Motion, t: ArrayLike) -> Kinematics:
     )
 
     e, ed = motion.euler(tt), motion.euler_rate(tt)
-    C_nb = _euler_to_dcm(e)
-    s_r, c_r = np.sin(e[:, 0]), np.cos(e[:, 0])
-    s_p, c_p = np.sin(e[:, 1]), np.cos(e[:, 1])
+    sin_e, cos_e = np.sin(e), np.cos(e)
+    C_nb = _euler_to_dcm(sin_e, cos_e)
+    s_r, c_r = sin_e[:, 0], cos_e[:, 0]
+    s_p, c_p = sin_e[:, 1], cos_e[:, 1]
     omega_nb_b = np.stack(
         [
             ed[:, 0] - s_p * ed[:, 2],

@@ -65,6 +65,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -156,23 +157,37 @@ class StepProfile:
         x = (t - self.starts[j]) / w
         return k, x, delta, w
 
-    def value(self, t: ArrayLike) -> Array:
-        tt = np.asarray(t, dtype=float)
-        k, x, delta, _ = self._locate(tt)
+    def _value(self, k: IntArray, x: Array, delta: Array) -> Array:
         before = self._sum_d[np.maximum(k - 1, 0)]
         return np.asarray(self.initial + before + delta * smooth_step(x), dtype=float)
 
+    @staticmethod
+    def _rate(x: Array, delta: Array, w: Array) -> Array:
+        return np.asarray(delta * smooth_step_d1(x) / w, dtype=float)
+
+    @staticmethod
+    def _accel(x: Array, delta: Array, w: Array) -> Array:
+        return np.asarray(delta * smooth_step_d2(x) / (w * w), dtype=float)
+
+    def value(self, t: ArrayLike) -> Array:
+        k, x, delta, _ = self._locate(np.asarray(t, dtype=float))
+        return self._value(k, x, delta)
+
     def rate(self, t: ArrayLike) -> Array:
         """dy/dt."""
-        tt = np.asarray(t, dtype=float)
-        _, x, delta, w = self._locate(tt)
-        return np.asarray(delta * smooth_step_d1(x) / w, dtype=float)
+        _, x, delta, w = self._locate(np.asarray(t, dtype=float))
+        return self._rate(x, delta, w)
 
     def accel(self, t: ArrayLike) -> Array:
         """d²y/dt²."""
-        tt = np.asarray(t, dtype=float)
-        _, x, delta, w = self._locate(tt)
-        return np.asarray(delta * smooth_step_d2(x) / (w * w), dtype=float)
+        _, x, delta, w = self._locate(np.asarray(t, dtype=float))
+        return self._accel(x, delta, w)
+
+    def derivatives(self, t: ArrayLike) -> tuple[Array, Array, Array]:
+        """(y, dy/dt, d²y/dt²): :meth:`value`, :meth:`rate` and :meth:`accel` from one search
+        of the steps (the simulator asks for all three at millions of instants)."""
+        k, x, delta, w = self._locate(np.asarray(t, dtype=float))
+        return self._value(k, x, delta), self._rate(x, delta, w), self._accel(x, delta, w)
 
     def integral(self, t: ArrayLike) -> Array:
         """∫_0^t y (valid for steps at times >= 0)."""
@@ -334,6 +349,16 @@ def _change_width(delta: float, peak_rate: float, minimum: float) -> float:
     return max(minimum, STEP_PEAK_SLOPE * abs(delta) / peak_rate)
 
 
+class _Profiles(NamedTuple):
+    """The smooth profiles of the track at some instants (:meth:`Trajectory._profiles`)."""
+
+    speed: Array
+    speed_rate: Array
+    course: Array
+    course_rate: Array
+    course_accel: Array
+
+
 def _wave_sum(comps: Sequence[WaveComponent], t: Array) -> tuple[Array, Array, Array]:
     """Σ A sin(ωt + φ) and its first two derivatives."""
     s0 = np.zeros_like(t)
@@ -441,14 +466,19 @@ class Trajectory:
 
     # --- horizontal track --------------------------------------------------------------------
 
-    def _track_rates(self, t: Array) -> tuple[Array, Array, Array, Array, Array]:
-        """(ṅ, ė, n̈, ë, χ) of the track at t."""
-        s = self.speed.value(t)
-        sd = self.speed.rate(t)
+    def _profiles(self, t: Array) -> _Profiles:
+        """Speed, course and course rate at t, with the derivatives the motion needs."""
+        s, sd, _ = self.speed.derivatives(t)
+        chid, chidd, _ = self.course_rate.derivatives(t)
         chi = self.spec.course0 + self.course_rate.integral(t)
-        chid = self.course_rate.value(t)
-        c, sn = np.cos(chi), np.sin(chi)
-        return s * c, s * sn, sd * c - s * chid * sn, sd * sn + s * chid * c, chi
+        return _Profiles(s, sd, chi, chid, chidd)
+
+    @staticmethod
+    def _track_rates(p: _Profiles) -> tuple[Array, Array, Array, Array]:
+        """(ṅ, ė, n̈, ë) of the track from its profiles."""
+        s, sd, chid = p.speed, p.speed_rate, p.course_rate
+        c, sn = np.cos(p.course), np.sin(p.course)
+        return s * c, s * sn, sd * c - s * chid * sn, sd * sn + s * chid * c
 
     def _build_knots(self) -> None:
         regular = np.arange(0.0, self.duration, KNOT_SPACING)
@@ -462,14 +492,14 @@ class Trajectory:
         a, b = knots[:-1], knots[1:]
         half = 0.5 * (b - a)
         tau = (0.5 * (a + b))[:, None] + half[:, None] * x[None, :]
-        dn, de, _, _, _ = self._track_rates(tau.ravel())
+        dn, de, _, _ = self._track_rates(self._profiles(tau.ravel()))
         wts = half[:, None] * w[None, :]
         n_inc = np.sum(dn.reshape(tau.shape) * wts, axis=1)
         e_inc = np.sum(de.reshape(tau.shape) * wts, axis=1)
         self._knots = knots
         self._kn = np.concatenate([[0.0], np.cumsum(n_inc)])
         self._ke = np.concatenate([[0.0], np.cumsum(e_inc)])
-        dn_k, de_k, ddn_k, dde_k, _ = self._track_rates(knots)
+        dn_k, de_k, ddn_k, dde_k = self._track_rates(self._profiles(knots))
         self._kdn, self._kde, self._kddn, self._kdde = dn_k, de_k, ddn_k, dde_k
 
     def _track(self, t: Array) -> tuple[Array, Array]:
@@ -515,7 +545,7 @@ class Trajectory:
         tt = np.asarray(t, dtype=float)
         out: dict[str, tuple[Array, Array, Array]] = {}
         wv = self.spec.waves
-        lev = self.sea_state.value(tt), self.sea_state.rate(tt), self.sea_state.accel(tt)
+        lev = self.sea_state.derivatives(tt)
         for name in ("roll", "pitch", "yaw", "heave", "horizontal"):
             comps: tuple[WaveComponent, ...] = getattr(wv, name) if self.waves_on else ()
             s0, s1, s2 = _wave_sum(comps, tt)
@@ -531,11 +561,12 @@ class Trajectory:
         spec = self.spec
         tt = np.asarray(t, dtype=float)
         n, e = self._track(tt)
-        dn, de, ddn, dde, chi = self._track_rates(tt)
+        prof = self._profiles(tt)
+        dn, de, ddn, dde = self._track_rates(prof)
         wv = self.waves(tt)
         cb, sb = math.cos(spec.waves.direction), math.sin(spec.waves.direction)
         d0, d1, d2 = wv["horizontal"]
-        z0, z1, z2 = self.depth.value(tt), self.depth.rate(tt), self.depth.accel(tt)
+        z0, z1, z2 = self.depth.derivatives(tt)
         q0, q1, q2 = wv["heave"]
         p = np.stack(
             [
@@ -551,8 +582,8 @@ class Trajectory:
         pdd = np.stack(
             [self._k_lat * (ddn + cb * d2), self._k_lon * (dde + sb * d2), -z2 + q2], axis=-1
         )
-        s, sd = self.speed.value(tt), self.speed.rate(tt)
-        r, rd = self.course_rate.value(tt), self.course_rate.rate(tt)
+        s, sd, chi = prof.speed, prof.speed_rate, prof.course
+        r, rd = prof.course_rate, prof.course_accel
         k = spec.heel_factor / G0
         roll = spec.list_trim[0] + wv["roll"][0] - k * s * r
         droll = wv["roll"][1] - k * (sd * r + s * rd)

@@ -387,7 +387,7 @@ def _navigation_counts(
     for name, r in results.items():
         ledger = r.ledger
         fate = ledger["fate"].astype(str)
-        aided = set(ledger.loc[fate.isin(("used", "rejected")), "sensor"].astype(str))
+        aided = set(ledger.loc[fate.isin(("used", "rejected")), "sensor"].astype(str).unique())
         sensors |= aided
         late = ledger["t"].to_numpy(dtype=float) > t0
         per: dict[str, dict[str, int]] = {}
