@@ -1220,8 +1220,11 @@ def epoch(
     for i in range(s_int.shape[0]):
         seen[i] = 0
     blk[2, 0] = 0
-    nb = 0
-    D = 0
+    # Read back, not the literal 0: typed from a literal, Numba would compile linearise and
+    # stacked_update (and what they call) a second time for Literal[int](0) while it infers
+    # this function's types, about a fifth of a cold start (bench/cold_bench.py).
+    D = blk[2, 0]
+    nb = D
     for k in range(g):
         idx = queue[head + k]
         i = st_sensor[idx]
