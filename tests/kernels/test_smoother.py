@@ -134,6 +134,7 @@ def _store(nodes: smoother.Nodes) -> smk.Store:
     sm = smk.grown(sm, N, N)
     for j in range(N):
         sm[smk.SM_ACC][: smk.CORE, : smk.CORE] = nodes.Phi[j][: smk.CORE, : smk.CORE]
+        sm[smk.SM_COUNT][smk.K_STEPS] = 1  # Φ_acc holds the steps since the last node
         has_update = bool(np.any(nodes.dx[j] != 0.0))
         prior = nodes.P_prior[j] if has_update else np.empty((0, 0))
         smk.node(sm, nodes.t[j], nodes.x[j], nodes.P[j], nodes.dx[j], prior)

@@ -125,8 +125,20 @@ def unpack(packed: Array, out: Array) -> None:
 def accumulate(sm: Store, PhiT: Array) -> None:
     """``Φ_acc ← Φ Φ_acc`` for one propagation step's Φ (given as the flat ``Φᵀ`` of the
     propagation kernels, row stride 16); counts the step. Rows 9-14 of Φ are diagonal (the
-    biases' Gauss-Markov dynamics), rows 0-8 full. The caller calls it only when smoothing."""
+    biases' Gauss-Markov dynamics), rows 0-8 full, and so are Φ_acc's: only its rows 0-8 are
+    products, in which a row 9-14 of Φ_acc adds one element. The first step after a node takes
+    the step's Φ as it is (Φ_acc is the identity then: it is not reset at the node). The caller
+    calls it only when smoothing."""
     acc = sm[SM_ACC]
+    counts = sm[SM_COUNT]
+    if counts[K_STEPS] == 0:
+        for i in range(9):
+            for j in range(CORE):
+                acc[i, j] = PhiT[j * _W + i]
+        for i in range(9, CORE):
+            acc[i, i] = PhiT[i * _W + i]
+        counts[K_STEPS] = 1
+        return
     # Rows padded to 16 (a zero column) with the width known only at run time: LLVM then
     # vectorizes the row updates instead of unrolling them (as compiled.propagation does).
     nw = acc.shape[1]
@@ -134,25 +146,26 @@ def accumulate(sm: Store, PhiT: Array) -> None:
         r = CORE + i
         for j in range(nw):
             acc[r, j] = 0.0
-        for k in range(CORE):
+        for k in range(9):
             a = PhiT[k * _W + i]
             for j in range(nw):
                 acc[r, j] += a * acc[k, j]
+        for k in range(9, CORE):
+            acc[r, k] += PhiT[k * _W + i] * acc[k, k]
     for i in range(9, CORE):
-        d = PhiT[i * _W + i]
-        for j in range(nw):
-            acc[i, j] *= d
+        acc[i, i] *= PhiT[i * _W + i]
     for i in range(9):
         for j in range(nw):
             acc[i, j] = acc[CORE + i, j]
-    sm[SM_COUNT][K_STEPS] += 1
+    counts[K_STEPS] += 1
 
 
 @jit
 def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> int:
     """Store a node at t: x and P after it, and when ``prior`` holds the P an update started
     from (``prior[0, 0]`` not NaN), dx and that P (else dx is zero and may be empty); Φ_acc
-    becomes the node's Φ and is reset to the identity. Returns the node's index."""
+    becomes the node's Φ (the identity if no step was accumulated since the last node). Returns
+    the node's index."""
     counts = sm[SM_COUNT]
     j = int(counts[K_NODES])
     sm[SM_T][j] = t
@@ -161,14 +174,12 @@ def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> in
     pack(P, sm[SM_P][j])
     acc = sm[SM_ACC]
     phi = sm[SM_PHI][j]
+    steps = counts[K_STEPS] > 0  # else nothing was propagated since the last node: Φ = I
     for i in range(9):
         for c in range(CORE):
-            phi[i * CORE + c] = acc[i, c]
+            phi[i * CORE + c] = acc[i, c] if steps else (1.0 if i == c else 0.0)
     for a in range(6):
-        phi[PHI_DIAG + a] = acc[9 + a, 9 + a]
-    for i in range(CORE):
-        for c in range(CORE):
-            acc[i, c] = 1.0 if i == c else 0.0
+        phi[PHI_DIAG + a] = acc[9 + a, 9 + a] if steps else 1.0
     updated = prior.shape[0] > 0 and not math.isnan(prior[0, 0])
     for i in range(sm[SM_DX].shape[1]):
         sm[SM_DX][j, i] = dx[i] if updated else 0.0
