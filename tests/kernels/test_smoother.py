@@ -169,7 +169,7 @@ def test_compiled_backward_equals_the_twin(
     np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
     got = np.zeros((N, n, n))
     for j in range(N):
-        smk.unpack(sm[smk.SM_P][j], got[j])
+        smk.unpack(sm[smk.SM_P][j], got[j], n)
     sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
     np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
                                P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip

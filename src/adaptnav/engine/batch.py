@@ -1097,12 +1097,14 @@ class Navigator:
         prior_idx = sm[smk.SM_PRIOR][:N]
         Pm = _unpacked(sm[smk.SM_PM][: int(counts[smk.K_PRIORS])], n)
         P_prior = np.where((prior_idx >= 0)[:, None, None], Pm[np.maximum(prior_idx, 0)], P)
+        dx = np.zeros((N, n))
+        dx[prior_idx >= 0] = sm[smk.SM_DX][prior_idx[prior_idx >= 0]]
         Phi = np.tile(np.eye(n), (N, 1, 1))
         stored = sm[smk.SM_PHI][:N]
         Phi[:, :9, :N_STATES] = stored[:, : smk.PHI_DIAG].reshape(N, 9, N_STATES)
         Phi[:, range(9, N_STATES), range(9, N_STATES)] = stored[:, smk.PHI_DIAG :]
         return Nodes(
-            sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), sm[smk.SM_DX][:N].copy(), P,
+            sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), dx, P,
             P_prior, Phi, self.config.reset_covariance,
             sm[smk.SM_OUT][: int(self._icur[I_N_OUT])].copy(),
         )  # fmt: skip
@@ -1123,6 +1125,7 @@ class Navigator:
             n = self.config.layout.n
             packed = sm[smk.SM_P][idx]
             per_node = sum(sm[k][:1].nbytes for k in smk.NODE_ARRAYS)
+            per_update = sum(sm[k][:1].nbytes for k in smk.UPDATE_ARRAYS)
             self._smoothed = Smoothed(
                 self._out_t[:rows].copy(),
                 sm[smk.SM_X][idx, :NOM_SIZE].copy(),
@@ -1131,7 +1134,7 @@ class Navigator:
                 nodes,
                 priors,
                 int(counts[smk.K_FAILED]),
-                nodes * per_node + priors * sm[smk.SM_PM][:1].nbytes,
+                nodes * per_node + priors * per_update,
                 declared=sm[smk.SM_X][idx, NOM_SIZE:].copy(),
                 declared_var=packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES, n)]],
             )
