@@ -56,6 +56,8 @@ NODE_ARRAYS = (SM_T, SM_X, SM_P, SM_PHI, SM_PRIOR, SM_OUT)
 """The store's arrays with a row per node."""
 UPDATE_ARRAYS = (SM_DX, SM_PM)
 """The store's arrays with a row per update node."""
+_NO_DX, _NO_PRIOR = np.empty(0), np.empty((0, 0))
+""":func:`node`'s arguments for a node without an update (constants: no allocation per row)."""
 
 
 def packed_size(n: int) -> int:
@@ -155,8 +157,9 @@ def accumulate(sm: Store, PhiT: Array) -> None:
             acc[r, j] = 0.0
         for k in range(9):
             a = PhiT[k * _W + i]
-            for j in range(nw):
-                acc[r, j] += a * acc[k, j]
+            if a != 0.0:  # e.g. Φ's column 1 (east position error) beside its diagonal
+                for j in range(nw):
+                    acc[r, j] += a * acc[k, j]
         for k in range(9, CORE):
             acc[r, k] += PhiT[k * _W + i] * acc[k, k]
     for i in range(9, CORE):
@@ -209,7 +212,7 @@ def output_node(sm: Store, o: int, t: float, x: Array, P: Array) -> None:
     if counts[K_STEPS] == 0 and counts[K_NODES] > 0:
         sm[SM_OUT][o] = counts[K_NODES] - 1
     else:
-        sm[SM_OUT][o] = node(sm, t, x, P, np.empty(0), np.empty((0, 0)))
+        sm[SM_OUT][o] = node(sm, t, x, P, _NO_DX, _NO_PRIOR)
 
 
 @jit_inline

@@ -44,8 +44,9 @@ from __future__ import annotations
 
 import gc
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, Literal
 
 import numpy as np
@@ -1123,20 +1124,20 @@ class Navigator:
             rows = int(self._icur[I_N_OUT])
             idx = sm[smk.SM_OUT][:rows]
             n = self.config.layout.n
-            packed = sm[smk.SM_P][idx]
+            packed = partial(_elements, sm[smk.SM_P], idx, n=n)
             per_node = sum(sm[k][:1].nbytes for k in smk.NODE_ARRAYS)
             per_update = sum(sm[k][:1].nbytes for k in smk.UPDATE_ARRAYS)
             self._smoothed = Smoothed(
                 self._out_t[:rows].copy(),
-                sm[smk.SM_X][idx, :NOM_SIZE].copy(),
-                packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES)]],
-                packed[:, [smk.packed_index(i, j, n) for i, j in P_CROSS_PAIRS]],
+                sm[smk.SM_X][idx, :NOM_SIZE],
+                packed((i, i) for i in range(N_STATES)),
+                packed(P_CROSS_PAIRS),
                 nodes,
                 priors,
                 int(counts[smk.K_FAILED]),
                 nodes * per_node + priors * per_update,
-                declared=sm[smk.SM_X][idx, NOM_SIZE:].copy(),
-                declared_var=packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES, n)]],
+                declared=sm[smk.SM_X][idx, NOM_SIZE:],
+                declared_var=packed((i, i) for i in range(N_STATES, n)),
             )
         return self._smoothed
 
@@ -1157,6 +1158,13 @@ class Navigator:
             q_scale=float(self._rates[uk.R_Q, 0]),
             smoothed=self.smooth() if self.config.smooth else None,
         )
+
+
+def _elements(packed: Array, rows: IntArray, pairs: Iterable[tuple[int, int]], *, n: int) -> Array:
+    """``P[i, j]`` for each (i, j) of ``pairs`` (columns) of the packed matrices
+    (compiled.smoother.pack) in ``rows`` of ``packed``, without copying whole rows."""
+    columns = np.array([smk.packed_index(i, j, n) for i, j in pairs], dtype=np.int64)
+    return packed[np.ix_(rows, columns)]
 
 
 def _unpacked(packed: Array, n: int) -> Array:
