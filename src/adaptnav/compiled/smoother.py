@@ -349,7 +349,7 @@ def _anchor(
     for i in range(n):
         for c in range(n):
             S[i, c] = 1.0 if i == c else 0.0
-    _cho_solve(L, n, S, S, n)
+    _cho_solve(L, n, S, S, S.shape[1])  # W columns, the last zero: vectorized rows
     for i in range(n):
         s = 0.0
         for m in range(n):
