@@ -40,9 +40,13 @@ def _nominal(rng: np.random.Generator, N: int, m: int) -> Array:
 
 @pytest.fixture(name="linear")
 def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
+    return _kalman(0.6)
+
+
+def _kalman(p_update: float) -> tuple[smoother.Nodes, Array, dict[str, Array]]:
     """A closed-loop Kalman filter on a random linear-Gaussian model (15 states, 24 nodes, an
-    update at some of them, none at others - consecutive ones included), its nodes and its
-    filtered means; and the model, for the batch posterior."""
+    update at a node with probability ``p_update``, none at 5-7 - consecutive nodes without one
+    included), its nodes and its filtered means; and the model, for the batch posterior."""
     rng = np.random.default_rng(5)
     n, N, d = 15, 24, 4
     scales = np.logspace(1, -5, n)  # m-sized beside rad/s-sized states
@@ -53,7 +57,7 @@ def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
     H = rng.normal(size=(d, n)) / scales
     R = np.diag(rng.uniform(0.5, 2.0, d))
     P0 = _spd(rng, n, scales)
-    updated = rng.random(N) < 0.6
+    updated = rng.random(N) < p_update
     updated[[5, 6, 7]] = False
     truth = rng.multivariate_normal(np.zeros(n), P0)
     z = np.zeros((N, d))
@@ -141,13 +145,15 @@ def _store(nodes: smoother.Nodes) -> smk.Store:
     return sm
 
 
-@pytest.mark.parametrize("declared", [0, 4])
+@pytest.mark.parametrize(("declared", "sparse"), [(0, False), (4, False), (0, True)])
 def test_compiled_backward_equals_the_twin(
-    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int, sparse: bool
 ) -> None:
     """With the reset Jacobian and real nominal states; ``declared`` states beyond the core
-    (random walks, Φ = I there, as errorstate.StateLayout has them)."""
-    base, _, _ = linear
+    (random walks, Φ = I there, as errorstate.StateLayout has them). The compiled pass
+    multiplies the gains between update nodes out, the twin goes node by node; ``sparse``: an
+    update at a fifth of the nodes, for runs of many nodes without one."""
+    base = _kalman(0.2)[0] if sparse else linear[0]
     rng = np.random.default_rng(11)
     N, n = base.dx.shape[0], 15 + declared
     grow = np.eye(n)[None].repeat(N, axis=0)
@@ -163,6 +169,7 @@ def test_compiled_backward_equals_the_twin(
     dx[:, 6:9] = np.where(base.dx[:, 6:9] != 0.0, rng.normal(0.0, 0.02, (N, 3)), 0.0)
     nodes = smoother.Nodes(base.t, _nominal(rng, N, declared), dx, P, P_prior, Phi, reset=True)
     x_s, P_s, _ = smoother.rts(nodes)
+    assert np.all(np.diagonal(P_s, axis1=1, axis2=2) > 0.0)
     sm = _store(nodes)
     smk.backward(sm, True)
     assert sm[smk.SM_COUNT][smk.K_FAILED] == 0
