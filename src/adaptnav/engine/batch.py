@@ -220,7 +220,8 @@ class Smoothed:
     update_nodes: int
     """Nodes with an update (their P before it is stored too)."""
     failed: int
-    """Nodes whose P before the next node was not positive definite: filtered values kept."""
+    """Update nodes whose P⁻ was not positive definite: the nodes from the update node before
+    up to them kept their filtered values (compiled.smoother.backward)."""
     store_bytes: int
     """Memory the store's nodes took (docs/smoothing.md, 'Memory')."""
     declared: Array = field(kw_only=True)
