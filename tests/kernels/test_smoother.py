@@ -40,9 +40,13 @@ def _nominal(rng: np.random.Generator, N: int, m: int) -> Array:
 
 @pytest.fixture(name="linear")
 def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
+    return _kalman(0.6)
+
+
+def _kalman(p_update: float) -> tuple[smoother.Nodes, Array, dict[str, Array]]:
     """A closed-loop Kalman filter on a random linear-Gaussian model (15 states, 24 nodes, an
-    update at some of them, none at others - consecutive ones included), its nodes and its
-    filtered means; and the model, for the batch posterior."""
+    update at a node with probability ``p_update``, none at 5-7 - consecutive nodes without one
+    included), its nodes and its filtered means; and the model, for the batch posterior."""
     rng = np.random.default_rng(5)
     n, N, d = 15, 24, 4
     scales = np.logspace(1, -5, n)  # m-sized beside rad/s-sized states
@@ -53,7 +57,7 @@ def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
     H = rng.normal(size=(d, n)) / scales
     R = np.diag(rng.uniform(0.5, 2.0, d))
     P0 = _spd(rng, n, scales)
-    updated = rng.random(N) < 0.6
+    updated = rng.random(N) < p_update
     updated[[5, 6, 7]] = False
     truth = rng.multivariate_normal(np.zeros(n), P0)
     z = np.zeros((N, d))
@@ -134,19 +138,22 @@ def _store(nodes: smoother.Nodes) -> smk.Store:
     sm = smk.grown(sm, N, N)
     for j in range(N):
         sm[smk.SM_ACC][: smk.CORE, : smk.CORE] = nodes.Phi[j][: smk.CORE, : smk.CORE]
+        sm[smk.SM_COUNT][smk.K_STEPS] = 1  # Φ_acc holds the steps since the last node
         has_update = bool(np.any(nodes.dx[j] != 0.0))
         prior = nodes.P_prior[j] if has_update else np.empty((0, 0))
         smk.node(sm, nodes.t[j], nodes.x[j], nodes.P[j], nodes.dx[j], prior)
     return sm
 
 
-@pytest.mark.parametrize("declared", [0, 4])
+@pytest.mark.parametrize(("declared", "sparse"), [(0, False), (4, False), (0, True)])
 def test_compiled_backward_equals_the_twin(
-    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int, sparse: bool
 ) -> None:
     """With the reset Jacobian and real nominal states; ``declared`` states beyond the core
-    (random walks, Φ = I there, as errorstate.StateLayout has them)."""
-    base, _, _ = linear
+    (random walks, Φ = I there, as errorstate.StateLayout has them). The compiled pass
+    multiplies the gains between update nodes out, the twin goes node by node; ``sparse``: an
+    update at a fifth of the nodes, for runs of many nodes without one."""
+    base = _kalman(0.2)[0] if sparse else linear[0]
     rng = np.random.default_rng(11)
     N, n = base.dx.shape[0], 15 + declared
     grow = np.eye(n)[None].repeat(N, axis=0)
@@ -162,13 +169,14 @@ def test_compiled_backward_equals_the_twin(
     dx[:, 6:9] = np.where(base.dx[:, 6:9] != 0.0, rng.normal(0.0, 0.02, (N, 3)), 0.0)
     nodes = smoother.Nodes(base.t, _nominal(rng, N, declared), dx, P, P_prior, Phi, reset=True)
     x_s, P_s, _ = smoother.rts(nodes)
+    assert np.all(np.diagonal(P_s, axis1=1, axis2=2) > 0.0)
     sm = _store(nodes)
     smk.backward(sm, True)
     assert sm[smk.SM_COUNT][smk.K_FAILED] == 0
     np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
     got = np.zeros((N, n, n))
     for j in range(N):
-        smk.unpack(sm[smk.SM_P][j], got[j])
+        smk.unpack(sm[smk.SM_P][j], got[j], n)
     sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
     np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
                                P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip

@@ -5,16 +5,21 @@ The equations: docs/smoothing.md; readable twin :mod:`adaptnav.estimation.smooth
 
 The forward pass (:mod:`adaptnav.engine.batch`) keeps a :data:`Store` when smoothing is on:
 per *node* (each output row and each measurement epoch) its time, the nominal state after the
-node, the fed-back correction dx, P after the node and, for an update, P before it (both packed,
-upper triangle by rows: :func:`pack`), and the core transition Φ from the previous node. Φ is
+node, P after the node and the core transition Φ from the previous node, and for an update node
+the fed-back correction dx and P before the update (P packed, upper triangle by rows:
+:func:`pack`). Φ is
 accumulated step by step (:func:`accumulate`, ``Φ_acc ← Φ_step Φ_acc``); declared state blocks
 are random walks uncoupled in Φ (errorstate.StateLayout), so their part of Φ is the identity
 and is not stored. The store is sized by the engine before each IMU chunk (at most one node per
 output row and per queued reading), so these kernels never grow it.
 
-Memory per node: (1 + 16 + m) + n + n(n+1)/2 + 141 float64 and two int64 (n = 15 + m error
-states, m declared; Φ's rows 9-14 are diagonal and only their diagonal is kept), 2.4 KB for the
-core, plus n(n+1)/2 float64 (0.94 KB) per update node.
+Memory per node: (1 + 16 + m) + n(n+1)/2 + 141 float64 and two int64 (n = 15 + m error
+states, m declared; Φ's rows 9-14 are diagonal and only their diagonal is kept), 2.2 KB for the
+core, plus n + n(n+1)/2 float64 (1.1 KB) per update node.
+
+The backward pass (:func:`backward`) goes from update node to update node: a node between two
+of them is corrected only by what the later one brings, through one gain over the interval
+(docs/smoothing.md, 'The backward pass').
 """
 
 from __future__ import annotations
@@ -33,10 +38,10 @@ IntArray = NDArray[np.int64]
 CORE = 15
 
 Store = tuple[NDArray[Any], ...]
-"""``(t (N,), x (N, 16 + m), dx (N, n), P (N, n(n+1)/2), Phi (N, N_PHI), prior (N,) int64,
-P_prior (M, n(n+1)/2), acc (24, 16): Φ_acc (rows 0-14, columns 0-14) and scratch,
-counters (N_COUNT,) int64,
-out (N,) int64: the node of each output row)``."""
+"""``(t (N,), x (N, 16 + m), dx (M, n), P (N, n(n+1)/2), Phi (N, N_PHI), prior (N,) int64:
+the node's row in dx and P_prior (-1: no update), P_prior (M, n(n+1)/2), acc (24, 16): Φ_acc
+(rows 0-14, columns 0-14) and scratch, counters (N_COUNT,) int64, out (N,) int64: the node of
+each output row)``; N nodes, M of them with an update."""
 SM_T, SM_X, SM_DX, SM_P, SM_PHI, SM_PRIOR, SM_PM, SM_ACC, SM_COUNT, SM_OUT = range(10)
 PHI_DIAG = 9 * CORE
 """A stored Φ: its rows 0-8 (row-major, 135 numbers), then the diagonal of rows 9-14, the
@@ -44,10 +49,15 @@ whole of those rows (the biases' Gauss-Markov dynamics: :func:`accumulate`)."""
 N_PHI = PHI_DIAG + 6
 K_NODES, K_PRIORS, K_STEPS, K_ON, K_FAILED = range(5)
 """Counters: nodes and update nodes stored, steps accumulated into Φ since the last node,
-smoothing on (1) or off (0), nodes where the backward gain could not be formed."""
+smoothing on (1) or off (0), update nodes whose P⁻ could not be factored (no backward gain to
+them)."""
 N_COUNT = 5
-NODE_ARRAYS = (SM_T, SM_X, SM_DX, SM_P, SM_PHI, SM_PRIOR, SM_OUT)
-"""The store's arrays with a row per node (:data:`SM_PM` has one per update node)."""
+NODE_ARRAYS = (SM_T, SM_X, SM_P, SM_PHI, SM_PRIOR, SM_OUT)
+"""The store's arrays with a row per node."""
+UPDATE_ARRAYS = (SM_DX, SM_PM)
+"""The store's arrays with a row per update node."""
+_NO_DX, _NO_PRIOR = np.empty(0), np.empty((0, 0))
+""":func:`node`'s arguments for a node without an update (constants: no allocation per row)."""
 
 
 def packed_size(n: int) -> int:
@@ -68,7 +78,7 @@ def store(capacity: int, n_priors: int, nominal_size: int, n: int, on: bool) -> 
     counts = np.zeros(N_COUNT, dtype=np.int64)
     counts[K_ON] = int(on)
     return (
-        np.zeros(c), np.zeros((c, nominal_size)), np.zeros((c, n)), np.zeros((c, k)),
+        np.zeros(c), np.zeros((c, nominal_size)), np.zeros((m, n)), np.zeros((c, k)),
         np.zeros((c, N_PHI)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
         np.eye(CORE + 9, _W), counts, np.zeros(c, dtype=np.int64),
     )  # fmt: skip
@@ -83,7 +93,7 @@ def grown(sm: Store, nodes: int, priors: int) -> Store:
     for key, need in (
         (SM_T, nodes),
         (SM_X, nodes),
-        (SM_DX, nodes),
+        (SM_DX, priors),
         (SM_P, nodes),
         (SM_PHI, nodes),
         (SM_PRIOR, nodes),
@@ -110,9 +120,8 @@ def pack(P: Array, out: Array) -> None:
 
 
 @jit_inline
-def unpack(packed: Array, out: Array) -> None:
-    """The symmetric n×n matrix of :func:`pack`'s ``packed`` into ``out``."""
-    n = out.shape[0]
+def unpack(packed: Array, out: Array, n: int) -> None:
+    """The symmetric n×n matrix of :func:`pack`'s ``packed`` into ``out[:n, :n]``."""
     k = 0
     for i in range(n):
         for j in range(i, n):
@@ -125,8 +134,20 @@ def unpack(packed: Array, out: Array) -> None:
 def accumulate(sm: Store, PhiT: Array) -> None:
     """``Φ_acc ← Φ Φ_acc`` for one propagation step's Φ (given as the flat ``Φᵀ`` of the
     propagation kernels, row stride 16); counts the step. Rows 9-14 of Φ are diagonal (the
-    biases' Gauss-Markov dynamics), rows 0-8 full. The caller calls it only when smoothing."""
+    biases' Gauss-Markov dynamics), rows 0-8 full, and so are Φ_acc's: only its rows 0-8 are
+    products, in which a row 9-14 of Φ_acc adds one element. The first step after a node takes
+    the step's Φ as it is (Φ_acc is the identity then: it is not reset at the node). The caller
+    calls it only when smoothing."""
     acc = sm[SM_ACC]
+    counts = sm[SM_COUNT]
+    if counts[K_STEPS] == 0:
+        for i in range(9):
+            for j in range(CORE):
+                acc[i, j] = PhiT[j * _W + i]
+        for i in range(9, CORE):
+            acc[i, i] = PhiT[i * _W + i]
+        counts[K_STEPS] = 1
+        return
     # Rows padded to 16 (a zero column) with the width known only at run time: LLVM then
     # vectorizes the row updates instead of unrolling them (as compiled.propagation does).
     nw = acc.shape[1]
@@ -134,25 +155,27 @@ def accumulate(sm: Store, PhiT: Array) -> None:
         r = CORE + i
         for j in range(nw):
             acc[r, j] = 0.0
-        for k in range(CORE):
+        for k in range(9):
             a = PhiT[k * _W + i]
-            for j in range(nw):
-                acc[r, j] += a * acc[k, j]
+            if a != 0.0:  # e.g. Φ's column 1 (east position error) beside its diagonal
+                for j in range(nw):
+                    acc[r, j] += a * acc[k, j]
+        for k in range(9, CORE):
+            acc[r, k] += PhiT[k * _W + i] * acc[k, k]
     for i in range(9, CORE):
-        d = PhiT[i * _W + i]
-        for j in range(nw):
-            acc[i, j] *= d
+        acc[i, i] *= PhiT[i * _W + i]
     for i in range(9):
         for j in range(nw):
             acc[i, j] = acc[CORE + i, j]
-    sm[SM_COUNT][K_STEPS] += 1
+    counts[K_STEPS] += 1
 
 
 @jit
 def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> int:
     """Store a node at t: x and P after it, and when ``prior`` holds the P an update started
-    from (``prior[0, 0]`` not NaN), dx and that P (else dx is zero and may be empty); Φ_acc
-    becomes the node's Φ and is reset to the identity. Returns the node's index."""
+    from (``prior[0, 0]`` not NaN), dx and that P (else dx may be empty); Φ_acc
+    becomes the node's Φ (the identity if no step was accumulated since the last node). Returns
+    the node's index."""
     counts = sm[SM_COUNT]
     j = int(counts[K_NODES])
     sm[SM_T][j] = t
@@ -161,20 +184,17 @@ def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> in
     pack(P, sm[SM_P][j])
     acc = sm[SM_ACC]
     phi = sm[SM_PHI][j]
+    steps = counts[K_STEPS] > 0  # else nothing was propagated since the last node: Φ = I
     for i in range(9):
         for c in range(CORE):
-            phi[i * CORE + c] = acc[i, c]
+            phi[i * CORE + c] = acc[i, c] if steps else (1.0 if i == c else 0.0)
     for a in range(6):
-        phi[PHI_DIAG + a] = acc[9 + a, 9 + a]
-    for i in range(CORE):
-        for c in range(CORE):
-            acc[i, c] = 1.0 if i == c else 0.0
-    updated = prior.shape[0] > 0 and not math.isnan(prior[0, 0])
-    for i in range(sm[SM_DX].shape[1]):
-        sm[SM_DX][j, i] = dx[i] if updated else 0.0
-    if updated:
+        phi[PHI_DIAG + a] = acc[9 + a, 9 + a] if steps else 1.0
+    if prior.shape[0] > 0 and not math.isnan(prior[0, 0]):
         m = counts[K_PRIORS]
         pack(prior, sm[SM_PM][m])
+        for i in range(sm[SM_DX].shape[1]):
+            sm[SM_DX][m, i] = dx[i]
         sm[SM_PRIOR][j] = m
         counts[K_PRIORS] = m + 1
     else:
@@ -192,7 +212,7 @@ def output_node(sm: Store, o: int, t: float, x: Array, P: Array) -> None:
     if counts[K_STEPS] == 0 and counts[K_NODES] > 0:
         sm[SM_OUT][o] = counts[K_NODES] - 1
     else:
-        sm[SM_OUT][o] = node(sm, t, x, P, np.empty(0), np.empty((0, 0)))
+        sm[SM_OUT][o] = node(sm, t, x, P, _NO_DX, _NO_PRIOR)
 
 
 @jit_inline
@@ -229,104 +249,186 @@ def _to_prior_coordinates(Gi: tuple[float, ...], e: Array, P: Array, rows: Array
 
 
 @jit_inline
-def _gain_transpose(Pm: Array, B: Array, L: Array, d: Array) -> bool:
-    """``B ← (P⁻)⁻¹ B`` (= C_jᵀ for B = Φ P_j) by the Cholesky factor of ``D P⁻ D``,
-    ``D = diag(P⁻)^(-1/2)`` (Pm overwritten by the scaled matrix); False if P⁻ is not positive
-    definite."""
-    n = Pm.shape[0]
+def _product(X: Array, Y: Array, out: Array, acc: Array, n: int, xt: bool) -> None:
+    """``out = X Y`` (``Xᵀ Y`` when ``xt``) of W×W matrices that are zero from row and column
+    n on (W = out.shape[1], a multiple of 4; out is neither X nor Y). Four rows of out at a time
+    in ``acc`` (4, W): four independent chains of row updates, which LLVM vectorizes."""
+    W = out.shape[1]
+    for i in range(0, W, 4):
+        for q in range(4):
+            for c in range(W):
+                acc[q, c] = 0.0
+        for m in range(n):
+            if xt:
+                a0, a1, a2, a3 = X[m, i], X[m, i + 1], X[m, i + 2], X[m, i + 3]
+            else:
+                a0, a1, a2, a3 = X[i, m], X[i + 1, m], X[i + 2, m], X[i + 3, m]
+            for c in range(W):
+                y = Y[m, c]
+                acc[0, c] += a0 * y
+                acc[1, c] += a1 * y
+                acc[2, c] += a2 * y
+                acc[3, c] += a3 * y
+        for q in range(4):
+            for c in range(W):
+                out[i + q, c] = acc[q, c]
+
+
+@jit_inline
+def _psi_product(psi: Array, P: Array, A: Array, acc: Array, n: int) -> None:
+    """``A = Ψ P`` for a stored-layout Ψ (:data:`PHI_DIAG`; the identity on declared blocks)
+    and P as in :func:`_product`; rows 0-8 three at a time in ``acc``."""
+    W = A.shape[1]
+    for i in range(0, 9, 3):
+        for q in range(3):
+            for c in range(W):
+                acc[q, c] = 0.0
+        for m in range(CORE):
+            a0, a1, a2 = psi[i * CORE + m], psi[(i + 1) * CORE + m], psi[(i + 2) * CORE + m]
+            for c in range(W):
+                y = P[m, c]
+                acc[0, c] += a0 * y
+                acc[1, c] += a1 * y
+                acc[2, c] += a2 * y
+        for q in range(3):
+            for c in range(W):
+                A[i + q, c] = acc[q, c]
+    for i in range(9, CORE):
+        a = psi[PHI_DIAG + i - 9]
+        for c in range(W):
+            A[i, c] = a * P[i, c]
+    for i in range(CORE, n):
+        for c in range(W):
+            A[i, c] = P[i, c]
+
+
+@jit_inline
+def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
+    """``Ψ ← Ψ Φ``, both in the stored layout (rows 9-14 diagonal, and so is the product's)."""
+    for i in range(9):
+        for c in range(CORE):
+            acc[0, c] = 0.0
+        for m in range(9):
+            a = psi[i * CORE + m]
+            for c in range(CORE):
+                acc[0, c] += a * phi[m * CORE + c]
+        for c in range(9, CORE):
+            acc[0, c] += psi[i * CORE + c] * phi[PHI_DIAG + c - 9]
+        for c in range(CORE):
+            psi[i * CORE + c] = acc[0, c]
+    for a in range(6):
+        psi[PHI_DIAG + a] *= phi[PHI_DIAG + a]
+
+
+@jit_inline
+def _anchor(
+    sm: Store, b: int, reset: bool, e: Array, Ps: Array, v: Array, U: Array, work: Array
+) -> bool:
+    """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
+    the coordinates before its feedback, equation (1)): ``v = (P⁻)⁻¹ e⁻`` and
+    ``U = (P⁻)⁻¹ (P⁻s - P⁻) (P⁻)⁻¹``, by the Cholesky factor of ``Δ P⁻ Δ``,
+    ``Δ = diag(P⁻)^(-1/2)``, inverted (its condition is ~1e2 where P⁻'s is ~1e20). False if P⁻
+    is not positive definite. ``work`` (6, W, W): scratch, zero from row and column n on."""
+    n = v.shape[0]
+    Pm, L, S, D, T, acc = work[0], work[1], work[2], work[3], work[4], work[5]
+    r = sm[SM_PRIOR][b]
+    dx = sm[SM_DX][r]
+    _to_prior_coordinates(_reset_inverse(dx, reset), e, Ps, T[:3])
+    unpack(sm[SM_PM][r], Pm, n)
+    d = T[3]
     for i in range(n):
         if not Pm[i, i] > 0.0:
             return False
         d[i] = 1.0 / math.sqrt(Pm[i, i])
     for i in range(n):
-        for j in range(n):
-            Pm[i, j] *= d[i] * d[j]
-            B[i, j] *= d[i]
+        for c in range(n):
+            D[i, c] = (Ps[i, c] - Pm[i, c]) * (d[i] * d[c])
+            Pm[i, c] *= d[i] * d[c]
     if not _cholesky(Pm, n, L):
         return False
-    _cho_solve(L, n, B, B, n)
     for i in range(n):
-        for j in range(n):
-            B[i, j] *= d[i]
+        for c in range(n):
+            S[i, c] = 1.0 if i == c else 0.0
+    _cho_solve(L, n, S, S, S.shape[1])  # W columns, the last zero: vectorized rows
+    for i in range(n):
+        s = 0.0
+        for m in range(n):
+            s += S[i, m] * (d[m] * (dx[m] + e[m]))
+        v[i] = d[i] * s
+    _product(S, D, Pm, acc, n, False)
+    _product(Pm, S, D, acc, n, False)
+    for i in range(n):
+        for c in range(n):
+            U[i, c] = D[i, c] * (d[i] * d[c])
     return True
+
+
+@jit_inline
+def _smooth_node(sm: Store, j: int, psi: Array, v: Array, U: Array, e: Array, work: Array) -> None:
+    """Node j from the update node b after it: with ``A = Ψ P_j``, ``Ψ = Φ(b, j)``,
+    ``e^s_j = Aᵀ v`` into ``e`` and x_j, ``P^s_j = P_j + Aᵀ U A`` into the store's P.
+    ``work`` (5, W, W): scratch, zero from row and column n on."""
+    n = e.shape[0]
+    W = U.shape[1]
+    Pj, A, UA, M, acc = work[0], work[1], work[2], work[3], work[4]
+    unpack(sm[SM_P][j], Pj, n)
+    _psi_product(psi, Pj, A, acc, n)
+    for c in range(W):
+        acc[0, c] = 0.0
+    for m in range(n):
+        a = v[m]
+        for c in range(W):
+            acc[0, c] += a * A[m, c]
+    for i in range(n):
+        e[i] = acc[0, i]
+    _product(U, A, UA, acc, n, False)
+    _product(A, UA, M, acc, n, True)
+    out = sm[SM_P][j]
+    k = 0
+    for i in range(n):
+        for c in range(i, n):
+            out[k] = Pj[i, c] + M[i, c]
+            k += 1
+    inject(sm[SM_X][j], e)
 
 
 @jit
 def backward(sm: Store, reset: bool) -> None:
     """The RTS backward pass over the stored nodes, in place: each node's x becomes ``x^s``
-    and its packed P becomes ``P^s`` (docs/smoothing.md). A node whose P⁻ is not positive
-    definite keeps its filtered values and is counted (``K_FAILED``)."""
+    and its packed P becomes ``P^s`` (docs/smoothing.md, 'The backward pass').
+
+    From update node to update node. At update node b, v and U of :func:`_anchor`; every node j
+    from the update node a before b up to b - 1 then has ``e^s_j = Aᵀ v`` and
+    ``P^s_j = P_j + Aᵀ U A``, ``A = Φ(b, j) P_j``, ``Φ(b, j) = Φ_b ⋯ Φ_{j+1}`` (built from b
+    backwards): the node-by-node recursion (1)-(5) with its gains multiplied out, as the nodes
+    between a and b have no update (``P⁻ = P``, dx = 0 there). The nodes from the last update
+    node on keep their filtered values: nothing after them observes anything. When update node
+    b's P⁻ is not positive definite, the nodes a..b-1 keep their filtered values and b is
+    counted (``K_FAILED``)."""
     counts = sm[SM_COUNT]
-    N = counts[K_NODES]
-    if N == 0:
-        return
-    n = sm[SM_DX].shape[1]
-    e_s, e_prior, d = np.zeros(n), np.zeros(n), np.zeros(n)
-    Ps, Pj, Pm, B = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-    L, T, rows, Pf = np.zeros((n, n)), np.zeros((n, n)), np.zeros((3, n)), np.zeros((n, n))
-    unpack(sm[SM_P][N - 1], Ps)
-    Pf[:, :] = Ps  # the filtered P of node k (the store's slot holds P^s once k is done)
     counts[K_FAILED] = 0
-    for j in range(N - 2, -1, -1):
-        k = j + 1
-        dx = sm[SM_DX][k]
-        pi = sm[SM_PRIOR][k]
-        if pi >= 0:  # back to the coordinates before node k's feedback
-            _to_prior_coordinates(_reset_inverse(dx, reset), e_s, Ps, rows)
-            for i in range(n):
-                e_prior[i] = dx[i] + e_s[i]
-            unpack(sm[SM_PM][pi], Pm)
+    prior = sm[SM_PRIOR]
+    b = counts[K_NODES] - 1
+    while b > 0 and prior[b] < 0:
+        b -= 1
+    n = sm[SM_DX].shape[1]
+    W = (n + 3) // 4 * 4
+    e, v, psi = np.zeros(n), np.zeros(n), np.zeros(N_PHI)
+    Ps, U, work = np.zeros((W, W)), np.zeros((W, W)), np.zeros((6, W, W))
+    if b > 0:
+        unpack(sm[SM_P][b], Ps, n)
+    while b > 0:
+        a = b - 1
+        while a > 0 and prior[a] < 0:
+            a -= 1
+        if _anchor(sm, b, reset, e, Ps, v, U, work):
+            psi[:] = sm[SM_PHI][b]
+            for j in range(b - 1, a - 1, -1):
+                if j < b - 1:
+                    _psi_times(psi, sm[SM_PHI][j + 1], work[5])
+                _smooth_node(sm, j, psi, v, U, e, work[:5])
         else:
-            for i in range(n):
-                e_prior[i] = e_s[i]
-            Pm[:, :] = Pf
-        for i in range(n):  # Ps ← P⁻s - P⁻, before Pm is scaled
-            for c in range(n):
-                Ps[i, c] -= Pm[i, c]
-        unpack(sm[SM_P][j], Pj)
-        Pf[:, :] = Pj
-        phi = sm[SM_PHI][k]
-        for i in range(n):  # B = Φ P_j (Φ = I on declared blocks); inner loops along rows
-            for c in range(n):
-                B[i, c] = 0.0 if i < CORE else Pj[i, c]
-            if i < 9:
-                for m in range(CORE):
-                    a = phi[i * CORE + m]
-                    if a != 0.0:
-                        for c in range(n):
-                            B[i, c] += a * Pj[m, c]
-            elif i < CORE:
-                a = phi[PHI_DIAG + i - 9]
-                for c in range(n):
-                    B[i, c] = a * Pj[i, c]
-        if not _gain_transpose(Pm, B, L, d):
             counts[K_FAILED] += 1
-            for i in range(n):
-                e_s[i] = 0.0
-            Ps[:, :] = Pj
-            continue
-        for i in range(n):  # e^s_j = C e⁻ = Bᵀ e⁻
-            s = 0.0
-            for m in range(n):
-                s += B[m, i] * e_prior[m]
-            e_s[i] = s
-        for i in range(n):  # T = (P⁻s - P⁻) X
-            for c in range(n):
-                T[i, c] = 0.0
-            for m in range(n):
-                a = Ps[i, m]
-                for c in range(n):
-                    T[i, c] += a * B[m, c]
-        for i in range(n):  # P^s_j = P_j + Xᵀ T, upper triangle, then mirrored
-            for c in range(i, n):
-                Ps[i, c] = Pj[i, c]
-        for m in range(n):
-            for i in range(n):
-                a = B[m, i]
-                for c in range(i, n):
-                    Ps[i, c] += a * T[m, c]
-        for i in range(n):
-            for c in range(i):
-                Ps[i, c] = Ps[c, i]
-        pack(Ps, sm[SM_P][j])
-        inject(sm[SM_X][j], e_s)
+            e[:] = 0.0
+        unpack(sm[SM_P][a], Ps, n)
+        b = a

@@ -44,8 +44,9 @@ from __future__ import annotations
 
 import gc
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, Literal
 
 import numpy as np
@@ -219,7 +220,8 @@ class Smoothed:
     update_nodes: int
     """Nodes with an update (their P before it is stored too)."""
     failed: int
-    """Nodes whose P before the next node was not positive definite: filtered values kept."""
+    """Update nodes whose P⁻ was not positive definite: the nodes from the update node before
+    up to them kept their filtered values (compiled.smoother.backward)."""
     store_bytes: int
     """Memory the store's nodes took (docs/smoothing.md, 'Memory')."""
     declared: Array = field(kw_only=True)
@@ -1097,12 +1099,14 @@ class Navigator:
         prior_idx = sm[smk.SM_PRIOR][:N]
         Pm = _unpacked(sm[smk.SM_PM][: int(counts[smk.K_PRIORS])], n)
         P_prior = np.where((prior_idx >= 0)[:, None, None], Pm[np.maximum(prior_idx, 0)], P)
+        dx = np.zeros((N, n))
+        dx[prior_idx >= 0] = sm[smk.SM_DX][prior_idx[prior_idx >= 0]]
         Phi = np.tile(np.eye(n), (N, 1, 1))
         stored = sm[smk.SM_PHI][:N]
         Phi[:, :9, :N_STATES] = stored[:, : smk.PHI_DIAG].reshape(N, 9, N_STATES)
         Phi[:, range(9, N_STATES), range(9, N_STATES)] = stored[:, smk.PHI_DIAG :]
         return Nodes(
-            sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), sm[smk.SM_DX][:N].copy(), P,
+            sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), dx, P,
             P_prior, Phi, self.config.reset_covariance,
             sm[smk.SM_OUT][: int(self._icur[I_N_OUT])].copy(),
         )  # fmt: skip
@@ -1121,19 +1125,20 @@ class Navigator:
             rows = int(self._icur[I_N_OUT])
             idx = sm[smk.SM_OUT][:rows]
             n = self.config.layout.n
-            packed = sm[smk.SM_P][idx]
+            packed = partial(_elements, sm[smk.SM_P], idx, n=n)
             per_node = sum(sm[k][:1].nbytes for k in smk.NODE_ARRAYS)
+            per_update = sum(sm[k][:1].nbytes for k in smk.UPDATE_ARRAYS)
             self._smoothed = Smoothed(
                 self._out_t[:rows].copy(),
-                sm[smk.SM_X][idx, :NOM_SIZE].copy(),
-                packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES)]],
-                packed[:, [smk.packed_index(i, j, n) for i, j in P_CROSS_PAIRS]],
+                sm[smk.SM_X][idx, :NOM_SIZE],
+                packed((i, i) for i in range(N_STATES)),
+                packed(P_CROSS_PAIRS),
                 nodes,
                 priors,
                 int(counts[smk.K_FAILED]),
-                nodes * per_node + priors * sm[smk.SM_PM][:1].nbytes,
-                declared=sm[smk.SM_X][idx, NOM_SIZE:].copy(),
-                declared_var=packed[:, [smk.packed_index(i, i, n) for i in range(N_STATES, n)]],
+                nodes * per_node + priors * per_update,
+                declared=sm[smk.SM_X][idx, NOM_SIZE:],
+                declared_var=packed((i, i) for i in range(N_STATES, n)),
             )
         return self._smoothed
 
@@ -1154,6 +1159,13 @@ class Navigator:
             q_scale=float(self._rates[uk.R_Q, 0]),
             smoothed=self.smooth() if self.config.smooth else None,
         )
+
+
+def _elements(packed: Array, rows: IntArray, pairs: Iterable[tuple[int, int]], *, n: int) -> Array:
+    """``P[i, j]`` for each (i, j) of ``pairs`` (columns) of the packed matrices
+    (compiled.smoother.pack) in ``rows`` of ``packed``, without copying whole rows."""
+    columns = np.array([smk.packed_index(i, j, n) for i, j in pairs], dtype=np.int64)
+    return packed[np.ix_(rows, columns)]
 
 
 def _unpacked(packed: Array, n: int) -> Array:

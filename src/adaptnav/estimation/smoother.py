@@ -24,7 +24,9 @@ noise), so gating, adaptive R and Joseph form leave the backward pass as it is.
 
 ``P⁻_{j+1}`` is factored after scaling by its diagonal (positions in m² beside gyro biases in
 rad²/s²: condition numbers of 1e20 otherwise). The compiled twin is
-:mod:`adaptnav.compiled.smoother`.
+:mod:`adaptnav.compiled.smoother`; it multiplies the gains between update nodes out (one gain
+per interval, docs/smoothing.md, 'From update node to update node'), which this node-by-node
+form checks.
 """
 
 from __future__ import annotations
