@@ -32,7 +32,7 @@ from adaptnav.importers import rosmsg
 from adaptnav.importers.rosmsg import Converted, DepthParameters
 from adaptnav.mission.config import MissionConfig, MissionError, load_config, parse_config
 from adaptnav.mission.loader import write_mission
-from adaptnav.mission.tables import Repair
+from adaptnav.mission.tables import IMU_INCREMENT_COLUMNS, IMU_RATE_COLUMNS, Repair
 
 log = logging.getLogger("adaptnav.importers.rosbag")
 
@@ -75,24 +75,7 @@ COLUMNS: dict[str, tuple[str, ...]] = {
 }
 """The table columns (docs/data-format.md) of each sensor role."""
 SIGMA_UNIT = {"dvl": "m/s", "depth": "m", "gnss": "m", "inclinometer": "rad", "heading": "rad"}
-IMU_COLUMNS = {
-    "mean": (
-        "dtheta_x_rad",
-        "dtheta_y_rad",
-        "dtheta_z_rad",
-        "dvel_x_m_s",
-        "dvel_y_m_s",
-        "dvel_z_m_s",
-    ),
-    "instant": (
-        "gyro_x_rad_s",
-        "gyro_y_rad_s",
-        "gyro_z_rad_s",
-        "accel_x_m_s2",
-        "accel_y_m_s2",
-        "accel_z_m_s2",
-    ),
-}
+IMU_COLUMNS = {"mean": IMU_INCREMENT_COLUMNS, "instant": IMU_RATE_COLUMNS}
 """The IMU table's columns: increments (``mean``: each message's rates are the mean over the
 interval that ends at its stamp) or rates (``instant``: sampled at the stamp)."""
 NS = 1_000_000_000
@@ -429,16 +412,23 @@ def sensor_section(
         source = "messages"
     sec["file"] = f"{name}.parquet"
     record = {
-        "topic": stream.topic,
-        "type": stream.msgtype,
-        "messages": stream.messages,
-        "rows": int(stream.t_ns.size),
-        "frame_ids": list(stream.frame_ids),
+        **_stream_record(stream),
         "sensor": name,
         "sigma_source": source,
         "message_sigma": from_messages,
     }
     return sec, record
+
+
+def _stream_record(stream: Stream) -> dict[str, Any]:
+    """What import.json records of every topic read: its name, type, counts and frame ids."""
+    return {
+        "topic": stream.topic,
+        "type": stream.msgtype,
+        "messages": stream.messages,
+        "rows": int(stream.t_ns.size),
+        "frame_ids": list(stream.frame_ids),
+    }
 
 
 def imu_section(
@@ -471,11 +461,7 @@ def imu_section(
         source = "messages"
     sec.update(file="imu.parquet", format="increments" if sample == "mean" else "rates")
     record = {
-        "topic": stream.topic,
-        "type": stream.msgtype,
-        "messages": stream.messages,
-        "rows": int(stream.t_ns.size),
-        "frame_ids": list(stream.frame_ids),
+        **_stream_record(stream),
         "sample": sample,
         "noise_source": source,
         "message_noise": noise,
