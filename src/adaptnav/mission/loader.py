@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, NoReturn
+from typing import Literal
 
 import numpy as np
 import pandas as pd
@@ -320,30 +320,12 @@ def _check_magnitudes(
     used: list[str],
     rates: bool,
 ) -> None:
-    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units.
-    Checked a block of rows at a time: a day of IMU needs no full-size temporaries."""
-    limits = np.array([MAX_GYRO_RAD_S] * 3 + [MAX_ACCEL_M_S2] * 3)
-    for start in range(0, len(v), CHECK_BLOCK):
-        block = slice(start, start + CHECK_BLOCK)
-        w = v[block] if rates else v[block] / own_dt[block, None]
-        over = np.abs(w) > limits
-        if over.any():
-            j, c = (int(i) for i in np.argwhere(over)[0])
-            _magnitude_error(table, v, own_dt, rows, used, rates, start + j, c)
-
-
-def _magnitude_error(
-    table: Table,
-    v: Array,
-    own_dt: Array,
-    rows: NDArray[np.int64],
-    used: list[str],
-    rates: bool,
-    j: int,
-    c: int,
-) -> NoReturn:
-    """The wrong-units error of :func:`_check_magnitudes` for kept row ``j``, column ``c``."""
-    w = v[j] if rates else v[j] / own_dt[j]
+    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units."""
+    found = _first_over(v, own_dt, rates)
+    if found is None:
+        return
+    j, c = found
+    w = v[j, c] if rates else v[j, c] / own_dt[j]
     r = int(rows[j])
     col = used[1 + c]
     gyro = c < 3
@@ -352,9 +334,23 @@ def _magnitude_error(
     what = (
         f"value {show(v[j, c])}"
         if rates
-        else f"value {show(v[j, c])} over dt = {own_dt[j]:.6g} s is a rate of {w[c]:.6g}"
+        else f"value {show(v[j, c])} over dt = {own_dt[j]:.6g} s is a rate of {w:.6g}"
     )
     raise table.error(r, col, f"{what} exceeds {limit}: wrong units? ({hint})")
+
+
+def _first_over(v: Array, own_dt: Array, rates: bool) -> tuple[int, int] | None:
+    """The first (row, column) of ``v`` whose rate exceeds :data:`MAX_GYRO_RAD_S` or
+    :data:`MAX_ACCEL_M_S2`, checked a block of rows at a time: a day of IMU needs no
+    full-size temporaries."""
+    limits = np.array([MAX_GYRO_RAD_S] * 3 + [MAX_ACCEL_M_S2] * 3)
+    for start in range(0, len(v), CHECK_BLOCK):
+        block = slice(start, start + CHECK_BLOCK)
+        w = v[block] if rates else v[block] / own_dt[block, None]
+        over = np.argwhere(np.abs(w) > limits)
+        if over.size:
+            return start + int(over[0, 0]), int(over[0, 1])
+    return None
 
 
 def _check_gaps(
