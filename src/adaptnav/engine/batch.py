@@ -309,8 +309,8 @@ def _row(rates: Array, r: int) -> Vec3:
     return (rates[r, 0], rates[r, 1], rates[r, 2])
 
 
-@jit_inline
-def _interval_done(
+@jit
+def _output_row(
     t: float,
     state: State,
     Pw: Array,
@@ -322,28 +322,27 @@ def _interval_done(
     P: Array,
     sm: smk.Store,
 ) -> None:
-    """Count a completed interval; every ``output_every``-th, an output row: t, x, and in
+    """An output row, after every ``output_every``-th completed interval: t, x, and in
     ``out_p`` P's diagonal (15) then the off-diagonal elements of its position, velocity and
     attitude blocks (9, :data:`P_CROSS_PAIRS`); and when smoothing, its node (x and P are
-    brought up to date for it)."""
-    icur[I_DONE] += 1
-    if icur[I_DONE] % icur[I_EVERY] == 0:
-        o = icur[I_N_OUT]
-        out_t[o] = t
-        _store(out_x[o], state)
-        for i in range(N_STATES):
-            out_p[o, i] = Pw[i * 16 + i]
-        for b in range(3):  # P_CROSS_PAIRS, spelt out
-            a = 3 * b
-            out_p[o, N_STATES + a] = Pw[a * 16 + a + 1]
-            out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
-            out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
-        icur[I_N_OUT] = o + 1
-        for k in range(NOM_SIZE, x.shape[0]):  # declared states (errorstate.StateLayout)
-            out_x[o, k] = x[k]
-            out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
-        if sm[smk.SM_COUNT][smk.K_ON] != 0:
-            _smoothing_row(sm, o, t, state, Pw, x, P)
+    brought up to date for it). Called, not inlined: inlined, its many array arguments would
+    cost reference counting at every interval, due or not."""
+    o = icur[I_N_OUT]
+    out_t[o] = t
+    _store(out_x[o], state)
+    for i in range(N_STATES):
+        out_p[o, i] = Pw[i * 16 + i]
+    for b in range(3):  # P_CROSS_PAIRS, spelt out
+        a = 3 * b
+        out_p[o, N_STATES + a] = Pw[a * 16 + a + 1]
+        out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
+        out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
+    icur[I_N_OUT] = o + 1
+    for k in range(NOM_SIZE, x.shape[0]):  # declared states (errorstate.StateLayout)
+        out_x[o, k] = x[k]
+        out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
+    if sm[smk.SM_COUNT][smk.K_ON] != 0:
+        _smoothing_row(sm, o, t, state, Pw, x, P)
 
 
 @jit
@@ -381,12 +380,6 @@ def _close_block(
         cur[uk.C_BLOCK] = 0.0
 
 
-@jit_inline
-def _output_due(icur: IntArray) -> bool:
-    """Whether the next completed interval writes an output row (:func:`_interval_done`)."""
-    return bool((icur[I_DONE] + 1) % icur[I_EVERY] == 0)
-
-
 @jit
 def _advance(
     x: Array,
@@ -415,13 +408,13 @@ def _advance(
     """Propagate through the IMU intervals ``(tk - dts, tk]`` from ``icur[I_START]`` on until
     the earliest queued reading, stamped ``t_next`` (inf: none), must be acted on.
 
-    Whole intervals one after the other (the steps of compiled.propagation.propagate_run), an output
-    row after every ``output_every``-th completed one; the interval that contains t_next is begun
-    (its rates; the previous ones carried) and propagated to t_next (``exact``, the steps of
-    compiled.propagation.propagate_partial) or to its end (``grid``). Returns _ADVANCE_EPOCH (update
-    now, at ``cur[C_T]``; an interval the update ends is completed on the next call), _ADVANCE_LATE
-    (t_next is not after the current time) or _ADVANCE_DONE (chunk used up). Each loop turn chooses
-    one (sub)step, so that the step is compiled once.
+    Whole intervals one after the other (the steps of compiled.propagation.propagate_run), an
+    output row after every ``output_every``-th completed one (:func:`_output_row`); the interval
+    that contains t_next is begun (its rates; the previous ones carried) and propagated to t_next
+    (``exact``, the steps of compiled.propagation.propagate_partial) or to its end (``grid``).
+    Returns _ADVANCE_EPOCH (update now, at ``cur[C_T]``; an interval the update ends is completed
+    on the next call), _ADVANCE_LATE (t_next is not after the current time) or _ADVANCE_DONE
+    (chunk used up). Each loop turn chooses one (sub)step, so that the step is compiled once.
 
     The covariance moves in blocks (docs/filters.md, 'Covariance blocks'): each step adds its
     ``F T`` and ``½ S T`` to the open block (``wsp``, ``N``, its span in ``cur[C_BLOCK]``), which
@@ -446,13 +439,15 @@ def _advance(
         for c in range(6):
             q_psd[c] *= beta
     status = _ADVANCE_DONE
+    every = icur[I_EVERY]
     last = -1  # end of the run of whole intervals under way (-1: none)
     while True:
         if icur[I_CLOSE] != 0:  # an epoch at the end of its interval completed it
             icur[I_CLOSE] = 0
-            if _output_due(icur):
+            icur[I_DONE] += 1
+            if icur[I_DONE] % every == 0:
                 _close_block(wk, N, P, q_psd, cur, sm, extra)
-            _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
+                _output_row(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
         k = icur[I_START]
         t_start, dt, offset = cur[uk.C_T_START], cur[uk.C_DT], cur[uk.C_OFFSET]
         whole = offset >= dt
@@ -530,9 +525,10 @@ def _advance(
             cur[uk.C_T] = tk[k]
             cur[uk.C_T_START] = tk[k] - dt
             icur[I_START] = k + 1
-            if _output_due(icur):
+            icur[I_DONE] += 1
+            if icur[I_DONE] % every == 0:
                 _close_block(wk, N, P, q_psd, cur, sm, extra)
-            _interval_done(tk[k], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
+                _output_row(tk[k], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
             continue
         cur[uk.C_OFFSET] = tau
         cur[uk.C_T] = t_start + tau if tau < dt else t_start + dt
@@ -541,9 +537,10 @@ def _advance(
                 icur[I_CLOSE] = 1
             _close_block(wk, N, P, q_psd, cur, sm, extra)
             break
-        if _output_due(icur):
+        icur[I_DONE] += 1
+        if icur[I_DONE] % every == 0:
             _close_block(wk, N, P, q_psd, cur, sm, extra)
-        _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
+            _output_row(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
     _store(x, state)
     _unpad(Pw, P)
     return status
