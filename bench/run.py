@@ -71,14 +71,14 @@ def bench_propagation() -> list[str]:
     def compiled() -> None:
         kernels.propagate_run(
             x.copy(), P.copy(), dth, dv, dts, w0.copy(), f0.copy(), q, tau_a, tau_g,
-            np.full(3, np.nan), TAU_F,
+            np.full(3, np.nan), TAU_F, 0.0,
         )  # fmt: skip
 
     def twin() -> None:
         propagate_numpy(x, P, dth[:n_slow], dv[:n_slow], dt, w0, f0, q, tau_a, tau_g, tau_f=TAU_F)
 
     kernels.propagate_run(x.copy(), P.copy(), dth[:10], dv[:10], dts[:10], w0.copy(),
-                          f0.copy(), q, tau_a, tau_g, np.full(3, np.nan), TAU_F)  # fmt: skip
+                          f0.copy(), q, tau_a, tau_g, np.full(3, np.nan), TAU_F, 0.0)  # fmt: skip
     rate_fast = n_fast / best_time(compiled, 5)
     rate_slow = n_slow / best_time(twin, 2)
     MEASURED["propagation"] = rate_fast
@@ -183,7 +183,7 @@ def bench_filters() -> list[str]:
     def propagation_only() -> None:
         kernels.propagate_run(
             mission.x0.copy(), mission.P0.copy(), mission.dtheta, mission.dvel, dts, w0.copy(),
-            f0.copy(), q, tau_a, tau_g, np.full(3, np.nan), TAU_F,
+            f0.copy(), q, tau_a, tau_g, np.full(3, np.nan), TAU_F, 0.0,
         )  # fmt: skip
 
     runs: dict[str, Callable[[], object]] = {"propagation": propagation_only}

@@ -211,7 +211,7 @@ class Navigator:
             wp, fp = self._w_cur.copy(), self._f_cur.copy()
             kernels.propagate_run(
                 self.x, self.P, dth[i:j], dv[i:j], dts[i:j], wp, fp,
-                self._q, self._tau_a, self._tau_g, self._f_lp, self._tau_f,
+                self._q, self._tau_a, self._tau_g, self._f_lp, self._tau_f, 0.0,
             )  # fmt: skip
             self._w_cur, self._f_cur = wp, fp
             self._dt = self._offset = float(dts[j - 1])

@@ -221,10 +221,12 @@ def test_grid_policy_matches_the_papers_update_written_plainly() -> None:
     periods = synthetic.periods()
     strat = VariationalBayes(rho=rho, iterations=iterations, tol=0.0)
     chans = [engine.SensorChannel(ds.models[n], periods[n], strat) for n in ds.readings]  # type: ignore[arg-type]
-    # The paper linearises F with the measured specific force (no low-pass, its eq. (10)).
+    # The paper linearises F with the measured specific force (no low-pass, its eq. (10)) and
+    # propagates P every IMU step (no covariance blocks, docs/filters.md).
     cfg = engine.EngineConfig(
-        synthetic.NOISE, epoch_policy="grid", reset_covariance=False, specific_force_tau_s=0.0
-    )
+        synthetic.NOISE, epoch_policy="grid", reset_covariance=False, specific_force_tau_s=0.0,
+        covariance_block_s=0.0,
+    )  # fmt: skip
     nav = engine.Navigator(cfg, chans, ds.x0_hat, ds.P0, ds.t0)
     for name, (t, z) in ds.readings.items():
         for row in range(t.size):
@@ -248,8 +250,12 @@ def _static_nav(kind: str, policy: str = "exact") -> tuple[engine.Navigator, np.
         FilterSettings(kind=kind, guard_probability=0.0),  # type: ignore[arg-type]
         [(DVL(sigma=0.02), 1 / 3), (Depth(sigma=0.1), 1.0)],
     )
-    # F from the measured specific force, as the hand-built propagation below (tau_f = 0).
-    cfg = engine.EngineConfig(synthetic.NOISE, epoch_policy=policy, specific_force_tau_s=0.0)  # type: ignore[arg-type]
+    # F from the measured specific force and P every step, as the hand-built propagation below
+    # (tau_f = 0, no covariance blocks).
+    cfg = engine.EngineConfig(
+        synthetic.NOISE, epoch_policy=policy, specific_force_tau_s=0.0,  # type: ignore[arg-type]
+        covariance_block_s=0.0,
+    )  # fmt: skip
     return engine.Navigator(cfg, chans, ds.x0_hat, ds.P0, 0.0), ds
 
 

@@ -16,6 +16,7 @@ All to 1e-9 relative (positions: 1e-6 m; covariances: 1e-9 of sqrt(P_ii P_jj)).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -471,6 +472,12 @@ def _mission(seed: int) -> tuple[synthetic.Dataset, dict[str, tuple[np.ndarray, 
     return ds, readings
 
 
+def _every_step(**settings: Any) -> engine.EngineConfig:
+    """The engine's settings with P propagated at every IMU step, as the readable engine does
+    (covariance blocks: docs/filters.md; the blocks have their own test below)."""
+    return engine.EngineConfig(synthetic.NOISE, covariance_block_s=0.0, **settings)
+
+
 def _compare(out: engine.EngineOutput, ref: engine.EngineOutput, tol: float = RTOL) -> None:
     assert len(out.events) == len(ref.events)
     for a, b in zip(out.events, ref.events, strict=True):
@@ -511,7 +518,7 @@ def test_batch_engine_equals_the_readable_engine(
     kind: str, policy: str, python_depth: bool, reference: str
 ) -> None:
     ds, readings = _mission(11)
-    cfg = engine.EngineConfig(synthetic.NOISE, epoch_policy=policy, output_every=7)  # type: ignore[arg-type]
+    cfg = _every_step(epoch_policy=policy, output_every=7)
     args = (ds.x0_hat, ds.P0, ds.t0, ds.imu_t, ds.dt, ds.dtheta, ds.dvel, readings)
     out = engine.run_batch(cfg, _channels(kind, ds, python_depth, reference), *args)
     ref = engine_reference.run_batch(cfg, _channels(kind, ds, python_depth, reference), *args)
@@ -529,7 +536,7 @@ DIVERGENCE = DivergenceGuard(nis_ratio=1.05, window=3, inflate_max=9.0)
 @pytest.mark.parametrize("kind", ["meskf", "maeb", "vbb", "vbt"])
 def test_guard_and_divergence_guard_equal_the_readable_engine(kind: str) -> None:
     ds, readings = _mission(13)
-    cfg = engine.EngineConfig(synthetic.NOISE, output_every=7, divergence=DIVERGENCE)
+    cfg = _every_step(output_every=7, divergence=DIVERGENCE)
     args = (ds.x0_hat, ds.P0, ds.t0, ds.imu_t, ds.dt, ds.dtheta, ds.dvel, readings)
     out = engine.run_batch(cfg, _channels(kind, ds, kind == "vbt", guard=GUARD), *args)
     ref = engine_reference.run_batch(cfg, _channels(kind, ds, kind == "vbt", guard=GUARD), *args)
@@ -546,7 +553,7 @@ def test_guard_and_divergence_guard_equal_the_readable_engine(kind: str) -> None
 def test_streaming_engine_equals_the_readable_engine(kind: str) -> None:
     """Readings fed chunk by chunk, some after the IMU passed them (late), the rest flushed."""
     ds, readings = _mission(12)
-    cfg = engine.EngineConfig(synthetic.NOISE)
+    cfg = _every_step()
     navs = [
         engine.Navigator(cfg, _channels(kind, ds, True), ds.x0_hat, ds.P0, ds.t0),
         engine_reference.Navigator(cfg, _channels(kind, ds, True), ds.x0_hat, ds.P0, ds.t0),
@@ -574,6 +581,33 @@ def test_streaming_engine_equals_the_readable_engine(kind: str) -> None:
             _assert_rel(got.beta, want.beta)
 
 
+@pytest.mark.parametrize("kind", ["meskf", "vb"])
+def test_covariance_blocks_carry_across_chunks(kind: str) -> None:
+    """With covariance blocks (the default, 0.1 s; docs/filters.md, 'Covariance blocks') the
+    IMU fed in chunks of 137 samples gives the one-piece run: a block open at a chunk's end goes
+    on in the next call. And the blocks change the run by little but not nothing: each σ
+    within 1e-4 of the every-step run's (kernel-level bound, tests/kernels/test_kernels.py)."""
+    ds, readings = _mission(12)
+    cfg = engine.EngineConfig(synthetic.NOISE, output_every=7)
+    assert cfg.covariance_block_s > 0.0
+    args = (ds.x0_hat, ds.P0, ds.t0, ds.imu_t, ds.dt, ds.dtheta, ds.dvel, readings)
+    whole = engine.run_batch(cfg, _channels(kind, ds, False), *args)
+    nav = engine.Navigator(cfg, _channels(kind, ds, False), ds.x0_hat, ds.P0, ds.t0)
+    for name, (t, z) in readings.items():
+        nav.feed_measurements(name, t, z)
+    dts = np.broadcast_to(ds.dt, ds.imu_t.shape)
+    for a in range(0, ds.imu_t.size, 137):
+        b = slice(a, a + 137)
+        nav.feed_imu(ds.imu_t[b], dts[b], ds.dtheta[b], ds.dvel[b])
+    nav.flush()
+    _compare(nav.output(), whole)
+    every = engine.run_batch(
+        replace(cfg, covariance_block_s=0.0), _channels(kind, ds, False), *args
+    )
+    change = np.abs(np.sqrt(whole.P_diag / every.P_diag) - 1.0)
+    assert 1e-12 < change.max() < 1e-4, change.max()
+
+
 def test_engine_refuses_a_strategy_without_compiled_update() -> None:
     class Custom(FixedNoise):
         pass
@@ -592,7 +626,7 @@ def test_q_adaptation_equals_the_readable_engine(kind: str) -> None:
     dvel = ds.dvel + rng.normal(0.0, 30 * synthetic.NOISE.vrw * sd, ds.dvel.shape)
     dth = ds.dtheta + rng.normal(0.0, 30 * synthetic.NOISE.arw * sd, ds.dtheta.shape)
     qa = QAdaptation(gain=0.5, target=0.2, window=5)
-    cfg = engine.EngineConfig(synthetic.NOISE, output_every=7, q_adaptation=qa)
+    cfg = _every_step(output_every=7, q_adaptation=qa)
     args = (ds.x0_hat, ds.P0, ds.t0, ds.imu_t, ds.dt, dth, dvel, readings)
     out = engine.run_batch(cfg, _channels(kind, ds, kind == "vbt"), *args)
     ref = engine_reference.run_batch(cfg, _channels(kind, ds, kind == "vbt"), *args)

@@ -269,13 +269,16 @@ def engine_config(
 ) -> engine.EngineConfig:
     """The engine's settings for filter ``s`` on a mission configured by ``cfg``: Q from
     ``noise``, the epoch policy, the output rate, the divergence guard, Q adaptation, the state
-    layout with the calibration states, F's specific-force low-pass if configured."""
+    layout with the calibration states, F's specific-force low-pass and the covariance blocks if
+    configured."""
     config = engine.EngineConfig(
         noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
         q_adaptation=s.q_adaptation, smooth=smooth, layout=calibration.layout(states),
     )  # fmt: skip
     if cfg.filter.specific_force_tau_s is not None:
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
+    if cfg.filter.covariance_block_s is not None:
+        config = replace(config, covariance_block_s=cfg.filter.covariance_block_s)
     return config
 
 

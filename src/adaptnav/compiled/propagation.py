@@ -359,8 +359,8 @@ _W = 16
 
 @jit
 def _set(At: Array, i: int, j: int, value: float) -> None:
-    """Store ``A[i, j] = F[i, j] T`` (value) into the transposed flat array At."""
-    At[j * _W + i] = value
+    """Add ``F[i, j] T`` (value) to ``A[i, j]`` in the transposed flat array At."""
+    At[j * _W + i] += value
 
 
 @jit_inline
@@ -375,9 +375,11 @@ def _fill_At(
     inv_tau_g: float,
     T: float,
 ) -> None:
-    """``Aᵀ = (F T)ᵀ`` into At, F as errorstate.system_matrix at the step's midpoint.
+    """``Aᵀ += (F T)ᵀ`` in At, F as errorstate.system_matrix at the step's midpoint.
 
-    Only F's structural nonzeros are written; the rest of At stays zero.
+    Only F's structural nonzeros are touched, so At holds the sum ``A = Σ F_k T_k`` of the steps
+    since it was last zeroed (:func:`_flush`): one step's A when the covariance is propagated
+    every step, a block's otherwise (docs/filters.md, 'Covariance blocks').
     """
     s, c, isq, _, _, irm, irn = e
     ic = 1.0 / c
@@ -419,9 +421,10 @@ def _fill_At(
     sv_E = _cross(v, (irn, 0.0, -t * irn))
     skew_w2 = ((0.0, w2[2], -w2[1]), (-w2[2], 0.0, w2[0]), (w2[1], -w2[0], 0.0))
     skew_f = ((0.0, f[2], -f[1]), (-f[2], 0.0, f[0]), (f[1], -f[0], 0.0))
-    for i in range(3):
+    for i in range(2):  # row 5 adds the gravity gradient below
         _set(At, 3 + i, 0, cor_N[i] * T)
         _set(At, 3 + i, 2, cor_D[i] * T)
+    for i in range(3):
         _set(At, 3 + i, 3, (sv_N[i] + skew_w2[i][0]) * T)
         _set(At, 3 + i, 4, (sv_E[i] + skew_w2[i][1]) * T)
         _set(At, 3 + i, 5, skew_w2[i][2] * T)
@@ -487,7 +490,9 @@ def _fill_PhiT(PhiT: Array, At: Array, n: int) -> None:
         PhiT[k * _W + k] = 1.0 + a + 0.5 * (a * a)
 
 
-Noise = tuple[Mat3, Mat3, tuple[float, float, float, float, float, float]]
+N_NOISE_ACC = 24
+"""Length of a noise accumulator: ``½ Σ S_k T_k`` by blocks, velocity (9, row-major), attitude (9),
+the biases' diagonal (6)."""
 
 
 @jit
@@ -502,40 +507,43 @@ def _congruence(C: Mat3, d0: float, d1: float, d2: float) -> Mat3:
     return (m00, m10, m20, m10, m11, m21, m20, m21, m22)
 
 
-@jit
-def _half_noise(C: Mat3, q: Array, T: float) -> Noise:
-    """``½ S T`` with S = G Q Gᵀ (errorstate.noise_input_matrix): its blocks C diag(q_a) Cᵀ
-    (velocity), C diag(q_g) Cᵀ (attitude) and diag(q_ba, q_bg) (biases)."""
+@jit_inline
+def _add_half_noise(N: Array, C: Mat3, q: Array, T: float) -> None:
+    """``N += ½ S T`` with S = G Q Gᵀ (errorstate.noise_input_matrix) at the step's attitude:
+    its blocks C diag(q_a) Cᵀ (velocity), C diag(q_g) Cᵀ (attitude) and diag(q_ba, q_bg)
+    (biases), in the layout of :data:`N_NOISE_ACC`."""
     hT = 0.5 * T
-    return (
-        _congruence(C, q[0] * hT, q[1] * hT, q[2] * hT),
-        _congruence(C, q[3] * hT, q[4] * hT, q[5] * hT),
-        (q[6] * hT, q[7] * hT, q[8] * hT, q[9] * hT, q[10] * hT, q[11] * hT),
-    )
+    a = _congruence(C, q[0] * hT, q[1] * hT, q[2] * hT)
+    g = _congruence(C, q[3] * hT, q[4] * hT, q[5] * hT)
+    for k in range(9):
+        N[k] += a[k]
+        N[9 + k] += g[k]
+    for k in range(6):
+        N[18 + k] += q[6 + k] * hT
 
 
 @jit_inline
-def _add_noise(Pw: Array, S: Noise) -> None:
-    """``P += S`` for the block-diagonal S of :func:`_half_noise`."""
+def _add_noise(Pw: Array, N: Array) -> None:
+    """``P += N`` for the block-diagonal N of :func:`_add_half_noise`."""
     for i in range(3):
         for j in range(3):
-            Pw[(3 + i) * _W + 3 + j] += S[0][3 * i + j]
-            Pw[(6 + i) * _W + 6 + j] += S[1][3 * i + j]
+            Pw[(3 + i) * _W + 3 + j] += N[3 * i + j]
+            Pw[(6 + i) * _W + 6 + j] += N[9 + 3 * i + j]
     for a in range(6):
-        Pw[(9 + a) * _W + 9 + a] += S[2][a]
+        Pw[(9 + a) * _W + 9 + a] += N[18 + a]
 
 
 @jit_inline
-def _covariance_step(Pw: Array, PhiT: Array, M: Array, C: Mat3, q: Array, T: float, n: int) -> None:
-    """``P ← Φ P Φᵀ + ½ (Φ S Φᵀ + S) T`` in place (twin of discrete_noise, predict_covariance).
+def _covariance_step(Pw: Array, PhiT: Array, M: Array, N: Array, n: int) -> None:
+    """``P ← Φ P Φᵀ + ½ (Φ S Φᵀ + S) T`` in place (twin of discrete_noise, predict_covariance),
+    ``N = ½ S T`` (:func:`_add_half_noise`).
 
-    Evaluated as ``Φ P̃ Φᵀ + ½ S T`` with ``P̃ = P + ½ S T``: ``M = Φ_{0:9} P̃`` (row block r
+    Evaluated as ``Φ P̃ Φᵀ + N`` with ``P̃ = P + N``: ``M = Φ_{0:9} P̃`` (row block r
     of Φ is zero in the b_g columns); the lower triangle of rows 0-8 of ``M Φᵀ`` in column
     blocks of n/4 = 4; the bias columns ``M D`` and the bias block ``D P̃ D`` (Φ = D there,
     diagonal); then mirrored. n = 16.
     """
-    S = _half_noise(C, q, T)
-    _add_noise(Pw, S)
+    _add_noise(Pw, N)
     for i in range(3):
         for j in range(n):
             s = 0.0
@@ -565,7 +573,31 @@ def _covariance_step(Pw: Array, PhiT: Array, M: Array, C: Mat3, q: Array, T: flo
         for b in range(9, a + 1):
             Pw[a * _W + b] = d * Pw[a * _W + b] * PhiT[b * _W + b]
             Pw[b * _W + a] = Pw[a * _W + b]
-    _add_noise(Pw, S)
+    _add_noise(Pw, N)
+
+
+@jit_inline
+def _flush(Pw: Array, At: Array, PhiT: Array, M: Array, N: Array, n: int) -> None:
+    """The covariance over the steps accumulated in At (``A = Σ F_k T_k``) and N (``½ Σ S_k
+    T_k``): ``Φ = I + A + A²/2``, ``P ← Φ (P + N) Φᵀ + N``; then At and N zeroed for the next
+    block (docs/filters.md, 'Covariance blocks'; one step: exactly the per-step propagation)."""
+    _fill_PhiT(PhiT, At, n - 4)
+    _covariance_step(Pw, PhiT, M, N, n)
+    for k in range(15 * _W):
+        At[k] = 0.0
+    for k in range(N_NOISE_ACC):
+        N[k] = 0.0
+
+
+BLOCK_TOL_S = 1e-9
+"""A block is full within this much of its length (sums of IMU intervals round)."""
+
+
+@jit_inline
+def block_full(T_block: float, block_s: float) -> bool:
+    """Whether the steps accumulated over ``T_block`` make a full covariance block of
+    ``block_s`` (docs/filters.md, 'Covariance blocks'; 0: every step is one)."""
+    return T_block >= block_s - BLOCK_TOL_S
 
 
 @jit_inline
@@ -646,16 +678,20 @@ def _propagate(
     tau_f: float,
     ta: float,
     tb: float,
+    block_s: float,
 ) -> None:
     """The one compiled loop behind both public kernels (x, P, w_prev, f_prev, f_lp in place).
 
     ``tb < 0``: ``rot``, ``vel`` are the increments of N whole intervals of lengths ``dt``.
     Otherwise one interval, ``rot``, ``vel`` (1, 3) are its mean rates, propagated over
     [ta, tb] only. (A flag argument would be compiled once per value; one compilation serves
-    both.)
+    both.) The covariance goes in blocks of at least ``block_s`` (:func:`block_full`; 0: every
+    step) and a last, shorter one.
     """
     partial = tb >= 0.0
     At, PhiT, M, Pw, n = _work(P, q_psd)
+    N = np.zeros(N_NOISE_ACC)
+    T_block = 0.0
     extra = P.shape[0] > 15  # declared state blocks (errorstate.StateLayout)
     wp = (w_prev[0], w_prev[1], w_prev[2])
     fp = (f_prev[0], f_prev[1], f_prev[2])
@@ -678,10 +714,13 @@ def _propagate(
         state, e, h, v, C, f = _strapdown(state, ref, wp, fp, wc, fc, dt_k, a, b, decay_a, decay_g)
         f = _low_pass(f_lp, f, decay_f)
         _fill_At(At, e, h, v, C, f, inv_tau_a, inv_tau_g, T)
-        _fill_PhiT(PhiT, At, n - 4)
-        _covariance_step(Pw, PhiT, M, C, q_psd, T, n)
-        if extra:
-            _extra_step(P, PhiT, M, q_psd, T)
+        _add_half_noise(N, C, q_psd, T)
+        T_block += T
+        if block_full(T_block, block_s) or k == rot.shape[0] - 1:
+            _flush(Pw, At, PhiT, M, N, n)
+            if extra:
+                _extra_step(P, PhiT, M, q_psd, T_block)
+            T_block = 0.0
         wp, fp = wc, fc
     _store(x, state)
     _unpad(Pw, P)
@@ -703,9 +742,11 @@ def propagate_run(
     tau_g: float,
     f_lp: Array,
     tau_f: float,
+    block_s: float,
 ) -> None:
     """Propagate x (16 + m) and P ((15 + m)², m declared states) over N IMU increments,
-    **in place**.
+    **in place**; the covariance every step (``block_s = 0``) or in blocks of ``block_s``
+    (docs/filters.md, 'Covariance blocks').
 
     Compiled twin of :func:`adaptnav.engine.propagation.propagate_numpy` (use
     :func:`adaptnav.engine.propagation.propagate` for a copying, shape-checking wrapper).
@@ -714,7 +755,10 @@ def propagate_run(
     ``dtheta[-1]/dt[-1]``, ready for the next call, and ``f_lp`` (3) with the low-passed specific
     force of F (:func:`_low_pass`, time constant ``tau_f``). P leaves exactly symmetric.
     """
-    _propagate(x, P, dtheta, dvel, dt, w_prev, f_prev, q_psd, tau_a, tau_g, f_lp, tau_f, 0.0, -1.0)
+    _propagate(
+        x, P, dtheta, dvel, dt, w_prev, f_prev, q_psd, tau_a, tau_g, f_lp, tau_f, 0.0, -1.0,
+        block_s,
+    )  # fmt: skip
 
 
 @jit
@@ -743,5 +787,5 @@ def propagate_partial(
     """
     _propagate(
         x, P, w_cur.reshape(1, 3), f_cur.reshape(1, 3), np.full(1, dt), w_prev.copy(),
-        f_prev.copy(), q_psd, tau_a, tau_g, f_lp, tau_f, ta, tb,
+        f_prev.copy(), q_psd, tau_a, tau_g, f_lp, tau_f, ta, tb, 0.0,
     )  # fmt: skip

@@ -56,14 +56,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptnav.compiled.propagation import (
+    N_NOISE_ACC,
     LatRef,
     Mat3,
     State,
     Vec3,
-    _covariance_step,
+    _add_half_noise,
     _cross,
     _fill_At,
-    _fill_PhiT,
     _low_pass,
     _matvec,
     _quat_mult,
@@ -157,7 +157,10 @@ reading that triggered them, the test statistic, its threshold and the factor P 
 # --- the engine's propagation cursor (rates: previous and current interval's raw mean rates) ---
 
 C_T, C_T_START, C_DT, C_OFFSET = 0, 1, 2, 3
-N_CUR = 4
+C_BLOCK = 4
+"""``cur[C_BLOCK]``: the time the open covariance block spans (docs/filters.md, 'Covariance
+blocks'; 0: none open, P is current)."""
+N_CUR = 5
 R_W_PREV, R_F_PREV, R_W_CUR, R_F_CUR, R_F_LP = 0, 1, 2, 3, 4
 R_Q = 5  # [β, β at the last EVENT_Q, -]: the scale of the white-noise PSDs in Q (noise/process)
 N_RATES = 6
@@ -666,6 +669,11 @@ WS_COLS, WS_BLK, WS_SEEN = range(19, 22)
 WS_PRIOR = 22
 """``ws[WS_PRIOR]``: P as the epoch's update starts from it, for the smoother (n×n; 0×0 when
 smoothing is off; ``[0, 0]`` NaN after an epoch without an update)."""
+WS_PROP, WS_NOISE = 23, 24
+"""``ws[WS_PROP]``: the propagation's flat work arrays as rows (compiled.propagation._work): Aᵀ,
+the sum over the open covariance block; Φᵀ; M; the padded core of P. ``ws[WS_NOISE]``: the
+block's ``½ Σ S_k T_k`` (compiled.propagation.N_NOISE_ACC). Both carry an open block from one
+call of the engine's loop to the next (docs/filters.md, 'Covariance blocks')."""
 V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST, V_LAM, V_B = range(10)
 V_LO, V_HI = 10, 11  # bounds on R̂ per component (variances)
 N_VEC = 12
@@ -676,7 +684,8 @@ def workspace(n_sensors: int, n_states: int = N_STATES, smooth: bool = False) ->
     """Scratch arrays for epochs of up to ``n_sensors`` stacked sensors (D ≤ 3 n_sensors):
     stacked H, y, nominal R blocks, ``H P``, Kᵀ, Eᵀ (D×15), W, S, L, Gᵀ, R used (D×D), VB and
     matching vectors (N_VEC×D), dx, P⁺, and small scratch; allocated once, reused every epoch.
-    ``smooth``: also the P before each update (:data:`WS_PRIOR`)."""
+    ``smooth``: also the P before each update (:data:`WS_PRIOR`); then the propagation's
+    (:data:`WS_PROP`, :data:`WS_NOISE`)."""
     n = max(n_sensors, 1)
     Dm = MAX_DIM * n
     ns = n_states
@@ -688,6 +697,8 @@ def workspace(n_sensors: int, n_states: int = N_STATES, smooth: bool = False) ->
         *(np.zeros(shape) for shape in f),
         *(np.zeros(shape, dtype=np.int64) for shape in ints),
         np.full((ns, ns) if smooth else (0, 0), math.nan),
+        np.zeros((4, 15 * 16)),
+        np.zeros(N_NOISE_ACC),
     )
 
 
@@ -1560,7 +1571,8 @@ def _whiteness(
 # --- one propagation (sub)step, for the engine's compiled loop --------------------------------
 
 Work = tuple[Array, Array, Array, Array, int]
-"""The work arrays of compiled.propagation._work: Aᵀ, Φᵀ, M, padded P (rows of 16), n = 16."""
+"""The work arrays of compiled.propagation._work: Aᵀ (the block's sum), Φᵀ, M, padded P (rows
+of 16), n = 16."""
 
 
 @jit_inline
@@ -1579,18 +1591,21 @@ def step(
     inv_tau: tuple[float, float],
     q_psd: Array,
     f_lp: Array,
+    N: Array,
 ) -> State:
     """Propagate over [ta, tb] of an interval of length dt: the body of the loop of
-    compiled.propagation._propagate (``propagate_run``: ta = 0, tb = dt; ``propagate_partial``), on
-    the state tuple and the padded P of ``wk``. ``wp``, ``fp`` / ``wc``, ``fc``: raw mean rates of
-    the previous / current interval; ``decay = (exp(-T/τ_a), exp(-T/τ_g), exp(-T/τ_f))`` for
-    ``T = tb - ta`` (the last 0 when τ_f = 0); ``inv_tau = (1/τ_a, 1/τ_g)``; ``f_lp``: the
-    low-passed specific force of F (compiled.propagation._low_pass), in place."""
-    At, PhiT, M, Pw, n = wk
+    compiled.propagation._propagate (``propagate_run``: ta = 0, tb = dt; ``propagate_partial``)
+    on the state tuple, the step's ``F T`` added to the block's sum in ``wk`` and its ``½ S T``
+    to ``N``; the covariance itself moves when the caller closes the block
+    (compiled.propagation._flush; docs/filters.md, 'Covariance blocks'). ``wp``, ``fp`` / ``wc``,
+    ``fc``: raw mean rates of the previous / current interval; ``decay = (exp(-T/τ_a),
+    exp(-T/τ_g), exp(-T/τ_f))`` for ``T = tb - ta`` (the last 0 when τ_f = 0); ``inv_tau =
+    (1/τ_a, 1/τ_g)``; ``f_lp``: the low-passed specific force of F
+    (compiled.propagation._low_pass), in place."""
+    At = wk[0]
     T = tb - ta
     state, e, h, v, C, f = _strapdown(state, ref, wp, fp, wc, fc, dt, ta, tb, decay[0], decay[1])
     f = _low_pass(f_lp, f, decay[2])
     _fill_At(At, e, h, v, C, f, inv_tau[0], inv_tau[1], T)
-    _fill_PhiT(PhiT, At, n - 4)
-    _covariance_step(Pw, PhiT, M, C, q_psd, T, n)
+    _add_half_noise(N, C, q_psd, T)
     return state

@@ -59,11 +59,12 @@ from adaptnav.compiled.propagation import (
     State,
     Vec3,
     _extra_step,
+    _flush,
     _lat_ref,
     _load,
     _store,
     _unpad,
-    _work,
+    block_full,
     jit,
     jit_inline,
 )
@@ -130,6 +131,11 @@ _EVENTS: dict[int, tuple[str, str]] = {
     uk.EVENT_Q: ("q_scale", "innovations correlated: the IMU white noise in Q scaled by "
                  "the factor"),
 }  # fmt: skip
+COVARIANCE_BLOCK_S = 0.1
+"""Default span of a covariance block (EngineConfig.covariance_block_s; docs/filters.md,
+'Covariance blocks')."""
+MAX_COVARIANCE_BLOCK_S = 1.0
+"""Longest block allowed: the second-order Φ of a summed F stays accurate while F T is small."""
 _STRATEGIES = (FixedNoise, CovarianceMatching, VariationalBayes)
 """The closed set of noise strategies (estimation/noise/base.py, :class:`NoiseKind`)."""
 
@@ -180,6 +186,10 @@ class EngineConfig:
     smooth: bool = False
     """Keep what the RTS backward pass needs (compiled.smoother) and give the smoothed
     solution beside the forward one (:attr:`EngineOutput.smoothed`; docs/smoothing.md)."""
+    covariance_block_s: float = COVARIANCE_BLOCK_S
+    """Propagate P over blocks of IMU steps of this length (s) with ``Φ = exp(Σ F_k T_k)`` to
+    second order, closed early at every update and output row; 0: every step
+    (docs/filters.md, 'Covariance blocks')."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
@@ -189,6 +199,11 @@ class EngineConfig:
         if not self.specific_force_tau_s >= 0.0:  # NaN too
             raise ValueError(
                 f"specific_force_tau_s: value {self.specific_force_tau_s!r} must be >= 0"
+            )
+        if not 0.0 <= self.covariance_block_s <= MAX_COVARIANCE_BLOCK_S:  # NaN too
+            raise ValueError(
+                f"covariance_block_s: value {self.covariance_block_s!r} must be in "
+                f"[0, {MAX_COVARIANCE_BLOCK_S:g}] s"
             )
 
 
@@ -294,8 +309,8 @@ def _row(rates: Array, r: int) -> Vec3:
     return (rates[r, 0], rates[r, 1], rates[r, 2])
 
 
-@jit_inline
-def _interval_done(
+@jit
+def _output_row(
     t: float,
     state: State,
     Pw: Array,
@@ -307,28 +322,27 @@ def _interval_done(
     P: Array,
     sm: smk.Store,
 ) -> None:
-    """Count a completed interval; every ``output_every``-th, an output row: t, x, and in
+    """An output row, after every ``output_every``-th completed interval: t, x, and in
     ``out_p`` P's diagonal (15) then the off-diagonal elements of its position, velocity and
     attitude blocks (9, :data:`P_CROSS_PAIRS`); and when smoothing, its node (x and P are
-    brought up to date for it)."""
-    icur[I_DONE] += 1
-    if icur[I_DONE] % icur[I_EVERY] == 0:
-        o = icur[I_N_OUT]
-        out_t[o] = t
-        _store(out_x[o], state)
-        for i in range(N_STATES):
-            out_p[o, i] = Pw[i * 16 + i]
-        for b in range(3):  # P_CROSS_PAIRS, spelt out
-            a = 3 * b
-            out_p[o, N_STATES + a] = Pw[a * 16 + a + 1]
-            out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
-            out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
-        icur[I_N_OUT] = o + 1
-        for k in range(NOM_SIZE, x.shape[0]):  # declared states (errorstate.StateLayout)
-            out_x[o, k] = x[k]
-            out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
-        if sm[smk.SM_COUNT][smk.K_ON] != 0:
-            _smoothing_row(sm, o, t, state, Pw, x, P)
+    brought up to date for it). Called, not inlined: inlined, its many array arguments would
+    cost reference counting at every interval, due or not."""
+    o = icur[I_N_OUT]
+    out_t[o] = t
+    _store(out_x[o], state)
+    for i in range(N_STATES):
+        out_p[o, i] = Pw[i * 16 + i]
+    for b in range(3):  # P_CROSS_PAIRS, spelt out
+        a = 3 * b
+        out_p[o, N_STATES + a] = Pw[a * 16 + a + 1]
+        out_p[o, N_STATES + a + 1] = Pw[a * 16 + a + 2]
+        out_p[o, N_STATES + a + 2] = Pw[(a + 1) * 16 + a + 2]
+    icur[I_N_OUT] = o + 1
+    for k in range(NOM_SIZE, x.shape[0]):  # declared states (errorstate.StateLayout)
+        out_x[o, k] = x[k]
+        out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
+    if sm[smk.SM_COUNT][smk.K_ON] != 0:
+        _smoothing_row(sm, o, t, state, Pw, x, P)
 
 
 @jit
@@ -340,6 +354,30 @@ def _smoothing_row(
     _store(x, state)
     _unpad(Pw, P)
     smk.output_node(sm, o, t, x, P)
+
+
+@jit_inline
+def _pad(P: Array, Pw: Array) -> None:
+    """The core of P into the padded flat layout of compiled.propagation._work."""
+    for i in range(N_STATES):
+        for j in range(N_STATES):
+            Pw[i * 16 + j] = P[i, j]
+
+
+@jit_inline
+def _close_block(
+    wk: uk.Work, N: Array, P: Array, q_psd: Array, cur: Array, sm: smk.Store, extra: bool
+) -> None:
+    """Propagate the covariance over the open block, if any (compiled.propagation._flush), and
+    hand its Φ to the smoother and the declared states (docs/filters.md, 'Covariance blocks')."""
+    T_block = cur[uk.C_BLOCK]
+    if T_block > 0.0:
+        _flush(wk[3], wk[0], wk[1], wk[2], N, wk[4])
+        if sm[smk.SM_COUNT][smk.K_ON] != 0:
+            smk.accumulate(sm, wk[1])
+        if extra:
+            _extra_step(P, wk[1], wk[2], q_psd, T_block)
+        cur[uk.C_BLOCK] = 0.0
 
 
 @jit
@@ -359,24 +397,36 @@ def _advance(
     tau_a: float,
     tau_g: float,
     tau_f: float,
+    block_s: float,
     out_t: Array,
     out_x: Array,
     out_p: Array,
     sm: smk.Store,
+    wsp: Array,
+    N: Array,
 ) -> int:
     """Propagate through the IMU intervals ``(tk - dts, tk]`` from ``icur[I_START]`` on until
     the earliest queued reading, stamped ``t_next`` (inf: none), must be acted on.
 
-    Whole intervals one after the other (the steps of compiled.propagation.propagate_run), an output
-    row after every ``output_every``-th completed one; the interval that contains t_next is begun
-    (its rates; the previous ones carried) and propagated to t_next (``exact``, the steps of
-    compiled.propagation.propagate_partial) or to its end (``grid``). Returns _ADVANCE_EPOCH (update
-    now, at ``cur[C_T]``; an interval the update ends is completed on the next call), _ADVANCE_LATE
-    (t_next is not after the current time) or _ADVANCE_DONE (chunk used up). Each loop turn chooses
-    one (sub)step, so that the step is compiled once."""
+    Whole intervals one after the other (the steps of compiled.propagation.propagate_run), an
+    output row after every ``output_every``-th completed one (:func:`_output_row`); the interval
+    that contains t_next is begun (its rates; the previous ones carried) and propagated to t_next
+    (``exact``, the steps of compiled.propagation.propagate_partial) or to its end (``grid``).
+    Returns _ADVANCE_EPOCH (update now, at ``cur[C_T]``; an interval the update ends is completed
+    on the next call), _ADVANCE_LATE (t_next is not after the current time) or _ADVANCE_DONE
+    (chunk used up). Each loop turn chooses one (sub)step, so that the step is compiled once.
+
+    The covariance moves in blocks (docs/filters.md, 'Covariance blocks'): each step adds its
+    ``F T`` and ``½ S T`` to the open block (``wsp``, ``N``, its span in ``cur[C_BLOCK]``), which
+    is closed once it spans ``block_s`` (0: every step), before an output row and before an
+    update; a block still open when the chunk is used up stays open for the next call (P is then
+    as of the block's start until :func:`finish_block`)."""
     n = tk.shape[0]
-    wk = _work(P, q_psd)
-    Pw = wk[3]
+    Pw = wsp[3]
+    _pad(P, Pw)
+    # n from the sizes at run time: LLVM then vectorizes the covariance's column loops
+    # (compiled.propagation._work)
+    wk = (wsp[0], wsp[1], wsp[2], Pw, P.shape[0] + 13 - q_psd.shape[0])
     extra = P.shape[0] > N_STATES  # declared state blocks (errorstate.StateLayout)
     state = _load(x)
     ref = _lat_ref(state[0])
@@ -389,12 +439,15 @@ def _advance(
         for c in range(6):
             q_psd[c] *= beta
     status = _ADVANCE_DONE
+    every = icur[I_EVERY]
     last = -1  # end of the run of whole intervals under way (-1: none)
-    smooth = sm[smk.SM_COUNT][smk.K_ON] != 0
     while True:
         if icur[I_CLOSE] != 0:  # an epoch at the end of its interval completed it
             icur[I_CLOSE] = 0
-            _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
+            icur[I_DONE] += 1
+            if icur[I_DONE] % every == 0:
+                _close_block(wk, N, P, q_psd, cur, sm, extra)
+                _output_row(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
         k = icur[I_START]
         t_start, dt, offset = cur[uk.C_T_START], cur[uk.C_DT], cur[uk.C_OFFSET]
         whole = offset >= dt
@@ -459,11 +512,12 @@ def _advance(
                 decay, T_last = (math.exp(-T / tau_a), math.exp(-T / tau_g), decay_f), T
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
-            state = uk.step(state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp)
-            if smooth:
-                smk.accumulate(sm, wk[1])
-            if extra:
-                _extra_step(P, wk[1], wk[2], q_psd, T)
+            state = uk.step(
+                state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp, N
+            )
+            cur[uk.C_BLOCK] += T
+            if block_full(cur[uk.C_BLOCK], block_s):
+                _close_block(wk, N, P, q_psd, cur, sm, extra)
         if whole:
             for c in range(3):
                 rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
@@ -471,18 +525,44 @@ def _advance(
             cur[uk.C_T] = tk[k]
             cur[uk.C_T_START] = tk[k] - dt
             icur[I_START] = k + 1
-            _interval_done(tk[k], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
+            icur[I_DONE] += 1
+            if icur[I_DONE] % every == 0:
+                _close_block(wk, N, P, q_psd, cur, sm, extra)
+                _output_row(tk[k], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
             continue
         cur[uk.C_OFFSET] = tau
         cur[uk.C_T] = t_start + tau if tau < dt else t_start + dt
         if status == _ADVANCE_EPOCH:
             if tau >= dt:
                 icur[I_CLOSE] = 1
+            _close_block(wk, N, P, q_psd, cur, sm, extra)
             break
-        _interval_done(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
+        icur[I_DONE] += 1
+        if icur[I_DONE] % every == 0:
+            _close_block(wk, N, P, q_psd, cur, sm, extra)
+            _output_row(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
     _store(x, state)
     _unpad(Pw, P)
     return status
+
+
+@jit
+def finish_block(
+    P: Array, q_psd: Array, cur: Array, rates: Array, sm: smk.Store, wsp: Array, N: Array
+) -> None:
+    """Close the open covariance block (:func:`_advance`), so that P is current; with the Q
+    adaptation's scale on the PSDs as :func:`_advance` applies it. (Python's way in: the end of
+    the data, or P read between chunks.)"""
+    if cur[uk.C_BLOCK] > 0.0:
+        beta = rates[uk.R_Q, 0]
+        q = q_psd.copy()
+        for c in range(6):
+            q[c] *= beta
+        Pw = wsp[3]
+        _pad(P, Pw)
+        wk = (wsp[0], wsp[1], wsp[2], Pw, P.shape[0] + 13 - q.shape[0])
+        _close_block(wk, N, P, q, cur, sm, P.shape[0] > N_STATES)
+        _unpad(Pw, P)
 
 
 @jit
@@ -503,6 +583,7 @@ def _navigate(
     tau_a: float,
     tau_g: float,
     tau_f: float,
+    block_s: float,
     out_t: Array,
     out_x: Array,
     out_p: Array,
@@ -533,7 +614,7 @@ def _navigate(
         t_next = q_t[head] if head < nq else math.inf
         status = _advance(
             x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, tau_f,
-            out_t, out_x, out_p, sm,
+            block_s, out_t, out_x, out_p, sm, ws[uk.WS_PROP], ws[uk.WS_NOISE],
         )  # fmt: skip
         if status == _ADVANCE_DONE:
             return NAV_DONE
@@ -585,9 +666,9 @@ class Navigator:
         self.channels = tuple(channels)
         self._index = {c.name: i for i, c in enumerate(channels)}
         self.x = np.array(x0, dtype=float)
-        self.P = np.array(P0, dtype=float)
+        self._P = np.array(P0, dtype=float)
         n = config.layout.n
-        if self.x.shape != (config.layout.nominal_size,) or self.P.shape != (n, n):
+        if self.x.shape != (config.layout.nominal_size,) or self._P.shape != (n, n):
             raise ValueError(f"x0 must be ({config.layout.nominal_size},), P0 ({n}, {n})")
         self._q = np.concatenate(
             [errorstate.noise_psd(config.imu_noise), config.layout.extra_psd()]
@@ -692,6 +773,21 @@ class Navigator:
     def t(self) -> float:
         """The navigator's current time (s)."""
         return float(self._cur[uk.C_T])
+
+    @property
+    def P(self) -> Array:
+        """The error covariance at :attr:`t`. While a covariance block is open (docs/filters.md,
+        'Covariance blocks') the engine's own P is as of the block's start; this is then a copy
+        with the block closed, and reading it changes nothing in the run."""
+        if not self._cur[uk.C_BLOCK] > 0.0:
+            return self._P
+        P = self._P.copy()
+        off = smk.store(0, 0, self.config.layout.nominal_size, self.config.layout.n, False)
+        finish_block(
+            P, self._q, self._cur.copy(), self._rates, off, self._ws[uk.WS_PROP].copy(),
+            self._ws[uk.WS_NOISE].copy(),
+        )  # fmt: skip
+        return P
 
     # --- feeding ------------------------------------------------------------------------------
 
@@ -844,9 +940,9 @@ class Navigator:
             self._reserve_ledger(pending)
             self._reserve_nodes(n // self.config.output_every + 2, pending)
             status = _navigate(
-                self.x, self.P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
+                self.x, self._P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
                 self._rates, self._icur, self._q, self._tau_a, self._tau_g,
-                self._tau_f, self._out_t,
+                self._tau_f, self.config.covariance_block_s, self._out_t,
                 self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
                 self._s_flt, self._s_state, self._rings, self._kind,
                 self.config.reset_covariance, self._python_lin, self._lg_int, self._lg_flt,
@@ -870,7 +966,7 @@ class Navigator:
         self._fb = _grow(self._fb, g)
         self._evaluate_in_python(head, g)
         n = uk.epoch(
-            self.x, self.P, self._rates, self.t, self._q_idx, head, g, self._st_sensor,
+            self.x, self._P, self._rates, self.t, self._q_idx, head, g, self._st_sensor,
             self._st_z, self._fb, self._s_int, self._s_flt, self._s_state, self._rings,
             self._kind, self.config.reset_covariance, self._lg_int, self._lg_flt,
             int(self._icur[I_N_LEDGER]), self._ws,
@@ -883,7 +979,7 @@ class Navigator:
             )
         self._icur[I_N_LEDGER] = n
         if self.config.smooth:
-            smk.node(self._sm, self.t, self.x, self.P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
+            smk.node(self._sm, self.t, self.x, self._P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
 
     def _evaluate_in_python(self, head: int, g: int) -> None:
         """Linearise the group's readings of sensors without a compiled linearisation by their
@@ -998,12 +1094,12 @@ class Navigator:
         n = int(self._icur[I_N_OUT])
         self._out_t[n] = self.t
         self._out_x[n] = self.x
-        self._out_p[n, :N_STATES] = np.diag(self.P)[:N_STATES]
-        self._out_p[n, N_STATES : N_STATES + N_CROSS] = cross_terms(self.P)
-        self._out_p[n, N_STATES + N_CROSS :] = np.diag(self.P)[N_STATES:]
+        self._out_p[n, :N_STATES] = np.diag(self._P)[:N_STATES]
+        self._out_p[n, N_STATES : N_STATES + N_CROSS] = cross_terms(self._P)
+        self._out_p[n, N_STATES + N_CROSS :] = np.diag(self._P)[N_STATES:]
         self._icur[I_N_OUT] = n + 1
         if self.config.smooth:
-            smk.output_node(self._sm, n, self.t, self.x, self.P)
+            smk.output_node(self._sm, n, self.t, self.x, self._P)
 
     def _reserve_nodes(self, rows: int, readings: int) -> None:
         """Room in the smoother's store for ``rows`` output rows and ``readings`` epochs."""
@@ -1074,7 +1170,12 @@ class Navigator:
         return state
 
     def flush(self) -> None:
-        """Drop every reading still queued (the IMU ended before its stamp), with a reason."""
+        """Bring P up to the current time (close the open covariance block) and drop every
+        reading still queued (the IMU ended before its stamp), with a reason."""
+        finish_block(
+            self._P, self._q, self._cur, self._rates, self._sm, self._ws[uk.WS_PROP],
+            self._ws[uk.WS_NOISE],
+        )  # fmt: skip
         self._sort_queue()
         head, n = int(self._icur[I_HEAD]), int(self._icur[I_N_LEDGER])
         rest = self._q_idx[head:]
@@ -1150,7 +1251,7 @@ class Navigator:
             self._out_p[:n, :N_STATES].copy(),
             self._ledger(),
             self.x.copy(),
-            self.P.copy(),
+            self._P.copy(),
             P_cross=self._out_p[:n, N_STATES : N_STATES + N_CROSS].copy(),
             declared_names=self.config.layout.names[N_STATES:],
             declared=self._out_x[:n, NOM_SIZE:].copy(),

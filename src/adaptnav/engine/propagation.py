@@ -115,6 +115,41 @@ def _covariance_numpy(
     return errorstate.predict_covariance(P, Phi, Qd)
 
 
+class CovarianceBlock:
+    """The covariance over a block of steps (docs/filters.md, 'Covariance blocks'; readable twin
+    of the compiled engine's): each step adds ``A += F_k T_k`` and ``S += G_k Q G_kᵀ T_k``; the
+    block closes with ``Φ = I + A + A²/2`` and ``Qd = ½ (Φ S Φᵀ + S)``, ``P ← Φ P Φᵀ + Qd``. One
+    step is exactly steps 2-4 of the module docstring."""
+
+    def __init__(self, q: Array, tau_a: float, tau_g: float) -> None:
+        self.q, self.tau_a, self.tau_g = q, tau_a, tau_g
+        self.A = np.zeros((N_STATES, N_STATES))
+        self.S = np.zeros((N_STATES, N_STATES))
+        self.T = 0.0
+
+    def add(self, mid: strapdown.StepMidpoint, T: float) -> None:
+        """One step's F T and G Q Gᵀ T, F at the step's midpoint."""
+        F = errorstate.system_matrix(
+            mid.lat, mid.h, mid.v_n, mid.C_nb, mid.f_n, self.tau_a, self.tau_g
+        )
+        G = errorstate.noise_input_matrix(mid.C_nb)
+        self.A += F * T
+        self.S += (G * self.q[:N_NOISE]) @ G.T * T
+        self.T += T
+
+    def close(self, P: Array) -> Array:
+        """P propagated over the block; the block emptied."""
+        Phi = errorstate.transition(self.A, 1.0)
+        Qd = 0.5 * (Phi @ self.S @ Phi.T + self.S)
+        Qd = 0.5 * (Qd + Qd.T)
+        if P.shape[0] > N_STATES:  # declared blocks: random walks (errorstate.StateLayout)
+            Phi, Qd = errorstate.augment(Phi, Qd, self.q[N_NOISE:], self.T)
+        self.A[:] = 0.0
+        self.S[:] = 0.0
+        self.T = 0.0
+        return errorstate.predict_covariance(P, Phi, Qd)
+
+
 def propagate_numpy(
     x: ArrayLike,
     P: ArrayLike,
@@ -129,6 +164,7 @@ def propagate_numpy(
     *,
     f_lp: Array | None = None,
     tau_f: float = 0.0,
+    block_s: float = 0.0,
 ) -> tuple[Array, Array, Array, Array]:
     """Propagate x (16) and P (15×15) over N IMU increments (readable NumPy twin).
 
@@ -139,11 +175,13 @@ def propagate_numpy(
     (10), (11)), F with the specific force low-passed with time constant ``tau_f``
     (:func:`low_pass`; its state ``f_lp`` (3), NaN to start, is the one argument updated in place,
     so that a run can go on in the next call). Returns new ``(x, P, w_prev, f_prev)``, the last two
-    being the last interval's rates for the next call.
+    being the last interval's rates for the next call. ``block_s > 0``: P moves in blocks of that
+    many seconds of steps and a last, shorter one (:class:`CovarianceBlock`).
     """
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     dth, dv, dts = _imu_inputs(dtheta, dvel, dt)
     flp = _f_state(f_lp)
+    block = CovarianceBlock(q, tau_a, tau_g)
     for k in range(dth.shape[0]):
         T = float(dts[k])
         wc, fc = dth[k] / T, dv[k] / T
@@ -151,7 +189,12 @@ def propagate_numpy(
             xa[:NOM_SIZE], wp, fp, wc, fc, T, 0.0, T, tau_a, tau_g
         )
         mid = replace(mid, f_n=low_pass(flp, mid.f_n, T, tau_f).copy())
-        Pa = _covariance_numpy(Pa, mid, q, T, tau_a, tau_g)
+        if block_s <= 0.0:
+            Pa = _covariance_numpy(Pa, mid, q, T, tau_a, tau_g)
+        else:
+            block.add(mid, T)
+            if block_s - kernels.BLOCK_TOL_S <= block.T or k == dth.shape[0] - 1:
+                Pa = block.close(Pa)
         wp, fp = wc, fc
     return xa, Pa, wp.copy(), fp.copy()
 
@@ -208,6 +251,7 @@ def propagate(
     *,
     f_lp: Array | None = None,
     tau_f: float = 0.0,
+    block_s: float = 0.0,
 ) -> tuple[Array, Array, Array, Array]:
     """Compiled :func:`propagate_numpy` (same arguments and results; inputs but ``f_lp`` not
     modified).
@@ -218,8 +262,9 @@ def propagate(
     xa, Pa, wp, fp, q = _state_inputs(x, P, w_prev, f_prev, q_psd)
     dth, dv, dts = _imu_inputs(dtheta, dvel, dt)
     kernels.propagate_run(
-        xa, Pa, dth, dv, dts, wp, fp, q, float(tau_a), float(tau_g), _f_state(f_lp), float(tau_f)
-    )
+        xa, Pa, dth, dv, dts, wp, fp, q, float(tau_a), float(tau_g), _f_state(f_lp), float(tau_f),
+        float(block_s),
+    )  # fmt: skip
     return xa, Pa, wp, fp
 
 

@@ -577,14 +577,18 @@ class InitialConfig(_Model):
 
 class FilterConfig(FilterSettings):
     """``[filter]``: the filter's settings (:class:`adaptnav.estimation.settings.FilterSettings`,
-    where each field is declared, constrained and defaulted once) and three of the engine's:
-    output rate, epoch policy and the specific-force low-pass."""
+    where each field is declared, constrained and defaulted once) and four of the engine's:
+    output rate, epoch policy, the specific-force low-pass and the covariance blocks."""
 
     epoch_policy: Literal["exact", "grid"] = "exact"
     output_rate_hz: Positive = 10.0
     specific_force_tau_s: Annotated[float, Field(ge=0)] | None = None
     """Time constant (s) of the low-pass on the specific force that F is evaluated with; None:
     the engine's default (``adaptnav.engine.batch.EngineConfig``; docs/error-model.md)."""
+    covariance_block_s: Annotated[float, Field(ge=0, le=1)] | None = None
+    """Span (s) of the blocks of IMU steps P is propagated over (0: every step); None: the
+    engine's default (``adaptnav.engine.batch.EngineConfig``; docs/filters.md, 'Covariance
+    blocks')."""
 
     @field_validator("kind")
     @classmethod
