@@ -439,6 +439,7 @@ class Trajectory:
             position_accel=lambda tt: self._eval(tt)["pdd"],
             euler=lambda tt: self._eval(tt)["e"],
             euler_rate=lambda tt: self._eval(tt)["ed"],
+            breakpoints=tuple(self.breakpoints.tolist()),
         )
 
     def _add_turn(self, seg: Turn, t: float, rate: _Steps) -> float:
@@ -594,6 +595,14 @@ class Trajectory:
         return self._cache
 
     # --- summaries -----------------------------------------------------------------------------
+
+    @property
+    def breakpoints(self) -> Array:
+        """The joints of the motion (sorted, s): the start and end of every smooth step of the
+        speed, course rate, depth and sea state, where a derivative of the motion jumps (module
+        docstring, 'Smooth profiles'; docs/simulation.md, 'Exact increments')."""
+        profiles = (self.speed, self.course_rate, self.depth, self.sea_state)
+        return np.unique(np.concatenate([p.breakpoints for p in profiles]))
 
     @property
     def static_end(self) -> float:
