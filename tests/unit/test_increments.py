@@ -128,3 +128,23 @@ def test_increments_are_exact_on_paper_1(start: float) -> None:
     traj = tr.build(scenarios.paper_1().trajectory)
     t = np.arange(round(start * 100.0), round(start * 100.0) + 5001) / 100.0
     assert _excess(traj.motion, t, _reference(traj.motion, t, _joints(traj))) <= 1.0
+
+
+@pytest.mark.parametrize("start", [0.0, 10_000.0])
+def test_waves_on_an_even_grid_are_as_exact_as_sines(start: float) -> None:
+    """On an even grid a wave's sine and cosine come by angle addition from every 64th instant
+    (trajectory.py, ``_sincos``). Against the sine in extended precision at the same float
+    instants, they must be within what evaluating ``sin(ω t + φ)`` in double can promise: the
+    argument rounds twice by half an ulp (of ω t, then of ω t + φ: together at most
+    ulp(ω t + φ)), the sine by half an ulp of 1 (4 ε leaves room for the sums)."""
+    t = np.arange(round(start * 100.0), round(start * 100.0) + 5000) / 100.0
+    grid = tr._even_grid(t)
+    assert grid is not None and tr._even_grid(t[np.r_[0:2000, 2001:5000]]) is None
+    wide = np.longdouble
+    for c in scenarios.NOMINAL_WAVES.roll + scenarios.NOMINAL_WAVES.heave:
+        omega = 2.0 * math.pi / c.period
+        sn, cs = tr._sincos(omega, c.phase, t, grid)
+        arg = wide(omega) * t.astype(wide) + wide(c.phase)
+        bound = float(np.spacing(omega * t[-1] + c.phase)) + 4.0 * EPS
+        assert np.abs(sn - np.sin(arg)).max() <= bound
+        assert np.abs(cs - np.cos(arg)).max() <= bound

@@ -162,21 +162,17 @@ def _times(t: ArrayLike) -> Array:
     return ta
 
 
-def _euler_to_dcm(sin_e: Array, cos_e: Array) -> Array:
-    """``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` from the sines and cosines (N, 3) of ``[φ, θ, ψ]`` →
-    (N, 3, 3); the caller takes them once, as it needs them again.
-
-    The vectorised twin of :func:`adaptnav.core.attitude.euler_to_dcm`.
-    """
-    sr, cr = sin_e[:, 0], cos_e[:, 0]
-    sp, cp = sin_e[:, 1], cos_e[:, 1]
-    sy, cy = sin_e[:, 2], cos_e[:, 2]
-    rows = [
-        np.stack([cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy], axis=-1),
-        np.stack([cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy], axis=-1),
-        np.stack([-sp, sr * cp, cr * cp], axis=-1),
+def _euler_to_dcm(sin_e: list[Array], cos_e: list[Array]) -> list[list[Array]]:
+    """The entries (rows of columns, each (N,)) of ``C_nb = Rz(ψ) Ry(θ) Rx(φ)`` from the sines
+    and cosines of ``[φ, θ, ψ]`` (columns; the caller needs them again): the vectorised twin of
+    :func:`adaptnav.core.attitude.euler_to_dcm`."""
+    sr, sp, sy = sin_e
+    cr, cp, cy = cos_e
+    return [
+        [cp * cy, sr * sp * cy - cr * sy, cr * sp * cy + sr * sy],
+        [cp * sy, sr * sp * sy + cr * cy, cr * sp * sy - sr * cy],
+        [-sp, sr * cp, cr * cp],
     ]
-    return np.stack(rows, axis=-2)
 
 
 def _euler_to_quat(e: Array) -> Array:
@@ -201,58 +197,80 @@ def _euler_to_quat(e: Array) -> Array:
     return result
 
 
-def true_kinematics(motion: Motion, t: ArrayLike) -> Kinematics:
-    """All true kinematic quantities of ``motion`` at the instants ``t`` (module docstring).
+class _Signals(NamedTuple):
+    """:class:`Kinematics` as columns, each (N,) (``C`` by rows), before any is stacked."""
 
-    Earth rate, transport rate and gravity are the vectorised forms of
+    v_n: tuple[Array, Array, Array]
+    v_n_rate: tuple[Array, Array, Array]
+    C: list[list[Array]]
+    omega_nb_b: tuple[Array, Array, Array]
+    omega_ib_b: tuple[Array, Array, Array]
+    f_b: tuple[Array, Array, Array]
+
+
+def _signals(p: Array, pd: Array, pdd: Array, e: Array, ed: Array) -> _Signals:
+    """Items 1-3 of the module docstring, column by column, from the motion's values at N
+    instants. Earth rate, transport rate and gravity are the vectorised forms of
     :func:`adaptnav.core.earth.earth_rate_n`, :func:`~adaptnav.core.earth.transport_rate_n` and
-    :func:`~adaptnav.core.earth.gravity_n`.
-    """
-    tt = _times(t)
-    p, pd, pdd = motion.position(tt), motion.position_rate(tt), motion.position_accel(tt)
+    :func:`~adaptnav.core.earth.gravity_n` (``tan L`` as ``sin L / cos L``)."""
     lat, h = p[:, 0], p[:, 2]
     dlat, dlon, dh = pd[:, 0], pd[:, 1], pd[:, 2]
-    ddlat, ddlon, ddh = pdd[:, 0], pdd[:, 1], pdd[:, 2]
     sl, cl = np.sin(lat), np.cos(lat)
     rm = earth.meridian_radius(lat) + h
     rn = earth.transverse_radius(lat) + h
     drm = earth.meridian_radius_dlat(lat) * dlat + dh
     drn = earth.transverse_radius_dlat(lat) * dlat + dh
-
-    v_n = np.stack([rm * dlat, rn * cl * dlon, -dh], axis=-1)
-    v_n_rate = np.stack(
-        [
-            drm * dlat + rm * ddlat,
-            drn * cl * dlon - rn * sl * dlat * dlon + rn * cl * ddlon,
-            -ddh,
-        ],
-        axis=-1,
+    v = (rm * dlat, rn * cl * dlon, -dh)
+    a = (
+        drm * dlat + rm * pdd[:, 0],
+        drn * cl * dlon - rn * sl * dlat * dlon + rn * cl * pdd[:, 1],
+        -pdd[:, 2],
+    )
+    sin_e = [np.sin(e[:, i]) for i in range(3)]
+    cos_e = [np.cos(e[:, i]) for i in range(3)]
+    C = _euler_to_dcm(sin_e, cos_e)
+    (s_r, s_p, _), (c_r, c_p, _) = sin_e, cos_e
+    omega_nb_b = (
+        ed[:, 0] - s_p * ed[:, 2],
+        c_r * ed[:, 1] + s_r * c_p * ed[:, 2],
+        -s_r * ed[:, 1] + c_r * c_p * ed[:, 2],
+    )
+    # ω_ie^n + ω_en^n, and 2 ω_ie^n + ω_en^n for the Coriolis term
+    w_e = v[1] / rn
+    w_n, w_d = -v[0] / rm, -w_e * (sl / cl)
+    ie_n, ie_d = earth.OMEGA_IE * cl, -earth.OMEGA_IE * sl
+    w_in = (ie_n + w_e, w_n, ie_d + w_d)
+    u = (2.0 * ie_n + w_e, w_n, 2.0 * ie_d + w_d)
+    f_n = (
+        a[0] + (u[1] * v[2] - u[2] * v[1]),
+        a[1] + (u[2] * v[0] - u[0] * v[2]),
+        a[2] - earth.gravity(lat, h) + (u[0] * v[1] - u[1] * v[0]),
+    )
+    gyro = [omega_nb_b[i] + _column_dot(C, i, w_in) for i in range(3)]
+    accel = [_column_dot(C, i, f_n) for i in range(3)]
+    return _Signals(
+        v, a, C, omega_nb_b, (gyro[0], gyro[1], gyro[2]), (accel[0], accel[1], accel[2])
     )
 
-    e, ed = motion.euler(tt), motion.euler_rate(tt)
-    sin_e, cos_e = np.sin(e), np.cos(e)
-    C_nb = _euler_to_dcm(sin_e, cos_e)
-    s_r, c_r = sin_e[:, 0], cos_e[:, 0]
-    s_p, c_p = sin_e[:, 1], cos_e[:, 1]
-    omega_nb_b = np.stack(
-        [
-            ed[:, 0] - s_p * ed[:, 2],
-            c_r * ed[:, 1] + s_r * c_p * ed[:, 2],
-            -s_r * ed[:, 1] + c_r * c_p * ed[:, 2],
-        ],
-        axis=-1,
-    )
 
-    zero = np.zeros_like(lat)
-    omega_ie_n = earth.OMEGA_IE * np.stack([cl, zero, -sl], axis=-1)
-    v_N, v_E = v_n[:, 0], v_n[:, 1]
-    omega_en_n = np.stack([v_E / rn, -v_N / rm, -v_E * np.tan(lat) / rn], axis=-1)
-    g_n = np.stack([zero, zero, earth.gravity(lat, h)], axis=-1)
+def _column_dot(C: list[list[Array]], i: int, x: tuple[Array, Array, Array]) -> Array:
+    """Component i of ``C_nbᵀ x``: column i of C (rows of columns) dotted with x."""
+    return C[0][i] * x[0] + C[1][i] * x[1] + C[2][i] * x[2]
 
-    omega_ib_b = omega_nb_b + np.einsum("nji,nj->ni", C_nb, omega_ie_n + omega_en_n)
-    f_n = v_n_rate - g_n + np.cross(2.0 * omega_ie_n + omega_en_n, v_n)
-    f_b = np.einsum("nji,nj->ni", C_nb, f_n)
-    return Kinematics(p, v_n, v_n_rate, C_nb, omega_nb_b, omega_ib_b, f_b)
+
+def _evaluate(motion: Motion, tt: Array) -> tuple[Array, Array, _Signals]:
+    """The motion's position and Euler angles at the instants, and every signal."""
+    p, e = motion.position(tt), motion.euler(tt)
+    pd, pdd, ed = motion.position_rate(tt), motion.position_accel(tt), motion.euler_rate(tt)
+    return p, e, _signals(p, pd, pdd, e, ed)
+
+
+def true_kinematics(motion: Motion, t: ArrayLike) -> Kinematics:
+    """All true kinematic quantities of ``motion`` at the instants ``t`` (module docstring)."""
+    p, _, s = _evaluate(motion, _times(t))
+    C_nb = np.stack([np.stack(row, axis=-1) for row in s.C], axis=-2)
+    k = [np.stack(c, axis=-1) for c in (s.v_n, s.v_n_rate, s.omega_nb_b, s.omega_ib_b, s.f_b)]
+    return Kinematics(p, k[0], k[1], C_nb, k[2], k[3], k[4])
 
 
 def imu_rates(motion: Motion, t: ArrayLike) -> tuple[Array, Array]:
@@ -260,8 +278,8 @@ def imu_rates(motion: Motion, t: ArrayLike) -> tuple[Array, Array]:
 
     Returns ``(ω_ib^b, f^b)``, each (N, 3), in rad/s and m/s² (module docstring, item 3).
     """
-    k = true_kinematics(motion, t)
-    return k.omega_ib_b, k.f_b
+    _, _, s = _evaluate(motion, _times(t))
+    return np.stack(s.omega_ib_b, axis=-1), np.stack(s.f_b, axis=-1)
 
 
 def imu_increments(motion: Motion, t: ArrayLike, nodes: int | None = None) -> tuple[Array, Array]:
@@ -318,29 +336,32 @@ def _grid_intervals(t: Array, joints: Array) -> NDArray[np.bool_]:
 def _grid_rule(
     motion: Motion, t: Array, grid: NDArray[np.bool_], dtheta: Array, dvel: Array
 ) -> None:
-    """Fill the rows ``grid`` of ``dtheta`` and ``dvel`` by the grid rule (module docstring).
+    """Fill the rows of ``dtheta`` and ``dvel`` from the first to the last interval of ``grid``
+    by the grid rule (module docstring), chunk by chunk; the rows between them outside ``grid``
+    are for the caller to overwrite.
 
     The weights apply to the interval's own length ``t_{k+1} - t_k`` (exact in floating point):
     the instants ``t = k / rate`` are evenly spaced only to rounding, and a shared mean spacing
     would put that rounding, times gravity, into every Δv."""
     p = GRID_SAMPLES // 2
     first, last = np.flatnonzero(grid)[[0, -1]]
-    lo, hi = first - p + 1, last + p + 1  # the instants the rule reads: t[lo:hi]
-    g = np.empty((hi - lo, 6))
-    for start in range(lo, hi, _CHUNK):
-        stop = min(hi, start + _CHUNK)
-        g[start - lo : stop - lo, :3], g[start - lo : stop - lo, 3:] = imu_rates(
-            motion, t[start:stop]
-        )
-    count = last - first + 1
-    acc = np.zeros((count, 6))
-    for j in range(p):  # symmetric weights: w_j (g_j + g_{9-j})
-        pair = g[j : j + count] + g[GRID_SAMPLES - 1 - j : GRID_SAMPLES - 1 - j + count]
-        acc += GRID_WEIGHTS[j] * pair
-    rows = grid[first : last + 1]
-    acc = acc[rows] * (t[first + 1 : last + 2] - t[first : last + 1])[rows, None]
-    dtheta[first : last + 1][rows] = acc[:, :3]
-    dvel[first : last + 1][rows] = acc[:, 3:]
+    for k0 in range(first, last + 1, _CHUNK):
+        k1 = min(last + 1, k0 + _CHUNK)
+        gyro, accel = imu_rates(motion, t[k0 - p + 1 : k1 + p])
+        h = t[k0 + 1 : k1 + 1] - t[k0:k1]
+        dtheta[k0:k1] = _stencil(gyro, h)
+        dvel[k0:k1] = _stencil(accel, h)
+
+
+def _stencil(g: Array, h: Array) -> Array:
+    """``h_k Σ_j w_j g_{k+j}`` (M, 3) from the signals at M + 9 instants (:data:`GRID_WEIGHTS`,
+    symmetric: taken in pairs ``w_j (g_j + g_{9-j})``)."""
+    m, span = h.size, GRID_SAMPLES - 1
+    acc: Array = GRID_WEIGHTS[0] * (g[:m] + g[span : span + m])
+    for j in range(1, GRID_SAMPLES // 2):
+        acc += GRID_WEIGHTS[j] * (g[j : j + m] + g[span - j : span - j + m])
+    acc *= h[:, None]
+    return acc
 
 
 def _pieces(a: Array, b: Array, joints: Array) -> tuple[Array, Array, NDArray[np.intp]]:
