@@ -125,7 +125,7 @@ class Motion:
 
     ``breakpoints``: the joints of a piecewise-defined motion, the instants (s) where some
     derivative of the values jumps (the ends of the smooth steps of :mod:`adaptnav.sim.trajectory`);
-    :func:`imu_increments` integrates each side of a joint on its own. None for an analytic one.
+    :func:`imu_increments` integrates each side of a joint on its own. Empty for an analytic one.
     """
 
     position: TimeFunction
@@ -319,7 +319,8 @@ def _grid_intervals(t: Array, joints: Array) -> NDArray[np.bool_]:
     if n < GRID_SAMPLES - 1 or not np.all(d > 0.0):
         return ok
     tol = 8.0 * float(np.spacing(max(abs(t[0]), abs(t[-1]))))
-    # uneven[i]: spacings i and i + 1 differ; window k holds the pairs k-4 .. k+3.
+    # uneven[m]: how many spacing pairs (i, i + 1), i < m, differ by more than tol; the window
+    # of interval k holds the pairs k-4 .. k+3.
     uneven = np.concatenate([[0], np.cumsum(np.abs(np.diff(d)) > tol)])
     ok[p - 1 : n - p + 1] = uneven[2 * p - 2 :] == uneven[: n - 2 * p + 2]
     # A joint c strictly inside (t_{k-4}, t_{k+5}): k - 4 <= last index before c and
