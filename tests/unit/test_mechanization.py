@@ -133,12 +133,13 @@ def test_increments_are_the_integrals_of_the_rates() -> None:
         weights *= (t[j + 1] - t[j]) / 128 / 3.0  # not tau[1] - tau[0]: rounding at t = 37 s
         np.testing.assert_allclose(dtheta[j], weights @ w, rtol=0, atol=1e-16)
         np.testing.assert_allclose(dv[j], weights @ f, rtol=0, atol=1e-14)
-    # 8 nodes vs 12 nodes at IMU intervals: the quadrature error is at rounding level.
+    # The grid rule (a uniform grid) vs 12 Gauss-Legendre nodes per interval: the quadrature
+    # error is at rounding level (tests/unit/test_increments.py for the bound).
     t = np.arange(-1, 1001) * 0.01
-    d8, v8 = kin.imu_increments(m, t)
+    d_grid, v_grid = kin.imu_increments(m, t)
     d12, v12 = kin.imu_increments(m, t, nodes=12)
-    assert np.max(np.abs(d8 - d12)) < 1e-17
-    assert np.max(np.abs(v8 - v12)) < 1e-15
+    assert np.max(np.abs(d_grid - d12)) < 1e-17
+    assert np.max(np.abs(v_grid - v12)) < 1e-15
     # Constant signals: increment = rate · dt.
     rest = kin.stationary(LAT0, LON0)
     d, v = kin.imu_increments(rest, [0.0, 0.01])

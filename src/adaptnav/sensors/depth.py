@@ -119,8 +119,9 @@ class Depth(Components):
 
 
 def ideal(t: IdealInput) -> Array:
-    """Error-free readings (N, 1): :func:`predict` at each true state."""
-    return t.each(lambda i: predict(t.x[i], t.l_b), DIM)
+    """Error-free readings (N, 1): :func:`predict` at each true state, over all N at once,
+    ``-h + (C_nb l_b)_D``."""
+    return (t.lever_n[:, 2] - t.x[:, 2])[:, None]
 
 
 DEPTH_RESOLUTION_M = 1e-4

@@ -222,8 +222,11 @@ COLUMNS = ("vx_m_s", "vy_m_s", "vz_m_s")
 
 
 def ideal(t: IdealInput) -> Array:
-    """Error-free readings (N, 3): :func:`predict` at each true state and body rate."""
-    return t.each(lambda i: predict(t.x[i], t.omega_ib_b[i], t.l_b, t.C_sb), DIM)
+    """Error-free readings (N, 3): :func:`predict` at each true state and body rate, over all N
+    at once, ``C_sb (C_nbᵀ v_n + (ω_ib_b - b_g) × l_b)``."""
+    v_b = np.einsum("nji,nj->ni", t.C_nb, t.x[:, NOM_VEL])
+    v_b += np.cross(t.omega_ib_b - t.x[:, NOM_BG], np.asarray(t.l_b, dtype=float))
+    return t.to_sensor(v_b)
 
 
 KIND = SensorKind(

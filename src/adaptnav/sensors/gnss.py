@@ -169,8 +169,13 @@ class GNSS(Components):
 
 def ideal(t: IdealInput) -> Array:
     """Error-free fixes (N, 3) of the antenna, height included: :func:`predict` at each true
-    state."""
-    return t.each(lambda i: predict(t.x[i], t.l_b, use_height=True), 3)
+    state, over all N at once."""
+    lat, lon, h = t.x[:, 0], t.x[:, 1], t.x[:, 2]
+    a = t.lever_n
+    rm = earth.meridian_radius(lat) + h
+    rn = earth.transverse_radius(lat) + h
+    lon_a = attitude.wrap_angle(lon + a[:, 1] / (rn * np.cos(lat)))
+    return np.stack([lat + a[:, 0] / rm, lon_a, h - a[:, 2]], axis=-1)
 
 
 LATLON_RESOLUTION_RAD = 1e-11

@@ -116,8 +116,9 @@ class Heading(Components):
 
 
 def ideal(t: IdealInput) -> Array:
-    """Error-free readings (N, 1): :func:`predict` at each true state."""
-    return t.each(lambda i: predict(t.x[i], t.C_sb), DIM)
+    """Error-free readings (N, 1): :func:`predict` at each true state, over all N at once (the
+    yaw of ``C_nb C_sbᵀ``)."""
+    return t.euler_ns[:, 2:]
 
 
 KIND = SensorKind(

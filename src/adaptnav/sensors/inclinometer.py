@@ -258,12 +258,13 @@ def _build(s: SensorSetup) -> Inclinometer | PendulumInclinometer:
 
 
 def ideal(t: IdealInput) -> Array:
-    """Error-free readings (N, 2) of the ``model`` :func:`_build` would make: the attitude's
-    roll and pitch (:func:`predict`) for ``"attitude"``, else the pendulum's tilt of the true
-    specific force at the sensor, ``tilt(C_sb f_b)`` (module docstring)."""
+    """Error-free readings (N, 2) of the ``model`` :func:`_build` would make, over all N at
+    once: the attitude's roll and pitch (:func:`predict`) for ``"attitude"``, else the
+    pendulum's tilt of the specific force at the sensor, ``tilt(C_sb (f_b - b_a))``
+    (:func:`pendulum_predict`; the true states' bias is zero)."""
     if t.model == "attitude":
-        return t.each(lambda i: predict(t.x[i], t.C_sb), DIM)
-    return tilt(t.f_b if t.C_sb is None else t.f_b @ np.asarray(t.C_sb, dtype=float).T)
+        return t.euler_ns[:, :2]
+    return tilt(t.to_sensor(t.f_b - t.x[:, NOM_BA]))
 
 
 KIND = SensorKind(

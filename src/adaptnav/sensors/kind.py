@@ -20,12 +20,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from adaptnav.core import attitude
 from adaptnav.core.units import Kind
+from adaptnav.models.strapdown import NOM_ATT
 from adaptnav.sensors.base import MeasurementModel
 from adaptnav.sensors.calibration import Quantity
 
@@ -102,7 +105,13 @@ class SensorSetup:
 @dataclass(frozen=True, eq=False)
 class IdealInput:
     """The truth a kind's ``ideal_reading`` reads, at N sampling instants, and the sensor's
-    installation (what the simulator hands it; docs/simulation.md, 'Aiding sensors')."""
+    installation (what the simulator hands it; docs/simulation.md, 'Aiding sensors').
+
+    The derived quantities below (attitude matrices, Euler angles, the lever arm in NED) are
+    computed once for all N instants by the same :mod:`adaptnav.core.attitude` functions the
+    readable one-state ``predict`` functions use, so a kind's ``ideal_reading`` is its
+    ``predict`` formula over arrays (``tests/unit/test_ideal_readings.py`` holds the two equal).
+    """
 
     x: Array
     """True nominal states (N, 16), laid out as models/strapdown.py (biases zero)."""
@@ -117,13 +126,36 @@ class IdealInput:
     model: str | None = None
     """The kind's ``model`` option, for a kind with several (the inclinometer's)."""
 
-    def each(self, h: Callable[[int], ArrayLike], dim: int) -> Array:
-        """(N, dim): ``h(i)`` of every instant i, for the readable models' one-state
-        ``predict`` functions."""
-        out = np.empty((self.x.shape[0], dim))
-        for i in range(out.shape[0]):
-            out[i] = h(i)
-        return out
+    @cached_property
+    def C_nb(self) -> Array:
+        """Body-to-NED DCMs (N, 3, 3) of the states' quaternions: :func:`attitude.quat_to_dcm`
+        (Groves 2.34) of all N at once (the batch on its last axis, then moved first)."""
+        return np.moveaxis(attitude.quat_to_dcm(self.x[:, NOM_ATT].T), -1, 0)
+
+    @cached_property
+    def C_ns(self) -> Array:
+        """Sensor-to-NED DCMs ``C_nb C_sbᵀ`` (N, 3, 3); ``C_nb`` for a sensor aligned with the
+        body."""
+        if self.C_sb is None:
+            return self.C_nb
+        return np.asarray(self.C_nb @ np.asarray(self.C_sb, dtype=float).T, dtype=float)
+
+    @cached_property
+    def euler_ns(self) -> Array:
+        """ZYX Euler angles ``[roll, pitch, yaw]`` (N, 3) of :attr:`C_ns`:
+        :func:`attitude.dcm_to_euler` of all N at once (yaw in (-π, π])."""
+        return np.asarray(attitude.dcm_to_euler(np.moveaxis(self.C_ns, 0, -1)).T, dtype=float)
+
+    @cached_property
+    def lever_n(self) -> Array:
+        """The lever arm resolved in NED, ``C_nb l_b`` (N, 3), m."""
+        return np.asarray(self.C_nb @ np.asarray(self.l_b, dtype=float), dtype=float)
+
+    def to_sensor(self, v_b: Array) -> Array:
+        """Body-frame vectors (N, 3) resolved in the sensor frame, ``C_sb v_b`` row by row."""
+        if self.C_sb is None:
+            return v_b
+        return np.asarray(v_b @ np.asarray(self.C_sb, dtype=float).T, dtype=float)
 
 
 @dataclass(frozen=True)

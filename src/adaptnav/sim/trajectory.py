@@ -87,22 +87,29 @@ _GAUSS = np.polynomial.legendre.leggauss(8)
 # --- smooth steps ---------------------------------------------------------------------------
 
 
+def _smooth_steps(x: ArrayLike) -> tuple[Array, Array, Array]:
+    """(S, S', S'') at x (clipped to [0, 1]), sharing ``u`` and ``v = u (1 - u)``."""
+    u = np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
+    u2 = u * u
+    v = u * (1.0 - u)
+    v2 = v * v
+    s0 = u2 * u2 * (35.0 + u * (-84.0 + u * (70.0 - 20.0 * u)))
+    return s0, 140.0 * v2 * v, 420.0 * v2 * (1.0 - 2.0 * u)
+
+
 def smooth_step(x: ArrayLike) -> Array:
     """S(x) = x⁴ (35 - 84x + 70x² - 20x³) on [0, 1], 0 below, 1 above (C³)."""
-    u = np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
-    return np.asarray(u**4 * (35.0 + u * (-84.0 + u * (70.0 - 20.0 * u))), dtype=float)
+    return _smooth_steps(x)[0]
 
 
 def smooth_step_d1(x: ArrayLike) -> Array:
     """S'(x) = 140 x³ (1 - x)³ on [0, 1], 0 outside."""
-    u = np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
-    return np.asarray(140.0 * (u * (1.0 - u)) ** 3, dtype=float)
+    return _smooth_steps(x)[1]
 
 
 def smooth_step_d2(x: ArrayLike) -> Array:
     """S''(x) = 420 x² (1 - x)² (1 - 2x) on [0, 1], 0 outside."""
-    u = np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
-    return np.asarray(420.0 * (u * (1.0 - u)) ** 2 * (1.0 - 2.0 * u), dtype=float)
+    return _smooth_steps(x)[2]
 
 
 def smooth_step_integral(x: ArrayLike) -> Array:
@@ -157,37 +164,27 @@ class StepProfile:
         x = (t - self.starts[j]) / w
         return k, x, delta, w
 
-    def _value(self, k: IntArray, x: Array, delta: Array) -> Array:
-        before = self._sum_d[np.maximum(k - 1, 0)]
-        return np.asarray(self.initial + before + delta * smooth_step(x), dtype=float)
-
-    @staticmethod
-    def _rate(x: Array, delta: Array, w: Array) -> Array:
-        return np.asarray(delta * smooth_step_d1(x) / w, dtype=float)
-
-    @staticmethod
-    def _accel(x: Array, delta: Array, w: Array) -> Array:
-        return np.asarray(delta * smooth_step_d2(x) / (w * w), dtype=float)
-
     def value(self, t: ArrayLike) -> Array:
-        k, x, delta, _ = self._locate(np.asarray(t, dtype=float))
-        return self._value(k, x, delta)
+        return self.derivatives(t)[0]
 
     def rate(self, t: ArrayLike) -> Array:
         """dy/dt."""
-        _, x, delta, w = self._locate(np.asarray(t, dtype=float))
-        return self._rate(x, delta, w)
+        return self.derivatives(t)[1]
 
     def accel(self, t: ArrayLike) -> Array:
         """d²y/dt²."""
-        _, x, delta, w = self._locate(np.asarray(t, dtype=float))
-        return self._accel(x, delta, w)
+        return self.derivatives(t)[2]
 
     def derivatives(self, t: ArrayLike) -> tuple[Array, Array, Array]:
-        """(y, dy/dt, d²y/dt²): :meth:`value`, :meth:`rate` and :meth:`accel` from one search
-        of the steps (the simulator asks for all three at millions of instants)."""
-        k, x, delta, w = self._locate(np.asarray(t, dtype=float))
-        return self._value(k, x, delta), self._rate(x, delta, w), self._accel(x, delta, w)
+        """(y, dy/dt, d²y/dt²) from one search of the steps (the simulator asks for all three
+        at millions of instants)."""
+        tt = np.asarray(t, dtype=float)
+        if self.starts.size == 0:
+            return np.full_like(tt, self.initial), np.zeros_like(tt), np.zeros_like(tt)
+        k, x, delta, w = self._locate(tt)
+        s0, s1, s2 = _smooth_steps(x)
+        before = self._sum_d[np.maximum(k - 1, 0)]
+        return self.initial + before + delta * s0, (delta / w) * s1, (delta / (w * w)) * s2
 
     def integral(self, t: ArrayLike) -> Array:
         """∫_0^t y (valid for steps at times >= 0)."""
@@ -359,19 +356,84 @@ class _Profiles(NamedTuple):
     course_accel: Array
 
 
-def _wave_sum(comps: Sequence[WaveComponent], t: Array) -> tuple[Array, Array, Array]:
-    """Σ A sin(ωt + φ) and its first two derivatives."""
-    s0 = np.zeros_like(t)
-    s1 = np.zeros_like(t)
-    s2 = np.zeros_like(t)
+class _Grid(NamedTuple):
+    """Evenly spaced instants as anchors (every :data:`_ANCHOR_EVERY`-th) plus offsets j h
+    (:func:`_even_grid`)."""
+
+    anchors: Array
+    """The instants t_0, t_B, t_2B, ... (rows,)."""
+    offsets: Array
+    """j h, j = 0 .. B - 1 (B,)."""
+    residual: Array
+    """t - (anchor + offset) exactly, (rows, B) (0 past the last instant)."""
+    size: int
+
+
+_ANCHOR_EVERY = 64
+"""Instants per anchor of a wave's angle addition on an even grid (:func:`_sincos`)."""
+
+
+def _even_grid(t: Array) -> _Grid | None:
+    """``t`` as anchors plus offsets if it is evenly spaced to rounding (within 64 ulps of its
+    largest instant), else None. The residual is exact (the sum ``anchor + offset`` and its
+    rounding error, Knuth's TwoSum)."""
+    n, b = t.size, _ANCHOR_EVERY
+    if n < 2 * b:
+        return None
+    h = (t[-1] - t[0]) / (n - 1)
+    rows = -(-n // b)
+    anchors, offsets = t[::b], h * np.arange(b)
+    expected = anchors[:, None] + offsets[None, :]
+    back = expected - anchors[:, None]
+    rounding = (anchors[:, None] - (expected - back)) + (offsets[None, :] - back)
+    pad = expected.reshape(-1)[n:]
+    residual = (np.concatenate([t, pad]).reshape(rows, b) - expected) - rounding
+    residual.reshape(-1)[n:] = 0.0
+    if np.abs(residual).max() > 64.0 * float(np.spacing(max(abs(t[0]), abs(t[-1])))):
+        return None
+    return _Grid(anchors, offsets, residual, n)
+
+
+def _sincos(omega: float, phase: float, t: Array, grid: _Grid | None) -> tuple[Array, Array]:
+    """sin and cos of ``ω t + φ``. On an even grid by angle addition from the anchors,
+    ``sin(α + ω j h) = sin α cos ω j h + cos α sin ω j h`` (α = ω t_a + φ), and the residual r
+    to first order, ``sin(β + ω r) = sin β + ω r cos β`` (ω r < 1e-9: the second order is below
+    1e-18): two sines and cosines per 64 instants instead of two per instant, as exact as the
+    direct evaluation (whose own argument ω t rounds to half an ulp)."""
+    if grid is None:
+        arg = omega * t + phase
+        return np.sin(arg), np.cos(arg)
+    a = omega * grid.anchors + phase
+    sa, ca = np.sin(a)[:, None], np.cos(a)[:, None]
+    so, co = np.sin(omega * grid.offsets), np.cos(omega * grid.offsets)
+    sn, cs = sa * co + ca * so, ca * co - sa * so
+    turn = omega * grid.residual
+    sn, cs = sn + turn * cs, cs - turn * sn
+    return sn.reshape(-1)[: grid.size], cs.reshape(-1)[: grid.size]
+
+
+def _wave_sum(
+    comps: Sequence[WaveComponent], t: Array, grid: _Grid | None, order: int
+) -> list[Array]:
+    """Σ A sin(ωt + φ) and its first ``order`` (1 or 2) derivatives."""
+    sums = [np.zeros_like(t) for _ in range(order + 1)]
     for c in comps:
         w = 2.0 * math.pi / c.period
-        arg = w * t + c.phase
-        sn, cs = np.sin(arg), np.cos(arg)
-        s0 += c.amplitude * sn
-        s1 += c.amplitude * w * cs
-        s2 -= c.amplitude * w * w * sn
-    return s0, s1, s2
+        sn, cs = _sincos(w, c.phase, t, grid)
+        sums[0] += c.amplitude * sn
+        sums[1] += c.amplitude * w * cs
+        if order == 2:
+            sums[2] -= c.amplitude * w * w * sn
+    return sums
+
+
+def _scaled(level: tuple[Array, Array, Array], sums: list[Array]) -> list[Array]:
+    """``E(t) Σ`` and its derivatives by the product rule, as many as ``sums`` has."""
+    e0, e1, e2 = level
+    out = [e0 * sums[0], e1 * sums[0] + e0 * sums[1]]
+    if len(sums) == 3:
+        out.append(e2 * sums[0] + 2.0 * e1 * sums[1] + e0 * sums[2])
+    return out
 
 
 class Trajectory:
@@ -439,6 +501,7 @@ class Trajectory:
             position_accel=lambda tt: self._eval(tt)["pdd"],
             euler=lambda tt: self._eval(tt)["e"],
             euler_rate=lambda tt: self._eval(tt)["ed"],
+            breakpoints=tuple(self.breakpoints.tolist()),
         )
 
     def _add_turn(self, seg: Turn, t: float, rate: _Steps) -> float:
@@ -543,57 +606,92 @@ class Trajectory:
         """Per channel (roll, pitch, yaw, heave, horizontal): value, rate, acceleration at t,
         scaled by the sea-state level (zeros when built with ``waves=False``)."""
         tt = np.asarray(t, dtype=float)
+        grid, level = _even_grid(tt), self.sea_state.derivatives(tt)
         out: dict[str, tuple[Array, Array, Array]] = {}
-        wv = self.spec.waves
-        lev = self.sea_state.derivatives(tt)
         for name in ("roll", "pitch", "yaw", "heave", "horizontal"):
-            comps: tuple[WaveComponent, ...] = getattr(wv, name) if self.waves_on else ()
-            s0, s1, s2 = _wave_sum(comps, tt)
-            e0, e1, e2 = lev
-            out[name] = (e0 * s0, e1 * s0 + e0 * s1, e2 * s0 + 2.0 * e1 * s1 + e0 * s2)
+            v0, v1, v2 = self._channel(name, tt, grid, level, 2)
+            out[name] = (v0, v1, v2)
         return out
+
+    def _channel(
+        self,
+        name: str,
+        t: Array,
+        grid: _Grid | None,
+        level: tuple[Array, Array, Array],
+        order: int,
+    ) -> list[Array]:
+        """One wave channel and its first ``order`` derivatives (:meth:`waves`)."""
+        comps: tuple[WaveComponent, ...] = getattr(self.spec.waves, name) if self.waves_on else ()
+        if not comps:
+            return [np.zeros_like(t) for _ in range(order + 1)]
+        return _scaled(level, _wave_sum(comps, t, grid, order))
 
     def _eval(self, t: Array) -> dict[str, Array]:
         # kinematics.true_kinematics asks for p, ṗ, p̈, e, ė of one and the same time array.
         c = self._cache_t
         if c is t and c.size and c[0] == t[0] and c[-1] == t[-1]:
             return self._cache
-        spec = self.spec
         tt = np.asarray(t, dtype=float)
-        n, e = self._track(tt)
+        grid = _even_grid(tt) if self.waves_on else None
+        level = self.sea_state.derivatives(tt)
         prof = self._profiles(tt)
-        dn, de, ddn, dde = self._track_rates(prof)
-        wv = self.waves(tt)
-        cb, sb = math.cos(spec.waves.direction), math.sin(spec.waves.direction)
-        d0, d1, d2 = wv["horizontal"]
-        z0, z1, z2 = self.depth.derivatives(tt)
-        q0, q1, q2 = wv["heave"]
-        p = np.stack(
-            [
-                spec.lat0 + self._k_lat * (n + cb * d0),
-                spec.lon0 + self._k_lon * (e + sb * d0),
-                spec.h0 - z0 + q0,
-            ],
-            axis=-1,
-        )
-        pd = np.stack(
-            [self._k_lat * (dn + cb * d1), self._k_lon * (de + sb * d1), -z1 + q1], axis=-1
-        )
-        pdd = np.stack(
-            [self._k_lat * (ddn + cb * d2), self._k_lon * (dde + sb * d2), -z2 + q2], axis=-1
-        )
-        s, sd, chi = prof.speed, prof.speed_rate, prof.course
-        r, rd = prof.course_rate, prof.course_accel
-        k = spec.heel_factor / G0
-        roll = spec.list_trim[0] + wv["roll"][0] - k * s * r
-        droll = wv["roll"][1] - k * (sd * r + s * rd)
-        euler = np.stack([roll, spec.list_trim[1] + wv["pitch"][0], chi + wv["yaw"][0]], axis=-1)
-        euler_rate = np.stack([droll, wv["pitch"][1], r + wv["yaw"][1]], axis=-1)
+        self._cache = {
+            **self._position(tt, prof, self._channel("horizontal", tt, grid, level, 2),
+                             self._channel("heave", tt, grid, level, 2)),
+            **self._attitude(prof, *(self._channel(name, tt, grid, level, 1)
+                                     for name in ("roll", "pitch", "yaw"))),
+        }  # fmt: skip
         self._cache_t = t
-        self._cache = {"p": p, "pd": pd, "pdd": pdd, "e": euler, "ed": euler_rate}
         return self._cache
 
+    def _position(
+        self, t: Array, prof: _Profiles, horizontal: list[Array], heave: list[Array]
+    ) -> dict[str, Array]:
+        """p, ṗ, p̈ (module docstring, 'Horizontal track')."""
+        spec = self.spec
+        n, e = self._track(t)
+        dn, de, ddn, dde = self._track_rates(prof)
+        cb, sb = math.cos(spec.waves.direction), math.sin(spec.waves.direction)
+        d0, d1, d2 = horizontal
+        q0, q1, q2 = heave
+        z0, z1, z2 = self.depth.derivatives(t)
+        k_lat, k_lon = self._k_lat, self._k_lon
+        return {
+            "p": np.stack(
+                [spec.lat0 + k_lat * (n + cb * d0), spec.lon0 + k_lon * (e + sb * d0),
+                 spec.h0 - z0 + q0], axis=-1,
+            ),
+            "pd": np.stack([k_lat * (dn + cb * d1), k_lon * (de + sb * d1), q1 - z1], axis=-1),
+            "pdd": np.stack([k_lat * (ddn + cb * d2), k_lon * (dde + sb * d2), q2 - z2], axis=-1),
+        }  # fmt: skip
+
+    def _attitude(
+        self, prof: _Profiles, roll: list[Array], pitch: list[Array], yaw: list[Array]
+    ) -> dict[str, Array]:
+        """e, ė (module docstring, 'Waves and attitude')."""
+        spec = self.spec
+        s, sd, r, rd = prof.speed, prof.speed_rate, prof.course_rate, prof.course_accel
+        k = spec.heel_factor / G0
+        return {
+            "e": np.stack(
+                [spec.list_trim[0] + roll[0] - k * s * r, spec.list_trim[1] + pitch[0],
+                 prof.course + yaw[0]], axis=-1,
+            ),
+            "ed": np.stack(
+                [roll[1] - k * (sd * r + s * rd), pitch[1], r + yaw[1]], axis=-1
+            ),
+        }  # fmt: skip
+
     # --- summaries -----------------------------------------------------------------------------
+
+    @property
+    def breakpoints(self) -> Array:
+        """The joints of the motion (sorted, s): the start and end of every smooth step of the
+        speed, course rate, depth and sea state, where a derivative of the motion jumps (module
+        docstring, 'Smooth profiles'; docs/simulation.md, 'Exact increments')."""
+        profiles = (self.speed, self.course_rate, self.depth, self.sea_state)
+        return np.unique(np.concatenate([p.breakpoints for p in profiles]))
 
     @property
     def static_end(self) -> float:
