@@ -338,7 +338,7 @@ class Comparison:
             # Every run folder gets the same reference: encoded once, copied byte for byte.
             if truth_file is None:
                 truth_file = run_dir / TRUTH_FILE
-                self.truth.to_parquet(truth_file, index=False)
+                results_mod.write_parquet(self.truth, truth_file)
             else:
                 shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
         self.table().to_csv(out / COMPARISON_CSV, index=False)
