@@ -347,8 +347,10 @@ class Comparison:
         fig_dir.mkdir(exist_ok=True)
         figure_files = []
         # plots builds Figures without pyplot: nothing to close, they go with their references.
+        # zlib level 3: the same pixels as the default 6, files within a few %, encoded in
+        # about half the time.
         for stem, fig in (figures or {}).items():
-            fig.savefig(fig_dir / f"{stem}.png", dpi=FIGURE_DPI)
+            fig.savefig(fig_dir / f"{stem}.png", dpi=FIGURE_DPI, pil_kwargs={"compress_level": 3})
             figure_files.append(f"{FIGURES_DIR}/{stem}.png")
         interactive_files = {}
         for stem, spec in (interactive or {}).items():
