@@ -270,7 +270,8 @@ def test_smoothed_position_error_figure_shows_forward_beside_smoothed(
         for ax, solution in ((fig.axes[0], r.forward), (fig.axes[1], r.solution)):
             assert solution is not None
             err = evaluate.position_errors(solution, cmp.truth)
-            expected = plots.envelope(err["t_s"].to_numpy(), err["error_m"].to_numpy())[1]
+            t, e = err["t_s"].to_numpy(), err["error_m"].to_numpy()
+            expected = plots.envelope(t, e, plots.pixel_points(ax))[1]
             np.testing.assert_array_equal(ax.lines[k].get_ydata(), expected)
 
 

@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from scipy.stats import chi2
 
+from adaptnav.analysis import evaluate as evaluate_module
 from adaptnav.analysis.evaluate import (
     NEES_BAND,
     Metrics,
@@ -17,6 +18,7 @@ from adaptnav.analysis.evaluate import (
     evaluate,
     fraction_in_band,
     nees,
+    nees_from,
     nees_position,
     nis_bounds,
     nis_summary,
@@ -455,3 +457,79 @@ def test_outage_drift_scores_the_end_of_each_window() -> None:
     assert second["end_horizontal_m"] == pytest.approx(0.0, abs=1e-6)
     with pytest.raises(ValueError, match="no truth sample inside"):
         outage_drift(sol, truth, [(2000.0, 10.0)])
+
+
+def _nees_by_eig_and_solve(e: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """The NEES as computed before the closed form: eigenvalues for definiteness, LU solve."""
+    out = np.full(e.shape[0], np.nan)
+    ok = np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(P), axis=(1, 2))
+    eig = np.linalg.eigvalsh(P[ok])
+    ok[ok] = eig[:, 0] > 1e-12 * np.maximum(eig[:, -1], 1e-300)
+    x = np.linalg.solve(P[ok], e[ok][..., None])[..., 0]
+    out[ok] = np.einsum("ni,ni->n", e[ok], x)
+    return out
+
+
+def _random_covariances(
+    rng: np.random.Generator, n: int, d: int, log10_cond: np.ndarray
+) -> np.ndarray:
+    """Random rotations of diagonal matrices with the given condition numbers, scales over
+    ten decades."""
+    q, _ = np.linalg.qr(rng.normal(size=(n, d, d)))
+    lam = 10.0 ** (-log10_cond[:, None] * rng.uniform(0.0, 1.0, (n, d)))
+    lam[:, 0], lam[:, -1] = 1.0, 10.0**-log10_cond  # the extremes exactly
+    scale = 10.0 ** rng.uniform(-5.0, 5.0, n)
+    return np.asarray(np.einsum("nij,nj,nkj->nik", q, lam * scale[:, None], q), dtype=float)
+
+
+@pytest.mark.parametrize("d", [1, 2, 3])
+def test_nees_closed_form_matches_eigenvalues_and_solve(d: int) -> None:
+    rng = np.random.default_rng(15)
+    n = 4000
+    log10_cond = rng.uniform(0.0, 8.0, n)
+    P = _random_covariances(rng, n, d, log10_cond)
+    e = rng.normal(size=(n, d)) * np.sqrt(np.einsum("nii->ni", P))
+    if d > 1:
+        # around the definiteness threshold, singular, indefinite and zero matrices
+        near = 10.0 ** rng.uniform(-13.0, -11.0, 300)
+        P[:300] = _random_covariances(rng, 300, d, -np.log10(near))
+        P[300:310, :, :] = 0.0
+        P[310:320] = -P[310:320]
+        P[320:330, 0, 1] = P[320:330, 1, 0] = 3.0 * np.sqrt(P[320:330, 0, 0] * P[320:330, 1, 1])
+    e[330:335, 0] = np.nan
+    P[335:340, -1, -1] = np.inf
+    got, want = nees_from(e, P), _nees_by_eig_and_solve(e, P)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    assert np.isnan(want).sum() >= 10  # the bad rows were bad
+    well = np.isfinite(want) & (np.arange(n) >= 340) & (log10_cond <= 4.0)
+    np.testing.assert_allclose(got[well], want[well], rtol=1e-12)
+    # Both are backward stable: they differ by rounding amplified by P's condition number.
+    finite = np.isfinite(want)
+    eig = np.linalg.eigvalsh(P[finite])
+    cond = eig[:, -1] / eig[:, 0]
+    assert np.all(np.abs(got[finite] - want[finite]) <= 1e-14 * cond * np.abs(want[finite]))
+
+
+def test_attitude_errors_closed_form_match_scipy_rotations() -> None:
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(7)
+    n = 5000
+    true = np.stack([rng.uniform(-np.pi, np.pi, n), rng.uniform(-1.5, 1.5, n),
+                     rng.uniform(-np.pi, np.pi, n)], axis=1)  # fmt: skip
+    # errors from none to nearly half a turn, with a 2π yaw wrap on some
+    size = 10.0 ** rng.uniform(-9.0, 0.49, (n, 1)) * rng.choice([-1.0, 1.0], (n, 3))
+    est = true + size * rng.uniform(0.2, 1.0, (n, 3))
+    est[:100] = true[:100]
+    est[50:100, 2] += 2.0 * np.pi
+    q = evaluate_module.euler_quaternions(*true.T)
+    C = Rotation.from_euler("ZYX", true[:, ::-1])
+    np.testing.assert_allclose(np.abs(np.sum(q[:, [1, 2, 3, 0]] * C.as_quat(), axis=1)), 1.0,
+                               atol=1e-14)  # fmt: skip
+    got = evaluate_module.rotation_vectors_between(q, evaluate_module.euler_quaternions(*est.T))
+    want = (C * Rotation.from_euler("ZYX", est[:, ::-1]).inv()).as_rotvec()
+    np.testing.assert_allclose(got[:100], 0.0, atol=1e-14)  # 2π added to yaw: rounded
+    norm = np.linalg.norm(want, axis=1)
+    np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-15)
+    big = norm > 1e-3  # relative to the rotation angle, where rounding is no longer all
+    assert np.all(np.linalg.norm(got - want, axis=1)[big] <= 1e-12 * norm[big])

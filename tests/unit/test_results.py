@@ -17,11 +17,14 @@ from adaptnav.api.results import (
     Result,
     RunFolderError,
     covariance_block,
+    dropped_ledger,
     has_covariances,
     ledger_counts,
+    ledger_frame,
     load,
     quat_to_euler_rows,
     save,
+    write_parquet,
 )
 from adaptnav.core import attitude
 from adaptnav.engine.batch import EngineOutput
@@ -296,3 +299,59 @@ def test_a_smoothed_run_keeps_its_forward_solution(tmp_path: Path) -> None:
     pd.testing.assert_frame_equal(back.solution, res.solution)
     save(Result.from_engine(out, "vb", "m1", {}), folder)
     assert not (folder / "forward.parquet").exists() and load(folder).forward is None
+
+
+def test_dropped_ledger_is_the_table_of_ledger_rows() -> None:
+    from adaptnav.api.runner import ledger_row
+
+    rng = np.random.default_rng(3)
+    rows = rng.integers(0, 10_000, 50)
+    t = np.sort(rng.uniform(0.0, 600.0, 50))
+    sensors = rng.choice(["dvl", "depth"], 50).tolist()
+    reasons = rng.choice(["sensor off", "before navigation start (alignment)"], 50).tolist()
+    rows_t = zip(sensors, rows, t, reasons, strict=True)
+    want = ledger_frame([ledger_row(s, int(r), float(x), why) for s, r, x, why in rows_t])
+    pd.testing.assert_frame_equal(dropped_ledger(sensors, rows, t, reasons), want)
+    one = [ledger_row("dvl", int(r), float(x), "sensor off") for r, x in zip(rows, t, strict=True)]
+    pd.testing.assert_frame_equal(dropped_ledger("dvl", rows, t, "sensor off"), ledger_frame(one))
+    empty = dropped_ledger("dvl", np.zeros(0, dtype=int), np.zeros(0), "sensor off")
+    pd.testing.assert_frame_equal(empty, ledger_frame([]), check_index_type=False)
+
+
+def test_from_engine_takes_a_ledger_table() -> None:
+    out = synthetic_output()
+    kinds = {"dvl": "dvl", "depth": "depth"}
+    given = ledger_frame(out.ledger)
+    given["row"] = given["row"] + 100
+    res = Result.from_engine(out, "vb", "m", {}, kinds=kinds, ledger=given)
+    moved = [{**r, "row": r["row"] + 100} for r in out.ledger]
+    pd.testing.assert_frame_equal(res.ledger, ledger_frame(moved, kinds))
+    assert "kind" not in given.columns  # the caller's table is left as it was
+
+
+def test_parquet_dictionary_only_for_text_reads_back_the_same(tmp_path: Path) -> None:
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    rng = np.random.default_rng(5)
+    n = 1000
+    table = pd.DataFrame(
+        {
+            "t": np.cumsum(rng.uniform(0.0, 1.0, n)),
+            "x": rng.normal(size=n),
+            "row": rng.integers(0, 50, n),
+            "flag": rng.uniform(size=n) < 0.1,
+            "sensor": pd.Series(rng.choice(["dvl", "depth"], n), dtype="str"),
+            "line": pd.array(np.arange(n), dtype="Int64"),
+        }
+    )
+    table.loc[rng.uniform(size=n) < 0.2, "line"] = pd.NA
+    path = tmp_path / "t.parquet"
+    write_parquet(table, path)
+    pd.testing.assert_frame_equal(pd.read_parquet(path), table, check_exact=True)
+    meta = pq.ParquetFile(path).metadata.row_group(0)
+    dictionary = {
+        meta.column(i).path_in_schema: any("DICTIONARY" in e for e in meta.column(i).encodings)
+        for i in range(meta.num_columns)
+    }
+    assert dictionary == {"t": False, "x": False, "row": False, "flag": False,
+                          "sensor": True, "line": False}  # fmt: skip

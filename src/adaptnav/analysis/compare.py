@@ -338,7 +338,7 @@ class Comparison:
             # Every run folder gets the same reference: encoded once, copied byte for byte.
             if truth_file is None:
                 truth_file = run_dir / TRUTH_FILE
-                self.truth.to_parquet(truth_file, index=False)
+                results_mod.write_parquet(self.truth, truth_file)
             else:
                 shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
         self.table().to_csv(out / COMPARISON_CSV, index=False)
@@ -347,8 +347,10 @@ class Comparison:
         fig_dir.mkdir(exist_ok=True)
         figure_files = []
         # plots builds Figures without pyplot: nothing to close, they go with their references.
+        # zlib level 3: the same pixels as the default 6, files within a few %, encoded in
+        # about half the time.
         for stem, fig in (figures or {}).items():
-            fig.savefig(fig_dir / f"{stem}.png", dpi=FIGURE_DPI)
+            fig.savefig(fig_dir / f"{stem}.png", dpi=FIGURE_DPI, pil_kwargs={"compress_level": 3})
             figure_files.append(f"{FIGURES_DIR}/{stem}.png")
         interactive_files = {}
         for stem, spec in (interactive or {}).items():

@@ -42,7 +42,6 @@ from typing import Any, Literal, get_args
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
 from adaptnav.api.results import Result, covariance_block, has_covariances, jsonable, ledger_counts
@@ -254,10 +253,46 @@ def outage_drift(
     return pd.DataFrame(rows)
 
 
-def _euler_rotations(roll: Array, pitch: Array, yaw: Array) -> Any:
-    """``C_nb = Rz(yaw) Ry(pitch) Rx(roll)`` row by row (docs/conventions.md) as a scipy
-    Rotation (its intrinsic "ZYX" sequence is this product)."""
-    return Rotation.from_euler("ZYX", np.stack([yaw, pitch, roll], axis=-1))
+def euler_quaternions(roll: Array, pitch: Array, yaw: Array) -> Array:
+    """Unit quaternions ``q_nb`` (N, 4, ``[w, x, y, z]``, Hamilton) of ZYX Euler angles, row by
+    row: ``q = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll)``, the quaternion of ``C_nb = Rz(yaw) Ry(pitch)
+    Rx(roll)`` (docs/conventions.md), each factor ``[cos(a/2), sin(a/2) axis]``."""
+    cr, sr = np.cos(0.5 * roll), np.sin(0.5 * roll)
+    cp, sp = np.cos(0.5 * pitch), np.sin(0.5 * pitch)
+    cy, sy = np.cos(0.5 * yaw), np.sin(0.5 * yaw)
+    return np.stack(
+        [
+            cy * cp * cr + sy * sp * sr,
+            cy * cp * sr - sy * sp * cr,
+            cy * sp * cr + sy * cp * sr,
+            sy * cp * cr - cy * sp * sr,
+        ],
+        axis=-1,
+    )
+
+
+def rotation_vectors_between(q_true: Array, q_hat: Array) -> Array:
+    """``phi = Log(q_true ⊗ q_hat*)`` (N, 3) for unit quaternions (N, 4): the rotation vector
+    in n that carries ``C_nb_hat`` onto ``C_nb_true``, ``C_nb_true = Exp(phi) C_nb_hat``
+    (docs/conventions.md, docs/metrics.md). The shorter of the two quaternions of the rotation
+    (``w >= 0``) is taken, so ``|phi| <= π``; ``phi = 2 atan2(|v|, w) v / |v|``, and ``2 v / w``
+    in the limit ``|v| = 0``."""
+    a, b = q_true.T, q_hat.T
+    w = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    v = np.stack(
+        [
+            -a[0] * b[1] + a[1] * b[0] - a[2] * b[3] + a[3] * b[2],
+            -a[0] * b[2] + a[1] * b[3] + a[2] * b[0] - a[3] * b[1],
+            -a[0] * b[3] - a[1] * b[2] + a[2] * b[1] + a[3] * b[0],
+        ],
+        axis=-1,
+    )
+    sign = np.where(w < 0.0, -1.0, 1.0)
+    w, v = w * sign, v * sign[:, None]
+    vn = np.sqrt(np.sum(v * v, axis=1))
+    safe = np.where(vn > 0.0, vn, 1.0)
+    scale = np.where(vn > 0.0, 2.0 * np.arctan2(vn, w) / safe, 2.0 / w)
+    return np.asarray(v * scale[:, None], dtype=float)
 
 
 def block_errors(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) -> pd.DataFrame:
@@ -294,8 +329,7 @@ def block_errors(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) 
     elif t.size == 0:
         e = np.zeros((0, 3))
     else:
-        C_true, C_hat = _euler_rotations(*ref), _euler_rotations(*est)
-        e = np.asarray((C_true * C_hat.inv()).as_rotvec(), dtype=float).reshape(-1, 3)
+        e = rotation_vectors_between(euler_quaternions(*ref), euler_quaternions(*est))
     return pd.DataFrame({"t_s": t, "e_0": e[:, 0], "e_1": e[:, 1], "e_2": e[:, 2]})
 
 
@@ -305,20 +339,64 @@ def _position_block(errors: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({"t_s": t, "e_0": e[:, 0], "e_1": e[:, 1], "e_2": e[:, 2]})
 
 
+PD_RATIO = 1e-12
+"""A covariance counts as positive definite when its smallest eigenvalue exceeds this
+fraction of its largest (:func:`nees_from`)."""
+
+
 def nees_from(errors: Array, P: Array) -> Array:
     """``NEES_k = e_kᵀ P_k⁻¹ e_k`` for errors (N, d) and covariances (N, d, d); NaN where e
-    or P has a non-finite element or P is not positive definite."""
+    or P has a non-finite element or P is not positive definite (smallest eigenvalue at most
+    :data:`PD_RATIO` times the largest).
+
+    All rows at once by symmetric elimination, ``P = L D Lᵀ`` (:func:`_ldl_quadratic`):
+    ``NEES = Σ_i y_i² / D_i`` with ``L y = e``. The pivots decide definiteness without
+    eigenvalues for almost every row: with all ``D_i > 0``, ``det P = Π D_i`` and the AM-GM
+    bound on the other d - 1 eigenvalues give ``λ_min / λ_max ≥ det P (d-1)^(d-1) / tr(P)^d``;
+    a row whose bound clears twice :data:`PD_RATIO` (room for rounding) is positive definite.
+    The few others are decided by their eigenvalues and solved by LU (docs/metrics.md,
+    'Consistency: NEES')."""
     e = np.asarray(errors, dtype=float)
     Pa = np.asarray(P, dtype=float)
     out = np.full(e.shape[0], math.nan)
-    ok = np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(Pa), axis=(1, 2))
-    if ok.any():
-        eig = np.linalg.eigvalsh(Pa[ok])
-        ok[ok] = eig[:, 0] > 1e-12 * np.maximum(eig[:, -1], 1e-300)
-    if ok.any():
-        x = np.linalg.solve(Pa[ok], e[ok][..., None])[..., 0]
-        out[ok] = np.einsum("ni,ni->n", e[ok], x)
+    rows = np.flatnonzero(np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(Pa), axis=(1, 2)))
+    if rows.size == 0:
+        return out
+    d = e.shape[1]
+    q, pivots = _ldl_quadratic(e[rows], Pa[rows])
+    trace = np.trace(Pa[rows], axis1=1, axis2=2)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        bound = np.prod(pivots, axis=1) * float((d - 1) ** (d - 1)) / trace**d
+    sure = np.all(pivots > 0.0, axis=1) & (bound > 2.0 * PD_RATIO)
+    out[rows[sure]] = q[sure]
+    doubt = rows[~sure]
+    if doubt.size:
+        eig = np.linalg.eigvalsh(Pa[doubt])
+        pd_rows = doubt[eig[:, 0] > PD_RATIO * np.maximum(eig[:, -1], 1e-300)]
+        x = np.linalg.solve(Pa[pd_rows], e[pd_rows][..., None])[..., 0]
+        out[pd_rows] = np.einsum("ni,ni->n", e[pd_rows], x)
     return out
+
+
+def _ldl_quadratic(e: Array, P: Array) -> tuple[Array, Array]:
+    """``(eᵀ P⁻¹ e, D)`` row by row for symmetric P (N, d, d) by Gaussian elimination without
+    pivoting (``P = L D Lᵀ``, ``L y = e``, ``eᵀ P⁻¹ e = Σ_i y_i² / D_i``), vectorised over the
+    rows: the pivots D (N, d) are those of the Cholesky factor squared. Meaningful only where
+    every pivot is positive (:func:`nees_from` checks)."""
+    A = np.array(P, dtype=float)
+    y = np.array(e, dtype=float)
+    d = y.shape[1]
+    q = np.zeros(y.shape[0])
+    pivots = np.empty_like(y)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for k in range(d):
+            piv = A[:, k, k]
+            pivots[:, k] = piv
+            q += y[:, k] ** 2 / piv
+            f = A[:, k + 1 :, k] / piv[:, None]
+            A[:, k + 1 :, k + 1 :] -= f[:, :, None] * A[:, None, k, k + 1 :]
+            y[:, k + 1 :] -= f * y[:, k, None]
+    return q, pivots
 
 
 def nees(solution: pd.DataFrame, truth: pd.DataFrame, block: NeesBlock) -> pd.DataFrame:
@@ -350,8 +428,8 @@ def _nees_of(solution: pd.DataFrame, errors: pd.DataFrame, block: NeesBlock) -> 
     P_sol = covariance_block(solution, names)
     P = np.empty((t.size, 3, 3))
     for i in range(3):
-        for j in range(3):
-            P[:, i, j] = _interp(t, t_sol, P_sol[:, i, j])
+        for j in range(i, 3):  # P is symmetric: each pair interpolated once
+            P[:, i, j] = P[:, j, i] = _interp(t, t_sol, P_sol[:, i, j])
     e = errors[["e_0", "e_1", "e_2"]].to_numpy(dtype=float)
     out = pd.DataFrame({"t_s": t, "nees": nees_from(e, P)})
     out.attrs["uses_correlations"] = has_covariances(solution, names)

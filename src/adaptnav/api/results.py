@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput
 from adaptnav.models.errorstate import N_STATES, STATE_NAMES
@@ -153,10 +153,18 @@ class Result:
         meta: Mapping[str, Any] | None = None,
         repairs: pd.DataFrame | Sequence[Mapping[str, Any]] | None = None,
         kinds: Mapping[str, str] | None = None,
+        *,
+        ledger: pd.DataFrame | None = None,
     ) -> Result:
         """Tables from an engine run. ``kinds`` maps sensor name → kind (adds ``ledger.kind``);
-        ``repairs`` is a DataFrame or a list of ``{file, line, field, action, detail}`` rows."""
-        ledger = ledger_frame(output.ledger, kinds)
+        ``repairs`` is a DataFrame or a list of ``{file, line, field, action, detail}`` rows;
+        ``ledger``: the ledger table when the caller has built it (:func:`typed_ledger`; the
+        runner's, with the readings that never reached the engine) instead of the table of
+        ``output.ledger``'s rows."""
+        if ledger is None:
+            ledger = ledger_frame(output.ledger, kinds)
+        else:
+            ledger = typed_ledger(ledger, kinds)
         names = output.declared_names
         forward = with_declared(
             solution_frame(output.t, output.x, output.P_diag, output.P_cross),
@@ -232,8 +240,8 @@ def solution_frame(t: Array, x: Array, P_diag: Array, P_cross: Array | None = No
 
 
 def solution_rows(t: Array, x: Array, P_diag: Array, P_cross: Array | None = None) -> Array:
-    """The ``solution`` table's values (N, :data:`SOLUTION_COLUMNS`), arguments as for
-    :func:`solution_frame`; also one row at a time (adaptnav.api.stream).
+    """The ``solution`` table's values (N, :data:`SOLUTION_COLUMNS`; column-major), arguments
+    as for :func:`solution_frame`; also one row at a time (adaptnav.api.stream).
 
     ``sd_<name> = sqrt(P_ii)``; a negative diagonal element (a broken covariance) gives NaN.
     """
@@ -250,18 +258,21 @@ def solution_rows(t: Array, x: Array, P_diag: Array, P_cross: Array | None = Non
             f"solution: t {ts.shape}, x {xs.shape}, P_diag {ps.shape} and P_cross {cs.shape} "
             "differ in rows"
         )
-    sd = np.sqrt(np.where(ps >= 0.0, ps, np.nan))
     blocks = [
-        ts[:, None],
-        xs[:, NOM_POS],
-        xs[:, NOM_VEL],
-        quat_to_euler_rows(xs[:, NOM_ATT]),
-        xs[:, NOM_BA],
-        xs[:, NOM_BG],
-        sd,
-        cs,
+        ts[None, :],
+        xs[:, NOM_POS].T,
+        xs[:, NOM_VEL].T,
+        quat_to_euler_rows(xs[:, NOM_ATT]).T,
+        xs[:, NOM_BA].T,
+        xs[:, NOM_BG].T,
+        np.sqrt(np.where(ps >= 0.0, ps, np.nan)).T,
+        cs.T,
     ]
-    return np.hstack(blocks)
+    # Filled column by column and handed over transposed: a table made of it takes each
+    # column as it lies, without copying the whole array into columns.
+    by_column = np.empty((len(SOLUTION_COLUMNS), ts.size))
+    np.concatenate(blocks, axis=0, out=by_column)
+    return by_column.T
 
 
 def with_declared(
@@ -314,16 +325,23 @@ def covariance_block(solution: pd.DataFrame, names: Sequence[str]) -> Array:
 def ledger_frame(
     rows: Sequence[Mapping[str, Any]], kinds: Mapping[str, str] | None = None
 ) -> pd.DataFrame:
-    """The engine's ledger rows as a table (known columns first, typed; extra keys kept).
+    """The engine's ledger rows as a table (known columns first, typed; extra keys kept):
+    :func:`typed_ledger` of the rows."""
+    extra = sorted(set().union(*rows) - set(LEDGER_COLUMNS))
+    # pandas reads the dicts column by column in C; a key a row lacks becomes NaN.
+    return typed_ledger(pd.DataFrame(list(rows), columns=[*LEDGER_COLUMNS, *extra]), kinds)
+
+
+def typed_ledger(frame: pd.DataFrame, kinds: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """A ledger table (:data:`LEDGER_COLUMNS` first, then any others) with its known columns
+    typed: ``row`` and ``iterations`` integers, ``sensor``, ``fate``, ``reason`` text, the rest
+    floats.
 
     With ``kinds`` (sensor name → kind) a ``kind`` column follows ``sensor``; every sensor in
     the ledger must have a kind.
     """
-    extra = sorted(set().union(*rows) - set(LEDGER_COLUMNS))
-    columns = [*LEDGER_COLUMNS, *extra]
-    # pandas reads the dicts column by column in C; a key a row lacks becomes NaN.
-    frame = pd.DataFrame(list(rows), columns=columns)
-    for c in columns:
+    frame = frame.copy(deep=False)  # copy-on-write: the caller's table is left as it is
+    for c in frame.columns:
         if c in _LEDGER_INT:
             frame[c] = frame[c].astype("int64")
         elif c in _LEDGER_STR:
@@ -337,6 +355,23 @@ def ledger_frame(
         kind = frame["sensor"].map(dict(kinds)).astype("str")
         frame.insert(list(frame.columns).index("sensor") + 1, "kind", kind)
     return frame
+
+
+def dropped_ledger(
+    sensor: str | Sequence[str], rows: ArrayLike, t: ArrayLike, reason: str | Sequence[str]
+) -> pd.DataFrame:
+    """Ledger rows (:func:`typed_ledger`) of readings at file ``rows`` and times ``t`` dropped
+    before the engine: fate ``dropped``, no statistic, no innovation, as
+    :func:`adaptnav.api.runner.ledger_row`'s rows. ``sensor`` and ``reason``: one for all
+    rows, or one per row."""
+    r = np.asarray(rows, dtype=np.int64).reshape(-1)
+    nan = np.full(r.size, math.nan)
+    columns: dict[str, Any] = {c: nan for c in LEDGER_COLUMNS}
+    columns.update(
+        t=np.asarray(t, dtype=float).reshape(-1), sensor=sensor, row=r, fate="dropped",
+        reason=reason, iterations=np.zeros(r.size, dtype=np.int64),
+    )  # fmt: skip
+    return typed_ledger(pd.DataFrame(columns, index=pd.RangeIndex(r.size)))
 
 
 def noise_frame(ledger: pd.DataFrame) -> pd.DataFrame:
@@ -437,6 +472,15 @@ def summary(result: Result) -> dict[str, Any]:
     }
 
 
+def write_parquet(table: pd.DataFrame, path: Path) -> None:
+    """Write ``table`` as Parquet (snappy, no index) with a dictionary for its text columns
+    only: names (sensor, fate, reason) repeat and shrink by one, but measured numbers rarely
+    repeat, and trying a dictionary on each float column took two thirds of the writing time
+    and left the files larger. The table reads back the same."""
+    text = [str(c) for c in table.columns if not pd.api.types.is_numeric_dtype(table[c])]
+    table.to_parquet(path, index=False, use_dictionary=text)
+
+
 def save(result: Result, run_dir: str | Path) -> Path:
     """Write the run folder (created if needed; files of the same names are replaced)."""
     folder = Path(run_dir)
@@ -446,7 +490,7 @@ def save(result: Result, run_dir: str | Path) -> Path:
         if table is None:  # not smoothed: no forward table, and none left from before
             (folder / filename).unlink(missing_ok=True)
             continue
-        table.to_parquet(folder / filename, index=False)
+        write_parquet(table, folder / filename)
     calibration = folder / CALIBRATION_FILE
     calibration.unlink(missing_ok=True)
     if result.meta.get("calibration"):

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from adaptnav.api import oracle
-from adaptnav.api.results import Result
+from adaptnav.api.results import Result, dropped_ledger, ledger_frame
 from adaptnav.core import attitude
 from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align
@@ -232,7 +232,7 @@ def run(
     config = engine_config(cfg, s, policy, noise, states, smooth)
     out = _run_engine(m, s.kind, config, feed, (x0, P0, t0), nav_from, progress)
     elapsed = time.perf_counter() - started
-    out = _with_file_rows(out, m, feed)
+    out, ledger = _with_file_rows(out, m, feed)
     imu_samples = int(m.imu.t.size - nav_from)
     meta: dict[str, Any] = {
         "mission_dir": str(m.root),
@@ -251,7 +251,7 @@ def run(
     }
     kinds: Mapping[str, str] = {n: c.kind for n, c in cfg.sensors.items()}
     repairs = [r.__dict__ for r in m.repairs]
-    result = Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds)
+    result = Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds, ledger=ledger)
     if not states:
         return result
     return replace(
@@ -309,8 +309,9 @@ class _Feed:
     readings: dict[str, tuple[np.ndarray, ...]]
     kept: dict[str, np.ndarray]
     """Per aiding sensor: which of its loaded readings reach the engine."""
-    extra: list[dict[str, Any]]
-    """Ledger rows of the readings that never reach it."""
+    extra: list[pd.DataFrame]
+    """Ledger tables (:func:`adaptnav.api.results.dropped_ledger`) of the readings that never
+    reach it, in the order they were found."""
     known: dict[str, oracle.OracleNoise]
     """The oracle's true noise per sensor (empty for every other kind)."""
 
@@ -322,9 +323,13 @@ def _feed(
     every other reading (dropped at load, of a sensor off or used only to initialise, inside
     the alignment, or a known outlier for the oracle) gets its ledger row with the reason."""
     cfg = m.config
-    extra = [ledger_row(d.sensor, d.row, d.t, d.reason) for d in m.dropped]
+    d = m.dropped
+    extra = [
+        dropped_ledger([r.sensor for r in d], [r.row for r in d], [r.t for r in d],
+                       [r.reason for r in d])
+    ]  # fmt: skip
     for name, data in m.off.items():
-        extra += _rows(name, data.rows, data.t, OFF_REASON)
+        extra.append(dropped_ledger(name, data.rows, data.t, OFF_REASON))
     aiding = [n for n in m.sensors if cfg.sensors[n].use == "aid"]
     known = oracle.mission_noise(m, aiding) if s.kind == "oracle" else {}
     periods, kept = {}, {}
@@ -333,17 +338,15 @@ def _feed(
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
             why = INIT_REASON if scfg.use == "init" else OFF_REASON
-            extra += _rows(name, data.rows, data.t, why)
+            extra.append(dropped_ledger(name, data.rows, data.t, why))
             continue
         before = data.t <= t0
-        extra += _rows(name, data.rows[before], data.t[before], BEFORE_START_REASON)
+        extra.append(dropped_ledger(name, data.rows[before], data.t[before], BEFORE_START_REASON))
         keep = ~before
         if name in known:
-            outlier = known[name].outlier
-            extra += _rows(
-                name, data.rows[keep & outlier], data.t[keep & outlier], oracle.OUTLIER_REASON
-            )
-            keep &= ~outlier
+            out = keep & known[name].outlier
+            extra.append(dropped_ledger(name, data.rows[out], data.t[out], oracle.OUTLIER_REASON))
+            keep &= ~out
         kept[name] = keep
         r_diag = known[name].r_diag if name in known else None
         readings[name] = (
@@ -377,10 +380,6 @@ def sensor_channels(
     return build_channels(s, sensors, overrides)
 
 
-def _rows(name: str, rows: np.ndarray, t: np.ndarray, reason: str) -> list[dict[str, Any]]:
-    return [ledger_row(name, int(r), float(tt), reason) for r, tt in zip(rows, t, strict=True)]
-
-
 def _run_engine(
     m: Mission,
     kind: str,
@@ -409,19 +408,29 @@ def _run_engine(
         ) from None
 
 
-def _with_file_rows(out: engine.EngineOutput, m: Mission, feed: _Feed) -> engine.EngineOutput:
-    """The engine's ledger and events with rows of the files instead of its own reading
-    indices, and the rows that never reached it appended: every reading keeps its fate."""
+def _with_file_rows(
+    out: engine.EngineOutput, m: Mission, feed: _Feed
+) -> tuple[engine.EngineOutput, pd.DataFrame]:
+    """The engine's events with rows of the files instead of its own reading indices, and the
+    ledger table: the engine's rows so mapped, then the rows that never reached it; every
+    reading keeps its fate."""
     rows_of = {name: m.sensors[name].rows[feed.kept[name]] for name in feed.readings}
+    ledger = ledger_frame(out.ledger)
+    sensor, row = ledger["sensor"].to_numpy(), ledger["row"].to_numpy(copy=True)
+    for name, rows in rows_of.items():
+        at = np.flatnonzero((sensor == name) & (row >= 0))
+        row[at] = rows[row[at]]
+    ledger["row"] = row
+    tables = [t for t in (ledger, *feed.extra) if len(t)]
+    if len(tables) > 1:
+        ledger = pd.concat(tables, ignore_index=True)
+    elif tables:
+        ledger = tables[0]
 
-    def file_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        mapped = []
-        for rec in records:
-            r = dict(rec)
-            if r["sensor"] in rows_of and r["row"] >= 0:
-                r["row"] = int(rows_of[r["sensor"]][r["row"]])
-            mapped.append(r)
-        return mapped
+    def file_row(rec: dict[str, Any]) -> dict[str, Any]:
+        if rec["sensor"] in rows_of and rec["row"] >= 0:
+            return {**rec, "row": int(rows_of[rec["sensor"]][rec["row"]])}
+        return rec
 
     # Events name the reading that triggered them: the same mapping.
-    return replace(out, ledger=file_rows(out.ledger) + feed.extra, events=file_rows(out.events))
+    return replace(out, events=[file_row(e) for e in out.events]), ledger

@@ -12,7 +12,6 @@ from rich.table import Table
 
 from adaptnav.cli._app import Force, Quiet, Stages, console, fail, output
 from adaptnav.cli.importers import _first_line, import_app
-from adaptnav.importers.nmea import UERE_M
 
 SHOWN_REPAIRS = 5
 """Repairs printed one by one; the rest are counted (all are in import.json)."""
@@ -75,8 +74,12 @@ def nmea(
     gnss_name: Annotated[str, typer.Option(help="GNSS sensor name")] = "gnss",
     heading_name: Annotated[str, typer.Option(help="heading sensor name")] = "heading",
     uere_m: Annotated[
-        float, typer.Option(help="UERE σ (m) of a standalone fix: σ_N = HDOP × UERE / √2")
-    ] = UERE_M,
+        float | None,
+        typer.Option(
+            help="UERE σ (m) of a standalone fix: σ_N = HDOP × UERE / √2 (default: 3, "
+            "importers.nmea.UERE_M)"
+        ),
+    ] = None,
     sigma_m: Annotated[
         str | None,
         typer.Option(help="GNSS σ (m), one or N,E,D (default: median of the per-fix model)"),
@@ -104,7 +107,9 @@ def nmea(
     required). Without: the tables and sensors.toml, the sections for a mission.toml. Every
     line not used is in import.json's repair log with its reason (docs/nmea.md).
     """
-    from adaptnav.importers.nmea import Options, import_nmea
+    # Imported here, not at the top: the importer pulls in the mission format (pandas,
+    # SciPy), which every other command's start-up need not pay for.
+    from adaptnav.importers.nmea import UERE_M, Options, import_nmea
     from adaptnav.mission import MissionError
 
     lever = _floats("--lever-arm-m", lever_arm_m, (3,))
@@ -118,7 +123,8 @@ def nmea(
                 heading_sigma_deg, (lever[0], lever[1], lever[2]) if lever else None,
                 use_height, "csv" if csv else "parquet",
             )  # fmt: skip
-            import_nmea(logs, tmp, mission=mission, t0_utc=t0, date=day, uere_m=uere_m,
+            import_nmea(logs, tmp, mission=mission, t0_utc=t0, date=day,
+                        uere_m=UERE_M if uere_m is None else uere_m,
                         options=opts)  # fmt: skip
         except (MissionError, ValueError, OSError) as exc:  # NmeaError is a MissionError
             fail(_first_line(exc))

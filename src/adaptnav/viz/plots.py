@@ -18,10 +18,10 @@ Figures are built as :class:`matplotlib.figure.Figure` objects without pyplot, s
 registered in pyplot's global figure manager and nothing needs closing; ``fig.savefig`` renders
 them with the Agg canvas. The series they draw come from :mod:`adaptnav.viz.series`, shared
 with the report's interactive figures (:mod:`adaptnav.viz.interactive`); each filter's colour is
-:func:`adaptnav.analysis.compare.filter_colour`. Long series are reduced to a few thousand
-points by a min/max envelope (:func:`envelope`), which keeps spikes (outliers, R̂ jumps) that
-plain striding would drop. Times are minutes since the shared navigation start; angles are
-shown in degrees.
+:func:`adaptnav.analysis.compare.filter_colour`. Long series are reduced by a min/max envelope
+(:func:`envelope`), which keeps spikes (outliers, R̂ jumps) that plain striding would drop, to
+one bucket per pixel column of their panel (:func:`pixel_points`). Times are minutes since the
+shared navigation start; angles are shown in degrees.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from adaptnav.analysis.compare import filter_colour
+from adaptnav.analysis.compare import FIGURE_DPI, filter_colour
 from adaptnav.analysis.evaluate import Metrics, position_errors
 from adaptnav.api.results import Result
 from adaptnav.viz.series import (
@@ -74,6 +74,7 @@ __all__ = [
     "ledger_counts",
     "nis",
     "noise_variance",
+    "pixel_points",
     "position_error",
     "trajectory",
 ]
@@ -91,6 +92,24 @@ at each drawing. Colours and dashes both differ, so the lines stay apart in grey
 The reference is always black."""
 _OTHER_DASH = (0, (3, 1))
 _HATCHES = ("", "//", "..", "xx", "\\\\", "oo")
+
+
+def pixel_points(ax: Axes) -> int:
+    """The most points worth drawing per time series on ``ax``: two per pixel column of the
+    widest it can be at :data:`adaptnav.analysis.compare.FIGURE_DPI` (its share of the figure's
+    width, margins included), at most :data:`MAX_POINTS`. An envelope (:func:`envelope`) of
+    that many points keeps each column's minimum and maximum, which is what a line through
+    every reading paints there; more points only cost drawing time (docs/report.md, 'Long
+    series'). Not for :func:`stride`: a strided series keeps every k-th reading, not the
+    column's range, and a wavy one thinned to the pixels would look thinner."""
+    spec = ax.get_subplotspec()
+    figure = ax.get_figure(root=True)
+    if spec is None or not isinstance(figure, Figure):
+        return MAX_POINTS
+    grid = spec.get_gridspec()
+    ratios = np.asarray(grid.get_width_ratios() or np.ones(grid.ncols), dtype=float)
+    share = float(ratios[list(spec.colspan)].sum() / ratios.sum())
+    return min(MAX_POINTS, 2 * math.ceil(share * figure.get_figwidth() * FIGURE_DPI))
 
 
 def _style(name: str) -> tuple[str, Any]:
@@ -236,13 +255,13 @@ def _error_panels(
         colour, dash = _style(name)
         t = err["t_s"].to_numpy(dtype=float)
         for ax, col in ((ax3, "error_m"), (axh, "horizontal_m")):
-            te, ye = envelope(t, err[col].to_numpy(dtype=float))
+            te, ye = envelope(t, err[col].to_numpy(dtype=float), pixel_points(ax))
             ax.plot(minutes(te, start), ye, color=colour, ls=dash, lw=1.3, label=filter_label(name))
         if sigma:
             t_sol = solution["t_s"].to_numpy(dtype=float)
             sd_n, sd_e = (solution[c].to_numpy(dtype=float) for c in ("sd_dr_N", "sd_dr_E"))
             two_sd = 2.0 * np.hypot(sd_n, sd_e)
-            ts, ys = envelope(t_sol, two_sd)
+            ts, ys = envelope(t_sol, two_sd, pixel_points(axh))
             axh.plot(minutes(ts, start), ys, color=colour, ls=":", lw=0.9)
     axh.set_xlabel("time since navigation start (min)")
     for ax in (ax3, axh):
@@ -298,6 +317,7 @@ def noise_variance(
             te, se = envelope(
                 table["t_s"].to_numpy(dtype=float),
                 (table[sigma_col].to_numpy(dtype=float) * scale) ** 2,
+                pixel_points(ax_r),
             )
             ax_r.plot(minutes(te, start), se, color="black", lw=1.0, zorder=4, label="true σ²")
         ax_r.axhline(
@@ -324,7 +344,7 @@ def _measurements(ax: Axes, table: pd.DataFrame, col: str, scale: float, start: 
     """Fig. 10's top panel for one component: the measured series, the simulator's true value
     and its injected outliers when the table has them."""
     t = table["t_s"].to_numpy(dtype=float)
-    te, ze = envelope(t, table[col].to_numpy(dtype=float) * scale)
+    te, ze = envelope(t, table[col].to_numpy(dtype=float) * scale, pixel_points(ax))
     ax.plot(minutes(te, start), ze, color="tab:gray", lw=0.8, label="measured")
     if f"true_{col}" in table.columns:
         s = stride(len(table))
@@ -356,7 +376,7 @@ def _filter_variances(
         if found is None:
             continue
         colour, dash = _style(name)
-        te, re = envelope(found[0], found[1] * scale**2)
+        te, re = envelope(found[0], found[1] * scale**2, pixel_points(ax))
         # Layers: the noisy matching estimate (MAESKF) translucent at the bottom, the
         # references over it, VB-MAESKF's smooth estimate on top.
         last = name == filters[-1]
@@ -370,7 +390,7 @@ def _actual_error(ax: Axes, table: pd.DataFrame, col: str, scale: float, start: 
     """A running mean of the squared measurement error (measured minus the simulator's true
     value) over :data:`ERROR_WINDOW` readings or more, on Fig. 10's bottom panel."""
     window, t, err2 = actual_error2(table, col, scale)
-    te, ee = envelope(t, err2)
+    te, ee = envelope(t, err2, pixel_points(ax))
     ax.plot(
         minutes(te, start), ee, color="black", ls=":", lw=1.1, zorder=4,
         label=f"actual error², mean of {window}",
@@ -463,7 +483,7 @@ def nis(results: Mapping[str, Result], *, t0: float | None = None) -> Figure:
     for ax, sensor in zip(axes, sensors, strict=False):
         for name, (t, mean) in per_sensor[sensor].items():
             colour, dash = _style(name)
-            te, me = envelope(t, mean)
+            te, me = envelope(t, mean, pixel_points(ax))
             ax.plot(minutes(te, start), me, color=colour, ls=dash, lw=1.2, label=filter_label(name))
         ax.axhline(1.0, color="black", lw=1.0, label="consistent (1)")
         ax.set_yscale("log")
