@@ -116,6 +116,19 @@ def test_the_alignment_runs_once(mission_dir: Path, monkeypatch: pytest.MonkeyPa
     assert set(cmp.results) == {"meskf", "vb"}
 
 
+def test_threads_do_not_change_the_comparison(
+    mission_dir: Path, saved: tuple[Comparison, Path]
+) -> None:
+    """compare() runs the filters two at a time by default; one at a time gives the same
+    solutions, ledgers and table (each filter's run is its own: no state is shared)."""
+    cmp, _ = saved
+    alone = compare(mission_dir, FILTERS, threads=1)
+    pd.testing.assert_frame_equal(alone.table(), cmp.table())
+    for n in FILTERS:
+        pd.testing.assert_frame_equal(alone.results[n].solution, cmp.results[n].solution)
+        pd.testing.assert_frame_equal(alone.results[n].ledger, cmp.results[n].ledger)
+
+
 def test_printed_table_shows_the_nees_within_100_columns(saved: tuple[Comparison, Path]) -> None:
     from rich.console import Console
 

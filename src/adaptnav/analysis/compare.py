@@ -53,6 +53,7 @@ import json
 import math
 import shutil
 from collections.abc import Callable, Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
@@ -303,6 +304,25 @@ class Comparison:
         result: dict[str, Any] = jsonable(out, "comparison")
         return result
 
+    def _save_runs(self, out: Path, mission_dir: str | Path | None) -> None:
+        """Each run's folder (api.results.save) with the reference, and comparison.csv."""
+        from dataclasses import replace
+
+        from adaptnav.api import results as results_mod
+
+        truth_file: Path | None = None
+        for name, result in self.results.items():
+            if mission_dir is not None:
+                result = replace(result, meta={**result.meta, "mission_dir": str(mission_dir)})
+            run_dir = results_mod.save(result, out / name)
+            # Every run folder gets the same reference: encoded once, copied byte for byte.
+            if truth_file is None:
+                truth_file = run_dir / TRUTH_FILE
+                results_mod.write_parquet(self.truth, truth_file)
+            else:
+                shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
+        self.table().to_csv(out / COMPARISON_CSV, index=False)
+
     def save(
         self,
         out_dir: str | Path,
@@ -323,35 +343,26 @@ class Comparison:
         meta instead of the mission's root, e.g. where a mission written into a temporary
         output folder will be once that is renamed into place (``adaptnav demo``).
         """
-        from dataclasses import replace
-
-        from adaptnav.api import results as results_mod
         from adaptnav.api.results import jsonable
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        truth_file: Path | None = None
-        for name, result in self.results.items():
-            if mission_dir is not None:
-                result = replace(result, meta={**result.meta, "mission_dir": str(mission_dir)})
-            run_dir = results_mod.save(result, out / name)
-            # Every run folder gets the same reference: encoded once, copied byte for byte.
-            if truth_file is None:
-                truth_file = run_dir / TRUTH_FILE
-                results_mod.write_parquet(self.truth, truth_file)
-            else:
-                shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
-        self.table().to_csv(out / COMPARISON_CSV, index=False)
-
-        fig_dir = out / FIGURES_DIR
-        fig_dir.mkdir(exist_ok=True)
-        figure_files = []
-        # plots builds Figures without pyplot: nothing to close, they go with their references.
-        # zlib level 3: the same pixels as the default 6, files within a few %, encoded in
-        # about half the time.
-        for stem, fig in (figures or {}).items():
-            fig.savefig(fig_dir / f"{stem}.png", dpi=FIGURE_DPI, pil_kwargs={"compress_level": 3})
-            figure_files.append(f"{FIGURES_DIR}/{stem}.png")
+        # The run folders (Parquet, mostly outside the GIL) are written in a thread while the
+        # PNGs are drawn here (matplotlib, Python): the two overlap on two cores.
+        with ThreadPoolExecutor(1) as pool:
+            runs = pool.submit(self._save_runs, out, mission_dir)
+            fig_dir = out / FIGURES_DIR
+            fig_dir.mkdir(exist_ok=True)
+            figure_files = []
+            # plots builds Figures without pyplot: nothing to close, they go with their
+            # references. zlib level 3: the same pixels as the default 6, files within a few
+            # %, encoded in about half the time.
+            for stem, fig in (figures or {}).items():
+                fig.savefig(
+                    fig_dir / f"{stem}.png", dpi=FIGURE_DPI, pil_kwargs={"compress_level": 3}
+                )
+                figure_files.append(f"{FIGURES_DIR}/{stem}.png")
+            runs.result()
         interactive_files = {}
         for stem, spec in (interactive or {}).items():
             (fig_dir / f"{stem}{INTERACTIVE_SUFFIX}").write_text(spec.to_json(), encoding="utf-8")
@@ -412,6 +423,7 @@ def compare(
     settings: FilterSettings | None = None,
     progress: Progress | None = None,
     smooth: bool = False,
+    threads: int = 2,
 ) -> Comparison:
     """Run ``filters`` on ``mission`` from one shared alignment and score each run.
 
@@ -424,6 +436,9 @@ def compare(
             filter, each RTS backward pass), e.g. to print it to stderr.
         smooth: RTS-smooth every filter's run (not the floor's): ``metrics`` score the smoothed
             solutions and ``forward`` the forward ones (docs/smoothing.md).
+        threads: filters run and scored at once, in threads (the engine's compiled loop
+            releases the GIL, so one filter's loop runs while another's Python builds and scores
+            its tables; docs/performance.md). The results do not depend on it; 1: one by one.
 
     Raises:
         ValueError: an unknown or repeated filter name, a mission without a reference, or
@@ -453,24 +468,29 @@ def compare(
         start = (x0, P0, t0)
         initial = _initial_info(x0, P0, t0, info)
 
+    def scored(n: str) -> tuple[Result, Metrics, Metrics | None]:
+        if n == "floor":
+            result = _run_floor(m, None if start is None else start[2])
+        else:
+            kind = cast("FilterKind", n)
+            result = api.run(
+                m, kind, settings=settings, initial=start, smooth=smooth,
+                progress=_backward_pass_said(say, FILTER_LABELS[n]) if threads == 1 else None,
+            )  # fmt: skip
+        return result, evaluate.evaluate(result, truth), evaluate.forward_metrics(result, truth)
+
     results: dict[str, Result] = {}
     metrics: dict[str, Metrics] = {}
     forward: dict[str, Metrics] = {}
-    for n in names:
-        label = FILTER_LABELS[n]
-        say(f"running {label}")
-        if n == "floor":
-            results[n] = _run_floor(m, None if start is None else start[2])
-        else:
-            kind = cast("FilterKind", n)
-            results[n] = api.run(
-                m, kind, settings=settings, initial=start, smooth=smooth,
-                progress=_backward_pass_said(say, label),
-            )  # fmt: skip
-        metrics[n] = evaluate.evaluate(results[n], truth)
-        fwd = evaluate.forward_metrics(results[n], truth)
-        if fwd is not None:
-            forward[n] = fwd
+    with ThreadPoolExecutor(max(1, threads)) as pool:
+        jobs = [(n, pool.submit(scored, n)) for n in names] if threads > 1 else []
+        for i, n in enumerate(names):
+            # Said as the comparison waits for it, in order: with threads, "running" may
+            # cover a filter that finished while the one before it ran.
+            say(f"running {FILTER_LABELS[n]}")
+            results[n], metrics[n], fwd = jobs[i][1].result() if jobs else scored(n)
+            if fwd is not None:
+                forward[n] = fwd
     return Comparison(name, m, results, metrics, initial, forward)
 
 

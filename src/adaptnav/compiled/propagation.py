@@ -61,6 +61,12 @@ def jit(fn: _Fn) -> _Fn:
     return cast(_Fn, njit(cache=True, fastmath=False)(fn))
 
 
+def jit_nogil(fn: _Fn) -> _Fn:
+    """:func:`jit` that releases the GIL while it runs: for the engine's whole loop, so that
+    another thread's Python goes on meanwhile (analysis.compare runs filters in threads)."""
+    return cast(_Fn, njit(cache=True, fastmath=False, nogil=True)(fn))
+
+
 def jit_inline(fn: _Fn) -> _Fn:
     """:func:`jit` inlined by Numba into its callers (no call, no array reference counting)."""
     return cast(_Fn, njit(cache=True, fastmath=False, inline="always")(fn))

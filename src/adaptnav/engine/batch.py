@@ -67,6 +67,7 @@ from adaptnav.compiled.propagation import (
     block_full,
     jit,
     jit_inline,
+    jit_nogil,
 )
 from adaptnav.core import earth
 from adaptnav.estimation.gate import Gate, Guard
@@ -565,7 +566,7 @@ def finish_block(
         _unpad(Pw, P)
 
 
-@jit
+@jit_nogil
 def _navigate(
     x: Array,
     P: Array,
