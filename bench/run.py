@@ -235,7 +235,20 @@ def bench_smoother() -> list[str]:
     return lines
 
 
-BENCHMARKS: list[Callable[[], list[str]]] = [bench_propagation, bench_filters, bench_smoother]
+def bench_dense_baseline() -> list[str]:
+    """The filters' baseline of issue 15: a plain dense Numba ESKF against ``vb``
+    (bench/dense_eskf.py)."""
+    from dense_eskf import bench_dense  # imported here: that module imports this one
+
+    return bench_dense()
+
+
+BENCHMARKS: list[Callable[[], list[str]]] = [
+    bench_propagation,
+    bench_filters,
+    bench_dense_baseline,
+    bench_smoother,
+]
 
 
 def main() -> None:
