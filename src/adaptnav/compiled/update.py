@@ -211,7 +211,7 @@ def _par_mat(par: Array, k: int) -> Mat3:
     )  # fmt: skip
 
 
-@jit
+@jit_inline
 def _dot3(C: Mat3, r: int, B: Mat3, c: int) -> float:
     """Row r of C times row c of B."""
     return C[3 * r] * B[3 * c] + C[3 * r + 1] * B[3 * c + 1] + C[3 * r + 2] * B[3 * c + 2]

@@ -365,12 +365,15 @@ def _pad(P: Array, Pw: Array) -> None:
             Pw[i * 16 + j] = P[i, j]
 
 
-@jit_inline
+@jit
 def _close_block(
     wk: uk.Work, N: Array, P: Array, q_psd: Array, cur: Array, sm: smk.Store, extra: bool
 ) -> None:
     """Propagate the covariance over the open block, if any (compiled.propagation._flush), and
-    hand its Φ to the smoother and the declared states (docs/filters.md, 'Covariance blocks')."""
+    hand its Φ to the smoother and the declared states (docs/filters.md, 'Covariance blocks').
+
+    Called, not inlined: :func:`_advance` closes blocks in five places, and five inlined copies
+    of the covariance step doubled the kernels' compile time (bench/cold_bench.py)."""
     T_block = cur[uk.C_BLOCK]
     if T_block > 0.0:
         _flush(wk[3], wk[0], wk[1], wk[2], N, wk[4])
