@@ -27,7 +27,7 @@ from adaptnav.api.results import (
     write_parquet,
 )
 from adaptnav.core import attitude
-from adaptnav.engine.batch import EngineOutput
+from adaptnav.engine.batch import LEDGER_KEYS, EngineOutput, LedgerRows
 from adaptnav.models.errorstate import STATE_NAMES
 
 EULER = np.array(
@@ -355,3 +355,27 @@ def test_parquet_dictionary_only_for_text_reads_back_the_same(tmp_path: Path) ->
     }
     assert dictionary == {"t": False, "x": False, "row": False, "flag": False,
                           "sensor": True, "line": False}  # fmt: skip
+
+
+def test_ledger_rows_read_as_the_dicts_and_build_the_same_table() -> None:
+    """The engine's ledger kept as columns (engine.batch.LedgerRows) reads as the list of
+    dicts it stands for, and ledger_frame builds the same table from its columns as from those
+    dicts."""
+    rng = np.random.default_rng(4)
+    n = 7
+    columns = {k: rng.normal(size=n) for k in LEDGER_KEYS}
+    columns["sensor"] = np.array(["dvl", "depth"] * 3 + ["dvl"], dtype=object)
+    columns["fate"] = np.array(["used", "rejected", "dropped", "used", "used", "used", "used"],
+                               dtype=object)  # fmt: skip
+    columns["reason"] = np.array(["", "gate chi2", "late", "", "", "", ""], dtype=object)
+    columns["row"] = np.arange(n) * 3
+    columns["iterations"] = np.ones(n, dtype=np.int64)
+    columns["nu_2"][1] = math.nan
+    rows = LedgerRows(columns)
+    dicts = [{k: columns[k].tolist()[i] for k in LEDGER_KEYS} for i in range(n)]
+    assert len(rows) == n and rows[3] == dicts[3] and rows[-2:] == dicts[-2:]
+    assert list(rows[0]) == list(LEDGER_KEYS)
+    # (NaN is not equal to itself: the rows with one are compared as tables)
+    pd.testing.assert_frame_equal(pd.DataFrame(list(rows)), pd.DataFrame(dicts))
+    assert rows != [*dicts[:1], *dicts[2:]] and rows[0] == dicts[0]
+    pd.testing.assert_frame_equal(ledger_frame(rows), ledger_frame(dicts), check_exact=True)

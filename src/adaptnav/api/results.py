@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput
+from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput, LedgerRows
 from adaptnav.models.errorstate import N_STATES, STATE_NAMES
 from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_POS, NOM_SIZE, NOM_VEL
 
@@ -326,7 +326,10 @@ def ledger_frame(
     rows: Sequence[Mapping[str, Any]], kinds: Mapping[str, str] | None = None
 ) -> pd.DataFrame:
     """The engine's ledger rows as a table (known columns first, typed; extra keys kept):
-    :func:`typed_ledger` of the rows."""
+    :func:`typed_ledger` of the rows (of the engine's columns when it kept them,
+    :class:`adaptnav.engine.batch.LedgerRows`)."""
+    if isinstance(rows, LedgerRows):
+        return typed_ledger(pd.DataFrame(rows.columns, columns=list(LEDGER_COLUMNS)), kinds)
     extra = sorted(set().union(*rows) - set(LEDGER_COLUMNS))
     # pandas reads the dicts column by column in C; a key a row lacks becomes NaN.
     return typed_ledger(pd.DataFrame(list(rows), columns=[*LEDGER_COLUMNS, *extra]), kinds)

@@ -344,7 +344,7 @@ class Stream:
     def _result(self, out: engine.EngineOutput) -> Result:
         """The run's Result, as :func:`adaptnav.api.run` builds it (the ledger's rows are the
         pushed readings' rows; the readings that never reached the engine appended)."""
-        out = replace(out, ledger=out.ledger + self._extra)
+        out = replace(out, ledger=[*out.ledger, *self._extra])
         meta: dict[str, Any] = {
             "mission_dir": self._root,
             "filter_settings": self.settings.as_dict(),

@@ -44,10 +44,10 @@ from __future__ import annotations
 
 import gc
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import partial
-from typing import Any, Literal
+from functools import cached_property, partial
+from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,6 +109,50 @@ LEDGER_KEYS: tuple[str, ...] = (
 )  # fmt: skip
 """Keys of a ledger row, in order."""
 assert MAX_DIM == 3, "Navigator._ledger spells out the nu_j, r_j keys"
+
+
+class LedgerRows(Sequence[dict[str, Any]]):
+    """The engine's ledger: one row per reading, kept as columns (:attr:`columns`, keys
+    :data:`LEDGER_KEYS`, arrays of equal length) and read as dicts, which are built on first use.
+
+    Why: tens of thousands of dicts cost a run more than its compiled loop's updates, while a
+    table is built from the columns directly (adaptnav.api.results.ledger_frame)."""
+
+    def __init__(self, columns: dict[str, NDArray[Any]]) -> None:
+        self.columns = columns
+
+    @cached_property
+    def _rows(self) -> list[dict[str, Any]]:
+        values = [self.columns[k].tolist() for k in LEDGER_KEYS]
+        gc_was_on = gc.isenabled()
+        gc.disable()  # tens of thousands of new dicts: no cyclic garbage, no need to scan
+        try:
+            return [dict(zip(LEDGER_KEYS, row, strict=True)) for row in zip(*values, strict=True)]
+        finally:
+            if gc_was_on:
+                gc.enable()
+
+    def __len__(self) -> int:
+        return len(self.columns["t"])
+
+    @overload
+    def __getitem__(self, i: int) -> dict[str, Any]: ...
+
+    @overload
+    def __getitem__(self, i: slice) -> list[dict[str, Any]]: ...
+
+    def __getitem__(self, i: int | slice) -> dict[str, Any] | list[dict[str, Any]]:
+        return self._rows[i]
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        return iter(self._rows)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Sequence) and list(self) == list(other)
+
+    __hash__ = None  # type: ignore[assignment]  # equal to a list: not hashable either
+
+
 _FATES: dict[int, tuple[str, str]] = {
     uk.LEDGER_USED: ("used", ""),
     uk.LEDGER_REJECTED_COMPONENT: ("rejected", "gate component"),
@@ -216,7 +260,7 @@ class _Records:
     sol_t: Array
     sol_x: Array
     sol_p: Array
-    ledger: list[dict[str, Any]]
+    ledger: Sequence[dict[str, Any]]
     sol_cross: Array
     events: list[dict[str, Any]]
 
@@ -256,7 +300,8 @@ class EngineOutput:
     t: Array
     x: Array  # (N, 16) nominal states
     P_diag: Array  # (N, 15)
-    ledger: list[dict[str, Any]]
+    ledger: Sequence[dict[str, Any]]
+    """One row per reading (keys :data:`LEDGER_KEYS`); from the engine a :class:`LedgerRows`."""
     x_final: Array
     P_final: Array
     P_cross: Array = field(kw_only=True)  # (N, 9)
@@ -1042,49 +1087,33 @@ class Navigator:
             )
         return out
 
-    def _ledger(self) -> list[dict[str, Any]]:
-        """The ledger rows so far as dicts (keys :data:`LEDGER_KEYS`, in that order); events
+    def _ledger(self) -> LedgerRows:
+        """The ledger rows so far (keys :data:`LEDGER_KEYS`, in that order); events
         (:meth:`_events`) are not readings' fates and are left out."""
         n = int(self._icur[I_N_LEDGER])
         fates_only = self._lg_int[:n, uk.L_CODE] < uk.EVENT_NIS
         li, lf = self._lg_int[:n][fates_only], self._lg_flt[:n][fates_only]
         idx = li[:, uk.L_STORE]
-        names = [c.name for c in self.channels]
-        fates = [_FATES[c] for c in li[:, uk.L_CODE].tolist()]
-        nu = [lf[:, uk.L_NU + j].tolist() for j in range(MAX_DIM)]
-        r = [lf[:, uk.L_R + j].tolist() for j in range(MAX_DIM)]
-        columns = zip(
-            self._st_t[idx].tolist(), lf[:, uk.L_T_EPOCH].tolist(), self._st_sensor[idx].tolist(),
-            self._st_row[idx].tolist(), fates, lf[:, uk.L_STAT].tolist(),
-            lf[:, uk.L_THRESHOLD].tolist(), li[:, uk.L_ITER].tolist(), nu[0], r[0], nu[1], r[1],
-            nu[2], r[2], strict=True,
-        )  # fmt: skip
-        gc_was_on = gc.isenabled()
-        gc.disable()  # tens of thousands of new dicts: no cyclic garbage, no need to scan
-        try:
-            return [
-                {
-                    "t": t,
-                    "t_epoch": te,
-                    "sensor": names[i],
-                    "row": rw,
-                    "fate": fr[0],
-                    "reason": fr[1],
-                    "statistic": st,
-                    "threshold": th,
-                    "iterations": it,
-                    "nu_0": n0,
-                    "r_0": r0,
-                    "nu_1": n1,
-                    "r_1": r1,
-                    "nu_2": n2,
-                    "r_2": r2,
-                }
-                for t, te, i, rw, fr, st, th, it, n0, r0, n1, r1, n2, r2 in columns
-            ]
-        finally:
-            if gc_was_on:
-                gc.enable()
+        names = np.array([c.name for c in self.channels] or [""], dtype=object)
+        codes = sorted(_FATES)
+        which = np.searchsorted(codes, li[:, uk.L_CODE])
+        fate = np.array([_FATES[c][0] for c in codes], dtype=object)[which]
+        reason = np.array([_FATES[c][1] for c in codes], dtype=object)[which]
+        columns: dict[str, NDArray[Any]] = {
+            "t": self._st_t[idx],
+            "t_epoch": lf[:, uk.L_T_EPOCH].copy(),
+            "sensor": names[self._st_sensor[idx]],
+            "row": self._st_row[idx],
+            "fate": fate,
+            "reason": reason,
+            "statistic": lf[:, uk.L_STAT].copy(),
+            "threshold": lf[:, uk.L_THRESHOLD].copy(),
+            "iterations": li[:, uk.L_ITER].copy(),
+        }
+        for j in range(MAX_DIM):
+            columns[f"nu_{j}"] = lf[:, uk.L_NU + j].copy()
+            columns[f"r_{j}"] = lf[:, uk.L_R + j].copy()
+        return LedgerRows({k: columns[k] for k in LEDGER_KEYS})
 
     def _reserve_output(self, n: int) -> None:
         need = int(self._icur[I_N_OUT]) + n
