@@ -483,12 +483,12 @@ def compare(
     metrics: dict[str, Metrics] = {}
     forward: dict[str, Metrics] = {}
     with ThreadPoolExecutor(max(1, threads)) as pool:
-        jobs = [(n, pool.submit(scored, n)) for n in names] if threads > 1 else []
+        jobs = [pool.submit(scored, n) for n in names] if threads > 1 else []
         for i, n in enumerate(names):
             # Said as the comparison waits for it, in order: with threads, "running" may
             # cover a filter that finished while the one before it ran.
             say(f"running {FILTER_LABELS[n]}")
-            results[n], metrics[n], fwd = jobs[i][1].result() if jobs else scored(n)
+            results[n], metrics[n], fwd = jobs[i].result() if jobs else scored(n)
             if fwd is not None:
                 forward[n] = fwd
     return Comparison(name, m, results, metrics, initial, forward)

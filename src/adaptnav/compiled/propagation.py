@@ -620,9 +620,7 @@ def _work(P: Array, q_psd: Array) -> tuple[Array, Array, Array, Array, int]:
     """
     n = P.shape[0] + 13 - q_psd.shape[0]  # (15 + m) + 1 - m
     Pw = np.zeros(15 * _W)
-    for i in range(15):
-        for j in range(15):
-            Pw[i * _W + j] = P[i, j]
+    _pad(P, Pw)
     return np.zeros(15 * _W), np.zeros(15 * _W), np.zeros(9 * _W), Pw, n
 
 
@@ -642,6 +640,15 @@ def _extra_step(P: Array, PhiT: Array, tmp: Array, q_psd: Array, T: float) -> No
             P[i, j] = s
             P[j, i] = s
         P[j, j] += q_psd[12 + j - 15] * T
+
+
+@jit_inline
+def _pad(P: Array, Pw: Array) -> None:
+    """The core of P into the padded flat layout of :func:`_work` (the inverse of
+    :func:`_unpad`)."""
+    for i in range(15):
+        for j in range(15):
+            Pw[i * _W + j] = P[i, j]
 
 
 @jit_inline

@@ -62,6 +62,7 @@ from adaptnav.compiled.propagation import (
     _flush,
     _lat_ref,
     _load,
+    _pad,
     _store,
     _unpad,
     block_full,
@@ -403,11 +404,21 @@ def _smoothing_row(
 
 
 @jit_inline
-def _pad(P: Array, Pw: Array) -> None:
-    """The core of P into the padded flat layout of compiled.propagation._work."""
-    for i in range(N_STATES):
-        for j in range(N_STATES):
-            Pw[i * 16 + j] = P[i, j]
+def _engine_work(P: Array, q_psd: Array, rates: Array, wsp: Array) -> tuple[uk.Work, Array]:
+    """The propagation's work arrays over the persistent rows ``wsp`` (uk.WS_PROP), the core of P
+    copied into its padded rows, and the PSDs with the Q adaptation's β on the white-noise ones
+    (estimation/noise/process.py; the array itself when β = 1)."""
+    Pw = wsp[3]
+    _pad(P, Pw)
+    # n from the sizes at run time: LLVM then vectorizes the covariance's column loops
+    # (compiled.propagation._work)
+    wk = (wsp[0], wsp[1], wsp[2], Pw, P.shape[0] + 13 - q_psd.shape[0])
+    beta = rates[uk.R_Q, 0]
+    if beta != 1.0:
+        q_psd = q_psd.copy()
+        for c in range(6):
+            q_psd[c] *= beta
+    return wk, q_psd
 
 
 @jit
@@ -471,22 +482,14 @@ def _advance(
     update; a block still open when the chunk is used up stays open for the next call (P is then
     as of the block's start until :func:`finish_block`)."""
     n = tk.shape[0]
-    Pw = wsp[3]
-    _pad(P, Pw)
-    # n from the sizes at run time: LLVM then vectorizes the covariance's column loops
-    # (compiled.propagation._work)
-    wk = (wsp[0], wsp[1], wsp[2], Pw, P.shape[0] + 13 - q_psd.shape[0])
+    wk, q_psd = _engine_work(P, q_psd, rates, wsp)
+    Pw = wk[3]
     extra = P.shape[0] > N_STATES  # declared state blocks (errorstate.StateLayout)
     state = _load(x)
     ref = _lat_ref(state[0])
     inv_tau = (1.0 / tau_a, 1.0 / tau_g)
     T_last, decay = -1.0, (1.0, 1.0, 0.0)
     f_lp = rates[uk.R_F_LP]
-    beta = rates[uk.R_Q, 0]
-    if beta != 1.0:  # Q adaptation (estimation/noise/process.py): β on the white-noise PSDs
-        q_psd = q_psd.copy()
-        for c in range(6):
-            q_psd[c] *= beta
     status = _ADVANCE_DONE
     every = icur[I_EVERY]
     last = -1  # end of the run of whole intervals under way (-1: none)
@@ -603,15 +606,9 @@ def finish_block(
     adaptation's scale on the PSDs as :func:`_advance` applies it. (Python's way in: the end of
     the data, or P read between chunks.)"""
     if cur[uk.C_BLOCK] > 0.0:
-        beta = rates[uk.R_Q, 0]
-        q = q_psd.copy()
-        for c in range(6):
-            q[c] *= beta
-        Pw = wsp[3]
-        _pad(P, Pw)
-        wk = (wsp[0], wsp[1], wsp[2], Pw, P.shape[0] + 13 - q.shape[0])
+        wk, q = _engine_work(P, q_psd, rates, wsp)
         _close_block(wk, N, P, q, cur, sm, P.shape[0] > N_STATES)
-        _unpad(Pw, P)
+        _unpad(wk[3], P)
 
 
 @jit_nogil
@@ -1094,7 +1091,7 @@ class Navigator:
         fates_only = self._lg_int[:n, uk.L_CODE] < uk.EVENT_NIS
         li, lf = self._lg_int[:n][fates_only], self._lg_flt[:n][fates_only]
         idx = li[:, uk.L_STORE]
-        names = np.array([c.name for c in self.channels] or [""], dtype=object)
+        names = np.array([c.name for c in self.channels], dtype=object)
         codes = sorted(_FATES)
         which = np.searchsorted(codes, li[:, uk.L_CODE])
         fate = np.array([_FATES[c][0] for c in codes], dtype=object)[which]

@@ -102,24 +102,11 @@ def _f_state(f_lp: Array | None) -> Array:
     return f_lp
 
 
-def _covariance_numpy(
-    P: Array, mid: strapdown.StepMidpoint, q: Array, T: float, tau_a: float, tau_g: float
-) -> Array:
-    """Steps 2-4 of the module docstring over a step of length T."""
-    F = errorstate.system_matrix(mid.lat, mid.h, mid.v_n, mid.C_nb, mid.f_n, tau_a, tau_g)
-    Phi = errorstate.transition(F, T)
-    G = errorstate.noise_input_matrix(mid.C_nb)
-    Qd = errorstate.discrete_noise(Phi, G, q[:N_NOISE], T)
-    if P.shape[0] > N_STATES:  # declared blocks: random walks (errorstate.StateLayout)
-        Phi, Qd = errorstate.augment(Phi, Qd, q[N_NOISE:], T)
-    return errorstate.predict_covariance(P, Phi, Qd)
-
-
 class CovarianceBlock:
     """The covariance over a block of steps (docs/filters.md, 'Covariance blocks'; readable twin
     of the compiled engine's): each step adds ``A += F_k T_k`` and ``S += G_k Q G_kᵀ T_k``; the
-    block closes with ``Φ = I + A + A²/2`` and ``Qd = ½ (Φ S Φᵀ + S)``, ``P ← Φ P Φᵀ + Qd``. One
-    step is exactly steps 2-4 of the module docstring."""
+    block closes with ``Φ = I + A + A²/2`` and ``Qd = ½ (Φ S Φᵀ + S)``, ``P ← Φ P Φᵀ + Qd``. A
+    block of one step is steps 2-4 of the module docstring (``block_s = 0``: every step)."""
 
     def __init__(self, q: Array, tau_a: float, tau_g: float) -> None:
         self.q, self.tau_a, self.tau_g = q, tau_a, tau_g
@@ -188,13 +175,9 @@ def propagate_numpy(
         xa[:NOM_SIZE], mid = strapdown.propagate(
             xa[:NOM_SIZE], wp, fp, wc, fc, T, 0.0, T, tau_a, tau_g
         )
-        mid = replace(mid, f_n=low_pass(flp, mid.f_n, T, tau_f).copy())
-        if block_s <= 0.0:
-            Pa = _covariance_numpy(Pa, mid, q, T, tau_a, tau_g)
-        else:
-            block.add(mid, T)
-            if block_s - kernels.BLOCK_TOL_S <= block.T or k == dth.shape[0] - 1:
-                Pa = block.close(Pa)
+        block.add(replace(mid, f_n=low_pass(flp, mid.f_n, T, tau_f).copy()), T)
+        if kernels.block_full(block.T, block_s) or k == dth.shape[0] - 1:
+            Pa = block.close(Pa)
         wp, fp = wc, fc
     return xa, Pa, wp.copy(), fp.copy()
 
@@ -233,8 +216,9 @@ def propagate_partial_numpy(
     xa[:NOM_SIZE], mid = strapdown.propagate(
         xa[:NOM_SIZE], wp, fp, wc, fc, dt, ta, tb, tau_a, tau_g
     )
-    mid = replace(mid, f_n=low_pass(flp, mid.f_n, tb - ta, tau_f).copy())
-    return xa, _covariance_numpy(Pa, mid, q, tb - ta, tau_a, tau_g)
+    block = CovarianceBlock(q, tau_a, tau_g)
+    block.add(replace(mid, f_n=low_pass(flp, mid.f_n, tb - ta, tau_f).copy()), tb - ta)
+    return xa, block.close(Pa)
 
 
 def propagate(
