@@ -134,7 +134,7 @@ def test_rts_is_the_exact_posterior_of_a_linear_gaussian_model(
 def _store(nodes: smoother.Nodes) -> smk.Store:
     """The compiled store holding ``nodes``, filled as the forward pass fills it."""
     N, n = nodes.dx.shape
-    sm = smk.store(1, 1, nodes.x.shape[1], n, True)
+    sm = smk.store(1, 1, nodes.x.shape[1], n)
     sm = smk.grown(sm, N, N)
     for j in range(N):
         sm[smk.SM_ACC][: smk.CORE, : smk.CORE] = nodes.Phi[j][: smk.CORE, : smk.CORE]

@@ -47,11 +47,10 @@ PHI_DIAG = 9 * CORE
 """A stored Φ: its rows 0-8 (row-major, 135 numbers), then the diagonal of rows 9-14, the
 whole of those rows (the biases' Gauss-Markov dynamics: :func:`accumulate`)."""
 N_PHI = PHI_DIAG + 6
-K_NODES, K_PRIORS, K_STEPS, K_ON, K_FAILED = range(5)
+K_NODES, K_PRIORS, K_STEPS, K_FAILED = range(4)
 """Counters: nodes and update nodes stored, steps accumulated into Φ since the last node,
-smoothing on (1) or off (0), update nodes whose P⁻ could not be factored (no backward gain to
-them)."""
-N_COUNT = 5
+update nodes whose P⁻ could not be factored (no backward gain to them)."""
+N_COUNT = 4
 NODE_ARRAYS = (SM_T, SM_X, SM_P, SM_PHI, SM_PRIOR, SM_OUT)
 """The store's arrays with a row per node."""
 UPDATE_ARRAYS = (SM_DX, SM_PM)
@@ -70,13 +69,12 @@ def packed_index(i: int, j: int, n: int) -> int:
     return i * n - i * (i - 1) // 2 + (j - i)
 
 
-def store(capacity: int, n_priors: int, nominal_size: int, n: int, on: bool) -> Store:
-    """An empty store for ``capacity`` nodes and ``n_priors`` update nodes; ``on = False``: a
-    store of size zero that the kernels leave alone (the forward pass as without smoothing)."""
-    c, m = (capacity, n_priors) if on else (0, 0)
+def store(c: int, m: int, nominal_size: int, n: int) -> Store:
+    """An empty store for ``c`` nodes and ``m`` update nodes. A run without smoothing has none
+    (None): the engine's loop is then compiled without the smoother's code (adaptnav.engine.batch,
+    '_navigate')."""
     k = packed_size(n)
     counts = np.zeros(N_COUNT, dtype=np.int64)
-    counts[K_ON] = int(on)
     return (
         np.zeros(c), np.zeros((c, nominal_size)), np.zeros((m, n)), np.zeros((c, k)),
         np.zeros((c, N_PHI)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
@@ -86,9 +84,7 @@ def store(capacity: int, n_priors: int, nominal_size: int, n: int, on: bool) -> 
 
 def grown(sm: Store, nodes: int, priors: int) -> Store:
     """``sm`` with room for at least ``nodes`` nodes and ``priors`` update nodes (doubling),
-    what it holds kept; a store that is off stays as it is."""
-    if sm[SM_COUNT][K_ON] == 0:
-        return sm
+    what it holds kept."""
     out = list(sm)
     for key, need in (
         (SM_T, nodes),

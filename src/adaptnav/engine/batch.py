@@ -367,13 +367,13 @@ def _output_row(
     out_p: Array,
     x: Array,
     P: Array,
-    sm: smk.Store,
+    sm: smk.Store | None,
 ) -> None:
     """An output row, after every ``output_every``-th completed interval: t, x, and in
     ``out_p`` P's diagonal (15) then the off-diagonal elements of its position, velocity and
-    attitude blocks (9, :data:`P_CROSS_PAIRS`); and when smoothing, its node (x and P are
-    brought up to date for it). Called, not inlined: inlined, its many array arguments would
-    cost reference counting at every interval, due or not."""
+    attitude blocks (9, :data:`P_CROSS_PAIRS`); and when smoothing (a store ``sm``), its node
+    (x and P are brought up to date for it). Called, not inlined: inlined, its many array
+    arguments would cost reference counting at every interval, due or not."""
     o = icur[I_N_OUT]
     out_t[o] = t
     _store(out_x[o], state)
@@ -388,7 +388,7 @@ def _output_row(
     for k in range(NOM_SIZE, x.shape[0]):  # declared states (errorstate.StateLayout)
         out_x[o, k] = x[k]
         out_p[o, N_STATES + N_CROSS + k - NOM_SIZE] = P[k - 1, k - 1]
-    if sm[smk.SM_COUNT][smk.K_ON] != 0:
+    if sm is not None:
         _smoothing_row(sm, o, t, state, Pw, x, P)
 
 
@@ -423,7 +423,7 @@ def _engine_work(P: Array, q_psd: Array, rates: Array, wsp: Array) -> tuple[uk.W
 
 @jit
 def _close_block(
-    wk: uk.Work, N: Array, P: Array, q_psd: Array, cur: Array, sm: smk.Store, extra: bool
+    wk: uk.Work, N: Array, P: Array, q_psd: Array, cur: Array, sm: smk.Store | None, extra: bool
 ) -> None:
     """Propagate the covariance over the open block, if any (compiled.propagation._flush), and
     hand its Φ to the smoother and the declared states (docs/filters.md, 'Covariance blocks').
@@ -433,7 +433,7 @@ def _close_block(
     T_block = cur[uk.C_BLOCK]
     if T_block > 0.0:
         _flush(wk[3], wk[0], wk[1], wk[2], N, wk[4])
-        if sm[smk.SM_COUNT][smk.K_ON] != 0:
+        if sm is not None:
             smk.accumulate(sm, wk[1])
         if extra:
             _extra_step(P, wk[1], wk[2], q_psd, T_block)
@@ -461,7 +461,7 @@ def _advance(
     out_t: Array,
     out_x: Array,
     out_p: Array,
-    sm: smk.Store,
+    sm: smk.Store | None,
     wsp: Array,
     N: Array,
 ) -> int:
@@ -600,7 +600,7 @@ def _advance(
 
 @jit
 def finish_block(
-    P: Array, q_psd: Array, cur: Array, rates: Array, sm: smk.Store, wsp: Array, N: Array
+    P: Array, q_psd: Array, cur: Array, rates: Array, sm: smk.Store | None, wsp: Array, N: Array
 ) -> None:
     """Close the open covariance block (:func:`_advance`), so that P is current; with the Q
     adaptation's scale on the PSDs as :func:`_advance` applies it. (Python's way in: the end of
@@ -645,14 +645,19 @@ def _navigate(
     lg_int: IntArray,
     lg_flt: Array,
     ws: uk.Workspace,
-    sm: smk.Store,
+    sm: smk.Store | None,
 ) -> int:
     """Run the IMU chunk against the queue (stamps q_t, readings q_idx, sorted; the first
     pending is ``icur[I_HEAD]``): propagate to the next reading; drop it if late; else gather
     the readings of its epoch (stamped <= the epoch, + SAME_EPOCH_S under ``exact``) and update
     with them (:func:`adaptnav.compiled.update.epoch`); until the chunk is used up (NAV_DONE).
     Returns early with NAV_PYTHON when the epoch's group ``icur[I_HEAD]..icur[I_END]`` has a
-    reading to linearise in Python, or NAV_SINGULAR if P was not finite (no repair possible)."""
+    reading to linearise in Python, or NAV_SINGULAR if P was not finite (no repair possible).
+
+    ``sm``: the smoother's store, or None without smoothing; Numba prunes the ``sm is not None``
+    branches here and in the functions it is passed to at compile time when its type is None, so
+    a run without smoothing does not compile the smoother's code (a smoothed run compiles a
+    second specialisation; bench/cold_bench.py)."""
     nq = q_t.shape[0]
     fb = np.zeros((0, uk.N_FB))  # no readings linearised in Python here
     while True:
@@ -688,7 +693,7 @@ def _navigate(
             icur[I_N_LEDGER] = -n - 1
             return NAV_SINGULAR
         icur[I_N_LEDGER] = n
-        if sm[smk.SM_COUNT][smk.K_ON] != 0:
+        if sm is not None:
             smk.node(sm, cur[uk.C_T], x, P, ws[uk.WS_DX], ws[uk.WS_PRIOR])
 
 
@@ -737,7 +742,9 @@ class Navigator:
         self._icur[I_EVERY] = config.output_every
         self._build_tables()
         self._allocate()
-        self._sm = smk.store(64, 16, config.layout.nominal_size, n, config.smooth)
+        # None without smoothing: the compiled loop's smoother branches are then pruned by
+        # Numba at compile time (the argument's type is None), not compiled and skipped
+        self._sm = smk.store(64, 16, config.layout.nominal_size, n) if config.smooth else None
         self._smoothed: Smoothed | None = None
         self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
         self._record()
@@ -828,9 +835,8 @@ class Navigator:
         if not self._cur[uk.C_BLOCK] > 0.0:
             return self._P
         P = self._P.copy()
-        off = smk.store(0, 0, self.config.layout.nominal_size, self.config.layout.n, False)
         finish_block(
-            P, self._q, self._cur.copy(), self._rates, off, self._ws[uk.WS_PROP].copy(),
+            P, self._q, self._cur.copy(), self._rates, None, self._ws[uk.WS_PROP].copy(),
             self._ws[uk.WS_NOISE].copy(),
         )  # fmt: skip
         return P
@@ -1024,7 +1030,7 @@ class Navigator:
                 f"the error covariance P is not finite at t = {self.t:.6g} s"
             )
         self._icur[I_N_LEDGER] = n
-        if self.config.smooth:
+        if self._sm is not None:
             smk.node(self._sm, self.t, self.x, self._P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
 
     def _evaluate_in_python(self, head: int, g: int) -> None:
@@ -1128,11 +1134,14 @@ class Navigator:
         self._out_p[n, N_STATES : N_STATES + N_CROSS] = cross_terms(self._P)
         self._out_p[n, N_STATES + N_CROSS :] = np.diag(self._P)[N_STATES:]
         self._icur[I_N_OUT] = n + 1
-        if self.config.smooth:
+        if self._sm is not None:
             smk.output_node(self._sm, n, self.t, self.x, self._P)
 
     def _reserve_nodes(self, rows: int, readings: int) -> None:
-        """Room in the smoother's store for ``rows`` output rows and ``readings`` epochs."""
+        """Room in the smoother's store, if any, for ``rows`` output rows and ``readings``
+        epochs."""
+        if self._sm is None:
+            return
         counts = self._sm[smk.SM_COUNT]
         self._sm = smk.grown(
             self._sm,
@@ -1221,9 +1230,9 @@ class Navigator:
         """The forward pass's node store as the readable smoother takes it
         (:class:`adaptnav.estimation.smoother.Nodes`: full matrices, Φ with the identity on
         declared blocks); before :meth:`smooth`, which overwrites the store."""
-        if not self.config.smooth or self._smoothed is not None:
-            raise RuntimeError("no forward store: smoothing is off or the store was smoothed")
         sm = self._sm
+        if sm is None or self._smoothed is not None:
+            raise RuntimeError("no forward store: smoothing is off or the store was smoothed")
         counts = sm[smk.SM_COUNT]
         N, n = int(counts[smk.K_NODES]), self.config.layout.n
         P = _unpacked(sm[smk.SM_P][:N], n)
@@ -1246,10 +1255,10 @@ class Navigator:
         """Run the RTS backward pass over everything fed so far (compiled.smoother.backward) and
         return the smoothed solution at the output rows; the navigator then takes no more IMU
         data (the store is smoothed in place). Needs :attr:`EngineConfig.smooth`."""
-        if not self.config.smooth:
+        sm = self._sm
+        if sm is None:
             raise RuntimeError("smoothing needs EngineConfig(smooth=True) from the start")
         if self._smoothed is None:
-            sm = self._sm
             smk.backward(sm, self.config.reset_covariance)
             counts = sm[smk.SM_COUNT]
             nodes, priors = int(counts[smk.K_NODES]), int(counts[smk.K_PRIORS])
