@@ -211,20 +211,21 @@ def _par_mat(par: Array, k: int) -> Mat3:
     )  # fmt: skip
 
 
-@jit_inline
-def _dot3(C: Mat3, r: int, B: Mat3, c: int) -> float:
-    """Row r of C times row c of B."""
-    return C[3 * r] * B[3 * c] + C[3 * r + 1] * B[3 * c + 1] + C[3 * r + 2] * B[3 * c + 2]
-
-
 @jit
 def _mul_bt(C: Mat3, B: Mat3) -> Mat3:
-    """``C Bᵀ`` (3×3 row-major)."""
+    """``C Bᵀ`` (3×3 row-major): entry (r, c) is row r of C times row c of B. (Written out:
+    an inlined row-times-row helper cost nine inlinings, a second of a cold start.)"""
     return (
-        _dot3(C, 0, B, 0), _dot3(C, 0, B, 1), _dot3(C, 0, B, 2),
-        _dot3(C, 1, B, 0), _dot3(C, 1, B, 1), _dot3(C, 1, B, 2),
-        _dot3(C, 2, B, 0), _dot3(C, 2, B, 1), _dot3(C, 2, B, 2),
-    )  # fmt: skip
+        C[0] * B[0] + C[1] * B[1] + C[2] * B[2],
+        C[0] * B[3] + C[1] * B[4] + C[2] * B[5],
+        C[0] * B[6] + C[1] * B[7] + C[2] * B[8],
+        C[3] * B[0] + C[4] * B[1] + C[5] * B[2],
+        C[3] * B[3] + C[4] * B[4] + C[5] * B[5],
+        C[3] * B[6] + C[4] * B[7] + C[5] * B[8],
+        C[6] * B[0] + C[7] * B[1] + C[8] * B[2],
+        C[6] * B[3] + C[7] * B[4] + C[8] * B[5],
+        C[6] * B[6] + C[7] * B[7] + C[8] * B[8],
+    )
 
 
 @jit
@@ -275,7 +276,7 @@ def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: in
         _calibrate_dvl(par, x, z, pred, y, H, r)
 
 
-@jit_inline
+@jit
 def _rot_x(r: float, d: bool) -> Mat3:
     """Rx(r) of attitude.euler_to_dcm, or its derivative (``d``), row-major."""
     s, c = math.sin(r), math.cos(r)
@@ -284,7 +285,7 @@ def _rot_x(r: float, d: bool) -> Mat3:
     return (1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
 
 
-@jit_inline
+@jit
 def _rot_y(p: float, d: bool) -> Mat3:
     s, c = math.sin(p), math.cos(p)
     if d:
@@ -292,7 +293,7 @@ def _rot_y(p: float, d: bool) -> Mat3:
     return (c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
 
 
-@jit_inline
+@jit
 def _rot_z(y: float, d: bool) -> Mat3:
     s, c = math.sin(y), math.cos(y)
     if d:
@@ -300,7 +301,7 @@ def _rot_z(y: float, d: bool) -> Mat3:
     return (c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 
 
-@jit_inline
+@jit
 def _t_vec(A: Mat3, v: Vec3) -> Vec3:
     """``Aᵀ v``."""
     return (
@@ -319,11 +320,12 @@ def _misaligned(d: Vec3, which: int, v: Vec3) -> Vec3:
     return _t_vec(_rot_x(d[0], which == 0), w)
 
 
-@jit_inline
+@jit
 def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, r: int) -> None:
     """The DVL's calibration states (twin: sensors.dvl.calibrate, calibrate_jacobian):
     ``h = (1 + s) M(δ) p``, H's core rows mixed by ``(1 + s) M``, ``M p`` on s,
-    ``(1 + s) (∂M/∂δ_i) p`` on δ."""
+    ``(1 + s) (∂M/∂δ_i) p`` on δ. Called, not inlined (as are the rotations it uses): it is
+    rare, and inlined it was a third of the linearisations' compile time."""
     ks, km = int(par[PAR_CAL]), int(par[PAR_CAL + 1])
     g = 1.0 + x[ks + 1] if ks >= 0 else 1.0
     d = (x[km + 1], x[km + 2], x[km + 3]) if km >= 0 else (0.0, 0.0, 0.0)
@@ -457,16 +459,13 @@ def linearise(
         if row + a < H.shape[0]:
             for c in range(H.shape[1]):
                 H[row + a, c] = 0.0
-    if code == LIN_DVL:
-        _lin_dvl(par, x, z, w, y, H, row, 0)
-    elif code == LIN_NHC:
-        _lin_dvl(par, x, z, w, y, H, row, 1)
+    # One call site per inlined helper: each site is inlined and compiled anew (cold start)
+    if code in (LIN_DVL, LIN_NHC):
+        _lin_dvl(par, x, z, w, y, H, row, 1 if code == LIN_NHC else 0)
     elif code == LIN_DEPTH:
         _lin_depth(par, x, z, y, H, row)
-    elif code == LIN_INCLINOMETER:
-        _lin_attitude(par, x, z, y, H, row, False)
-    elif code == LIN_HEADING:
-        _lin_attitude(par, x, z, y, H, row, True)
+    elif code in (LIN_INCLINOMETER, LIN_HEADING):
+        _lin_attitude(par, x, z, y, H, row, code == LIN_HEADING)
     elif code == LIN_GNSS:
         _lin_gnss(par, x, z, y, H, row)
     elif code == LIN_PENDULUM:
