@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import gc
 import math
+import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property, partial
@@ -71,6 +72,7 @@ from adaptnav.compiled.propagation import (
     jit_nogil,
 )
 from adaptnav.core import earth
+from adaptnav.engine import coldstart
 from adaptnav.estimation.gate import Gate, Guard
 from adaptnav.estimation.health import OFF, DivergenceGuard
 from adaptnav.estimation.noise import (
@@ -987,6 +989,7 @@ class Navigator:
         self._icur[I_START] = 0
         self._reserve_output(n // self.config.output_every + 2)
         self._sort_queue()
+        self._compile_cold(tk, dts, dth, dv)
         while True:
             pending = self._q_idx.size - int(self._icur[I_HEAD])
             self._reserve_ledger(pending)
@@ -1007,6 +1010,48 @@ class Navigator:
                     f"the error covariance P is not finite at t = {self.t:.6g} s"
                 )
             self._epoch_python()
+
+    def _epoch_args(self) -> tuple[Any, ...]:
+        """Arguments of the types :func:`_navigate` calls the epoch with."""
+        return (
+            self.x, self._P, self._rates, 0.0, self._q_idx, 0, 0, self._st_sensor, self._st_z,
+            np.zeros((0, uk.N_FB)), self._s_int, self._s_flt, self._s_state, self._rings,
+            self._kind, self.config.reset_covariance, self._lg_int, self._lg_flt, 0, self._ws,
+        )  # fmt: skip
+
+    def _advance_args(self, tk: Array, dts: Array, dth: Array, dv: Array) -> tuple[Any, ...]:
+        """Arguments of the types :func:`_navigate` calls :func:`_advance` with."""
+        ws = self._ws
+        return (
+            self.x, self._P, tk, dts, dth, dv, 0.0, self._grid, self._cur, self._rates,
+            self._icur, self._q, self._tau_a, self._tau_g, self._tau_f,
+            self.config.covariance_block_s, self._out_t, self._out_x, self._out_p, self._sm,
+            ws[uk.WS_PROP], ws[uk.WS_NOISE],
+        )  # fmt: skip
+
+    def _compile_cold(self, tk: Array, dts: Array, dth: Array, dv: Array) -> None:
+        """On a cold start (the compiled loop neither compiled in this process nor in Numba's
+        cache), the measurement epoch compiled by a second process while this one compiles the
+        propagation loop and :func:`finish_block`, for the argument types :func:`_navigate`
+        uses; then :func:`_navigate`'s compilation finds the epoch in the cache
+        (engine/coldstart.py; docs/performance.md, 'Cold start')."""
+        if _COLD_CHECKED.is_set():  # the common case, at every IMU sample of a stream
+            return
+        with _COLD_LOCK:  # once per process, also with navigators in threads
+            if _COLD_CHECKED.is_set():
+                return
+            _COLD_CHECKED.set()
+            if kernels_cached() is not False:
+                return
+            child = coldstart.compile_aside(uk.epoch, self._epoch_args())
+            coldstart.compile_here(_advance, self._advance_args(tk, dts, dth, dv))
+            ws = self._ws
+            coldstart.compile_here(
+                finish_block,
+                (self._P, self._q, self._cur, self._rates, self._sm, ws[uk.WS_PROP],
+                 ws[uk.WS_NOISE]),
+            )  # fmt: skip
+            coldstart.join(child)
 
     # --- measurement epochs -------------------------------------------------------------------
 
@@ -1418,6 +1463,11 @@ def run_batch(
     if config.smooth:
         say("smoothing")
     return nav.output()
+
+
+_COLD_LOCK = threading.Lock()
+_COLD_CHECKED = threading.Event()
+"""Set once :meth:`Navigator._compile_cold` has looked at the cache in this process."""
 
 
 def kernels_cached() -> bool | None:
