@@ -16,6 +16,7 @@ from adaptnav.cli._app import (
     Stages,
     app,
     console,
+    freeze_heap,
     output,
     run_progress,
 )
@@ -61,12 +62,14 @@ def demo(
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
     filters = ["meskf", "maeskf", "vb", "robust", "oracle"]
+    freeze_heap()
     with output(out, force) as tmp, Stages(quiet) as st:
         st.begin(f"simulating {preset} (seed {seed})")
         mission_dir = run_simulation(preset, seed, tmp / "mission")
         st.begin("loading the mission")
         mission = load_mission(mission_dir)
         cmp = compare(mission, filters, progress=st.compiling_step, smooth=smooth)
+        freeze_heap()
         st.begin("drawing the figures")
         figures = plots.comparison_figures(cmp)
         zoomable = interactive.comparison_figures(cmp)
