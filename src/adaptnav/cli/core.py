@@ -56,7 +56,8 @@ def demo(
     from adaptnav.mission import load_mission
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
-    from adaptnav.viz import interactive, plots
+    from adaptnav.viz import interactive
+    from adaptnav.viz.pngs import PngJob
     from adaptnav.viz.report import write_report
 
     if preset not in PRESETS:
@@ -71,11 +72,12 @@ def demo(
         cmp = compare(mission, filters, progress=st.compiling_step, smooth=smooth)
         freeze_heap()
         st.begin("drawing the figures")
-        figures = plots.comparison_figures(cmp)
-        zoomable = interactive.comparison_figures(cmp)
-        st.begin(f"writing the runs, comparison and figures to {out}/")
-        # Written in a temporary folder renamed to --out at the end: record the final paths.
-        cmp.save(tmp, mission_dir=out.absolute() / "mission", figures=figures, interactive=zoomable)
+        with PngJob(cmp, tmp) as pngs:
+            zoomable = interactive.comparison_figures(cmp)
+            st.begin(f"writing the runs, comparison and figures to {out}/")
+            # Written in a temporary folder renamed to --out at the end: record the final paths.
+            final_mission = out.absolute() / "mission"
+            cmp.save(tmp, mission_dir=final_mission, figures=pngs, interactive=zoomable)
         st.begin("writing the report")
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"
