@@ -1,11 +1,12 @@
-"""A comparison's PNGs drawn and written in a child process while the caller goes on.
+"""A comparison's PNGs drawn and written in child processes while the caller goes on.
 
 matplotlib lays out and rasterises in Python, under the GIL: the seven figures of ``adaptnav
-demo`` cost 3-5 s of one core, about a fifth of the command. :class:`PngJob` forks a child, which
-inherits the comparison (nothing is pickled or copied until written to), draws
-:func:`adaptnav.viz.plots.comparison_figures` and writes each as ``figures/<stem>.png``
-(:func:`adaptnav.analysis.compare.write_png`) while the parent builds the interactive figures
-and writes the run folders on the other core; the parent never imports matplotlib. Where
+demo`` cost 4-5 s of one core, about a quarter of the command. :class:`PngJob` forks two
+children, which inherit the comparison (nothing is pickled, nothing copied until written to):
+one draws the noise figures (their log axes' labels need matplotlib's mathtext parser, which
+takes about 0.4 s to set up, once per process), the other the rest; each writes its figures as
+``figures/<stem>.png`` (:func:`adaptnav.analysis.compare.write_png`) while the parent builds the
+interactive figures and writes the run folders. The parent never imports matplotlib. Where
 ``fork`` is not available (Windows) the figures are drawn in the caller when waited for. The
 pixels are those :meth:`Comparison.save` writes from the figures themselves
 (docs/performance.md, 'Where `make demo` spends its time').
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import multiprocessing
 import traceback
+from collections.abc import Callable
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from pathlib import Path
@@ -26,24 +28,39 @@ from adaptnav.analysis.compare import FIGURES_DIR, write_png
 if TYPE_CHECKING:
     from adaptnav.analysis.compare import Comparison
 
-__all__ = ["PngJob", "write_pngs"]
+__all__ = ["PARTS", "PngJob", "write_pngs"]
+
+Part = Callable[[str], bool]
 
 
-def write_pngs(cmp: Comparison, fig_dir: Path) -> list[str]:
-    """Draw every figure of ``cmp`` and write it as ``fig_dir/<stem>.png``; their stems."""
+def _log_axes(stem: str) -> bool:
+    return stem.startswith("noise_")
+
+
+def _linear_axes(stem: str) -> bool:
+    return not _log_axes(stem)
+
+
+PARTS: tuple[Part, ...] = (_log_axes, _linear_axes)
+"""Which figures each child draws, by file stem: the noise figures, and the others."""
+
+
+def write_pngs(cmp: Comparison, fig_dir: Path, part: Part = bool) -> tuple[list[str], list[str]]:
+    """Draw the figures of ``cmp`` whose stem is in ``part`` and write each as
+    ``fig_dir/<stem>.png``: every figure's stem in drawing order, and those written."""
     from adaptnav.viz import plots  # matplotlib: imported where the figures are drawn
 
-    stems = []
-    for stem, fig in plots.comparison_figures(cmp).items():
-        write_png(fig, fig_dir / f"{stem}.png")
-        stems.append(stem)
-    return stems
+    makers = plots.figure_makers(cmp)
+    written = [stem for stem in makers if part(stem)]
+    for stem in written:
+        write_png(makers[stem](), fig_dir / f"{stem}.png")
+    return list(makers), written
 
 
-def _child(cmp: Comparison, fig_dir: Path, send: Connection) -> None:
-    """The child's work: the stems, or the traceback of what failed, sent to the parent."""
+def _child(cmp: Comparison, fig_dir: Path, part: Part, send: Connection) -> None:
+    """A child's work: what it wrote, or the traceback of what failed, sent to the parent."""
     try:
-        send.send(("done", write_pngs(cmp, fig_dir)))
+        send.send(("done", write_pngs(cmp, fig_dir, part)))
     except Exception:  # the parent raises it with this traceback
         send.send(("failed", traceback.format_exc()))
     finally:
@@ -52,54 +69,57 @@ def _child(cmp: Comparison, fig_dir: Path, send: Connection) -> None:
 
 class PngJob:
     """``with PngJob(cmp, out) as pngs: ...; stems = pngs.wait()``: the PNGs of ``cmp`` written
-    into ``out/figures/`` by a forked child from the ``with`` on (module docstring).
+    into ``out/figures/`` by forked children from the ``with`` on (module docstring).
 
     ``wait`` (:class:`adaptnav.analysis.compare.PendingFigures`, for ``Comparison.save``)
-    returns their stems once all are written and raises RuntimeError with the child's
+    returns their stems once all are written and raises RuntimeError with a child's
     traceback if drawing failed. Leaving the block unwaited (an error in the caller) stops the
-    child, so nothing writes into a folder its caller removes."""
+    children, so nothing writes into a folder its caller removes."""
 
     def __init__(self, cmp: Comparison, out: Path) -> None:
         self._cmp = cmp
         self._dir = Path(out) / FIGURES_DIR
-        self._process: BaseProcess | None = None
-        self._receive: Connection | None = None
+        self._children: list[tuple[BaseProcess, Connection]] = []
 
     def __enter__(self) -> PngJob:
         self._dir.mkdir(parents=True, exist_ok=True)
-        if "fork" in multiprocessing.get_all_start_methods():
-            context = multiprocessing.get_context("fork")
-            self._receive, send = context.Pipe(duplex=False)
-            self._process = context.Process(
-                target=_child, args=(self._cmp, self._dir, send), name="adaptnav-pngs"
-            )
-            self._process.start()
+        if "fork" not in multiprocessing.get_all_start_methods():
+            return self
+        context = multiprocessing.get_context("fork")
+        for part in PARTS:
+            receive, send = context.Pipe(duplex=False)
+            child = context.Process(target=_child, args=(self._cmp, self._dir, part, send))
+            child.start()
             send.close()  # the child's end: the parent sees EOF if the child dies
+            self._children.append((child, receive))
         return self
 
     def wait(self) -> list[str]:
         """The stems of the PNGs written, once all are (drawn here without ``fork``)."""
-        if self._process is None or self._receive is None:
-            return write_pngs(self._cmp, self._dir)
-        try:
-            status, payload = self._receive.recv()
-        except EOFError:
-            self._process.join()
-            code = self._process.exitcode
-            message = f"drawing the figures: its process died (exit code {code})"
-            raise RuntimeError(message) from None
-        self._process.join()
-        if status != "done":
-            raise RuntimeError(f"drawing the figures failed in its process:\n{payload}")
-        return list(payload)
+        if not self._children:
+            return write_pngs(self._cmp, self._dir)[1]
+        stems: list[str] = []
+        written: set[str] = set()
+        for child, receive in self._children:
+            try:
+                status, payload = receive.recv()
+            except EOFError:
+                child.join()
+                message = f"drawing the figures: a process died (exit code {child.exitcode})"
+                raise RuntimeError(message) from None
+            child.join()
+            if status != "done":
+                raise RuntimeError(f"drawing the figures failed in its process:\n{payload}")
+            stems, done = payload
+            written.update(done)
+        return [stem for stem in stems if stem in written]
 
     def __exit__(
         self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
-        if self._process is not None:
-            if self._process.is_alive():
-                self._process.terminate()
-            self._process.join()
-            self._process.close()
-        if self._receive is not None:
-            self._receive.close()
+        for child, receive in self._children:
+            if child.is_alive():
+                child.terminate()
+            child.join()
+            child.close()
+            receive.close()
