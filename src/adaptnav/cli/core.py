@@ -57,7 +57,7 @@ def demo(
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
     from adaptnav.viz import interactive
-    from adaptnav.viz.pngs import PngJob
+    from adaptnav.viz.pngs import PngJob, import_in_background
     from adaptnav.viz.report import write_report
 
     if preset not in PRESETS:
@@ -69,7 +69,9 @@ def demo(
         mission_dir = run_simulation(preset, seed, tmp / "mission")
         st.begin("loading the mission")
         mission = load_mission(mission_dir)
+        plotting = import_in_background()
         cmp = compare(mission, filters, progress=st.compiling_step, smooth=smooth)
+        plotting.join()
         freeze_heap()
         st.begin("drawing the figures")
         with PngJob(cmp, tmp) as pngs:

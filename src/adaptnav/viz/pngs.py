@@ -6,7 +6,8 @@ children, which inherit the comparison (nothing is pickled, nothing copied until
 one draws the noise figures (their log axes' labels need matplotlib's mathtext parser, which
 takes about 0.4 s to set up, once per process), the other the rest; each writes its figures as
 ``figures/<stem>.png`` (:func:`adaptnav.analysis.compare.write_png`) while the parent builds the
-interactive figures and writes the run folders. The parent never imports matplotlib. Where
+interactive figures and writes the run folders. The parent imports matplotlib only to hand it
+down (:func:`import_in_background`, while it waits for something else). Where
 ``fork`` is not available (Windows) the figures are drawn in the caller when waited for. The
 pixels are those :meth:`Comparison.save` writes from the figures themselves
 (docs/performance.md, 'Where `make demo` spends its time').
@@ -14,7 +15,9 @@ pixels are those :meth:`Comparison.save` writes from the figures themselves
 
 from __future__ import annotations
 
+import importlib
 import multiprocessing
+import threading
 import traceback
 from collections.abc import Callable
 from multiprocessing.connection import Connection
@@ -28,7 +31,7 @@ from adaptnav.analysis.compare import FIGURES_DIR, write_png
 if TYPE_CHECKING:
     from adaptnav.analysis.compare import Comparison
 
-__all__ = ["PARTS", "PngJob", "write_pngs"]
+__all__ = ["PARTS", "PngJob", "import_in_background", "write_pngs"]
 
 Part = Callable[[str], bool]
 
@@ -43,6 +46,17 @@ def _linear_axes(stem: str) -> bool:
 
 PARTS: tuple[Part, ...] = (_log_axes, _linear_axes)
 """Which figures each child draws, by file stem: the noise figures, and the others."""
+
+
+def import_in_background() -> threading.Thread:
+    """Import matplotlib and the figures' module in a thread, started now (e.g. while the filters'
+    compiled loops run without the GIL), so that the children forked by :class:`PngJob`
+    inherit them instead of each paying the import (about 0.4 s); join it before the fork."""
+    thread = threading.Thread(
+        target=importlib.import_module, args=("adaptnav.viz.plots",), name="import-plots"
+    )
+    thread.start()
+    return thread
 
 
 def write_pngs(cmp: Comparison, fig_dir: Path, part: Part = bool) -> tuple[list[str], list[str]]:
