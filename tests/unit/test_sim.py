@@ -204,6 +204,24 @@ def test_allan_deviation_recovers_gauss_markov_bias() -> None:
         np.testing.assert_allclose(at_peak, ratio * sigma, rtol=0.10)
 
 
+@pytest.mark.parametrize("n", [0, 1, 2, 7, 100, 101, 4099])
+@pytest.mark.parametrize("phi", [0.0, 0.5, math.exp(-0.01 / 3600.0), 1.0])
+def test_first_order_recursion_is_the_sequential_one(n: int, phi: float) -> None:
+    """The blocked recursion of the Gauss-Markov biases against its definition, one row at a
+    time: the same values up to roundings (n: one block, blocks of √n with and without a
+    short last one; φ from white noise to a random walk)."""
+    rng = np.random.default_rng(SEED)
+    u, y0 = rng.standard_normal((n, 3)), rng.standard_normal(3)
+    expected, y = np.empty((n, 3)), y0.copy()
+    for k in range(n):
+        y = phi * y + u[k]
+        expected[k] = y
+    scale = np.abs(expected).max(initial=1.0)
+    got = imu_model.first_order_recursion(u, phi, y0)
+    assert got.shape == (n, 3)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-13 * scale)
+
+
 def test_turn_on_bias_and_switches() -> None:
     model = imu_model.PAPER_IMU
     n, dt = 1000, 0.01

@@ -77,10 +77,12 @@ __all__ = [
     "OTHER_COLOUR",
     "PAPER_TABLE3",
     "Comparison",
+    "PendingFigures",
     "compare",
     "filter_colour",
     "parse_filters",
     "simulation_info",
+    "write_png",
 ]
 
 PAPER_TABLE3: dict[str, dict[str, tuple[float, float]]] = {
@@ -150,7 +152,22 @@ class SupportsToJson(Protocol):
         ...
 
 
+class PendingFigures(Protocol):
+    """PNGs being drawn into a comparison folder's ``figures/`` elsewhere, e.g. in a child
+    process (:class:`adaptnav.viz.pngs.PngJob`), while :meth:`Comparison.save` writes the rest."""
+
+    def wait(self) -> list[str]:
+        """Block until every PNG is written; their file stems, in drawing order."""
+        ...
+
+
 Progress = Callable[[str], None]
+
+
+def write_png(figure: Figure, path: Path) -> None:
+    """One figure as a PNG at :data:`FIGURE_DPI`. zlib level 3: the same pixels as the default
+    6, files within a few %, encoded in about half the time."""
+    figure.savefig(path, dpi=FIGURE_DPI, pil_kwargs={"compress_level": 3})
 
 
 def filter_colour(name: str) -> str:
@@ -323,18 +340,41 @@ class Comparison:
                 shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
         self.table().to_csv(out / COMPARISON_CSV, index=False)
 
+    def _save_runs_and_pngs(
+        self,
+        out: Path,
+        mission_dir: str | Path | None,
+        figures: Mapping[str, Figure] | PendingFigures | None,
+    ) -> list[str]:
+        """The run folders and the PNGs, at once; the PNGs' stems."""
+        if figures is not None and not isinstance(figures, Mapping):
+            # Drawn in another process: the run folders are written here meanwhile.
+            self._save_runs(out, mission_dir)
+            return figures.wait()
+        # The run folders (Parquet, mostly outside the GIL) are written in a thread while the
+        # PNGs are drawn here (matplotlib, Python): the two overlap on two cores. plots builds
+        # Figures without pyplot: nothing to close, they go with their references.
+        with ThreadPoolExecutor(1) as pool:
+            runs = pool.submit(self._save_runs, out, mission_dir)
+            for stem, fig in (figures or {}).items():
+                write_png(fig, out / FIGURES_DIR / f"{stem}.png")
+            runs.result()
+        return list(figures or {})
+
     def save(
         self,
         out_dir: str | Path,
         *,
         mission_dir: str | Path | None = None,
-        figures: Mapping[str, Figure] | None = None,
+        figures: Mapping[str, Figure] | PendingFigures | None = None,
         interactive: Mapping[str, SupportsToJson] | None = None,
     ) -> Path:
         """Write the comparison folder (see the module docstring); returns it.
 
         ``figures``: the figures to write into ``figures/`` by file stem
-        (``adaptnav.viz.plots.comparison_figures(self)``; the analysis layer draws nothing).
+        (``adaptnav.viz.plots.comparison_figures(self)``; the analysis layer draws nothing), or
+        PNGs being written there elsewhere (:class:`PendingFigures`), waited for once the run
+        folders are written.
         ``interactive``: interactive versions of some of them, by the same stems
         (``adaptnav.viz.interactive.comparison_figures(self)``), written as
         ``figures/<stem>.plotly.json`` for the report to embed (docs/report.md).
@@ -346,27 +386,14 @@ class Comparison:
         from adaptnav.api.results import jsonable
 
         out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        # The run folders (Parquet, mostly outside the GIL) are written in a thread while the
-        # PNGs are drawn here (matplotlib, Python): the two overlap on two cores.
-        with ThreadPoolExecutor(1) as pool:
-            runs = pool.submit(self._save_runs, out, mission_dir)
-            fig_dir = out / FIGURES_DIR
-            fig_dir.mkdir(exist_ok=True)
-            figure_files = []
-            # plots builds Figures without pyplot: nothing to close, they go with their
-            # references. zlib level 3: the same pixels as the default 6, files within a few
-            # %, encoded in about half the time.
-            for stem, fig in (figures or {}).items():
-                fig.savefig(
-                    fig_dir / f"{stem}.png", dpi=FIGURE_DPI, pil_kwargs={"compress_level": 3}
-                )
-                figure_files.append(f"{FIGURES_DIR}/{stem}.png")
-            runs.result()
+        fig_dir = out / FIGURES_DIR
+        fig_dir.mkdir(parents=True, exist_ok=True)
         interactive_files = {}
         for stem, spec in (interactive or {}).items():
             (fig_dir / f"{stem}{INTERACTIVE_SUFFIX}").write_text(spec.to_json(), encoding="utf-8")
             interactive_files[stem] = f"{FIGURES_DIR}/{stem}{INTERACTIVE_SUFFIX}"
+        stems = self._save_runs_and_pngs(out, mission_dir, figures)
+        figure_files = [f"{FIGURES_DIR}/{stem}.png" for stem in stems]
 
         root = Path(self.mission.root).resolve()
         sim = simulation_info(root)

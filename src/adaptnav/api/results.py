@@ -49,6 +49,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput, LedgerRows
+from adaptnav.mission.tables import write_parquet as write_parquet  # the one Parquet writer
 from adaptnav.models.errorstate import N_STATES, STATE_NAMES
 from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_POS, NOM_SIZE, NOM_VEL
 
@@ -473,15 +474,6 @@ def summary(result: Result) -> dict[str, Any]:
         "counts": ledger_counts(result.ledger),
         "events": event_counts(result.events),
     }
-
-
-def write_parquet(table: pd.DataFrame, path: Path) -> None:
-    """Write ``table`` as Parquet (snappy, no index) with a dictionary for its text columns
-    only: names (sensor, fate, reason) repeat and shrink by one, but measured numbers rarely
-    repeat, and trying a dictionary on each float column took two thirds of the writing time
-    and left the files larger. The table reads back the same."""
-    text = [str(c) for c in table.columns if not pd.api.types.is_numeric_dtype(table[c])]
-    table.to_parquet(path, index=False, use_dictionary=text)
 
 
 def save(result: Result, run_dir: str | Path) -> Path:

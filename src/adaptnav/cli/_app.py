@@ -4,6 +4,7 @@ the paper's Table 3."""
 
 from __future__ import annotations
 
+import gc
 import os
 import time
 from collections.abc import Callable, Iterable, Iterator
@@ -115,6 +116,19 @@ def output(out: Path, force: bool, inputs: Iterable[Path] = ()) -> Iterator[Path
             yield tmp
     except OutputError as exc:
         fail(str(exc))
+
+
+def freeze_heap() -> None:
+    """Move every object alive now out of the garbage collector's sight (``gc.freeze``).
+
+    The long commands call it once their modules are imported and again once their runs are
+    in memory: the modules' functions, classes and constants (some 200 000 objects for numpy,
+    pandas, scipy, numba, matplotlib) and the runs' tables live until the command ends, yet each
+    full collection, and the interpreter's collections at exit, traverse them all. Frozen,
+    they are skipped: about 1 s less of ``adaptnav demo`` (docs/performance.md). They are
+    still freed by reference counting; only a reference cycle among them waits for the exit.
+    """
+    gc.freeze()
 
 
 Quiet = Annotated[

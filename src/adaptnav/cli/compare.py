@@ -33,6 +33,7 @@ from adaptnav.cli._app import (
     app,
     console,
     fail,
+    freeze_heap,
     output,
 )
 
@@ -142,7 +143,8 @@ def compare_cmd(
     from adaptnav.analysis.compare import compare, parse_filters
     from adaptnav.core.units import UnitError
     from adaptnav.mission import MissionError, load_mission
-    from adaptnav.viz import interactive, plots  # plotting: imported only when drawn
+    from adaptnav.viz import interactive  # plotting: imported only when drawn
+    from adaptnav.viz.pngs import PngJob
 
     try:
         names = parse_filters(filters)
@@ -157,11 +159,12 @@ def compare_cmd(
             # ValueError covers the alignment, the oracle's and floor's missing columns, and a
             # mission without a reference; OSError a missing or unreadable folder.
             fail(str(exc))
+        freeze_heap()
         st.begin("drawing the figures")
-        figures = plots.comparison_figures(cmp)
-        zoomable = interactive.comparison_figures(cmp)
-        st.begin(f"writing {out}/")
-        cmp.save(tmp, figures=figures, interactive=zoomable)
+        with PngJob(cmp, tmp) as pngs:  # the PNGs in child processes
+            zoomable = interactive.comparison_figures(cmp)
+            st.begin(f"writing {out}/")
+            cmp.save(tmp, figures=pngs, interactive=zoomable)
     if as_json:
         typer.echo(json.dumps(cmp.to_json(), allow_nan=False))
         return

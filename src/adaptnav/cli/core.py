@@ -16,6 +16,7 @@ from adaptnav.cli._app import (
     Stages,
     app,
     console,
+    freeze_heap,
     output,
     run_progress,
 )
@@ -55,24 +56,30 @@ def demo(
     from adaptnav.mission import load_mission
     from adaptnav.sim.scenarios import PRESETS
     from adaptnav.sim.scenarios import simulate as run_simulation
-    from adaptnav.viz import interactive, plots
+    from adaptnav.viz import interactive
+    from adaptnav.viz.pngs import PngJob, import_in_background
     from adaptnav.viz.report import write_report
 
     if preset not in PRESETS:
         _fail(f"preset {preset!r}: use one of {', '.join(PRESETS)}")
     filters = ["meskf", "maeskf", "vb", "robust", "oracle"]
+    freeze_heap()
     with output(out, force) as tmp, Stages(quiet) as st:
         st.begin(f"simulating {preset} (seed {seed})")
         mission_dir = run_simulation(preset, seed, tmp / "mission")
         st.begin("loading the mission")
         mission = load_mission(mission_dir)
+        plotting = import_in_background()
         cmp = compare(mission, filters, progress=st.compiling_step, smooth=smooth)
+        plotting.join()
+        freeze_heap()
         st.begin("drawing the figures")
-        figures = plots.comparison_figures(cmp)
-        zoomable = interactive.comparison_figures(cmp)
-        st.begin(f"writing the runs, comparison and figures to {out}/")
-        # Written in a temporary folder renamed to --out at the end: record the final paths.
-        cmp.save(tmp, mission_dir=out.absolute() / "mission", figures=figures, interactive=zoomable)
+        with PngJob(cmp, tmp) as pngs:
+            zoomable = interactive.comparison_figures(cmp)
+            st.begin(f"writing the runs, comparison and figures to {out}/")
+            # Written in a temporary folder renamed to --out at the end: record the final paths.
+            final_mission = out.absolute() / "mission"
+            cmp.save(tmp, mission_dir=final_mission, figures=pngs, interactive=zoomable)
         st.begin("writing the report")
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"

@@ -27,7 +27,8 @@ shared navigation start; angles are shown in degrees.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -71,6 +72,7 @@ __all__ = [
     "calibration",
     "comparison_figures",
     "envelope",
+    "figure_makers",
     "ledger_counts",
     "nis",
     "noise_variance",
@@ -556,22 +558,29 @@ def comparison_figures(cmp: Comparison) -> dict[str, Figure]:
     ``noise_<sensor>`` per aided sensor, ``ledger_counts``, ``nis`` and, when some run
     estimates calibration states, ``calibration`` (true values from the mission's
     ``simulation.json`` when it has them)."""
+    return {stem: make() for stem, make in figure_makers(cmp).items()}
+
+
+def figure_makers(cmp: Comparison) -> dict[str, Callable[[], Figure]]:
+    """What :func:`comparison_figures` draws, each figure not yet drawn: a function per file
+    stem, so that a subset can be drawn (:mod:`adaptnav.viz.pngs` splits them between
+    processes)."""
     from adaptnav.analysis import calibration as cal
     from adaptnav.analysis.compare import simulation_info
 
     t0 = cmp.t0
-    figs = {
-        "trajectory": trajectory(cmp.results, cmp.truth, t0=t0),
-        "position_error": position_error(cmp.results, cmp.truth, t0=t0),
+    makers: dict[str, Callable[[], Figure]] = {
+        "trajectory": partial(trajectory, cmp.results, cmp.truth, t0=t0),
+        "position_error": partial(position_error, cmp.results, cmp.truth, t0=t0),
     }
     for sensor in aided_sensors(cmp.mission):
-        figs[f"noise_{sensor}"] = noise_variance(cmp.results, cmp.mission, sensor, t0=t0)
+        makers[f"noise_{sensor}"] = partial(noise_variance, cmp.results, cmp.mission, sensor, t0=t0)
     if any(not r.ledger.empty for r in cmp.results.values()):
-        figs["ledger_counts"] = ledger_counts(cmp.results, cmp.metrics, t0=t0)
+        makers["ledger_counts"] = partial(ledger_counts, cmp.results, cmp.metrics, t0=t0)
     if any((r.ledger["fate"] == "used").any() for r in cmp.results.values()):
-        figs["nis"] = nis(cmp.results, t0=t0)
+        makers["nis"] = partial(nis, cmp.results, t0=t0)
     if any(r.meta.get("calibration") for r in cmp.results.values()):
         units = cal.units(cmp.mission.config)
         truth = cal.true_values(cmp.mission.config, simulation_info(cmp.mission.root))
-        figs["calibration"] = calibration(cmp.results, units, truth, t0=t0)
-    return figs
+        makers["calibration"] = partial(calibration, cmp.results, units, truth, t0=t0)
+    return makers
