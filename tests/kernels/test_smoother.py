@@ -182,6 +182,62 @@ def test_compiled_backward_equals_the_twin(
                                P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip
 
 
+@pytest.mark.parametrize(("threads", "chunk"), [(1, 2), (2, 1), (2, 3), (3, 2), (7, 0)])
+def test_the_backward_pass_gives_the_same_bits_in_any_number_of_threads(
+    threads: int, chunk: int
+) -> None:
+    """The chain of update nodes goes in runs of ``chunk``, each run's intervals smoothed by
+    whichever thread is free (compiled.smoother.anchors, interiors); every node must come out
+    exactly as from one thread in one run, the update node whose P⁻ fails included (its
+    interval keeps its filtered values)."""
+    nodes = _kalman(0.4)[0]
+    updates = np.flatnonzero(np.any(nodes.dx != 0.0, axis=1))
+    assert updates.size >= 6 and np.sum(np.diff(updates) > 2) >= 3  # intervals with nodes inside
+    bad = nodes.P_prior.copy()
+    j = int(updates[4])  # an update node with nodes between it and the one before
+    assert j - updates[3] > 2
+    bad[j] = -np.eye(15)
+    nodes = smoother.Nodes(nodes.t, nodes.x, nodes.dx, nodes.P, bad, nodes.Phi, True)
+    one, many = _store(nodes), _store(nodes)
+    smk.backward(one, True, 1, updates.size)
+    smk.backward(many, True, threads, chunk)
+    assert one[smk.SM_COUNT][smk.K_FAILED] == many[smk.SM_COUNT][smk.K_FAILED] == 1
+    for key in (smk.SM_X, smk.SM_P):
+        np.testing.assert_array_equal(many[key], one[key])
+    before = _store(nodes)
+    assert not np.array_equal(many[smk.SM_P], before[smk.SM_P])  # it did smooth
+    inside = slice(int(updates[3]) + 1, j)
+    np.testing.assert_array_equal(many[smk.SM_X][inside], before[smk.SM_X][inside])
+
+
+def test_without_full_the_reported_elements_are_those_of_the_full_pass() -> None:
+    """``full=False`` (what the engine runs) smooths all of x and, at the nodes without an
+    update, only the elements of P^s the solution reports: those must equal the full pass's,
+    the update nodes must be whole, and the rest is the filtered P."""
+    from adaptnav.engine.batch import P_CROSS_PAIRS
+
+    nodes = _kalman(0.4)[0]
+    N, n = nodes.dx.shape
+    has_update = np.any(nodes.dx != 0.0, axis=1)
+    full, part = _store(nodes), _store(nodes)
+    smk.backward(full, True, 2, 2)
+    smk.backward(part, True, 2, 2, full=False)
+    np.testing.assert_array_equal(part[smk.SM_X][:N], full[smk.SM_X][:N])
+    reported = smk.reported(n)
+    assert set(P_CROSS_PAIRS) <= set(reported)
+    cols = [smk.packed_index(i, j, n) for i, j in reported]
+    others = sorted(set(range(smk.packed_size(n))) - set(cols))
+    np.testing.assert_allclose(part[smk.SM_P][:N][:, cols], full[smk.SM_P][:N][:, cols],
+                               rtol=1e-13, atol=0.0)  # fmt: skip
+    last = int(np.flatnonzero(has_update)[-1])
+    inner = ~has_update & (np.arange(N) < last)
+    assert inner.sum() >= 5
+    np.testing.assert_array_equal(part[smk.SM_P][:N][has_update], full[smk.SM_P][:N][has_update])
+    filtered = _store(nodes)[smk.SM_P][:N]
+    np.testing.assert_array_equal(part[smk.SM_P][:N][inner][:, others], filtered[inner][:, others])
+    assert not np.array_equal(full[smk.SM_P][:N][inner][:, others], filtered[inner][:, others])
+
+
 def test_reset_inverse_undoes_the_reset_jacobian() -> None:
     from adaptnav.models.errorstate import reset_jacobian
 

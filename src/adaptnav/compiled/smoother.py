@@ -25,12 +25,14 @@ of them is corrected only by what the later one brings, through one gain over th
 from __future__ import annotations
 
 import math
+import queue
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptnav.compiled.propagation import _W, jit, jit_inline
+from adaptnav.compiled.propagation import _W, jit, jit_inline, jit_nogil
 from adaptnav.compiled.update import _cho_solve, _cholesky, inject
 
 Array = NDArray[np.float64]
@@ -211,6 +213,21 @@ def output_node(sm: Store, o: int, t: float, x: Array, P: Array) -> None:
         sm[SM_OUT][o] = node(sm, t, x, P, _NO_DX, _NO_PRIOR)
 
 
+@jit
+def gather(sm: Store, rows: IntArray, columns: IntArray) -> tuple[Array, Array]:
+    """The stored x of the nodes ``rows`` (len(rows), 16 + m) and their packed P's elements
+    ``columns`` (:func:`packed_index`; len(rows), len(columns)), in one pass over the rows."""
+    X = np.empty((rows.shape[0], sm[SM_X].shape[1]))
+    C = np.empty((rows.shape[0], columns.shape[0]))
+    for i in range(rows.shape[0]):
+        x, p = sm[SM_X][rows[i]], sm[SM_P][rows[i]]
+        for c in range(X.shape[1]):
+            X[i, c] = x[c]
+        for c in range(columns.shape[0]):
+            C[i, c] = p[columns[c]]
+    return X, C
+
+
 @jit_inline
 def _reset_inverse(dx: Array, reset: bool) -> tuple[float, ...]:
     """``G⁻¹`` of the attitude block (row-major 3×3), twin of smoother.reset_inverse."""
@@ -317,39 +334,53 @@ def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
 
 
 @jit_inline
-def _anchor(
-    sm: Store, b: int, reset: bool, e: Array, Ps: Array, v: Array, U: Array, work: Array
-) -> bool:
+def _factor(sm: Store, b: int, reset: bool, e: Array, Ps: Array, work: Array) -> bool:
     """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
-    the coordinates before its feedback, equation (1)): ``v = (P⁻)⁻¹ e⁻`` and
-    ``U = (P⁻)⁻¹ (P⁻s - P⁻) (P⁻)⁻¹``, by the Cholesky factor of ``Δ P⁻ Δ``,
-    ``Δ = diag(P⁻)^(-1/2)``, inverted (its condition is ~1e2 where P⁻'s is ~1e20). False if P⁻
-    is not positive definite. ``work`` (6, W, W): scratch, zero from row and column n on."""
-    n = v.shape[0]
-    Pm, L, S, D, T, acc = work[0], work[1], work[2], work[3], work[4], work[5]
+    the coordinates before its feedback, equation (1)): with ``Δ = diag(P⁻)^(-1/2)``, the
+    Cholesky factor L of ``Δ P⁻ Δ`` into ``work[1]`` (its condition is ~1e2 where P⁻'s is
+    ~1e20), ``Δ (P⁻s - P⁻) Δ`` into ``work[3]``, Δ's diagonal into ``work[4][3]`` and
+    ``Δ e⁻`` (``e⁻ = dx + e``) into ``work[4][4]``. False if P⁻ is not positive definite.
+    ``work`` (6, W, W): scratch, zero from row and column n on; ``work[0]`` is overwritten."""
+    n = e.shape[0]
+    Pm, L, D, T = work[0], work[1], work[3], work[4]
     r = sm[SM_PRIOR][b]
     dx = sm[SM_DX][r]
     _to_prior_coordinates(_reset_inverse(dx, reset), e, Ps, T[:3])
     unpack(sm[SM_PM][r], Pm, n)
-    d = T[3]
+    d, f = T[3], T[4]
     for i in range(n):
         if not Pm[i, i] > 0.0:
             return False
         d[i] = 1.0 / math.sqrt(Pm[i, i])
+        f[i] = d[i] * (dx[i] + e[i])
     for i in range(n):
         for c in range(n):
             D[i, c] = (Ps[i, c] - Pm[i, c]) * (d[i] * d[c])
             Pm[i, c] *= d[i] * d[c]
-    if not _cholesky(Pm, n, L):
+    return _cholesky(Pm, n, L)
+
+
+@jit_inline
+def _anchor(
+    sm: Store, b: int, reset: bool, e: Array, Ps: Array, v: Array, U: Array, work: Array
+) -> bool:
+    """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
+    the coordinates before its feedback): ``v = (P⁻)⁻¹ e⁻`` and
+    ``U = (P⁻)⁻¹ (P⁻s - P⁻) (P⁻)⁻¹``, by :func:`_factor` and ``(Δ P⁻ Δ)⁻¹`` from its factor.
+    False if P⁻ is not positive definite. ``work`` (6, W, W): scratch as in :func:`_factor`."""
+    n = v.shape[0]
+    Pm, S, D, T, acc = work[0], work[2], work[3], work[4], work[5]
+    if not _factor(sm, b, reset, e, Ps, work):
         return False
+    d, f = T[3], T[4]
     for i in range(n):
         for c in range(n):
             S[i, c] = 1.0 if i == c else 0.0
-    _cho_solve(L, n, S, S, S.shape[1])  # W columns, the last zero: vectorized rows
+    _cho_solve(work[1], n, S, S, S.shape[1])  # W columns, the last zero: vectorized rows
     for i in range(n):
         s = 0.0
         for m in range(n):
-            s += S[i, m] * (d[m] * (dx[m] + e[m]))
+            s += S[i, m] * f[m]
         v[i] = d[i] * s
     _product(S, D, Pm, acc, n, False)
     _product(Pm, S, D, acc, n, False)
@@ -360,9 +391,51 @@ def _anchor(
 
 
 @jit_inline
-def _smooth_node(sm: Store, j: int, psi: Array, v: Array, U: Array, e: Array, work: Array) -> None:
+def _smooth_before(sm: Store, j: int, psi: Array, e: Array, work: Array, more: Array) -> None:
+    """Node j from the update node b after it, as :func:`_smooth_node` but from b's
+    :func:`_factor` (``work``) without U, for a single node: with ``A = Ψ P_j`` and
+    ``Y = (Δ P⁻ Δ)⁻¹ Δ A`` (the factor's two triangular solves), ``e^s_j = Yᵀ Δ e⁻`` into ``e``
+    and x_j and ``P^s_j = P_j + Yᵀ [Δ (P⁻s - P⁻) Δ] Y`` into the store's P: the same as
+    ``Aᵀ v`` and ``P_j + Aᵀ U A``, a third of the products of forming U first. ``more``
+    (4, W, W): scratch, zero from row and column n on."""
+    n = e.shape[0]
+    W = more.shape[1]
+    L, D, T, acc = work[1], work[3], work[4], work[5]
+    Pj, A, Y, M = more[0], more[1], more[2], more[3]
+    d, f = T[3], T[4]
+    unpack(sm[SM_P][j], Pj, n)
+    _psi_product(psi, Pj, A, acc, n)
+    for i in range(n):
+        for c in range(W):
+            Y[i, c] = d[i] * A[i, c]
+    _cho_solve(L, n, Y, Y, W)
+    for c in range(W):
+        acc[0, c] = 0.0
+    for m in range(n):
+        a = f[m]
+        for c in range(W):
+            acc[0, c] += a * Y[m, c]
+    for i in range(n):
+        e[i] = acc[0, i]
+    _product(D, Y, A, acc, n, False)
+    _product(Y, A, M, acc, n, True)
+    out = sm[SM_P][j]
+    k = 0
+    for i in range(n):
+        for c in range(i, n):
+            out[k] = Pj[i, c] + M[i, c]
+            k += 1
+    inject(sm[SM_X][j], e)
+
+
+@jit_inline
+def _smooth_node(
+    sm: Store, j: int, psi: Array, v: Array, U: Array, e: Array, work: Array, full: bool
+) -> None:
     """Node j from the update node b after it: with ``A = Ψ P_j``, ``Ψ = Φ(b, j)``,
-    ``e^s_j = Aᵀ v`` into ``e`` and x_j, ``P^s_j = P_j + Aᵀ U A`` into the store's P.
+    ``e^s_j = Aᵀ v`` into ``e`` and x_j, ``P^s_j = P_j + Aᵀ U A`` into the store's P: all of it
+    when ``full``, else only its elements :func:`reported` (the rest stays filtered), which
+    need ``U A`` and one column dot product each instead of a second product.
     ``work`` (5, W, W): scratch, zero from row and column n on."""
     n = e.shape[0]
     W = U.shape[1]
@@ -378,18 +451,45 @@ def _smooth_node(sm: Store, j: int, psi: Array, v: Array, U: Array, e: Array, wo
     for i in range(n):
         e[i] = acc[0, i]
     _product(U, A, UA, acc, n, False)
-    _product(A, UA, M, acc, n, True)
     out = sm[SM_P][j]
-    k = 0
-    for i in range(n):
-        for c in range(i, n):
-            out[k] = Pj[i, c] + M[i, c]
-            k += 1
+    if full:
+        _product(A, UA, M, acc, n, True)
+        k = 0
+        for i in range(n):
+            for c in range(i, n):
+                out[k] = Pj[i, c] + M[i, c]
+                k += 1
+    else:
+        for c in range(W):
+            acc[0, c] = 0.0
+        for m in range(n):
+            for c in range(W):
+                acc[0, c] += A[m, c] * UA[m, c]
+        for i in range(n):
+            out[i * n - i * (i - 1) // 2] = Pj[i, i] + acc[0, i]
+        for base in range(0, 9, 3):
+            for p in range(3):
+                for q in range(p + 1, 3):
+                    i, c = base + p, base + q
+                    t = 0.0
+                    for m in range(n):
+                        t += A[m, i] * UA[m, c]
+                    out[i * n - i * (i - 1) // 2 + (c - i)] = Pj[i, c] + t
     inject(sm[SM_X][j], e)
 
 
-@jit
-def backward(sm: Store, reset: bool) -> None:
+def reported(n: int) -> list[tuple[int, int]]:
+    """The elements ``(i, j)``, i ≤ j, of an n×n ``P^s`` that a backward pass with
+    ``full=False`` smooths at the nodes that are not update nodes: the diagonal and the 3×3
+    blocks of rows and columns 0-2, 3-5 and 6-8, what the smoothed solution reports (σ of
+    every state and the correlations within position, velocity and attitude;
+    adaptnav.engine.batch.P_CROSS_PAIRS)."""
+    return sorted({(i, i) for i in range(n)} | {
+        (b + p, b + q) for b in (0, 3, 6) for p in range(3) for q in range(p + 1, 3)
+    })  # fmt: skip
+
+
+def backward(sm: Store, reset: bool, threads: int = 1, chunk: int = 0, full: bool = True) -> None:
     """The RTS backward pass over the stored nodes, in place: each node's x becomes ``x^s``
     and its packed P becomes ``P^s`` (docs/smoothing.md, 'The backward pass').
 
@@ -400,31 +500,114 @@ def backward(sm: Store, reset: bool) -> None:
     between a and b have no update (``P⁻ = P``, dx = 0 there). The nodes from the last update
     node on keep their filtered values: nothing after them observes anything. When update node
     b's P⁻ is not positive definite, the nodes a..b-1 keep their filtered values and b is
-    counted (``K_FAILED``)."""
+    counted (``K_FAILED``). Without ``full``, the nodes that are not update nodes get only the
+    elements :func:`reported` of ``P^s`` (a third less work); the update nodes always get all of
+    it, as the pass goes on from them.
+
+    The chain of update nodes is sequential (each anchor starts from the smoothed update node
+    after it): :func:`anchors` goes along it in runs of ``chunk`` update nodes (0:
+    :data:`CHUNK`). The nodes
+    strictly between two update nodes need only their anchor, so :func:`interiors` smooths a
+    run's intervals as soon as its anchors are done, in ``threads`` threads (this one included;
+    the kernels release the GIL). The result does not depend on ``threads``: every node is
+    computed by the same arithmetic."""
     counts = sm[SM_COUNT]
     counts[K_FAILED] = 0
-    prior = sm[SM_PRIOR]
-    b = counts[K_NODES] - 1
-    while b > 0 and prior[b] < 0:
-        b -= 1
+    ups = np.flatnonzero(sm[SM_PRIOR][: counts[K_NODES]] >= 0).astype(np.int64)
+    if ups.size == 0:
+        return
+    n = sm[SM_DX].shape[1]
+    e, kept = np.zeros(n), np.zeros((ups.size, n))
+    step = chunk if chunk > 0 else CHUNK
+    runs = [(max(hi - step, 0), hi) for hi in range(int(ups.size), 0, -step)]
+    if threads <= 1:
+        for lo, hi in runs:
+            anchors(sm, reset, ups, lo, hi, e, kept)
+            interiors(sm, reset, ups, lo, hi, kept, full)
+        return
+    ready: queue.SimpleQueue[tuple[int, int] | None] = queue.SimpleQueue()
+
+    def drain() -> None:
+        while (run := ready.get()) is not None:
+            interiors(sm, reset, ups, *run, kept, full)
+
+    with ThreadPoolExecutor(threads - 1) as pool:
+        helpers = [pool.submit(drain) for _ in range(threads - 1)]
+        try:
+            for run in runs:
+                anchors(sm, reset, ups, *run, e, kept)
+                ready.put(run)
+        finally:
+            for _ in range(threads):
+                ready.put(None)
+        drain()
+        for f in helpers:
+            f.result()
+
+
+CHUNK = 256
+"""Update nodes per run of :func:`anchors` handed on to :func:`interiors` (:func:`backward`)."""
+
+
+@jit_nogil
+def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, kept: Array) -> None:
+    """The backward pass's sequential part (:func:`backward`), for the update nodes
+    ``b = ups[k]``, k from hi - 1 down to lo (``ups``: the update nodes, ascending), after the
+    runs above hi: at each b, from its factor (:func:`_factor`), the smoothed x and P of the
+    update node a before b (or of node 0), which the factor at a starts from
+    (:func:`_smooth_before`); b's smoothed error into ``kept[k]`` for :func:`interiors`, or NaN
+    in its first element when b's P⁻ is not positive definite (counted). ``e``: the smoothed
+    error of ``ups[hi]`` (zero at the last update node), left as that of ``ups[lo]``."""
+    counts = sm[SM_COUNT]
+    n = sm[SM_DX].shape[1]
+    W = (n + 3) // 4 * 4
+    psi = np.zeros(N_PHI)
+    Ps, work, more = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((4, W, W))
+    unpack(sm[SM_P][ups[hi - 1]], Ps, n)
+    for k in range(hi - 1, lo - 1, -1):
+        b = ups[k]
+        if b == 0:
+            break
+        a = ups[k - 1] if k > 0 else 0
+        for i in range(n):
+            kept[k, i] = e[i]
+        if _factor(sm, b, reset, e, Ps, work):
+            psi[:] = sm[SM_PHI][b]
+            for j in range(b - 2, a - 1, -1):
+                _psi_times(psi, sm[SM_PHI][j + 1], work[5])
+            _smooth_before(sm, a, psi, e, work, more)
+        else:
+            counts[K_FAILED] += 1
+            e[:] = 0.0
+            kept[k, 0] = math.nan
+        unpack(sm[SM_P][a], Ps, n)
+
+
+@jit_nogil
+def interiors(
+    sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, kept: Array, full: bool
+) -> None:
+    """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
+    same range: for the update nodes ``b = ups[lo:hi]``, v and U (:func:`_anchor`) from b's
+    smoothed error in ``kept`` and its smoothed P in the store, and from them the nodes strictly
+    between the update node before b (or node 0) and b (all of P^s or, without ``full``, its
+    elements :func:`reported`); nothing when b's factor failed.
+    Intervals are independent: calls on disjoint ranges may run at once."""
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     e, v, psi = np.zeros(n), np.zeros(n), np.zeros(N_PHI)
     Ps, U, work = np.zeros((W, W)), np.zeros((W, W)), np.zeros((6, W, W))
-    if b > 0:
+    for k in range(lo, hi):
+        b = ups[k]
+        a = ups[k - 1] if k > 0 else 0
+        if b - a < 2 or math.isnan(kept[k, 0]):
+            continue
+        for i in range(n):
+            e[i] = kept[k, i]
         unpack(sm[SM_P][b], Ps, n)
-    while b > 0:
-        a = b - 1
-        while a > 0 and prior[a] < 0:
-            a -= 1
-        if _anchor(sm, b, reset, e, Ps, v, U, work):
-            psi[:] = sm[SM_PHI][b]
-            for j in range(b - 1, a - 1, -1):
-                if j < b - 1:
-                    _psi_times(psi, sm[SM_PHI][j + 1], work[5])
-                _smooth_node(sm, j, psi, v, U, e, work[:5])
-        else:
-            counts[K_FAILED] += 1
-            e[:] = 0.0
-        unpack(sm[SM_P][a], Ps, n)
-        b = a
+        _anchor(sm, b, reset, e, Ps, v, U, work)
+        psi[:] = sm[SM_PHI][b]
+        for j in range(b - 1, a, -1):
+            if j < b - 1:
+                _psi_times(psi, sm[SM_PHI][j + 1], work[5])
+            _smooth_node(sm, j, psi, v, U, e, work[:5], full)

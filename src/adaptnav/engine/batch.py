@@ -45,9 +45,9 @@ from __future__ import annotations
 import gc
 import math
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import cached_property, partial
+from functools import cached_property
 from typing import Any, Literal, overload
 
 import numpy as np
@@ -183,6 +183,10 @@ COVARIANCE_BLOCK_S = 0.1
 """Default span of a covariance block (EngineConfig.covariance_block_s; docs/filters.md,
 'Covariance blocks')."""
 MAX_COVARIANCE_BLOCK_S = 1.0
+SMOOTHER_THREADS = 4
+"""Most threads the backward pass smooths the nodes between update nodes in (at most the
+cores this process may use; compiled.smoother.backward); its chain of update nodes is
+sequential."""
 """Longest block allowed: the second-order Φ of a summed F stays accurate while F T is small."""
 _STRATEGIES = (FixedNoise, CovarianceMatching, VariationalBayes)
 """The closed set of noise strategies (estimation/noise/base.py, :class:`NoiseKind`)."""
@@ -1304,26 +1308,33 @@ class Navigator:
         if sm is None:
             raise RuntimeError("smoothing needs EngineConfig(smooth=True) from the start")
         if self._smoothed is None:
-            smk.backward(sm, self.config.reset_covariance)
+            threads = min(SMOOTHER_THREADS, coldstart.cores())
+            # the solution reports P^s's diagonal and P_CROSS_PAIRS only (smk.reported)
+            smk.backward(sm, self.config.reset_covariance, threads, full=False)
             counts = sm[smk.SM_COUNT]
             nodes, priors = int(counts[smk.K_NODES]), int(counts[smk.K_PRIORS])
             rows = int(self._icur[I_N_OUT])
             idx = sm[smk.SM_OUT][:rows]
             n = self.config.layout.n
-            packed = partial(_elements, sm[smk.SM_P], idx, n=n)
+            pairs = [
+                *((i, i) for i in range(N_STATES)), *P_CROSS_PAIRS,
+                *((i, i) for i in range(N_STATES, n)),
+            ]  # fmt: skip
+            columns = np.array([smk.packed_index(i, j, n) for i, j in pairs], dtype=np.int64)
+            x, p = smk.gather(sm, idx, columns)
             per_node = sum(sm[k][:1].nbytes for k in smk.NODE_ARRAYS)
             per_update = sum(sm[k][:1].nbytes for k in smk.UPDATE_ARRAYS)
             self._smoothed = Smoothed(
                 self._out_t[:rows].copy(),
-                sm[smk.SM_X][idx, :NOM_SIZE],
-                packed((i, i) for i in range(N_STATES)),
-                packed(P_CROSS_PAIRS),
+                x[:, :NOM_SIZE],
+                p[:, :N_STATES],
+                p[:, N_STATES : N_STATES + N_CROSS],
                 nodes,
                 priors,
                 int(counts[smk.K_FAILED]),
                 nodes * per_node + priors * per_update,
-                declared=sm[smk.SM_X][idx, NOM_SIZE:],
-                declared_var=packed((i, i) for i in range(N_STATES, n)),
+                declared=x[:, NOM_SIZE:],
+                declared_var=p[:, N_STATES + N_CROSS :],
             )
         return self._smoothed
 
@@ -1344,13 +1355,6 @@ class Navigator:
             q_scale=float(self._rates[uk.R_Q, 0]),
             smoothed=self.smooth() if self.config.smooth else None,
         )
-
-
-def _elements(packed: Array, rows: IntArray, pairs: Iterable[tuple[int, int]], *, n: int) -> Array:
-    """``P[i, j]`` for each (i, j) of ``pairs`` (columns) of the packed matrices
-    (compiled.smoother.pack) in ``rows`` of ``packed``, without copying whole rows."""
-    columns = np.array([smk.packed_index(i, j, n) for i, j in pairs], dtype=np.int64)
-    return packed[np.ix_(rows, columns)]
 
 
 def _unpacked(packed: Array, n: int) -> Array:

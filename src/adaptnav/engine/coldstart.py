@@ -49,7 +49,7 @@ _EXCEPTION = re.compile(r"^[\w.]+(Error|Exception): ")
 """A traceback's line that names the exception (Numba's messages run over many lines)."""
 
 
-def _cores() -> int:
+def cores() -> int:
     """The cores this process may run on."""
     affinity = getattr(os, "sched_getaffinity", None)
     return len(affinity(0)) if affinity is not None else os.cpu_count() or 1
@@ -74,7 +74,7 @@ def compile_aside(kernel: Any, args: Sequence[Any]) -> Aside | None:
     """Start a child process that compiles the ``cache=True`` kernel ``kernel`` (a Numba
     dispatcher) for the types of ``args`` into Numba's cache; None if it could not start, or
     would not help (one core)."""
-    if not sys.executable or _cores() < 2:  # an embedded interpreter: no Python to start
+    if not sys.executable or cores() < 2:  # an embedded interpreter: no Python to start
         return None
     fn = kernel.py_func
     payload = pickle.dumps((sys.path, fn.__module__, fn.__name__, signature(args)))
