@@ -19,7 +19,9 @@ core, plus n + n(n+1)/2 float64 (1.1 KB) per update node.
 
 The backward pass (:func:`backward`) goes from update node to update node: a node between two
 of them is corrected only by what the later one brings, through one gain over the interval
-(docs/smoothing.md, 'The backward pass').
+(docs/smoothing.md, 'The backward pass'). The chain of update nodes (:func:`anchors`) is
+sequential; the nodes between them (:func:`interiors`) are smoothed in threads as the chain
+passes them; the pass keeps a further n float64 per update node while it runs.
 """
 
 from __future__ import annotations
