@@ -363,48 +363,60 @@ def _factor(sm: Store, b: int, reset: bool, e: Array, Ps: Array, work: Array) ->
 
 
 @jit_inline
-def _anchor(
-    sm: Store, b: int, reset: bool, e: Array, Ps: Array, v: Array, U: Array, work: Array
-) -> bool:
-    """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
-    the coordinates before its feedback): ``v = (P⁻)⁻¹ e⁻`` and
-    ``U = (P⁻)⁻¹ (P⁻s - P⁻) (P⁻)⁻¹``, by :func:`_factor` and ``(Δ P⁻ Δ)⁻¹`` from its factor.
-    False if P⁻ is not positive definite. ``work`` (6, W, W): scratch as in :func:`_factor`."""
-    n = v.shape[0]
-    Pm, S, D, T, acc = work[0], work[2], work[3], work[4], work[5]
-    if not _factor(sm, b, reset, e, Ps, work):
-        return False
-    d, f = T[3], T[4]
+def _finish(
+    out: Array, Pj: Array, A: Array, B: Array, M: Array, acc: Array, n: int, full: bool
+) -> None:
+    """``P_j + Aᵀ B`` into the packed ``out``: all of it when ``full``, else only the elements
+    :func:`reported` (one column dot product each instead of a matrix product; the rest of
+    ``out`` is left as it is). ``M`` (W, W), ``acc`` (≥ 4, W): scratch."""
+    W = A.shape[1]
+    if full:
+        _product(A, B, M, acc, n, True)
+        k = 0
+        for i in range(n):
+            for c in range(i, n):
+                out[k] = Pj[i, c] + M[i, c]
+                k += 1
+        return
+    for c in range(W):
+        acc[0, c] = 0.0
+    for m in range(n):
+        for c in range(W):
+            acc[0, c] += A[m, c] * B[m, c]
     for i in range(n):
-        for c in range(n):
-            S[i, c] = 1.0 if i == c else 0.0
-    _cho_solve(work[1], n, S, S, S.shape[1])  # W columns, the last zero: vectorized rows
-    for i in range(n):
-        s = 0.0
-        for m in range(n):
-            s += S[i, m] * f[m]
-        v[i] = d[i] * s
-    _product(S, D, Pm, acc, n, False)
-    _product(Pm, S, D, acc, n, False)
-    for i in range(n):
-        for c in range(n):
-            U[i, c] = D[i, c] * (d[i] * d[c])
-    return True
+        out[i * n - i * (i - 1) // 2] = Pj[i, i] + acc[0, i]
+    for base in range(0, 9, 3):
+        for p in range(3):
+            for q in range(p + 1, 3):
+                i, c = base + p, base + q
+                t = 0.0
+                for m in range(n):
+                    t += A[m, i] * B[m, c]
+                out[i * n - i * (i - 1) // 2 + (c - i)] = Pj[i, c] + t
 
 
 @jit_inline
-def _smooth_before(sm: Store, j: int, psi: Array, e: Array, work: Array, more: Array) -> None:
-    """Node j from the update node b after it, as :func:`_smooth_node` but from b's
-    :func:`_factor` (``work``) without U, for a single node: with ``A = Ψ P_j`` and
-    ``Y = (Δ P⁻ Δ)⁻¹ Δ A`` (the factor's two triangular solves), ``e^s_j = Yᵀ Δ e⁻`` into ``e``
-    and x_j and ``P^s_j = P_j + Yᵀ [Δ (P⁻s - P⁻) Δ] Y`` into the store's P: the same as
-    ``Aᵀ v`` and ``P_j + Aᵀ U A``, a third of the products of forming U first. ``more``
-    (4, W, W): scratch, zero from row and column n on."""
+def _smooth_from(
+    sm: Store,
+    j: int,
+    psi: Array,
+    L: Array,
+    D: Array,
+    d: Array,
+    f: Array,
+    e: Array,
+    scratch: Array,
+    full: bool,
+) -> None:
+    """Node j from the update node b after it, given b's :func:`_factor` (L, ``D = Δ (P⁻s -
+    P⁻) Δ``, Δ's diagonal d, ``f = Δ e⁻``): with ``A = Ψ P_j``, ``Ψ = Φ(b, j)`` and
+    ``Y = (Δ P⁻ Δ)⁻¹ Δ A`` (two triangular solves), ``e^s_j = Yᵀ f`` into ``e`` and x_j, and
+    ``P^s_j = P_j + Yᵀ D Y`` into the store's P (all of it or the elements :func:`reported`,
+    :func:`_finish`): equation (6) of docs/smoothing.md, ``Aᵀ v`` and ``P_j + Aᵀ U A``, without
+    forming ``U``. ``scratch`` (5, W, W): zero from row and column n on."""  # fmt: skip
     n = e.shape[0]
-    W = more.shape[1]
-    L, D, T, acc = work[1], work[3], work[4], work[5]
-    Pj, A, Y, M = more[0], more[1], more[2], more[3]
-    d, f = T[3], T[4]
+    W = scratch.shape[1]
+    Pj, A, Y, acc = scratch[0], scratch[1], scratch[2], scratch[4]
     unpack(sm[SM_P][j], Pj, n)
     _psi_product(psi, Pj, A, acc, n)
     for i in range(n):
@@ -420,63 +432,7 @@ def _smooth_before(sm: Store, j: int, psi: Array, e: Array, work: Array, more: A
     for i in range(n):
         e[i] = acc[0, i]
     _product(D, Y, A, acc, n, False)
-    _product(Y, A, M, acc, n, True)
-    out = sm[SM_P][j]
-    k = 0
-    for i in range(n):
-        for c in range(i, n):
-            out[k] = Pj[i, c] + M[i, c]
-            k += 1
-    inject(sm[SM_X][j], e)
-
-
-@jit_inline
-def _smooth_node(
-    sm: Store, j: int, psi: Array, v: Array, U: Array, e: Array, work: Array, full: bool
-) -> None:
-    """Node j from the update node b after it: with ``A = Ψ P_j``, ``Ψ = Φ(b, j)``,
-    ``e^s_j = Aᵀ v`` into ``e`` and x_j, ``P^s_j = P_j + Aᵀ U A`` into the store's P: all of it
-    when ``full``, else only its elements :func:`reported` (the rest stays filtered), which
-    need ``U A`` and one column dot product each instead of a second product.
-    ``work`` (5, W, W): scratch, zero from row and column n on."""
-    n = e.shape[0]
-    W = U.shape[1]
-    Pj, A, UA, M, acc = work[0], work[1], work[2], work[3], work[4]
-    unpack(sm[SM_P][j], Pj, n)
-    _psi_product(psi, Pj, A, acc, n)
-    for c in range(W):
-        acc[0, c] = 0.0
-    for m in range(n):
-        a = v[m]
-        for c in range(W):
-            acc[0, c] += a * A[m, c]
-    for i in range(n):
-        e[i] = acc[0, i]
-    _product(U, A, UA, acc, n, False)
-    out = sm[SM_P][j]
-    if full:
-        _product(A, UA, M, acc, n, True)
-        k = 0
-        for i in range(n):
-            for c in range(i, n):
-                out[k] = Pj[i, c] + M[i, c]
-                k += 1
-    else:
-        for c in range(W):
-            acc[0, c] = 0.0
-        for m in range(n):
-            for c in range(W):
-                acc[0, c] += A[m, c] * UA[m, c]
-        for i in range(n):
-            out[i * n - i * (i - 1) // 2] = Pj[i, i] + acc[0, i]
-        for base in range(0, 9, 3):
-            for p in range(3):
-                for q in range(p + 1, 3):
-                    i, c = base + p, base + q
-                    t = 0.0
-                    for m in range(n):
-                        t += A[m, i] * UA[m, c]
-                    out[i * n - i * (i - 1) // 2 + (c - i)] = Pj[i, c] + t
+    _finish(sm[SM_P][j], Pj, Y, A, scratch[3], acc, n, full)
     inject(sm[SM_X][j], e)
 
 
@@ -495,7 +451,8 @@ def backward(sm: Store, reset: bool, threads: int = 1, chunk: int = 0, full: boo
     """The RTS backward pass over the stored nodes, in place: each node's x becomes ``x^s``
     and its packed P becomes ``P^s`` (docs/smoothing.md, 'The backward pass').
 
-    From update node to update node. At update node b, v and U of :func:`_anchor`; every node j
+    From update node to update node. At update node b, with ``v = (P⁻)⁻¹ e⁻`` and
+    ``U = (P⁻)⁻¹ (P⁻s - P⁻) (P⁻)⁻¹`` (applied through b's :func:`_factor`); every node j
     from the update node a before b up to b - 1 then has ``e^s_j = Aᵀ v`` and
     ``P^s_j = P_j + Aᵀ U A``, ``A = Φ(b, j) P_j``, ``Φ(b, j) = Φ_b ⋯ Φ_{j+1}`` (built from b
     backwards): the node-by-node recursion (1)-(5) with its gains multiplied out, as the nodes
@@ -555,16 +512,17 @@ CHUNK = 256
 def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, kept: Array) -> None:
     """The backward pass's sequential part (:func:`backward`), for the update nodes
     ``b = ups[k]``, k from hi - 1 down to lo (``ups``: the update nodes, ascending), after the
-    runs above hi: at each b, from its factor (:func:`_factor`), the smoothed x and P of the
-    update node a before b (or of node 0), which the factor at a starts from
-    (:func:`_smooth_before`); b's smoothed error into ``kept[k]`` for :func:`interiors`, or NaN
-    in its first element when b's P⁻ is not positive definite (counted). ``e``: the smoothed
-    error of ``ups[hi]`` (zero at the last update node), left as that of ``ups[lo]``."""
+    runs above hi: at each b its factor (:func:`_factor`) and from it the smoothed x and P of
+    the update node a before b (or of node 0), which the factor at a starts from
+    (:func:`_smooth_from`, all of P^s); b's smoothed error into ``kept[k]`` for
+    :func:`interiors`, or NaN in its first element when b's P⁻ is not positive definite
+    (counted). ``e``: the smoothed error of ``ups[hi]`` (zero at the last update node), left as
+    that of ``ups[lo]``."""
     counts = sm[SM_COUNT]
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     psi = np.zeros(N_PHI)
-    Ps, work, more = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((4, W, W))
+    Ps, work, scratch = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((5, W, W))
     unpack(sm[SM_P][ups[hi - 1]], Ps, n)
     for k in range(hi - 1, lo - 1, -1):
         b = ups[k]
@@ -577,7 +535,7 @@ def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, k
             psi[:] = sm[SM_PHI][b]
             for j in range(b - 2, a - 1, -1):
                 _psi_times(psi, sm[SM_PHI][j + 1], work[5])
-            _smooth_before(sm, a, psi, e, work, more)
+            _smooth_from(sm, a, psi, work[1], work[3], work[4][3], work[4][4], e, scratch, True)
         else:
             counts[K_FAILED] += 1
             e[:] = 0.0
@@ -590,15 +548,15 @@ def interiors(
     sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, kept: Array, full: bool
 ) -> None:
     """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
-    same range: for the update nodes ``b = ups[lo:hi]``, v and U (:func:`_anchor`) from b's
-    smoothed error in ``kept`` and its smoothed P in the store, and from them the nodes strictly
-    between the update node before b (or node 0) and b (all of P^s or, without ``full``, its
-    elements :func:`reported`); nothing when b's factor failed.
+    same range: for the update nodes ``b = ups[lo:hi]``, b's factor again (:func:`_factor`,
+    from its smoothed error in ``kept`` and its smoothed P in the store) and from it the nodes
+    strictly between the update node before b (or node 0) and b (:func:`_smooth_from`: all of
+    P^s or, without ``full``, its elements :func:`reported`); nothing when b's factor failed.
     Intervals are independent: calls on disjoint ranges may run at once."""
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
-    e, v, psi = np.zeros(n), np.zeros(n), np.zeros(N_PHI)
-    Ps, U, work = np.zeros((W, W)), np.zeros((W, W)), np.zeros((6, W, W))
+    e, psi = np.zeros(n), np.zeros(N_PHI)
+    Ps, work, scratch = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((5, W, W))
     for k in range(lo, hi):
         b = ups[k]
         a = ups[k - 1] if k > 0 else 0
@@ -607,9 +565,10 @@ def interiors(
         for i in range(n):
             e[i] = kept[k, i]
         unpack(sm[SM_P][b], Ps, n)
-        _anchor(sm, b, reset, e, Ps, v, U, work)
+        _factor(sm, b, reset, e, Ps, work)
+        L, D, d, f = work[1], work[3], work[4][3], work[4][4]
         psi[:] = sm[SM_PHI][b]
         for j in range(b - 1, a, -1):
             if j < b - 1:
                 _psi_times(psi, sm[SM_PHI][j + 1], work[5])
-            _smooth_node(sm, j, psi, v, U, e, work[:5], full)
+            _smooth_from(sm, j, psi, L, D, d, f, e, scratch, full)
