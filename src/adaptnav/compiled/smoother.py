@@ -516,8 +516,9 @@ def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, k
     the update node a before b (or of node 0), which the factor at a starts from
     (:func:`_smooth_from`, all of P^s); b's smoothed error into ``kept[k]`` for
     :func:`interiors`, or NaN in its first element when b's P⁻ is not positive definite
-    (counted). ``e``: the smoothed error of ``ups[hi]`` (zero at the last update node), left as
-    that of ``ups[lo]``."""
+    (counted). Building ``Φ(b, a)`` it leaves ``Φ(b, j)`` in node j + 1's row of the store's Φ
+    for every j from a to b - 2 (each stored Φ serves one interval only). ``e``: the smoothed
+    error of ``ups[hi]`` (zero at the last update node), left as that of ``ups[lo]``."""
     counts = sm[SM_COUNT]
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
@@ -535,6 +536,7 @@ def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, k
             psi[:] = sm[SM_PHI][b]
             for j in range(b - 2, a - 1, -1):
                 _psi_times(psi, sm[SM_PHI][j + 1], work[5])
+                sm[SM_PHI][j + 1, :] = psi  # Φ_{j+1} is used up: keep Φ(b, j) there instead
             _smooth_from(sm, a, psi, work[1], work[3], work[4][3], work[4][4], e, scratch, True)
         else:
             counts[K_FAILED] += 1
@@ -549,13 +551,14 @@ def interiors(
 ) -> None:
     """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
     same range: for the update nodes ``b = ups[lo:hi]``, b's factor again (:func:`_factor`,
-    from its smoothed error in ``kept`` and its smoothed P in the store) and from it the nodes
+    from its smoothed error in ``kept`` and its smoothed P in the store) and from it and the
+    ``Φ(b, j)`` that :func:`anchors` left in the store's Φ the nodes
     strictly between the update node before b (or node 0) and b (:func:`_smooth_from`: all of
     P^s or, without ``full``, its elements :func:`reported`); nothing when b's factor failed.
     Intervals are independent: calls on disjoint ranges may run at once."""
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
-    e, psi = np.zeros(n), np.zeros(N_PHI)
+    e = np.zeros(n)
     Ps, work, scratch = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((5, W, W))
     for k in range(lo, hi):
         b = ups[k]
@@ -567,8 +570,5 @@ def interiors(
         unpack(sm[SM_P][b], Ps, n)
         _factor(sm, b, reset, e, Ps, work)
         L, D, d, f = work[1], work[3], work[4][3], work[4][4]
-        psi[:] = sm[SM_PHI][b]
-        for j in range(b - 1, a, -1):
-            if j < b - 1:
-                _psi_times(psi, sm[SM_PHI][j + 1], work[5])
-            _smooth_from(sm, j, psi, L, D, d, f, e, scratch, full)
+        for j in range(b - 1, a, -1):  # Φ(b, j) where Φ_{j+1} was (anchors)
+            _smooth_from(sm, j, sm[SM_PHI][j + 1], L, D, d, f, e, scratch, full)
