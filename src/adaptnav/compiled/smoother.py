@@ -335,7 +335,7 @@ def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
         psi[PHI_DIAG + a] *= phi[PHI_DIAG + a]
 
 
-@jit_inline
+@jit
 def _factor(sm: Store, b: int, reset: bool, e: Array, Ps: Array, work: Array) -> bool:
     """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
     the coordinates before its feedback, equation (1)): with ``Δ = diag(P⁻)^(-1/2)``, the
@@ -395,7 +395,7 @@ def _finish(
                 out[i * n - i * (i - 1) // 2 + (c - i)] = Pj[i, c] + t
 
 
-@jit_inline
+@jit
 def _smooth_from(
     sm: Store,
     j: int,
