@@ -413,7 +413,7 @@ def _smooth_from(
     ``Y = (Δ P⁻ Δ)⁻¹ Δ A`` (two triangular solves), ``e^s_j = Yᵀ f`` into ``e`` and x_j, and
     ``P^s_j = P_j + Yᵀ D Y`` into the store's P (all of it or the elements :func:`reported`,
     :func:`_finish`): equation (6) of docs/smoothing.md, ``Aᵀ v`` and ``P_j + Aᵀ U A``, without
-    forming ``U``. ``scratch`` (5, W, W): zero from row and column n on."""  # fmt: skip
+    forming ``U``. ``scratch`` (5, W, W): zero from row and column n on."""
     n = e.shape[0]
     W = scratch.shape[1]
     Pj, A, Y, acc = scratch[0], scratch[1], scratch[2], scratch[4]

@@ -183,11 +183,11 @@ COVARIANCE_BLOCK_S = 0.1
 """Default span of a covariance block (EngineConfig.covariance_block_s; docs/filters.md,
 'Covariance blocks')."""
 MAX_COVARIANCE_BLOCK_S = 1.0
+"""Longest block allowed: the second-order Φ of a summed F stays accurate while F T is small."""
 SMOOTHER_THREADS = 4
 """Most threads the backward pass smooths the nodes between update nodes in (at most the
 cores this process may use; compiled.smoother.backward); its chain of update nodes is
 sequential."""
-"""Longest block allowed: the second-order Φ of a summed F stays accurate while F T is small."""
 _STRATEGIES = (FixedNoise, CovarianceMatching, VariationalBayes)
 """The closed set of noise strategies (estimation/noise/base.py, :class:`NoiseKind`)."""
 
