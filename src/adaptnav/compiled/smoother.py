@@ -460,16 +460,15 @@ def backward(sm: Store, reset: bool, threads: int = 1, chunk: int = 0, full: boo
     node on keep their filtered values: nothing after them observes anything. When update node
     b's P⁻ is not positive definite, the nodes a..b-1 keep their filtered values and b is
     counted (``K_FAILED``). Without ``full``, the nodes that are not update nodes get only the
-    elements :func:`reported` of ``P^s`` (a third less work); the update nodes always get all of
-    it, as the pass goes on from them.
+    elements :func:`reported` of ``P^s`` (one matrix product fewer per node); the update nodes
+    always get all of it, as the pass goes on from them.
 
     The chain of update nodes is sequential (each anchor starts from the smoothed update node
     after it): :func:`anchors` goes along it in runs of ``chunk`` update nodes (0:
-    :data:`CHUNK`). The nodes
-    strictly between two update nodes need only their anchor, so :func:`interiors` smooths a
-    run's intervals as soon as its anchors are done, in ``threads`` threads (this one included;
-    the kernels release the GIL). The result does not depend on ``threads``: every node is
-    computed by the same arithmetic."""
+    :data:`CHUNK`). The nodes strictly between two update nodes need only their anchor, so
+    :func:`interiors` smooths a run's intervals as soon as its anchors are done, in ``threads``
+    threads (this one included; the kernels release the GIL). The result does not depend on
+    ``threads``: every node is computed by the same arithmetic."""
     counts = sm[SM_COUNT]
     counts[K_FAILED] = 0
     ups = np.flatnonzero(sm[SM_PRIOR][: counts[K_NODES]] >= 0).astype(np.int64)
