@@ -68,8 +68,10 @@ def packed_size(n: int) -> int:
     return n * (n + 1) // 2
 
 
+@jit_inline
 def packed_index(i: int, j: int, n: int) -> int:
-    """Where :func:`pack` puts ``P[i, j]`` (i ≤ j) of an n×n matrix."""
+    """Where :func:`pack` puts ``P[i, j]`` (i ≤ j) of an n×n matrix (compiled, and callable
+    from Python)."""
     return i * n - i * (i - 1) // 2 + (j - i)
 
 
@@ -384,7 +386,7 @@ def _finish(
         for c in range(W):
             acc[0, c] += A[m, c] * B[m, c]
     for i in range(n):
-        out[i * n - i * (i - 1) // 2] = Pj[i, i] + acc[0, i]
+        out[packed_index(i, i, n)] = Pj[i, i] + acc[0, i]
     for base in range(0, 9, 3):
         for p in range(3):
             for q in range(p + 1, 3):
@@ -392,7 +394,7 @@ def _finish(
                 t = 0.0
                 for m in range(n):
                     t += A[m, i] * B[m, c]
-                out[i * n - i * (i - 1) // 2 + (c - i)] = Pj[i, c] + t
+                out[packed_index(i, c, n)] = Pj[i, c] + t
 
 
 @jit
