@@ -12,7 +12,9 @@ of the same filter are compared over 12 seeds, for a true scale of 0 and of 1 %:
   secant), so the update's linear prediction is exact along its step.
 
 It prints the mean error of ŝ, its spread over the seeds, the mean σ the filter claims and the
-mean of (error / σ)² (1 for a consistent estimate). ``python scripts/scale_bias_model.py [q]``.
+mean of (error / σ)² (1 for a consistent estimate).
+``python scripts/scale_bias_model.py [q [q_true]]``: the filter's velocity random walk q and the
+truth's (default: the same; 0: the INS's speed changes exact while the filter assumes q).
 """
 
 from __future__ import annotations
@@ -36,14 +38,14 @@ def speeds(n: int) -> np.ndarray:
     return v
 
 
-def run(seed: int, q: float, update: str, s_true: float) -> tuple[float, float]:
+def run(seed: int, q: float, update: str, s_true: float, q_true: float) -> tuple[float, float]:
     """One filter run; the final ŝ and its σ."""
     rng = np.random.default_rng(seed)
     v_true = speeds(STEPS)
     x, P = np.zeros(2), np.diag([0.01**2, 0.01**2])  # (v, s)
     for k in range(STEPS):
         if k > 0:
-            x[0] += v_true[k] - v_true[k - 1] + np.sqrt(q) * rng.standard_normal()
+            x[0] += v_true[k] - v_true[k - 1] + np.sqrt(q_true) * rng.standard_normal()
         P = P + np.diag([q, 0.0])
         z = (1.0 + s_true) * v_true[k] + SIGMA_Z * rng.standard_normal()
         nu = z - (1.0 + x[1]) * x[0]
@@ -62,10 +64,11 @@ def run(seed: int, q: float, update: str, s_true: float) -> tuple[float, float]:
 
 def main() -> None:
     q = float(sys.argv[1]) if len(sys.argv) > 1 else 1e-6
-    print(f"velocity random walk q = {q:g} (m/s)² per step, {SEEDS} seeds")
+    q_true = float(sys.argv[2]) if len(sys.argv) > 2 else q
+    print(f"velocity random walk q = {q:g} (m/s)² per step (truth {q_true:g}), {SEEDS} seeds")
     for update in ("ekf", "iekf", "midpoint"):
         for s_true in (0.0, 0.01):
-            runs = [run(seed, q, update, s_true) for seed in range(1, SEEDS + 1)]
+            runs = [run(seed, q, update, s_true, q_true) for seed in range(1, SEEDS + 1)]
             err = 100.0 * (np.array([r[0] for r in runs]) - s_true)
             sd = 100.0 * np.array([r[1] for r in runs])
             print(

@@ -28,17 +28,25 @@ ESTIMATE = {"dvl": '["scale", "misalignment"]', "depth": '["bias"]', "inclinomet
 """What the estimating mission asks for, per sensor (``estimate = ...`` of mission.toml)."""
 
 
-def mission(out: Path, *, estimate: bool, seed: int = 4) -> Path:
-    """The demo preset with :data:`CALIBRATION` written to ``out``; with ``estimate`` its
-    mission.toml asks for every quantity of :data:`ESTIMATE`."""
-    folder = simulate("demo", seed, out, calibration=CALIBRATION)
+def mission(
+    out: Path,
+    *,
+    estimate: bool,
+    seed: int = 4,
+    preset: str = "demo",
+    calibration: Calibration = CALIBRATION,
+    quantities: dict[str, str] = ESTIMATE,
+) -> Path:
+    """The ``preset`` with the true ``calibration`` written to ``out``; with ``estimate`` its
+    mission.toml asks for every quantity of ``quantities``."""
+    folder = simulate(preset, seed, out, calibration=calibration)
     if estimate:
         toml = folder / "mission.toml"
         text = toml.read_text()
-        for sensor, quantities in ESTIMATE.items():
+        for sensor, asked in quantities.items():
             head = f'[sensors.{sensor}]\nkind = "{sensor}"\n'
             assert head in text
-            text = text.replace(head, f"{head}estimate = {quantities}\n")
+            text = text.replace(head, f"{head}estimate = {asked}\n")
         toml.write_text(text)
     return folder
 

@@ -18,6 +18,7 @@ from adaptnav.analysis import evaluate
 from adaptnav.api.results import CALIBRATION_FILE, load, save
 from adaptnav.cli import app
 from adaptnav.mission import load_mission
+from adaptnav.sim.sensors import Calibration
 from helpers import calibrated
 from helpers.calibrated import TRUTH
 
@@ -126,3 +127,32 @@ def test_without_calibration_states_run_and_evaluate_say_nothing_of_them(
     assert "calibration" not in json.loads(res.stdout)
     res = runner.invoke(app, ["evaluate", str(out)])
     assert res.exit_code == 0 and "calibration" not in res.stdout
+
+
+BIAS_SEEDS = range(41, 57)
+"""Sixteen seeds of paper-1, none used to measure the bias or to choose its remedy."""
+
+
+def test_the_scale_is_unbiased_on_paper_1(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """The scale estimate's mean over seeds in the paper's configuration (paper-1, no GNSS,
+    every disturbance on; a DVL 1 % high and 1° off in yaw, both estimated) is within three
+    standard errors of the truth (the claimed σ over √n): the filter claims σ ≈ 0.14 % per
+    run, so a bias of a fraction of it shows only over many runs. Linearised at the prior the
+    updates drift the scale low along the straight legs (docs/calibration.md, 'A known bias of
+    the scale'): -0.125 % over these seeds, 3.6 standard errors; the midpoint update, +0.08 %."""
+    root = tmp_path_factory.mktemp("scale-bias")
+    dvl_only = Calibration(1.01, (0.0, 0.0, math.radians(1.0)), 0.0, (0.0, 0.0))
+    errors, sigmas = [], []
+    for seed in BIAS_SEEDS:
+        folder = calibrated.mission(
+            root / f"s{seed}", estimate=True, seed=seed, preset="paper-1",
+            calibration=dvl_only, quantities={"dvl": '["scale", "misalignment"]'},
+        )  # fmt: skip
+        scale = api.run(folder, "vb").meta["calibration"]["dvl.scale"]
+        errors.append(scale["estimate"] - 1.0)
+        sigmas.append(scale["sigma"])
+    bias, standard_error = np.mean(errors), np.sqrt(np.mean(np.square(sigmas)) / len(errors))
+    assert abs(bias) < 3.0 * standard_error, (
+        f"mean error {bias:+.3f} %, standard error {standard_error:.3f} %; per seed "
+        f"{np.round(errors, 3).tolist()}"
+    )

@@ -12,6 +12,7 @@ import pytest
 
 from adaptnav.compiled import update as uk
 from adaptnav.core import attitude
+from adaptnav.estimation import kalman
 from adaptnav.models import errorstate
 from adaptnav.sensors.calibration import misalignment, misalignment_derivatives
 from adaptnav.sensors.depth import Depth
@@ -114,3 +115,91 @@ def test_compiled_linearisations_with_calibration_equal_evaluate(row: int) -> No
             np.testing.assert_allclose(y[row : row + model.dim], m.y, rtol=1e-9, atol=1e-12)
             np.testing.assert_allclose(H[row : row + model.dim], m.H, rtol=1e-9, atol=1e-12)
             assert np.all(H[:row] == 7.0)
+
+
+def _step(rng: np.random.Generator) -> np.ndarray:
+    """An update's step dx of a realistic size: velocity, attitude, scale, misalignment."""
+    dx = np.zeros(N)
+    dx[3:6], dx[6:9] = rng.normal(0.0, 0.05, 3), rng.normal(0.0, 0.005, 3)
+    dx[SCALE], dx[MIS : MIS + 3] = rng.normal(0.0, 0.005), rng.normal(0.0, 0.01, 3)
+    return dx
+
+
+def test_the_midpoint_jacobian_is_a_secant_of_the_calibrated_dvl() -> None:
+    """What the midpoint update rests on (docs/calibration.md, 'The midpoint update'): along a
+    step dx, ``h(x ⊕ dx) - h(x)`` is ``H(x ⊕ ½ dx) dx`` to third order in dx (the midpoint
+    rule on a path that ⊕ makes straight: additive states and a rotation about a fixed axis),
+    where the tangent ``H(x) dx`` is off at second order: the product of the scale and the
+    velocity, the rotations by the misalignment and the attitude."""
+    rng = np.random.default_rng(12)
+    w = rng.uniform(-0.3, 0.3, 3)
+    for _ in range(20):
+        lever, C = rng.uniform(-2, 2, 3), attitude.euler_to_dcm(*rng.uniform(-0.5, 0.5, 3))
+        model = DVL(0.01, lever, C, cal_scale=SCALE, cal_misalignment=MIS)
+        x, dx = _state(rng), _step(rng)
+        change = model.predict(errorstate.inject(x, dx), w) - model.predict(x, w)
+        tangent = change - model.jacobian(x, w) @ dx
+        secant = change - model.jacobian(errorstate.inject(x, 0.5 * dx), w) @ dx
+        assert np.linalg.norm(secant) < 0.03 * np.linalg.norm(tangent)
+
+
+def _P(rng: np.random.Generator) -> np.ndarray:
+    sig = np.r_[[3.0] * 3, [0.1] * 3, [0.01] * 3, [0.01] * 3, [1e-4] * 3, 0.01, [0.03] * 3, 0.02,
+                0.02]  # fmt: skip
+    L = np.tril(rng.normal(0.0, 0.3, (N, N)), -1) + np.eye(N)
+    P = (sig[:, None] * (L @ L.T)) * sig[None, :]
+    return 0.5 * (P + P.T)
+
+
+@pytest.mark.parametrize("kind", [uk.KIND_FIXED, uk.KIND_VB])
+@pytest.mark.parametrize("iterations", [0, 1, 3])
+def test_compiled_midpoint_equals_midpoint_jacobian(kind: int, iterations: int) -> None:
+    """compiled.update._midpoint (the epoch's re-linearisation of a calibrated DVL and a depth
+    meter read at the same epoch) == kalman.midpoint_jacobian with their ``evaluate``, the R
+    each sensor's strategy has now (fixed: nominal; VB: β/α), and the residuals left at x."""
+    rng = np.random.default_rng(13)
+    w = rng.uniform(-0.3, 0.3, 3)
+    for _ in range(5):
+        lever, C = rng.uniform(-2, 2, 3), attitude.euler_to_dcm(*rng.uniform(-0.5, 0.5, 3))
+        models = [DVL(0.02, lever, C, cal_scale=SCALE, cal_misalignment=MIS),
+                  Depth(0.05, lever, cal_bias=BIAS)]  # fmt: skip
+        x, P = _state(rng), _P(rng)
+        zs = [_h(m, x, w, w) + rng.normal(0.0, 0.05, m.dim) for m in models]
+        n = len(models)
+        ws = uk.workspace(n, N)
+        H, y, Rb, blk = ws[uk.WS_H], ws[uk.WS_Y], ws[uk.WS_RB], ws[uk.WS_BLK]
+        s_int = np.zeros((n, uk.N_SINT), dtype=np.int64)
+        s_flt, s_state = np.zeros((n, uk.N_SFLT)), np.zeros((n, uk.N_SSTATE))
+        st_z, rates = np.zeros((n, 3)), np.zeros((uk.N_RATES, 3))
+        rates[uk.R_W_CUR] = w
+        Rs = []
+        for i, (m, z) in enumerate(zip(models, zs, strict=True)):
+            spec = uk.compiled_linearisation(m)
+            assert spec is not None
+            s_int[i, uk.S_CODE], s_int[i, uk.S_DIM] = spec[0], m.dim
+            s_int[i, uk.S_MIDPOINT] = iterations if m.midpoint_update else 0
+            s_flt[i, : uk.N_PAR] = spec[1]
+            alpha, beta = rng.uniform(2.0, 20.0, m.dim), rng.uniform(1e-4, 1e-2, m.dim)
+            s_state[i, uk.X_ALPHA : uk.X_ALPHA + m.dim] = alpha
+            s_state[i, uk.X_BETA : uk.X_BETA + m.dim] = beta
+            Rs.append(m.R if kind == uk.KIND_FIXED else np.diag(beta / alpha))
+            st_z[i, : m.dim] = z
+            blk[0, i], blk[1, i], blk[2, i + 1] = i, i, blk[2, i] + m.dim
+            Rb[i, : m.dim, : m.dim] = m.R
+            uk.linearise(spec[0], spec[1], x, st_z[i], w, w, y, H, blk[2, i])
+        D = int(blk[2, n])
+        y0 = np.concatenate([m.evaluate(x, z, w).y for m, z in zip(models, zs, strict=True)])
+
+        def jacobian(xx: np.ndarray, models: list[Any] = models, zs: list[Any] = zs) -> np.ndarray:
+            return np.vstack([m.evaluate(xx, z, w).H for m, z in zip(models, zs, strict=True)])
+
+        R = np.zeros((D, D))
+        R[:3, :3], R[3:, 3:] = Rs
+        expected = kalman.midpoint_jacobian(x, P, y0, R, jacobian, iterations)
+        x_before, P_before = x.copy(), P.copy()
+        uk._midpoint(x, P, rates, D, n, blk, st_z, s_int, s_flt, s_state, kind, ws)
+        np.testing.assert_allclose(H[:D], expected, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(y[:D], y0, rtol=1e-9, atol=1e-12)
+        assert np.array_equal(x, x_before) and np.array_equal(P, P_before)
+        if iterations > 0:  # the step moved H: not a comparison of two unchanged copies
+            assert not np.allclose(expected, jacobian(x), rtol=1e-6, atol=1e-9)

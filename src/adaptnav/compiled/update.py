@@ -112,7 +112,8 @@ PAR_CAL = sensor_kind.PAR_CAL
 # s_int: int64 settings and counters
 S_CODE, S_DIM, S_GATE, S_ITER, S_WINDOW, S_COUNT, S_VERSION, S_GATE_REF = 0, 1, 2, 3, 4, 5, 6, 7
 S_GUARD = 8  # 1: the nominal-R χ² guard is on (gate.Guard)
-N_SINT = 9
+S_MIDPOINT = 9  # iterations of the midpoint linearisation (0: linearised at the prior; _midpoint)
+N_SINT = 10
 # s_flt: float64 settings; columns 0..N_PAR-1 are the linearisation parameters
 F_RNOM, F_GATE_Q, F_PERIOD = 16, 25, 26  # nominal R (3×3 row-major), gate q, period
 F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE, F_DOF = 27, 28, 29, 30, 31, 32  # strategy settings
@@ -673,6 +674,9 @@ WS_PROP, WS_NOISE = 23, 24
 the sum over the open covariance block; Φᵀ; M; the padded core of P. ``ws[WS_NOISE]``: the
 block's ``½ Σ S_k T_k`` (compiled.propagation.N_NOISE_ACC). Both carry an open block from one
 call of the engine's loop to the next (docs/filters.md, 'Covariance blocks')."""
+WS_XMID, WS_Y0 = 25, 26
+"""``ws[WS_XMID]``: the nominal state at the midpoint of an update's step; ``ws[WS_Y0]``: the
+residuals at the prior while the readings are linearised there (:func:`_midpoint`)."""
 V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST, V_LAM, V_B = range(10)
 V_LO, V_HI = 10, 11  # bounds on R̂ per component (variances)
 N_VEC = 12
@@ -698,6 +702,8 @@ def workspace(n_sensors: int, n_states: int = N_STATES, smooth: bool = False) ->
         np.full((ns, ns) if smooth else (0, 0), math.nan),
         np.zeros((4, 15 * 16)),
         np.zeros(N_NOISE_ACC),
+        np.zeros(ns + 1),
+        np.zeros(Dm),
     )
 
 
@@ -1166,6 +1172,84 @@ def _reading_R(st_z: Array, idx: int, d: int, Rb: Array, nb: int) -> None:
             Rb[nb, a, c] = st_z[idx, MAX_DIM + a] if a == c else 0.0
 
 
+@jit_inline
+def _current_R(kind: int, sx: Array, Rb: Array, d: int, R: Array, o: int) -> None:
+    """The sensor's R as its adaptation state has it now (twin of the strategies'
+    ``current_R``) into ``R[o:o+d, o:o+d]``: the nominal ``Rb`` (fixed), the matched R̂
+    (matching), ``diag(β / α)`` (VB)."""
+    for a in range(d):
+        for c in range(d):
+            if kind == KIND_MATCHING:
+                R[o + a, o + c] = sx[X_MR + 3 * a + c]
+            elif kind == KIND_VB:
+                R[o + a, o + c] = sx[X_BETA + a] / sx[X_ALPHA + a] if a == c else 0.0
+            else:
+                R[o + a, o + c] = Rb[a, c]
+
+
+@jit
+def _midpoint(
+    x: Array,
+    P: Array,
+    rates: Array,
+    D: int,
+    nb: int,
+    blk: IntArray,
+    st_z: Array,
+    s_int: IntArray,
+    s_flt: Array,
+    s_state: Array,
+    kind: int,
+    ws: Workspace,
+) -> None:
+    """Re-linearise the epoch's stacked readings at the midpoint of the update's step
+    (docs/calibration.md, 'The midpoint update'): ``H`` at ``x ⊕ ½ dx``, the residuals ``y``
+    kept at the prior x. For a reading that is a product of states (a DVL's scale times the
+    velocity) ``h(x ⊕ dx) - h(x) = H(x ⊕ ½ dx) dx`` to second order, a secant, where the
+    tangent at x leaves a bias along the directions the reading cannot tell apart.
+
+    ``dx`` is found by iterating ``S_MIDPOINT`` times (the most any block asks for): ``dx``
+    from the Kalman correction with the current H and each sensor's current R
+    (:func:`_current_R`), then H at ``x ⊕ ½ dx``. The stacked update that follows uses the last
+    H with the sensors' own R strategies. Readings linearised in Python keep their H.
+    """
+    n_iter = 0
+    for b in range(nb):
+        n_iter = max(n_iter, s_int[blk[0, b], S_MIDPOINT])
+    if n_iter == 0:
+        return
+    H, y, Rb, y0, xm = ws[WS_H], ws[WS_Y], ws[WS_RB], ws[WS_Y0], ws[WS_XMID]
+    cols, Ut, W, R = ws[WS_COLS], ws[WS_UT], ws[WS_W], ws[WS_R_USED]
+    dx = ws[WS_DX]
+    for r in range(D):
+        y0[r] = y[r]
+        for c in range(D):
+            R[r, c] = 0.0
+    for b in range(nb):
+        o = blk[2, b]
+        _current_R(kind, s_state[blk[0, b]], Rb[b], blk[2, b + 1] - o, R, o)
+    for _ in range(n_iter):
+        nc = _active_columns(H, D, cols)
+        _h_p(P, H, D, cols, nc, Ut)
+        _h_p_ht(H, Ut, D, cols, nc, W)
+        if not _correct(P, H, y0, R, D, Ut, W, ws[WS_S], ws[WS_L], ws[WS_KT], ws[WS_ET], dx,
+                        ws[WS_P_NEW]):  # fmt: skip
+            break  # the update itself finds S singular
+        for k in range(x.shape[0]):
+            xm[k] = x[k]
+        for k in range(dx.shape[0]):
+            dx[k] *= 0.5
+        inject(xm, dx)
+        for b in range(nb):
+            i = blk[0, b]
+            code = s_int[i, S_CODE]
+            if code >= 0:
+                linearise(code, s_flt[i], xm, st_z[blk[1, b]], rates[R_W_CUR], rates[R_F_CUR],
+                          y, H, blk[2, b])  # fmt: skip
+    for r in range(D):
+        y[r] = y0[r]
+
+
 @jit
 def epoch(
     x: Array,
@@ -1318,16 +1402,7 @@ def epoch(
         rule = s_int[i, S_GATE]
         if rule != GATE_NONE:
             nominal = kind == KIND_FIXED or s_int[i, S_GATE_REF] == GATE_REF_NOMINAL
-            for a in range(d):
-                for c in range(d):
-                    if nominal:
-                        R_now[a, c] = Rb[nb, a, c]
-                    elif kind == KIND_MATCHING:
-                        R_now[a, c] = s_state[i, X_MR + 3 * a + c]
-                    elif a == c:
-                        R_now[a, c] = s_state[i, X_BETA + a] / s_state[i, X_ALPHA + a]
-                    else:
-                        R_now[a, c] = 0.0
+            _current_R(KIND_FIXED if nominal else kind, s_state[i], Rb[nb], d, R_now, 0)
             Hb = H[D : D + d]  # S = H P Hᵀ + R_now of this block
             nc = _active_columns(Hb, d, cols)
             _h_p(P, Hb, d, cols, nc, Ut3)
@@ -1349,6 +1424,7 @@ def epoch(
         blk[2, nb] = D
     if nb == 0:
         return n_ledger
+    _midpoint(x, P, rates, D, nb, blk, st_z, s_int, s_flt, s_state, kind, ws)
     if smooth:  # the smoother's P⁻: after any inflation of this epoch, before the update
         for i in range(P.shape[0]):
             for j in range(P.shape[0]):

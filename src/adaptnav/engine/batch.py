@@ -184,6 +184,8 @@ COVARIANCE_BLOCK_S = 0.1
 'Covariance blocks')."""
 MAX_COVARIANCE_BLOCK_S = 1.0
 """Longest block allowed: the second-order Φ of a summed F stays accurate while F T is small."""
+MIDPOINT_ITERATIONS = 2
+"""Default iterations of the midpoint linearisation (EngineConfig.midpoint_iterations)."""
 SMOOTHER_THREADS = 4
 """Most threads the backward pass smooths the nodes between update nodes in (at most the
 cores this process may use; compiled.smoother.backward); its chain of update nodes is
@@ -238,6 +240,10 @@ class EngineConfig:
     smooth: bool = False
     """Keep what the RTS backward pass needs (compiled.smoother) and give the smoothed
     solution beside the forward one (:attr:`EngineOutput.smoothed`; docs/smoothing.md)."""
+    midpoint_iterations: int = MIDPOINT_ITERATIONS
+    """Iterations of the midpoint linearisation for the readings of a sensor whose model asks
+    for it (``midpoint_update``: a DVL with a scale or misalignment state;
+    compiled.update._midpoint, docs/calibration.md); 0: linearised at the prior as any other."""
     covariance_block_s: float = COVARIANCE_BLOCK_S
     """Propagate P over blocks of IMU steps of this length (s) with ``Φ = exp(Σ F_k T_k)`` to
     second order, closed early at every update and output row; 0: every step
@@ -246,6 +252,10 @@ class EngineConfig:
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
             raise ValueError(f"epoch_policy: value {self.epoch_policy!r} must be 'exact' or 'grid'")
+        if self.midpoint_iterations < 0:
+            raise ValueError(
+                f"midpoint_iterations: value {self.midpoint_iterations!r} must be >= 0"
+            )
         if self.output_every < 1:
             raise ValueError(f"output_every: value {self.output_every!r} must be >= 1")
         if not self.specific_force_tau_s >= 0.0:  # NaN too
@@ -803,6 +813,8 @@ class Navigator:
             si[uk.S_DIM] = d
             sf[uk.F_RNOM : uk.F_RNOM + 9] = _block3(R)
             sf[uk.F_PERIOD] = ch.period
+            if getattr(ch.model, "midpoint_update", False):
+                si[uk.S_MIDPOINT] = self.config.midpoint_iterations
             if ch.guard is not None:
                 si[uk.S_GUARD] = 1
                 sf[uk.F_GUARD_Q] = ch.guard.threshold(d)

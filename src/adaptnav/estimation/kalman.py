@@ -7,10 +7,13 @@ measurement residual itself, ``ν = y - H x⁻ = y``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from adaptnav.models import errorstate
 
 Array = NDArray[np.float64]
 
@@ -49,3 +52,27 @@ def correct(P: Array, H: Array, y: Array, R: Array) -> Correction:
     P_new = IKH @ P @ IKH.T + K @ R @ K.T
     w = np.linalg.solve(cho, y)
     return Correction(dx, 0.5 * (P_new + P_new.T), y.copy(), S, float(w @ w))
+
+
+def midpoint_jacobian(
+    x: Array,
+    P: Array,
+    y: Array,
+    R: Array,
+    jacobian: Callable[[Array], Array],
+    iterations: int,
+) -> Array:
+    """H of the midpoint update (docs/calibration.md, 'The midpoint update'): the stacked
+    readings' H linearised at ``x ⊕ ½ dx``, the residuals y staying those at x.
+
+    ``jacobian(x)`` gives the stacked H at a nominal state. Starting from ``H = jacobian(x)``,
+    each iteration takes ``dx`` from :func:`correct` with that H, y and R and sets
+    ``H = jacobian(x ⊕ ½ dx)``. For a reading that multiplies two states,
+    ``h(x ⊕ dx) - h(x) = H(x ⊕ ½ dx) dx`` to second order (a secant): the update's linear
+    prediction is right along its own step, where the tangent at x is not. 0 iterations: H at x.
+    """
+    H = jacobian(x)
+    for _ in range(iterations):
+        dx = correct(P, H, y, R).dx
+        H = jacobian(errorstate.inject(x, 0.5 * dx))
+    return H

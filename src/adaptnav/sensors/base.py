@@ -107,6 +107,14 @@ class Components:
         return len(self.names)
 
     @property
+    def midpoint_update(self) -> bool:
+        """Linearise this sensor's updates at the midpoint of their step (compiled.update.
+        _midpoint; docs/calibration.md, 'The midpoint update'): a model whose reading multiplies
+        its declared states with the core's says so (the calibrated DVL); others are linearised
+        at the prior. The engine reads it where a model has it."""
+        return False
+
+    @property
     def R(self) -> Array:
         """``diag(σ²)``: the nominal measurement noise covariance."""
         var = np.asarray(self.sigma, dtype=float) ** 2

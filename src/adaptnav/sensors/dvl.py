@@ -170,6 +170,13 @@ class DVL(Components):
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
         return pack_params(self.l_b, self.C_sb, calibration=(self.cal_scale, self.cal_misalignment))
 
+    @property
+    def midpoint_update(self) -> bool:
+        """Its reading multiplies declared states with the core's (the scale times the velocity,
+        the misalignment rotating it): the engine linearises its updates at the midpoint of
+        their step (compiled.update._midpoint; docs/calibration.md, 'The midpoint update')."""
+        return self.cal_scale >= 0 or self.cal_misalignment >= 0
+
     def _calibrated(self, x: Array, omega_ib_b: ArrayLike | None) -> tuple[Array, Array]:
         """The error-free h of ``x``'s core and H (:func:`calibrate_jacobian`; 3 × 15 on the
         core alone)."""
