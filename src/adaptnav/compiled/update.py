@@ -1205,8 +1205,9 @@ def _midpoint(
     """Re-linearise the epoch's stacked readings at the midpoint of the update's step
     (docs/calibration.md, 'The midpoint update'): ``H`` at ``x ⊕ ½ dx``, the residuals ``y``
     kept at the prior x. For a reading that is a product of states (a DVL's scale times the
-    velocity) ``h(x ⊕ dx) - h(x) = H(x ⊕ ½ dx) dx`` to second order, a secant, where the
-    tangent at x leaves a bias along the directions the reading cannot tell apart.
+    velocity) ``h(x ⊕ dx) - h(x) = H(x ⊕ ½ dx) dx`` exactly (a secant; to third order in dx in
+    general), where the tangent at x is off at second order and leaves a bias along the
+    directions the reading cannot tell apart.
 
     ``dx`` is found by iterating ``S_MIDPOINT`` times (the most any block asks for): ``dx``
     from the Kalman correction with the current H and each sensor's current R

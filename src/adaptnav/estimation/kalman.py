@@ -68,8 +68,9 @@ def midpoint_jacobian(
     ``jacobian(x)`` gives the stacked H at a nominal state. Starting from ``H = jacobian(x)``,
     each iteration takes ``dx`` from :func:`correct` with that H, y and R and sets
     ``H = jacobian(x ⊕ ½ dx)``. For a reading that multiplies two states,
-    ``h(x ⊕ dx) - h(x) = H(x ⊕ ½ dx) dx`` to second order (a secant): the update's linear
-    prediction is right along its own step, where the tangent at x is not. 0 iterations: H at x.
+    ``h(x ⊕ dx) - h(x) = H(x ⊕ ½ dx) dx`` exactly (a secant; to third order in dx in general):
+    the update's linear prediction is right along its own step, where the tangent at x is not.
+    0 iterations: H at x.
     """
     H = jacobian(x)
     for _ in range(iterations):
