@@ -12,7 +12,11 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
 - ``adaptnav.mission.load_mission`` on a mission whose ``imu.csv`` is that file (format
   ``increments``, plus a DVL table): reading, column checks and the IMU's intervals;
 - ``read_table`` on the same table with a true/false column added (``flagged.csv``: a
-  status column, as a DVL's bottom-lock flag).
+  status column, as a DVL's bottom-lock flag);
+- ``read_table`` on the same table with a text column added (``stamped.csv``: each sample's
+  UTC time as ISO 8601 text, as loggers write it): the typed reader declines it, pandas reads
+  it from the file (the streamed reader);
+- the exact reader on that file, for comparison.
 
 The file is written in a subprocess too, so that this process stays small: on Linux a child
 inherits its parent's ``ru_maxrss``, hence the peak is read from ``VmHWM`` where there is one.
@@ -36,7 +40,15 @@ ROWS = 1_000_000
 """IMU samples in the file: 83 min at 200 Hz, about 140 MB of CSV."""
 RATE_HZ = 200.0
 MB = 2**20
-READERS = ("read_table", "pandas", "exact", "load_mission", "read_table_bool")
+READERS = (
+    "read_table",
+    "pandas",
+    "exact",
+    "load_mission",
+    "read_table_bool",
+    "read_table_text",
+    "exact_text",
+)
 """What is measured, one subprocess each (see the module docstring)."""
 REPEATS = 2
 """Runs of each reader, round-robin: the shortest time is kept (the peak hardly varies: the
@@ -78,6 +90,10 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     imu.to_csv(root / "imu.csv", index=False)
     imu["valid"] = rng.random(rows) > 0.01
     imu.to_csv(root / "flagged.csv", index=False)
+    imu = imu.drop(columns="valid")
+    start = pd.Timestamp("2026-12-03T07:00:00", tz="UTC")
+    imu.insert(1, "utc", (start + pd.to_timedelta(t, unit="s")).strftime("%Y-%m-%dT%H:%M:%S.%fZ"))
+    imu.to_csv(root / "stamped.csv", index=False)
     n_dvl = int(t[-1] * 3.0)
     dvl = pd.DataFrame(
         {
@@ -117,6 +133,12 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     elif reader == "read_table_bool":
         flagged = imu_csv.parent / "flagged.csv"
         tb.read_table(flagged, flagged.name, tb.Journal())
+    elif reader == "read_table_text":
+        stamped = imu_csv.parent / "stamped.csv"
+        tb.read_table(stamped, stamped.name, tb.Journal())
+    elif reader == "exact_text":
+        stamped = imu_csv.parent / "stamped.csv"
+        tb._read_csv_exact(stamped, stamped.name, tb.Journal())
     elif reader == "pandas":
         pd.read_csv(imu_csv)
     elif reader == "exact":
@@ -142,6 +164,7 @@ def bench_csv_memory() -> list[str]:
         os.sync()  # the file's pages written out now, not while a reader is timed
         size = imu_csv.stat().st_size / MB
         size_flagged = (imu_csv.parent / "flagged.csv").stat().st_size / MB
+        size_stamped = (imu_csv.parent / "stamped.csv").stat().st_size / MB
         got = {r: {"peak_mb": 0.0, "seconds": math.inf} for r in READERS}
         for _ in range(REPEATS):
             for r in READERS:
@@ -161,6 +184,9 @@ def bench_csv_memory() -> list[str]:
         f"csv memory: load_mission with that imu.csv (increments) peak {peak('load_mission')}",
         f"csv memory: the same with a true/false column ({size_flagged:.0f} MB) → read_table "
         f"peak {peak('read_table_bool', size_flagged)}",
+        f"csv memory: the same with an ISO 8601 time column ({size_stamped:.0f} MB) → read_table "
+        f"peak {peak('read_table_text', size_stamped)}; exact reader "
+        f"{peak('exact_text', size_stamped)}",
     ]
     for line in lines:
         print(line, flush=True)

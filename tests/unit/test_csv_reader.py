@@ -1,10 +1,12 @@
-"""CSV tables: the typed, streaming reader and the exact one give the same table (issue 12).
+"""CSV tables: the typed, the streamed and the exact reader give the same table (issue 12).
 
-docs/robustness.md, "Memory": a CSV of numbers is streamed by pyarrow into NumPy columns; any
-other CSV, and any with something to report, is read by the exact, text-based reader. These
-tests hold the typed reader to the exact one (values bit for bit, dtypes, lines, repairs,
-errors) and check that a clean file takes the typed way. Most shrink the block and scan sizes
-so that a few kilobytes cross several blocks; memory is measured by ``make bench``, not here.
+docs/robustness.md, "Memory": a CSV of numbers is streamed by pyarrow into NumPy columns;
+another CSV of plain lines (a text or date column) is parsed by pandas from the file; any
+other, and any with something to report, is read by the exact, text-based reader. These tests
+hold the first two to the exact one (values bit for bit, dtypes, lines, repairs, errors) and
+check that a clean file takes the typed way, a plain one with text the streamed way. Most
+shrink the block and scan sizes so that a few kilobytes cross several blocks; memory is
+measured by ``make bench``, not here.
 """
 
 from __future__ import annotations
@@ -43,6 +45,24 @@ def typed_only(monkeypatch: pytest.MonkeyPatch) -> None:
         raise AssertionError("the exact reader was used")
 
     monkeypatch.setattr(tb, "_read_csv_exact", refuse)
+
+
+@pytest.fixture()
+def streamed_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail if the typed or the exact reader reads the file: it must be the streamed one."""
+
+    def refuse(*_args: Any) -> tb.Table:
+        raise AssertionError("the exact reader was used")
+
+    typed = tb._read_csv_typed
+
+    def must_decline(path: Path, label: str, journal: tb.Journal) -> tb.Table | None:
+        table = typed(path, label, journal)
+        assert table is None, "the typed reader read it"
+        return table
+
+    monkeypatch.setattr(tb, "_read_csv_exact", refuse)
+    monkeypatch.setattr(tb, "_read_csv_typed", must_decline)
 
 
 @pytest.fixture()
@@ -165,6 +185,51 @@ def test_blank_lines_crlf_and_bom_keep_their_line_numbers(
     assert exact is not None
     assert_same_table(table, exact)
     assert table.where(0) == "dvl.csv line 3" and len(table) == 399
+
+
+def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
+    tmp_path: Path, small: None, streamed_only: None
+) -> None:
+    """A logger's ISO time and status text beside the numbers: not the typed reader's, but
+    plain lines, so pandas reads the file itself (not a copy of it rebuilt as one string)."""
+    rng = np.random.default_rng(5)
+    n = 600
+    lines = ["t_s, utc, vx_m_s, vy_m_s, status"] + [
+        f"{0.3 * k!r},2026-12-03T07:{k // 200:02d}:{k % 60:02d}.{k % 10}Z,"
+        f"{rng.normal()!r},{rng.normal()!r},{('OK', 'no lock', 'é', '', 'NaN')[k % 5]}"
+        for k in range(1, n + 1)
+    ]
+    for k in (400, 3, 1):
+        lines.insert(k, "")
+    path = tmp_path / "dvl.csv"
+    path.write_bytes(("\ufeff" + "\r\n".join(lines) + "\r\n").encode())
+    table, repairs = read(path)
+    exact, _, error = outcome(EXACT, path)
+    assert error is None and exact is not None
+    assert_same_table(table, exact)
+    assert repairs == [] and len(table) == n
+    assert table.where(0) == "dvl.csv line 3" and table.where(n - 1) == f"dvl.csv line {n + 4}"
+    assert table.df["status"].iloc[1] == "é" and table.df["vx_m_s"].dtype == np.float64
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        '1.0,"a,b"\n',  # quotes (a comma inside)
+        "1.0,abc\r3.0,4.0\n",  # a lone CR
+        "1.0,abc\n3.0,4.0,5.0\n",  # a long line
+        "1.0,abc\n3.0\n4.0,x\n",  # a short line inside
+        "1.0,abc\n   \n2.0,x\n",  # a line of spaces (blank to the exact reader)
+        "1.0,abc\n2.0,xyz",  # no line break at the end (cut short?)
+        "1.0,abc\n\x00\n",  # binary
+        "1.0,\xe9t\xe9\n",  # Latin-1 (the exact reader says: not UTF-8)
+        "",  # no data line
+    ],
+)
+def test_what_the_streamed_reader_leaves_to_the_exact_one(tmp_path: Path, body: str) -> None:
+    path = tmp_path / "x.csv"
+    path.write_bytes(b"t_s,v\n" + body.encode("latin-1"))
+    assert tb._read_csv_streamed(path, "x.csv") is None
 
 
 # --- errors: the typed reader declines, the exact one locates ----------------------------------
@@ -317,12 +382,17 @@ CELLS = (
 """Cells dropped here and there into numeric columns: fine, missing, or not numbers."""
 
 
-def _random_csv(rng: np.random.Generator) -> bytes:
+TEXTS = ("OK", "no lock", "2026-12-03", "07:01:42.5", "é", "1", "-", "a b", "True", "NA")
+"""Cells of a text column (a status, a date, a time), among them numbers and NaN spellings."""
+
+
+def _random_csv(rng: np.random.Generator, *, text: bool = False) -> bytes:
     """A small CSV of random shape: columns of floats, integers, integers turning into floats,
-    odd cells; blank lines and lines of spaces; CRLF; a BOM; a short line; a cut end."""
+    odd cells (and, if ``text``, text); blank lines and lines of spaces; CRLF; a BOM; a short
+    line; a cut end."""
     n_cols = int(rng.choice([2, 3, 5]))
     n_rows = int(rng.choice([1, 2, 3, 40, 300]))
-    kinds = rng.choice(["float", "int", "int then float", "odd", "bool"], n_cols)
+    kinds = rng.choice(["float", "int", "int then float", "odd", "bool", *["text"] * text], n_cols)
     body: list[str] = []
     for r in range(n_rows):
         row = []
@@ -333,6 +403,8 @@ def _random_csv(rng: np.random.Generator) -> bytes:
                 row.append(str(int(rng.integers(-100, 100))))
             elif kind == "odd" and rng.random() < 0.1:
                 row.append(str(rng.choice(CELLS)))
+            elif kind == "text":
+                row.append(str(rng.choice(TEXTS)))
             elif kind == "bool":  # pandas' spellings, now and then another cell
                 cells = ("True", "false", "TRUE", "False", "true", "FALSE")
                 row.append(str(rng.choice(CELLS if rng.random() < 0.02 else cells)))
@@ -373,3 +445,26 @@ def test_the_typed_and_the_exact_reader_agree(tmp_path: Path, small: None) -> No
     finally:
         logging.disable(logging.NOTSET)
     assert typed >= 100, typed
+
+
+def test_the_streamed_and_the_exact_reader_agree(tmp_path: Path, small: None) -> None:
+    """Whenever the streamed reader reads a file, the exact one reads the same table, without
+    a repair; it reads a fair share of these odd files (text columns among them), not none."""
+    rng = np.random.default_rng(2025)
+    path = tmp_path / "x.csv"
+    streamed = 0
+    logging.disable(logging.WARNING)
+    try:
+        for _ in range(400):
+            path.write_bytes(_random_csv(rng, text=True))
+            a = tb._read_csv_streamed(path, "x.csv")
+            if a is None:
+                continue
+            streamed += 1
+            b, repairs_b, error = outcome(EXACT, path)
+            assert error is None and b is not None, (path.read_bytes(), error)
+            assert_same_table(a, b)
+            assert repairs_b == []
+    finally:
+        logging.disable(logging.NOTSET)
+    assert streamed >= 80, streamed

@@ -7,8 +7,9 @@ a bad cell is reported as ``imu.csv line 7, gyro_x_rad_s: 'abc' is not a number`
 a traceback from NumPy or pandas. Policy (error or logged repair) is docs/data-format.md.
 
 A CSV of numbers is streamed by pyarrow into NumPy columns (its peak memory a fraction of the
-file); any other CSV, and any that has something to report, is read by the exact, text-based
-reader, which locates every problem. Both give the same table: docs/robustness.md, "Memory".
+file); another CSV of plain lines (a text or date column, say) is parsed by pandas from the
+file; any other, and any that has something to report, is read by the exact, text-based
+reader, which locates every problem. All give the same table: docs/robustness.md, "Memory".
 """
 
 from __future__ import annotations
@@ -76,6 +77,12 @@ STREAM_COLUMNS: dict[str, tuple[str, ...]] = {
 """Measurement columns (after ``t_s``) of every kind of table, to say what a table looks like."""
 _OLD_PANDAS = int(pd.__version__.split(".")[0]) < 3
 """pandas < 3 parses floats exactly only when asked; pandas 3 always does (and deprecates it)."""
+_PANDAS_OPTIONS: dict[str, Any] = {
+    "low_memory": False,
+    "skipinitialspace": True,
+    **({"float_precision": "round_trip"} if _OLD_PANDAS else {}),
+}
+"""How both pandas-based CSV readers call ``pandas.read_csv`` (the same call: the same table)."""
 _LOG_CAP = 10
 """Repairs of one kind logged one by one per file; the rest are summarised (all are recorded)."""
 CUT_WINDOW = 100
@@ -114,7 +121,7 @@ _NUMBER_BYTES = bytes(
 )
 """Bytes a CSV of numbers is made of: digits, signs, point, exponent, separators, infinity and
 the missing-value spellings. A file with any other byte (a letter of a word, a quote, ``x`` of
-a hexadecimal number, non-ASCII) goes to the exact reader."""
+a hexadecimal number, non-ASCII) goes to the streamed or the exact reader."""
 
 
 @dataclass(frozen=True)
@@ -288,13 +295,17 @@ def _check_header(names: list[str], label: str, line: int | None) -> None:
 
 
 def _read_csv(path: Path, label: str, journal: Journal) -> Table:
-    """A CSV table: typed and streamed when the file allows it, else read exactly as text.
+    """A CSV table: typed and streamed when the file allows it, else parsed by pandas from the
+    file when its lines are plain, else read exactly as text.
 
-    Both ways give the same DataFrame, lines, repairs and errors (docs/robustness.md, "Memory");
-    the typed reader leaves to the exact one every file it cannot read the same way, and every
-    file with an error to report (a cut last line it repairs itself, from the file's tail).
+    The three ways give the same DataFrame, lines, repairs and errors (docs/robustness.md,
+    "Memory"); each leaves to the next every file it cannot read the same way, and every file
+    with an error to report (the typed reader repairs a cut last line itself, from the file's
+    tail).
     """
     table = _read_csv_typed(path, label, journal)
+    if table is None:
+        table = _read_csv_streamed(path, label)
     return table if table is not None else _read_csv_exact(path, label, journal)
 
 
@@ -334,9 +345,10 @@ def _read_csv_typed(path: Path, label: str, journal: Journal) -> Table | None:
     anything this reader would read differently from pandas (quotes, a lone CR, a character
     that cannot be part of a number or a missing-value spelling); the file's tail decides on a
     cut last line; then pyarrow parses the file (up to that line) in blocks of
-    :data:`CSV_BLOCK_BYTES` into columns allocated once. None whenever the exact reader has
-    to speak: a cell that is not a number, a wrong field count, a text, date or true/false
-    column, an empty table.
+    :data:`CSV_BLOCK_BYTES` into columns allocated once. None whenever another reader has
+    to read it (:func:`_read_csv_streamed`: a cell that is not a number, a text, date or
+    true/false column) or to speak (:func:`_read_csv_exact`: a wrong field count, an empty
+    table).
     """
     try:
         with path.open("rb") as f:
@@ -369,12 +381,14 @@ def _header_ok(header: list[str], label: str) -> bool:
     return True
 
 
-def _scan(f: BinaryIO) -> _Layout | None:
-    """The layout of an open CSV, or None if it is not a plain table of numbers.
+def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
+    """The layout of an open CSV, or None if it is not a plain table (of numbers).
 
-    Plain: a header on line 1 with at least two names (no quotes); after it, only the bytes of
-    :data:`_NUMBER_BYTES`, no ``+`` but an exponent's, line breaks LF or CRLF (a lone CR is a
-    line break to pyarrow, not to the exact reader) and at least one line. Read in pieces of
+    Plain: a header on line 1 with at least two names (no quotes); after it, line breaks LF or
+    CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
+    least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
+    ``+`` but an exponent's, or else UTF-8 text without quotes or NUL whose every line but the
+    empty ones has the header's number of fields (:func:`_fields_ok`). Read in pieces of
     :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
     The size is what was read: a file still being written is read as it was then.
     """
@@ -405,11 +419,17 @@ def _scan(f: BinaryIO) -> _Layout | None:
         piece, carry = buf[:cut], buf[cut:]
         if piece:
             crs = piece.count(b"\r")
-            if piece.translate(None, _NUMBER_BYTES) or (crs and crs != piece.count(b"\r\n")):
+            if crs and crs != piece.count(b"\r\n"):
                 return None
-            if _leading_plus(piece):
+            if numbers_only:
+                if piece.translate(None, _NUMBER_BYTES) or _leading_plus(piece):
+                    return None
+            elif b'"' in piece or b"\x00" in piece or not _utf8(piece):
                 return None
+            before = len(blank)
             _blank_lines(piece, 2 + breaks, blank, crlf=crs > 0)
+            if not numbers_only and not _fields_ok(piece, len(header), len(blank) - before):
+                return None
             breaks += piece.count(b"\n")
             last = piece[-1:]
         if not chunk:
@@ -423,6 +443,26 @@ def _scan(f: BinaryIO) -> _Layout | None:
     if n_lines - 1 - len(blank) < 1:
         return None  # no data line: the exact reader gives the table its empty columns
     return _Layout(header, size, data_start, n_lines, np.asarray(blank, np.int64), ends_with_break)
+
+
+def _utf8(piece: bytes) -> bool:
+    """Whether ``piece`` is UTF-8 text (cut at a line break: no character is split)."""
+    try:
+        piece.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
+    """Whether every line of ``piece`` (without quotes) ended by a line break has ``n_fields``
+    fields, but its ``n_blank`` empty lines (no comma: ``n_fields`` ≥ 2 tells them apart). Lines
+    of spaces, short and long lines are the exact reader's to see and report."""
+    a = np.frombuffer(piece, np.uint8)
+    ends = np.flatnonzero(a == ord("\n"))
+    commas = np.flatnonzero(a == ord(","))
+    per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
+    return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
 
 
 def _leading_plus(piece: bytes) -> bool:
@@ -448,6 +488,12 @@ def _blank_lines(piece: bytes, first_line: int, out: list[int], *, crlf: bool) -
         out.append(line)
 
 
+def _data_lines(layout: _Layout) -> NDArray[np.int64]:
+    """The file line of every data line: those after the header but the blank ones."""
+    lines = np.arange(2, layout.n_lines + 1, dtype=np.int64)
+    return np.delete(lines, layout.blank - 2) if layout.blank.size else lines
+
+
 def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
     """Rows to read and what to do with the last line, as the exact reader decides it.
 
@@ -458,9 +504,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
     tail = _tail_lines(f, layout)
     if not tail:  # None, or only lines of spaces (blank to the exact reader, not to the scan)
         return None
-    lines = np.arange(2, layout.n_lines + 1, dtype=np.int64)
-    if layout.blank.size:
-        lines = np.delete(lines, layout.blank - 2)
+    lines = _data_lines(layout)
     (line, offset, text) = tail[-1]
     if int(lines[-1]) != line:  # lines of spaces at the end: blank to the exact reader only
         return None
@@ -680,6 +724,36 @@ class _Head(io.RawIOBase):
         super().close()
 
 
+def _read_csv_streamed(path: Path, label: str) -> Table | None:
+    """A CSV of plain lines parsed by pandas straight from the file, or None.
+
+    For what the typed reader declines but whose lines need no care (:func:`_scan` with
+    ``numbers_only=False``: UTF-8, no quotes, every line but the empty ones with the header's
+    number of fields, a line break at the end): a text, date or true/false column, a cell that
+    is not a number. The exact reader hands the same lines to the same pandas call, only as one
+    string rebuilt in memory; here pandas reads the file (about twice its size at the peak,
+    plus the text cells' objects). None, for the exact reader, on anything else or a parse
+    pandas refuses (the exact reader words the error).
+    """
+    try:
+        with path.open("rb") as f:
+            layout = _scan(f, numbers_only=False)
+    except OSError:
+        return None
+    if layout is None or not layout.ends_with_break or not _header_ok(layout.header, label):
+        return None
+    lines = _data_lines(layout)
+    try:
+        with io.BufferedReader(_Head(path, layout.size)) as src:
+            df: pd.DataFrame = pd.read_csv(src, encoding="utf-8-sig", **_PANDAS_OPTIONS)
+    except (pd.errors.ParserError, ValueError, csv.Error, OSError):
+        return None
+    if len(df) != lines.size or len(df.columns) != len(layout.header):
+        return None
+    df.columns = pd.Index(layout.header)
+    return Table(label, path, "csv", df, lines, None)
+
+
 def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     """The whole file as text, line by line: every error and repair located exactly.
 
@@ -798,16 +872,10 @@ def _drop_cut_last_line(
 def _parse_csv(body: str, label: str) -> pd.DataFrame:
     """pandas' parse of the checked lines (floats read exactly: round_trip before pandas 3)."""
     try:
-        if _OLD_PANDAS:
-            return pd.read_csv(
-                io.StringIO(body),
-                low_memory=False,
-                skipinitialspace=True,
-                float_precision="round_trip",
-            )
-        return pd.read_csv(io.StringIO(body), low_memory=False, skipinitialspace=True)
+        df: pd.DataFrame = pd.read_csv(io.StringIO(body), **_PANDAS_OPTIONS)
     except (pd.errors.ParserError, ValueError, csv.Error) as exc:
         raise MissionError(f"{label}: cannot parse as CSV ({exc})", file=label) from None
+    return df
 
 
 def _time_of(complete: list[str], header: list[str]) -> float:
