@@ -131,6 +131,35 @@ def test_rts_is_the_exact_posterior_of_a_linear_gaussian_model(
     assert np.all(np.diag(P_s[0]) < np.diag(nodes.P[0]))
 
 
+@pytest.mark.parametrize("steps", [0, 1, 2, 7])
+def test_accumulated_phi_is_the_product_of_the_steps(steps: int) -> None:
+    """A node's stored Φ is ``Φ_k ⋯ Φ_1`` of the steps since the node before (the identity
+    for none), whatever layout accumulate keeps it in; Φ's of the propagation's structure:
+    rows 9-14 diagonal, position rows without the attitude columns."""
+    rng = np.random.default_rng(steps)
+    W = 16  # the propagation kernels' row stride (compiled.propagation._W)
+    sm = smk.store(4, 1, NOM_SIZE, smk.CORE)
+    expected = np.eye(smk.CORE)
+    for k in range(2):  # two nodes in a row: the accumulator restarts from the second
+        expected = np.eye(smk.CORE)
+        for _ in range(steps):
+            Phi = np.eye(smk.CORE) + 0.1 * rng.normal(size=(smk.CORE, smk.CORE))
+            Phi[9:] = np.diag(np.diag(Phi))[9:]
+            Phi[0:3, 6:] = 0.0
+            flat = np.zeros(W * W)
+            flat.reshape(W, W)[: smk.CORE, : smk.CORE] = Phi.T
+            smk.accumulate(sm, flat)
+            expected = Phi @ expected
+        j = smk.node(sm, float(k), np.zeros(NOM_SIZE), np.eye(smk.CORE), smk._NO_DX,
+                     smk._NO_PRIOR)  # fmt: skip
+        stored = sm[smk.SM_PHI][j]
+        np.testing.assert_allclose(stored[: smk.PHI_DIAG].reshape(9, smk.CORE), expected[:9],
+                                   rtol=1e-13, atol=1e-13)  # fmt: skip
+        np.testing.assert_allclose(stored[smk.PHI_DIAG :], np.diag(expected)[9:], rtol=1e-13)
+        off = expected[9:, :] - np.diag(np.diag(expected))[9:, :]
+        assert np.all(off == 0.0)  # the product keeps rows 9-14 diagonal: nothing is lost
+
+
 def _store(nodes: smoother.Nodes) -> smk.Store:
     """The compiled store holding ``nodes``, filled as the forward pass fills it."""
     N, n = nodes.dx.shape
