@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 
 from adaptnav.cli import app
 from adaptnav.experiments import cluster
-from adaptnav.experiments.runner import SweepOutcome, run_sweep
+from adaptnav.experiments.runner import SweepOutcome, run_sweep, run_tasks
 from adaptnav.experiments.spec import RunSpec
 from adaptnav.experiments.stats import METRICS
 
@@ -74,6 +74,15 @@ def test_cluster_equals_one_process_and_resumes(
     for spec in SPECS:  # every run cached by key, as one process caches it
         assert json.loads((cache / "runs" / f"{spec.key()}.json").read_text())["key"] == spec.key()
     assert not list(cache.rglob(".*.tmp-*"))  # no temporary left behind
+
+
+def test_run_tasks_on_a_local_cluster() -> None:
+    """The results scripts' loop (``make akit``, ``make faults``, ``make smoothing``) on a local
+    cluster of two workers: every task run once, each result handed on with its task. (The
+    client is not dask's default one: as_completed must be given its loop.)"""
+    got: dict[tuple[int, int], int] = {}
+    run_tasks(pow, [(2, k) for k in range(6)], 2, lambda task, result: got.update({task: result}))
+    assert got == {(2, k): 2**k for k in range(6)}
 
 
 def test_scheduler_precedence(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -231,7 +231,8 @@ def run_tasks(
     with connect(target, min(jobs, len(tasks))) as client:
         futures = {client.submit(fn, *task, pure=False): task for task in tasks}
         try:
-            for fut in as_completed(futures):
+            # the client is not the default one (cluster.connect): as_completed gets its loop
+            for fut in as_completed(list(futures), loop=client.loop):
                 on_done(futures[fut], fut.result())
         except BaseException:
             client.cancel(list(futures))
