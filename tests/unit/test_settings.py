@@ -10,7 +10,7 @@ import pytest
 from adaptnav.engine.channels import build_channels
 from adaptnav.estimation.noise.process import QAdaptation
 from adaptnav.estimation.noise.vb import VariationalBayes
-from adaptnav.estimation.settings import DEFAULT_R_BOUNDS, FilterSettings
+from adaptnav.estimation.settings import DEFAULT_R_BOUNDS, DEFAULT_ROBUST_DOF, FilterSettings
 from adaptnav.mission import MissionError, parse_config
 from adaptnav.mission.config import FilterConfig
 from adaptnav.sensors import DVL, Depth
@@ -46,6 +46,26 @@ def test_a_mission_value_reaches_the_settings() -> None:
 def test_q_adaptation_switch(given: object, expected: QAdaptation | None) -> None:
     cfg = parse_config(config_dict(filter={"q_adaptation": given}))
     assert cfg.filter_settings().q_adaptation == expected
+
+
+def test_robust_reads_student_t_and_the_paper_filter_stays_gaussian() -> None:
+    """robust's readings are Student-t with ν = robust_dof unless vb_dof says otherwise (0:
+    Gaussian); VB-MAESKF stays the paper's Gaussian update unless vb_dof is set."""
+
+    def dof(**changes: float | str) -> float | None:
+        strategy = FilterSettings.model_validate(changes).strategy()
+        assert isinstance(strategy, VariationalBayes)
+        return strategy.dof
+
+    assert dof() == DEFAULT_ROBUST_DOF == 60.0
+    assert dof(kind="vb") is None
+    assert dof(robust_dof=0.0) is None
+    assert dof(robust_dof=30.0) == 30.0
+    assert dof(vb_dof=4.0) == 4.0 and dof(kind="vb", vb_dof=4.0) == 4.0
+    strategy = parse_config(config_dict(filter={"robust_dof": 0})).filter_settings().strategy()
+    assert isinstance(strategy, VariationalBayes) and strategy.dof is None
+    with pytest.raises(MissionError, match=r"filter\.robust_dof"):
+        parse_config(config_dict(filter={"robust_dof": -1}))
 
 
 def test_bounds_for_one_kind_keep_the_others_defaults() -> None:

@@ -78,6 +78,14 @@ residuals are small because the filter bends the solution to it, and a VB that t
 a precise sensor made it stiffer than the model holds, overconfident in GNSS outages (robust,
 RTKLIB drive, driving Q, GNSS + NHC: mean 60-s outage drift 22.5 → 13.3 m, MESKF's 12.3 m;
 docs/robustness.md, 'Bounded R̂')."""
+DEFAULT_ROBUST_DOF = 60.0
+"""Student-t ν of the robust filter's readings (estimation/noise/vb.py): a reading far beyond its
+R̂ is down-weighted at once, where the inverse-Gamma variances take ~1/(1 - ρ) readings to rise.
+On the A-KIT recordings with injected DVL faults it brings robust's faulted / clean mean relative
+RMSE from 1.119 to 1.070 (ν = 30: 1.064, 150: 1.092; the 60-s window of 5× DVL noise is what
+it rides out), at 0.3 % more clean error than the Gaussian VB-MAESKF (ν = 4: 2 %); on the
+RTKLIB drive the mean outage drifts move by less than 1 % (docs/robustness.md, 'The robust
+filter')."""
 DEFAULT_DIVERGENCE: dict[FilterKind, DivergenceGuard] = {}
 """The windowed NIS test per kind (estimation/health.py); a kind absent here runs without it. None
 by default: on the adapted R it fires in the simulated trials' noise segments (robust with
@@ -128,8 +136,10 @@ class FilterSettings(BaseModel):
     vb_tol: Positive = 1e-6
     vb_irregular: StrictBool = False
     vb_dof: Positive | None = None
-    """Student-t ν of each reading for VB-MAESKF (estimation/noise/vb.py, beyond the paper);
-    None: Gaussian, the paper's update."""
+    """Student-t ν of each reading for VB-MAESKF and robust (estimation/noise/vb.py, beyond the
+    paper); None: Gaussian for VB-MAESKF (the paper's update), :attr:`robust_dof` for robust."""
+    robust_dof: NonNegative = DEFAULT_ROBUST_DOF
+    """Student-t ν of the robust filter's readings when ``vb_dof`` is not set; 0: Gaussian."""
     guard_probability: Annotated[float, Field(ge=0, lt=1)] = DEFAULT_GUARD_PROBABILITY
     """The guard's p on every sensor (gate.Guard); 0: no guard (the paper's filters exactly)."""
     guard_headroom: Annotated[float, Field(ge=1, allow_inf_nan=False)] = DEFAULT_HEADROOM
@@ -203,9 +213,12 @@ class FilterSettings(BaseModel):
                 self.matching_gap_periods,
             )  # fmt: skip
         rho = overrides.vb_rho if overrides.vb_rho is not None else self.vb_rho
+        dof = self.vb_dof
+        if dof is None and self.kind == "robust" and self.robust_dof > 0.0:
+            dof = self.robust_dof
         return VariationalBayes(
-            self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular,
-            self.vb_dof, floor, ceiling,
+            self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular, dof,
+            floor, ceiling,
         )  # fmt: skip
 
     def guard(self, overrides: SensorOverrides = SensorOverrides()) -> Guard | None:
