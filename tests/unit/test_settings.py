@@ -48,22 +48,23 @@ def test_q_adaptation_switch(given: object, expected: QAdaptation | None) -> Non
     assert cfg.filter_settings().q_adaptation == expected
 
 
-def test_robust_reads_student_t_and_the_paper_filter_stays_gaussian() -> None:
-    """robust's readings are Student-t with ν = robust_dof unless vb_dof says otherwise (0:
-    Gaussian); VB-MAESKF stays the paper's Gaussian update unless vb_dof is set."""
+def test_robust_dof_gives_robust_student_t_readings_and_leaves_the_paper_filter_alone() -> None:
+    """robust's readings are Gaussian by default and Student-t with ν = robust_dof when it is
+    set, unless vb_dof says otherwise; VB-MAESKF stays the paper's Gaussian update unless
+    vb_dof is set."""
 
     def dof(**changes: float | str) -> float | None:
         strategy = FilterSettings.model_validate(changes).strategy()
         assert isinstance(strategy, VariationalBayes)
         return strategy.dof
 
-    assert dof() == DEFAULT_ROBUST_DOF == 60.0
-    assert dof(kind="vb") is None
-    assert dof(robust_dof=0.0) is None
-    assert dof(robust_dof=30.0) == 30.0
-    assert dof(vb_dof=4.0) == 4.0 and dof(kind="vb", vb_dof=4.0) == 4.0
-    strategy = parse_config(config_dict(filter={"robust_dof": 0})).filter_settings().strategy()
-    assert isinstance(strategy, VariationalBayes) and strategy.dof is None
+    assert DEFAULT_ROBUST_DOF == 0.0 and dof() is None
+    assert dof(robust_dof=60.0) == 60.0
+    assert dof(kind="vb", robust_dof=60.0) is None
+    assert dof(vb_dof=4.0, robust_dof=60.0) == 4.0 and dof(kind="vb", vb_dof=4.0) == 4.0
+    cfg = parse_config(config_dict(filter={"robust_dof": 60}))
+    strategy = cfg.filter_settings().strategy()
+    assert isinstance(strategy, VariationalBayes) and strategy.dof == 60.0
     with pytest.raises(MissionError, match=r"filter\.robust_dof"):
         parse_config(config_dict(filter={"robust_dof": -1}))
 
