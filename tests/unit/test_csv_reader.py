@@ -187,6 +187,10 @@ def test_blank_lines_crlf_and_bom_keep_their_line_numbers(
     assert table.where(0) == "dvl.csv line 3" and len(table) == 399
 
 
+STATUS = ("OK", "no lock", "é", "", "NaN", '"lock ""B"""')
+"""A DVL's status column as a logger writes it: words, nothing, a quoted text with quotes in it."""
+
+
 def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
     tmp_path: Path, small: None, streamed_only: None
 ) -> None:
@@ -196,7 +200,7 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
     n = 600
     lines = ["t_s, utc, vx_m_s, vy_m_s, status"] + [
         f"{0.3 * k!r},2026-12-03T07:{k // 200:02d}:{k % 60:02d}.{k % 10}Z,"
-        f"{rng.normal()!r},{rng.normal()!r},{('OK', 'no lock', 'é', '', 'NaN')[k % 5]}"
+        f"{rng.normal()!r},{rng.normal()!r},{STATUS[k % len(STATUS)]}"
         for k in range(1, n + 1)
     ]
     for k in (400, 3, 1):
@@ -210,12 +214,15 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
     assert repairs == [] and len(table) == n
     assert table.where(0) == "dvl.csv line 3" and table.where(n - 1) == f"dvl.csv line {n + 4}"
     assert table.df["status"].iloc[1] == "é" and table.df["vx_m_s"].dtype == np.float64
+    assert table.df["status"].iloc[4] == 'lock "B"'  # quoted, its quotes doubled
 
 
 @pytest.mark.parametrize(
     "body",
     [
-        '1.0,"a,b"\n',  # quotes (a comma inside)
+        '1.0,"a,b"\n',  # a comma inside quotes
+        '1.0,"a\nb"\n',  # a line break inside quotes
+        '1.0,ab"c\n2.0,d"e,\n',  # stray quotes around a comma (a long line to the exact reader)
         "1.0,abc\r3.0,4.0\n",  # a lone CR
         "1.0,abc\n3.0,4.0,5.0\n",  # a long line
         "1.0,abc\n3.0\n4.0,x\n",  # a short line inside
@@ -382,7 +389,10 @@ CELLS = (
 """Cells dropped here and there into numeric columns: fine, missing, or not numbers."""
 
 
-TEXTS = ("OK", "no lock", "2026-12-03", "07:01:42.5", "é", "1", "-", "a b", "True", "NA")
+TEXTS = (
+    "OK", "no lock", "2026-12-03", "07:01:42.5", "é", "1", "-", "a b", "True", "NA", '"OK"',
+    '"say ""hi"""', ' "x"', 'ab"c', '"a,b"', '""', '"1.5"',
+)  # fmt: skip
 """Cells of a text column (a status, a date, a time), among them numbers and NaN spellings."""
 
 
@@ -467,4 +477,4 @@ def test_the_streamed_and_the_exact_reader_agree(tmp_path: Path, small: None) ->
             assert repairs_b == []
     finally:
         logging.disable(logging.NOTSET)
-    assert streamed >= 80, streamed
+    assert streamed >= 60, streamed

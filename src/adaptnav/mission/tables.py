@@ -387,8 +387,9 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     Plain: a header on line 1 with at least two names (no quotes); after it, line breaks LF or
     CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
     least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
-    ``+`` but an exponent's, or else UTF-8 text without quotes or NUL whose every line but the
-    empty ones has the header's number of fields (:func:`_fields_ok`). Read in pieces of
+    ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the empty ones
+    has the header's number of fields, none of them quoted across a comma or a line break
+    (:func:`_fields_ok`). Read in pieces of
     :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
     The size is what was read: a file still being written is read as it was then.
     """
@@ -424,7 +425,7 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
             if numbers_only:
                 if piece.translate(None, _NUMBER_BYTES) or _leading_plus(piece):
                     return None
-            elif b'"' in piece or b"\x00" in piece or not _utf8(piece):
+            elif b"\x00" in piece or not _utf8(piece):
                 return None
             before = len(blank)
             _blank_lines(piece, 2 + breaks, blank, crlf=crs > 0)
@@ -455,12 +456,20 @@ def _utf8(piece: bytes) -> bool:
 
 
 def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
-    """Whether every line of ``piece`` (without quotes) ended by a line break has ``n_fields``
-    fields, but its ``n_blank`` empty lines (no comma: ``n_fields`` ≥ 2 tells them apart). Lines
-    of spaces, short and long lines are the exact reader's to see and report."""
+    """Whether every line of ``piece`` (which starts a line) ended by a line break has
+    ``n_fields`` fields, but its ``n_blank`` empty lines (no comma: ``n_fields`` ≥ 2 tells them
+    apart), and no comma or line break is inside quotes (an odd number of ``"`` before it, the
+    doubled ``""`` of a quote in a quoted text counting twice): then the commas are the field
+    separators. Lines of spaces, short and long lines, quoted commas and line breaks are the
+    exact reader's to see and report."""
     a = np.frombuffer(piece, np.uint8)
     ends = np.flatnonzero(a == ord("\n"))
     commas = np.flatnonzero(a == ord(","))
+    quotes = np.flatnonzero(a == ord('"'))
+    if quotes.size and (
+        np.any(np.searchsorted(quotes, commas) % 2) or np.any(np.searchsorted(quotes, ends) % 2)
+    ):
+        return False
     per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
     return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
 
@@ -728,12 +737,13 @@ def _read_csv_streamed(path: Path, label: str) -> Table | None:
     """A CSV of plain lines parsed by pandas straight from the file, or None.
 
     For what the typed reader declines but whose lines need no care (:func:`_scan` with
-    ``numbers_only=False``: UTF-8, no quotes, every line but the empty ones with the header's
-    number of fields, a line break at the end): a text, date or true/false column, a cell that
-    is not a number. The exact reader hands the same lines to the same pandas call, only as one
-    string rebuilt in memory; here pandas reads the file (about twice its size at the peak,
-    plus the text cells' objects). None, for the exact reader, on anything else or a parse
-    pandas refuses (the exact reader words the error).
+    ``numbers_only=False``: UTF-8, every line but the empty ones with the header's number of
+    fields, no comma or line break inside quotes, a line break at the end): a text, date or
+    true/false column, quoted or not, a cell that is not a number. The exact reader hands the
+    same lines to the same pandas call, only as one string rebuilt in memory; here pandas reads
+    the file (about twice its size at the peak, plus the text cells' objects). None, for the
+    exact reader, on anything else or a parse pandas refuses (the exact reader words the
+    error).
     """
     try:
         with path.open("rb") as f:
