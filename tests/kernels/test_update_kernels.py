@@ -321,14 +321,20 @@ def test_stacked_fixed_update_equals_FixedNoise() -> None:
         _run_stacked([FixedNoise()] * 3, rng, [None] * 3)
 
 
-@pytest.mark.parametrize("dof", [None, 3.0])
+@pytest.mark.parametrize(("dof", "weights_only"), [(None, False), (3.0, False), (3.0, True)])
 @pytest.mark.parametrize("tol", [0.0, 1e-3])
-def test_stacked_vb_update_equals_VariationalBayes(tol: float, dof: float | None) -> None:
+def test_stacked_vb_update_equals_VariationalBayes(
+    tol: float, dof: float | None, weights_only: bool
+) -> None:
     """Several fixed-point iterations (all of them with tol = 0; early stop with 1e-3), with
-    the paper's Gaussian readings and with Student-t ones (a λ per sensor's reading)."""
+    the paper's Gaussian readings and with Student-t ones (a λ per sensor's reading; with
+    ``weights_only``, β learning the Gaussian update's ½ B)."""
     rng = np.random.default_rng(5)
     for _ in range(10):
-        strat = VariationalBayes(rho=0.97, iterations=int(rng.integers(1, 8)), tol=tol, dof=dof)
+        strat = VariationalBayes(
+            rho=0.97, iterations=int(rng.integers(1, 8)), tol=tol, dof=dof,
+            weights_only=weights_only,
+        )  # fmt: skip
         states = [VBState(rng.uniform(1.0, 30.0, d), rng.uniform(1e-6, 1e-2, d)) for d in (3, 1, 2)]
         _run_stacked([strat] * 3, rng, states)
 

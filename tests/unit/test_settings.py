@@ -49,22 +49,22 @@ def test_q_adaptation_switch(given: object, expected: QAdaptation | None) -> Non
 
 
 def test_robust_dof_gives_robust_student_t_readings_and_leaves_the_paper_filter_alone() -> None:
-    """robust's readings are Gaussian by default and Student-t with ν = robust_dof when it is
-    set, unless vb_dof says otherwise; VB-MAESKF stays the paper's Gaussian update unless
-    vb_dof is set."""
+    """robust's readings are Gaussian by default and weighted as Student-t with ν = robust_dof
+    when it is set (R̂ learned as by the Gaussian update), unless vb_dof (full Student-t) says
+    otherwise; VB-MAESKF stays the paper's Gaussian update unless vb_dof is set."""
 
-    def dof(**changes: float | str) -> float | None:
+    def dof(**changes: float | str) -> tuple[float | None, bool]:
         strategy = FilterSettings.model_validate(changes).strategy()
         assert isinstance(strategy, VariationalBayes)
-        return strategy.dof
+        return strategy.dof, strategy.weights_only
 
-    assert DEFAULT_ROBUST_DOF == 0.0 and dof() is None
-    assert dof(robust_dof=60.0) == 60.0
-    assert dof(kind="vb", robust_dof=60.0) is None
-    assert dof(vb_dof=4.0, robust_dof=60.0) == 4.0 and dof(kind="vb", vb_dof=4.0) == 4.0
+    assert DEFAULT_ROBUST_DOF == 0.0 and dof() == (None, False)
+    assert dof(robust_dof=60.0) == (60.0, True)  # weights; R̂ learned as by the Gaussian VB
+    assert dof(kind="vb", robust_dof=60.0) == (None, False)
+    assert dof(vb_dof=4.0, robust_dof=60.0) == (4.0, False) == dof(kind="vb", vb_dof=4.0)
     cfg = parse_config(config_dict(filter={"robust_dof": 60}))
     strategy = cfg.filter_settings().strategy()
-    assert isinstance(strategy, VariationalBayes) and strategy.dof == 60.0
+    assert isinstance(strategy, VariationalBayes) and strategy.dof == 60.0 and strategy.weights_only
     with pytest.raises(MissionError, match=r"filter\.robust_dof"):
         parse_config(config_dict(filter={"robust_dof": -1}))
 

@@ -123,7 +123,8 @@ F_DIV_NIS, F_DIV_WINDOW, F_INFLATE_MAX = 37, 38, 39  # the windowed NIS test (es
 F_GUARD_K, F_LOCKOUT_MAX = 40, 41  # the guard's headroom κ on the nominal R; lockout's cap
 F_GAP = 42  # matching: restart the window after a gap of this many periods (0: never)
 F_QA_GAIN, F_QA_TARGET, F_QA_MAX, F_QA_WINDOW = 43, 44, 45, 46  # Q adaptation (noise/process)
-N_SFLT = 47
+F_WEIGHTS_ONLY = 47  # VB with dof: 1.0, β learns the whole residual (λ weights the reading only)
+N_SFLT = 48
 # s_state: float64 adaptation state: last epoch, VB α and β, matching R̂ (3×3 row-major)
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
 X_NIS, X_NIS_N, X_REJ_SINCE = 16, 17, 18  # mean NIS/d over the window, its count; lockout start
@@ -805,12 +806,13 @@ def _vb_iterate(
     nb: int,
     blk_off: IntArray,
     dof: float,
+    weights_only: bool,
 ) -> int:
     """VB fixed point (paper eqs. (24)-(28); docs/filters.md, 'VB update') in measurement space,
     on the rows of V: α (already α⁻ + ½) and β⁻ given; leaves in R̂ the R of the last correction
     and in β its β. With ``dof`` > 0, each block's reading has a Student-t scale λ (twin of
-    VariationalBayes.update with its ``dof``; ``dof`` <= 0: λ = 1, the paper's update). Returns
-    the iterations done, -1 if an S
+    VariationalBayes.update with its ``dof`` and ``weights_only``: then β learns ½ B, not
+    ½ λ B; ``dof`` <= 0: λ = 1, the paper's update). Returns the iterations done, -1 if an S
     was not positive definite."""
     alpha, beta_prior, beta, r_hat, Gy = V[V_ALPHA], V[V_BETA_PRIOR], V[V_BETA], V[V_R_HAT], V[V_GY]
     lam, B, lo, hi = V[V_LAM], V[V_B], V[V_LO], V[V_HI]
@@ -853,7 +855,7 @@ def _vb_iterate(
                 for j in range(blk_off[b], blk_off[b + 1]):
                     lam[j] = lb
         for j in range(D):
-            beta[j] = beta_prior[j] + 0.5 * lam[j] * B[j]
+            beta[j] = beta_prior[j] + 0.5 * (B[j] if weights_only else lam[j] * B[j])
             r_next = min(max(beta[j] / alpha[j] / lam[j], lo[j]), hi[j])
             if not abs(r_next - r_hat[j]) <= tol * r_hat[j]:
                 converged = False
@@ -974,7 +976,7 @@ def stacked_update(
                 V[V_HI, o + j] = s_flt[first, F_RMAX] * Rb[b, j, j]
         iterations = _vb_iterate(
             W, y, D, V, s_int[first, S_ITER], s_flt[first, F_TOL], ws[WS_S], ws[WS_L],
-            ws[WS_GT], nb, blk_off, s_flt[first, F_DOF],
+            ws[WS_GT], nb, blk_off, s_flt[first, F_DOF], s_flt[first, F_WEIGHTS_ONLY] != 0.0,
         )  # fmt: skip
         if iterations < 0:
             return -1

@@ -1410,6 +1410,7 @@ def _pack_strategy(
         sf[uk.F_RHO], sf[uk.F_TOL] = st.rho, st.tol
         sf[uk.F_IRREGULAR] = float(st.irregular)
         sf[uk.F_DOF] = st.dof if st.dof is not None else 0.0
+        sf[uk.F_WEIGHTS_ONLY] = float(st.weights_only)
         sf[uk.F_RMIN], sf[uk.F_RMAX] = st.r_floor, st.r_ceiling
         sx[uk.X_ALPHA : uk.X_ALPHA + d] = vb0.alpha
         sx[uk.X_BETA : uk.X_BETA + d] = vb0.beta

@@ -79,13 +79,13 @@ a precise sensor made it stiffer than the model holds, overconfident in GNSS out
 RTKLIB drive, driving Q, GNSS + NHC: mean 60-s outage drift 22.5 → 13.3 m, MESKF's 12.3 m;
 docs/robustness.md, 'Bounded R̂')."""
 DEFAULT_ROBUST_DOF = 0.0
-"""Student-t ν of the robust filter's readings (estimation/noise/vb.py); 0: Gaussian, the
+"""Student-t ν of the robust filter's reading weights (estimation/noise/vb.py, ``weights_only``:
+each reading weighted by its λ, R̂ learned as by the Gaussian VB update); 0: Gaussian, the
 default. Measured against the Gaussian robust filter (docs/robustness.md, 'The robust
-filter'): ν = 60 brings the A-KIT faulted / clean mean relative RMSE from 1.119 to 1.070 at
-0.3 % more clean error and leaves the RTKLIB drifts within 1 %, but costs 6 / 13 % on the
-simulated trials (mean relative RMSE over ten seeds 0.563 / 0.754 % against 0.529 / 0.670 %,
-paper-1 / paper-2; ν = 150: 3 / 6 %), whose 3-10× DVL noise segments VB's R̂ follows better
-without it. So it is an option, not the default."""
+filter'): ν = 60 brings the A-KIT faulted / clean mean relative RMSE from 1.119 to 1.082 at
+0.4 % more clean error, and costs 3 / 2 % on the simulated trials (mean relative RMSE over ten
+seeds, paper-1 / paper-2), where full Student-t readings (``vb_dof``: λ in β too) cost 6 / 13 %.
+An option until a full rerun of the results pages decides on it."""
 DEFAULT_DIVERGENCE: dict[FilterKind, DivergenceGuard] = {}
 """The windowed NIS test per kind (estimation/health.py); a kind absent here runs without it. None
 by default: on the adapted R it fires in the simulated trials' noise segments (robust with
@@ -139,8 +139,9 @@ class FilterSettings(BaseModel):
     """Student-t ν of each reading for VB-MAESKF and robust (estimation/noise/vb.py, beyond the
     paper); None: Gaussian for VB-MAESKF (the paper's update), :attr:`robust_dof` for robust."""
     robust_dof: NonNegative = DEFAULT_ROBUST_DOF
-    """Student-t ν of the robust filter's readings when ``vb_dof`` is not set; 0 (the default):
-    Gaussian (:data:`DEFAULT_ROBUST_DOF` says what ν = 60 does)."""
+    """Student-t ν of the robust filter's reading weights when ``vb_dof`` is not set (R̂
+    learned as by the Gaussian update); 0 (the default): Gaussian (:data:`DEFAULT_ROBUST_DOF`
+    says what ν = 60 does)."""
     guard_probability: Annotated[float, Field(ge=0, lt=1)] = DEFAULT_GUARD_PROBABILITY
     """The guard's p on every sensor (gate.Guard); 0: no guard (the paper's filters exactly)."""
     guard_headroom: Annotated[float, Field(ge=1, allow_inf_nan=False)] = DEFAULT_HEADROOM
@@ -214,12 +215,12 @@ class FilterSettings(BaseModel):
                 self.matching_gap_periods,
             )  # fmt: skip
         rho = overrides.vb_rho if overrides.vb_rho is not None else self.vb_rho
-        dof = self.vb_dof
+        dof, weights_only = self.vb_dof, False
         if dof is None and self.kind == "robust" and self.robust_dof > 0.0:
-            dof = self.robust_dof
+            dof, weights_only = self.robust_dof, True
         return VariationalBayes(
             self.vb_alpha0, rho, self.vb_iterations, self.vb_tol, self.vb_irregular, dof,
-            floor, ceiling,
+            floor, ceiling, weights_only=weights_only,
         )  # fmt: skip
 
     def guard(self, overrides: SensorOverrides = SensorOverrides()) -> Guard | None:

@@ -39,6 +39,11 @@ so a reading far off its R̂ gets a small λ: it moves the state little and rais
 where the Gaussian update would raise β by ½ B and so R̂ for the next 1/(1 - ρ) epochs.
 ``dof = None`` (the default) is the paper's Gaussian update (λ = 1).
 
+With ``weights_only``, β learns ``β⁻ + ½ B`` as in the Gaussian update while the correction
+still uses ``R̂ / λ``: the reading is down-weighted at once, and a lasting rise of the noise
+(a segment of minutes rather than a burst) still raises R̂ at the Gaussian update's pace,
+which the Student-t β (½ λ B) slows down (measured: docs/robustness.md, 'The robust filter').
+
 **Beyond the paper: bounds on R̂.** With ``r_floor`` / ``r_ceiling`` set, every R̂ of the iteration
 is clipped to ``[r_floor, r_ceiling] × σ²_nominal`` and so is the state's β/α at the end (β clipped
 to ``[r_floor, r_ceiling] α σ²_nominal``). When Q is too small for the real motion, the innovations
@@ -86,6 +91,9 @@ class VariationalBayes:
     r_ceiling: float = math.inf
     """Upper bound on R̂ as a factor of the nominal variance (module docstring)."""
     name: str = "vb"
+    weights_only: bool = False
+    """With ``dof``: β learns ½ B, the Gaussian update's, instead of ½ λ B, so that λ only
+    weights the reading in the correction (module docstring)."""
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.alpha0) or self.alpha0 <= 0:
@@ -133,7 +141,7 @@ class VariationalBayes:
                 for sl in slices(blocks):
                     d = sl.stop - sl.start
                     lam[sl] = (self.dof + d) / (self.dof + np.sum(B[sl] * alpha[sl] / beta[sl]))
-            beta = beta_prior + 0.5 * lam * B
+            beta = beta_prior + 0.5 * (B if self.weights_only else lam * B)
             r_next = np.clip(beta / alpha / lam, lo, hi)
             if done >= self.iterations or np.all(np.abs(r_next - r_hat) <= self.tol * r_hat):
                 beta = np.clip(beta, lo * alpha, hi * alpha)
