@@ -10,6 +10,7 @@ import pytest
 from numpy.typing import NDArray
 
 from adaptnav.compiled import smoother as smk
+from adaptnav.compiled.propagation import _W
 from adaptnav.core import attitude
 from adaptnav.estimation import smoother
 from adaptnav.models.strapdown import NOM_SIZE
@@ -137,7 +138,6 @@ def test_accumulated_phi_is_the_product_of_the_steps(steps: int) -> None:
     for none), whatever layout accumulate keeps it in; Φ's of the propagation's structure:
     rows 9-14 diagonal, position rows without the attitude columns."""
     rng = np.random.default_rng(steps)
-    W = 16  # the propagation kernels' row stride (compiled.propagation._W)
     sm = smk.store(4, 1, NOM_SIZE, smk.CORE)
     expected = np.eye(smk.CORE)
     for k in range(2):  # two nodes in a row: the accumulator restarts from the second
@@ -146,8 +146,8 @@ def test_accumulated_phi_is_the_product_of_the_steps(steps: int) -> None:
             Phi = np.eye(smk.CORE) + 0.1 * rng.normal(size=(smk.CORE, smk.CORE))
             Phi[9:] = np.diag(np.diag(Phi))[9:]
             Phi[0:3, 6:] = 0.0
-            flat = np.zeros(W * W)
-            flat.reshape(W, W)[: smk.CORE, : smk.CORE] = Phi.T
+            flat = np.zeros(_W * _W)
+            flat.reshape(_W, _W)[: smk.CORE, : smk.CORE] = Phi.T
             smk.accumulate(sm, flat)
             expected = Phi @ expected
         j = smk.node(sm, float(k), np.zeros(NOM_SIZE), np.eye(smk.CORE), smk._NO_DX,
