@@ -42,11 +42,11 @@ VB_GATE_Q = 2600.0
 VB's own R̂, the paper's gate) and ``vb_n`` (S with the nominal R, estimation/gate.py)."""
 VB_DOF = 4.0
 """Student-t ν of the heavy-tailed VB-MAESKF row ``vb_t`` (estimation/noise/vb.py; no gate)."""
-ROBUST_DOF = 60.0
-"""ν of the robust row with Student-t reading weights ``robust_t`` (``[filter] robust_dof``, an
-option: docs/robustness.md, 'The robust filter')."""
+ROBUST_GAUSSIAN_DOF = 0.0
+"""``[filter] robust_dof`` of the row ``robust_g``: the robust filter with Gaussian readings (its
+default until 0.3.3; the default's Student-t weights: docs/robustness.md, 'The robust filter')."""
 FILTERS = (
-    "meskf", "maeskf", "vb", "vb_q", "vb_n", "vb_t", "robust", "robust_t", "oracle", "floor",
+    "meskf", "maeskf", "vb", "vb_q", "vb_n", "vb_t", "robust", "robust_g", "oracle", "floor",
 )  # fmt: skip
 LABELS = {
     "meskf": "MESKF",
@@ -56,7 +56,7 @@ LABELS = {
     "vb_n": f"VB-MAESKF q={VB_GATE_Q:.0f} nominal-R gate",
     "vb_t": f"VB-MAESKF Student-t ν={VB_DOF:g}",
     "robust": "robust",
-    "robust_t": f"robust, robust_dof={ROBUST_DOF:g}",
+    "robust_g": f"robust, robust_dof={ROBUST_GAUSSIAN_DOF:g} (Gaussian)",
     "oracle": "oracle",
     "floor": "floor (DVL DR)",
 }
@@ -176,7 +176,7 @@ def _one(src: Path, work: Path, n: int, seed_base: int, keep: bool) -> dict[str,
         "vb_q": gated.updated(gate_reference="adapted"),
         "vb_n": gated.updated(gate_reference="nominal"),
         "vb_t": FilterSettings(kind="vb", vb_dof=VB_DOF),  # heavy-tailed readings, no gate
-        "robust_t": FilterSettings(kind="robust", robust_dof=ROBUST_DOF),  # the option
+        "robust_g": FilterSettings(kind="robust", robust_dof=ROBUST_GAUSSIAN_DOF),  # 0.3.2's
     }
     for name, settings in variants.items():
         run = api.run(cmp.mission, settings.kind, settings=settings, initial=start)
@@ -295,8 +295,8 @@ def _targets(df: pd.DataFrame) -> list[tuple[str, float, float, bool]]:
         ("robust faulted / robust clean", f / c, 1.10, f / c <= 1.10),
         ("robust clean / VB-MAESKF clean", c / vb_c, 1.0, c / vb_c <= 1.0),
     ]
-    c, f = mean[("clean", "robust_t")], mean[("faulted", "robust_t")]
-    lab = LABELS["robust_t"]
+    c, f = mean[("clean", "robust_g")], mean[("faulted", "robust_g")]
+    lab = LABELS["robust_g"]
     out += [
         (f"{lab} faulted / {lab} clean", f / c, 1.10, f / c <= 1.10),
         (f"{lab} clean / VB-MAESKF clean", c / vb_c, 1.0, c / vb_c <= 1.0),
@@ -364,10 +364,10 @@ def _figure_bars(df: pd.DataFrame, path: Path) -> None:
     import matplotlib.ticker
 
     colors = {"meskf": "C3", "maeskf": "C0", "vb": "C2", "vb_q": "C8", "vb_n": "C1",
-              "vb_t": "C6", "robust": "C5", "robust_t": "C9", "oracle": "C4",
+              "vb_t": "C6", "robust": "C5", "robust_g": "C9", "oracle": "C4",
               "floor": "0.4"}  # fmt: skip
     hatch = {"meskf": "//", "maeskf": "..", "vb": "", "vb_q": "\\\\", "vb_n": "++",
-             "vb_t": "oo", "robust": "**", "robust_t": "O", "oracle": "xx",
+             "vb_t": "oo", "robust": "**", "robust_g": "O", "oracle": "xx",
              "floor": "--"}  # fmt: skip
     fig, axes = plt.subplots(2, 1, figsize=(11, 7), sharex=True, constrained_layout=True)
     for ax, case in zip(axes, ("clean", "faulted"), strict=True):

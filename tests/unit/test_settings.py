@@ -49,16 +49,18 @@ def test_q_adaptation_switch(given: object, expected: QAdaptation | None) -> Non
 
 
 def test_robust_dof_gives_robust_student_t_readings_and_leaves_the_paper_filter_alone() -> None:
-    """robust's readings are Gaussian by default and weighted as Student-t with ν = robust_dof
-    when it is set (R̂ learned as by the Gaussian update), unless vb_dof (full Student-t) says
-    otherwise; VB-MAESKF stays the paper's Gaussian update unless vb_dof is set."""
+    """robust's readings are weighted as Student-t with ν = robust_dof (R̂ learned as by the
+    Gaussian update; 100 by default, 0 Gaussian), unless vb_dof (full Student-t) says otherwise;
+    VB-MAESKF stays the paper's Gaussian update unless vb_dof is set."""
 
     def dof(**changes: float | str) -> tuple[float | None, bool]:
         strategy = FilterSettings.model_validate(changes).strategy()
         assert isinstance(strategy, VariationalBayes)
         return strategy.dof, strategy.weights_only
 
-    assert DEFAULT_ROBUST_DOF == 0.0 and dof() == (None, False)
+    assert DEFAULT_ROBUST_DOF == 100.0 and dof() == (100.0, True)
+    assert dof(robust_dof=0.0) == (None, False)  # Gaussian readings, robust of 0.3.2
+    assert dof(kind="vb") == (None, False)  # the paper's VB-MAESKF untouched by the default
     assert dof(robust_dof=60.0) == (60.0, True)  # weights; R̂ learned as by the Gaussian VB
     assert dof(kind="vb", robust_dof=60.0) == (None, False)
     assert dof(vb_dof=4.0, robust_dof=60.0) == (4.0, False) == dof(kind="vb", vb_dof=4.0)
