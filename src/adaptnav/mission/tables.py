@@ -388,8 +388,8 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
     least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
     ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the empty ones
-    has the header's number of fields, none of them quoted across a comma or a line break
-    (:func:`_fields_ok`). Read in pieces of
+    has the header's number of fields as the csv module counts them, none quoted across a line
+    break (:func:`_fields_ok`). Read in pieces of
     :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
     The size is what was read: a file still being written is read as it was then.
     """
@@ -457,20 +457,45 @@ def _utf8(piece: bytes) -> bool:
 
 def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
     """Whether every line of ``piece`` (which starts a line) ended by a line break has
-    ``n_fields`` fields, but its ``n_blank`` empty lines (no comma: ``n_fields`` ≥ 2 tells them
-    apart), and no comma or line break is inside quotes (an odd number of ``"`` before it, the
-    doubled ``""`` of a quote in a quoted text counting twice): then the commas are the field
-    separators. Lines of spaces, short and long lines, quoted commas and line breaks are the
-    exact reader's to see and report."""
+    ``n_fields`` fields, as the exact reader (the csv module) counts them, but its ``n_blank``
+    empty lines (no comma: ``n_fields`` ≥ 2 tells them apart), and an even number of ``"``, so
+    that no line break is inside quotes.
+
+    Counted with NumPy: a comma after an odd number of quotes on its line is inside quotes
+    (``"a,b"``; the doubled ``""`` of a quote in a quoted text counts twice). That is how the
+    csv module reads them when each quote that opens a quoted field (the 1st, 3rd, ... of a
+    line) starts its field: after a comma or at the line's start, or right after a quote (a
+    doubled one). A line with a quote elsewhere (``x"y``, ``, "a"``: a character to the csv
+    module) is counted by the csv module itself, and declined if it leaves a quoted field open
+    (it would take in the next line). Lines of spaces, short and long lines, quoted line
+    breaks are the exact reader's to see and report."""
     a = np.frombuffer(piece, np.uint8)
     ends = np.flatnonzero(a == ord("\n"))
     commas = np.flatnonzero(a == ord(","))
     quotes = np.flatnonzero(a == ord('"'))
-    if quotes.size and (
-        np.any(np.searchsorted(quotes, commas) % 2) or np.any(np.searchsorted(quotes, ends) % 2)
-    ):
+    if quotes.size == 0:
+        per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
+        return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
+    if np.any(np.searchsorted(quotes, ends) % 2):
         return False
-    per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
+    free = commas[np.searchsorted(quotes, commas) % 2 == 0]
+    per_line = np.diff(np.searchsorted(free, ends), prepend=0)
+    opening = quotes[0::2]
+    before = np.full(opening.size, -2)
+    before[1:] = quotes[1::2][: opening.size - 1]  # the quote before each opening one
+    prev = a[np.maximum(opening - 1, 0)]
+    starts_field = (opening == 0) | (prev == ord(",")) | (prev == ord("\n"))
+    stray = opening[~(starts_field | (before == opening - 1))]
+    rows = np.unique(np.searchsorted(ends, stray))
+    rows = rows[rows < ends.size]
+    if rows.size:
+        lines = piece.decode("utf-8").split("\n")
+        reader = csv.reader([*(lines[k].removesuffix("\r") for k in rows.tolist()), ""])
+        for j, k in enumerate(rows.tolist()):
+            fields = next(reader)
+            if reader.line_num != j + 1:
+                return False  # a quoted field open at its line's end joined the next
+            per_line[k] = len(fields) - 1
     return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
 
 
@@ -738,12 +763,12 @@ def _read_csv_streamed(path: Path, label: str) -> Table | None:
 
     For what the typed reader declines but whose lines need no care (:func:`_scan` with
     ``numbers_only=False``: UTF-8, every line but the empty ones with the header's number of
-    fields, no comma or line break inside quotes, a line break at the end): a text, date or
-    true/false column, quoted or not, a cell that is not a number. The exact reader hands the
-    same lines to the same pandas call, only as one string rebuilt in memory; here pandas reads
-    the file (about twice its size at the peak, plus the text cells' objects). None, for the
-    exact reader, on anything else or a parse pandas refuses (the exact reader words the
-    error).
+    fields, no line break inside quotes, a line break at the end): a text, date or true/false
+    column, quoted or not (commas inside quotes too), a cell that is not a number. The exact
+    reader hands the same lines to the same pandas call, only as one string rebuilt in memory;
+    here pandas reads the file (about twice its size at the peak, plus the text cells'
+    objects). None, for the exact reader, on anything else or a parse pandas refuses (the exact
+    reader words the error).
     """
     try:
         with path.open("rb") as f:
@@ -827,7 +852,7 @@ def _check_field_counts(
     MissionError otherwise, except a short last line (the file cut short), which is dropped
     and recorded (docs/robustness.md)."""
     if quoted:
-        counts = [len(r) for r in csv.reader(lines[i] for i in data)]
+        counts = _quoted_field_counts(lines, data, label)
     else:
         counts = [lines[i].count(",") + 1 for i in data]
     n = len(header)
@@ -849,6 +874,30 @@ def _check_field_counts(
             line=i + 1,
         )
     return data, None
+
+
+def _quoted_field_counts(lines: list[str], data: list[int], label: str) -> list[int]:
+    """The number of fields of each data line of a file with quotes, as the csv module reads
+    them; MissionError at the first line whose quoted field does not close on it (the csv
+    module would join the next line to it, pandas too: the rows would no longer be the lines,
+    and a reading's line is what every later message names)."""
+    reader = csv.reader(lines[i] for i in data)
+    counts: list[int] = []
+    try:
+        for row in reader:
+            if reader.line_num != len(counts) + 1:
+                line = data[len(counts)] + 1
+                raise MissionError(
+                    f"{label} line {line}: a quoted field is not closed on its line (a line "
+                    "break inside quotes is not supported)",
+                    file=label,
+                    line=line,
+                )
+            counts.append(len(row))
+    except csv.Error as exc:  # pragma: no cover - the csv module is lenient by default
+        line = data[min(len(counts), len(data) - 1)] + 1
+        raise MissionError(f"{label} line {line}: {exc}", file=label, line=line) from None
+    return counts
 
 
 def _drop_cut_last_line(
