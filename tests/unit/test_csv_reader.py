@@ -234,7 +234,7 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
         "1.0,abc\n3.0,4.0,5.0\n",  # a long line
         "1.0,abc\n3.0\n4.0,x\n",  # a short line inside
         "1.0,abc\n   \n2.0,x\n",  # a line of spaces (blank to the exact reader)
-        "1.0,abc\n2.0,xyz",  # no line break at the end (cut short?)
+        "1.0,abc\n2.0,xyz,7",  # no line break at the end, a long last line
         "1.0,abc\n\x00\n",  # binary
         "1.0,\xe9t\xe9\n",  # Latin-1 (the exact reader says: not UTF-8)
         "",  # no data line
@@ -243,7 +243,7 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
 def test_what_the_streamed_reader_leaves_to_the_exact_one(tmp_path: Path, body: str) -> None:
     path = tmp_path / "x.csv"
     path.write_bytes(b"t_s,v\n" + body.encode("latin-1"))
-    assert tb._read_csv_streamed(path, "x.csv") is None
+    assert tb._read_csv_streamed(path, "x.csv", tb.Journal()) is None
 
 
 @settings(max_examples=400, deadline=None, derandomize=True)
@@ -276,6 +276,35 @@ def test_a_quoted_line_break_is_an_error_naming_the_line(tmp_path: Path) -> None
     path.write_bytes(b't_s,vx_m_s,status\n0.0,1.0,ok\n0.1,1.1,"lost\nlock"\n0.2,1.2,ok\n')
     with pytest.raises(MissionError, match=r"dvl\.csv line 3: a quoted field is not closed"):
         read(path)
+
+
+@pytest.mark.parametrize(
+    ("last", "kept"),
+    [
+        ("9.9,2026-12-03T07:00:09Z,lost", True),  # as long as its column's: whole
+        ("9.9,2026-12-03T07:00:09Z,lo", False),  # shorter: cut mid-word, dropped, recorded
+        ("9.9,2026-12-03T07:00:09Z", False),  # a field short
+        ('9.9,2026-12-03T07:00:09Z,"lost, 2"', True),  # quoted, with a comma: whole
+    ],
+)
+def test_a_text_file_without_final_line_break_is_streamed(
+    tmp_path: Path, small: None, streamed_only: None, last: str, kept: bool
+) -> None:
+    """A logger stopped mid-write: the streamed reader judges the last line from the file's
+    tail as the exact reader does (its page size of bytes, not the whole file in memory)."""
+    lines = ["t_s,utc,status"] + [
+        f"{0.1 * k!r},2026-12-03T07:00:0{k % 10}Z,okay" for k in range(300)
+    ]
+    path = tmp_path / "dvl.csv"
+    path.write_bytes(("\n".join([*lines, last])).encode())
+    table, repairs = read(path)
+    assert len(table) == 300 + kept
+    assert [r.line for r in repairs] == ([] if kept else [302])
+    assert (table.cut is None) == kept
+    exact, exact_repairs, error = outcome(EXACT, path)
+    assert error is None and exact is not None
+    assert_same_table(table, exact)
+    assert repairs == exact_repairs
 
 
 # --- errors: the typed reader declines, the exact one locates ----------------------------------
@@ -478,7 +507,7 @@ def _random_csv(
 
 
 def _streamed(path: Path, label: str, journal: tb.Journal) -> tb.Table | None:
-    return tb._read_csv_streamed(path, label)
+    return tb._read_csv_streamed(path, label, journal)
 
 
 @pytest.mark.parametrize(

@@ -305,7 +305,7 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     """
     table = _read_csv_typed(path, label, journal)
     if table is None:
-        table = _read_csv_streamed(path, label)
+        table = _read_csv_streamed(path, label, journal)
     return table if table is not None else _read_csv_exact(path, label, journal)
 
 
@@ -544,7 +544,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
         return None
     header = layout.header
     n = len(header)
-    fields = text.split(",")
+    fields = _fields(text, '"' in text)  # as the exact reader splits it (csv if quoted)
     c = len(fields)
     if c > n:
         return None
@@ -554,7 +554,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
         repair = (line, "", f"{c} of {n} fields: {text[:60]!r}")
         cut = (line, _time_of(fields[: c - 1], header))
     elif not layout.ends_with_break:
-        before = [len(t.rsplit(",", 1)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
+        before = [len(_fields(t, '"' in t)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
         value = fields[-1].strip()
         if not before or len(value) < max(before):
             repair = (
@@ -594,7 +594,7 @@ def _tail_lines(f: BinaryIO, layout: _Layout) -> list[tuple[int, int, str]] | No
     for part in reversed(parts[whole:]):
         offset -= len(part)
         if part.strip():
-            found.append((line, offset, part.decode("ascii").rstrip("\r")))
+            found.append((line, offset, part.decode("utf-8").rstrip("\r")))
             if len(found) == want:
                 break
         offset -= 1  # its line break
@@ -758,13 +758,15 @@ class _Head(io.RawIOBase):
         super().close()
 
 
-def _read_csv_streamed(path: Path, label: str) -> Table | None:
+def _read_csv_streamed(path: Path, label: str, journal: Journal) -> Table | None:
     """A CSV of plain lines parsed by pandas straight from the file, or None.
 
     For what the typed reader declines but whose lines need no care (:func:`_scan` with
     ``numbers_only=False``: UTF-8, every line but the empty ones with the header's number of
-    fields, no line break inside quotes, a line break at the end): a text, date or true/false
-    column, quoted or not (commas inside quotes too), a cell that is not a number. The exact
+    fields, no line break inside quotes): a text, date or true/false column, quoted or not
+    (commas inside quotes too), a cell that is not a number. A file that ends without a line
+    break has its last line judged from the file's tail as the exact reader judges it (kept,
+    or dropped as cut short and recorded in ``journal``: :func:`_plan_last_line`). The exact
     reader hands the same lines to the same pandas call, only as one string rebuilt in memory;
     here pandas reads the file (about twice its size at the peak, plus the text cells'
     objects). None, for the exact reader, on anything else or a parse pandas refuses (the exact
@@ -773,20 +775,28 @@ def _read_csv_streamed(path: Path, label: str) -> Table | None:
     try:
         with path.open("rb") as f:
             layout = _scan(f, numbers_only=False)
-    except OSError:
+            if layout is None or not _header_ok(layout.header, label):
+                return None
+            if layout.ends_with_break:
+                plan: _Plan | None = _Plan(layout.size, _data_lines(layout), None, None)
+            else:
+                plan = _plan_last_line(f, layout)
+    except (OSError, UnicodeDecodeError):
         return None
-    if layout is None or not layout.ends_with_break or not _header_ok(layout.header, label):
+    if plan is None:
         return None
-    lines = _data_lines(layout)
     try:
-        with io.BufferedReader(_Head(path, layout.size)) as src:
+        with io.BufferedReader(_Head(path, plan.limit)) as src:
             df: pd.DataFrame = pd.read_csv(src, encoding="utf-8-sig", **_PANDAS_OPTIONS)
     except (pd.errors.ParserError, ValueError, csv.Error, OSError):
         return None
-    if len(df) != lines.size or len(df.columns) != len(layout.header):
+    if len(df) != plan.lines.size or len(df.columns) != len(layout.header):
         return None
+    if plan.repair is not None:
+        line, fld, detail = plan.repair
+        journal.repair(label, line, fld, "dropped truncated last line", detail)
     df.columns = pd.Index(layout.header)
-    return Table(label, path, "csv", df, lines, None)
+    return Table(label, path, "csv", df, plan.lines, plan.cut)
 
 
 def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
