@@ -175,6 +175,21 @@ def test_a_clean_file_is_read_by_the_typed_reader_as_pandas_reads_it(
         np.testing.assert_array_equal(got[~nan].view(np.int64), value[~nan].view(np.int64))
 
 
+def test_a_quoted_header_is_read_by_the_typed_reader(tmp_path: Path, typed_only: None) -> None:
+    """Writers that quote every text cell (csv.QUOTE_NONNUMERIC) quote the header: its names
+    are read as the exact reader reads them, the numbers still by pyarrow."""
+    rng = np.random.default_rng(3)
+    df = pd.DataFrame({"t_s": np.arange(50) / 10.0, "vx_m_s": rng.normal(size=50)})
+    path = tmp_path / "dvl.csv"
+    df.to_csv(path, index=False, quoting=csv.QUOTE_NONNUMERIC)
+    assert path.read_text().startswith('"t_s","vx_m_s"\n')
+    table, repairs = read(path)
+    exact, _, error = outcome(EXACT, path)
+    assert error is None and exact is not None and repairs == []
+    assert_same_table(table, exact)
+    assert list(table.df.columns) == ["t_s", "vx_m_s"] and len(table) == 50
+
+
 def test_blank_lines_crlf_and_bom_keep_their_line_numbers(
     tmp_path: Path, small: None, typed_only: None
 ) -> None:
@@ -493,7 +508,9 @@ def _random_csv(
             else:
                 row.append(repr(float(rng.random())))
         body.append(",".join(row))
-    lines = [", ".join(f"c{i}" for i in range(n_cols)), *body]
+    quote = '"' if rng.random() < 0.2 else ""  # a header as csv writers quoting all give it
+    sep = "," if quote else ", "  # after ', ' a quote is a character to the csv module
+    lines = [sep.join(f"{quote}c{i}{quote}" for i in range(n_cols)), *body]
     for _ in range(int(rng.choice([0, 0, 1, 3]))):
         lines.insert(int(rng.integers(1, len(lines) + 1)), str(rng.choice(["", "", "  "])))
     if rng.random() < 0.15 and len(lines) > 2:

@@ -384,7 +384,7 @@ def _header_ok(header: list[str], label: str) -> bool:
 def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     """The layout of an open CSV, or None if it is not a plain table (of numbers).
 
-    Plain: a header on line 1 with at least two names (no quotes); after it, line breaks LF or
+    Plain: a header on line 1 with at least two names (quoted or not); after it, line breaks LF or
     CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
     least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
     ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the empty ones
@@ -399,13 +399,18 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     if end < 0:
         return None  # no line after the header, or a header longer than a piece
     head = first[:end].removeprefix(BOM).removesuffix(b"\r")
-    if any(c in head for c in (b'"', b"\r", b"\x00")):
+    if any(c in head for c in (b"\r", b"\x00")):
         return None
     try:
         text = head.decode("utf-8")
     except UnicodeDecodeError:
         return None
-    header = [h.strip() for h in text.split(",")]
+    # A quoted header ("t_s","vx_m_s", as csv writers quoting every cell give it) is read as
+    # the exact reader reads it: by the csv module, names stripped; a quote left in a name is
+    # its to report.
+    header = [h.strip() for h in (next(csv.reader([text])) if '"' in text else text.split(","))]
+    if any('"' in h for h in header):
+        return None
     if not text.strip() or len(header) < 2:
         return None
     data_start = end + 1
