@@ -16,7 +16,10 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
 - ``read_table`` on the same table with a text column added (``stamped.csv``: each sample's
   UTC time as ISO 8601 text, as loggers write it): the typed reader declines it, pandas reads
   it from the file (the streamed reader);
-- the exact reader on that file, for comparison.
+- the exact reader on that file, for comparison;
+- ``read_table`` on that file with a status text that has a comma in it on every line
+  (``quoted.csv``: ``"bottom lock, 4 beams"``, quoted by pandas): the streamed reader counts
+  those lines' fields with the csv module (the worst case for it: every line).
 
 The file is written in a subprocess too, so that this process stays small: on Linux a child
 inherits its parent's ``ru_maxrss``, hence the peak is read from ``VmHWM`` where there is one.
@@ -48,6 +51,7 @@ READERS = (
     "read_table_bool",
     "read_table_text",
     "exact_text",
+    "read_table_quoted",
 )
 """What is measured, one subprocess each (see the module docstring)."""
 REPEATS = 2
@@ -94,6 +98,9 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     start = pd.Timestamp("2026-12-03T07:00:00", tz="UTC")
     imu.insert(1, "utc", (start + pd.to_timedelta(t, unit="s")).strftime("%Y-%m-%dT%H:%M:%S.%fZ"))
     imu.to_csv(root / "stamped.csv", index=False)
+    imu["status"] = np.where(rng.random(rows) < 0.99, "bottom lock, 4 beams", "lost, 0 beams")
+    imu.to_csv(root / "quoted.csv", index=False)
+    imu = imu.drop(columns="status")
     n_dvl = int(t[-1] * 3.0)
     dvl = pd.DataFrame(
         {
@@ -136,6 +143,9 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     elif reader == "read_table_text":
         stamped = imu_csv.parent / "stamped.csv"
         tb.read_table(stamped, stamped.name, tb.Journal())
+    elif reader == "read_table_quoted":
+        quoted = imu_csv.parent / "quoted.csv"
+        tb.read_table(quoted, quoted.name, tb.Journal())
     elif reader == "exact_text":
         stamped = imu_csv.parent / "stamped.csv"
         tb._read_csv_exact(stamped, stamped.name, tb.Journal())
@@ -165,6 +175,7 @@ def bench_csv_memory() -> list[str]:
         size = imu_csv.stat().st_size / MB
         size_flagged = (imu_csv.parent / "flagged.csv").stat().st_size / MB
         size_stamped = (imu_csv.parent / "stamped.csv").stat().st_size / MB
+        size_quoted = (imu_csv.parent / "quoted.csv").stat().st_size / MB
         got = {r: {"peak_mb": 0.0, "seconds": math.inf} for r in READERS}
         for _ in range(REPEATS):
             for r in READERS:
@@ -187,6 +198,8 @@ def bench_csv_memory() -> list[str]:
         f"csv memory: the same with an ISO 8601 time column ({size_stamped:.0f} MB) → read_table "
         f"peak {peak('read_table_text', size_stamped)}; exact reader "
         f"{peak('exact_text', size_stamped)}",
+        f"csv memory: the same with a quoted status text with a comma on every line "
+        f"({size_quoted:.0f} MB) → read_table peak {peak('read_table_quoted', size_quoted)}",
     ]
     for line in lines:
         print(line, flush=True)

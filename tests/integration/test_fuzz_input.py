@@ -194,6 +194,20 @@ def extra_columns(root: Path, draw: Draw) -> Expect:
     return expect(f"{name}.csv", "fine")
 
 
+def quoted_note(root: Path, draw: Draw) -> Expect:
+    """A logger's note column, quoted: a comma inside quotes is a text cell like any other; a
+    line break inside quotes (one cell over two lines) is an error naming the file."""
+    name = _table(draw, TABLES)
+    path = root / f"{name}.csv"
+    lines = path.read_text().splitlines()
+    k = int(draw(st.integers(1, len(lines) - 1)))
+    broken = draw(st.booleans())
+    note = '"lost\n2 beams"' if broken else '"lost, 2 beams"'
+    body = [f"{line},{note if i == k else 'ok'}" for i, line in enumerate(lines[1:], 1)]
+    path.write_text("\n".join([lines[0] + ",note", *body]) + "\n")
+    return expect(f"{name}.csv", "error" if broken else "fine")
+
+
 def reordered_columns(root: Path, draw: Draw) -> Expect:
     name = _table(draw, TABLES)
     df = badinput.read(root, name)
@@ -498,7 +512,7 @@ CORRUPTIONS: dict[str, Callable[[Path, Draw], Expect]] = {
     for f in (
         nan_value, inf_value, huge_value, nan_imu, huge_imu, nan_time, repeated_stamp,
         repeated_row, imu_repeated_stamp, negative_step, time_scaled, imu_gap, missing_column,
-        extra_columns, reordered_columns, degree_columns, wrong_units, swapped_time,
+        extra_columns, quoted_note, reordered_columns, degree_columns, wrong_units, swapped_time,
         empty_table, missing_file, binary_garbage, cut_fields, short_line_inside,
         long_line_inside, other_separator, text_cell, bool_column, repeated_header,
         blank_lines_bom_crlf, all_implausible, gnss_nan_window, sensor_time_shift,

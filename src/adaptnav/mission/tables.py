@@ -305,7 +305,7 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     """
     table = _read_csv_typed(path, label, journal)
     if table is None:
-        table = _read_csv_streamed(path, label)
+        table = _read_csv_streamed(path, label, journal)
     return table if table is not None else _read_csv_exact(path, label, journal)
 
 
@@ -384,12 +384,12 @@ def _header_ok(header: list[str], label: str) -> bool:
 def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     """The layout of an open CSV, or None if it is not a plain table (of numbers).
 
-    Plain: a header on line 1 with at least two names (no quotes); after it, line breaks LF or
+    Plain: a header on line 1 with at least two names (quoted or not); after it, line breaks LF or
     CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
     least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
     ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the empty ones
-    has the header's number of fields, none of them quoted across a comma or a line break
-    (:func:`_fields_ok`). Read in pieces of
+    has the header's number of fields as the csv module counts them, none quoted across a line
+    break (:func:`_fields_ok`). Read in pieces of
     :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
     The size is what was read: a file still being written is read as it was then.
     """
@@ -399,13 +399,18 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     if end < 0:
         return None  # no line after the header, or a header longer than a piece
     head = first[:end].removeprefix(BOM).removesuffix(b"\r")
-    if any(c in head for c in (b'"', b"\r", b"\x00")):
+    if any(c in head for c in (b"\r", b"\x00")):
         return None
     try:
         text = head.decode("utf-8")
     except UnicodeDecodeError:
         return None
-    header = [h.strip() for h in text.split(",")]
+    # A quoted header ("t_s","vx_m_s", as csv writers quoting every cell give it) is read as
+    # the exact reader reads it: by the csv module, names stripped; a quote left in a name is
+    # its to report.
+    header = [h.strip() for h in (next(csv.reader([text])) if '"' in text else text.split(","))]
+    if any('"' in h for h in header):
+        return None
     if not text.strip() or len(header) < 2:
         return None
     data_start = end + 1
@@ -457,20 +462,45 @@ def _utf8(piece: bytes) -> bool:
 
 def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
     """Whether every line of ``piece`` (which starts a line) ended by a line break has
-    ``n_fields`` fields, but its ``n_blank`` empty lines (no comma: ``n_fields`` ≥ 2 tells them
-    apart), and no comma or line break is inside quotes (an odd number of ``"`` before it, the
-    doubled ``""`` of a quote in a quoted text counting twice): then the commas are the field
-    separators. Lines of spaces, short and long lines, quoted commas and line breaks are the
-    exact reader's to see and report."""
+    ``n_fields`` fields, as the exact reader (the csv module) counts them, but its ``n_blank``
+    empty lines (no comma: ``n_fields`` ≥ 2 tells them apart), and an even number of ``"``, so
+    that no line break is inside quotes.
+
+    Counted with NumPy: a comma after an odd number of quotes on its line is inside quotes
+    (``"a,b"``; the doubled ``""`` of a quote in a quoted text counts twice). That is how the
+    csv module reads them when each quote that opens a quoted field (the 1st, 3rd, ... of a
+    line) starts its field: after a comma or at the line's start, or right after a quote (a
+    doubled one). A line with a quote elsewhere (``x"y``, ``, "a"``: a character to the csv
+    module) is counted by the csv module itself, and declined if it leaves a quoted field open
+    (it would take in the next line). Lines of spaces, short and long lines, quoted line
+    breaks are the exact reader's to see and report."""
     a = np.frombuffer(piece, np.uint8)
     ends = np.flatnonzero(a == ord("\n"))
     commas = np.flatnonzero(a == ord(","))
     quotes = np.flatnonzero(a == ord('"'))
-    if quotes.size and (
-        np.any(np.searchsorted(quotes, commas) % 2) or np.any(np.searchsorted(quotes, ends) % 2)
-    ):
+    if quotes.size == 0:
+        per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
+        return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
+    if np.any(np.searchsorted(quotes, ends) % 2):
         return False
-    per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
+    free = commas[np.searchsorted(quotes, commas) % 2 == 0]
+    per_line = np.diff(np.searchsorted(free, ends), prepend=0)
+    opening = quotes[0::2]
+    before = np.full(opening.size, -2)
+    before[1:] = quotes[1::2][: opening.size - 1]  # the quote before each opening one
+    prev = a[np.maximum(opening - 1, 0)]
+    starts_field = (opening == 0) | (prev == ord(",")) | (prev == ord("\n"))
+    stray = opening[~(starts_field | (before == opening - 1))]
+    rows = np.unique(np.searchsorted(ends, stray))
+    rows = rows[rows < ends.size]
+    if rows.size:
+        lines = piece.decode("utf-8").split("\n")
+        reader = csv.reader([*(lines[k].removesuffix("\r") for k in rows.tolist()), ""])
+        for j, k in enumerate(rows.tolist()):
+            fields = next(reader)
+            if reader.line_num != j + 1:
+                return False  # a quoted field open at its line's end joined the next
+            per_line[k] = len(fields) - 1
     return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
 
 
@@ -519,7 +549,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
         return None
     header = layout.header
     n = len(header)
-    fields = text.split(",")
+    fields = _fields(text, '"' in text)  # as the exact reader splits it (csv if quoted)
     c = len(fields)
     if c > n:
         return None
@@ -529,7 +559,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
         repair = (line, "", f"{c} of {n} fields: {text[:60]!r}")
         cut = (line, _time_of(fields[: c - 1], header))
     elif not layout.ends_with_break:
-        before = [len(t.rsplit(",", 1)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
+        before = [len(_fields(t, '"' in t)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
         value = fields[-1].strip()
         if not before or len(value) < max(before):
             repair = (
@@ -569,7 +599,7 @@ def _tail_lines(f: BinaryIO, layout: _Layout) -> list[tuple[int, int, str]] | No
     for part in reversed(parts[whole:]):
         offset -= len(part)
         if part.strip():
-            found.append((line, offset, part.decode("ascii").rstrip("\r")))
+            found.append((line, offset, part.decode("utf-8").rstrip("\r")))
             if len(found) == want:
                 break
         offset -= 1  # its line break
@@ -733,35 +763,45 @@ class _Head(io.RawIOBase):
         super().close()
 
 
-def _read_csv_streamed(path: Path, label: str) -> Table | None:
+def _read_csv_streamed(path: Path, label: str, journal: Journal) -> Table | None:
     """A CSV of plain lines parsed by pandas straight from the file, or None.
 
     For what the typed reader declines but whose lines need no care (:func:`_scan` with
     ``numbers_only=False``: UTF-8, every line but the empty ones with the header's number of
-    fields, no comma or line break inside quotes, a line break at the end): a text, date or
-    true/false column, quoted or not, a cell that is not a number. The exact reader hands the
-    same lines to the same pandas call, only as one string rebuilt in memory; here pandas reads
-    the file (about twice its size at the peak, plus the text cells' objects). None, for the
-    exact reader, on anything else or a parse pandas refuses (the exact reader words the
-    error).
+    fields, no line break inside quotes): a text, date or true/false column, quoted or not
+    (commas inside quotes too), a cell that is not a number. A file that ends without a line
+    break has its last line judged from the file's tail as the exact reader judges it (kept,
+    or dropped as cut short and recorded in ``journal``: :func:`_plan_last_line`). The exact
+    reader hands the same lines to the same pandas call, only as one string rebuilt in memory;
+    here pandas reads the file (about twice its size at the peak, plus the text cells'
+    objects). None, for the exact reader, on anything else or a parse pandas refuses (the exact
+    reader words the error).
     """
     try:
         with path.open("rb") as f:
             layout = _scan(f, numbers_only=False)
-    except OSError:
+            if layout is None or not _header_ok(layout.header, label):
+                return None
+            if layout.ends_with_break:
+                plan: _Plan | None = _Plan(layout.size, _data_lines(layout), None, None)
+            else:
+                plan = _plan_last_line(f, layout)
+    except (OSError, UnicodeDecodeError):
         return None
-    if layout is None or not layout.ends_with_break or not _header_ok(layout.header, label):
+    if plan is None:
         return None
-    lines = _data_lines(layout)
     try:
-        with io.BufferedReader(_Head(path, layout.size)) as src:
+        with io.BufferedReader(_Head(path, plan.limit)) as src:
             df: pd.DataFrame = pd.read_csv(src, encoding="utf-8-sig", **_PANDAS_OPTIONS)
     except (pd.errors.ParserError, ValueError, csv.Error, OSError):
         return None
-    if len(df) != lines.size or len(df.columns) != len(layout.header):
+    if len(df) != plan.lines.size or len(df.columns) != len(layout.header):
         return None
+    if plan.repair is not None:
+        line, fld, detail = plan.repair
+        journal.repair(label, line, fld, "dropped truncated last line", detail)
     df.columns = pd.Index(layout.header)
-    return Table(label, path, "csv", df, lines, None)
+    return Table(label, path, "csv", df, plan.lines, plan.cut)
 
 
 def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
@@ -827,7 +867,7 @@ def _check_field_counts(
     MissionError otherwise, except a short last line (the file cut short), which is dropped
     and recorded (docs/robustness.md)."""
     if quoted:
-        counts = [len(r) for r in csv.reader(lines[i] for i in data)]
+        counts = _quoted_field_counts(lines, data, label)
     else:
         counts = [lines[i].count(",") + 1 for i in data]
     n = len(header)
@@ -849,6 +889,30 @@ def _check_field_counts(
             line=i + 1,
         )
     return data, None
+
+
+def _quoted_field_counts(lines: list[str], data: list[int], label: str) -> list[int]:
+    """The number of fields of each data line of a file with quotes, as the csv module reads
+    them; MissionError at the first line whose quoted field does not close on it (the csv
+    module would join the next line to it, pandas too: the rows would no longer be the lines,
+    and a reading's line is what every later message names)."""
+    reader = csv.reader(lines[i] for i in data)
+    counts: list[int] = []
+    try:
+        for row in reader:
+            if reader.line_num != len(counts) + 1:
+                line = data[len(counts)] + 1
+                raise MissionError(
+                    f"{label} line {line}: a quoted field is not closed on its line (a line "
+                    "break inside quotes is not supported)",
+                    file=label,
+                    line=line,
+                )
+            counts.append(len(row))
+    except csv.Error as exc:  # pragma: no cover - the csv module is lenient by default
+        line = data[min(len(counts), len(data) - 1)] + 1
+        raise MissionError(f"{label} line {line}: {exc}", file=label, line=line) from None
+    return counts
 
 
 def _drop_cut_last_line(

@@ -18,9 +18,12 @@ squares from before the gap estimates R from two different filters. Until the wi
 again the nominal R is used, as at the start. Measured with ``gap_periods = 10`` on the fault
 benchmark (3 seeds): MAESKF's RMSE ratio after a 300-s DVL dropout went from 1.19 / 1.72 to
 1.00 / 0.95 (paper-1 / paper-2) and after a 60-s frozen DVL from 1.39 / 1.38 to 1.00 / 1.03,
-but with 1 % DVL spikes on paper-2 from 0.88 to 1.87 (every simulated dropout restarts the
-window on the nominal R, too small in the noisy segments): not a clear gain, so it stays off
-(docs/robustness.md). Until the window is full the nominal R is used.
+but with 1 % DVL spikes on paper-2 from 0.88 to 1.87: not a clear gain, so it stays off
+(docs/robustness.md). Until the window is full the nominal R is used. (Using the R̂ from before
+the gap instead, on the thought that the nominal R is too small in the trials' noisy segments,
+was tried on 2026-12-03: spikes on paper-2 still 1.87, worst seed 3.78, with every fault at
+once 2.23 / 1.80 (paper-1 / paper-2) against 2.04 / 2.04 without a restart; not kept: the
+cause is not that.)
 Residual-based variant (RAE): ``R_i = diag(C_ε) + diag(H_i P⁺ H_iᵀ)`` with residuals
 ``ε = y - H dx⁺`` of the previous W updates.
 """
