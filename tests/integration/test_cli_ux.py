@@ -115,8 +115,8 @@ def test_run_shows_its_stages_on_stderr(source: Path, tmp_path: Path) -> None:
     expected = [
         f"loading {source}",
         "aligning over the static window",
-        "running robust (VB, bounded R̂)",
-        "RTS smoothing robust (VB, bounded R̂)",
+        "running robust (VB, Student-t, bounded R̂)",
+        "RTS smoothing robust (VB, Student-t, bounded R̂)",
         f"writing {tmp_path / 'r'}/",
         "done",
     ]

@@ -112,7 +112,7 @@ FILTER_LABELS: dict[str, str] = {
     "meskf": "MESKF",
     "maeskf": "MAESKF",
     "vb": "VB-MAESKF",
-    "robust": "robust (VB, bounded R̂)",
+    "robust": "robust (VB, Student-t, bounded R̂)",
     "oracle": "oracle ESKF (true R)",
     "floor": "DVL dead reckoning",
 }
