@@ -258,7 +258,9 @@ def test_a_covariance_that_is_not_positive_definite_is_repaired_not_raised() -> 
 
 def test_matching_window_restarts_after_a_gap() -> None:
     """MAESKF's window of squares before a gap is of another P: after more than gap_periods
-    periods without a reading it restarts (the nominal R until it is full again)."""
+    periods without a reading it restarts; until it is full again R is the nominal R, each
+    variance raised to the window so far where larger (its current reading included, as the
+    full window's is: a spike right after a gap is weighted down by its own square)."""
     m = CovarianceMatching(window=3, gap_periods=10.0)
     st0 = m.initial_state(np.eye(1) * 0.01)
     full = type(st0)(st0.squares + 1.0, st0.hph, 3, np.eye(1) * 0.5)
@@ -267,5 +269,12 @@ def test_matching_window_restarts_after_a_gap() -> None:
     assert restarted.count == 0
     b = _block(0.3, 0.01, m)
     res = m.update(np.eye(15) * 1e-4, [Block(b.sensor, b.y, b.H, b.R_nominal, restarted)])
-    assert res.R_used[0][0, 0] == pytest.approx(0.01)  # nominal again
+    # 0.3² - H P Hᵀ = 0.09 - 1e-4 > 0.01: the window so far (this reading alone) wins
+    assert res.R_used[0][0, 0] == pytest.approx(0.09 - 1e-4)
+    b = _block(0.05, 0.01, m)  # 0.0025 - 1e-4 < 0.01: the nominal R
+    res = m.update(np.eye(15) * 1e-4, [Block(b.sensor, b.y, b.H, b.R_nominal, restarted)])
+    assert res.R_used[0][0, 0] == pytest.approx(0.01)
+    paper = CovarianceMatching(window=3)  # no restart: the nominal R until full (the paper)
+    res = paper.update(np.eye(15) * 1e-4, [_block(0.3, 0.01, paper)])
+    assert res.R_used[0][0, 0] == pytest.approx(0.01)
     assert CovarianceMatching(window=3).predict(full, dt=4.0, period=1 / 3).count == 3

@@ -877,7 +877,9 @@ def _matching_r(
     hph_ring: Array,
     hph_now: Array,
     h0: int,
+    count: int,
     full: bool,
+    refill: bool,
     residual_based: bool,
     floor: float,
     ceiling: float,
@@ -890,30 +892,35 @@ def _matching_r(
     IAE: the mean over the window that ends with the new ``ν² = push[p0:p0+d]²`` (ring rows
     1..W-1, then the new one), minus ``diag(H P⁻ Hᵀ) = hph_now[h0:h0+d]``; RAE: mean of the
     ring plus mean of the hph ring. Floored at ``floor * diag(R_nominal)``, capped at
-    ``ceiling * diag(R_nominal)`` (inf: none, the paper); the nominal R
-    (full) until the window is full.
+    ``ceiling * diag(R_nominal)`` (inf: none, the paper); the nominal R (full) until the
+    window is full, or with ``refill`` (a gap restart is on, CovarianceMatching._refilling)
+    each variance raised to the estimate from the ``count`` rows so far where larger.
     """
     for a in range(d):
         for b in range(d):
             R[o + a, o + b] = 0.0 if full else Rnom[a, b]
-    if not full:
+    if residual_based:
+        rows = W_i if full else count
+        n = rows
+    else:
+        rows = W_i - 1 if full else count
+        n = rows + 1
+    if not full and (not refill or n == 0):
         return
     for j in range(d):
         s = 0.0
+        for k in range(W_i - rows, W_i):
+            s += ring[k, j]
         if residual_based:
-            for k in range(W_i):
-                s += ring[k, j]
-            m = s / W_i
             s2 = 0.0
-            for k in range(W_i):
+            for k in range(W_i - rows, W_i):
                 s2 += hph_ring[k, j]
-            r = m + s2 / W_i
+            r = s / n + s2 / n
         else:
-            for k in range(1, W_i):
-                s += ring[k, j]
             s += push[p0 + j] * push[p0 + j]
-            r = s / W_i - hph_now[h0 + j]
-        R[o + j, o + j] = min(max(r, floor * Rnom[j, j]), ceiling * Rnom[j, j])
+            r = s / n - hph_now[h0 + j]
+        v = min(max(r, floor * Rnom[j, j]), ceiling * Rnom[j, j])
+        R[o + j, o + j] = v if full else max(v, Rnom[j, j])
 
 
 @jit_inline
@@ -992,8 +999,8 @@ def stacked_update(
             full = count >= window if rae else min(count + 1, window) >= window
             _matching_r(
                 rings[i, 0], s_int[i, S_WINDOW], blk_off[b + 1] - o, y, o, rings[i, 1],
-                V[V_HPH], o, full, rae, s_flt[first, F_FLOOR], s_flt[first, F_RMAX], Rb[b], R_used,
-                o,
+                V[V_HPH], o, count, full, s_flt[i, F_GAP] > 0.0, rae, s_flt[first, F_FLOOR],
+                s_flt[first, F_RMAX], Rb[b], R_used, o,
             )  # fmt: skip
     else:
         for b in range(nb):
