@@ -65,13 +65,11 @@ from adaptnav.estimation.noise.process import QAdaptation
 FilterKind = Literal["meskf", "maeskf", "vb", "robust", "oracle"]
 FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
 DEFAULT_GATE_Q: dict[FilterKind, float] = {"meskf": 600.0, "maeskf": 1800.0}
-DEFAULT_MATCHING_GAP_PERIODS = 10.0
+DEFAULT_MATCHING_GAP_PERIODS = 0.0
 """MAESKF's window restarts after a sensor gap of more than this many periods (0: never, the
-paper). On since 0.3.4, when the refilling window began to weigh its current reading as the
-full window does (estimation/noise/matching.py has the measurements): the simulated faults'
-frozen DVL, dropout and 'all' cases, RMSE × 1.39 / 1.38, 1.19 / 1.72 and 2.04 / 2.04 before
-(paper-1 / paper-2), are × 1.01 / 1.05, 1.10 / 1.03 and 1.29 / 0.91; the clean 20-seed Monte
-Carlo moves by +0.3 / +0.1 %."""
+paper). An option: 10 helps MAESKF through the simulated DVL faults but costs it at the start
+of a short mission and after a GNSS outage (estimation/noise/matching.py has the
+measurements)."""
 DEFAULT_GUARD_PROBABILITY = 1e-6
 """The guard's false-alarm probability per reading for a consistent filter (gate.Guard)."""
 DEFAULT_R_BOUNDS: dict[FilterKind, tuple[float, float]] = {"robust": (0.1, 100.0)}
