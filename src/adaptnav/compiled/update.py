@@ -893,7 +893,7 @@ def _matching_r(
     1..W-1, then the new one), minus ``diag(H P⁻ Hᵀ) = hph_now[h0:h0+d]``; RAE: mean of the
     ring plus mean of the hph ring. Floored at ``floor * diag(R_nominal)``, capped at
     ``ceiling * diag(R_nominal)`` (inf: none, the paper); the nominal R (full) until the
-    window is full, or with ``refill`` (a gap restart is on, CovarianceMatching._refilling)
+    window is full, or with ``refill`` (a gap restart is on, CovarianceMatching._window_R)
     each variance raised to the estimate from the ``count`` rows so far where larger.
     """
     for a in range(d):

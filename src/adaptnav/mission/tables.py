@@ -408,7 +408,7 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     # A quoted header ("t_s","vx_m_s", as csv writers quoting every cell give it) is read as
     # the exact reader reads it: by the csv module, names stripped; a quote left in a name is
     # its to report.
-    header = [h.strip() for h in (next(csv.reader([text])) if '"' in text else text.split(","))]
+    header = [h.strip() for h in _fields(text, '"' in text)]
     if any('"' in h for h in header):
         return None
     if not text.strip() or len(header) < 2:
@@ -478,12 +478,9 @@ def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
     ends = np.flatnonzero(a == ord("\n"))
     commas = np.flatnonzero(a == ord(","))
     quotes = np.flatnonzero(a == ord('"'))
-    if quotes.size == 0:
-        per_line = np.diff(np.searchsorted(commas, ends), prepend=0)
-        return int(np.count_nonzero(per_line != n_fields - 1)) == n_blank
-    if np.any(np.searchsorted(quotes, ends) % 2):
+    if quotes.size and np.any(np.searchsorted(quotes, ends) % 2):
         return False
-    free = commas[np.searchsorted(quotes, commas) % 2 == 0]
+    free = commas[np.searchsorted(quotes, commas) % 2 == 0] if quotes.size else commas
     per_line = np.diff(np.searchsorted(free, ends), prepend=0)
     opening = quotes[0::2]
     before = np.full(opening.size, -2)

@@ -16,7 +16,7 @@ than ``gap_periods`` of its nominal periods (0, the filter settings' default: ne
 paper). The innovations after a gap come with a P that has grown through it, and a window that
 mixes them with the squares from before the gap estimates R from two different filters. Until
 the window is full again, R is the nominal R with each variance raised to the estimate from
-the window so far where that is larger (:meth:`CovarianceMatching._refilling`): the IAE
+the window so far where that is larger (:meth:`CovarianceMatching._window_R`): the IAE
 window ends with the current innovation, so a full window weighs a spike down by its own
 square, and the refilling one must too. (With the nominal R alone, the first reading after a
 dropout, a 2.6 m/s spike within the guard's reach on paper-2 seed 3, went in at full weight,
@@ -126,10 +126,18 @@ class CovarianceMatching:
         var = np.diag(R_nominal)
         return np.diag(np.clip(r, self.floor * var, self.ceiling * var))
 
-    def _refilling(self, estimate: Array, R_nominal: Array) -> Array:
-        """While the window refills after a gap (``gap_periods`` > 0): the nominal R, each
-        variance raised to the estimate from the readings since the restart where larger."""
+    def _window_R(
+        self, full: bool, k: int, squares: Array, hph: Array, hph_now: Array, R_nominal: Array
+    ) -> Array:
+        """R̂ of a full window; until it is full the nominal R, or with a gap restart on
+        (``gap_periods`` > 0) the nominal R with each variance raised to the estimate from the
+        window's last ``k`` rows, those since the restart, where larger."""
+        if full:
+            return self._estimate(squares, hph, hph_now, R_nominal)
+        if self.gap_periods <= 0 or k == 0:
+            return R_nominal
         R = R_nominal.copy()
+        estimate = self._estimate(squares, hph, hph_now, R_nominal, k)
         np.fill_diagonal(R, np.maximum(np.diag(R_nominal), np.diag(estimate)))
         return R
 
@@ -140,27 +148,15 @@ class CovarianceMatching:
             st: MatchingState = b.state
             if self.residual_based:
                 full = st.count >= self.window
-                if full:
-                    R = self._estimate(st.squares, st.hph, np.zeros(0), b.R_nominal)
-                elif self.gap_periods > 0 and st.count > 0:
-                    est = self._estimate(st.squares, st.hph, np.zeros(0), b.R_nominal, st.count)
-                    R = self._refilling(est, b.R_nominal)
-                else:
-                    R = b.R_nominal
+                R = self._window_R(full, st.count, st.squares, st.hph, np.zeros(0), b.R_nominal)
                 pushed.append((st.squares, st.count))
             else:
                 sq = np.roll(st.squares, -1, axis=0)
                 sq[-1] = b.y * b.y
                 count = min(st.count + 1, self.window)
                 hph_now = np.einsum("ij,jk,ik->i", b.H, P, b.H)
-                full = count >= self.window
-                if full:
-                    R = self._estimate(sq, st.hph, hph_now, b.R_nominal)
-                elif self.gap_periods > 0:  # the window so far, the current reading included
-                    R = self._refilling(self._estimate(sq, st.hph, hph_now, b.R_nominal, count),
-                                        b.R_nominal)  # fmt: skip
-                else:
-                    R = b.R_nominal
+                full = count >= self.window  # count: the current reading included
+                R = self._window_R(full, count, sq, st.hph, hph_now, b.R_nominal)
                 pushed.append((sq, count))
             Rs.append(R)
         H, y = stack(blocks)
