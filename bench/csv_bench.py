@@ -19,7 +19,10 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
 - the exact reader on that file, for comparison;
 - ``read_table`` on that file with a status text that has a comma in it on every line
   (``quoted.csv``: ``"bottom lock, 4 beams"``, quoted by pandas): the streamed reader counts
-  those lines' fields with the csv module (the worst case for it: every line).
+  those lines' fields with the csv module (the worst case for it: every line);
+- ``read_table`` on ``imu.csv`` with line :data:`DAMAGED_LINE` cut after its fourth field
+  (``damaged.csv``: a logger that lost the end of a line and went on): the error naming that
+  line, found by the streamed reader's scan (up to 0.3.5, by the exact reader).
 
 The file is written in a subprocess too, so that this process stays small: on Linux a child
 inherits its parent's ``ru_maxrss``, hence the peak is read from ``VmHWM`` where there is one.
@@ -52,8 +55,11 @@ READERS = (
     "read_table_text",
     "exact_text",
     "read_table_quoted",
+    "read_table_damaged",
 )
 """What is measured, one subprocess each (see the module docstring)."""
+DAMAGED_LINE = 900_001
+"""The line of ``damaged.csv`` with 4 of its 7 fields."""
 REPEATS = 2
 """Runs of each reader, round-robin: the shortest time is kept (the peak hardly varies: the
 largest is kept)."""
@@ -92,6 +98,15 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     )
     root.mkdir(parents=True, exist_ok=True)
     imu.to_csv(root / "imu.csv", index=False)
+    text = (root / "imu.csv").read_bytes()
+    start = 0
+    for _ in range(DAMAGED_LINE - 1):
+        start = text.index(b"\n", start) + 1
+    line = text[start : text.index(b"\n", start)]
+    (root / "damaged.csv").write_bytes(
+        text[:start] + b",".join(line.split(b",")[:4]) + text[start + len(line) :]
+    )
+    del text
     imu["valid"] = rng.random(rows) > 0.01
     imu.to_csv(root / "flagged.csv", index=False)
     imu = imu.drop(columns="valid")
@@ -130,7 +145,7 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     """Peak RSS above this process's baseline (MB) and seconds of one ``reader`` run."""
     import pandas as pd
 
-    from adaptnav.mission import load_mission
+    from adaptnav.mission import MissionError, load_mission
     from adaptnav.mission import tables as tb
 
     base = _peak_rss_mb()
@@ -146,6 +161,14 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     elif reader == "read_table_quoted":
         quoted = imu_csv.parent / "quoted.csv"
         tb.read_table(quoted, quoted.name, tb.Journal())
+    elif reader == "read_table_damaged":
+        damaged = imu_csv.parent / "damaged.csv"
+        try:
+            tb.read_table(damaged, damaged.name, tb.Journal())
+        except MissionError as exc:
+            assert str(exc).startswith(f"damaged.csv line {DAMAGED_LINE}: 4 fields"), exc
+        else:
+            raise AssertionError("damaged.csv was read")
     elif reader == "exact_text":
         stamped = imu_csv.parent / "stamped.csv"
         tb._read_csv_exact(stamped, stamped.name, tb.Journal())
@@ -200,6 +223,8 @@ def bench_csv_memory() -> list[str]:
         f"{peak('exact_text', size_stamped)}",
         f"csv memory: the same with a quoted status text with a comma on every line "
         f"({size_quoted:.0f} MB) → read_table peak {peak('read_table_quoted', size_quoted)}",
+        f"csv memory: that imu.csv with line {DAMAGED_LINE:,} cut after 4 fields → read_table's "
+        f"error naming it, peak {peak('read_table_damaged')}",
     ]
     for line in lines:
         print(line, flush=True)

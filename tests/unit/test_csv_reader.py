@@ -246,9 +246,13 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
         '1.0,x"a,"b\n2.0,c\n',  # a quote that opens a field and does not close on its line
         '1.0,ab"c\n2.0,d"e,\n',  # stray quotes around a comma (a long line to the exact reader)
         "1.0,abc\r3.0,4.0\n",  # a lone CR
-        "1.0,abc\n3.0,4.0,5.0\n",  # a long line
-        "1.0,abc\n3.0\n4.0,x\n",  # a short line inside
         "1.0,abc\n   \n2.0,x\n",  # a line of spaces (blank to the exact reader)
+        "1.0,abc\n3.0\n",  # a short last line (a repair)
+        "1.0,abc\n3.0\n  \n\n",  # the same, lines of spaces after it
+        "1.0,abc\n3.0\n\u00a0\n",  # a line of NBSP after it: blank to the exact reader
+        '1.0,abc\n3.0,4.0,5.0\n6.0,"x"\n',  # a long line, quotes after it
+        "1.0,abc\n3.0,4.0,5.0\n6.0,\xe9\n",  # a long line, Latin-1 after it (not UTF-8)
+        "1.0,abc\n3.0,4.0,5.0\n6.0,\x00\n",  # a long line, NUL after it
         "1.0,abc\n2.0,xyz,7",  # no line break at the end, a long last line
         "1.0,abc\n\x00\n",  # binary
         "1.0,\xe9t\xe9\n",  # Latin-1 (the exact reader says: not UTF-8)
@@ -259,6 +263,32 @@ def test_what_the_streamed_reader_leaves_to_the_exact_one(tmp_path: Path, body: 
     path = tmp_path / "x.csv"
     path.write_bytes(b"t_s,v\n" + body.encode("latin-1"))
     assert tb._read_csv_streamed(path, "x.csv", tb.Journal()) is None
+
+
+@pytest.mark.parametrize(
+    ("body", "line", "fields"),
+    [
+        ("1.0,abc\n3.0,4.0,5.0\n", 3, 3),  # a long last line
+        ("1.0,abc\n3.0\n4.0,x\n", 3, 1),  # a short line inside
+        ("1.0,abc\n\n3.0\n   \n4.0,x", 4, 1),  # the same, blank lines around, no final break
+        ("1.0,abc\n3.0\n\u00a0\n4.0,\u00e9\n", 3, 1),  # NBSP and UTF-8 text after it
+        ('1.0,"a,b"\n' + "2.0,x\n" * 3000 + "3.0,4.0,5.0\r\n", 3003, 3),  # quotes pieces before
+    ],
+)
+def test_the_streamed_reader_reports_a_wrong_field_count_in_the_exact_readers_words(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, body: str, line: int, fields: int
+) -> None:
+    """Without reading the file into memory: the exact reader (about 10× the file) must not
+    run, and says the same of the same file."""
+    path = tmp_path / "x.csv"
+    path.write_bytes(("t_s,v\n" + body).encode())
+    expected = f"x.csv line {line}: {fields} fields, the header (line 1) has 2"
+    assert outcome(EXACT, path)[2] == expected
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    with pytest.raises(MissionError) as err:
+        read(path)
+    assert str(err.value) == expected
+    assert (err.value.file, err.value.line) == ("x.csv", line)
 
 
 @settings(max_examples=400, deadline=None, derandomize=True)
@@ -545,19 +575,24 @@ def test_a_reader_and_the_exact_one_agree(
     third case), not none."""
     rng = np.random.default_rng(seed)
     path = tmp_path / "x.csv"
-    read_by_it = 0
+    read_by_it = reported = 0
     logging.disable(logging.WARNING)
     try:
         for _ in range(400):
             path.write_bytes(_random_csv(rng, text=bool(texts), texts=texts or TEXTS))
-            a, repairs_a, _ = outcome(reader, path)
-            if a is None:
+            a, repairs_a, error_a = outcome(reader, path)
+            if a is None and error_a is None:
                 continue
             read_by_it += 1
             b, repairs_b, error = outcome(EXACT, path)
+            if error_a is not None:
+                assert error == error_a, path.read_bytes()
+                reported += 1
+                continue
             assert error is None and b is not None, (path.read_bytes(), error)
             assert_same_table(a, b)
             assert repairs_a == repairs_b
     finally:
         logging.disable(logging.NOTSET)
     assert read_by_it >= least, read_by_it
+    print(f"{read_by_it} read, {reported} of them an error")

@@ -14,6 +14,7 @@ reader, which locates every problem. All give the same table: docs/robustness.md
 
 from __future__ import annotations
 
+import codecs
 import csv
 import io
 import logging
@@ -381,7 +382,7 @@ def _header_ok(header: list[str], label: str) -> bool:
     return True
 
 
-def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
+def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout | None:
     """The layout of an open CSV, or None if it is not a plain table (of numbers).
 
     Plain: a header on line 1 with at least two names (quoted or not); after it, line breaks LF or
@@ -392,6 +393,10 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     break (:func:`_fields_ok`). Read in pieces of
     :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
     The size is what was read: a file still being written is read as it was then.
+
+    With a ``label`` (not ``numbers_only``), a line with the wrong number of fields that the
+    exact reader would report is reported here, in its words (:func:`_wrong_field_count`),
+    without reading the file into memory.
     """
     first = f.read(SCAN_BYTES)
     size = len(first)
@@ -435,6 +440,8 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
             before = len(blank)
             _blank_lines(piece, 2 + breaks, blank, crlf=crs > 0)
             if not numbers_only and not _fields_ok(piece, len(header), len(blank) - before):
+                if label and _header_ok(header, label):
+                    _wrong_field_count(f, piece, carry, 2 + breaks, len(header), label)
                 return None
             breaks += piece.count(b"\n")
             last = piece[-1:]
@@ -449,6 +456,58 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True) -> _Layout | None:
     if n_lines - 1 - len(blank) < 1:
         return None  # no data line: the exact reader gives the table its empty columns
     return _Layout(header, size, data_start, n_lines, np.asarray(blank, np.int64), ends_with_break)
+
+
+_NOT_TEXT = b" \t\n\r\x0b\x0c\x1c\x1d\x1e\x1f" + bytes(range(128, 256))
+"""The bytes that are white space to ``str.strip`` (the exact reader's blank lines) and every
+non-ASCII byte (NBSP and other Unicode white space are made of these): a byte not among them
+is a character that makes its line a data line."""
+
+
+def _wrong_field_count(
+    f: BinaryIO, piece: bytes, carry: bytes, first_line: int, n: int, label: str
+) -> None:
+    """Raise the exact reader's error for the first line of ``piece`` (which starts at line
+    ``first_line``; earlier lines were all right) with other than ``n`` fields, when the exact
+    reader would raise it: MissionError ``"{label} line {i}: {c} fields, the header (line 1)
+    has {n}"`` (:func:`_check_field_counts`). Returns, leaving the file to the exact reader,
+    whenever that is not certain: quotes in this piece or after it (the csv module counts
+    them, and may find an unclosed one first), no such line (lines of spaces: blank to the
+    exact reader), a short line with nothing but white space after it (the file's cut last
+    line, a repair), or the rest of the file (read on from ``carry`` and ``f`` piece by piece,
+    nothing kept) not UTF-8, or with NUL (the exact reader's own errors come first)."""
+    if b'"' in piece:
+        return
+    lines = piece.split(b"\n")
+    found = None
+    for j, raw in enumerate(lines[:-1]):  # the lines ended by a line break, as _fields_ok
+        text = raw.decode("utf-8").removesuffix("\r")
+        if text.strip() and text.count(",") + 1 != n:
+            found = j, text.count(",") + 1
+            break
+    if found is None:
+        return
+    k, c = found
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    more = False  # a character after the line that is surely not white space (ASCII)
+    rest = b"\n".join(lines[k + 1 :]) + carry
+    while True:
+        if b'"' in rest or b"\x00" in rest:
+            return
+        try:
+            decoder.decode(rest, final=not rest)
+        except UnicodeDecodeError:
+            return
+        if not rest:
+            break
+        more = more or bool(rest.translate(None, _NOT_TEXT))
+        rest = f.read(SCAN_BYTES)
+    if c < n and not more:
+        return  # the last data line cut short (or a line of Unicode white space after it?)
+    line = first_line + k
+    raise MissionError(
+        f"{label} line {line}: {c} fields, the header (line 1) has {n}", file=label, line=line
+    )
 
 
 def _utf8(piece: bytes) -> bool:
@@ -776,7 +835,7 @@ def _read_csv_streamed(path: Path, label: str, journal: Journal) -> Table | None
     """
     try:
         with path.open("rb") as f:
-            layout = _scan(f, numbers_only=False)
+            layout = _scan(f, numbers_only=False, label=label)
             if layout is None or not _header_ok(layout.header, label):
                 return None
             if layout.ends_with_break:
