@@ -246,7 +246,7 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
         '1.0,x"a,"b\n2.0,c\n',  # a quote that opens a field and does not close on its line
         '1.0,ab"c\n2.0,d"e,\n',  # stray quotes around a comma (a long line to the exact reader)
         "1.0,abc\r3.0,4.0\n",  # a lone CR
-        "1.0,abc\n   \n2.0,x\n",  # a line of spaces (blank to the exact reader)
+        "1.0,abc\n \x0c\n2.0,x\n",  # a line of a form feed (blank to the exact reader only)
         "1.0,abc\n3.0\n",  # a short last line (a repair)
         "1.0,abc\n3.0\n  \n\n",  # the same, lines of spaces after it
         "1.0,abc\n3.0\n\u00a0\n",  # a line of NBSP after it: blank to the exact reader
@@ -398,15 +398,22 @@ def test_a_wrong_field_count_inside_is_an_error_naming_the_line(
 
 
 def test_a_line_of_spaces_is_a_blank_line(
-    tmp_path: Path, small: None, declined: list[bool]
+    tmp_path: Path, small: None, declined: list[bool], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """To the exact reader (skipped, counted); pyarrow would see a row of one field."""
+    """Skipped and counted, as by the exact reader; pyarrow would see a row of one field, so
+    the typed reader declines it and pandas reads it from the file (which skips such lines)."""
     lines = _clean_lines(800)
     lines[600] = "   "
+    lines[700] = " \t "
     path = tmp_path / "dvl.csv"
     path.write_text("\n".join(lines) + "\n")
+    expected, _, _ = outcome(EXACT, path)
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
     table, _ = read(path)
     assert table.where(598) == "dvl.csv line 600" and table.where(599) == "dvl.csv line 602"
+    assert table.where(697) == "dvl.csv line 700" and table.where(698) == "dvl.csv line 702"
+    assert expected is not None
+    assert_same_table(table, expected)
     assert declined == [True]
 
 

@@ -322,7 +322,8 @@ class _Layout:
     n_lines: int
     """Lines as ``text.split("\\n")`` counts them (an empty one after a final line break)."""
     blank: NDArray[np.int64]
-    """1-based numbers of the empty lines after the header (CRLF ones too)."""
+    """1-based numbers of the blank lines after the header (empty, or spaces and tabs; LF or
+    CRLF: :func:`_blank_lines`)."""
     ends_with_break: bool
 
 
@@ -388,7 +389,7 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
     Plain: a header on line 1 with at least two names (quoted or not); after it, line breaks LF or
     CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
     least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
-    ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the empty ones
+    ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the blank ones
     has the header's number of fields as the csv module counts them, none quoted across a line
     break (:func:`_fields_ok`). Read in pieces of
     :data:`SCAN_BYTES` cut at a line break, so a blank line is never split between two pieces.
@@ -438,7 +439,7 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
             elif b"\x00" in piece or not _utf8(piece):
                 return None
             before = len(blank)
-            _blank_lines(piece, 2 + breaks, blank, crlf=crs > 0)
+            _blank_lines(piece, 2 + breaks, blank)
             if not numbers_only and not _fields_ok(piece, len(header), len(blank) - before):
                 if label and _header_ok(header, label):
                     _wrong_field_count(f, piece, carry, 2 + breaks, len(header), label)
@@ -472,10 +473,11 @@ def _wrong_field_count(
     reader would raise it: MissionError ``"{label} line {i}: {c} fields, the header (line 1)
     has {n}"`` (:func:`_check_field_counts`). Returns, leaving the file to the exact reader,
     whenever that is not certain: quotes in this piece or after it (the csv module counts
-    them, and may find an unclosed one first), no such line (lines of spaces: blank to the
-    exact reader), a short line with nothing but white space after it (the file's cut last
-    line, a repair), or the rest of the file (read on from ``carry`` and ``f`` piece by piece,
-    nothing kept) not UTF-8, or with NUL (the exact reader's own errors come first)."""
+    them, and may find an unclosed one first), no such line (a line of other white space, a
+    form feed say: blank to the exact reader), a short line with nothing but white space after
+    it (the file's cut last line, a repair), or the rest of the file (read on from ``carry``
+    and ``f`` piece by piece, nothing kept) not UTF-8, or with NUL (the exact reader's own
+    errors come first)."""
     if b'"' in piece:
         return
     lines = piece.split(b"\n")
@@ -522,7 +524,7 @@ def _utf8(piece: bytes) -> bool:
 def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
     """Whether every line of ``piece`` (which starts a line) ended by a line break has
     ``n_fields`` fields, as the exact reader (the csv module) counts them, but its ``n_blank``
-    empty lines (no comma: ``n_fields`` ≥ 2 tells them apart), and an even number of ``"``, so
+    blank lines (no comma: ``n_fields`` ≥ 2 tells them apart), and an even number of ``"``, so
     that no line break is inside quotes.
 
     Counted with NumPy: a comma after an odd number of quotes on its line is inside quotes
@@ -531,7 +533,7 @@ def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
     line) starts its field: after a comma or at the line's start, or right after a quote (a
     doubled one). A line with a quote elsewhere (``x"y``, ``, "a"``: a character to the csv
     module) is counted by the csv module itself, and declined if it leaves a quoted field open
-    (it would take in the next line). Lines of spaces, short and long lines, quoted line
+    (it would take in the next line). Lines of other white space, short and long lines, quoted line
     breaks are the exact reader's to see and report."""
     a = np.frombuffer(piece, np.uint8)
     ends = np.flatnonzero(a == ord("\n"))
@@ -567,20 +569,24 @@ def _leading_plus(piece: bytes) -> bool:
     return pluses > 0 and pluses != piece.count(b"e+") + piece.count(b"E+")
 
 
-def _blank_lines(piece: bytes, first_line: int, out: list[int], *, crlf: bool) -> None:
-    """Append to ``out`` the numbers of the empty lines (LF, or CRLF if ``crlf``, alone) of
-    ``piece``, which starts at the start of line ``first_line``."""
-    starts = [0] if piece.startswith((b"\n", b"\r\n")) else []
-    for pattern in (b"\n\n", b"\n\r\n") if crlf else (b"\n\n",):
-        p = piece.find(pattern)
-        while p >= 0:
-            starts.append(p + 1)
-            p = piece.find(pattern, p + 1)
+def _blank_lines(piece: bytes, first_line: int, out: list[int]) -> None:
+    """Append to ``out`` the numbers of the blank lines of ``piece``, which starts at the start
+    of line ``first_line``: those ended by a line break with nothing but spaces and tabs before
+    it (and the CR of a CRLF), which the exact reader (``str.strip``) and pandas both skip."""
+    first = _BLANK_START.match(piece)
+    starts = [0] if first else []
+    starts.extend(m.start() + 1 for m in _BLANK_AFTER.finditer(piece))
     line, at = first_line, 0
-    for q in sorted(starts):
+    for q in starts:
         line += piece.count(b"\n", at, q)
         at = q
         out.append(line)
+
+
+_BLANK_START = re.compile(rb"[ \t]*\r?\n")
+"""A blank line at the start of a piece."""
+_BLANK_AFTER = re.compile(rb"\n[ \t]*\r?(?=\n)")
+"""A line break followed by a blank line (its start is the match's start + 1)."""
 
 
 def _data_lines(layout: _Layout) -> NDArray[np.int64]:
@@ -597,11 +603,12 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
     and reported; more fields, or nothing left to read, is the exact reader's to report.
     """
     tail = _tail_lines(f, layout)
-    if not tail:  # None, or only lines of spaces (blank to the exact reader, not to the scan)
+    if not tail:  # None, or only blank lines (a form feed: blank to the exact reader only)
         return None
     lines = _data_lines(layout)
     (line, offset, text) = tail[-1]
-    if int(lines[-1]) != line:  # lines of spaces at the end: blank to the exact reader only
+    if int(lines[-1]) != line:  # lines of other white space at the end: blank to the exact
+        # reader only
         return None
     header = layout.header
     n = len(header)
