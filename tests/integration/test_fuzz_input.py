@@ -208,6 +208,19 @@ def quoted_note(root: Path, draw: Draw) -> Expect:
     return expect(f"{name}.csv", "error" if broken else "fine")
 
 
+def latin1_note(root: Path, draw: Draw) -> Expect:
+    """A note column saved by a Windows logger: one cell with a Latin-1 degree sign, not UTF-8:
+    an error naming the file, the line and the column."""
+    name = _table(draw, (*SENSORS, "imu", "truth"))
+    path = root / f"{name}.csv"
+    lines = path.read_text().splitlines()
+    k = int(draw(st.integers(1, len(lines) - 1)))
+    note = "heel 4\xb0"
+    body = [f"{line},{note if i == k else 'ok'}" for i, line in enumerate(lines[1:], 1)]
+    path.write_bytes("\n".join([lines[0] + ",note", *body, ""]).encode("latin-1"))
+    return expect(f"{name}.csv line {k + 1}, note", "error")
+
+
 def reordered_columns(root: Path, draw: Draw) -> Expect:
     name = _table(draw, TABLES)
     df = badinput.read(root, name)
@@ -512,8 +525,8 @@ CORRUPTIONS: dict[str, Callable[[Path, Draw], Expect]] = {
     for f in (
         nan_value, inf_value, huge_value, nan_imu, huge_imu, nan_time, repeated_stamp,
         repeated_row, imu_repeated_stamp, negative_step, time_scaled, imu_gap, missing_column,
-        extra_columns, quoted_note, reordered_columns, degree_columns, wrong_units, swapped_time,
-        empty_table, missing_file, binary_garbage, cut_fields, short_line_inside,
+        extra_columns, quoted_note, latin1_note, reordered_columns, degree_columns, wrong_units,
+        swapped_time, empty_table, missing_file, binary_garbage, cut_fields, short_line_inside,
         long_line_inside, other_separator, text_cell, bool_column, repeated_header,
         blank_lines_bom_crlf, all_implausible, gnss_nan_window, sensor_time_shift,
         truth_corrupted, toml_syntax, toml_bad_type, toml_unknown_key, toml_missing_key,

@@ -904,12 +904,36 @@ def _decode(path: Path, label: str) -> str:
         raise MissionError(
             f"{label}: not a CSV text file (binary content; a Parquet file named .csv?)", file=label
         )
+    raw = raw.removeprefix(BOM)
     try:
-        return raw.decode("utf-8-sig")
+        return raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise MissionError(
-            f"{label}: not UTF-8 text (bad byte at offset {exc.start}); not a CSV file?", file=label
-        ) from None
+        raise _not_utf8(raw, exc.start, label) from None
+
+
+def _not_utf8(raw: bytes, at: int, label: str) -> MissionError:
+    """The error for the byte at offset ``at`` of ``raw`` that is not UTF-8: its line, the
+    column's name when the header before it reads, the byte and where in the line it is (a
+    Latin-1 or Windows-1252 file, most often: a degree sign or an accent in a text cell)."""
+    line = raw.count(b"\n", 0, at) + 1
+    start = raw.rfind(b"\n", 0, at) + 1
+    name = None
+    if line > 1:
+        try:
+            header = raw[: raw.index(b"\n")].decode("utf-8").rstrip("\r")
+        except UnicodeDecodeError:
+            header = ""
+        names = [h.strip() for h in _fields(header, '"' in header)] if header else []
+        k = raw.count(b",", start, at)
+        name = names[k] if k < len(names) and b'"' not in raw[start:at] else None
+    where = f"{label} line {line}" + (f", {name}" if name else "")
+    return MissionError(
+        f"{where}: not UTF-8 text (byte 0x{raw[at]:02x} at character {at - start + 1} of the "
+        "line; a Latin-1 or Windows-1252 file? save it as UTF-8)",
+        file=label,
+        line=line,
+        field=name,
+    )
 
 
 def _fields(line: str, quoted: bool) -> list[str]:
