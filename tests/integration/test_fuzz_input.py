@@ -221,6 +221,21 @@ def latin1_note(root: Path, draw: Draw) -> Expect:
     return expect(f"{name}.csv line {k + 1}, note", "error")
 
 
+def cr_line_breaks(root: Path, draw: Draw) -> Expect:
+    """Classic Mac OS line breaks (a lone CR): every one of them, a repair (read as line
+    breaks); one inside an LF file, an error naming the file (and the line)."""
+    name = _table(draw, (*SENSORS, "imu", "truth"))
+    path = root / f"{name}.csv"
+    lines = path.read_text().splitlines()
+    if draw(st.booleans()):
+        path.write_bytes(("\r".join(lines) + "\r").encode())
+        return expect(f"{name}.csv", "repair")
+    k = int(draw(st.integers(1, len(lines) - 1)))
+    lines[k] += "\r" + lines[k]
+    path.write_text("\n".join(lines) + "\n")
+    return expect(f"{name}.csv line {k + 1}: a carriage return", "error")
+
+
 def reordered_columns(root: Path, draw: Draw) -> Expect:
     name = _table(draw, TABLES)
     df = badinput.read(root, name)
@@ -525,10 +540,10 @@ CORRUPTIONS: dict[str, Callable[[Path, Draw], Expect]] = {
     for f in (
         nan_value, inf_value, huge_value, nan_imu, huge_imu, nan_time, repeated_stamp,
         repeated_row, imu_repeated_stamp, negative_step, time_scaled, imu_gap, missing_column,
-        extra_columns, quoted_note, latin1_note, reordered_columns, degree_columns, wrong_units,
-        swapped_time, empty_table, missing_file, binary_garbage, cut_fields, short_line_inside,
-        long_line_inside, other_separator, text_cell, bool_column, repeated_header,
-        blank_lines_bom_crlf, all_implausible, gnss_nan_window, sensor_time_shift,
+        extra_columns, quoted_note, latin1_note, cr_line_breaks, reordered_columns,
+        degree_columns, wrong_units, swapped_time, empty_table, missing_file, binary_garbage,
+        cut_fields, short_line_inside, long_line_inside, other_separator, text_cell, bool_column,
+        repeated_header, blank_lines_bom_crlf, all_implausible, gnss_nan_window, sensor_time_shift,
         truth_corrupted, toml_syntax, toml_bad_type, toml_unknown_key, toml_missing_key,
         toml_table_path, toml_sensor_off, toml_not_utf8,
     )

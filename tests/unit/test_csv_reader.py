@@ -417,6 +417,33 @@ def test_a_line_of_spaces_is_a_blank_line(
     assert declined == [True]
 
 
+def test_classic_mac_line_breaks_are_read_as_line_breaks_with_a_repair(tmp_path: Path) -> None:
+    """A file whose every line break is a lone CR: read as the same file with LF (until 0.3.5 a
+    csv.Error traceback from the exact reader's header)."""
+    lines = _clean_lines(50)
+    lf, cr = tmp_path / "lf.csv", tmp_path / "dvl.csv"
+    lf.write_text("\n".join(lines) + "\n")
+    cr.write_bytes(("\r".join(lines) + "\r").encode())
+    table, repairs = read(cr)
+    assert_same_table(table, read(lf)[0])
+    (r,) = repairs
+    assert (r.file, r.line, r.action) == ("dvl.csv", None, "read CR line breaks as line breaks")
+
+
+@pytest.mark.parametrize("at", [2, 30, 51])
+def test_a_lone_cr_among_lf_line_breaks_is_an_error_naming_its_line(
+    tmp_path: Path, at: int
+) -> None:
+    lines = _clean_lines(50)
+    lines[at - 1] += "\r" + lines[at - 1].split(",", 1)[1]
+    path = tmp_path / "dvl.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(MissionError) as err:
+        read(path)
+    assert str(err.value).startswith(f"dvl.csv line {at}: a carriage return (CR) alone inside")
+    assert err.value.line == at
+
+
 # --- the last line cut short: repaired from the tail ------------------------------------------
 
 

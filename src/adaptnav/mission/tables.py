@@ -873,7 +873,7 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     Slow and memory-hungry (about 11× the file at its peak, docs/robustness.md, "Memory"): only
     for the files :func:`_read_csv_typed` leaves to it.
     """
-    text = _decode(path, label)
+    text = _line_breaks(_decode(path, label), label, journal)
     lines = [s.rstrip("\r") for s in text.split("\n")]
     keep = [i for i, s in enumerate(lines) if s.strip()]
     if not keep:
@@ -891,6 +891,36 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     if len(df) != len(data):  # pragma: no cover - guarded by the field count above
         raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
     return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1, cut)
+
+
+def _line_breaks(text: str, label: str, journal: Journal) -> str:
+    """The text with LF or CRLF line breaks as it is. A file whose every line break is a lone
+    CR (classic Mac OS) is read with them as line breaks, a repair recorded for the whole
+    file; a lone CR among LF line breaks (a CR at the very end excepted: a CRLF file cut short)
+    is an error naming its line (docs/robustness.md): pandas and pyarrow would take it for a
+    line break, and the lines would no longer be the ones every message names."""
+    lone = text.count("\r") - text.count("\r\n")
+    if lone == 0:
+        return text
+    if "\n" not in text:
+        journal.repair(
+            label,
+            None,
+            "",
+            "read CR line breaks as line breaks",
+            f"{lone} line breaks are a carriage return alone (classic Mac OS), none LF",
+        )
+        return text.replace("\r", "\n")
+    found = re.search("\r(?!\n)", text.removesuffix("\r"))
+    if found is None:
+        return text
+    line = text.count("\n", 0, found.start()) + 1
+    raise MissionError(
+        f"{label} line {line}: a carriage return (CR) alone inside the line, among LF line "
+        "breaks (a file joined from Mac and Unix parts?): save it with LF or CRLF line breaks",
+        file=label,
+        line=line,
+    )
 
 
 def _decode(path: Path, label: str) -> str:
