@@ -444,6 +444,51 @@ def test_a_lone_cr_among_lf_line_breaks_is_an_error_naming_its_line(
     assert err.value.line == at
 
 
+SOUP = (
+    b"1", b"2.5", b"-0", b",", b",", b"\n", b"\n", b"\r\n", b"\r", b'"', b" ", b"\t", b"abc",
+    b"nan", b"\x00", b"\xe9", b"\xef\xbb\xbf", b"e5", b"+", b"inf", b"True", b"\x0c", b"1e999",
+    b"\xc3\xa9",
+)  # fmt: skip
+"""Pieces of CSV text and of what goes wrong with it, for the byte-soup test."""
+SOUP_HEADERS = (
+    b"t_s,v\n", b"t_s,vx_m_s,vy_m_s\n", b'"t_s","v"\n', b"t_s\n", b"", b"t_s,v\r\n",
+    b"\n\nt_s,v\n", b"t_s,,v\n", b" t_s , v \n", b"\xef\xbb\xbft_s,v\n",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        b'nan\r, "\x0c\n1e999\xc3\xa9,\xe9e5\x0c\xc3\xa9\r\n',  # not UTF-8, CR in the header
+        b' "2.5,"+abc"\xc3\xa9\n \n\n+abc',  # a quote after a space in the header
+        None,  # 1500 seeded random files of SOUP
+    ],
+    ids=["cr-header-latin1", "header-quote-after-space", "random"],
+)
+def test_byte_soup_is_a_table_or_an_error(tmp_path: Path, small: None, data: bytes | None) -> None:
+    """Whatever the bytes, reading a table and its columns gives a table or a MissionError,
+    never another exception (the first two cases raised csv.Error and ValueError up to
+    0.3.5)."""
+    rng = np.random.default_rng(12)
+    path = tmp_path / "x.csv"
+    files = [data] if data is not None else [
+        bytes(rng.choice(SOUP_HEADERS)) + b"".join(rng.choice(SOUP, int(rng.integers(0, 80))))
+        for _ in range(1500)
+    ]  # fmt: skip
+    logging.disable(logging.WARNING)
+    try:
+        for raw in files:
+            path.write_bytes(raw)
+            try:
+                table = tb.read_table(path, "x.csv", tb.Journal())
+                for column in table.df.columns:
+                    tb.numeric(table, column)
+            except MissionError:
+                pass
+    finally:
+        logging.disable(logging.NOTSET)
+
+
 # --- the last line cut short: repaired from the tail ------------------------------------------
 
 

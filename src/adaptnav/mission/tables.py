@@ -887,6 +887,13 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
         data, cut = _drop_cut_last_line(lines, data, header, quoted, label, journal)
     body = "\n".join([lines[head], *(lines[i] for i in data)])
     df = _parse_csv(body, label)
+    if len(df.columns) != len(header):
+        raise MissionError(
+            f"{label} line {head + 1}: the header's quotes split it into {len(header)} names "
+            f"for the csv module and {len(df.columns)} for pandas (a quote after a space?)",
+            file=label,
+            line=head + 1,
+        )
     df.columns = pd.Index(header)
     if len(df) != len(data):  # pragma: no cover - guarded by the field count above
         raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
@@ -951,9 +958,9 @@ def _not_utf8(raw: bytes, at: int, label: str) -> MissionError:
     if line > 1:
         try:
             header = raw[: raw.index(b"\n")].decode("utf-8").rstrip("\r")
-        except UnicodeDecodeError:
-            header = ""
-        names = [h.strip() for h in _fields(header, '"' in header)] if header else []
+            names = [h.strip() for h in _fields(header, '"' in header)]
+        except (UnicodeDecodeError, csv.Error):  # a header that is itself odd: no name
+            names = []
         k = raw.count(b",", start, at)
         name = names[k] if k < len(names) and b'"' not in raw[start:at] else None
     where = f"{label} line {line}" + (f", {name}" if name else "")
