@@ -157,6 +157,50 @@ def test_config_errors_name_the_key(mutate: Any, path: str, words: str) -> None:
     assert str(err).startswith("mission.toml: ")
 
 
+PLAUSIBLE = "is not a plausible standard deviation"
+
+
+@pytest.mark.parametrize(
+    ("mutate", "path", "words"),
+    [
+        (lambda d: d["imu"]["noise"].update(arw=[1e300, "deg/sqrt(h)"]), "imu.noise.arw",
+         PLAUSIBLE),
+        (lambda d: d["imu"]["noise"].update(vrw=[1e-300, "ug/sqrt(Hz)"]), "imu.noise.vrw",
+         PLAUSIBLE),
+        (lambda d: d["imu"]["noise"].update(gyro_bias_sigma=[1e300, "deg/h"]),
+         "imu.noise.gyro_bias_sigma", PLAUSIBLE),
+        (lambda d: d["imu"].update(initial_bias_sigma={"gyro": [1e300, "deg/h"]}),
+         "imu.initial_bias_sigma.gyro", PLAUSIBLE),
+        (lambda d: d["sensors"]["dvl"].update(sigma=[1e-300, "m/s"]), "sensors.dvl.sigma",
+         PLAUSIBLE),
+        (lambda d: d["sensors"]["dvl"].update(sigma=[[0.01, 0.01, 1e9], "m/s"]),
+         "sensors.dvl.sigma", "1e+09 m/s"),
+        (lambda d: d["initial"].update(h_m=1e300), "initial.h_m", "less than or equal to 100000"),
+        (lambda d: d["initial"].update(h_m=-2e4), "initial.h_m", "greater than or equal to -12000"),
+        (lambda d: d["initial"].update(sigma_position_m=1e300), "initial.sigma_position_m",
+         "less than or equal to 10000000"),
+        (lambda d: d["initial"].update(sigma_velocity_m_s=1e-300), "initial.sigma_velocity_m_s",
+         "(got 1e-300)"),
+        (lambda d: d["initial"].update(sigma_attitude_deg=500.0), "initial.sigma_attitude_deg",
+         "180"),
+    ],
+)  # fmt: skip
+def test_absurd_sigmas_and_heights_are_errors_naming_the_key(
+    mutate: Any, path: str, words: str
+) -> None:
+    """Values whose squares overflow or underflow (up to 0.3.5 an OverflowError or a
+    ZeroDivisionError deep in the run, exit 1) or beyond any real sensor or prior."""
+    err = _config_error(mutate)
+    assert f"{path}: " in str(err) and words in str(err), str(err)
+
+
+def test_tiny_bias_terms_are_fine() -> None:
+    """A navigation-grade rate random walk is ~1e-13 rad/s/√s: no lower bound on bias terms."""
+    d = config_dict()
+    d["imu"]["noise"].update(gyro_bias_rrw=[1e-6, "deg/h/sqrt(h)"], gyro_bias_sigma=[0, "deg/h"])
+    parse_config(d)
+
+
 @pytest.mark.parametrize(
     ("mutate", "path"),
     [

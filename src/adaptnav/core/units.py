@@ -106,6 +106,26 @@ def factor(unit: str, kind: Kind, field: str = "value") -> float:
     return table[key]
 
 
+SIGMA_RANGE_SI = (1e-12, 1e7)
+"""Smallest and largest standard deviation or noise density accepted from a user, in SI units
+of its kind: far beyond any real sensor both ways (a navigation-grade gyro's angle random walk
+is 3e-7 rad/√s, the Earth's radius 6.4e6 m), and the squares stay ordinary floats. Outside,
+the value is a typo or a wrong unit; a variance of 1e-600 or 1e600 would be 0 or inf and end
+the run in a division by zero or an overflow (docs/data-format.md)."""
+
+
+def check_sigma(field: str, si: float, unit: str, *, zero_ok: bool = False) -> None:
+    """Refuse a standard deviation (or noise density) ``si`` outside :data:`SIGMA_RANGE_SI`;
+    with ``zero_ok`` (a bias term, where 0 is no bias and a tiny one is as good as none) only
+    above it. ``unit``: the SI unit, for the message."""
+    lo, hi = SIGMA_RANGE_SI
+    if not (0.0 if zero_ok else lo) <= si <= hi:
+        raise UnitError(
+            f"{field}: {si:.3g} {unit} is not a plausible standard deviation (accepted: "
+            f"{lo:g} to {hi:g} {unit}; a typo, or the wrong unit?)"
+        )
+
+
 def si_unit(kind: Kind) -> str:
     """The SI spelling of a quantity of ``kind`` (its unit of factor 1): ``"m/s"``, ``"rad"``."""
     return next(u for u, f in _FACTORS[kind].items() if f == 1.0)

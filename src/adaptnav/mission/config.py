@@ -32,7 +32,7 @@ from pydantic import (
 )
 
 from adaptnav.core.attitude import euler_to_dcm
-from adaptnav.core.units import DEG, Kind, UnitError, to_si
+from adaptnav.core.units import DEG, SIGMA_RANGE_SI, Kind, UnitError, check_sigma, si_unit, to_si
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 from adaptnav.models.imu_noise import NOISE_FIELDS, ImuNoise, check_value, pair_si
 from adaptnav.sensors import registry
@@ -100,6 +100,13 @@ class MissionUnitError(MissionError, UnitError):
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Sigma = Annotated[float, Field(ge=SIGMA_RANGE_SI[0], le=SIGMA_RANGE_SI[1], allow_inf_nan=False)]
+"""A standard deviation in SI units, within what any sensor or prior could mean
+(core.units.SIGMA_RANGE_SI)."""
+SigmaDeg = Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)]
+"""An attitude standard deviation in degrees: more than 180° says nothing."""
+H_RANGE_M = (-12_000.0, 100_000.0)
+"""Initial heights accepted (m, above the ellipsoid): the deepest ocean to the edge of space."""
 Vec3 = tuple[Finite, Finite, Finite]
 Pair = tuple[float | str, str]
 """``[value, "unit"]``; the value may be the string ``"inf"`` for correlation times."""
@@ -183,6 +190,8 @@ class ImuNoiseConfig(_Model):
             # Zero white noise: a Q with no noise at all makes the filter trust the IMU
             # absolutely (and P singular); no real IMU has it.
             raise UnitError(f"{name}: value {v[0]!r} must be > 0 (no IMU is noise-free)")
+        if kind is not Kind.TIME:
+            check_sigma(name, si, si_unit(kind), zero_ok=name not in _WHITE_NOISE)
         return v
 
     def to_imu_noise(self) -> ImuNoise:
@@ -201,7 +210,8 @@ class InitialBiasSigma(_Model):
     def _check_unit(cls, v: Pair | None, info: ValidationInfo) -> Pair | None:
         if v is not None:
             kind = Kind.ANGULAR_RATE if info.field_name == "gyro" else Kind.ACCELERATION
-            _pair_si(v, kind, str(info.field_name))
+            si = float(_pair_si(v, kind, str(info.field_name)))
+            check_sigma(str(info.field_name), si, si_unit(kind), zero_ok=True)
         return v
 
     def si(self, noise: ImuNoise) -> tuple[float, float]:
@@ -386,6 +396,8 @@ class SensorConfig(_Model):
         si = np.atleast_1d(_pair_si(v, KINDS[kind].sigma_kind, "sigma"))
         if not np.all(si > 0.0):
             raise UnitError(f"sigma: value {v[0]!r} must be > 0")
+        for x in si:
+            check_sigma("sigma", float(x), si_unit(KINDS[kind].sigma_kind))
         dims = KINDS[kind].dims()  # optional components: checked with the option below
         if si.size not in (1, *dims):
             raise UnitError(f"sigma: {si.size} values given, {kind} has {dims[-1]} components")
@@ -465,6 +477,7 @@ class SensorConfig(_Model):
         for name, spec in self.calibration_si().items():
             if not spec[0] > 0.0:
                 raise ValueError(f"calibration.{name}.sigma: must be > 0")
+            check_sigma(f"calibration.{name}.sigma", spec[0], "SI")
 
     def calibration_si(self) -> dict[str, tuple[float, float]]:
         """Prior σ and random-walk density (SI) of each estimated quantity, by name."""
@@ -555,12 +568,12 @@ class InitialConfig(_Model):
     alignment_s: Positive = 600.0
     lat_deg: Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False)] | None = None
     lon_deg: Annotated[float, Field(ge=-180, le=360, allow_inf_nan=False)] | None = None
-    h_m: Finite = 0.0
+    h_m: Annotated[float, Field(ge=H_RANGE_M[0], le=H_RANGE_M[1], allow_inf_nan=False)] = 0.0
     v_ned_m_s: Vec3 = (0.0, 0.0, 0.0)
     rpy_deg: Vec3 | None = None
-    sigma_position_m: Positive = 5.0
-    sigma_velocity_m_s: Positive = 0.1
-    sigma_attitude_deg: Positive | tuple[Positive, Positive, Positive] = (0.1, 0.1, 1.0)
+    sigma_position_m: Sigma = 5.0
+    sigma_velocity_m_s: Sigma = 0.1
+    sigma_attitude_deg: SigmaDeg | tuple[SigmaDeg, SigmaDeg, SigmaDeg] = (0.1, 0.1, 1.0)
 
     @model_validator(mode="after")
     def _check_state_mode(self) -> InitialConfig:
