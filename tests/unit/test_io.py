@@ -446,12 +446,10 @@ def test_file_that_is_not_csv_or_parquet(tmp_path: Path) -> None:
     imu.to_parquet(root / "imu.csv")  # a Parquet file named .csv
     assert "imu.csv: not a CSV text file" in load_error(root)
     (root / "imu.csv").write_bytes(b"t_s,\xff\xfe\n")
-    assert "imu.csv line 1: not UTF-8 text (byte 0xff at character 5 of the line;" in load_error(
-        root
-    )
+    assert "imu.csv line 1: not UTF-8 text (byte 0xff, byte 5 of the line;" in load_error(root)
     (root / "imu.csv").write_bytes(b"t_s,gyro_x,status\n1,2,ok\n2,3,45\xb0 heel\n")
     assert load_error(root).startswith(
-        "imu.csv line 3, status: not UTF-8 text (byte 0xb0 at character 7 of the line; "
+        "imu.csv line 3, status: not UTF-8 text (byte 0xb0, byte 7 of the line; "
         "a Latin-1 or Windows-1252 file? save it as UTF-8)"
     )
     d = config_dict()

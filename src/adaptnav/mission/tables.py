@@ -607,8 +607,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
         return None
     lines = _data_lines(layout)
     (line, offset, text) = tail[-1]
-    if int(lines[-1]) != line:  # lines of other white space at the end: blank to the exact
-        # reader only
+    if int(lines[-1]) != line:  # a form feed line at the end: blank to the exact reader only
         return None
     header = layout.header
     n = len(header)
@@ -965,8 +964,8 @@ def _not_utf8(raw: bytes, at: int, label: str) -> MissionError:
         name = names[k] if k < len(names) and b'"' not in raw[start:at] else None
     where = f"{label} line {line}" + (f", {name}" if name else "")
     return MissionError(
-        f"{where}: not UTF-8 text (byte 0x{raw[at]:02x} at character {at - start + 1} of the "
-        "line; a Latin-1 or Windows-1252 file? save it as UTF-8)",
+        f"{where}: not UTF-8 text (byte 0x{raw[at]:02x}, byte {at - start + 1} of the line; "
+        "a Latin-1 or Windows-1252 file? save it as UTF-8)",
         file=label,
         line=line,
         field=name,
