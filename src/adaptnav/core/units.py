@@ -120,9 +120,10 @@ def check_sigma(field: str, si: float, unit: str, *, zero_ok: bool = False) -> N
     above it. ``unit``: the SI unit, for the message."""
     lo, hi = SIGMA_RANGE_SI
     if not (0.0 if zero_ok else lo) <= si <= hi:
+        u = "" if unit == "1" else f" {unit}"  # a ratio has no unit to print
         raise UnitError(
-            f"{field}: {si:.3g} {unit} is not a plausible standard deviation (accepted: "
-            f"{lo:g} to {hi:g} {unit}; a typo, or the wrong unit?)"
+            f"{field}: {si:.3g}{u} is not a plausible standard deviation (accepted: "
+            f"{lo:g} to {hi:g}{u}; a typo, or the wrong unit?)"
         )
 
 

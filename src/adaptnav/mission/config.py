@@ -477,7 +477,8 @@ class SensorConfig(_Model):
         for name, spec in self.calibration_si().items():
             if not spec[0] > 0.0:
                 raise ValueError(f"calibration.{name}.sigma: must be > 0")
-            check_sigma(f"calibration.{name}.sigma", spec[0], "SI")
+            unit = si_unit(KINDS[self.kind].calibration[name].sigma_kind)
+            check_sigma(f"calibration.{name}.sigma", spec[0], unit)
 
     def calibration_si(self) -> dict[str, tuple[float, float]]:
         """Prior σ and random-walk density (SI) of each estimated quantity, by name."""

@@ -484,8 +484,9 @@ def _wrong_field_count(
     found = None
     for j, raw in enumerate(lines[:-1]):  # the lines ended by a line break, as _fields_ok
         text = raw.decode("utf-8").removesuffix("\r")
-        if text.strip() and text.count(",") + 1 != n:
-            found = j, text.count(",") + 1
+        c = text.count(",") + 1
+        if c != n and text.strip():
+            found = j, c
             break
     if found is None:
         return
