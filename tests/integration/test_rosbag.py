@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -324,6 +325,143 @@ def test_out_of_order_repeated_and_unset_stamps_are_repaired(tmp_path: Path) -> 
     stamps = sorted({*ts[:29], 0.311, *ts[30:]})  # order[30] = ts[29]: log time 0.311 instead
     np.testing.assert_allclose(m.imu.t, np.array(stamps), atol=STAMP_TOL_S)
     assert m.sensors["gnss"].t.size == 9
+
+
+FAR = "stamp far from the topic's clock: left out"
+
+
+def _clocked_bag(
+    path: Path,
+    imu_stamp: Callable[[float], float] = lambda t: t,
+    dvl_stamp: Callable[[float], float] = lambda t: t,
+    seconds: float = 60.0,
+    dvl_from_s: float = 0.0,
+) -> Path:
+    """A resting IMU at 100 Hz (and a GNSS fix at 1 Hz) and a DVL at 5 Hz whose header stamps
+    are ``imu_stamp(t)`` and ``dvl_stamp(t)`` (s after STAMP0) for the log time t, 2 ms after
+    it."""
+    imu = [
+        (
+            t + 0.002,
+            rw.T["sensor_msgs/msg/Imu"](
+                rw.header(imu_stamp(t), "b"),
+                rw.quat_zyx(0, 0, 0),
+                rw.NOT_PROVIDED,
+                rw.vec(0, 0, 0),
+                rw.diag(3, [1e-6] * 3),
+                rw.vec(0, 0, 9.8),
+                rw.diag(3, [1e-4] * 3),
+            ),
+        )
+        for t in np.arange(1, round(100 * seconds)) / 100.0
+    ]
+    twist = rw.T["geometry_msgs/msg/Twist"](rw.vec(0.0, 0.0, 0.0), rw.vec(0.0, 0.0, 0.0))
+    cov = np.zeros(36)
+    cov[[0, 7, 14]] = 0.01**2
+    dvl = [
+        (
+            t + 0.002,
+            rw.T["geometry_msgs/msg/TwistWithCovarianceStamped"](
+                rw.header(dvl_stamp(t), "d"),
+                rw.T["geometry_msgs/msg/TwistWithCovariance"](twist, cov),
+            ),
+        )
+        for t in np.arange(round(5 * dvl_from_s) + 1, round(5 * seconds)) / 5.0
+    ]
+    fixes = [
+        (
+            t + 0.002,
+            rw.T["sensor_msgs/msg/NavSatFix"](
+                rw.header(imu_stamp(t), "gps"),
+                rw.T["sensor_msgs/msg/NavSatStatus"](0, 1),
+                26.8,
+                56.0,
+                0.0,
+                rw.diag(3, [1.0, 1.0, 1.0]),
+                2,
+            ),
+        )
+        for t in np.arange(1, round(seconds))
+    ]
+    topics = {
+        "/imu": ("sensor_msgs/msg/Imu", imu),
+        "/dvl": ("geometry_msgs/msg/TwistWithCovarianceStamped", dvl),
+        "/fix": ("sensor_msgs/msg/NavSatFix", fixes),
+    }
+    return rw.write_bag(path, topics)
+
+
+def test_stamps_far_from_their_topics_clock_are_left_out(tmp_path: Path) -> None:
+    """Five IMU messages stamped in 1970 (a driver's clock reset) among good ones: left out
+    and recorded, and mission time starts at the good stamps (before, the origin went to
+    1970 and every other reading to 1.7e9 s)."""
+    bad = {3000, 3001, 4500, 5000, 5001}
+    bag = _clocked_bag(
+        tmp_path / "bag",
+        imu_stamp=lambda t: t - 1.7e9 if round(100 * t) in bad else t,
+    )
+    out = import_bag(bag, tmp_path / "m", topics={"dvl": "/dvl", "gnss": "/fix"})
+    info = json.loads((out / "import.json").read_text())
+    far = {r["file"]: r for r in info["repairs"] if r["action"] == FAR}
+    assert set(far) == {"/imu", "/fix"}  # the fixes at 30, 45 and 50 s share the IMU clock
+    assert far["/imu"]["detail"].startswith("5 messages, the first at message 2999")
+    assert far["/fix"]["detail"].startswith("3 messages, the first at message 29")
+    assert "(stamped 1970-01-01T00:00:30+00:00, -1.7e+09 s from" in far["/imu"]["detail"]
+    assert info["stamp_origin_ns"] == rw.STAMP0_NS
+    m = load_mission(out)
+    assert m.imu.t.size == 5999 - 5 and m.imu.t.max() < 60.0
+    assert m.sensors["gnss"].t.size == 59 - 3 and m.sensors["dvl"].t.size == 299
+
+
+def test_a_topic_on_its_own_clock_is_an_error_naming_it_or_timed_by_its_log_times(
+    tmp_path: Path,
+) -> None:
+    """A DVL driver stamping with time since its boot: refused, naming the topic and
+    --log-time; with --log-time the DVL is timed by the bag's log times."""
+    bag = _clocked_bag(tmp_path / "bag", dvl_stamp=lambda t: t - 1.7e9 + 300.0)
+    with pytest.raises(RosbagError, match=r"topic /dvl \(--dvl\) is stamped on another clock"):
+        import_bag(bag, tmp_path / "m", topics={"dvl": "/dvl", "gnss": "/fix"})
+    code, text = _cli(
+        "import",
+        "rosbag",
+        str(bag),
+        "--out",
+        str(tmp_path / "m"),
+        "--dvl",
+        "/dvl",
+        "--gnss",
+        "/fix",
+    )
+    assert code == 2 and "--log-time /dvl takes its log times" in text
+    code, text = _cli(
+        "import", "rosbag", str(bag), "--out", str(tmp_path / "m"), "--dvl", "/dvl",
+        "--gnss", "/fix", "--log-time", "/dvl",
+    )  # fmt: skip
+    assert code == 0, text
+    info = json.loads((tmp_path / "m" / "import.json").read_text())
+    repair = {"file": "/dvl", "line": None, "field": "header.stamp",
+              "action": "bag log time used", "detail": "299 messages (--log-time)"}  # fmt: skip
+    assert repair in info["repairs"]
+    dvl = load_mission(tmp_path / "m").sensors["dvl"].t
+    np.testing.assert_allclose(dvl, np.arange(1, 300) / 5.0 + 0.002, atol=STAMP_TOL_S)
+    code, text = _cli(
+        "import", "rosbag", str(bag), "--out", str(tmp_path / "m2"), "--dvl", "/dvl",
+        "--gnss", "/fix", "--log-time", "/nope",
+    )  # fmt: skip
+    assert code == 2 and "--log-time /nope is not an imported topic" in text
+
+
+def test_clocks_drifting_together_are_one_clock(tmp_path: Path) -> None:
+    """Simulated time at half the speed of the recorder's: the stamps' offsets to the log
+    times drift by 30 s over the bag, for the DVL (from 50 s only) as for the IMU; nothing is
+    left out and nothing refused."""
+    bag = _clocked_bag(
+        tmp_path / "bag", imu_stamp=lambda t: t / 2, dvl_stamp=lambda t: t / 2, dvl_from_s=50.0
+    )
+    out = import_bag(bag, tmp_path / "m", topics={"dvl": "/dvl", "gnss": "/fix"})
+    assert json.loads((out / "import.json").read_text())["repairs"] == []
+    m = load_mission(out)
+    assert m.imu.t.size == 5999 and m.sensors["dvl"].t.size == 49
 
 
 # --- export ----------------------------------------------------------------------------------

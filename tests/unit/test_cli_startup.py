@@ -11,6 +11,7 @@ import typer.main
 
 from adaptnav.cli import app
 from adaptnav.importers.nmea import UERE_M
+from adaptnav.importers.rosbag import STAMP_TOLERANCE_S
 
 HEAVY = ("numpy", "pandas", "scipy", "matplotlib", "plotly", "pyarrow", "adaptnav.mission")
 
@@ -32,3 +33,11 @@ def test_nmea_uere_help_states_the_importer_default() -> None:
     option = next(p for p in nmea.params if p.name == "uere_m")
     assert option.default is None
     assert f"default: {UERE_M:g}," in (getattr(option, "help", None) or "")
+
+
+def test_rosbag_stamp_tolerance_help_states_the_importer_default() -> None:
+    group: Any = typer.main.get_command(app)
+    rosbag = group.commands["import"].commands["rosbag"]
+    option = next(p for p in rosbag.params if p.name == "stamp_tolerance_s")
+    assert option.default is None
+    assert f"default: {STAMP_TOLERANCE_S:g}," in (getattr(option, "help", None) or "")

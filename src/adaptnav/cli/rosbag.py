@@ -60,6 +60,21 @@ def import_rosbag(
         str,
         typer.Option(help="Imu rates: mean (over the interval ending at the stamp) | instant"),
     ] = "mean",
+    log_time: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--log-time",
+            help="time this topic by the bag's log time, not its header stamps (a driver on "
+            "its own clock); repeatable",
+        ),
+    ] = None,
+    stamp_tolerance_s: Annotated[
+        float | None,
+        typer.Option(
+            help="s a header stamp may stray from its topic's clock, and a topic's clock from "
+            "the IMU's (default: 10, importers.rosbag.STAMP_TOLERANCE_S; docs/rosbag.md, 'Time')"
+        ),
+    ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
     quiet: Quiet = False,
@@ -71,7 +86,7 @@ def import_rosbag(
     mountings come from --config (a mission.toml), else σ from the messages' covariances.
     import.json in the mission folder records the topics, frame ids, σ sources and repairs.
     """
-    from adaptnav.importers.rosbag import import_bag
+    from adaptnav.importers.rosbag import STAMP_TOLERANCE_S, import_bag
     from adaptnav.importers.rosmsg import DepthParameters
     from adaptnav.mission import MissionError
 
@@ -79,6 +94,9 @@ def import_rosbag(
         fail(f"--imu-sample: {imu_sample!r} must be mean or instant")
     if not (water_density > 0.0 and atmospheric_pressure >= 0.0):
         fail("--water-density must be > 0 and --atmospheric-pressure >= 0")
+    tolerance_s = STAMP_TOLERANCE_S if stamp_tolerance_s is None else stamp_tolerance_s
+    if not tolerance_s > 0.0:
+        fail(f"--stamp-tolerance-s: {tolerance_s!r} must be > 0")
     topics = {
         "imu": imu,
         "dvl": dvl,
@@ -98,6 +116,8 @@ def import_rosbag(
                 depth=DepthParameters(water_density, atmospheric_pressure),
                 imu_sample=imu_sample,  # type: ignore[arg-type]
                 fmt="csv" if csv else "parquet",
+                log_time=tuple(log_time or ()),
+                stamp_tolerance_s=tolerance_s,
             )
         except (MissionError, ValueError, OSError) as exc:  # RosbagError is a MissionError
             fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)

@@ -14,6 +14,7 @@ otherwise the import is refused. :func:`export_run` writes a run's solution back
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import json
 import logging
@@ -79,6 +80,12 @@ IMU_COLUMNS = {"mean": IMU_INCREMENT_COLUMNS, "instant": IMU_RATE_COLUMNS}
 """The IMU table's columns: increments (``mean``: each message's rates are the mean over the
 interval that ends at its stamp) or rates (``instant``: sampled at the stamp)."""
 NS = 1_000_000_000
+STAMP_TOLERANCE_S = 10.0
+"""How far (s) a header stamp may stray from its topic's clock, and a topic's clock from the
+IMU's, the clock being read from the stamps' offsets to the bag's log times (:func:`far_stamps`,
+:func:`check_clocks`)."""
+CLOCK_WINDOW = 101
+"""Messages (in log order) over which a topic's running median clock offset is taken."""
 DEFAULT_DEPTH = DepthParameters()
 """Seawater, standard atmosphere and gravity (:class:`~.rosmsg.DepthParameters`)."""
 
@@ -225,6 +232,9 @@ class Stream:
     frame_ids: tuple[str, ...]
     messages: int
     repairs: tuple[Repair, ...]
+    clock: Array = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
+    """Per message kept, in log order: its log time and its header stamp minus log time (s;
+    :func:`check_clocks`)."""
 
 
 def _convert(role: str, msgtype: str, msgs: Sequence[Any], depth: DepthParameters) -> Converted:
@@ -262,9 +272,16 @@ def _check_present(bag: Bag, role: str, topic: str, msgs: Sequence[Any]) -> None
             )
 
 
-def _stamps(bag: Bag, topic: str, msgs: Sequence[Any]) -> tuple[NDArray[np.int64], list[Repair]]:
+def _stamps(
+    bag: Bag, topic: str, msgs: Sequence[Any], log_time: bool
+) -> tuple[NDArray[np.int64], list[Repair]]:
     """Header stamps (ns); a zero stamp (not set by the driver) is replaced by the bag's log
-    time, recorded."""
+    time, recorded; with ``log_time`` (``--log-time``) every stamp is."""
+    if log_time:
+        detail = f"{len(msgs)} messages (--log-time)"
+        return bag.log_ns[topic].copy(), [
+            Repair(topic, None, "header.stamp", "bag log time used", detail)
+        ]
     t = rosmsg.stamps_ns(msgs)
     unset = np.flatnonzero(t == 0)
     if unset.size == 0:
@@ -274,21 +291,43 @@ def _stamps(bag: Bag, topic: str, msgs: Sequence[Any]) -> tuple[NDArray[np.int64
     return t, [Repair(topic, None, "header.stamp", "zero stamp: bag log time used", detail)]
 
 
+def clock_offsets_s(t_ns: NDArray[np.int64], log_ns: NDArray[np.int64]) -> Array:
+    """Each message's header stamp minus its log time (s): the topic's clock against the
+    recorder's, plus the transport delay."""
+    return np.asarray((t_ns - log_ns).astype(np.float64) / NS)
+
+
+def far_stamps(offsets_s: Array, tolerance_s: float = STAMP_TOLERANCE_S) -> NDArray[np.bool_]:
+    """The messages whose clock offset (:func:`clock_offsets_s`, in log order) lies more than
+    ``tolerance_s`` from the running median of the :data:`CLOCK_WINDOW` around it: a stamp of
+    1970, or of a clock that stepped for a few messages. A clock that drifts against the
+    recorder's (simulated time at another rate than real time) moves the median with it, and
+    a whole topic on another clock is :func:`check_clocks`' to find."""
+    from scipy.ndimage import median_filter
+
+    if offsets_s.size == 0:
+        return np.zeros(0, dtype=bool)
+    size = min(CLOCK_WINDOW, offsets_s.size)
+    clock = median_filter(offsets_s, size=size, mode="nearest")
+    return np.asarray(np.abs(offsets_s - clock) > tolerance_s)
+
+
 def _order(
-    topic: str, t: NDArray[np.int64], drop_repeats: bool
+    topic: str, t: NDArray[np.int64], index: NDArray[np.int64], drop_repeats: bool
 ) -> tuple[NDArray[np.int64], list[Repair]]:
-    """Message indices in stamp order (stable: bag order among equal stamps), with the
+    """The messages ``index`` in stamp order (stable: bag order among equal stamps), with the
     repairs: messages recorded out of stamp order are sorted; with ``drop_repeats`` (the IMU,
     whose increments need a positive interval) a repeated stamp's later messages are dropped.
     A sensor's repeated stamps are left to the mission loader, which keeps the first and
     drops the rest to the ledger (docs/data-format.md)."""
     repairs: list[Repair] = []
-    late = np.flatnonzero(np.diff(t) < 0)
-    order = np.argsort(t, kind="stable")
+    ti = t[index]
+    late = np.flatnonzero(np.diff(ti) < 0)
+    order = index[np.argsort(ti, kind="stable")]
     if late.size:
         detail = (
             f"{late.size} messages stamped before their predecessor, the first at "
-            f"message {int(late[0]) + 1}"
+            f"message {int(index[late[0] + 1])}"
         )
         repairs.append(Repair(topic, None, "header.stamp", "sorted by header stamp", detail))
     if drop_repeats:
@@ -302,15 +341,41 @@ def _order(
     return order, repairs
 
 
-def build_stream(bag: Bag, role: str, topic: str, depth: DepthParameters) -> Stream:
-    """Convert, stamp and order one topic in its role; messages without a reading (a GNSS
-    fix with no fix) are left out, recorded."""
+def _far_repair(
+    topic: str, far: NDArray[np.bool_], offsets_s: Array, t_ns: NDArray[np.int64]
+) -> Repair:
+    """The repair that records the messages :func:`far_stamps` left out."""
+    first = int(np.flatnonzero(far)[0])
+    clock = float(np.median(offsets_s[~far]))
+    when = dt.datetime.fromtimestamp(int(t_ns[first]) // NS, dt.UTC).isoformat()
+    detail = (
+        f"{int(far.sum())} messages, the first at message {first} (stamped {when}, "
+        f"{offsets_s[first] - clock:+.6g} s from the topic's clock)"
+    )
+    return Repair(topic, None, "header.stamp", "stamp far from the topic's clock: left out", detail)
+
+
+def build_stream(
+    bag: Bag,
+    role: str,
+    topic: str,
+    depth: DepthParameters,
+    log_time: bool = False,
+    tolerance_s: float = STAMP_TOLERANCE_S,
+) -> Stream:
+    """Convert, stamp and order one topic in its role; messages stamped far from the topic's
+    clock (:func:`far_stamps`) and messages without a reading (a GNSS fix with no fix) are
+    left out, recorded."""
     msgs = bag.messages[topic]
     msgtype = bag.topics[topic].msgtype
     _check_present(bag, role, topic, msgs)
     data = _convert(role, msgtype, msgs, depth)
-    t, repairs = _stamps(bag, topic, msgs)
-    order, more = _order(topic, t, drop_repeats=role == "imu")
+    t, repairs = _stamps(bag, topic, msgs, log_time)
+    offsets = clock_offsets_s(t, bag.log_ns[topic])
+    far = far_stamps(offsets, tolerance_s)
+    if far.any():
+        repairs.append(_far_repair(topic, far, offsets, t))
+    order, more = _order(topic, t, np.flatnonzero(~far), drop_repeats=role == "imu")
     repairs += more
     order = order[data.keep[order]]
     if not data.keep.all():
@@ -328,7 +393,10 @@ def build_stream(bag: Bag, role: str, topic: str, depth: DepthParameters) -> Str
             list(frames),
         )
     kept = Converted(data.z[order], data.var[order], data.keep[order])
-    return Stream(role, topic, msgtype, t[order], kept, frames, len(msgs), tuple(repairs))
+    log_s = bag.log_ns[topic][order].astype(np.float64) / NS
+    by_log = np.argsort(log_s, kind="stable")
+    clock = np.column_stack([log_s[by_log], offsets[order][by_log]])
+    return Stream(role, topic, msgtype, t[order], kept, frames, len(msgs), tuple(repairs), clock)
 
 
 # --- the mission configuration ------------------------------------------------------------------
@@ -565,6 +633,38 @@ def build_tables(
     return tables
 
 
+def check_clocks(
+    path: Path, streams: Mapping[str, Stream], tolerance_s: float = STAMP_TOLERANCE_S
+) -> None:
+    """Every topic's clock within ``tolerance_s`` of the IMU's, else a :class:`RosbagError`
+    naming the topic: a driver that stamps with its own clock (time since boot, a GNSS time
+    not set) puts its readings where no IMU sample is, and mission time would start at the
+    earliest of the clocks. A topic's clock is read against the IMU's at the same log times
+    (the median over its messages of its offset less the IMU's running median offset there,
+    :attr:`Stream.clock`), so that clocks drifting together against the recorder's (simulated
+    time at another rate than real time) agree."""
+    imu = streams["imu"]
+    if imu.clock.shape[0] == 0:
+        return
+    size = min(CLOCK_WINDOW, imu.clock.shape[0])
+    from scipy.ndimage import median_filter
+
+    imu_clock = median_filter(imu.clock[:, 1], size=size, mode="nearest")
+    for role, s in streams.items():
+        if role == "imu" or s.clock.shape[0] == 0:
+            continue
+        gap = float(np.median(s.clock[:, 1] - np.interp(s.clock[:, 0], imu.clock[:, 0], imu_clock)))
+        if abs(gap) > tolerance_s:
+            raise RosbagError(
+                f"{path}: topic {s.topic} (--{role}) is stamped on another clock than the IMU "
+                f"{imu.topic}: against the bag's log times its header stamps are {gap:+.6g} s "
+                f"from the IMU's (a driver stamping with its own clock?); --log-time "
+                f"{s.topic} takes its log times instead",
+                file=str(path),
+                field=s.topic,
+            )
+
+
 def stamp_origin(streams: Mapping[str, Stream]) -> int:
     """The mission clock's origin (ns): the earliest stamp, down to a whole second, so that
     mission time and stamps share their fractions of a second."""
@@ -614,6 +714,8 @@ def import_bag(
     depth: DepthParameters = DEFAULT_DEPTH,
     imu_sample: ImuSample = "mean",
     fmt: Literal["parquet", "csv"] = "parquet",
+    log_time: Sequence[str] = (),
+    stamp_tolerance_s: float = STAMP_TOLERANCE_S,
 ) -> Path:
     """Import a ROS 2 bag as a mission folder ``out_dir`` (docs/rosbag.md).
 
@@ -627,12 +729,28 @@ def import_bag(
         imu_sample: ``mean`` (the default: each Imu message's rates are the mean over the
             interval ending at its stamp; written as increments) or ``instant`` (sampled at
             the stamp; written as rates, integrated by the trapezoid rule).
+        log_time: topics whose messages are timed by the bag's log time, not their header
+            stamps (a driver on its own clock: :func:`check_clocks`).
+        stamp_tolerance_s: how far a stamp may stray from its topic's clock
+            (:func:`far_stamps`) and a topic's clock from the IMU's.
 
     Returns ``out_dir``; import.json in it records everything (:func:`import_record`).
     """
     wanted = {"imu": None, **topics}
     bag, roles = read_bag(bag_path, wanted)
-    streams = {role: build_stream(bag, role, topic, depth) for role, topic in roles.items()}
+    unknown = sorted(set(log_time) - set(roles.values()))
+    if unknown:
+        raise RosbagError(
+            f"{bag.path}: --log-time {unknown[0]} is not an imported topic (they are "
+            f"{', '.join(sorted(roles.values()))})",
+            file=str(bag.path),
+            field=unknown[0],
+        )
+    streams = {
+        role: build_stream(bag, role, topic, depth, topic in log_time, stamp_tolerance_s)
+        for role, topic in roles.items()
+    }
+    check_clocks(bag.path, streams, stamp_tolerance_s)
     base = load_config(config) if config is not None else None
     source = str(config) if config is not None else None
     built = build_config(bag, streams, base, source, imu_sample)
