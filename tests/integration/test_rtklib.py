@@ -184,6 +184,17 @@ def test_imu_malformed_names_file_line_and_field(tmp_path: Path, edit: object, w
     assert "k.csv" in str(info.value) and words in str(info.value)
 
 
+def test_a_file_that_is_not_utf8_names_the_line_and_the_byte(tmp_path: Path) -> None:
+    p = tmp_path / "l.csv"
+    p.write_bytes("\n".join(_imu_lines()).replace("-0.2", "-0.2\u00b0", 1).encode("latin-1"))
+    with pytest.raises(RtklibError) as info:
+        rtklib.read_imu_csv(p)
+    assert str(info.value).startswith(
+        "l.csv line 1: not UTF-8 text (byte 0xb0, byte 21 of"
+    )  # after 20 characters
+    assert info.value.line == 1
+
+
 def _tag_bytes(records: list[tuple[int, int]], magic: bytes = b"TIMETAG RTKLIB demo5") -> bytes:
     head = magic.ljust(60, b"\0") + struct.pack("<IId", 1, 1752003261, 0.854)
     return head + b"".join(struct.pack("<II", t, p) for t, p in records)

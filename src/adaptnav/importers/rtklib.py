@@ -204,12 +204,21 @@ def _require_file(p: Path) -> None:
 
 
 def _read_text(p: Path) -> str:
-    """The UTF-8 text of ``p``; a missing file or one that is not text is an RtklibError."""
+    """The UTF-8 text of ``p``; a missing file or one that is not UTF-8 text is an RtklibError
+    naming the line and the byte (a binary file given for a text one, or a damaged line)."""
     _require_file(p)
     try:
         return p.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
-        raise RtklibError(f"{p.name}: not a text file ({exc.reason})", file=p.name) from None
+        raw, at = exc.object, exc.start
+        line = raw.count(b"\n", 0, at) + 1
+        where = at - (raw.rfind(b"\n", 0, at) + 1) + 1
+        raise RtklibError(
+            f"{p.name} line {line}: not UTF-8 text (byte 0x{raw[at]:02x}, byte {where} of the "
+            "line; a binary file, or a damaged line?)",
+            file=p.name,
+            line=line,
+        ) from None
 
 
 def _truncated_last_line(p: Path, line: int, detail: str) -> Repair:
