@@ -4,6 +4,7 @@ each correction is needed, and the mission loads, runs and is scored over its ou
 
 from __future__ import annotations
 
+import json
 import math
 import struct
 from functools import cache
@@ -282,6 +283,55 @@ def test_initial_heading_is_carried_back_from_the_first_fast_course() -> None:
         yaw_neg - yaw0 - math.radians(2 * info["turned_until_t1_deg"]), 2 * math.pi
     )
     assert abs(moved) < 1e-9
+
+
+def test_fixes_off_the_line_through_their_neighbours_are_found() -> None:
+    """A car on a 60-m circle at 15 m/s (3.75 m/s²), fixed at 4 Hz with 2-cm noise, a
+    stop braking at 8 m/s², a 10-s gap (a tunnel): nothing is found. Fixes
+    moved 3 m sideways, 1000 m up, the first one 50 m off and the last one 2 m: exactly
+    those."""
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 120.0, 0.25)
+    t = t[(t < 50.0) | (t >= 60.0)]
+    speed = np.where(t < 80.0, 15.0, 15.0 - 8.0 * np.clip(t - 80.0, 0.0, 1.875))
+    angle = np.cumsum(speed) * 0.25 / 60.0
+    r = np.column_stack([60.0 * np.cos(angle), 60.0 * np.sin(angle), np.zeros_like(t)])
+    r += rng.normal(0.0, 0.02, r.shape)
+    q1 = np.ones(t.size, dtype=bool)
+    assert not rtklib.inconsistent_fixes(t, r, q1).any()
+    wrong = {0: [50.0, 0, 0], 100: [0, 3.0, 0], 300: [0, 0, 1000.0], t.size - 1: [0, 2.0, 0]}
+    for k, d in wrong.items():
+        r[k] += d
+    assert set(np.flatnonzero(rtklib.inconsistent_fixes(t, r, q1))) == set(wrong)
+    q1[[100, 101]] = False  # a fix that is not a candidate is neither tested nor a neighbour
+    assert set(np.flatnonzero(rtklib.inconsistent_fixes(t, r, q1))) == set(wrong) - {100}
+
+
+@needs_data
+def test_a_wrong_fix_is_left_out_of_the_aiding_and_the_truth(tmp_path: Path) -> None:
+    """A fix moved 11 km south (a damaged line) and one 1000 m up: left out of both the GNSS
+    stream and the truth, counted and listed by line in import.json (before, both were
+    imported: aiding readings the guard must catch, and truth rows that score a right
+    solution as 11 km wrong)."""
+    lines = POS.read_text(encoding="utf-8").split("\n")
+    data = [k for k, line in enumerate(lines) if line and not line.startswith("%")]
+    for k, column, value in ((data[1000], 2, "40.0000000"), (data[1500], 4, "2601.474")):
+        f = lines[k].split()
+        f[column] = value
+        lines[k] = " ".join(f)
+    pos = tmp_path / "g.pos"
+    pos.write_text("\n".join(lines), encoding="utf-8")
+    (tmp_path / "imu.csv").symlink_to(IMU)
+    (tmp_path / "imu.csv.tag").symlink_to(TAG)
+    root = rtklib.import_drive(pos, tmp_path / "imu.csv", tmp_path / "m")
+    gnss = json.loads((root / "import.json").read_text())["gnss"]
+    assert gnss["wrong_fix_lines"] == [data[1000] + 1, data[1500] + 1]
+    assert gnss["left_out"]["off the line through its neighbours (a wrong fix)"] == 2
+    m = load_mission(root)
+    assert m.truth is not None
+    lat = np.degrees(m.truth["lat_rad"].to_numpy())
+    assert np.all(np.abs(lat - 40.1) < 0.05) and m.truth["h_m"].max() < 2000.0
+    assert np.all(np.abs(np.degrees(m.sensors["gnss"].z[:, 0]) - 40.1) < 0.05)
 
 
 # --- the mission ----------------------------------------------------------------------------------

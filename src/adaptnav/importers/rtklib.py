@@ -997,8 +997,10 @@ def estimate_imu_noise(
 @dataclass(frozen=True, eq=False)
 class FixSelection:
     """Where each solution epoch goes (docs/rtklib.md, "Inputs and what is refused"): its
-    mission time ``t``; ``in_span`` (inside the IMU data), ``fixed`` (Q = 1), ``withheld`` (in
-    an outage); the checked outage ``windows`` and the fixes withheld in each."""
+    mission time ``t``; ``in_span`` (inside the IMU data), ``fixed`` (Q = 1 and not
+    ``jumped``), ``jumped`` (Q = 1 but off the line through its neighbours:
+    :func:`inconsistent_fixes`), ``withheld`` (in an outage); the checked outage ``windows``
+    and the fixes withheld in each."""
 
     t: Array
     in_span: NDArray[np.bool_]
@@ -1006,6 +1008,7 @@ class FixSelection:
     withheld: NDArray[np.bool_]
     windows: list[tuple[float, float]]
     per_outage: list[dict[str, Any]]
+    jumped: NDArray[np.bool_]
 
     @property
     def aid(self) -> NDArray[np.bool_]:
@@ -1018,13 +1021,56 @@ class FixSelection:
         return self.in_span & self.fixed
 
 
+JUMP_ACCEL_M_S2 = 10.0
+"""No car accelerates harder than 1 g: the bound on how far a fix may lie from the line
+through its neighbours (:func:`inconsistent_fixes`)."""
+JUMP_FLOOR_M = 1.0
+"""...plus this much (m), for the fixes' own errors."""
+
+
+def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The candidate fixes that disagree with their neighbours: a fix b whose position (ECEF,
+    m) lies farther from the line through two neighbouring fixes a and c than a vehicle could
+    leave it, ``|r_b - r_a - (t_b - t_a)/(t_c - t_a) (r_c - r_a)| >
+    JUMP_FLOOR_M + ½ JUMP_ACCEL_M_S2 |t_b - t_a| |t_b - t_c|`` (the error of a line through a
+    path whose acceleration is bounded), b interpolated between its neighbours, or extrapolated
+    from the next two (the first) or the previous two (the last). The worst offender is left
+    out and the rest tested again until none offends: a wrong fix (a false RTK fix, a damaged
+    line) also pulls the line its neighbours are tested against."""
+    keep = np.flatnonzero(candidates)
+    out = np.zeros(t.size, dtype=bool)
+    while keep.size >= 3:
+        tt, r = t[keep], r_e[keep]
+        a = np.r_[1, np.arange(0, keep.size - 2), keep.size - 3]
+        c = np.r_[2, np.arange(2, keep.size), keep.size - 2]
+        b = np.arange(keep.size)
+        w = (tt[b] - tt[a]) / (tt[c] - tt[a])
+        miss = np.linalg.norm(r[b] - r[a] - w[:, None] * (r[c] - r[a]), axis=1)
+        bound = JUMP_FLOOR_M + 0.5 * JUMP_ACCEL_M_S2 * np.abs((tt[b] - tt[a]) * (tt[b] - tt[c]))
+        k = int(np.argmax(miss / bound))
+        if not miss[k] > bound[k]:
+            break
+        out[keep[k]] = True
+        keep = np.delete(keep, k)
+    return out
+
+
 def select_fixes(
     sol: PosSolution, clock: DriveClock, outages: Sequence[tuple[float, float]]
 ) -> FixSelection:
     """Check the outage windows (:func:`_check_outages`) and sort the solution epochs: outside
     the IMU span, not fixed, withheld in an outage, or aiding."""
     in_span = (sol.gpst_s > clock.t_gps[0]) & (sol.gpst_s <= clock.t_gps[-1])
-    fixed = sol.q == 1
+    r_e = earth.geodetic_to_ecef(sol.lat_rad, sol.lon_rad, sol.h_m)
+    jumped = inconsistent_fixes(sol.gpst_s, r_e, sol.q == 1)
+    if jumped.any():
+        lines = [str(x) for x in sol.lines[jumped]]
+        shown = ", ".join(lines[:5]) + (", ..." if len(lines) > 5 else "")
+        log.warning(
+            "%s: %d fixed solution(s) off the line through their neighbours left out (line %s)",
+            sol.path.name, len(lines), shown,
+        )  # fmt: skip
+    fixed = (sol.q == 1) & ~jumped
     t_sol = sol.gpst_s - clock.origin
     windows = _check_outages(outages, float(clock.t_imu[-1]))
     withheld = np.zeros(sol.gpst_s.size, dtype=bool)
@@ -1033,7 +1079,7 @@ def select_fixes(
         w = in_span & fixed & (t_sol > a) & (t_sol <= a + length)
         withheld |= w
         per_outage.append({"start_s": a, "length_s": length, "fixes_withheld": int(w.sum())})
-    return FixSelection(t_sol, in_span, fixed, withheld, windows, per_outage)
+    return FixSelection(t_sol, in_span, fixed, withheld, windows, per_outage, jumped)
 
 
 @dataclass(frozen=True, eq=False)
@@ -1306,10 +1352,14 @@ def _fixes_record(drive: Drive, settings: DriveSettings) -> dict[str, Any]:
             "used": int(sel.aid.sum()),
             "left_out": {
                 "outside the IMU span": int((~sel.in_span).sum()),
-                "not fixed (Q != 1)": int((sel.in_span & ~sel.fixed).sum()),
+                "not fixed (Q != 1)": int((sel.in_span & ~sel.fixed & ~sel.jumped).sum()),
+                "off the line through its neighbours (a wrong fix)": int(
+                    (sel.in_span & sel.jumped).sum()
+                ),
                 "withheld in an outage": int(sel.withheld.sum()),
             },
             "first_fixed_line": int(sol.lines[int(np.argmax(sel.truth))]),
+            "wrong_fix_lines": [int(x) for x in sol.lines[sel.in_span & sel.jumped]],
         },
         "outages": sel.per_outage,
         "nhc": None
