@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import re
 import shutil
 from functools import cache
 from pathlib import Path
@@ -252,6 +253,32 @@ def test_bad_cell_and_missing_segment(tmp_path: Path) -> None:
         akit.read_segment(src, 1)
     with pytest.raises(AkitError, match=r"no IMU_trajectory4\.csv \(segments present: \[1\]\)"):
         akit.read_segment(src, 4)
+
+
+@needs_data
+@pytest.mark.parametrize(
+    ("column", "change", "line", "metres"),
+    [
+        ("Altitude [m]", 1000.0, 301, 1000.0),  # 1000 m up, between its neighbours
+        ("Latitude [rad]", 1e-4, 2, 637.0),  # the first row, 1e-4 rad × ~6.37e6 m north
+    ],
+)
+def test_a_reference_position_off_its_neighbours_is_an_error(
+    tmp_path: Path, column: str, change: float, line: int, metres: float
+) -> None:
+    """A damaged reference line (a position a vehicle cannot reach in a second) is an error
+    naming its line and coordinate; before, it went into the truth and the depth."""
+    src = _copy(tmp_path)
+    gt = src / "GT_trajectory1.csv"
+    frame = pd.read_csv(gt)
+    frame.loc[line - 2, column] += change
+    frame.to_csv(gt, index=False, float_format="%.17g")
+    with pytest.raises(AkitError, match=rf"GT_trajectory1\.csv line {line}, {re.escape(column)}: "
+                       r"the reference position is [0-9.]+ m off the line") as err:  # fmt: skip
+        akit.read_segment(src, 1)
+    assert err.value.line == line and err.value.field == column
+    off = float(str(err.value).split("position is ")[1].split(" m")[0])
+    assert off == pytest.approx(metres, rel=0.01)
 
 
 # --- faults -------------------------------------------------------------------------------------

@@ -19,7 +19,7 @@ from adaptnav import api
 from adaptnav.analysis import evaluate
 from adaptnav.cli import app
 from adaptnav.core.units import G0
-from adaptnav.importers import rtklib
+from adaptnav.importers import rtklib, tracks
 from adaptnav.importers.rtklib import RtklibError
 from adaptnav.mission import load_mission
 from helpers import SHARED_DATA
@@ -298,13 +298,13 @@ def test_fixes_off_the_line_through_their_neighbours_are_found() -> None:
     r = np.column_stack([60.0 * np.cos(angle), 60.0 * np.sin(angle), np.zeros_like(t)])
     r += rng.normal(0.0, 0.02, r.shape)
     q1 = np.ones(t.size, dtype=bool)
-    assert not rtklib.inconsistent_fixes(t, r, q1).any()
+    assert not tracks.inconsistent_fixes(t, r, q1).any()
     wrong = {0: [50.0, 0, 0], 100: [0, 3.0, 0], 300: [0, 0, 1000.0], t.size - 1: [0, 2.0, 0]}
     for k, d in wrong.items():
         r[k] += d
-    assert set(np.flatnonzero(rtklib.inconsistent_fixes(t, r, q1))) == set(wrong)
+    assert set(np.flatnonzero(tracks.inconsistent_fixes(t, r, q1))) == set(wrong)
     q1[[100, 101]] = False  # a fix that is not a candidate is neither tested nor a neighbour
-    assert set(np.flatnonzero(rtklib.inconsistent_fixes(t, r, q1))) == set(wrong) - {100}
+    assert set(np.flatnonzero(tracks.inconsistent_fixes(t, r, q1))) == set(wrong) - {100}
 
 
 @needs_data

@@ -51,6 +51,7 @@ from adaptnav.analysis.evaluate import ned_errors
 from adaptnav.core import attitude, earth
 from adaptnav.engine import propagation
 from adaptnav.importers.timing import minimise_lag
+from adaptnav.importers.tracks import inconsistent_fixes
 from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Journal, Repair, Table, numeric, read_table
@@ -253,6 +254,33 @@ def _columns(table: Table, names: Sequence[str], finite: bool) -> Array:
     return values
 
 
+def _check_reference_track(table: Table, ref: Array) -> None:
+    """A reference position off the line through its neighbours by more than a vehicle can
+    move (:func:`~.tracks.inconsistent_fixes`) is an AkitError naming its line and the
+    coordinate most off: a damaged line. It cannot be left out, since the rows are timed by
+    their index (correction 1)."""
+    t = REF_PERIOD_S * np.arange(ref.shape[0], dtype=float)
+    lat, lon, h = ref[:, 0], ref[:, 1], ref[:, 2]
+    off = inconsistent_fixes(t, earth.geodetic_to_ecef(lat, lon, h), np.ones(t.size, bool))
+    if not off.any():
+        return
+    r = int(np.flatnonzero(off)[0])
+    a, c = (r + 1, r + 2) if r == 0 else (r - 2, r - 1) if r == t.size - 1 else (r - 1, r + 1)
+    w = (t[r] - t[a]) / (t[c] - t[a])
+    miss = ref[r, :3] - ref[a, :3] - w * (ref[c, :3] - ref[a, :3])
+    rm, rn = earth.meridian_radius(lat[r]), earth.transverse_radius(lat[r])
+    metres = np.abs(miss) * np.array([rm + h[r], (rn + h[r]) * math.cos(lat[r]), 1.0])
+    k = int(np.argmax(metres))
+    raise AkitError(
+        f"{table.where(r)}, {GT_COLUMNS[k]}: the reference position is {metres[k]:.4g} m off "
+        f"the line through its neighbours (lines {int(table.lines[a])} and "
+        f"{int(table.lines[c])}), more than a vehicle moves (a damaged line?)",
+        file=table.label,
+        line=int(table.lines[r]),
+        field=GT_COLUMNS[k],
+    )
+
+
 def _read(path: Path, journal: Journal) -> Table:
     if not path.is_file():
         raise AkitError(f"{path.name}: file not found in {path.parent}", file=str(path))
@@ -298,6 +326,7 @@ def read_segment(src_dir: str | Path, trajectory: int, *, flip_y: bool = True) -
         gyro[:, 1] *= -1.0
         accel[:, 1] *= -1.0
     ref = _columns(gt, GT_COLUMNS, finite=True)
+    _check_reference_track(gt, ref)
     return RawSegment(
         trajectory=n,
         source=root,

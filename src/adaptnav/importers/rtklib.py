@@ -56,6 +56,7 @@ from adaptnav.core import earth
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, G0
 from adaptnav.importers.timing import minimise_lag
+from adaptnav.importers.tracks import inconsistent_fixes
 from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Repair
@@ -999,8 +1000,8 @@ class FixSelection:
     """Where each solution epoch goes (docs/rtklib.md, "Inputs and what is refused"): its
     mission time ``t``; ``in_span`` (inside the IMU data), ``fixed`` (Q = 1 and not
     ``jumped``), ``jumped`` (Q = 1 but off the line through its neighbours:
-    :func:`inconsistent_fixes`), ``withheld`` (in an outage); the checked outage ``windows``
-    and the fixes withheld in each."""
+    :func:`~.tracks.inconsistent_fixes`), ``withheld`` (in an outage); the checked outage
+    ``windows`` and the fixes withheld in each."""
 
     t: Array
     in_span: NDArray[np.bool_]
@@ -1019,40 +1020,6 @@ class FixSelection:
     def truth(self) -> NDArray[np.bool_]:
         """The fixes in the truth table: fixed and in the span (withheld ones too)."""
         return self.in_span & self.fixed
-
-
-JUMP_ACCEL_M_S2 = 10.0
-"""No car accelerates harder than 1 g: the bound on how far a fix may lie from the line
-through its neighbours (:func:`inconsistent_fixes`)."""
-JUMP_FLOOR_M = 1.0
-"""...plus this much (m), for the fixes' own errors."""
-
-
-def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """The candidate fixes that disagree with their neighbours: a fix b whose position (ECEF,
-    m) lies farther from the line through two neighbouring fixes a and c than a vehicle could
-    leave it, ``|r_b - r_a - (t_b - t_a)/(t_c - t_a) (r_c - r_a)| >
-    JUMP_FLOOR_M + ½ JUMP_ACCEL_M_S2 |t_b - t_a| |t_b - t_c|`` (the error of a line through a
-    path whose acceleration is bounded), b interpolated between its neighbours, or extrapolated
-    from the next two (the first) or the previous two (the last). The worst offender is left
-    out and the rest tested again until none offends: a wrong fix (a false RTK fix, a damaged
-    line) also pulls the line its neighbours are tested against."""
-    keep = np.flatnonzero(candidates)
-    out = np.zeros(t.size, dtype=bool)
-    while keep.size >= 3:
-        tt, r = t[keep], r_e[keep]
-        a = np.r_[1, np.arange(0, keep.size - 2), keep.size - 3]
-        c = np.r_[2, np.arange(2, keep.size), keep.size - 2]
-        b = np.arange(keep.size)
-        w = (tt[b] - tt[a]) / (tt[c] - tt[a])
-        miss = np.linalg.norm(r[b] - r[a] - w[:, None] * (r[c] - r[a]), axis=1)
-        bound = JUMP_FLOOR_M + 0.5 * JUMP_ACCEL_M_S2 * np.abs((tt[b] - tt[a]) * (tt[b] - tt[c]))
-        k = int(np.argmax(miss / bound))
-        if not miss[k] > bound[k]:
-            break
-        out[keep[k]] = True
-        keep = np.delete(keep, k)
-    return out
 
 
 def select_fixes(

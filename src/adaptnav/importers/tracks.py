@@ -1,0 +1,44 @@
+"""Position tracks checked against the motion a vehicle can make, shared by the importers: a
+position (a GNSS fix, a reference row) that lies off the line through its neighbours by more
+than a bounded acceleration allows is a wrong fix or a damaged line (docs/rtklib.md, 'Wrong
+fixes'; docs/akit.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+JUMP_ACCEL_M_S2 = 10.0
+"""No vehicle here (a car, an AUV) accelerates harder than 1 g: the bound on how far a fix may
+lie from the line through its neighbours (:func:`inconsistent_fixes`)."""
+JUMP_FLOOR_M = 1.0
+"""...plus this much (m), for the fixes' own errors."""
+
+
+def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The candidate fixes that disagree with their neighbours: a fix b whose position (ECEF,
+    m) lies farther from the line through two neighbouring fixes a and c than a vehicle could
+    leave it, ``|r_b - r_a - (t_b - t_a)/(t_c - t_a) (r_c - r_a)| >
+    JUMP_FLOOR_M + ½ JUMP_ACCEL_M_S2 |t_b - t_a| |t_b - t_c|`` (the error of a line through a
+    path whose acceleration is bounded), b interpolated between its neighbours, or extrapolated
+    from the next two (the first) or the previous two (the last). The worst offender is left
+    out and the rest tested again until none offends: a wrong fix (a false RTK fix, a damaged
+    line) also pulls the line its neighbours are tested against."""
+    keep = np.flatnonzero(candidates)
+    out = np.zeros(t.size, dtype=bool)
+    while keep.size >= 3:
+        tt, r = t[keep], r_e[keep]
+        a = np.r_[1, np.arange(0, keep.size - 2), keep.size - 3]
+        c = np.r_[2, np.arange(2, keep.size), keep.size - 2]
+        b = np.arange(keep.size)
+        w = (tt[b] - tt[a]) / (tt[c] - tt[a])
+        miss = np.linalg.norm(r[b] - r[a] - w[:, None] * (r[c] - r[a]), axis=1)
+        bound = JUMP_FLOOR_M + 0.5 * JUMP_ACCEL_M_S2 * np.abs((tt[b] - tt[a]) * (tt[b] - tt[c]))
+        k = int(np.argmax(miss / bound))
+        if not miss[k] > bound[k]:
+            break
+        out[keep[k]] = True
+        keep = np.delete(keep, k)
+    return out
