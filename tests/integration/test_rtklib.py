@@ -309,29 +309,49 @@ def test_fixes_off_the_line_through_their_neighbours_are_found() -> None:
 
 @needs_data
 def test_a_wrong_fix_is_left_out_of_the_aiding_and_the_truth(tmp_path: Path) -> None:
-    """A fix moved 11 km south (a damaged line) and one 1000 m up: left out of both the GNSS
-    stream and the truth, counted and listed by line in import.json (before, both were
-    imported: aiding readings the guard must catch, and truth rows that score a right
-    solution as 11 km wrong)."""
+    """A fix moved 11 km south (a damaged line), one 1000 m up and one whose north velocity
+    reads 99999 m/s: left out of the solution, so of the GNSS stream, the truth and the
+    estimates, each a repair naming its line (before, all three were imported: aiding readings
+    the guard must catch, truth rows that score a right solution as 11 km wrong, and the
+    velocity spike parked the car for -0.4 s: an error about the parked window)."""
     lines = POS.read_text(encoding="utf-8").split("\n")
     data = [k for k, line in enumerate(lines) if line and not line.startswith("%")]
-    for k, column, value in ((data[1000], 2, "40.0000000"), (data[1500], 4, "2601.474")):
+    edits = ((data[1000], 2, "40.0000000"), (data[1500], 4, "2601.474"), (data[20], 15, "99999"))
+    for k, column, value in edits:
         f = lines[k].split()
         f[column] = value
         lines[k] = " ".join(f)
     pos = tmp_path / "g.pos"
     pos.write_text("\n".join(lines), encoding="utf-8")
+    sol = rtklib.read_pos(pos)
+    wrong = sorted(k + 1 for k, _, _ in edits)
+    assert [(r.line, r.action) for r in sol.repairs] == [(n, rtklib.WRONG_FIX) for n in wrong]
+    assert sol.gpst_s.size == len(data) - 3 and not set(sol.lines) & set(wrong)
     (tmp_path / "imu.csv").symlink_to(IMU)
     (tmp_path / "imu.csv.tag").symlink_to(TAG)
     root = rtklib.import_drive(pos, tmp_path / "imu.csv", tmp_path / "m")
-    gnss = json.loads((root / "import.json").read_text())["gnss"]
-    assert gnss["wrong_fix_lines"] == [data[1000] + 1, data[1500] + 1]
-    assert gnss["left_out"]["off the line through its neighbours (a wrong fix)"] == 2
+    assert json.loads((root / "import.json").read_text())["gnss"]["wrong_fix_lines"] == wrong
     m = load_mission(root)
     assert m.truth is not None
     lat = np.degrees(m.truth["lat_rad"].to_numpy())
     assert np.all(np.abs(lat - 40.1) < 0.05) and m.truth["h_m"].max() < 2000.0
     assert np.all(np.abs(np.degrees(m.sensors["gnss"].z[:, 0]) - 40.1) < 0.05)
+
+
+def test_a_velocity_that_disagrees_with_the_positions_is_found() -> None:
+    """On a straight line at 10 m/s, 4 Hz, the velocities as reported: nothing is found; a
+    north velocity 4 m/s off (beyond 1 m/s + 10 m/s² × 0.25 s) is, one 3 m/s off is not,
+    and a missing velocity (NaN) is never tested."""
+    t = np.arange(0.0, 20.0, 0.25)
+    r_e = np.column_stack([10.0 * t, np.zeros_like(t), np.zeros_like(t)])
+    C_ne = np.tile(np.eye(3), (t.size, 1, 1))  # NED axes along ECEF here: a test frame
+    v = np.tile([10.0, 0.0, 0.0], (t.size, 1))
+    ok = np.ones(t.size, dtype=bool)
+    assert not tracks.inconsistent_velocities(t, r_e, C_ne, v, ok).any()
+    v[10, 0] += 4.0
+    v[30, 0] += 3.0
+    v[50] = np.nan
+    assert list(np.flatnonzero(tracks.inconsistent_velocities(t, r_e, C_ne, v, ok))) == [10]
 
 
 # --- the mission ----------------------------------------------------------------------------------

@@ -56,7 +56,7 @@ from adaptnav.core import earth
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, G0
 from adaptnav.importers.timing import minimise_lag
-from adaptnav.importers.tracks import inconsistent_fixes
+from adaptnav.importers.tracks import inconsistent_fixes, inconsistent_velocities
 from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Repair
@@ -373,12 +373,47 @@ def read_pos(path: str | Path) -> PosSolution:
         v = np.column_stack([col["vn(m/s)"], col["ve(m/s)"], -col["vu(m/s)"]])
     else:
         v = np.full((t.size, 3), np.nan)
+    lat, lon = np.radians(col["latitude(deg)"]), np.radians(col["longitude(deg)"])
+    keep = _wrong_fixes(p, t, lat, lon, col["height(m)"], col["Q"] == 1, v, lines, repairs)
     return PosSolution(
-        p, t, np.radians(col["latitude(deg)"]), np.radians(col["longitude(deg)"]),
-        col["height(m)"], col["Q"].astype(np.int64), col["ns"].astype(np.int64),
-        np.column_stack([col["sdn(m)"], col["sde(m)"], col["sdu(m)"]]), v,
-        np.asarray(lines, dtype=np.int64), tuple(repairs),
+        p, t[keep], lat[keep], lon[keep], col["height(m)"][keep],
+        col["Q"][keep].astype(np.int64), col["ns"][keep].astype(np.int64),
+        np.column_stack([col["sdn(m)"], col["sde(m)"], col["sdu(m)"]])[keep], v[keep],
+        np.asarray(lines, dtype=np.int64)[keep], tuple(repairs),
     )  # fmt: skip
+
+
+WRONG_FIX = "wrong fix left out"
+"""The repair of a fixed solution that disagrees with its neighbours (:func:`_wrong_fixes`)."""
+
+
+def _wrong_fixes(
+    p: Path,
+    t: Array,
+    lat: Array,
+    lon: Array,
+    h: Array,
+    fixed: NDArray[np.bool_],
+    v_ned: Array,
+    lines: list[int],
+    repairs: list[Repair],
+) -> NDArray[np.bool_]:
+    """The rows to keep: all but the fixed solutions whose position lies off the line through
+    their neighbours (:func:`~.tracks.inconsistent_fixes`) or whose velocity disagrees with
+    the positions around them (:func:`~.tracks.inconsistent_velocities`): a false RTK fix or a
+    damaged line. Each one left out is a repair naming its line, logged (docs/rtklib.md,
+    'Wrong fixes')."""
+    r_e = earth.geodetic_to_ecef(lat, lon, h)
+    jumped = inconsistent_fixes(t, r_e, fixed)
+    fast = inconsistent_velocities(t, r_e, earth.C_ne(lat, lon), v_ned, fixed & ~jumped)
+    for k in np.flatnonzero(jumped | fast):
+        if jumped[k]:
+            what, detail = "(position)", "off the line through the neighbouring fixes"
+        else:
+            what, detail = "vn/ve/vu(m/s)", "velocity disagrees with the positions around it"
+        repairs.append(Repair(p.name, lines[k], what, WRONG_FIX, detail))
+        log.warning("%s line %d: %s (%s)", p.name, lines[k], WRONG_FIX, detail)
+    return np.asarray(~(jumped | fast))
 
 
 @dataclass(frozen=True, eq=False)
@@ -998,10 +1033,8 @@ def estimate_imu_noise(
 @dataclass(frozen=True, eq=False)
 class FixSelection:
     """Where each solution epoch goes (docs/rtklib.md, "Inputs and what is refused"): its
-    mission time ``t``; ``in_span`` (inside the IMU data), ``fixed`` (Q = 1 and not
-    ``jumped``), ``jumped`` (Q = 1 but off the line through its neighbours:
-    :func:`~.tracks.inconsistent_fixes`), ``withheld`` (in an outage); the checked outage
-    ``windows`` and the fixes withheld in each."""
+    mission time ``t``; ``in_span`` (inside the IMU data), ``fixed`` (Q = 1), ``withheld`` (in
+    an outage); the checked outage ``windows`` and the fixes withheld in each."""
 
     t: Array
     in_span: NDArray[np.bool_]
@@ -1009,7 +1042,6 @@ class FixSelection:
     withheld: NDArray[np.bool_]
     windows: list[tuple[float, float]]
     per_outage: list[dict[str, Any]]
-    jumped: NDArray[np.bool_]
 
     @property
     def aid(self) -> NDArray[np.bool_]:
@@ -1028,16 +1060,7 @@ def select_fixes(
     """Check the outage windows (:func:`_check_outages`) and sort the solution epochs: outside
     the IMU span, not fixed, withheld in an outage, or aiding."""
     in_span = (sol.gpst_s > clock.t_gps[0]) & (sol.gpst_s <= clock.t_gps[-1])
-    r_e = earth.geodetic_to_ecef(sol.lat_rad, sol.lon_rad, sol.h_m)
-    jumped = inconsistent_fixes(sol.gpst_s, r_e, sol.q == 1)
-    if jumped.any():
-        lines = [str(x) for x in sol.lines[jumped]]
-        shown = ", ".join(lines[:5]) + (", ..." if len(lines) > 5 else "")
-        log.warning(
-            "%s: %d fixed solution(s) off the line through their neighbours left out (line %s)",
-            sol.path.name, len(lines), shown,
-        )  # fmt: skip
-    fixed = (sol.q == 1) & ~jumped
+    fixed = sol.q == 1
     t_sol = sol.gpst_s - clock.origin
     windows = _check_outages(outages, float(clock.t_imu[-1]))
     withheld = np.zeros(sol.gpst_s.size, dtype=bool)
@@ -1046,7 +1069,7 @@ def select_fixes(
         w = in_span & fixed & (t_sol > a) & (t_sol <= a + length)
         withheld |= w
         per_outage.append({"start_s": a, "length_s": length, "fixes_withheld": int(w.sum())})
-    return FixSelection(t_sol, in_span, fixed, withheld, windows, per_outage, jumped)
+    return FixSelection(t_sol, in_span, fixed, withheld, windows, per_outage)
 
 
 @dataclass(frozen=True, eq=False)
@@ -1319,14 +1342,11 @@ def _fixes_record(drive: Drive, settings: DriveSettings) -> dict[str, Any]:
             "used": int(sel.aid.sum()),
             "left_out": {
                 "outside the IMU span": int((~sel.in_span).sum()),
-                "not fixed (Q != 1)": int((sel.in_span & ~sel.fixed & ~sel.jumped).sum()),
-                "off the line through its neighbours (a wrong fix)": int(
-                    (sel.in_span & sel.jumped).sum()
-                ),
+                "not fixed (Q != 1)": int((sel.in_span & ~sel.fixed).sum()),
                 "withheld in an outage": int(sel.withheld.sum()),
             },
             "first_fixed_line": int(sol.lines[int(np.argmax(sel.truth))]),
-            "wrong_fix_lines": [int(x) for x in sol.lines[sel.in_span & sel.jumped]],
+            "wrong_fix_lines": [r.line for r in sol.repairs if r.action == WRONG_FIX],
         },
         "outages": sel.per_outage,
         "nhc": None

@@ -15,6 +15,9 @@ JUMP_ACCEL_M_S2 = 10.0
 lie from the line through its neighbours (:func:`inconsistent_fixes`)."""
 JUMP_FLOOR_M = 1.0
 """...plus this much (m), for the fixes' own errors."""
+VELOCITY_FLOOR_M_S = 1.0
+"""How far (m/s) a fix's velocity may differ from the positions' around it, beyond what the
+acceleration bound allows (:func:`inconsistent_velocities`)."""
 
 
 def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -41,4 +44,31 @@ def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> N
             break
         out[keep[k]] = True
         keep = np.delete(keep, k)
+    return out
+
+
+def inconsistent_velocities(
+    t: Array, r_e: Array, C_ne: Array, v_n: Array, candidates: NDArray[np.bool_]
+) -> NDArray[np.bool_]:
+    """The candidate fixes whose velocity (NED, m/s; NaN: none, not tested) disagrees with
+    the positions around them: with a and c the neighbouring candidates of b (b itself at
+    the first and the last),
+
+        |v_n,b - C_ne,b (r_c - r_a) / (t_c - t_a)| >
+            VELOCITY_FLOOR_M_S + JUMP_ACCEL_M_S2 max(t_b - t_a, t_c - t_b),
+
+    the mean velocity over [t_a, t_c] being within that of any velocity inside it when the
+    acceleration is bounded. ``C_ne`` (n, 3, 3) turns ECEF into each fix's NED."""
+    idx = np.flatnonzero(candidates)
+    out = np.zeros(t.size, dtype=bool)
+    if idx.size < 2:
+        return out
+    b = idx
+    a = np.r_[idx[0], idx[:-1]]
+    c = np.r_[idx[1:], idx[-1]]
+    mean_e = (r_e[c] - r_e[a]) / (t[c] - t[a])[:, None]
+    mean_n = np.einsum("nij,nj->ni", C_ne[b], mean_e)
+    miss = np.linalg.norm(v_n[b] - mean_n, axis=1)
+    bound = VELOCITY_FLOOR_M_S + JUMP_ACCEL_M_S2 * np.maximum(t[b] - t[a], t[c] - t[b])
+    out[b] = miss > bound  # NaN (no velocity) is never more
     return out
