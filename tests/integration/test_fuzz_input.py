@@ -417,12 +417,20 @@ def gnss_nan_window(root: Path, draw: Draw) -> Expect:
 
 
 def sensor_time_shift(root: Path, draw: Draw) -> Expect:
-    """Readings stamped on another clock: long before or after the IMU's span."""
+    """Readings stamped on another clock, long before or after the IMU's span: the whole
+    sensor is an error (until 0.3.5 every reading went to the ledger and the run went on
+    without it); with only its second half shifted, those readings go to the ledger."""
     name = _table(draw, ("dvl", "depth", "inclinometer"))
     df = badinput.read(root, name)
-    df["t_s"] = df["t_s"] + float(draw(st.sampled_from([-1e4, 1e4, 1e9])))
+    shift = float(draw(st.sampled_from([-1e4, 1e4, 1e9])))
+    if draw(st.booleans()):
+        df["t_s"] = df["t_s"] + shift
+        badinput.write(root, name, df)
+        return expect(f"{name}.csv", "error")
+    late = list(range(len(df) // 2, len(df)))
+    df.loc[late, "t_s"] = df.loc[late, "t_s"] + abs(shift)
     badinput.write(root, name, df)
-    return expect(f"{name}.csv", "ledger", **{name: list(range(len(df)))})
+    return expect(f"{name}.csv", "ledger", **{name: late})
 
 
 def truth_corrupted(root: Path, draw: Draw) -> Expect:

@@ -326,6 +326,54 @@ def test_a_whole_column_outside_its_range_is_an_error(mission: Path, tmp_path: P
     assert "wrong units" in line
 
 
+def test_an_inclinometer_in_degrees_is_an_error_not_a_run_100_m_off(
+    mission: Path, tmp_path: Path
+) -> None:
+    """Roll and pitch in degrees named as radians: the readings above 90 are implausible and
+    dropped, the small ones pass the limits. Before, the guard rejected those, its lockout
+    inflated P until it took them, and the run ended 103 m RMS off (4.6 m on the clean
+    mission) with exit 0. Now the mean over the static window disagrees with the levelling."""
+    incl = badinput.read(mission, "inclinometer")
+    incl[["roll_rad", "pitch_rad"]] *= 180.0 / 3.141592653589793
+    badinput.write(mission, "inclinometer", incl)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: inclinometer.csv, roll_rad: over the static alignment window")
+    assert "degrees read as radians" in line and "mounting_rpy_deg" in line
+
+
+def test_a_sensor_in_milliseconds_is_an_error_not_a_run_without_it(
+    mission: Path, tmp_path: Path
+) -> None:
+    """DVL stamps in ms beside an IMU in s: every reading lies after the IMU's last sample.
+    Before, each went to the ledger and the run went on without the DVL, exit 0."""
+    dvl = badinput.read(mission, "dvl")
+    dvl["t_s"] *= 1000.0
+    badinput.write(mission, "dvl", dvl)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith(
+        f"error: dvl.csv: none of the {len(dvl)} readings of sensor 'dvl' lies within the "
+        "IMU's time span (0 .. "
+    )
+    assert "another time unit (ms, µs?)" in line
+
+
+def test_an_inclinometer_mounted_off_needs_its_mounting(mission: Path, tmp_path: Path) -> None:
+    """An inclinometer whose readings are 3° off in roll (its mounting) is an error until
+    ``mounting_rpy_deg`` says so; then the run goes through (roll of C_ns = C_nb C_bs)."""
+    incl = badinput.read(mission, "inclinometer")
+    incl["roll_rad"] += 3.0 * 3.141592653589793 / 180.0
+    badinput.write(mission, "inclinometer", incl)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "inclinometer.csv, roll_rad" in line
+    assert float(line.split(" rad, ")[1].split("°")[0]) == pytest.approx(3.0, abs=0.1)
+    toml = mission / "mission.toml"
+    text = toml.read_text()
+    head = '[sensors.inclinometer]\nkind = "inclinometer"\n'
+    assert head in text
+    toml.write_text(text.replace(head, head + "mounting_rpy_deg = [3.0, 0.0, 0.0]\n"))
+    assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+
+
 def test_limits_are_set_per_sensor(mission: Path, tmp_path: Path) -> None:
     toml = (mission / "mission.toml").read_text()
     dvl_section = '[sensors.dvl]\nkind = "dvl"\n'

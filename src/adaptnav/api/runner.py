@@ -39,6 +39,8 @@ from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.models.strapdown import NOM_BA, NOM_BG, NOM_SIZE, NavState
+from adaptnav.sensors.inclinometer import PendulumInclinometer
+from adaptnav.sensors.registry import KINDS
 
 __all__ = [
     "FilterError",
@@ -116,6 +118,7 @@ def start_state(
         accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
         position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
     )  # fmt: skip
+    check_angles_at_rest(cfg, imu, sensors, a.x0, a.P0, t_start, a.t_end)
     info = {
         "initial": "alignment",
         "alignment_s": ini.alignment_s,
@@ -125,6 +128,65 @@ def start_state(
         "sigma_attitude_deg": list(np.degrees(a.std[ATT])),
     }
     return a.x0, a.P0, a.t_end, info
+
+
+AT_REST_KINDS = ("inclinometer", "heading")
+"""Angle sensors whose readings in the static window are checked against the alignment."""
+AT_REST_SIGMAS = 10.0
+AT_REST_FLOOR_RAD = math.radians(2.0)
+"""An angle sensor's mean over the static window may differ from what the aligned state
+predicts by max(AT_REST_FLOOR_RAD, AT_REST_SIGMAS σ), σ² = H P0 Hᵀ + R per component
+(:func:`check_angles_at_rest`)."""
+
+
+def check_angles_at_rest(
+    cfg: MissionConfig,
+    imu: ImuData,
+    sensors: Mapping[str, SensorData],
+    x0: np.ndarray,
+    P0: np.ndarray,
+    t_from: float,
+    t0: float,
+) -> None:
+    """An inclinometer or heading sensor whose mean reading over the static alignment window
+    disagrees with the aligned state (levelled by the accelerometers, the heading from the
+    gyrocompass or the configuration) by more than max(2°, 10 σ), σ² = H P0 Hᵀ + R, is a
+    :class:`MissionError` naming its file and column: degrees read as radians, a unit or sign
+    slip, or a mounting (``mounting_rpy_deg``) not set. Such a sensor passes the plausibility
+    limits when its angles are small, and the guard alone then rejects it until the lockout
+    inflates P far enough to take it (docs/robustness.md, 'Angles at rest')."""
+    window = (imu.t > t_from) & (imu.t <= t0)
+    f_mean = imu.dvel[window].sum(axis=0) / max(float(imu.dt[window].sum()), 1e-300)
+    for name, sc in cfg.sensors.items():
+        if sc.kind not in AT_REST_KINDS or name not in sensors:
+            continue
+        d = sensors[name]
+        inside = (d.t > t_from) & (d.t <= t0) & np.all(np.isfinite(d.z), axis=1)
+        if not np.any(inside):
+            continue
+        model: Any = build_sensor_model(name, sc)
+        # A pendulum reads the apparent gravity: at rest, the window's mean specific force.
+        args = (x0, f_mean) if isinstance(model, PendulumInclinometer) else (x0,)
+        pred = np.asarray(model.predict(*args), dtype=float)
+        H = np.asarray(model.jacobian(*args), dtype=float)[:, :N_STATES]
+        mean = np.angle(np.mean(np.exp(1j * d.z[inside]), axis=0))
+        diff = attitude.wrap_angle(mean - pred)
+        sd = np.sqrt(np.einsum("ij,jk,ik->i", H, P0[:N_STATES, :N_STATES], H) + np.diag(model.R))
+        tol = np.maximum(AT_REST_FLOOR_RAD, AT_REST_SIGMAS * sd)
+        bad = np.flatnonzero(np.abs(diff) > tol)
+        if bad.size:
+            j = int(bad[0])
+            column = KINDS[sc.kind].columns[j]
+            row = int(d.rows[np.flatnonzero(inside)[0]])
+            raise MissionError(
+                f"{sc.file}, {column}: over the static alignment window ({int(inside.sum())} "
+                f"readings from data row {row}) sensor {name!r} reads {mean[j]:.4g} rad on average "
+                f"where the aligned IMU gives {pred[j]:.4g} rad, {math.degrees(diff[j]):+.3g}° "
+                f"off (more than {math.degrees(tol[j]):.3g}°): degrees read as radians, a sign, "
+                "or a mounting_rpy_deg to set?",
+                file=sc.file,
+                field=column,
+            )
 
 
 def _configured_state(

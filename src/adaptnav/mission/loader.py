@@ -164,6 +164,7 @@ def load_mission(path: str | Path) -> Mission:
         tables[name] = tb.df
         data = _load_sensor(tb, name, cfg, journal)
         if data is not None:
+            _check_time_span(imu, data, cfg)
             sensors[name] = data
     truth = None
     if config.truth.file is not None:
@@ -181,6 +182,23 @@ def load_mission(path: str | Path) -> Mission:
         tuple(journal.repairs),
         tuple(journal.dropped),
         off,
+    )
+
+
+def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
+    """A sensor none of whose readings lies within the IMU's time span is an error naming its
+    file: its times are in another unit (ms, µs) or from another origin (Unix time beside
+    mission time), and every reading would go to the ledger as outside the IMU's span while
+    the run went on without the sensor."""
+    if data.t.size == 0 or np.any((data.t >= imu.start) & (data.t <= imu.t[-1])):
+        return
+    raise MissionError(
+        f"{cfg.file}: none of the {data.t.size} readings of sensor {data.name!r} lies within the "
+        f"IMU's time span ({imu.start:.6g} .. {imu.t[-1]:.6g} s); its t_s runs from "
+        f"{data.t[0]:.6g} to {data.t[-1]:.6g} s: another time unit (ms, µs?) or another origin "
+        "(Unix time beside mission time?)",
+        file=cfg.file,
+        field="t_s",
     )
 
 
