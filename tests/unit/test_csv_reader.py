@@ -249,13 +249,11 @@ def test_a_text_or_date_column_is_parsed_by_pandas_from_the_file(
         "1.0,abc\n \x0c\n2.0,x\n",  # a line of a form feed (blank to the exact reader only)
         "1.0,abc\n3.0\n",  # a short last line (a repair)
         "1.0,abc\n3.0\n  \n\n",  # the same, lines of spaces after it
-        "1.0,abc\n3.0\n\u00a0\n",  # a line of NBSP after it: blank to the exact reader
         '1.0,abc\n3.0,4.0,5.0\n6.0,"x"\n',  # a long line, quotes after it
-        "1.0,abc\n3.0,4.0,5.0\n6.0,\xe9\n",  # a long line, Latin-1 after it (not UTF-8)
         "1.0,abc\n3.0,4.0,5.0\n6.0,\x00\n",  # a long line, NUL after it
         "1.0,abc\n2.0,xyz,7",  # no line break at the end, a long last line
         "1.0,abc\n\x00\n",  # binary
-        "1.0,\xe9t\xe9\n",  # Latin-1 (the exact reader says: not UTF-8)
+        "1.0,\xe9t\xe9\n" + "\x00" * 10,  # Latin-1, NUL in the first 64 KiB: binary
         "",  # no data line
     ],
 )
@@ -289,6 +287,43 @@ def test_the_streamed_reader_reports_a_wrong_field_count_in_the_exact_readers_wo
         read(path)
     assert str(err.value) == expected
     assert (err.value.file, err.value.line) == ("x.csv", line)
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        ("1.0,\xe9t\xe9\n", "x.csv line 2, v: not UTF-8 text (byte 0xe9, byte 5 of the line"),
+        (  # a long line before it: the decoding error comes first for the exact reader too
+            "1.0,abc\n3.0,4.0,5.0\n6.0,\xe9\n",
+            "x.csv line 4, v: not UTF-8 text (byte 0xe9, byte 5 of the line",
+        ),
+        (  # a short last line, then a lone Latin-1 NBSP: no field before it
+            "1.0,abc\n3.0\n\u00a0\n",
+            "x.csv line 4, t_s: not UTF-8 text (byte 0xa0, byte 1 of the line",
+        ),
+        (  # quotes before it on its line: no column named
+            '1.0,abc\n"2,0",\xb0\n',
+            "x.csv line 3: not UTF-8 text (byte 0xb0, byte 7 of the line",
+        ),
+        (  # in a later piece of the scan, after thousands of lines
+            "1.0,abc\n" * 3000 + "2.0,deg\xb0\n",
+            "x.csv line 3002, v: not UTF-8 text (byte 0xb0, byte 8 of the line",
+        ),
+    ],
+)
+def test_the_streamed_reader_reports_text_that_is_not_utf8_in_the_exact_readers_words(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, body: str, expected: str
+) -> None:
+    """A Latin-1 byte: the same error as the exact reader's, without the file in memory."""
+    path = tmp_path / "x.csv"
+    path.write_bytes(b"t_s,v\n" + body.encode("latin-1"))
+    exact = outcome(EXACT, path)[2]
+    assert exact.startswith(expected), exact
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    with pytest.raises(MissionError) as err:
+        read(path)
+    assert str(err.value) == exact
+    assert err.value.line == int(expected.split(" line ")[1].split(",")[0].split(":")[0])
 
 
 @settings(max_examples=400, deadline=None, derandomize=True)

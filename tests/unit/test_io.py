@@ -385,8 +385,8 @@ def test_rates_are_integrated_by_the_trapezoid_rule(tmp_path: Path) -> None:
     np.testing.assert_allclose(m.imu.dvel[:, 2], -G0 * np.diff(t))
 
 
-def _increments(n: int = 8, t0: float = 5.0) -> pd.DataFrame:
-    t = t0 + T * np.arange(n)
+def _increments(n: int = 8, t0: float = 10.0) -> pd.DataFrame:
+    t = t0 + T * np.arange(n)  # from 10 s: dvl_table's first reading (10.05 s) falls inside
     return pd.DataFrame(
         {
             "t_s": t,

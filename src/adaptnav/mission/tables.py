@@ -100,6 +100,8 @@ TAIL_BYTES = 1 << 16
 TAIL_MAX_BYTES = 1 << 22
 """A tail longer than this without CUT_WINDOW + 1 data lines (blank lines, very long lines)
 is left to the exact reader."""
+BINARY_PROBE = 1 << 16
+"""A NUL in a CSV's first bytes this many marks it binary (the exact reader's check)."""
 BOM = b"\xef\xbb\xbf"
 """UTF-8 byte-order mark (read as ``utf-8-sig``: ignored)."""
 PANDAS_NA = (
@@ -437,6 +439,10 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
                 if piece.translate(None, _NUMBER_BYTES) or _leading_plus(piece):
                     return None
             elif b"\x00" in piece or not _utf8(piece):
+                # The exact reader decodes the whole file first: unless its first 64 KiB hold
+                # a NUL (binary, its own error), the first byte that is not UTF-8 is its error.
+                if label and b"\x00" not in piece and b"\x00" not in first[:BINARY_PROBE]:
+                    raise _piece_not_utf8(piece, 2 + breaks, header, label)
                 return None
             before = len(blank)
             _blank_lines(piece, 2 + breaks, blank)
@@ -937,7 +943,7 @@ def _decode(path: Path, label: str) -> str:
         raw = path.read_bytes()
     except OSError as exc:
         raise MissionError(f"{label}: cannot read ({exc.strerror})", file=label) from None
-    if b"\x00" in raw[:65536]:
+    if b"\x00" in raw[:BINARY_PROBE]:
         raise MissionError(
             f"{label}: not a CSV text file (binary content; a Parquet file named .csv?)", file=label
         )
@@ -954,23 +960,44 @@ def _not_utf8(raw: bytes, at: int, label: str) -> MissionError:
     Latin-1 or Windows-1252 file, most often: a degree sign or an accent in a text cell)."""
     line = raw.count(b"\n", 0, at) + 1
     start = raw.rfind(b"\n", 0, at) + 1
-    name = None
+    names: list[str] = []
     if line > 1:
         try:
             header = raw[: raw.index(b"\n")].decode("utf-8").rstrip("\r")
             names = [h.strip() for h in _fields(header, '"' in header)]
         except (UnicodeDecodeError, csv.Error):  # a header that is itself odd: no name
             names = []
-        k = raw.count(b",", start, at)
-        name = names[k] if k < len(names) and b'"' not in raw[start:at] else None
+    return _not_utf8_at(label, line, names, raw[start:at], raw[at])
+
+
+def _not_utf8_at(label: str, line: int, names: list[str], prefix: bytes, byte: int) -> MissionError:
+    """:func:`_not_utf8`'s error for ``byte`` on ``line`` after the line's bytes ``prefix``,
+    ``names`` the header's (the column is named when no quote comes before it on the line)."""
+    k = prefix.count(b",")
+    name = names[k] if line > 1 and k < len(names) and b'"' not in prefix else None
     where = f"{label} line {line}" + (f", {name}" if name else "")
     return MissionError(
-        f"{where}: not UTF-8 text (byte 0x{raw[at]:02x}, byte {at - start + 1} of the line; "
+        f"{where}: not UTF-8 text (byte 0x{byte:02x}, byte {len(prefix) + 1} of the line; "
         "a Latin-1 or Windows-1252 file? save it as UTF-8)",
         file=label,
         line=line,
         field=name,
     )
+
+
+def _piece_not_utf8(piece: bytes, first_line: int, names: list[str], label: str) -> MissionError:
+    """:func:`_not_utf8`'s error for the first byte of ``piece`` (which starts line
+    ``first_line``, cut at a line break) that is not UTF-8: the scan's, without the file in
+    memory."""
+    try:
+        piece.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        at = exc.start
+    else:  # pragma: no cover - called on a piece that failed to decode
+        raise ValueError("piece is UTF-8")
+    start = piece.rfind(b"\n", 0, at) + 1
+    line = first_line + piece.count(b"\n", 0, at)
+    return _not_utf8_at(label, line, names, piece[start:at], piece[at])
 
 
 def _fields(line: str, quoted: bool) -> list[str]:
