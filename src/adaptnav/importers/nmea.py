@@ -51,7 +51,7 @@ from adaptnav.mission.config import (
     load_config,
     parse_config,
 )
-from adaptnav.mission.loader import CONFIG_NAME, load_mission
+from adaptnav.mission.loader import CONFIG_NAME, OutsideImuSpanError, load_mission
 from adaptnav.mission.tables import Journal, Repair, write_table
 
 log = logging.getLogger("adaptnav.importers.nmea")
@@ -807,16 +807,20 @@ def _sections(
 def _check_span(out: Path, tables: Mapping[str, tuple[str, pd.DataFrame]]) -> dict[str, Any]:
     """Load the written mission (its own checks) and count the readings inside the IMU's time
     span; none inside is an :class:`NmeaError` (a wrong t0)."""
-    m = load_mission(out)
-    lo, hi = float(m.imu.start), float(m.imu.t[-1])
+    spans = {k: [round(float(df["t_s"].min()), 3), round(float(df["t_s"].max()), 3)]
+             for k, (_, df) in tables.items()}  # fmt: skip
+    try:
+        m = load_mission(out)
+    except OutsideImuSpanError as exc:  # the loader refuses a sensor wholly outside
+        (lo, hi), what = exc.imu_span, f"of {exc.file} "
+    else:
+        lo, hi, what = float(m.imu.start), float(m.imu.t[-1]), ""
     inside = {k: int(((df["t_s"] >= lo) & (df["t_s"] <= hi)).sum()) for k, (_, df) in
               tables.items() if k != "velocity"}  # fmt: skip
-    if not any(inside.values()):
-        spans = {k: [round(float(df["t_s"].min()), 3), round(float(df["t_s"].max()), 3)]
-                 for k, (_, df) in tables.items()}  # fmt: skip
+    if what or not any(inside.values()):
         raise NmeaError(
-            f"no NMEA reading inside the mission's IMU time [{lo:.3f}, {hi:.3f}] s (readings at "
-            f"t_s {spans}): check --t0-utc, the UTC time of the mission's t_s = 0"
+            f"no NMEA reading {what}inside the mission's IMU time [{lo:.3f}, {hi:.3f}] s "
+            f"(readings at t_s {spans}): check --t0-utc, the UTC time of the mission's t_s = 0"
         )
     return {"imu_span_s": [lo, hi], "readings_in_span": inside}
 

@@ -185,6 +185,15 @@ def load_mission(path: str | Path) -> Mission:
     )
 
 
+class OutsideImuSpanError(MissionError):
+    """A sensor none of whose readings lies within the IMU's time span ``imu_span`` (s):
+    :func:`_check_time_span`."""
+
+    def __init__(self, message: str, *, file: str, imu_span: tuple[float, float]) -> None:
+        super().__init__(message, file=file, field="t_s")
+        self.imu_span = imu_span
+
+
 def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
     """A sensor none of whose readings lies within the IMU's time span is an error naming its
     file: its times are in another unit (ms, µs) or from another origin (Unix time beside
@@ -192,13 +201,13 @@ def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
     the run went on without the sensor."""
     if data.t.size == 0 or np.any((data.t >= imu.start) & (data.t <= imu.t[-1])):
         return
-    raise MissionError(
+    raise OutsideImuSpanError(
         f"{cfg.file}: none of the {data.t.size} readings of sensor {data.name!r} lies within the "
         f"IMU's time span ({imu.start:.6g} .. {imu.t[-1]:.6g} s); its t_s runs from "
         f"{data.t[0]:.6g} to {data.t[-1]:.6g} s: another time unit (ms, µs?) or another origin "
         "(Unix time beside mission time?)",
         file=cfg.file,
-        field="t_s",
+        imu_span=(imu.start, float(imu.t[-1])),
     )
 
 

@@ -399,7 +399,9 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
 
     With a ``label`` (not ``numbers_only``), a line with the wrong number of fields that the
     exact reader would report is reported here, in its words (:func:`_wrong_field_count`),
-    without reading the file into memory.
+    without reading the file into memory; and so is a byte that is not UTF-8: the exact reader
+    decodes the whole file first, so unless its first :data:`BINARY_PROBE` bytes hold a NUL
+    (binary, its own error) the first such byte is its error (:func:`_piece_not_utf8`).
     """
     first = f.read(SCAN_BYTES)
     size = len(first)
@@ -439,8 +441,6 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
                 if piece.translate(None, _NUMBER_BYTES) or _leading_plus(piece):
                     return None
             elif b"\x00" in piece or not _utf8(piece):
-                # The exact reader decodes the whole file first: unless its first 64 KiB hold
-                # a NUL (binary, its own error), the first byte that is not UTF-8 is its error.
                 if label and b"\x00" not in piece and b"\x00" not in first[:BINARY_PROBE]:
                     raise _piece_not_utf8(piece, 2 + breaks, header, label)
                 return None
