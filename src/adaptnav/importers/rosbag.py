@@ -81,9 +81,9 @@ IMU_COLUMNS = {"mean": IMU_INCREMENT_COLUMNS, "instant": IMU_RATE_COLUMNS}
 interval that ends at its stamp) or rates (``instant``: sampled at the stamp)."""
 NS = 1_000_000_000
 STAMP_TOLERANCE_S = 10.0
-"""How far (s) a header stamp may stray from its topic's clock, and a topic's clock from the
-IMU's, the clock being read from the stamps' offsets to the bag's log times (:func:`far_stamps`,
-:func:`check_clocks`)."""
+"""How far (s) a header stamp may stray from its topic's clock (:func:`far_stamps`), and a
+topic's clock from the IMU's (:func:`check_clocks`), a clock being read from the stamps'
+offsets to the bag's log times (:func:`running_clock`)."""
 CLOCK_WINDOW = 101
 """Messages (in log order) over which a topic's running median clock offset is taken."""
 DEFAULT_DEPTH = DepthParameters()
@@ -297,19 +297,25 @@ def clock_offsets_s(t_ns: NDArray[np.int64], log_ns: NDArray[np.int64]) -> Array
     return np.asarray((t_ns - log_ns).astype(np.float64) / NS)
 
 
-def far_stamps(offsets_s: Array, tolerance_s: float = STAMP_TOLERANCE_S) -> NDArray[np.bool_]:
-    """The messages whose clock offset (:func:`clock_offsets_s`, in log order) lies more than
-    ``tolerance_s`` from the running median of the :data:`CLOCK_WINDOW` around it: a stamp of
-    1970, or of a clock that stepped for a few messages. A clock that drifts against the
-    recorder's (simulated time at another rate than real time) moves the median with it, and
-    a whole topic on another clock is :func:`check_clocks`' to find."""
+def running_clock(offsets_s: Array) -> Array:
+    """The running median of clock offsets (in log order) over the :data:`CLOCK_WINDOW`
+    messages around each (fewer for a shorter topic): the topic's clock, robust to a few
+    stamps far off, following a drift."""
     from scipy.ndimage import median_filter
 
     if offsets_s.size == 0:
-        return np.zeros(0, dtype=bool)
+        return offsets_s.copy()
     size = min(CLOCK_WINDOW, offsets_s.size)
-    clock = median_filter(offsets_s, size=size, mode="nearest")
-    return np.asarray(np.abs(offsets_s - clock) > tolerance_s)
+    return np.asarray(median_filter(offsets_s, size=size, mode="nearest"), dtype=float)
+
+
+def far_stamps(offsets_s: Array, tolerance_s: float = STAMP_TOLERANCE_S) -> NDArray[np.bool_]:
+    """The messages whose clock offset (:func:`clock_offsets_s`, in log order) lies more than
+    ``tolerance_s`` from the topic's :func:`running_clock`: a stamp of 1970, or of a clock that
+    stepped for a few messages. A clock that drifts against the recorder's (simulated time at
+    another rate than real time) moves the median with it, and a whole topic on another clock
+    is :func:`check_clocks`' to find."""
+    return np.asarray(np.abs(offsets_s - running_clock(offsets_s)) > tolerance_s)
 
 
 def _order(
@@ -646,10 +652,7 @@ def check_clocks(
     imu = streams["imu"]
     if imu.clock.shape[0] == 0:
         return
-    size = min(CLOCK_WINDOW, imu.clock.shape[0])
-    from scipy.ndimage import median_filter
-
-    imu_clock = median_filter(imu.clock[:, 1], size=size, mode="nearest")
+    imu_clock = running_clock(imu.clock[:, 1])
     for role, s in streams.items():
         if role == "imu" or s.clock.shape[0] == 0:
             continue
