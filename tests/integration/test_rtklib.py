@@ -305,6 +305,9 @@ def test_fixes_off_the_line_through_their_neighbours_are_found() -> None:
     assert set(np.flatnonzero(tracks.inconsistent_fixes(t, r, q1))) == set(wrong)
     q1[[100, 101]] = False  # a fix that is not a candidate is neither tested nor a neighbour
     assert set(np.flatnonzero(tracks.inconsistent_fixes(t, r, q1))) == set(wrong) - {100}
+    noise = rng.normal(0.0, 100.0, (2000, 3))  # not a track: refused after 200 passes
+    with pytest.raises(tracks.TrackError, match="more than 200 of its 2000 positions"):
+        tracks.inconsistent_fixes(np.arange(2000.0), noise, np.ones(2000, dtype=bool))
 
 
 @needs_data

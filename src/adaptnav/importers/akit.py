@@ -51,7 +51,7 @@ from adaptnav.analysis.evaluate import ned_errors
 from adaptnav.core import attitude, earth
 from adaptnav.engine import propagation
 from adaptnav.importers.timing import minimise_lag
-from adaptnav.importers.tracks import inconsistent_fixes
+from adaptnav.importers.tracks import TrackError, inconsistent_fixes
 from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Journal, Repair, Table, numeric, read_table
@@ -261,7 +261,10 @@ def _check_reference_track(table: Table, ref: Array) -> None:
     their index (correction 1)."""
     t = REF_PERIOD_S * np.arange(ref.shape[0], dtype=float)
     lat, lon, h = ref[:, 0], ref[:, 1], ref[:, 2]
-    off = inconsistent_fixes(t, earth.geodetic_to_ecef(lat, lon, h), np.ones(t.size, bool))
+    try:
+        off = inconsistent_fixes(t, earth.geodetic_to_ecef(lat, lon, h), np.ones(t.size, bool))
+    except TrackError as exc:
+        raise AkitError(f"{table.label}: reference positions: {exc}", file=table.label) from None
     if not off.any():
         return
     r = int(np.flatnonzero(off)[0])

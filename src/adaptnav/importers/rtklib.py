@@ -56,7 +56,7 @@ from adaptnav.core import earth
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, G0
 from adaptnav.importers.timing import minimise_lag
-from adaptnav.importers.tracks import inconsistent_fixes, inconsistent_velocities
+from adaptnav.importers.tracks import TrackError, inconsistent_fixes, inconsistent_velocities
 from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Repair
@@ -404,7 +404,10 @@ def _wrong_fixes(
     damaged line. Each one left out is a repair naming its line, logged (docs/rtklib.md,
     'Wrong fixes')."""
     r_e = earth.geodetic_to_ecef(lat, lon, h)
-    jumped = inconsistent_fixes(t, r_e, fixed)
+    try:
+        jumped = inconsistent_fixes(t, r_e, fixed)
+    except TrackError as exc:
+        raise RtklibError(f"{p.name}: fixed solutions: {exc}", file=p.name) from None
     fast = inconsistent_velocities(t, r_e, earth.C_ne(lat, lon), v_ned, fixed & ~jumped)
     for k in np.flatnonzero(jumped | fast):
         if jumped[k]:

@@ -15,9 +15,25 @@ JUMP_ACCEL_M_S2 = 10.0
 lie from the line through its neighbours (:func:`inconsistent_fixes`)."""
 JUMP_FLOOR_M = 1.0
 """...plus this much (m), for the fixes' own errors."""
+MAX_WRONG_FRACTION = 0.1
+"""More than this share of a track's fixes off their neighbours' line (and more than 10) is
+not a few wrong fixes but not a track: :class:`TrackError`."""
 VELOCITY_FLOOR_M_S = 1.0
 """How far (m/s) a fix's velocity may differ from the positions' around it, beyond what the
 acceleration bound allows (:func:`inconsistent_velocities`)."""
+
+
+class TrackError(ValueError):
+    """A track of which more than :data:`MAX_WRONG_FRACTION` of the fixes (and more than 10)
+    lie off their neighbours' line: a column of something else, or of noise. The search
+    stopped after ``limit`` of the ``total``."""
+
+    def __init__(self, limit: int, total: int) -> None:
+        super().__init__(
+            f"more than {limit} of its {total} positions lie off the line through their "
+            "neighbours (farther than a vehicle moves): not a position track (a wrong column?)"
+        )
+        self.limit, self.total = limit, total
 
 
 def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -28,9 +44,12 @@ def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> N
     path whose acceleration is bounded), b interpolated between its neighbours, or extrapolated
     from the next two (the first) or the previous two (the last). The worst offender is left
     out and the rest tested again until none offends: a wrong fix (a false RTK fix, a damaged
-    line) also pulls the line its neighbours are tested against."""
+    line) also pulls the line its neighbours are tested against. More than
+    :data:`MAX_WRONG_FRACTION` of them (and more than 10) is a :class:`TrackError`, found
+    after at most that many passes."""
     keep = np.flatnonzero(candidates)
     out = np.zeros(t.size, dtype=bool)
+    limit = max(10, int(MAX_WRONG_FRACTION * keep.size))
     while keep.size >= 3:
         tt, r = t[keep], r_e[keep]
         a = np.r_[1, np.arange(0, keep.size - 2), keep.size - 3]
@@ -44,6 +63,8 @@ def inconsistent_fixes(t: Array, r_e: Array, candidates: NDArray[np.bool_]) -> N
             break
         out[keep[k]] = True
         keep = np.delete(keep, k)
+        if int(out.sum()) > limit:
+            raise TrackError(limit, int(np.count_nonzero(candidates)))
     return out
 
 
