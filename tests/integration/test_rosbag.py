@@ -336,10 +336,11 @@ def _clocked_bag(
     dvl_stamp: Callable[[float], float] = lambda t: t,
     seconds: float = 60.0,
     dvl_from_s: float = 0.0,
+    fix_stamp: Callable[[float], float] | None = None,
 ) -> Path:
-    """A resting IMU at 100 Hz (and a GNSS fix at 1 Hz) and a DVL at 5 Hz whose header stamps
-    are ``imu_stamp(t)`` and ``dvl_stamp(t)`` (s after STAMP0) for the log time t, 2 ms after
-    it."""
+    """A resting IMU at 100 Hz, a GNSS fix at 1 Hz and a DVL at 5 Hz whose header stamps are
+    ``imu_stamp(t)``, ``fix_stamp(t)`` (default: the IMU's) and ``dvl_stamp(t)`` (s after
+    STAMP0) for the log time t, 2 ms after it."""
     imu = [
         (
             t + 0.002,
@@ -372,7 +373,7 @@ def _clocked_bag(
         (
             t + 0.002,
             rw.T["sensor_msgs/msg/NavSatFix"](
-                rw.header(imu_stamp(t), "gps"),
+                rw.header((fix_stamp or imu_stamp)(t), "gps"),
                 rw.T["sensor_msgs/msg/NavSatStatus"](0, 1),
                 26.8,
                 56.0,
@@ -449,6 +450,19 @@ def test_a_topic_on_its_own_clock_is_an_error_naming_it_or_timed_by_its_log_time
         "--gnss", "/fix", "--log-time", "/nope",
     )  # fmt: skip
     assert code == 2 and "--log-time /nope is not an imported topic" in text
+
+
+def test_an_imu_on_its_own_clock_is_named_as_the_odd_one(tmp_path: Path) -> None:
+    """The IMU on time since boot, the DVL and the fixes on the recorder's clock: the error
+    names the IMU, not the topics that agree with each other."""
+    bag = _clocked_bag(
+        tmp_path / "bag", imu_stamp=lambda t: t - 1.7e9 + 300.0, fix_stamp=lambda t: t
+    )
+    topics = {"dvl": "/dvl", "gnss": "/fix"}
+    with pytest.raises(RosbagError, match=r"the IMU /imu is stamped on another clock than every"):
+        import_bag(bag, tmp_path / "m", topics=topics)
+    out = import_bag(bag, tmp_path / "m", topics=topics, log_time=["/imu"])
+    assert load_mission(out).imu.t.size == 5999
 
 
 def test_clocks_drifting_together_are_one_clock(tmp_path: Path) -> None:

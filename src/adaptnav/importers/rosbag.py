@@ -643,7 +643,8 @@ def check_clocks(
     path: Path, streams: Mapping[str, Stream], tolerance_s: float = STAMP_TOLERANCE_S
 ) -> None:
     """Every topic's clock within ``tolerance_s`` of the IMU's, else a :class:`RosbagError`
-    naming the topic: a driver that stamps with its own clock (time since boot, a GNSS time
+    naming the topic (the IMU when two or more topics, all of them, agree with each other and
+    not with it): a driver that stamps with its own clock (time since boot, a GNSS time
     not set) puts its readings where no IMU sample is, and mission time would start at the
     earliest of the clocks. A topic's clock is read against the IMU's at the same log times
     (the median over its messages of its offset less the IMU's running median offset there,
@@ -653,19 +654,34 @@ def check_clocks(
     if imu.clock.shape[0] == 0:
         return
     imu_clock = running_clock(imu.clock[:, 1])
-    for role, s in streams.items():
-        if role == "imu" or s.clock.shape[0] == 0:
-            continue
-        gap = float(np.median(s.clock[:, 1] - np.interp(s.clock[:, 0], imu.clock[:, 0], imu_clock)))
-        if abs(gap) > tolerance_s:
-            raise RosbagError(
-                f"{path}: topic {s.topic} (--{role}) is stamped on another clock than the IMU "
-                f"{imu.topic}: against the bag's log times its header stamps are {gap:+.6g} s "
-                f"from the IMU's (a driver stamping with its own clock?); --log-time "
-                f"{s.topic} takes its log times instead",
-                file=str(path),
-                field=s.topic,
-            )
+    gaps = {
+        role: float(np.median(s.clock[:, 1] - np.interp(s.clock[:, 0], imu.clock[:, 0], imu_clock)))
+        for role, s in streams.items()
+        if role != "imu" and s.clock.shape[0]
+    }
+    off = [role for role, gap in gaps.items() if abs(gap) > tolerance_s]
+    if not off:
+        return
+    values = [gaps[r] for r in off]
+    if len(off) >= 2 and len(off) == len(gaps) and max(values) - min(values) <= tolerance_s:
+        raise RosbagError(
+            f"{path}: the IMU {imu.topic} is stamped on another clock than every other topic "
+            f"({', '.join(streams[r].topic for r in off)}): against the bag's log times their "
+            f"header stamps are {float(np.median(values)):+.6g} s from the IMU's (a driver "
+            f"stamping with its own clock?); --log-time {imu.topic} takes its log times "
+            "instead (with the transport delay's jitter in every increment)",
+            file=str(path),
+            field=imu.topic,
+        )
+    s = streams[off[0]]
+    raise RosbagError(
+        f"{path}: topic {s.topic} (--{off[0]}) is stamped on another clock than the IMU "
+        f"{imu.topic}: against the bag's log times its header stamps are {gaps[off[0]]:+.6g} s "
+        f"from the IMU's (a driver stamping with its own clock?); --log-time {s.topic} takes "
+        "its log times instead",
+        file=str(path),
+        field=s.topic,
+    )
 
 
 def stamp_origin(streams: Mapping[str, Stream]) -> int:
