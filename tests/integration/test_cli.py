@@ -191,6 +191,18 @@ def test_simulate_calibration_flags_reach_simulation_json(tmp_path: Path) -> Non
     assert truth["inclinometer_bias_rad"] == pytest.approx(np.radians([-0.5, 0.2]).tolist())
 
 
+def test_a_negative_seed_is_refused(tmp_path: Path) -> None:
+    """Up to 0.3.5 `simulate --seed -1` ended in numpy's ValueError traceback, exit 1."""
+    from adaptnav.sim.scenarios import simulate
+
+    for command in (["simulate", "demo"], ["demo"]):
+        res = runner.invoke(app, [*command, "--out", str(tmp_path / "m"), "--seed", "-1"])
+        assert res.exit_code == 2 and "Traceback" not in res.output
+        assert "--seed" in res.output and not (tmp_path / "m").exists()
+    with pytest.raises(ValueError, match="seed -1: a simulation seed is a non-negative integer"):
+        simulate("demo", -1, tmp_path / "api")
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
@@ -200,7 +212,8 @@ def test_simulate_calibration_flags_reach_simulation_json(tmp_path: Path) -> Non
         (["--dvl-misalignment-deg", "1,2"], "is not 3 comma-separated numbers (got 2 values)"),
         (["--dvl-misalignment-deg", "0,x,1"], "'0,x,1' is not 3 comma-separated numbers"),
         (["--dvl-misalignment-deg", "0,0,12"], "angle 12° is beyond ±10°"),
-        (["--depth-bias-m", "nan"], "depth bias nan m is not a finite number"),
+        (["--depth-bias-m", "nan"], "depth bias nan m is beyond ±100 m"),
+        (["--depth-bias-m", "1e6"], "depth bias 1e+06 m is beyond ±100 m"),
         (["--inclinometer-bias-deg", "0.1"], "is not 2 comma-separated numbers (got 1 values)"),
         (["--inclinometer-bias-deg=-10.5,0"], "angle -10.5° is beyond ±10°"),
     ],

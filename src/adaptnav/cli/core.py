@@ -37,7 +37,7 @@ def demo(
         Path, typer.Option(help="folder for the mission, runs, table, figures and report")
     ] = Path("runs/demo"),
     preset: Annotated[str, typer.Option(help="paper-1 | paper-2 | demo")] = "paper-1",
-    seed: Annotated[int, typer.Option(help="simulation seed")] = 1,
+    seed: Annotated[int, typer.Option(help="simulation seed", min=0)] = 1,
     smooth: Smooth = False,
     force: Force = False,
     quiet: Quiet = False,
@@ -386,7 +386,7 @@ InclinometerBias = Annotated[
 def simulate(
     preset: Annotated[str, typer.Argument(help="paper-1 | paper-2 | demo")],
     out: Annotated[Path, typer.Option("--out", "-o", help="mission folder to write")],
-    seed: Annotated[int, typer.Option(help="seed of every random stream")] = 1,
+    seed: Annotated[int, typer.Option(help="seed of every random stream", min=0)] = 1,
     clean: Annotated[
         bool,
         typer.Option(

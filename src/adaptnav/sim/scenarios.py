@@ -399,6 +399,8 @@ def _generic_section(g: GenericSpec) -> dict[str, Any]:
 def _streams(seed: int, extra: tuple[str, ...] = ()) -> dict[str, np.random.SeedSequence]:
     """The error sources' streams by name: :data:`_STREAMS`, then a clock and a noise stream
     per extra sensor (spawned after the fixed ones, which they leave unchanged)."""
+    if seed < 0:
+        raise ValueError(f"seed {seed}: a simulation seed is a non-negative integer")
     names = _STREAMS + tuple(f"{k}_{s}" for k in extra for s in ("clock", "noise"))
     return dict(zip(names, np.random.SeedSequence(seed).spawn(len(names)), strict=True))
 

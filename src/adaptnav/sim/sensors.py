@@ -147,6 +147,9 @@ class Disturbances:
 MAX_SCALE_ERROR = 0.5
 """A DVL scale factor s beyond 1 ± this is refused: such a DVL is broken, not miscalibrated
 (and 101 or 0.01 for 1.01 are typos)."""
+MAX_DEPTH_BIAS_M = 100.0
+"""A depth bias beyond ±100 m is refused: a wrong atmospheric pressure or zero is metres to
+tens of metres (1 bar ≈ 10 m of water); a larger one is a different sensor, or a typo."""
 MAX_CALIBRATION_ANGLE = 10.0 * DEG
 """A misalignment or tilt bias beyond ±10° is refused: calibration errors are small angles; a
 larger rotation is a mounting, which the mission states (``mounting_rpy_deg``)."""
@@ -192,8 +195,8 @@ class Calibration:
                 "(1.01 reads 1 % high)"
             )
         b = float(self.depth_bias)
-        if not math.isfinite(b):
-            raise ValueError(f"depth bias {b:g} m is not a finite number")
+        if not abs(b) <= MAX_DEPTH_BIAS_M:  # also refuses NaN
+            raise ValueError(f"depth bias {b:g} m is beyond ±{MAX_DEPTH_BIAS_M:g} m")
         object.__setattr__(self, "dvl_scale", s)
         object.__setattr__(self, "depth_bias", b)
         for name, label, n in (
