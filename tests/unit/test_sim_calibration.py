@@ -196,7 +196,9 @@ def test_simulation_json_has_the_true_errors_only_when_there_are_some(tmp_path: 
         ({"dvl_scale": math.nan}, "DVL scale factor nan"),
         ({"dvl_misalignment": (0.0, 0.0)}, "DVL misalignment needs 3 angles, got 2"),
         ({"dvl_misalignment": (0.0, 11 * DEG, 0.0)}, "DVL misalignment angle 11° is beyond"),
-        ({"depth_bias": math.inf}, "depth bias inf m is not a finite number"),
+        ({"depth_bias": math.inf}, "depth bias inf m is beyond ±100 m"),
+        ({"depth_bias": -100.5}, "depth bias -100.5 m is beyond ±100 m"),
+        ({"depth_bias": math.nan}, "depth bias nan m is beyond ±100 m"),
         ({"inclinometer_bias": (0.0, -10.5 * DEG)}, "inclinometer bias angle -10.5°"),
     ],
 )
