@@ -72,7 +72,7 @@ def import_rosbag(
         float | None,
         typer.Option(
             help="s a header stamp may stray from its topic's clock, and a topic's clock from "
-            "the IMU's (default: 10, importers.rosbag.STAMP_TOLERANCE_S; docs/rosbag.md, 'Time')"
+            "the IMU's (default: 10, importers.rosbag.STAMP_TOLERANCE_S; docs/rosbag.md, 'Clocks')"
         ),
     ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
