@@ -8,6 +8,7 @@ import json
 import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -275,6 +276,20 @@ def test_no_covariance_and_no_config_is_an_error(tmp_path: Path) -> None:
         import_bag(bag, tmp_path / "m", topics={"gnss": "/fix", "heading": "/q"})
 
 
+def _level_imu(stamp_s: float, yaw_rate: float = 0.0) -> Any:
+    """A level IMU's message at ``stamp_s`` (s after STAMP0): turning at ``yaw_rate`` (rad/s,
+    ROS +z), gravity on +z, no orientation."""
+    return rw.T["sensor_msgs/msg/Imu"](
+        rw.header(stamp_s, "b"),
+        rw.quat_zyx(0, 0, 0),
+        rw.NOT_PROVIDED,
+        rw.vec(0, 0, yaw_rate),
+        rw.diag(3, [1e-6] * 3),
+        rw.vec(0, 0, 9.8),
+        rw.diag(3, [1e-4] * 3),
+    )
+
+
 def test_out_of_order_repeated_and_unset_stamps_are_repaired(tmp_path: Path) -> None:
     """Bag order is arrival order: a message stamped before its predecessor is sorted, a
     repeated IMU stamp dropped, an unset (zero) stamp replaced by the log time, a fix with
@@ -283,15 +298,7 @@ def test_out_of_order_repeated_and_unset_stamps_are_repaired(tmp_path: Path) -> 
     order = [*ts[:10], ts[11], ts[10], *ts[12:20], ts[19], *ts[20:]]
     imu = []
     for t in order:
-        m = rw.T["sensor_msgs/msg/Imu"](
-            rw.header(t, "b"),
-            rw.quat_zyx(0, 0, 0),
-            rw.NOT_PROVIDED,
-            rw.vec(0, 0, 0.1),
-            rw.diag(3, [1e-6] * 3),
-            rw.vec(0, 0, 9.8),
-            rw.diag(3, [1e-4] * 3),
-        )
+        m = _level_imu(t, yaw_rate=0.1)
         imu.append((0.01 * (len(imu) + 1) + 0.001, m))  # arrival order, 1 ms late
     imu[30][1].header.stamp = rw.T["builtin_interfaces/msg/Time"](0, 0)
     fixes = [
@@ -344,15 +351,7 @@ def _clocked_bag(
     imu = [
         (
             t + 0.002,
-            rw.T["sensor_msgs/msg/Imu"](
-                rw.header(imu_stamp(t), "b"),
-                rw.quat_zyx(0, 0, 0),
-                rw.NOT_PROVIDED,
-                rw.vec(0, 0, 0),
-                rw.diag(3, [1e-6] * 3),
-                rw.vec(0, 0, 9.8),
-                rw.diag(3, [1e-4] * 3),
-            ),
+            _level_imu(imu_stamp(t)),
         )
         for t in np.arange(1, round(100 * seconds)) / 100.0
     ]

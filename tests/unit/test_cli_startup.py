@@ -7,6 +7,7 @@ import subprocess
 import sys
 from typing import Any
 
+import pytest
 import typer.main
 
 from adaptnav.cli import app
@@ -25,19 +26,17 @@ def test_importing_the_cli_loads_no_heavy_module() -> None:
     assert done.stdout.split() == []
 
 
-def test_nmea_uere_help_states_the_importer_default() -> None:
+@pytest.mark.parametrize(
+    ("command", "name", "default"),
+    [("nmea", "uere_m", UERE_M), ("rosbag", "stamp_tolerance_s", STAMP_TOLERANCE_S)],
+)
+def test_an_importer_option_help_states_the_importer_default(
+    command: str, name: str, default: float
+) -> None:
     # The option's default is resolved inside the command (the importer is imported there);
     # its help must still give the importer's value.
     group: Any = typer.main.get_command(app)
-    nmea = group.commands["import"].commands["nmea"]
-    option = next(p for p in nmea.params if p.name == "uere_m")
+    importer = group.commands["import"].commands[command]
+    option = next(p for p in importer.params if p.name == name)
     assert option.default is None
-    assert f"default: {UERE_M:g}," in (getattr(option, "help", None) or "")
-
-
-def test_rosbag_stamp_tolerance_help_states_the_importer_default() -> None:
-    group: Any = typer.main.get_command(app)
-    rosbag = group.commands["import"].commands["rosbag"]
-    option = next(p for p in rosbag.params if p.name == "stamp_tolerance_s")
-    assert option.default is None
-    assert f"default: {STAMP_TOLERANCE_S:g}," in (getattr(option, "help", None) or "")
+    assert f"default: {default:g}," in (getattr(option, "help", None) or "")

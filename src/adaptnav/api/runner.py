@@ -118,7 +118,7 @@ def start_state(
         accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
         position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
     )  # fmt: skip
-    check_angles_at_rest(cfg, imu, sensors, a.x0, a.P0, t_start, a.t_end)
+    check_angles_at_rest(cfg, sensors, a.x0, a.P0, a.coarse.mean_specific_force, t_start, a.t_end)
     info = {
         "initial": "alignment",
         "alignment_s": ini.alignment_s,
@@ -141,10 +141,10 @@ predicts by max(AT_REST_FLOOR_RAD, AT_REST_SIGMAS σ), σ² = H P0 Hᵀ + R per 
 
 def check_angles_at_rest(
     cfg: MissionConfig,
-    imu: ImuData,
     sensors: Mapping[str, SensorData],
     x0: np.ndarray,
     P0: np.ndarray,
+    f_mean: np.ndarray,
     t_from: float,
     t0: float,
 ) -> None:
@@ -154,9 +154,8 @@ def check_angles_at_rest(
     :class:`MissionError` naming its file and column: degrees read as radians, a unit or sign
     slip, or a mounting (``mounting_rpy_deg``) not set. Such a sensor passes the plausibility
     limits when its angles are small, and the guard alone then rejects it until the lockout
-    inflates P far enough to take it (docs/robustness.md, 'Angles at rest')."""
-    window = (imu.t > t_from) & (imu.t <= t0)
-    f_mean = imu.dvel[window].sum(axis=0) / max(float(imu.dt[window].sum()), 1e-300)
+    inflates P far enough to take it (docs/robustness.md, 'Angles at rest'). ``f_mean``: the
+    window's mean specific force (body, m/s²), what a pendulum reads at rest."""
     for name, sc in cfg.sensors.items():
         if sc.kind not in AT_REST_KINDS or name not in sensors:
             continue
@@ -165,7 +164,6 @@ def check_angles_at_rest(
         if not np.any(inside):
             continue
         model: Any = build_sensor_model(name, sc)
-        # A pendulum reads the apparent gravity: at rest, the window's mean specific force.
         args = (x0, f_mean) if isinstance(model, PendulumInclinometer) else (x0,)
         pred = np.asarray(model.predict(*args), dtype=float)
         H = np.asarray(model.jacobian(*args), dtype=float)[:, :N_STATES]

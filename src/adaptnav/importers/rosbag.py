@@ -14,7 +14,6 @@ otherwise the import is refused. :func:`export_run` writes a run's solution back
 
 from __future__ import annotations
 
-import dataclasses
 import datetime as dt
 import json
 import logging
@@ -232,7 +231,7 @@ class Stream:
     frame_ids: tuple[str, ...]
     messages: int
     repairs: tuple[Repair, ...]
-    clock: Array = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
+    clock: Array
     """Per message kept, in log order: its log time and its header stamp minus log time (s;
     :func:`check_clocks`)."""
 

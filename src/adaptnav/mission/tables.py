@@ -440,9 +440,7 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
             if numbers_only:
                 if piece.translate(None, _NUMBER_BYTES) or _leading_plus(piece):
                     return None
-            elif b"\x00" in piece or not _utf8(piece):
-                if label and b"\x00" not in piece and b"\x00" not in first[:BINARY_PROBE]:
-                    raise _piece_not_utf8(piece, 2 + breaks, header, label)
+            elif not _text_piece(piece, first, 2 + breaks, header, label):
                 return None
             before = len(blank)
             _blank_lines(piece, 2 + breaks, blank)
@@ -519,13 +517,29 @@ def _wrong_field_count(
     )
 
 
-def _utf8(piece: bytes) -> bool:
-    """Whether ``piece`` is UTF-8 text (cut at a line break: no character is split)."""
+def _text_piece(piece: bytes, first: bytes, first_line: int, header: list[str], label: str) -> bool:
+    """Whether ``piece`` (line ``first_line`` on) is UTF-8 text without NUL. A byte that is
+    not UTF-8 is, with a ``label``, the exact reader's error (:func:`_piece_not_utf8`), raised,
+    unless the file's ``first`` bytes hold a NUL within :data:`BINARY_PROBE` (binary: its own
+    error)."""
+    if b"\x00" in piece:
+        return False
+    at = _not_utf8_offset(piece)
+    if at is None:
+        return True
+    if label and b"\x00" not in first[:BINARY_PROBE]:
+        raise _piece_not_utf8(piece, at, first_line, header, label)
+    return False
+
+
+def _not_utf8_offset(piece: bytes) -> int | None:
+    """The offset of the first byte of ``piece`` (cut at a line break: no character is split)
+    that is not UTF-8, None if it is all UTF-8 text."""
     try:
         piece.decode("utf-8")
-    except UnicodeDecodeError:
-        return False
-    return True
+    except UnicodeDecodeError as exc:
+        return int(exc.start)
+    return None
 
 
 def _fields_ok(piece: bytes, n_fields: int, n_blank: int) -> bool:
@@ -966,7 +980,7 @@ def _not_utf8(raw: bytes, at: int, label: str) -> MissionError:
             header = raw[: raw.index(b"\n")].decode("utf-8").rstrip("\r")
             names = [h.strip() for h in _fields(header, '"' in header)]
         except (UnicodeDecodeError, csv.Error):  # a header that is itself odd: no name
-            names = []
+            pass
     return _not_utf8_at(label, line, names, raw[start:at], raw[at])
 
 
@@ -985,16 +999,11 @@ def _not_utf8_at(label: str, line: int, names: list[str], prefix: bytes, byte: i
     )
 
 
-def _piece_not_utf8(piece: bytes, first_line: int, names: list[str], label: str) -> MissionError:
-    """:func:`_not_utf8`'s error for the first byte of ``piece`` (which starts line
-    ``first_line``, cut at a line break) that is not UTF-8: the scan's, without the file in
-    memory."""
-    try:
-        piece.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        at = exc.start
-    else:  # pragma: no cover - called on a piece that failed to decode
-        raise ValueError("piece is UTF-8")
+def _piece_not_utf8(
+    piece: bytes, at: int, first_line: int, names: list[str], label: str
+) -> MissionError:
+    """:func:`_not_utf8`'s error for the byte at offset ``at`` of ``piece`` (which starts line
+    ``first_line``, cut at a line break): the scan's, without the file in memory."""
     start = piece.rfind(b"\n", 0, at) + 1
     line = first_line + piece.count(b"\n", 0, at)
     return _not_utf8_at(label, line, names, piece[start:at], piece[at])
