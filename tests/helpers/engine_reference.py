@@ -27,7 +27,7 @@ from adaptnav.engine.batch import (
     EngineConfig,
     EngineOutput,
     SensorChannel,
-    _nominal_R,
+    nominal_R,
 )
 from adaptnav.estimation import health
 from adaptnav.estimation.gate import Gate, Guard, apply_gate
@@ -105,7 +105,7 @@ class Navigator:
             self._tau_f = math.inf
         self._have_rates = False
         self._intervals_done = 0
-        self._states: list[Any] = [c.strategy.initial_state(_nominal_R(c.model)) for c in channels]
+        self._states: list[Any] = [c.strategy.initial_state(nominal_R(c.model)) for c in channels]
         self._last_epoch = [math.nan] * len(channels)
         self._rejected_since = [math.nan] * len(channels)  # the guard's lockout clock
         self._nis = [(0.0, 0.0)] * len(channels)  # windowed NIS/d mean and count

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from adaptnav.api import oracle
+from adaptnav.api.diagnosis import with_warnings
 from adaptnav.api.results import Result, dropped_ledger, ledger_frame
 from adaptnav.core import attitude
 from adaptnav.engine import batch as engine
@@ -312,6 +313,7 @@ def run(
     kinds: Mapping[str, str] = {n: c.kind for n, c in cfg.sensors.items()}
     repairs = [r.__dict__ for r in m.repairs]
     result = Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds, ledger=ledger)
+    result = with_warnings(result, feed.channels)
     if not states:
         return result
     return replace(

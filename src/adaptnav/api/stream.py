@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.api import runner
+from adaptnav.api.diagnosis import with_warnings
 from adaptnav.api.results import SOLUTION_COLUMNS, Result, declared_columns, solution_rows
 from adaptnav.engine import batch as engine
 from adaptnav.estimation.settings import FilterKind, FilterSettings
@@ -357,7 +358,8 @@ class Stream:
         }
         kinds = {n: c.kind for n, c in self.config.sensors.items()}
         cfg = self.config
-        return Result.from_engine(out, self.settings.kind, cfg.mission.name, meta, [], kinds)
+        result = Result.from_engine(out, self.settings.kind, cfg.mission.name, meta, [], kinds)
+        return with_warnings(result, self._channels)
 
 
 def _configuration(

@@ -804,7 +804,7 @@ class Navigator:
             d = int(ch.model.dim)
             if not 1 <= d <= MAX_DIM:
                 raise ValueError(f"sensor {ch.name!r}: dimension {d} is not in 1..{MAX_DIM}")
-            R = _nominal_R(ch.model)
+            R = nominal_R(ch.model)
             spec = uk.compiled_linearisation(ch.model)
             si, sf, sx = self._s_int[i], self._s_flt[i], self._s_state[i]
             si[uk.S_CODE] = uk.LIN_PYTHON if spec is None else spec[0]
@@ -1433,7 +1433,8 @@ def _block3(R: ArrayLike) -> Array:
     return out.ravel()
 
 
-def _nominal_R(model: MeasurementModel) -> Array:
+def nominal_R(model: MeasurementModel) -> Array:
+    """The nominal measurement noise covariance R of a sensor model (its ``R``)."""
     R = getattr(model, "R", None)
     if R is None:
         raise TypeError(f"sensor {model.name!r} exposes no nominal R")

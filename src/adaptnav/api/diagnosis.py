@@ -1,0 +1,174 @@
+"""After a run: the aiding sensors the filter found at odds with the INS and the other sensors.
+
+The load-time checks (docs/robustness.md) catch readings that are not numbers, lie outside
+physical limits, are stuck, or are stamped outside the IMU's time. A sensor can pass them all
+and still be wrong: a DVL logged in knots, one mounted backwards (x negated), a velocity
+bias of many σ, a wrong ``mounting_rpy_deg``. The filter then sees it, in one of two ways
+depending on its kind:
+
+* a filter with a fixed R (MESKF, the oracle) or a gate (MESKF, MAESKF) **rejects** most of the
+  sensor's readings (the guard's χ² on the nominal R, or the gate);
+* an adaptive filter (MAESKF, VB-MAESKF, robust) **raises R̂** until the readings fit: it takes
+  them, with a variance of 400 or more times the configured one (σ twenty times the
+  configured σ), or pinned at the ceiling of its bounded R̂ (``r_bounds``; robust: 100) if that
+  is lower.
+
+Either way the sensor has stopped informing the solution, or informs it wrongly, while the run
+ends as if nothing happened. This module turns that into a **warning** (not an error: a sensor
+may be legitimately bad for a stretch, and the filter has then done the right thing): per aiding
+sensor, over every window of :data:`WINDOW_S` seconds of the readings that reached the filter
+(used or rejected), the share of *disagreeing* readings
+
+    share = (rejected by the guard or the gate + used with some r̂_j ≥ limit_j) / readings,
+    limit_j = min(ceiling, RATIO) · R_nominal,jj  (less a relative 1e-6, so a clipped R̂ counts),
+
+and the sensor is flagged when a window of at least :data:`MIN_READINGS` readings has a share
+above :data:`SHARE`. A burst shorter than half the window (a spike, ten seconds of a depth at
++1000 m) is not flagged: the ledger and the guard's events already say what happened to it.
+
+The warnings go into the run's ``meta.warnings`` (``summary.json``), the command line prints
+them after the run and with ``evaluate``, and the report shows them. The thresholds and what
+they separate on the simulated trials, the real data and the faulty sensors:
+docs/robustness.md, 'Sensors at odds with the rest'.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from adaptnav.api.results import Result
+from adaptnav.engine.batch import SensorChannel, nominal_R
+from adaptnav.estimation.noise.matching import CovarianceMatching
+from adaptnav.estimation.noise.vb import VariationalBayes
+
+Array = NDArray[np.float64]
+
+WINDOW_S = 60.0
+"""Length of the sliding window over a sensor's readings, s."""
+SHARE = 0.5
+"""A window whose share of disagreeing readings is above this flags the sensor."""
+MIN_READINGS = 10
+"""A window with fewer readings than this is not judged (too few to say)."""
+RATIO = 400.0
+"""R̂ at this many times the nominal variance (σ 20× the configured one), or at the ceiling of
+a bounded R̂ if that is lower, counts as disagreement. The simulated trials raise a DVL's σ up
+to tenfold for minutes (docs/simulation.md), which an adaptive R̂ follows: 100 would flag them."""
+DISAGREEING = frozenset({"gate component", "gate chi2", "guard chi2 (nominal R)"})
+"""Ledger reasons of a rejection that says the reading disagreed with the prediction (not, e.g.,
+a covariance repair)."""
+HINT = (
+    "either the sensor's configuration is wrong (its units, sign, mounting_rpy_deg, lever "
+    "arm or sigma) or the filter's model is ([imu.noise], or an adaptive R that ran away: "
+    "try --filter robust); docs/robustness.md, 'Sensors at odds with the rest'"
+)
+
+
+@dataclass(frozen=True)
+class SensorWarning:
+    """One sensor the filter found at odds with the rest (module docstring)."""
+
+    sensor: str
+    readings: int
+    """Its readings that reached the filter (used or rejected)."""
+    rejected: int
+    """Of these, rejected by the guard or the gate."""
+    at_limit: int
+    """Of these, used with an R̂ at the limit."""
+    worst_share: float
+    """The highest share of disagreeing readings in a window."""
+    t_from: float
+    t_to: float
+    """The span of the windows above :data:`SHARE` (first start, last end), s."""
+    message: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def disagreeing(
+    ledger: pd.DataFrame, sensor: str, r_nominal: Array, ceiling: float
+) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+    """Of ``sensor``'s readings that reached the filter, in time order: their stamps, and
+    which were rejected by the guard or the gate, which were used with an R̂ at the limit,
+    and which of either (module docstring). ``r_nominal``: the nominal R's diagonal."""
+    rows = ledger[(ledger["sensor"] == sensor) & ledger["fate"].isin(("used", "rejected"))]
+    rows = rows.sort_values("t", kind="stable")
+    rejected = (rows["fate"] == "rejected").to_numpy() & rows["reason"].isin(DISAGREEING).to_numpy()
+    d = r_nominal.size
+    r = rows[[f"r_{j}" for j in range(d)]].to_numpy(dtype=float)
+    limit = min(ceiling, RATIO) * r_nominal * (1.0 - 1e-6)
+    high = (rows["fate"] == "used").to_numpy() & np.any(r >= limit, axis=1)
+    return rows["t"].to_numpy(dtype=float), rejected, high, rejected | high
+
+
+def windows(t: Array, bad: NDArray[np.bool_]) -> tuple[float, float, float]:
+    """Over every window ``[t_i, t_i + WINDOW_S]`` of at least :data:`MIN_READINGS` readings:
+    the highest share of ``bad``, and the span (first start, last end) of the windows above
+    :data:`SHARE` (NaN, NaN if none)."""
+    n = t.size
+    if n < MIN_READINGS:
+        return 0.0, math.nan, math.nan
+    end = np.searchsorted(t, t + WINDOW_S, side="right")
+    counts = end - np.arange(n)
+    cum = np.concatenate(([0], np.cumsum(bad)))
+    share = (cum[end] - cum[:n]) / counts
+    share[counts < MIN_READINGS] = 0.0
+    over = np.flatnonzero(share > SHARE)
+    if over.size == 0:
+        return float(share.max()), math.nan, math.nan
+    return float(share.max()), float(t[over[0]]), float(t[end[over[-1]] - 1])
+
+
+def diagnose(
+    ledger: pd.DataFrame, nominal: Mapping[str, Array], ceilings: Mapping[str, float]
+) -> list[SensorWarning]:
+    """The sensors of ``nominal`` (name → the nominal R's diagonal) that the run's ``ledger``
+    shows at odds with the rest, in that order; ``ceilings``: each sensor's R̂ ceiling as a
+    factor of the nominal variance (inf: unbounded, or a fixed R)."""
+    out = []
+    for name, r_nominal in nominal.items():
+        t, rejected, high, bad = disagreeing(
+            ledger, name, np.asarray(r_nominal, dtype=float), ceilings.get(name, math.inf)
+        )
+        worst, t_from, t_to = windows(t, bad)
+        if math.isnan(t_from):
+            continue
+        limit = min(ceilings.get(name, math.inf), RATIO)
+        message = (
+            f"{name}: at odds with the INS and the other sensors from t = {t_from:.1f} to "
+            f"{t_to:.1f} s (up to {100 * worst:.0f} % of its readings in {WINDOW_S:.0f} s; "
+            f"over the run {int(rejected.sum())} of {t.size} rejected, {int(high.sum())} used "
+            f"with R̂ at {limit:g} × its nominal variance): {HINT}"
+        )
+        counts = int(t.size), int(rejected.sum()), int(high.sum())
+        out.append(SensorWarning(name, *counts, worst, t_from, t_to, message))
+    return out
+
+
+def ceiling(channel: SensorChannel) -> float:
+    """The ceiling of a channel's R̂ as a factor of its nominal variance (inf: none, or a
+    fixed R)."""
+    st = channel.strategy
+    if isinstance(st, VariationalBayes):
+        return st.r_ceiling
+    if isinstance(st, CovarianceMatching):
+        return st.ceiling
+    return math.inf
+
+
+def with_warnings(result: Result, channels: Sequence[SensorChannel]) -> Result:
+    """``result`` with ``meta.warnings``: :func:`diagnose` of its ledger for ``channels``
+    (the run's aiding sensors), as JSON values (an empty list when none is at odds)."""
+    found = diagnose(
+        result.ledger,
+        {c.name: np.diag(nominal_R(c.model)) for c in channels},
+        {c.name: ceiling(c) for c in channels},
+    )
+    return replace(result, meta={**result.meta, "warnings": [w.as_dict() for w in found]})

@@ -1,0 +1,101 @@
+"""The after-run diagnosis of sensors at odds with the rest (api/diagnosis.py), on ledgers
+built by hand: the window arithmetic and what counts as disagreement."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.api import diagnosis as dg
+from adaptnav.api.results import LEDGER_COLUMNS, typed_ledger
+
+R_DVL = np.array([0.048**2] * 3)
+
+
+def ledger(
+    sensor: str, t: np.ndarray, fate: list[str], reason: list[str], r: np.ndarray
+) -> pd.DataFrame:
+    """Ledger rows of one three-component sensor (innovations zero)."""
+    n = t.size
+    cols: dict[str, object] = {c: np.full(n, math.nan) for c in LEDGER_COLUMNS}
+    cols.update(t=t, t_epoch=t, sensor=sensor, row=np.arange(n), fate=fate, reason=reason,
+                iterations=np.zeros(n, dtype=np.int64))  # fmt: skip
+    for j in range(3):
+        cols[f"nu_{j}"] = np.zeros(n)
+        cols[f"r_{j}"] = r[:, j]
+    return typed_ledger(pd.DataFrame(cols))
+
+
+def test_windows_of_a_50_s_stretch() -> None:
+    """1 Hz for 200 s, readings 50-99 bad. The window [t, t + 60] holds 61 readings; the worst
+    starts at 50 (50 of 61 bad); a window holds more than 30.5 bad ones from start 20
+    (readings 50-80: 31) to start 69 (69-99: 31), whose last reading is 129."""
+    t = np.arange(200.0)
+    bad = (t >= 50) & (t < 100)
+    worst, t_from, t_to = dg.windows(t, bad)
+    assert worst == pytest.approx(50 / 61)
+    assert (t_from, t_to) == (20.0, 129.0)
+
+
+def test_a_burst_under_half_a_window_is_not_flagged() -> None:
+    t = np.arange(200.0)
+    worst, t_from, t_to = dg.windows(t, (t >= 50) & (t < 70))  # 20 of at most 61
+    assert worst == pytest.approx(20 / 61)
+    assert math.isnan(t_from) and math.isnan(t_to)
+
+
+def test_too_few_readings_are_not_judged() -> None:
+    t = np.arange(float(dg.MIN_READINGS - 1))
+    assert dg.windows(t, np.ones(t.size, dtype=bool))[0] == 0.0
+    # Ten readings 100 s apart: every window holds one reading, none is judged.
+    assert dg.windows(np.arange(10) * 100.0, np.ones(10, dtype=bool))[0] == 0.0
+
+
+def test_rejections_and_r_at_the_limit_count_and_nothing_else() -> None:
+    """3 Hz for 300 s. From 100 to 200 s the readings alternate: rejected by the guard, then
+    used with R̂ at the ceiling (robust's 100); a covariance repair and an R̂ just under the
+    limit do not count, and a depth meter without trouble gives no warning."""
+    t = np.arange(900) / 3.0
+    fate, reason = ["used"] * t.size, [""] * t.size
+    r = np.tile(R_DVL, (t.size, 1))
+    inside = np.flatnonzero((t >= 100) & (t < 200))
+    for k, i in enumerate(inside):
+        if k % 2 == 0:
+            fate[i], reason[i] = "rejected", "guard chi2 (nominal R)"
+        else:
+            r[i, 1] = 100.0 * R_DVL[1]
+    repaired = int(np.flatnonzero(t >= 250)[0])
+    fate[repaired], reason[repaired] = "rejected", "S not positive definite: P repaired"
+    r[np.flatnonzero(t >= 260)[:30], 0] = 0.999 * 100.0 * R_DVL[0]
+    led = ledger("dvl", t, fate, reason, r)
+    depth = ledger("depth", t, ["used"] * t.size, [""] * t.size, np.tile(R_DVL, (t.size, 1)))
+    found = dg.diagnose(
+        pd.concat([led, depth], ignore_index=True),
+        {"dvl": R_DVL, "depth": R_DVL},
+        {"dvl": 100.0, "depth": 100.0},
+    )
+    assert [w.sensor for w in found] == ["dvl"]
+    w = found[0]
+    assert (w.readings, w.rejected, w.at_limit) == (900, 150, 150)
+    assert w.worst_share == pytest.approx(1.0)
+    assert 100.0 - 60.0 < w.t_from < 100.0 and 200.0 < w.t_to < 200.0 + 60.0
+    assert w.message.startswith("dvl: at odds with the INS and the other sensors from t = ")
+    assert "150 of 900 rejected, 150 used with R̂ at 100 × its nominal variance" in w.message
+    assert "mounting_rpy_deg" in w.message
+
+
+def test_an_unbounded_r_counts_from_the_ratio() -> None:
+    """Without a ceiling (VB-MAESKF, MAESKF) an R̂ counts from RATIO × the nominal variance:
+    the simulated trials' tenfold σ (100 × the variance) does not."""
+    t = np.arange(300.0)
+    r = np.tile(R_DVL, (t.size, 1))
+    r[:, 2] = 100.0 * R_DVL[2]
+    led = ledger("dvl", t, ["used"] * t.size, [""] * t.size, r)
+    assert dg.diagnose(led, {"dvl": R_DVL}, {"dvl": math.inf}) == []
+    r[:, 2] = dg.RATIO * R_DVL[2]
+    led = ledger("dvl", t, ["used"] * t.size, [""] * t.size, r)
+    (w,) = dg.diagnose(led, {"dvl": R_DVL}, {"dvl": math.inf})
+    assert w.at_limit == 300 and f"{dg.RATIO:g} × its nominal variance" in w.message
