@@ -362,6 +362,27 @@ def test_user_strings_are_escaped(report: tuple[Path, Path], tmp_path: Path) -> 
     assert shown["layout"]["title"]["text"] == spec["layout"]["title"]["text"]
 
 
+def test_a_sensor_warning_heads_the_report_and_none_leaves_no_section(
+    report: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """A run's ``meta.warnings`` (api/diagnosis.py) is listed, escaped, in a Warnings section
+    before the scenario, with the filter's label; the demo's own runs have none, and their
+    report has no such section."""
+    folder, page = report
+    assert 'id="warnings"' not in page.read_text(encoding="utf-8")
+    copy = tmp_path / "cmp"
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("mission"))
+    summary = json.loads((copy / "vb" / "summary.json").read_text())
+    assert summary["meta"]["warnings"] == []
+    summary["meta"]["warnings"] = [{"sensor": "dvl", "message": "dvl: at odds <b>x</b>"}]
+    (copy / "vb" / "summary.json").write_text(json.dumps(summary))
+    text = write_report(copy, tmp_path / "r.html").read_text(encoding="utf-8")
+    section = text.split('<section id="warnings">')[1].split("</section>")[0]
+    assert "<strong>VB-MAESKF</strong>: dvl: at odds &lt;b&gt;x&lt;/b&gt;" in section
+    assert text.index('id="warnings"') < text.index('id="scenario"')
+    assert '<a href="#warnings">' in text
+
+
 def test_a_folder_without_interactive_figures_gets_its_pngs_and_no_script(
     report: tuple[Path, Path], tmp_path: Path
 ) -> None:

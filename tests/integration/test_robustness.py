@@ -7,6 +7,7 @@ tests/integration/test_fuzz_input.py.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Any
@@ -355,6 +356,32 @@ def test_a_sensor_in_milliseconds_is_an_error_not_a_run_without_it(
         "IMU's time span (0 .. "
     )
     assert "another time unit (ms, µs?)" in line
+
+
+def test_a_dvl_turned_backwards_is_a_warning_not_a_quiet_run(mission: Path, tmp_path: Path) -> None:
+    """A DVL turned 180° in yaw but configured as ahead (x and y negated) passes every check
+    at load. Before, the robust filter took 124 of its 125 readings with R̂ pinned at its
+    ceiling and the run ended with exit 0 and not a word (velocity NEES 57). Now the run, its
+    summary.json and evaluate say which sensor and when (api/diagnosis.py); the clean mission
+    gives no warning."""
+    clean = cli("run", mission, "--out", tmp_path / "clean")
+    assert clean.exit_code == 0 and "warning:" not in clean.output, clean.output
+    summary = json.loads((tmp_path / "clean" / "summary.json").read_text())
+    assert summary["meta"]["warnings"] == []
+    dvl = badinput.read(mission, "dvl")
+    dvl[["vx_m_s", "vy_m_s"]] *= -1.0
+    badinput.write(mission, "dvl", dvl)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    lines = [line for line in res.output.splitlines() if line.startswith("warning:")]
+    assert len(lines) == 1, res.output
+    assert lines[0].startswith("warning: dvl: at odds with the INS and the other sensors from t = ")
+    assert "mounting_rpy_deg" in lines[0]
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    (w,) = summary["meta"]["warnings"]
+    assert w["sensor"] == "dvl" and w["worst_share"] > 0.9
+    ev = cli("evaluate", tmp_path / "run", "--json", "--quiet")
+    assert json.loads(ev.stdout)["warnings"] == [w["message"]]
 
 
 def test_an_inclinometer_mounted_off_needs_its_mounting(mission: Path, tmp_path: Path) -> None:

@@ -87,6 +87,18 @@ def fail(message: str) -> NoReturn:
     raise typer.Exit(2)
 
 
+def warn(message: str) -> None:
+    """A warning about the result (the run went on): one line on stderr, printed as is."""
+    err_console.print(f"[bold yellow]warning:[/] {escape(one_line(message))}", soft_wrap=True)
+
+
+def warn_sensors(meta: dict[str, Any], label: str = "") -> None:
+    """The run's sensors at odds with the rest (``meta.warnings``, api/diagnosis.py), one
+    :func:`warn` each; ``label`` (e.g. the filter) before each."""
+    for w in meta.get("warnings", []):
+        warn(f"{label}{w['message']}")
+
+
 Force = Annotated[
     bool,
     typer.Option("--force", help="replace a non-empty --out folder whole (nothing of it is kept)"),

@@ -19,6 +19,7 @@ from adaptnav.cli._app import (
     freeze_heap,
     output,
     run_progress,
+    warn_sensors,
 )
 from adaptnav.cli._app import fail as _fail
 from adaptnav.core.units import UnitError
@@ -84,6 +85,8 @@ def demo(
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"
     console.print(comparison_table(cmp, f"{preset} (seed {seed})"))
+    for name, result in cmp.results.items():
+        warn_sensors(result.meta, f"{name}: ")
     source = {"gyrocompass": "gyrocompassing", "heading": "the mission's given heading"}
     how = source.get(str(cmp.initial.get("heading_source")), str(cmp.initial.get("initial")))
     console.print(f"static alignment: heading from {how}; every filter starts from it")
@@ -170,6 +173,7 @@ def _print_run(result: Result, out: Path) -> None:
             f"{sm['failed_nodes']} failed; store {sm['store_bytes'] / 2**20:,.1f} MiB; "
             "forward solution in forward.parquet"
         )
+    warn_sensors(result.meta)
 
 
 def _calibration_table(found: dict[str, dict[str, Any]], smoothed: bool) -> Table:
@@ -232,12 +236,14 @@ def evaluate_cmd(
         extra: dict[str, Any] = {} if forward is None else evaluate.forward_columns(forward)
         if cal:
             extra["calibration"] = cal
+        extra["warnings"] = [w["message"] for w in result.meta.get("warnings", [])]
         typer.echo(json.dumps({"filter": result.filter, **d, **jsonable(extra)}, default=str))
         return
     console.print(_metrics_table(result, metrics, d, forward))
     console.print(_ledger_table(metrics))
     if cal:
         console.print(_calibration_errors_table(cal))
+    warn_sensors(result.meta)
 
 
 def _calibration_errors(result: Result, mission: Path | None) -> dict[str, dict[str, Any]]:

@@ -10,6 +10,8 @@ disturbances injected, timeline). :func:`report_data` gathers all of it, numbers
 one frozen :class:`ReportData`; the Jinja2 templates under ``viz/templates/`` only format it
 into one HTML file a person reads from top to bottom:
 
+0. when some run found a sensor at odds with the INS and the other sensors, its warning
+   (``meta.warnings`` of the run folder's ``summary.json``; :mod:`adaptnav.api.diagnosis`);
 1. the scenario (trajectory, duration, distance, seed, disturbances; docs/simulation.md);
 2. the sensors and the IMU noise model;
 3. each filter's settings (gate q, VB ρ, N, α0, matching window; docs/filters.md, 'Gate' and
@@ -400,6 +402,8 @@ class ReportData:
     """Most points per series of an interactive figure (the envelope rule, docs/report.md)."""
     ledger: tuple[LedgerRow, ...]
     events: tuple[EventRow, ...]
+    warnings: tuple[tuple[str, str], ...]
+    """(filter, message) of every sensor a run found at odds with the rest (api/diagnosis.py)."""
     initial: Initial | None
     version: str
     written: _dt.datetime
@@ -953,6 +957,20 @@ def _events(folder: Path, name: str) -> EventRow:
     )
 
 
+def _warnings(folder: Path, name: str) -> list[tuple[str, str]]:
+    """A filter's sensors at odds with the rest: ``meta.warnings`` of its run folder's
+    ``summary.json`` (api/diagnosis.py), as (filter, message); none if it has none or cannot
+    be read."""
+    doc = _optional_json(folder / str(name) / "summary.json") or {}
+    meta = doc.get("meta")
+    found = meta.get("warnings") if isinstance(meta, dict) else None
+    if not isinstance(found, list):
+        return []
+    return [
+        (_label(name), str(w["message"])) for w in found if isinstance(w, dict) and "message" in w
+    ]
+
+
 _HEADING_SOURCES = {
     "heading": "the mission's given heading (e.g. the quay's charted bearing)",
     "gyrocompass": "gyrocompassing",
@@ -1046,6 +1064,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
         max_points=MAX_POINTS,
         ledger=tuple(_ledger(scored, results)),
         events=tuple(_events(folder, n) for n in names),
+        warnings=tuple(w for n in names for w in _warnings(folder, n)),
         initial=_initial(doc.get("initial") or {}),
         version=__version__,
         written=_dt.datetime.now(_dt.UTC),
