@@ -222,6 +222,23 @@ def _fates_table(summary: pd.DataFrame, cases: Sequence[str]) -> str:
     return markdown_table(header, rows)
 
 
+def _warnings_table(table: pd.DataFrame, cases: Sequence[str]) -> str:
+    """Per filter and case: the runs (presets × seeds) that ended with a sensor warning
+    (``warned``, api/diagnosis.py), with the sensors named."""
+    header = ["filter", *[CASE_LABELS.get(c, c) for c in cases]]
+    rows = []
+    warned = table.get("warned", pd.Series("", index=table.index)).fillna("").astype(str)
+    for f in dict.fromkeys(table["filter"]):
+        cells = [_label(f)]
+        for c in cases:
+            g = warned[(table["filter"] == f) & (table["case"] == c)]
+            names = sorted({n for w in g for n in w.split()})
+            hit = int((g != "").sum())
+            cells.append(f"{hit} / {len(g)}" + (f" ({', '.join(names)})" if names else ""))
+        rows.append(cells)
+    return markdown_table(header, rows)
+
+
 def _clean_table(table: pd.DataFrame) -> str:
     g = table[table["case"] == fb.CLEAN]
     header = ["preset", "seed", *[_label(f) for f in dict.fromkeys(g["filter"])]]
@@ -304,6 +321,14 @@ def page(
         "ledger; the stuck window's first reading is genuine and not counted):",
         "",
         _fates_table(summary, faulted),
+        "",
+        "## Runs that ended with a sensor warning",
+        "",
+        "Runs whose filter found a sensor at odds with the INS and the other sensors over "
+        "most of a minute (docs/robustness.md, 'Sensors at odds with the rest'), of the runs "
+        "of each filter and case (presets × seeds):",
+        "",
+        _warnings_table(table, list(dict.fromkeys(table["case"]))),
         "",
         "## Clean runs: RMSE m (mean position NEES)",
         "",

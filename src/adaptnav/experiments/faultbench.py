@@ -129,8 +129,9 @@ def score(
     ``mean_nees_position``, ``delta_max_m`` (NaN without ``clean_errors``, the clean run's
     :func:`adaptnav.analysis.evaluate.position_errors`), ``dropout_end_m``, ``dropout_sigma_m``,
     ``dropout_ratio`` and ``dropout_mahalanobis`` (:func:`_horizontal_mahalanobis`) at the end
-    of ``dropout_window_s`` (scored on every run, the clean one too, as a reference), and the
-    fates of the injected readings of ``log``."""
+    of ``dropout_window_s`` (scored on every run, the clean one too, as a reference), ``warned``
+    (the sensors the run found at odds with the rest, space-separated: api/diagnosis.py), and
+    the fates of the injected readings of ``log``."""
     m = evaluate.evaluate(result, truth)
     errors = evaluate.position_errors(result.solution, truth)
     delta = math.nan
@@ -160,6 +161,7 @@ def score(
         "dropout_sigma_m": sigma,
         "dropout_ratio": end_m / sigma if sigma > 0.0 else math.nan,
         "dropout_mahalanobis": mahalanobis,
+        "warned": " ".join(w["sensor"] for w in result.meta.get("warnings", [])),
         **_fates(result, log),
     }
 
@@ -173,7 +175,7 @@ _FIGURES = (
 def _failed() -> dict[str, Any]:
     """The figures of a run that raised: NaN, no fates."""
     out: dict[str, Any] = dict.fromkeys(_FIGURES, math.nan)
-    out.update(_fates(None, None))
+    out.update(warned="", **_fates(None, None))
     return out
 
 
