@@ -99,6 +99,7 @@ def _models(rng: np.random.Generator) -> list[Any]:
         DVL(0.01, rng.uniform(-3, 3, 3), _rotation(rng)),
         DVL(0.02),
         Depth(0.05, rng.uniform(-3, 3, 3)),
+        Depth(0.05, rng.uniform(-3, 3, 3), surface_h=rng.uniform(-100, 100)),
         Inclinometer(0.002, _rotation(rng)),
         Inclinometer((0.001, 0.003)),
         PendulumInclinometer(0.002, _rotation(rng)),

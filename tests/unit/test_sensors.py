@@ -385,6 +385,11 @@ def test_depth_hand_values() -> None:
     assert m is not None
     assert m.y == pytest.approx([0.5])
     assert m.names == ("depth",)
+    # Heights ellipsoidal, the water surface 45 m above the ellipsoid: 95 m below it is 50 m
+    # below the surface.
+    assert Depth(0.1, surface_h=45.0).predict(_level(h=-5.0)) == pytest.approx([50.0])
+    with pytest.raises(ValueError, match="surface_h"):
+        Depth(0.1, surface_h=math.nan)
 
 
 def test_attitude_sensors_hand_values() -> None:

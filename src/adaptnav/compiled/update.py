@@ -349,9 +349,10 @@ def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, 
 
 @jit_inline
 def _lin_depth(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> None:
-    """Depth (sensors.depth): ``h = -h + (C_nb l_b)_D``; H: 1 on dr_D, ``[a_E, -a_N, 0]`` on phi."""
+    """Depth (sensors.depth): ``h = h_s - h + (C_nb l_b)_D``, h_s the water surface's height
+    (``par[PAR_FLAG]``); H: 1 on dr_D, ``[a_E, -a_N, 0]`` on phi."""
     a = _matvec(_dcm(x), _par_vec(par, PAR_LB))
-    y[r] = z[0] - (-x[2] + a[2])
+    y[r] = z[0] - (par[PAR_FLAG] - x[2] + a[2])
     H[r, 2] = 1.0
     H[r, 6] = a[1]
     H[r, 7] = -a[0]

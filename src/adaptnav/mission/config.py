@@ -107,6 +107,9 @@ SigmaDeg = Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)]
 """An attitude standard deviation in degrees: more than 180° says nothing."""
 H_RANGE_M = (-12_000.0, 100_000.0)
 """Initial heights accepted (m, above the ellipsoid): the deepest ocean to the edge of space."""
+SURFACE_H_RANGE_M = (-1_000.0, 10_000.0)
+"""Bounds (m) of a depth meter's ``surface_h_m``: the geoid, where the sea's surface lies, is
+within about ±110 m of the ellipsoid; a lake's surface may be kilometres up."""
 Vec3 = tuple[Finite, Finite, Finite]
 Pair = tuple[float | str, str]
 """``[value, "unit"]``; the value may be the string ``"inf"`` for correlation times."""
@@ -346,6 +349,13 @@ class SensorConfig(_Model):
     """Inclinometer only: ``pendulum`` (it reads the tilt of the apparent gravity, the specific
     force; the default) or ``attitude`` (it reads the attitude's roll and pitch, white noise):
     docs/inclinometer.md."""
+    surface_h_m: float | Literal["auto"] | None = None
+    """Depth meter only: the height (m) of the water surface, where it reads zero, in the frame
+    of the navigation's heights. None: 0 (heights measured from the surface, as the simulator's
+    and the A-KIT reference's are). With GNSS heights, which are ellipsoidal, the sea surface
+    lies near the geoid, tens of metres off: give its height, or ``"auto"`` to take it from the
+    GNSS heights and the depth readings over the static alignment window (docs/filters.md,
+    'Depth and the water surface')."""
     zero_is_lost: StrictBool = False
     """DVL only: a reading of exactly zero on every axis is a lost bottom lock (drivers that
     report the loss so), dropped at load with that reason. Not for a vehicle that can sit
@@ -401,6 +411,17 @@ class SensorConfig(_Model):
         dims = KINDS[kind].dims()  # optional components: checked with the option below
         if si.size not in (1, *dims):
             raise UnitError(f"sigma: {si.size} values given, {kind} has {dims[-1]} components")
+        return v
+
+    @field_validator("surface_h_m")
+    @classmethod
+    def _check_surface(cls, v: float | str | None) -> float | str | None:
+        lo, hi = SURFACE_H_RANGE_M
+        if isinstance(v, float) and not lo <= v <= hi:
+            raise ValueError(
+                f"value {v!r} must be within [{lo:g}, {hi:g}] m (the geoid lies within ±110 m "
+                "of the ellipsoid; a lake's surface at its altitude)"
+            )
         return v
 
     @field_validator("limits")
@@ -495,6 +516,13 @@ class SensorConfig(_Model):
             )
             out[name] = (float(sigma), float(rw))
         return out
+
+    def surface_h(self) -> float:
+        """The depth meter's water-surface height (m): 0 when not given; an error while it is
+        still ``"auto"`` (the runner measures it first: api/runner.py, ``resolve_surfaces``)."""
+        if self.surface_h_m == "auto":
+            raise ValueError('surface_h_m = "auto" has not been measured yet')
+        return 0.0 if self.surface_h_m is None else float(self.surface_h_m)
 
     @property
     def dim(self) -> int:

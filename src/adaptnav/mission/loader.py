@@ -649,6 +649,7 @@ def build_sensor_model(
         bool(cfg.use_height),
         cfg.model,
         dict(calibration or {}),
+        cfg.surface_h(),
     )
     return KINDS[cfg.kind].build(setup)
 

@@ -1,12 +1,16 @@
-"""Depth meter (pressure sensor): depth of the sensor point, depth = -height.
+"""Depth meter (pressure sensor): depth of the sensor point below the water surface.
 
 Model (docs/filters.md, 'Measurement models'; Groves (2013) ch. 16, height/depth aiding with
 lever arm)::
 
-    z = -h + (C_nb l_b)_D,
+    z = h_s - h + (C_nb l_b)_D,
 
-the sensor sitting at ``r_n + C_nb l_b`` (NED) with l_b the lever arm from the IMU (body FRD, m).
-Conversion of pressure to depth (water density, atmospheric pressure) happens before this model.
+the sensor sitting at ``r_n + C_nb l_b`` (NED) with l_b the lever arm from the IMU (body FRD, m),
+and ``h_s`` the height of the water surface, where the meter reads zero, in the frame of the
+navigation's heights (``[sensors.<name>] surface_h_m``, default 0: heights measured from the
+surface). GNSS heights are ellipsoidal, and the sea surface lies near the geoid, tens of metres
+off the ellipsoid: docs/filters.md, 'Depth and the water surface'. Conversion of pressure to
+depth (water density, atmospheric pressure) happens before this model.
 
 Linearisation for ``dx = x_true ⊖ x_hat`` (``h_true = h - dr_D``, ``C_true = Exp(phi) C``), with
 ``a = C_nb l_b``: ``-h_true = -h + dr_D`` and ``(Exp(phi) a)_D ≈ a_D + (phi × a)_D``, so::
@@ -18,6 +22,7 @@ With its bias state b (docs/calibration.md) it reads ``z + b``; H has 1 on b.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -50,11 +55,11 @@ from adaptnav.sensors.kind import (
 DIM = 1
 
 
-def predict(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
-    """h(x) = [-h + (C_nb l_b)_D], the depth the sensor should read (m, shape (1,))."""
+def predict(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0), surface_h: float = 0.0) -> Array:
+    """h(x) = [h_s - h + (C_nb l_b)_D], the depth the sensor should read (m, shape (1,))."""
     xa = check_state(x)
     a = attitude.quat_to_dcm(xa[NOM_ATT]) @ np.asarray(l_b, dtype=float)
-    return np.array([-xa[2] + a[2]])
+    return np.array([surface_h - xa[2] + a[2]])
 
 
 def jacobian(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Array:
@@ -76,29 +81,34 @@ class Depth(Components):
         l_b: lever arm from the IMU to the pressure port, body FRD (m).
         name: sensor name, also the component's name.
         cal_bias: error-state index of its bias state (docs/calibration.md); -1: none.
+        surface_h: height of the water surface, where it reads zero (m, in the navigation
+            heights' frame: ellipsoidal when they come from GNSS).
     """
 
     sigma: float
     l_b: Array = field(default_factory=lambda: np.zeros(3))
     name: str = "depth"
     cal_bias: int = -1
+    surface_h: float = 0.0
 
     LIN_CODE: ClassVar[int] = 1
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(self.l_b, calibration=(self.cal_bias, -1))
+        return pack_params(self.l_b, flag=self.surface_h, calibration=(self.cal_bias, -1))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_scalar_sigma("sigma", self.sigma))
         object.__setattr__(self, "l_b", check_vector3("l_b", self.l_b))
         object.__setattr__(self, "name", check_name("name", self.name))
+        if not math.isfinite(self.surface_h):
+            raise ValueError(f"surface_h: value {self.surface_h!r} must be finite")
 
     def predict(self, x: ArrayLike) -> Array:
         """See :func:`predict` (plus the bias state, if any: sensors/calibration.py)."""
         xa = np.asarray(x, dtype=float)
-        return predict(xa[:NOM_SIZE], self.l_b) + bias(xa, self.cal_bias, DIM)
+        return predict(xa[:NOM_SIZE], self.l_b, self.surface_h) + bias(xa, self.cal_bias, DIM)
 
     def jacobian(self, x: ArrayLike) -> Array:
         """See :func:`jacobian`; a column per error state of x (15 + m)."""
@@ -132,12 +142,17 @@ KIND = SensorKind(
     columns=("depth_m",),
     sigma_kind=Kind.LENGTH,
     build=lambda s: Depth(
-        float(np.asarray(s.sigma).reshape(-1)[0]), s.l_b, s.name, s.calibration.get("bias", -1)
+        float(np.asarray(s.sigma).reshape(-1)[0]),
+        s.l_b,
+        s.name,
+        s.calibration.get("bias", -1),
+        s.surface_h,
     ),
     limits={"depth_m": (-100.0, 12000.0)},
     stuck=StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
     lever_arm=True,
     linearised=(Depth,),
+    options=frozenset({"surface_h_m"}),
     calibration={"bias": DEPTH_BIAS},
     ideal_reading=ideal,
 )

@@ -36,7 +36,8 @@ Array = NDArray[np.float64]
 
 N_PAR = 16
 """Packed linearisation parameters: ``[l_b (3) | C_sb (9, row-major) | flag | calibration
-state indices (2) | unused]``."""
+state indices (2) | unused]``; ``flag`` is a kind's one scalar (GNSS: use_height; depth: the
+water surface's height)."""
 PAR_LB, PAR_CSB, PAR_FLAG, PAR_CAL = 0, 3, 12, 13
 """``par[PAR_CAL]``, ``par[PAR_CAL + 1]``: error-state indices of the model's calibration blocks
 (sensors/calibration.py; -1: none), as the model's class defines them."""
@@ -100,6 +101,8 @@ class SensorSetup:
     calibration: Mapping[str, int] = field(default_factory=dict)
     """Error-state index of the first state of each calibration quantity estimated
     (:attr:`SensorKind.calibration`; docs/calibration.md)."""
+    surface_h: float = 0.0
+    """Depth meter: the height of the water surface, where it reads zero (m)."""
 
 
 @dataclass(frozen=True, eq=False)
