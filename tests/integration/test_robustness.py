@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -399,6 +400,82 @@ def test_an_inclinometer_mounted_off_needs_its_mounting(mission: Path, tmp_path:
     assert head in text
     toml.write_text(text.replace(head, head + "mounting_rpy_deg = [3.0, 0.0, 0.0]\n"))
     assert cli("run", mission, "--out", tmp_path / "run").exit_code == 0
+
+
+GEOID_M = 45.0
+"""The water surface's height above the ellipsoid in the tests below (a geoid undulation)."""
+
+
+def _ellipsoidal_gnss(mission: Path, surface: str | None) -> None:
+    """The tiny mission as a receiver with heights would log it: its GNSS (antenna 5 m above the
+    IMU) with ellipsoidal heights, the sea's surface GEOID_M above the ellipsoid, the reference
+    in the same heights; the depth meter still reads from the surface. ``surface``: the depth
+    meter's ``surface_h_m`` as TOML, or None."""
+    truth, gps = badinput.read(mission, "truth"), badinput.read(mission, "gps")
+    truth["h_m"] += GEOID_M
+    gps["h_m"] = np.interp(gps["t_s"], truth["t_s"], truth["h_m"]) + 5.0  # level enough
+    badinput.write(mission, "truth", truth)
+    badinput.write(mission, "gps", gps)
+    toml = mission / "mission.toml"
+    text = toml.read_text()
+    for head, line in (
+        ('[sensors.gps]\nkind = "gnss"\n', "use_height = true\n"),
+        ('[sensors.depth]\nkind = "depth"\n', f"surface_h_m = {surface}\n" if surface else ""),
+    ):
+        assert head in text
+        text = text.replace(head, head + line)
+    toml.write_text(text)
+
+
+def test_a_depth_beside_ellipsoidal_gnss_heights_needs_the_surface(
+    mission: Path, tmp_path: Path
+) -> None:
+    """GNSS heights are ellipsoidal, a depth is measured from the sea's surface, which lies near
+    the geoid. Before, the alignment took its height from the GNSS, the depth meter said 45 m
+    otherwise, the guard rejected most of its readings until the lockout let them in, and the
+    run ended 24 m RMS off (4.6 m with the surface known) with exit 0 and only the warning
+    that the depth meter was at odds with the rest. Now the mismatch at rest
+    is an error that gives the height to set; set, or measured with "auto", the run is as
+    good as the clean one."""
+    _ellipsoidal_gnss(mission, None)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: depth.csv, depth_m: over the static alignment window")
+    given = float(line.split("surface_h_m = ")[2].split(",")[0])
+    assert given == pytest.approx(GEOID_M, abs=1.0), line
+    rmse = {}
+    for name, surface in (("given", f"{given}"), ("auto", '"auto"')):
+        copy = badinput.copy_mission(mission, tmp_path / name)
+        text = (copy / "mission.toml").read_text()
+        head = '[sensors.depth]\nkind = "depth"\n'
+        (copy / "mission.toml").write_text(text.replace(head, f"{head}surface_h_m = {surface}\n"))
+        assert cli("run", copy, "--out", tmp_path / f"run-{name}").exit_code == 0
+        ev = json.loads(cli("evaluate", tmp_path / f"run-{name}", "--json", "-q").stdout)
+        rmse[name] = ev["rmse_m"]
+    summary = json.loads((tmp_path / "run-auto" / "summary.json").read_text())
+    assert summary["meta"]["surface_h_m"]["depth"] == pytest.approx(given, abs=0.01)
+    assert rmse["given"] < 5.0 and rmse["auto"] < 5.0, rmse
+
+
+def test_surface_h_m_is_checked_and_only_for_a_depth_meter(mission: Path, tmp_path: Path) -> None:
+    toml = mission / "mission.toml"
+    text = toml.read_text()
+    for head, line, words in (
+        ('[sensors.dvl]\nkind = "dvl"\n', "surface_h_m = 1.0", "only for depth sensors"),
+        ('[sensors.depth]\nkind = "depth"\n', "surface_h_m = 1e6", "within [-1000, 10000] m"),
+        ('[sensors.depth]\nkind = "depth"\n', 'surface_h_m = "geoid"', "sensors.depth.surface_h_m"),
+    ):
+        toml.write_text(text.replace(head, f"{head}{line}\n"))
+        assert words in error_line(cli("run", mission, "--out", tmp_path / "run")), line
+    # "auto" with no GNSS heights at rest to measure it by
+    head = '[sensors.depth]\nkind = "depth"\n'
+    toml.write_text(text.replace(head, f'{head}surface_h_m = "auto"\n'))
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert 'surface_h_m = "auto" measures the water surface at rest' in line
+    from adaptnav.api import Stream
+    from adaptnav.mission import MissionError
+
+    with pytest.raises(MissionError, match='surface_h_m = "auto": a stream needs'):
+        Stream(mission)
 
 
 def test_limits_are_set_per_sensor(mission: Path, tmp_path: Path) -> None:

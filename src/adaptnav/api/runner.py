@@ -36,10 +36,11 @@ from adaptnav.mission import (
     calibration,
     load_mission,
 )
+from adaptnav.mission.config import with_overrides
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
-from adaptnav.models.strapdown import NOM_BA, NOM_BG, NOM_SIZE, NavState
+from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_SIZE, NavState
 from adaptnav.sensors.inclinometer import PendulumInclinometer
 from adaptnav.sensors.registry import KINDS
 
@@ -120,6 +121,7 @@ def start_state(
         position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
     )  # fmt: skip
     check_angles_at_rest(cfg, sensors, a.x0, a.P0, a.coarse.mean_specific_force, t_start, a.t_end)
+    check_depth_at_rest(cfg, sensors, a.x0, t_start, a.t_end)
     info = {
         "initial": "alignment",
         "alignment_s": ini.alignment_s,
@@ -186,6 +188,131 @@ def check_angles_at_rest(
                 file=sc.file,
                 field=column,
             )
+
+
+SURFACE_SIGMAS = 5.0
+SURFACE_FLOOR_M = 2.0
+"""A depth meter's water surface measured at rest may differ from its ``surface_h_m`` by
+max(SURFACE_FLOOR_M, SURFACE_SIGMAS σ), σ² = σ_h,GNSS² + σ_depth² (:func:`check_depth_at_rest`;
+the GNSS heights' errors are correlated over a window, so σ is one fix's, not the mean's)."""
+
+
+@dataclass(frozen=True)
+class SurfaceAtRest:
+    """A depth meter's water surface as the static alignment window shows it
+    (:func:`surfaces_at_rest`)."""
+
+    sensor: str
+    gnss: str
+    h_m: float
+    """The surface's height, in the GNSS heights' frame (ellipsoidal), m."""
+    sigma_m: float
+    depth_m: float
+    """The meter's mean reading over the window."""
+    readings: int
+    row: int
+    """The data row of its first reading in the window."""
+
+
+def _height_gnss(cfg: MissionConfig) -> str | None:
+    """The GNSS sensor whose heights give the static alignment its height
+    (:func:`_alignment_position`): the first one not off, with ``use_height``, when ``[initial]``
+    gives no position; else None."""
+    ini = cfg.initial
+    if ini.mode != "alignment" or (ini.lat_deg is not None and ini.lon_deg is not None):
+        return None
+    gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
+    return gnss[0] if gnss and cfg.sensors[gnss[0]].use_height else None
+
+
+def surfaces_at_rest(
+    cfg: MissionConfig, sensors: Mapping[str, SensorData], x0: np.ndarray, t_from: float, t0: float
+) -> list[SurfaceAtRest]:
+    """Each depth meter's water-surface height over the static window ``(t_from, t0]``, where
+    GNSS heights give the alignment its height: the depth model ``z = h_s - h + (C_nb l_d)_D``
+    (sensors/depth.py) at the GNSS antenna's mean height ``h_a = h - (C_nb l_g)_D`` gives
+    ``h_s = mean(z) + mean(h_a) + (C_nb l_g)_D - (C_nb l_d)_D``, C_nb the aligned attitude.
+    Empty without such a GNSS or without readings in the window."""
+    g = _height_gnss(cfg)
+    if g is None or g not in sensors:
+        return []
+    fixes = sensors[g]
+    ok = (fixes.t > t_from) & (fixes.t <= t0) & np.isfinite(fixes.z[:, 2])
+    if not np.any(ok):
+        return []
+    C = attitude.quat_to_dcm(x0[NOM_ATT])
+    gc = cfg.sensors[g]
+    h_imu = float(np.mean(fixes.z[ok, 2])) + float((C @ gc.lever_arm())[2])
+    sd_h = float(np.atleast_1d(gc.sigma_si())[-1])
+    out = []
+    for name, sc in cfg.sensors.items():
+        if sc.kind != "depth" or sc.use == "off" or name not in sensors:
+            continue
+        d = sensors[name]
+        inside = (d.t > t_from) & (d.t <= t0) & np.isfinite(d.z[:, 0])
+        if not np.any(inside):
+            continue
+        z = float(np.mean(d.z[inside, 0]))
+        h_s = z + h_imu - float((C @ sc.lever_arm())[2])
+        sd = math.hypot(sd_h, float(np.atleast_1d(sc.sigma_si())[0]))
+        row = int(d.rows[np.flatnonzero(inside)[0]])
+        out.append(SurfaceAtRest(name, g, h_s, sd, z, int(inside.sum()), row))
+    return out
+
+
+def check_depth_at_rest(
+    cfg: MissionConfig, sensors: Mapping[str, SensorData], x0: np.ndarray, t_from: float, t0: float
+) -> None:
+    """A depth meter whose water surface, measured at rest against the GNSS heights
+    (:func:`surfaces_at_rest`), lies more than max(2 m, 5 σ) from its ``surface_h_m`` (0 when
+    not given) is a :class:`MissionError` naming its file, the GNSS and the height to set. GNSS
+    heights are ellipsoidal and the sea's surface lies near the geoid, tens of metres off: the
+    filter would otherwise fight the two sensors over that height for the whole run
+    (docs/filters.md, 'Depth and the water surface'). ``"auto"`` is not checked: it is what
+    is measured."""
+    for s in surfaces_at_rest(cfg, sensors, x0, t_from, t0):
+        sc = cfg.sensors[s.sensor]
+        if sc.surface_h_m == "auto":
+            continue
+        given = sc.surface_h()
+        tol = max(SURFACE_FLOOR_M, SURFACE_SIGMAS * s.sigma_m)
+        if abs(s.h_m - given) > tol:
+            gfile = cfg.sensors[s.gnss].file
+            raise MissionError(
+                f"{sc.file}, depth_m: over the static alignment window ({s.readings} readings "
+                f"from data row {s.row}) sensor {s.sensor!r} reads {s.depth_m:.3g} m, which puts "
+                f"the water surface at {s.h_m:.2f} m by the GNSS heights of {gfile}, not at "
+                f"surface_h_m = {given:g} m (more than {tol:.3g} m off). GNSS heights are "
+                "ellipsoidal and the sea's surface lies near the geoid (plus the tide): set "
+                f'[sensors.{s.sensor}] surface_h_m = {s.h_m:.2f}, or "auto" to measure it so '
+                "on every run",
+                file=sc.file,
+                field="depth_m",
+            )
+
+
+def resolve_surfaces(
+    cfg: MissionConfig, sensors: Mapping[str, SensorData], x0: np.ndarray, t_from: float, t0: float
+) -> tuple[MissionConfig, dict[str, float]]:
+    """``cfg`` with every depth meter's ``surface_h_m = "auto"`` replaced by the height
+    :func:`surfaces_at_rest` measures, and those heights by sensor; a :class:`MissionError`
+    when one cannot be measured."""
+    auto = [n for n, sc in cfg.sensors.items() if sc.surface_h_m == "auto"]
+    if not auto:
+        return cfg, {}
+    found = {s.sensor: s.h_m for s in surfaces_at_rest(cfg, sensors, x0, t_from, t0)}
+    for name in auto:
+        if name not in found:
+            raise MissionError(
+                f'{CONFIG_NAME}: [sensors.{name}] surface_h_m = "auto" measures the water '
+                'surface at rest: it needs a static alignment ([initial] mode = "alignment", '
+                "no lat_deg/lon_deg) whose first GNSS sensor has use_height = true, and fixes "
+                f"and readings of {name!r} inside the window; give the height instead",
+                file=CONFIG_NAME,
+                field=f"sensors.{name}.surface_h_m",
+            )
+    paths = [(f"sensors.{n}.surface_h_m", round(found[n], 3)) for n in auto]
+    return with_overrides(cfg, paths, CONFIG_NAME), {n: found[n] for n in auto}
 
 
 def _configured_state(
@@ -286,6 +413,9 @@ def run(
     if initial is None and cfg.initial.mode != "state" and progress is not None:
         progress("aligning")
     x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
+    cfg, surfaces = resolve_surfaces(cfg, m.sensors, x0, float(m.imu.t[0] - m.imu.dt[0]), t0)
+    if surfaces:
+        m, init_info = replace(m, config=cfg), {**init_info, "surface_h_m": surfaces}
     states = calibration.calibration_states(cfg)
     x0, P0 = calibration.extend(x0[:NOM_SIZE], P0[:N_STATES, :N_STATES], states)
     feed = _feed(m, s, t0, states)

@@ -107,6 +107,15 @@ class Stream:
                 "the oracle filter needs the simulator's true noise of every reading: run it "
                 "in batch (adaptnav.api.run); a stream takes robust, meskf, maeskf or vb"
             )
+        auto = [n for n, c in cfg.sensors.items() if c.surface_h_m == "auto"]
+        if auto:
+            raise MissionError(
+                f'{CONFIG_NAME}: [sensors.{auto[0]}] surface_h_m = "auto": a stream needs the '
+                "water surface's height as a number (a batch run measures it at rest and records "
+                "it in its summary.json, meta.surface_h_m)",
+                file=CONFIG_NAME,
+                field=f"sensors.{auto[0]}.surface_h_m",
+            )
         self.config, self.settings, self._on_row = cfg, s, on_row
         self.policy = epoch_policy or cfg.filter.epoch_policy
         self._states = calibration.calibration_states(cfg)
