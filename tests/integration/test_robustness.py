@@ -8,6 +8,7 @@ tests/integration/test_fuzz_input.py.
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -675,3 +676,28 @@ def test_an_event_names_the_file_row_of_the_reading_that_triggered_it(
         row = ledger[(ledger["sensor"] == ev.sensor) & (ledger["row"] == ev.row)]
         assert len(row) == 1
         assert row.iloc[0]["fate"] == "rejected" and row.iloc[0]["t_epoch"] == ev.t
+
+
+def test_the_alignment_puts_the_imu_not_the_gnss_antenna_at_the_fixes(mission: Path) -> None:
+    """The mean of the GNSS fixes in the window is the antenna's position, r_a = r + C_nb l_g;
+    the aligned state is the IMU's, r = r_a - C_nb l_g: with the antenna 3 m forward and 1 m
+    to starboard of the IMU, the state moves back by that, rotated by the aligned heading. The
+    height stays the configured one (this GNSS gives no heights). Before, the state was the
+    antenna's own position, 3.2 m off for the whole of a dive aided by no GNSS after it."""
+    from adaptnav.api.runner import start_state
+    from adaptnav.core import attitude, earth
+    from adaptnav.mission import load_mission
+    from adaptnav.mission.config import with_overrides
+
+    m = load_mission(mission)
+    states = {}
+    for arm in ((0.0, 0.0, 0.0), (3.0, 1.0, -5.0)):
+        cfg = with_overrides(m.config, [("sensors.gps.lever_arm_m", list(arm))])
+        states[arm] = start_state(cfg, m.imu, m.sensors)[0]
+    x_none, x_arm = states[(0.0, 0.0, 0.0)], states[(3.0, 1.0, -5.0)]
+    moved = earth.geodetic_to_ned(*x_arm[:3], *x_none[:3])
+    expected = -(attitude.quat_to_dcm(x_arm[6:10]) @ np.array([3.0, 1.0, -5.0]))
+    expected[2] = 0.0
+    np.testing.assert_allclose(moved, expected, atol=1e-6)
+    assert np.hypot(*expected[:2]) == pytest.approx(math.hypot(3.0, 1.0), abs=0.05)  # tilt
+    np.testing.assert_allclose(x_arm[3:], x_none[3:], atol=1e-12)

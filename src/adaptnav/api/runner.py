@@ -22,7 +22,7 @@ import pandas as pd
 from adaptnav.api import oracle
 from adaptnav.api.diagnosis import with_warnings
 from adaptnav.api.results import Result, dropped_ledger, ledger_frame
-from adaptnav.core import attitude
+from adaptnav.core import attitude, earth
 from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align
 from adaptnav.engine.channels import build_channels
@@ -122,6 +122,7 @@ def start_state(
     )  # fmt: skip
     check_angles_at_rest(cfg, sensors, a.x0, a.P0, a.coarse.mean_specific_force, t_start, a.t_end)
     check_depth_at_rest(cfg, sensors, a.x0, t_start, a.t_end)
+    x0 = _at_the_imu(cfg, a.x0)
     info = {
         "initial": "alignment",
         "alignment_s": ini.alignment_s,
@@ -130,7 +131,29 @@ def start_state(
         "aligned_rpy_deg": list(np.degrees(attitude.quat_to_euler(a.x0[6:10]))),
         "sigma_attitude_deg": list(np.degrees(a.std[ATT])),
     }
-    return a.x0, a.P0, a.t_end, info
+    return x0, a.P0, a.t_end, info
+
+
+def _at_the_imu(cfg: MissionConfig, x0: np.ndarray) -> np.ndarray:
+    """The aligned state moved from the GNSS antenna to the IMU when the position is the mean of
+    a GNSS sensor's fixes (:func:`_alignment_position`): a fix is the antenna's position,
+    ``r_a = r + C_nb l_g`` (sensors/gnss.py), so ``r = r_a - C_nb l_g``; the height only when the
+    fixes gave it (``use_height``), else it is the configured one. Unchanged for a configured
+    position or a GNSS without a lever arm."""
+    ini = cfg.initial
+    if ini.lat_deg is not None and ini.lon_deg is not None:
+        return x0
+    gnss = next(n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off")
+    gc = cfg.sensors[gnss]
+    d = attitude.quat_to_dcm(x0[NOM_ATT]) @ gc.lever_arm()
+    if not gc.use_height:
+        d[2] = 0.0
+    if not np.any(d):
+        return x0
+    lat, lon, h = earth.ned_to_geodetic(-d, x0[0], x0[1], x0[2])
+    x = x0.copy()
+    x[:3] = (float(lat), float(lon), float(h))
+    return x
 
 
 AT_REST_KINDS = ("inclinometer", "heading")
