@@ -47,6 +47,19 @@ def test_a_burst_under_half_a_window_is_not_flagged() -> None:
     assert math.isnan(t_from) and math.isnan(t_to)
 
 
+def test_a_burst_at_the_end_is_judged_in_a_whole_window() -> None:
+    """24 bad readings at the end of a 400-s run at 1 Hz (A-KIT segment 7's second fault
+    draw): the last window holding them is [339, 399], 61 readings, 24 bad. Before, the
+    windows starting near the end held fewer readings, and 24 of the last 28 warned."""
+    t = np.arange(400.0)
+    worst, t_from, _ = dg.windows(t, t >= 376)
+    assert worst == pytest.approx(24 / 61)
+    assert math.isnan(t_from)
+    # A run shorter than the window is one window.
+    short = np.arange(40.0)
+    assert dg.windows(short, short >= 10)[0] == pytest.approx(30 / 40)
+
+
 def test_too_few_readings_are_not_judged() -> None:
     t = np.arange(float(dg.MIN_READINGS - 1))
     assert dg.windows(t, np.ones(t.size, dtype=bool))[0] == 0.0

@@ -109,21 +109,25 @@ def disagreeing(
 
 
 def windows(t: Array, bad: NDArray[np.bool_]) -> tuple[float, float, float]:
-    """Over every window ``[t_i, t_i + WINDOW_S]`` of at least :data:`MIN_READINGS` readings:
-    the highest share of ``bad``, and the span (first start, last end) of the windows above
-    :data:`SHARE` (NaN, NaN if none)."""
+    """Over every window of :data:`WINDOW_S` starting at a reading, ``[t_i, t_i + WINDOW_S]``,
+    moved back to end at the last reading where it would run past it (so a burst at the end of
+    a run is judged in a whole window, like any other; a run shorter than the window is one
+    window), with at least :data:`MIN_READINGS` readings: the highest share of ``bad``, and the
+    span (first start, last end) of the windows above :data:`SHARE` (NaN, NaN if none)."""
     n = t.size
     if n < MIN_READINGS:
         return 0.0, math.nan, math.nan
-    end = np.searchsorted(t, t + WINDOW_S, side="right")
-    counts = end - np.arange(n)
+    start = np.maximum(t[0], np.minimum(t, t[-1] - WINDOW_S))
+    first = np.searchsorted(t, start, side="left")
+    end = np.searchsorted(t, start + WINDOW_S, side="right")
+    counts = end - first
     cum = np.concatenate(([0], np.cumsum(bad)))
-    share = (cum[end] - cum[:n]) / counts
+    share = (cum[end] - cum[first]) / counts
     share[counts < MIN_READINGS] = 0.0
     over = np.flatnonzero(share > SHARE)
     if over.size == 0:
         return float(share.max()), math.nan, math.nan
-    return float(share.max()), float(t[over[0]]), float(t[end[over[-1]] - 1])
+    return float(share.max()), float(t[first[over[0]]]), float(t[end[over[-1]] - 1])
 
 
 def diagnose(
