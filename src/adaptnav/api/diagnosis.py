@@ -94,10 +94,10 @@ class SensorWarning:
 
 def disagreeing(
     ledger: pd.DataFrame, sensor: str, r_nominal: Array, ceiling: float
-) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
     """Of ``sensor``'s readings that reached the filter, in time order: their stamps, and
-    which were rejected by the guard or the gate, which were used with an R̂ at the limit,
-    and which of either (module docstring). ``r_nominal``: the nominal R's diagonal."""
+    which were rejected by the guard or the gate, and which were used with an R̂ at the limit
+    (module docstring). ``r_nominal``: the nominal R's diagonal."""
     rows = ledger[(ledger["sensor"] == sensor) & ledger["fate"].isin(("used", "rejected"))]
     rows = rows.sort_values("t", kind="stable")
     rejected = (rows["fate"] == "rejected").to_numpy() & rows["reason"].isin(DISAGREEING).to_numpy()
@@ -105,7 +105,7 @@ def disagreeing(
     r = rows[[f"r_{j}" for j in range(d)]].to_numpy(dtype=float)
     limit = min(ceiling, RATIO) * r_nominal * (1.0 - 1e-6)
     high = (rows["fate"] == "used").to_numpy() & np.any(r >= limit, axis=1)
-    return rows["t"].to_numpy(dtype=float), rejected, high, rejected | high
+    return rows["t"].to_numpy(dtype=float), rejected, high
 
 
 def windows(t: Array, bad: NDArray[np.bool_]) -> tuple[float, float, float]:
@@ -138,13 +138,12 @@ def diagnose(
     factor of the nominal variance (inf: unbounded, or a fixed R)."""
     out = []
     for name, r_nominal in nominal.items():
-        t, rejected, high, bad = disagreeing(
-            ledger, name, np.asarray(r_nominal, dtype=float), ceilings.get(name, math.inf)
-        )
-        worst, t_from, t_to = windows(t, bad)
+        ceiling = ceilings.get(name, math.inf)
+        t, rejected, high = disagreeing(ledger, name, np.asarray(r_nominal, dtype=float), ceiling)
+        worst, t_from, t_to = windows(t, rejected | high)
         if math.isnan(t_from):
             continue
-        limit = min(ceilings.get(name, math.inf), RATIO)
+        limit = min(ceiling, RATIO)
         message = (
             f"{name}: at odds with the INS and the other sensors from t = {t_from:.1f} to "
             f"{t_to:.1f} s (up to {100 * worst:.0f} % of its readings in {WINDOW_S:.0f} s; "
@@ -156,7 +155,7 @@ def diagnose(
     return out
 
 
-def ceiling(channel: SensorChannel) -> float:
+def channel_ceiling(channel: SensorChannel) -> float:
     """The ceiling of a channel's R̂ as a factor of its nominal variance (inf: none, or a
     fixed R)."""
     st = channel.strategy
@@ -173,6 +172,6 @@ def with_warnings(result: Result, channels: Sequence[SensorChannel]) -> Result:
     found = diagnose(
         result.ledger,
         {c.name: np.diag(nominal_R(c.model)) for c in channels},
-        {c.name: ceiling(c) for c in channels},
+        {c.name: channel_ceiling(c) for c in channels},
     )
     return replace(result, meta={**result.meta, "warnings": [w.as_dict() for w in found]})

@@ -134,16 +134,25 @@ def start_state(
     return x0, a.P0, a.t_end, info
 
 
+def _position_gnss(cfg: MissionConfig) -> str | None:
+    """The GNSS sensor whose fixes a static alignment takes its position from
+    (:func:`_alignment_position`): the first one not off, when ``[initial]`` gives no position;
+    None when it does, or there is none."""
+    ini = cfg.initial
+    if ini.lat_deg is not None and ini.lon_deg is not None:
+        return None
+    return next((n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"), None)
+
+
 def _at_the_imu(cfg: MissionConfig, x0: np.ndarray) -> np.ndarray:
     """The aligned state moved from the GNSS antenna to the IMU when the position is the mean of
     a GNSS sensor's fixes (:func:`_alignment_position`): a fix is the antenna's position,
     ``r_a = r + C_nb l_g`` (sensors/gnss.py), so ``r = r_a - C_nb l_g``; the height only when the
     fixes gave it (``use_height``), else it is the configured one. Unchanged for a configured
     position or a GNSS without a lever arm."""
-    ini = cfg.initial
-    if ini.lat_deg is not None and ini.lon_deg is not None:
+    gnss = _position_gnss(cfg)
+    if gnss is None:
         return x0
-    gnss = next(n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off")
     gc = cfg.sensors[gnss]
     d = attitude.quat_to_dcm(x0[NOM_ATT]) @ gc.lever_arm()
     if not gc.use_height:
@@ -241,11 +250,8 @@ def _height_gnss(cfg: MissionConfig) -> str | None:
     """The GNSS sensor whose heights give the static alignment its height
     (:func:`_alignment_position`): the first one not off, with ``use_height``, when ``[initial]``
     gives no position; else None."""
-    ini = cfg.initial
-    if ini.mode != "alignment" or (ini.lat_deg is not None and ini.lon_deg is not None):
-        return None
-    gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
-    return gnss[0] if gnss and cfg.sensors[gnss[0]].use_height else None
+    g = _position_gnss(cfg) if cfg.initial.mode == "alignment" else None
+    return g if g is not None and cfg.sensors[g].use_height else None
 
 
 def surfaces_at_rest(
@@ -368,24 +374,24 @@ def _alignment_position(
     ini = cfg.initial
     if ini.lat_deg is not None and ini.lon_deg is not None:
         return (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
-    gnss = [n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"]
-    if not (gnss and gnss[0] in sensors):
+    gnss = _position_gnss(cfg)
+    if gnss is None or gnss not in sensors:
         raise MissionError(
             f"{CONFIG_NAME}: alignment: no position to align at (initial.lat_deg/lon_deg, or a "
             "GNSS sensor with readings)",
             file=CONFIG_NAME,
         )
-    g = sensors[gnss[0]]
+    g = sensors[gnss]
     inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
     if not np.any(inside):
-        file = cfg.sensors[gnss[0]].file
+        file = cfg.sensors[gnss].file
         n = int(np.count_nonzero(g.t <= window_end))
         raise MissionError(
-            f"{file}: no valid fix of sensor {gnss[0]!r} inside the static alignment window "
+            f"{file}: no valid fix of sensor {gnss!r} inside the static alignment window "
             f"(t <= {window_end:.6g} s; {n} row(s) there, none finite and plausible), and no "
             "initial.lat_deg/lon_deg to align at",
             file=file,
-            field=gnss[0],
+            field=gnss,
         )
     lat, lon = float(np.mean(g.z[inside, 0])), float(np.mean(g.z[inside, 1]))
     h = float(np.mean(g.z[inside, 2])) if g.z.shape[1] > 2 else ini.h_m

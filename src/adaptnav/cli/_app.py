@@ -7,7 +7,7 @@ from __future__ import annotations
 import gc
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
@@ -97,6 +97,13 @@ def warn_sensors(meta: dict[str, Any], label: str = "") -> None:
     :func:`warn` each; ``label`` (e.g. the filter) before each."""
     for w in meta.get("warnings", []):
         warn(f"{label}{w['message']}")
+
+
+def warn_compared(results: Mapping[str, Any]) -> None:
+    """:func:`warn_sensors` of each run of a comparison (filter name → its Result), labelled
+    with the filter."""
+    for name, result in results.items():
+        warn_sensors(result.meta, f"{name}: ")
 
 
 Force = Annotated[

@@ -35,7 +35,7 @@ from adaptnav.cli._app import (
     fail,
     freeze_heap,
     output,
-    warn_sensors,
+    warn_compared,
 )
 
 if TYPE_CHECKING:
@@ -171,8 +171,7 @@ def compare_cmd(
         return
     console.print(comparison_table(cmp))
     console.print(f"runs, comparison.csv/json and figures in {out}/; `adaptnav report {out}`")
-    for name, result in cmp.results.items():
-        warn_sensors(result.meta, f"{name}: ")
+    warn_compared(cmp.results)
 
 
 @app.command("report")

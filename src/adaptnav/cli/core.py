@@ -19,6 +19,7 @@ from adaptnav.cli._app import (
     freeze_heap,
     output,
     run_progress,
+    warn_compared,
     warn_sensors,
 )
 from adaptnav.cli._app import fail as _fail
@@ -85,8 +86,7 @@ def demo(
         write_report(tmp, shown_as=out.absolute())
     report = out / "report.html"
     console.print(comparison_table(cmp, f"{preset} (seed {seed})"))
-    for name, result in cmp.results.items():
-        warn_sensors(result.meta, f"{name}: ")
+    warn_compared(cmp.results)
     source = {"gyrocompass": "gyrocompassing", "heading": "the mission's given heading"}
     how = source.get(str(cmp.initial.get("heading_source")), str(cmp.initial.get("initial")))
     console.print(f"static alignment: heading from {how}; every filter starts from it")

@@ -957,12 +957,11 @@ def _events(folder: Path, name: str) -> EventRow:
     )
 
 
-def _warnings(folder: Path, name: str) -> list[tuple[str, str]]:
+def _warnings(name: str, summary: Mapping[str, Any] | None) -> list[tuple[str, str]]:
     """A filter's sensors at odds with the rest: ``meta.warnings`` of its run folder's
-    ``summary.json`` (api/diagnosis.py), as (filter, message); none if it has none or cannot
-    be read."""
-    doc = _optional_json(folder / str(name) / "summary.json") or {}
-    meta = doc.get("meta")
+    ``summary.json`` (api/diagnosis.py), as (filter, message); none if it has none or could
+    not be read (None)."""
+    meta = (summary or {}).get("meta")
     found = meta.get("warnings") if isinstance(meta, dict) else None
     if not isinstance(found, list):
         return []
@@ -1038,14 +1037,13 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
     specs = doc.get("interactive")
     specs = specs if isinstance(specs, dict) else {}
     figures = _figures(folder, doc.get("figures") or [], specs, sim is not None, smoothed)
+    summaries = {n: _optional_json(folder / str(n) / "summary.json") for n in names}
     return ReportData(
         title=title,
         filters=tuple(_label(n) for n in names),
         scenario=_scenario(doc, config, sim),
         sensors=_sensors(config) if config else None,
-        settings=tuple(
-            _filter_row(n, _optional_json(folder / str(n) / "summary.json")) for n in names
-        ),
+        settings=tuple(_filter_row(n, summaries[n]) for n in names),
         results=tuple(
             _result_row(str(doc.get("mission", "")), n, results.get(n, {})) for n in scored
         ),
@@ -1064,7 +1062,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
         max_points=MAX_POINTS,
         ledger=tuple(_ledger(scored, results)),
         events=tuple(_events(folder, n) for n in names),
-        warnings=tuple(w for n in names for w in _warnings(folder, n)),
+        warnings=tuple(w for n in names for w in _warnings(n, summaries[n])),
         initial=_initial(doc.get("initial") or {}),
         version=__version__,
         written=_dt.datetime.now(_dt.UTC),
