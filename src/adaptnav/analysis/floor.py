@@ -48,7 +48,7 @@ from adaptnav.mission import Mission
 
 Array = NDArray[np.float64]
 
-__all__ = ["FILTER_NAME", "dead_reckon", "run"]
+__all__ = ["FILTER_NAME", "dead_reckon", "dvl_readings", "dvl_sensor", "run"]
 
 FILTER_NAME = "floor"
 _ATTITUDE = ("roll_rad", "pitch_rad", "yaw_rad")
@@ -78,14 +78,16 @@ def dead_reckon(t: Array, v_n: Array, lat0: float, lon0: float, h0: float) -> Ar
     return np.column_stack([lat, lon, h])
 
 
-def _dvl_sensor(mission: Mission, sensor: str | None) -> str:
+def dvl_sensor(mission: Mission, sensor: str | None, who: str = FILTER_NAME) -> str:
+    """``sensor`` if it is a loaded sensor of kind "dvl", else the first such; ValueError
+    (its message starting with ``who``) if there is none or ``sensor`` is not one."""
     dvls = [n for n, s in mission.sensors.items() if s.kind == "dvl"]
     if sensor is not None:
         if sensor not in dvls:
-            raise ValueError(f"floor: {sensor!r} is not a loaded dvl sensor (dvl sensors: {dvls})")
+            raise ValueError(f"{who}: {sensor!r} is not a loaded dvl sensor (dvl sensors: {dvls})")
         return sensor
     if not dvls:
-        raise ValueError("floor: the mission has no loaded sensor of kind 'dvl'")
+        raise ValueError(f"{who}: the mission has no loaded sensor of kind 'dvl'")
     return dvls[0]
 
 
@@ -100,11 +102,11 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
     tables are empty (no filter, no update).
     """
     truth = _reference(mission)
-    name = _dvl_sensor(mission, sensor)
+    name = dvl_sensor(mission, sensor)
     cfg = mission.config.sensors[name]
     imu = mission.imu
     t_ref = truth["t_s"].to_numpy(dtype=float)
-    t, z, valid = _readings(mission, name, t_ref)
+    t, z, valid = dvl_readings(mission, name, t_ref)
 
     # Hold the last valid reading over non-finite ones (index of the last valid so far).
     held = np.maximum.accumulate(np.where(valid, np.arange(t.size), 0))
@@ -164,9 +166,11 @@ def _reference(mission: Mission) -> pd.DataFrame:
     return truth
 
 
-def _readings(mission: Mission, name: str, t_ref: Array) -> tuple[Array, Array, NDArray[np.bool_]]:
+def dvl_readings(
+    mission: Mission, name: str, t_ref: Array, who: str = FILTER_NAME
+) -> tuple[Array, Array, NDArray[np.bool_]]:
     """(t, z, finite) of the DVL ``name``'s readings inside the IMU and truth spans, from the
-    first finite one on; ValueError if there is none."""
+    first finite one on; ValueError (its message starting with ``who``) if there is none."""
     data = mission.sensors[name]
     imu = mission.imu
     lo = max(float(imu.t[0] - imu.dt[0]), float(t_ref[0]))
@@ -175,7 +179,7 @@ def _readings(mission: Mission, name: str, t_ref: Array) -> tuple[Array, Array, 
     t, z = data.t[inside], data.z[inside]
     valid = np.all(np.isfinite(z), axis=1)
     if not valid.any():
-        raise ValueError(f"floor: sensor {name!r} has no finite reading inside [{lo}, {hi}] s")
+        raise ValueError(f"{who}: sensor {name!r} has no finite reading inside [{lo}, {hi}] s")
     first = int(np.argmax(valid))
     return t[first:], z[first:], valid[first:]
 

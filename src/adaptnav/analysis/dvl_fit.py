@@ -1,0 +1,246 @@
+"""A DVL's scale and mounting misalignment fitted against a reference trajectory, without the
+filter (docs/calibration.md, 'Against a reference').
+
+Where a mission has a reference with velocity and attitude (a post-processed INS, GNSS with a
+heading reference, a simulation's truth), the readings themselves say how the DVL is
+calibrated: at each reading time t_k the reference gives ``h_k``, the velocity an error-free DVL
+would read (:func:`adaptnav.sensors.dvl.ideal`, the filter's model)::
+
+    h_k = C_sb (C_nb(t_k)ᵀ v_n(t_k) + ω_ib_b(t_k) × l_b)
+
+and the readings are fitted to ``z_k = (1 + s) M(δ) h_k + ε_k`` with the filter's conventions
+for the scale s and the misalignment δ = (roll, pitch, yaw) (``M = euler_to_dcm(δ)ᵀ``,
+:mod:`adaptnav.sensors.calibration`), so the numbers compare with the filter's states
+``<dvl>.scale`` and ``<dvl>.misalignment_*``. The reference velocity v_n is its velocity
+columns (``source="velocity"``) or the rate of change of its positions (``source="position"``:
+``v_N = (R_M + h) dL/dt``, ``v_E = (R_N + h) cos L dλ/dt``, ``v_D = -dh/dt`` by central
+differences, Groves 2013 eq. 2.111, the radii of :mod:`adaptnav.core.earth`). The two differ
+where a reference's velocity is not the derivative of its positions, as on A-KIT, whose
+velocity and positions disagree in scale by up to 0.4 % per segment (docs/calibration.md); the
+positions are what a run is scored against. Both are interpolated linearly, the attitude by
+spherical linear interpolation, at t_k; ω_ib_b is the IMU's mean rate
+``Δθ / Δt`` interpolated from the interval mid-times, less the reference's gyro bias when it has
+one (a simulation's truth).
+
+The fit is weighted Gauss-Newton least squares (each axis weighted by its own residual
+variance), with readings more than :data:`OUTLIER_SIGMAS` σ off excluded and the fit repeated
+until none is; σ per axis is the larger of the robust one (1.4826 × the median absolute
+residual) and the sensor's configured σ, as a DVL's noise grows with speed and a mission that
+spends most of its readings at rest would otherwise have a robust σ of the resting noise and
+leave out every reading under way. The covariance is the sandwich ``A⁻¹ (Jᵀ W diag(r²) W J) A⁻¹``,
+``A = Jᵀ W J`` (White 1980: right when the noise varies from reading to reading, as with speed),
+multiplied by ``(1 + ρ)/(1 - ρ)`` for residuals that are correlated from reading to reading (the
+reference's own errors, the sea bottom, the water): ρ is their lag-1 correlation over
+consecutive readings (pooled over the axes, clipped to [0, :data:`MAX_RHO`]), the factor the
+variance of a mean of an AR(1) sequence, whose effective number of readings is
+``n (1 - ρ)/(1 + ρ)``.
+
+This is what the reference says, not the truth: a reference that is itself a DVL-aided
+solution carries its own estimate of the DVL's calibration, and its attitude and time
+alignment errors enter the fit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation, Slerp
+
+from adaptnav.analysis.floor import dvl_readings, dvl_sensor
+from adaptnav.core import earth
+from adaptnav.core.attitude import dcm_to_quat
+from adaptnav.mission import Mission
+from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_SIZE, NOM_VEL
+from adaptnav.sensors import dvl
+from adaptnav.sensors.calibration import MISALIGNMENT, SCALE, misalignment
+from adaptnav.sensors.calibration import misalignment_derivatives as derivatives
+from adaptnav.sensors.kind import IdealInput
+
+Array = NDArray[np.float64]
+
+__all__ = ["DvlFit", "fit_dvl", "position_rate"]
+
+OUTLIER_SIGMAS = 5.0
+"""A reading with an axis this many robust σ off the fit is excluded from it."""
+MAX_RHO = 0.95
+"""Largest lag-1 correlation the σ inflation takes (a factor of 39 on the variance)."""
+MAX_CONDITION = 1e10
+"""Above this condition number of ``Jᵀ W J`` the readings do not observe the four numbers."""
+NAMES = (*SCALE.states, *MISALIGNMENT.states)
+"""The fitted quantities, as the filter's calibration states name them after the sensor."""
+_ATTITUDE = ("roll_rad", "pitch_rad", "yaw_rad")
+_VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
+_GYRO_BIAS = ("bg_x_rad_s", "bg_y_rad_s", "bg_z_rad_s")
+_POSITION = ("lat_rad", "lon_rad", "h_m")
+Source = Literal["velocity", "position"]
+"""Where the reference velocity comes from (module docstring)."""
+
+
+@dataclass(frozen=True)
+class DvlFit:
+    """The fit of :func:`fit_dvl`: per quantity (:data:`NAMES`) its estimate and σ in the
+    filter's report units (scale in %, angles in degrees), and what went into it."""
+
+    sensor: str
+    source: Source
+    estimate: dict[str, float]
+    sigma: dict[str, float]
+    readings: int
+    """Readings inside the IMU and reference spans with every component finite."""
+    used: int
+    """Of them, the ones the fit kept (the rest more than :data:`OUTLIER_SIGMAS` σ off)."""
+    residual_rms_m_s: tuple[float, float, float]
+    """RMS residual per DVL axis (m/s)."""
+    rho: float
+    """Lag-1 correlation of the residuals (before clipping)."""
+    inflation: float
+    """Factor applied to the white-residual variances, ``(1 + ρ)/(1 - ρ)``."""
+
+
+def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "velocity") -> DvlFit:
+    """The DVL ``sensor`` (default: the first loaded sensor of kind "dvl") of ``mission``
+    fitted against the mission's reference, its velocity taken from ``source`` (module
+    docstring). ValueError when the mission has no reference with that velocity and an
+    attitude, no finite reading inside it, or readings that do not observe the scale and the
+    three angles (a DVL that never moves)."""
+    name = dvl_sensor(mission, sensor, "fit_dvl")
+    t, z, h = _predicted(mission, name, source)
+    nominal = np.broadcast_to(mission.config.sensors[name].sigma_si(), (3,))
+    keep = np.ones(t.size, dtype=bool)
+    for _ in range(10):  # the exclusions settle in 2-4 rounds; a reading may come back
+        p = _solve(z[keep], h[keep])[0]
+        res = z - _model(p, h)
+        scale = np.maximum(1.4826 * np.median(np.abs(res[keep]), axis=0), nominal)
+        out = np.any(np.abs(res) > OUTLIER_SIGMAS * scale, axis=1)
+        if np.array_equal(~out, keep):
+            break
+        keep = ~out
+    p, J, r, w = _solve(z[keep], h[keep])
+    rho = _lag1(r, t[keep])
+    inflation = (1.0 + min(max(rho, 0.0), MAX_RHO)) / (1.0 - min(max(rho, 0.0), MAX_RHO))
+    W = np.tile(w, int(keep.sum()))
+    A_inv = np.linalg.inv(J.T @ (J * W[:, None]))
+    G = J * (W * r.reshape(-1))[:, None]  # rows: each residual's part of the gradient
+    cov = A_inv @ (G.T @ G) @ A_inv * inflation
+    factors = (SCALE.factor, *(MISALIGNMENT.factor,) * 3)
+    rms = np.sqrt(np.mean(r**2, axis=0))
+    return DvlFit(
+        name,
+        source,
+        {k: float(v * f) for k, v, f in zip(NAMES, p, factors, strict=True)},
+        {k: float(math.sqrt(c) * f) for k, c, f in zip(NAMES, np.diag(cov), factors, strict=True)},
+        int(t.size),
+        int(keep.sum()),
+        (float(rms[0]), float(rms[1]), float(rms[2])),
+        rho,
+        float(inflation),
+    )
+
+
+def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Array, Array]:
+    """(t, z, h) of the finite readings of ``name`` inside the reference: the readings z and
+    the reference's error-free h, each (n, 3)."""
+    truth = mission.truth
+    if truth is None:
+        raise ValueError("fit_dvl: the mission has no reference (truth) table")
+    if source not in ("velocity", "position"):
+        raise ValueError(f"fit_dvl: source {source!r} is not 'velocity' or 'position'")
+    needs = _VELOCITY if source == "velocity" else _POSITION
+    missing = [c for c in ("t_s", *needs, *_ATTITUDE) if c not in truth.columns]
+    if missing:
+        raise ValueError(f"fit_dvl: the reference (truth) table lacks columns {missing}")
+    t_ref = truth["t_s"].to_numpy(dtype=float)
+    if t_ref.size < 3 or not np.all(np.diff(t_ref) > 0.0):
+        raise ValueError("fit_dvl: the reference's t_s must be increasing, with 3 rows or more")
+    v_ref = (
+        truth[list(_VELOCITY)].to_numpy(dtype=float)
+        if source == "velocity"
+        else position_rate(t_ref, truth[list(_POSITION)].to_numpy(dtype=float))
+    )
+    t, z, valid = dvl_readings(mission, name, t_ref, "fit_dvl")
+    t, z = t[valid], z[valid]
+    rpy = truth[list(_ATTITUDE)].to_numpy(dtype=float)
+    C_nb = Slerp(t_ref, Rotation.from_euler("ZYX", rpy[:, ::-1]))(t).as_matrix()
+    x = np.zeros((t.size, NOM_SIZE))
+    x[:, NOM_VEL] = np.column_stack([np.interp(t, t_ref, v_ref[:, i]) for i in range(3)])
+    x[:, NOM_ATT] = [dcm_to_quat(C) for C in C_nb]
+    imu = mission.imu
+    rates = imu.dtheta / imu.dt[:, None]
+    t_mid = imu.t - 0.5 * imu.dt
+    omega = np.column_stack([np.interp(t, t_mid, rates[:, i]) for i in range(3)])
+    if all(c in truth.columns for c in _GYRO_BIAS):
+        x[:, NOM_BG] = np.column_stack([np.interp(t, t_ref, truth[c]) for c in _GYRO_BIAS])
+    model = mission.config.sensors[name]
+    h = dvl.ideal(
+        IdealInput(x, omega, np.zeros_like(omega), model.lever_arm(), model.sensor_from_body())
+    )
+    return t, z, np.asarray(h, dtype=float)
+
+
+def position_rate(t: Array, llh: Array) -> Array:
+    """NED velocity (n, 3) of the positions ``llh`` (lat, lon rad, h m) at times t, by central
+    differences (one-sided at the ends; module docstring)."""
+    lat, lon, h = llh.T
+    return np.column_stack(
+        [
+            np.gradient(lat, t) * (earth.meridian_radius(lat) + h),
+            np.gradient(lon, t) * (earth.transverse_radius(lat) + h) * np.cos(lat),
+            -np.gradient(h, t),
+        ]
+    )
+
+
+def _model(p: Array, h: Array) -> Array:
+    """``(1 + s) M(δ) h_k`` for every reading (n, 3)."""
+    return np.asarray((1.0 + p[0]) * (h @ misalignment(p[1:]).T), dtype=float)
+
+
+def _solve(z: Array, h: Array) -> tuple[Array, Array, Array, Array]:
+    """Weighted Gauss-Newton fit of ``p = (s, δ)`` to the readings z (n, 3): (p, J at p (3n, 4),
+    residuals (n, 3), the per-axis weights (3,)). The weights are the inverse residual variances
+    of an unweighted first pass, so an axis noisier than the others counts less."""
+    p = np.zeros(4)
+    w = np.ones(3)
+    for it in range(12):
+        J = _jacobian(p, h)
+        r = (z - _model(p, h)).reshape(-1)
+        if it == 1:  # weights from the first (unweighted) fit's residuals
+            w = 1.0 / np.maximum(np.mean(r.reshape(-1, 3) ** 2, axis=0), 1e-12)
+        W = np.tile(w, r.size // 3)
+        A = J.T @ (J * W[:, None])
+        if np.linalg.cond(A) > MAX_CONDITION:
+            raise ValueError(
+                "fit_dvl: the readings do not observe the DVL's scale and misalignment (the "
+                "reference velocity is too small or never changes direction)"
+            )
+        step = np.linalg.solve(A, J.T @ (W * r))
+        p = p + step
+        if it >= 2 and np.max(np.abs(step)) < 1e-12:
+            break
+    J = _jacobian(p, h)
+    return p, J, z - _model(p, h), w
+
+
+def _jacobian(p: Array, h: Array) -> Array:
+    """``∂[(1 + s) M(δ) h_k]/∂(s, δ)`` for h (n, 3): (3n, 4), rows reading by reading."""
+    J = np.empty((h.shape[0], 3, 4))
+    J[:, :, 0] = h @ misalignment(p[1:]).T
+    for i, dM in enumerate(derivatives(p[1:])):
+        J[:, :, 1 + i] = (1.0 + p[0]) * (h @ dM.T)
+    return J.reshape(-1, 4)
+
+
+def _lag1(res: Array, t: Array) -> float:
+    """Lag-1 correlation of the residuals (n, 3) over consecutive readings no further apart
+    than 1.5 × their median interval, pooled over the axes."""
+    if t.size < 3:
+        return 0.0
+    dt = np.diff(t)
+    pair = dt <= 1.5 * np.median(dt)
+    a, b = res[:-1][pair], res[1:][pair]
+    den = math.sqrt(float(np.sum(a**2)) * float(np.sum(b**2)))
+    return float(np.sum(a * b)) / den if den > 0.0 else 0.0

@@ -1,0 +1,56 @@
+"""scripts/calibration_eval.py (make calibration): the page on the short demo mission, its
+'What limits the estimates' section, and the A-KIT section's agreement arithmetic."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from helpers.script_loader import load_script
+
+SCRIPT = load_script("calibration_eval")
+
+
+def test_the_script_writes_the_page_with_the_limits_and_the_truth_fit(tmp_path: Path) -> None:
+    out = tmp_path / "c.md"
+    args = ["--preset", "demo", "--seeds", "1", "--no-akit", "--cache", str(tmp_path / "cache"),
+            "--out", str(out)]  # fmt: skip
+    assert SCRIPT.main(args) == 0
+    text = out.read_text()
+    for part in ("## Means and the issue's targets", "## Every run", "truth fit: yaw (°)",
+                 "## What limits the estimates", "robust + a heading sensor (0.5°)",
+                 "robust + GNSS positions (2.9 m)", "truth fit (no filter)"):  # fmt: skip
+        assert part in text, part
+    assert "## A-KIT" not in text
+    # the aided missions are the estimating one with one sensor's use changed, nothing else
+    est = next((tmp_path / "cache").glob("demo-s1-*-estimate"))
+    gnss = est.with_name(est.name + "-gps")
+    assert 'use = "aid"' in (gnss / "mission.toml").read_text()
+    assert 'use = "init"' in (est / "mission.toml").read_text()
+    assert (gnss / "dvl.parquet").stat().st_ino == (est / "dvl.parquet").stat().st_ino
+
+
+def _segment(n: int, scale: float, sd: float) -> dict[str, Any]:
+    one = {k: 0.0 for k in SCRIPT.AKIT_STATES} | {f"sd_{k}": 1.0 for k in SCRIPT.AKIT_STATES}
+    one |= {"dvl.scale": scale, "sd_dvl.scale": sd}
+    est = one | {"rel_without_pct": 0.2, "rel_with_pct": 0.2, "rel_smoothed_pct": 0.1}
+    return {"segment": n, "reference_scale_pct": 0.0, "vb": est, "robust": est,
+            "fit_velocity": one, "fit_position": one}  # fmt: skip
+
+
+def test_agreement_is_the_weighted_mean_and_the_chi_square_of_the_spread() -> None:
+    """Three segments 0, 0, 4.5 with σ 1: mean 1.5, χ² 2.25 + 2.25 + 9 = 13.5 on 2, the third
+    3σ off the mean; with σ 1, 1, 2 it counts a quarter: mean 0.5, χ² 0.25 + 0.25 + 4, all
+    three within 2σ."""
+    rows = [_segment(1, 0.0, 1.0), _segment(2, 0.0, 1.0), _segment(3, 4.5, 1.0)]
+    assert SCRIPT._agreement(rows, "vb", "dvl.scale") == [
+        "scale, VB-MAESKF", "1.500", "13.5 on 2", "2/3",
+    ]  # fmt: skip
+    rows[2] = _segment(3, 4.5, 2.0)
+    label, mean, chi2, inside = SCRIPT._agreement(rows, "fit_position", "dvl.scale")
+    assert label == "scale, fit to the reference's positions"
+    assert float(mean) == pytest.approx(0.5) and chi2 == "4.5 on 2" and inside == "3/3"
+    text = SCRIPT.akit_section(rows)
+    assert "smoothed / forward 0.500 and 0.500" in text and text.count("**PASS**") == 4
