@@ -35,7 +35,7 @@ def fit_dvl_cmd(
     it by least squares, in the conventions of the filter's calibration states (scale in %,
     roll, pitch, yaw in degrees; docs/calibration.md), so the numbers can be set in
     mission.toml (mounting_rpy_deg) or compared with a run's calibration.json. The σ allows for
-    residuals correlated from reading to reading. --source position takes the reference's
+    readings correlated from one to the next. --source position takes the reference's
     velocity from the rate of change of its positions instead of its velocity columns (they
     differ where a reference's velocity is not the derivative of its positions).
     """
@@ -64,7 +64,7 @@ def fit_dvl_cmd(
                     "used": fit.used,
                     "residual_rms_m_s": list(fit.residual_rms_m_s),
                     "rho": fit.rho,
-                    "inflation": fit.inflation,
+                    "bandwidth": fit.bandwidth,
                 }
             )
         )
@@ -78,7 +78,7 @@ def fit_dvl_cmd(
     console.print(table)
     rms = ", ".join(f"{v:.4f}" for v in fit.residual_rms_m_s)
     console.print(
-        f"{fit.used} of {fit.readings} readings used (the rest more than 5 robust σ off); "
-        f"residual RMS x, y, z {rms} m/s; lag-1 correlation {fit.rho:.2f}, σ² × "
-        f"{fit.inflation:.1f} for it"
+        f"{fit.used} of {fit.readings} readings used (the rest more than 5 σ off); residual RMS "
+        f"x, y, z {rms} m/s; σ for readings correlated over {fit.bandwidth:.1f} readings "
+        f"(lag-1 correlation {fit.rho:.2f})"
     )
