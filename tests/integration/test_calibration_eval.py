@@ -36,8 +36,8 @@ def _segment(n: int, scale: float, sd: float) -> dict[str, Any]:
     one = {k: 0.0 for k in SCRIPT.AKIT_STATES} | {f"sd_{k}": 1.0 for k in SCRIPT.AKIT_STATES}
     one |= {"dvl.scale": scale, "sd_dvl.scale": sd}
     est = one | {"rel_without_pct": 0.2, "rel_with_pct": 0.2, "rel_smoothed_pct": 0.1}
-    return {"segment": n, "reference_scale_pct": 0.0, "vb": est, "robust": est,
-            "fit_velocity": one, "fit_position": one}  # fmt: skip
+    return {"segment": n, "reference_scale_pct": 0.0, "reference_p95": 5.0, "vb": est,
+            "robust": est, "fit_velocity": one, "fit_position": one}  # fmt: skip
 
 
 def test_agreement_is_the_weighted_mean_and_the_chi_square_of_the_spread() -> None:
