@@ -40,8 +40,9 @@ uncorrelated noise and 0.85-1.2 for a lag-1 correlation of 0.8, where the plain 
 2.7-3.3.
 
 This is what the reference says, not the truth: a reference that is itself a DVL-aided
-solution carries its own estimate of the DVL's calibration, and its attitude and time
-alignment errors enter the fit.
+solution carries its own estimate of the DVL's calibration, its attitude and time alignment
+errors enter the fit, and noise in its velocity (a rate of noisy positions) biases the scale
+low by about the noise's power over the speed's (an error in the regressor, not in z).
 """
 
 from __future__ import annotations
