@@ -17,8 +17,8 @@ columns (``source="velocity"``) or the rate of change of its positions (``source
 differences, Groves 2013 eq. 2.111, the radii of :mod:`adaptnav.core.earth`). The two differ
 where a reference's velocity is not the derivative of its positions, as on A-KIT, whose
 positions move faster than its velocity by -0.45 to +0.25 % depending on the segment
-(docs/calibration.md); the positions are what a run is scored against. Both are interpolated linearly, the attitude by
-spherical linear interpolation, at t_k; ω_ib_b is the IMU's mean rate
+(docs/calibration.md); the positions are what a run is scored against. Both are interpolated
+linearly, the attitude by spherical linear interpolation, at t_k; ω_ib_b is the IMU's mean rate
 ``Δθ / Δt`` interpolated from the interval mid-times, less the reference's gyro bias when it has
 one (a simulation's truth).
 
