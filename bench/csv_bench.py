@@ -22,7 +22,11 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
   those lines' fields with the csv module (the worst case for it: every line);
 - ``read_table`` on ``imu.csv`` with line :data:`DAMAGED_LINE` cut after its fourth field
   (``damaged.csv``: a logger that lost the end of a line and went on): the error naming that
-  line, found by the streamed reader's scan (up to 0.3.5, by the exact reader).
+  line, found by the streamed reader's scan (up to 0.3.5, by the exact reader);
+- ``read_table`` on ``imu.csv`` with every line break a lone CR (``mac.csv``: classic Mac OS),
+  read from a temporary LF copy (up to 0.3.7, by the exact reader);
+- ``read_table`` on the IMU table written as Parquet but named ``binary.csv``: the "not a CSV
+  text file" error (up to 0.3.7 after reading the whole file into memory).
 
 The file is written in a subprocess too, so that this process stays small: on Linux a child
 inherits its parent's ``ru_maxrss``, hence the peak is read from ``VmHWM`` where there is one.
@@ -56,6 +60,8 @@ READERS = (
     "exact_text",
     "read_table_quoted",
     "read_table_damaged",
+    "read_table_cr",
+    "read_table_binary",
 )
 """What is measured, one subprocess each (see the module docstring)."""
 DAMAGED_LINE = 900_001
@@ -106,7 +112,9 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     (root / "damaged.csv").write_bytes(
         text[:start] + b",".join(line.split(b",")[:4]) + text[start + len(line) :]
     )
+    (root / "mac.csv").write_bytes(text.replace(b"\n", b"\r"))
     del text
+    imu.to_parquet(root / "binary.csv")
     imu["valid"] = rng.random(rows) > 0.01
     imu.to_csv(root / "flagged.csv", index=False)
     imu = imu.drop(columns="valid")
@@ -169,6 +177,19 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
             assert str(exc).startswith(f"damaged.csv line {DAMAGED_LINE}: 4 fields"), exc
         else:
             raise AssertionError("damaged.csv was read")
+    elif reader == "read_table_cr":
+        mac = imu_csv.parent / "mac.csv"
+        journal = tb.Journal()
+        tb.read_table(mac, mac.name, journal)
+        assert journal.repairs[0].action == "read CR line breaks as line breaks"
+    elif reader == "read_table_binary":
+        binary = imu_csv.parent / "binary.csv"
+        try:
+            tb.read_table(binary, binary.name, tb.Journal())
+        except MissionError as exc:
+            assert "not a CSV text file" in str(exc), exc
+        else:
+            raise AssertionError("binary.csv was read")
     elif reader == "exact_text":
         stamped = imu_csv.parent / "stamped.csv"
         tb._read_csv_exact(stamped, stamped.name, tb.Journal())
@@ -199,6 +220,7 @@ def bench_csv_memory() -> list[str]:
         size_flagged = (imu_csv.parent / "flagged.csv").stat().st_size / MB
         size_stamped = (imu_csv.parent / "stamped.csv").stat().st_size / MB
         size_quoted = (imu_csv.parent / "quoted.csv").stat().st_size / MB
+        size_binary = (imu_csv.parent / "binary.csv").stat().st_size / MB
         got = {r: {"peak_mb": 0.0, "seconds": math.inf} for r in READERS}
         for _ in range(REPEATS):
             for r in READERS:
@@ -225,6 +247,10 @@ def bench_csv_memory() -> list[str]:
         f"({size_quoted:.0f} MB) → read_table peak {peak('read_table_quoted', size_quoted)}",
         f"csv memory: that imu.csv with line {DAMAGED_LINE:,} cut after 4 fields → read_table's "
         f"error naming it, peak {peak('read_table_damaged')}",
+        f"csv memory: that imu.csv with lone-CR line breaks (classic Mac OS) → read_table peak "
+        f"{peak('read_table_cr')}",
+        f"csv memory: the IMU table as Parquet named binary.csv ({size_binary:.0f} MB) → "
+        f"read_table's error, peak {peak('read_table_binary', size_binary)}",
     ]
     for line in lines:
         print(line, flush=True)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import logging
 import math
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -463,6 +464,49 @@ def test_classic_mac_line_breaks_are_read_as_line_breaks_with_a_repair(tmp_path:
     assert_same_table(table, read(lf)[0])
     (r,) = repairs
     assert (r.file, r.line, r.action) == ("dvl.csv", None, "read CR line breaks as line breaks")
+
+
+@pytest.mark.parametrize(
+    "case", ["numbers", "text column", "cut last line", "blank lines", "wrong field count"]
+)
+def test_classic_mac_files_are_read_as_the_exact_reader_reads_them_without_it(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, case: str
+) -> None:
+    """A CR-only file of any size is read by the typed or the streamed reader from a
+    temporary LF copy (until 0.3.8 by the exact reader, at ~10× the file in memory): the same
+    table, repairs in the same order and the same errors as the exact reader's; the copy is
+    gone afterwards."""
+    lines = _clean_lines(800)
+    if case == "text column":
+        lines = [
+            f"{ln},{'status' if i == 0 else 'lock ' + str(i % 3)}" for i, ln in enumerate(lines)
+        ]
+    elif case == "blank lines":
+        lines[300:300] = ["", "  "]
+    elif case == "wrong field count":
+        lines[500] += ",7.0"
+    text = "\r".join(lines) + ("" if case == "cut last line" else "\r")
+    if case == "cut last line":
+        text = text[: text.rindex(",") + 3]  # the last number cut short
+    path = tmp_path / "dvl.csv"
+    path.write_bytes(text.encode())
+    expected, expected_repairs, expected_error = outcome(EXACT, path)
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    got, repairs, error = outcome(tb.read_table, path)
+    assert error == expected_error
+    if expected_error is None:
+        assert got is not None and expected is not None
+        assert_same_table(got, expected)
+        assert got.path == path
+        assert repairs == expected_repairs
+        assert repairs[0].action == "read CR line breaks as line breaks"
+        assert len(repairs) == (2 if case == "cut last line" else 1)
+    else:
+        assert error.startswith("dvl.csv line 501: 5 fields")
+    assert list(temp.iterdir()) == []
 
 
 @pytest.mark.parametrize("at", [2, 30, 51])

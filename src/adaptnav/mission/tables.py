@@ -20,9 +20,10 @@ import io
 import logging
 import math
 import re
+import tempfile
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, BinaryIO, Literal
 
@@ -309,7 +310,65 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     table = _read_csv_typed(path, label, journal)
     if table is None:
         table = _read_csv_streamed(path, label, journal)
+    if table is None:
+        table = _read_csv_cr(path, label, journal)
     return table if table is not None else _read_csv_exact(path, label, journal)
+
+
+def _read_csv_cr(path: Path, label: str, journal: Journal) -> Table | None:
+    """A CSV whose every line break is a lone CR (classic Mac OS), read as the exact reader
+    reads it (:func:`_line_breaks`: the CRs taken for line breaks, one repair for the whole
+    file) without holding it in memory: copied piece by piece with LF for CR into a temporary
+    file (``tempfile``'s folder, ``TMPDIR``) that the typed or the streamed reader reads, then
+    deleted. None for any other file, or when both decline the copy (the exact reader then
+    reads the original and speaks)."""
+    crs = _lone_crs(path)
+    if crs == 0:
+        return None
+    scratch = Journal()
+    try:
+        with tempfile.TemporaryDirectory(prefix="adaptnav-cr-") as tmp:
+            copy = Path(tmp) / path.name
+            with path.open("rb") as src, copy.open("wb") as dst:
+                while piece := src.read(SCAN_BYTES):
+                    dst.write(piece.replace(b"\r", b"\n"))
+            table = _read_csv_typed(copy, label, scratch)
+            if table is None:
+                table = _read_csv_streamed(copy, label, scratch)
+    except OSError:  # no room for the copy: the exact reader reads it in memory
+        return None
+    if table is None:
+        return None
+    _cr_repair(journal, label, crs)
+    for r in scratch.repairs:
+        journal.repair(r.file, r.line, r.field, r.action, r.detail)
+    return replace(table, path=path)
+
+
+def _lone_crs(path: Path) -> int:
+    """The number of CRs in a file that has no LF, read piece by piece; 0 if it has an LF, no
+    CR, or cannot be read."""
+    crs = 0
+    try:
+        with path.open("rb") as f:
+            while piece := f.read(SCAN_BYTES):
+                if b"\n" in piece:
+                    return 0
+                crs += piece.count(b"\r")
+    except OSError:
+        return 0
+    return crs
+
+
+def _cr_repair(journal: Journal, label: str, crs: int) -> None:
+    """The repair of a file whose line breaks are all a lone CR (:func:`_line_breaks`)."""
+    journal.repair(
+        label,
+        None,
+        "",
+        "read CR line breaks as line breaks",
+        f"{crs} line breaks are a carriage return alone (classic Mac OS), none LF",
+    )
 
 
 @dataclass(frozen=True)
@@ -930,13 +989,7 @@ def _line_breaks(text: str, label: str, journal: Journal) -> str:
     if lone == 0:
         return text
     if "\n" not in text:
-        journal.repair(
-            label,
-            None,
-            "",
-            "read CR line breaks as line breaks",
-            f"{lone} line breaks are a carriage return alone (classic Mac OS), none LF",
-        )
+        _cr_repair(journal, label, lone)
         return text.replace("\r", "\n")
     found = re.search("\r(?!\n)", text.removesuffix("\r"))
     if found is None:
@@ -954,13 +1007,17 @@ def _decode(path: Path, label: str) -> str:
     """The file's text (UTF-8, a BOM dropped); MissionError for an unreadable file, binary
     content or another encoding."""
     try:
-        raw = path.read_bytes()
+        with path.open("rb") as f:
+            # the probe first: a large binary file is refused without being read whole
+            if b"\x00" in f.read(BINARY_PROBE):
+                raise MissionError(
+                    f"{label}: not a CSV text file (binary content; a Parquet file named .csv?)",
+                    file=label,
+                )
+            f.seek(0)
+            raw = f.read()
     except OSError as exc:
         raise MissionError(f"{label}: cannot read ({exc.strerror})", file=label) from None
-    if b"\x00" in raw[:BINARY_PROBE]:
-        raise MissionError(
-            f"{label}: not a CSV text file (binary content; a Parquet file named .csv?)", file=label
-        )
     raw = raw.removeprefix(BOM)
     try:
         return raw.decode("utf-8")
