@@ -13,7 +13,7 @@ from adaptnav.estimation.noise.vb import VariationalBayes
 from adaptnav.estimation.settings import DEFAULT_R_BOUNDS, DEFAULT_ROBUST_DOF, FilterSettings
 from adaptnav.mission import MissionError, parse_config
 from adaptnav.mission.config import FilterConfig
-from adaptnav.sensors import DVL, Depth
+from adaptnav.sensors import DVL, GNSS, Depth
 from adaptnav.sensors.nhc import NonHolonomic
 from helpers.missions import config_dict
 
@@ -113,15 +113,18 @@ def test_without_gate_sensors_every_dvl_is_gated_whatever_its_name() -> None:
     assert named[0].gate is None and named[1].gate is not None
 
 
-def test_under_bounded_r_a_constraint_never_goes_below_its_nominal_r() -> None:
-    """A motion constraint's residuals are what the filter made of it: robust (bounded R̂) keeps
-    the NHC's R̂ at its nominal R or above, a sensor beside it at the kind's floor, and the
-    paper's VB-MAESKF (no bounds) stays as the paper has it."""
-    sensors = [(NonHolonomic(0.2), 0.1), (DVL(0.01), 0.2)]
+def test_under_bounded_r_a_constraint_or_a_gnss_never_goes_below_its_nominal_r() -> None:
+    """A motion constraint's residuals are what the filter made of it, and a GNSS position's
+    error is correlated over minutes: robust (bounded R̂) keeps the NHC's and the GNSS's R̂ at
+    their nominal R or above, a DVL beside them at the kind's floor, and the paper's
+    VB-MAESKF (no bounds) stays as the paper has it."""
+    sensors = [(NonHolonomic(0.2), 0.1), (DVL(0.01), 0.2), (GNSS(0.02, name="rtk"), 0.25)]
     robust = FilterSettings(kind="robust")
-    nhc, dvl = (c.strategy for c in build_channels(robust, sensors))
+    nhc, dvl, gnss = (c.strategy for c in build_channels(robust, sensors))
     assert isinstance(nhc, VariationalBayes) and isinstance(dvl, VariationalBayes)
-    assert nhc.r_floor == 1.0 and nhc.r_ceiling == dvl.r_ceiling == DEFAULT_R_BOUNDS["robust"][1]
+    assert isinstance(gnss, VariationalBayes)
+    assert nhc.r_floor == gnss.r_floor == 1.0
+    assert nhc.r_ceiling == dvl.r_ceiling == gnss.r_ceiling == DEFAULT_R_BOUNDS["robust"][1]
     assert dvl.r_floor == DEFAULT_R_BOUNDS["robust"][0] < 1.0
     paper = [c.strategy for c in build_channels(robust.with_kind("vb"), sensors)]
     assert all(isinstance(s, VariationalBayes) and s.r_floor == 0.0 for s in paper)

@@ -9,6 +9,7 @@ from adaptnav.engine.batch import SensorChannel
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 from adaptnav.sensors.base import MeasurementModel
 from adaptnav.sensors.dvl import DVL
+from adaptnav.sensors.gnss import GNSS
 
 
 def build_channels(
@@ -16,14 +17,17 @@ def build_channels(
     sensors: Sequence[tuple[MeasurementModel, float]],
     overrides: dict[str, SensorOverrides] | None = None,
 ) -> list[SensorChannel]:
-    """Engine channels for ``sensors`` given as (model, nominal period in s)."""
+    """Engine channels for ``sensors`` given as (model, nominal period in s). A motion
+    constraint's and a GNSS position's R̂ is held at or above its nominal R under bounded R̂
+    (estimation/settings.py, ``CONSTRAINT_R_FLOOR``)."""
     ov = overrides or {}
     out = []
     for model, period in sensors:
         o = ov.get(model.name, SensorOverrides())
+        at_nominal = bool(getattr(model, "CONSTRAINT", False)) or isinstance(model, GNSS)
         out.append(
             SensorChannel(
-                model, period, settings.strategy(o, getattr(model, "CONSTRAINT", False)),
+                model, period, settings.strategy(o, at_nominal),
                 settings.gate(model.name, o, is_dvl=isinstance(model, DVL)), settings.guard(o),
             )
         )  # fmt: skip
