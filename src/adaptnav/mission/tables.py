@@ -300,12 +300,12 @@ def _check_header(names: list[str], label: str, line: int | None) -> None:
 
 def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     """A CSV table: typed and streamed when the file allows it, else parsed by pandas from the
-    file when its lines are plain, else read exactly as text.
+    file when its lines are plain, else (a classic Mac OS file) either of those from an LF copy,
+    else read exactly as text.
 
-    The three ways give the same DataFrame, lines, repairs and errors (docs/robustness.md,
-    "Memory"); each leaves to the next every file it cannot read the same way, and every file
-    with an error to report (the typed reader repairs a cut last line itself, from the file's
-    tail).
+    The ways give the same DataFrame, lines, repairs and errors (docs/robustness.md, "Memory");
+    each leaves to the next every file it cannot read the same way, and every file with an
+    error to report (the typed reader repairs a cut last line itself, from the file's tail).
     """
     table = _read_csv_typed(path, label, journal)
     if table is None:
