@@ -101,10 +101,11 @@ class DvlFit:
     residual_rms_m_s: tuple[float, float, float]
     """RMS residual per DVL axis (m/s)."""
     rho: float
-    """Lag-1 correlation of the readings' parts of the fit's gradient (before clipping)."""
+    """Largest lag-1 correlation of the readings' parts of the fit's gradient (before
+    clipping): how correlated the readings' errors are, as far as the fit is concerned."""
     bandwidth: float
-    """Bartlett bandwidth of the covariance, in readings (0: the readings taken as
-    uncorrelated)."""
+    """Bartlett bandwidth, in readings, of the Newey-West step on what prewhitening leaves (0:
+    nothing correlated left)."""
 
 
 def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "velocity") -> DvlFit:
@@ -194,9 +195,9 @@ def _long_run_prewhitened(g: Array) -> tuple[float, float, Array]:
 
 def _bandwidth(g: Array) -> tuple[float, float]:
     """(ρ, S): ρ the largest of g's columns' lag-1 correlations (the bandwidth sized for the
-    most correlated quantity), and the Bartlett
-    bandwidth ``S = 1.1447 (α n)^(1/3)``, ``α = 4ρ² / ((1 - ρ)² (1 + ρ)²)`` (Andrews 1991, the
-    AR(1) plug-in), ρ clipped to [0, :data:`MAX_RHO`] and S to n / 4."""
+    most correlated quantity), and the Bartlett bandwidth ``S = 1.1447 (α n)^(1/3)``,
+    ``α = 4ρ² / ((1 - ρ)² (1 + ρ)²)`` (Andrews 1991, the AR(1) plug-in), ρ clipped to
+    [0, :data:`MAX_RHO`] and S to n / 4."""
     n = g.shape[0]
     if n < 3:
         return 0.0, 0.0
