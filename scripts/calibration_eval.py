@@ -38,7 +38,7 @@ import numpy as np
 import adaptnav.api as api
 from adaptnav import __version__
 from adaptnav.analysis import evaluate
-from adaptnav.analysis.dvl_fit import fit_dvl, position_rate
+from adaptnav.analysis.dvl_fit import fit_dvl, reference_consistency
 from adaptnav.mission import load_config, load_mission, with_overrides, write_config
 from adaptnav.sim.scenarios import PRESETS, simulate
 from adaptnav.sim.sensors import Calibration
@@ -279,8 +279,12 @@ def akit_segment(src: Path, cache: Path, n: int) -> dict[str, Any]:
     toml.write_text(toml.read_text(encoding="utf-8").replace(head, head + ESTIMATE + "\n"))
     m0, m1 = load_mission(base), load_mission(est)
     start = api.initial_state(m0)[:3]
-    scale_pct, p95 = _reference_consistency(m0.truth)
-    row: dict[str, Any] = {"segment": n, "reference_scale_pct": scale_pct, "reference_p95": p95}
+    scale_pct, p95 = reference_consistency(m0.truth)
+    row: dict[str, Any] = {
+        "segment": n,
+        "reference_scale_pct": scale_pct,
+        "reference_p95": 1000.0 * p95,  # mm/s
+    }
     for filt in FILTERS:
         e0 = evaluate.evaluate(api.run(m0, filt, initial=start), m0.truth)
         smoothed = api.run(m1, filt, initial=start, smooth=True)
@@ -305,18 +309,6 @@ def akit_segment(src: Path, cache: Path, n: int) -> dict[str, Any]:
             "readings": fit.readings,
         }
     return row
-
-
-def _reference_consistency(truth: Any) -> tuple[float, float]:
-    """How far the reference's positions and its velocity disagree: (the least-squares factor
-    k of ``v_pos ≈ k v`` over the horizontal components, minus 1, in %; the 95th percentile of
-    ``|v_pos - v|`` horizontally, in mm/s), v_pos the rate of its positions
-    (adaptnav.analysis.dvl_fit.position_rate)."""
-    t = truth["t_s"].to_numpy(dtype=float)
-    v = truth[["vn_m_s", "ve_m_s"]].to_numpy(dtype=float)
-    vp = position_rate(t, truth[["lat_rad", "lon_rad", "h_m"]].to_numpy(dtype=float))[:, :2]
-    scale = float(100.0 * (np.sum(vp * v) / np.sum(v * v) - 1.0))
-    return scale, float(1000.0 * np.percentile(np.linalg.norm(vp - v, axis=1), 95.0))
 
 
 def _agreement(rows: list[dict[str, Any]], who: str, k: str) -> list[str]:

@@ -167,3 +167,19 @@ def test_cli_prints_the_fit_and_refuses_a_bad_source(folder: Path) -> None:
     assert res.exit_code == 2 and "--source 'gps'" in res.stderr
     res = runner.invoke(app, ["fit-dvl", str(folder / "nowhere"), "-q"])
     assert res.exit_code == 2 and "mission.toml" in res.stderr
+
+
+def test_reference_consistency_finds_a_velocity_that_is_not_the_rate_of_the_positions(
+    mission: Mission,
+) -> None:
+    """The simulator's truth is consistent (its velocity is the derivative of its positions, at
+    10 Hz); with its velocity columns 1 % fast, the positions' rate is 1/1.01 of them."""
+    assert mission.truth is not None
+    scale, p95 = dvl_fit.reference_consistency(mission.truth)
+    assert abs(scale) < 0.01 and p95 < 0.01
+    fast = mission.truth.copy()
+    fast[["vn_m_s", "ve_m_s"]] *= 1.01
+    scale, p95 = dvl_fit.reference_consistency(fast)
+    assert scale == pytest.approx(100.0 * (1.0 / 1.01 - 1.0), abs=0.01)
+    with pytest.raises(ValueError, match=r"lacks columns \['lat_rad'\]"):
+        dvl_fit.reference_consistency(mission.truth.drop(columns=["lat_rad"]))

@@ -52,6 +52,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -67,7 +68,14 @@ from adaptnav.sensors.kind import IdealInput
 
 Array = NDArray[np.float64]
 
-__all__ = ["DvlFit", "ReadingsFit", "fit_dvl", "fit_readings", "position_rate"]
+__all__ = [
+    "DvlFit",
+    "ReadingsFit",
+    "fit_dvl",
+    "fit_readings",
+    "position_rate",
+    "reference_consistency",
+]
 
 OUTLIER_SIGMAS = 5.0
 """A reading with an axis this many robust σ off the fit is excluded from it."""
@@ -273,6 +281,23 @@ def position_rate(t: Array, llh: Array) -> Array:
             -np.gradient(h, t),
         ]
     )
+
+
+def reference_consistency(truth: pd.DataFrame) -> tuple[float, float]:
+    """How far a reference's velocity columns and the rate of its positions
+    (:func:`position_rate`) disagree, horizontally: (the least-squares factor k of
+    ``v_pos ≈ k v``, minus 1, in %; the 95th percentile of ``|v_pos - v|``, m/s). About 0 and the
+    positions' own noise over the sampling interval for a reference whose velocity is the
+    derivative of its positions; on A-KIT -0.45 to +0.25 % and 0.04-0.15 m/s
+    (docs/calibration.md, 'Against a reference'). ValueError without the columns."""
+    missing = [c for c in ("t_s", *_POSITION, *_VELOCITY) if c not in truth.columns]
+    if missing:
+        raise ValueError(f"reference_consistency: the reference lacks columns {missing}")
+    t = truth["t_s"].to_numpy(dtype=float)
+    v = truth[list(_VELOCITY[:2])].to_numpy(dtype=float)
+    vp = position_rate(t, truth[list(_POSITION)].to_numpy(dtype=float))[:, :2]
+    scale = float(100.0 * (np.sum(vp * v) / np.sum(v * v) - 1.0))
+    return scale, float(np.percentile(np.linalg.norm(vp - v, axis=1), 95.0))
 
 
 def _model(p: Array, h: Array) -> Array:

@@ -47,6 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import cumulative_trapezoid
 from scipy.spatial.transform import Rotation
 
+from adaptnav.analysis.dvl_fit import reference_consistency
 from adaptnav.analysis.evaluate import ned_errors
 from adaptnav.core import attitude, earth
 from adaptnav.engine import propagation
@@ -1080,6 +1081,14 @@ def _corrections(offsets: SegmentOffsets) -> list[str]:
     ]
 
 
+def reference_record(truth: pd.DataFrame) -> dict[str, float]:
+    """import.json's check of the reference against itself: how far its velocity columns and
+    the rate of its positions disagree (:func:`adaptnav.analysis.dvl_fit.reference_consistency`;
+    docs/akit.md, 'The reference')."""
+    scale_pct, p95 = reference_consistency(truth)
+    return {"position_rate_over_velocity_minus_1_pct": scale_pct, "difference_p95_m_s": p95}
+
+
 def build_import_record(
     seg: RawSegment,
     settings: SegmentSettings,
@@ -1088,11 +1097,13 @@ def build_import_record(
     left_out: tuple[int, int],
     fault_info: dict[str, Any],
     written: MissionConfig,
+    truth: pd.DataFrame,
 ) -> dict[str, Any]:
     """import.json (docs/akit.md, "The mission written"): the source files' SHA-256, the seed,
     the offsets (:func:`_offsets_record`), the corrections, the navigation span and the IMU
-    samples and DVL readings ``left_out``, the depth's origin, the repairs, the injected faults
-    and the tables written."""
+    samples and DVL readings ``left_out``, the depth's origin, the repairs, the injected faults,
+    the reference's consistency (:func:`reference_record`, of the ``truth`` table written) and
+    the tables written."""
     n = seg.trajectory
     return {
         "importer": "adaptnav.importers.akit",
@@ -1120,6 +1131,7 @@ def build_import_record(
         "imu_noise": {k: list(v) for k, v in settings.imu_noise.items()},
         "repairs": [r.__dict__ for r in seg.repairs],
         "fault_injection": fault_info,
+        "reference_consistency": reference_record(truth),
         "mission_files": {
             "imu": written.imu.file,
             **{k: s.file for k, s in written.sensors.items()},
@@ -1194,7 +1206,9 @@ def import_segment(
         root, build_config(seg.trajectory, settings, offsets, span), tables, fmt=fmt
     )
     left_out = (int(seg.imu_t.size - len(imu_df)), dvl_left_out)
-    meta = build_import_record(seg, settings, offsets, span, left_out, fault_info, written)
+    meta = build_import_record(
+        seg, settings, offsets, span, left_out, fault_info, written, tables["truth"]
+    )
     (root / "import.json").write_text(
         json.dumps(meta, indent=2, sort_keys=True, default=_json_default) + "\n", encoding="utf-8"
     )
