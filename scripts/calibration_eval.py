@@ -50,7 +50,8 @@ FILTERS = ("vb", "robust")
 LABELS = {"vb": "VB-MAESKF", "robust": "robust"}
 SCALE, YAW_DEG = 1.01, 1.0
 TARGET_SCALE_PCT, TARGET_YAW_DEG, TARGET_RMSE_RATIO = 0.1, 0.1, 0.7
-ESTIMATE = 'estimate = ["scale", "misalignment"]'
+ESTIMATE = ("sensors.dvl.estimate", ["scale", "misalignment"])
+"""The override that makes a mission estimate its DVL's scale and misalignment."""
 AKIT_SMOOTH_TARGET = 0.85
 """Issue 14: smoothed ≤ 0.85 × forward mean relative RMSE on A-KIT 1-9 (``make akit`` judges it
 without calibration states; this page with them)."""
@@ -84,17 +85,22 @@ def missions(cache: Path, preset: str, seed: int) -> tuple[Path, Path]:
         tmp.rename(base)
         shutil.rmtree(est, ignore_errors=True)
     if not (est / "mission.toml").is_file():
-        tmp = est.with_name(est.name + ".tmp")
-        shutil.rmtree(tmp, ignore_errors=True)
-        shutil.copytree(base, tmp)
-        toml = tmp / "mission.toml"
-        text = toml.read_text(encoding="utf-8")
-        head = '[sensors.dvl]\nkind = "dvl"\n'
-        if head not in text:
-            raise SystemExit(f"{toml}: no [sensors.dvl] section of kind dvl to calibrate")
-        toml.write_text(text.replace(head, head + ESTIMATE + "\n"), encoding="utf-8")
-        tmp.rename(est)
+        derived(base, est, ESTIMATE)
     return base, est
+
+
+def derived(src: Path, out: Path, setting: tuple[str, Any]) -> Path:
+    """``out``: the mission ``src`` with one ``mission.toml`` override (``setting``), its
+    tables hard-linked; written atomically, replacing what was there."""
+    tmp = out.with_name(out.name + ".tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    shutil.copytree(src, tmp, copy_function=os.link)
+    toml = tmp / "mission.toml"
+    toml.unlink()  # a hard link: rewrite it, not the original
+    write_config(with_overrides(load_config(src / "mission.toml"), [setting]), toml)
+    shutil.rmtree(out, ignore_errors=True)
+    tmp.rename(out)
+    return out
 
 
 def score(base: Path, est: Path, filt: str, seed: int) -> dict[str, Any]:
@@ -139,19 +145,10 @@ LIMITS_FILTER = "robust"
 
 
 def aided(est: Path, setting: tuple[str, str]) -> Path:
-    """The estimating mission ``est`` with one more aid (``setting``, a mission.toml override),
-    its tables hard-linked (made once, atomically)."""
+    """The estimating mission ``est`` with one more aid (``setting``, a mission.toml override;
+    :func:`derived`, made once)."""
     out = est.with_name(f"{est.name}-{setting[0].split('.')[1]}")
-    if not (out / "mission.toml").is_file():
-        tmp = out.with_name(out.name + ".tmp")
-        shutil.rmtree(tmp, ignore_errors=True)
-        shutil.copytree(est, tmp, copy_function=os.link)
-        toml = tmp / "mission.toml"
-        toml.unlink()  # a hard link: rewrite it, not the original
-        write_config(with_overrides(load_config(est / "mission.toml"), [setting]), toml)
-        shutil.rmtree(out, ignore_errors=True)
-        tmp.rename(out)
-    return out
+    return out if (out / "mission.toml").is_file() else derived(est, out, setting)
 
 
 def limit_rows(cache: Path, preset: str, seeds: int) -> list[dict[str, Any]]:
@@ -271,12 +268,7 @@ def akit_segment(src: Path, cache: Path, n: int) -> dict[str, Any]:
         akit.import_segment(src, n, tmp, seed=n)
         shutil.rmtree(base, ignore_errors=True)
         tmp.rename(base)
-    est = base.with_name(base.name + "-estimate")
-    shutil.rmtree(est, ignore_errors=True)
-    shutil.copytree(base, est)
-    toml = est / "mission.toml"
-    head = '[sensors.dvl]\nkind = "dvl"\n'
-    toml.write_text(toml.read_text(encoding="utf-8").replace(head, head + ESTIMATE + "\n"))
+    est = derived(base, base.with_name(base.name + "-estimate"), ESTIMATE)
     m0, m1 = load_mission(base), load_mission(est)
     start = api.initial_state(m0)[:3]
     scale_pct, p95 = reference_consistency(m0.truth)

@@ -56,9 +56,8 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from adaptnav.analysis.floor import dvl_readings, dvl_sensor
+from adaptnav.analysis.floor import dvl_readings, dvl_sensor, imu_rate_at
 from adaptnav.core import earth
-from adaptnav.core.attitude import dcm_to_quat
 from adaptnav.mission import Mission
 from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_SIZE, NOM_VEL
 from adaptnav.sensors import dvl
@@ -253,14 +252,11 @@ def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Arra
     t, z, valid = dvl_readings(mission, name, t_ref, "fit_dvl")
     t, z = t[valid], z[valid]
     rpy = truth[list(_ATTITUDE)].to_numpy(dtype=float)
-    C_nb = Slerp(t_ref, Rotation.from_euler("ZYX", rpy[:, ::-1]))(t).as_matrix()
+    q_nb = Slerp(t_ref, Rotation.from_euler("ZYX", rpy[:, ::-1]))(t).as_quat()
     x = np.zeros((t.size, NOM_SIZE))
     x[:, NOM_VEL] = np.column_stack([np.interp(t, t_ref, v_ref[:, i]) for i in range(3)])
-    x[:, NOM_ATT] = [dcm_to_quat(C) for C in C_nb]
-    imu = mission.imu
-    rates = imu.dtheta / imu.dt[:, None]
-    t_mid = imu.t - 0.5 * imu.dt
-    omega = np.column_stack([np.interp(t, t_mid, rates[:, i]) for i in range(3)])
+    x[:, NOM_ATT] = q_nb[:, [3, 0, 1, 2]]  # scipy's scalar-last to the state's scalar-first
+    omega = imu_rate_at(mission, t)
     if all(c in truth.columns for c in _GYRO_BIAS):
         x[:, NOM_BG] = np.column_stack([np.interp(t, t_ref, truth[c]) for c in _GYRO_BIAS])
     model = mission.config.sensors[name]

@@ -48,7 +48,7 @@ from adaptnav.mission import Mission
 
 Array = NDArray[np.float64]
 
-__all__ = ["FILTER_NAME", "dead_reckon", "dvl_readings", "dvl_sensor", "run"]
+__all__ = ["FILTER_NAME", "dead_reckon", "dvl_readings", "dvl_sensor", "imu_rate_at", "run"]
 
 FILTER_NAME = "floor"
 _ATTITUDE = ("roll_rad", "pitch_rad", "yaw_rad")
@@ -104,15 +104,12 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
     truth = _reference(mission)
     name = dvl_sensor(mission, sensor)
     cfg = mission.config.sensors[name]
-    imu = mission.imu
     t_ref = truth["t_s"].to_numpy(dtype=float)
     t, z, valid = dvl_readings(mission, name, t_ref)
 
     # Hold the last valid reading over non-finite ones (index of the last valid so far).
     held = np.maximum.accumulate(np.where(valid, np.arange(t.size), 0))
-    t_mid = imu.t - 0.5 * imu.dt
-    rates = imu.dtheta / imu.dt[:, None]
-    omega = np.column_stack([_interp(t, t_mid, rates[:, i]) for i in range(3)])
+    omega = imu_rate_at(mission, t)
     C_bs = cfg.sensor_from_body().T
     v_b = z @ C_bs.T - np.cross(omega, cfg.lever_arm())
     v_b = v_b[held]
@@ -152,6 +149,15 @@ def run(mission: Mission, sensor: str | None = None) -> Result:
         meta=meta,
         repairs=repairs_frame([r.__dict__ for r in mission.repairs]),
     )
+
+
+def imu_rate_at(mission: Mission, t: Array) -> Array:
+    """The IMU's mean rate ``Δθ / Δt`` (n, 3; rad/s) interpolated at times t from the intervals'
+    mid-times (module docstring)."""
+    imu = mission.imu
+    t_mid = imu.t - 0.5 * imu.dt
+    rates = imu.dtheta / imu.dt[:, None]
+    return np.column_stack([_interp(t, t_mid, rates[:, i]) for i in range(3)])
 
 
 def _reference(mission: Mission) -> pd.DataFrame:

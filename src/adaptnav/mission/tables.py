@@ -307,12 +307,16 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     each leaves to the next every file it cannot read the same way, and every file with an
     error to report (the typed reader repairs a cut last line itself, from the file's tail).
     """
-    table = _read_csv_typed(path, label, journal)
-    if table is None:
-        table = _read_csv_streamed(path, label, journal)
+    table = _read_csv_plain(path, label, journal)
     if table is None:
         table = _read_csv_cr(path, label, journal)
     return table if table is not None else _read_csv_exact(path, label, journal)
+
+
+def _read_csv_plain(path: Path, label: str, journal: Journal) -> Table | None:
+    """The typed reader's table, else the streamed reader's, else None."""
+    table = _read_csv_typed(path, label, journal)
+    return table if table is not None else _read_csv_streamed(path, label, journal)
 
 
 def _read_csv_cr(path: Path, label: str, journal: Journal) -> Table | None:
@@ -332,9 +336,7 @@ def _read_csv_cr(path: Path, label: str, journal: Journal) -> Table | None:
             with path.open("rb") as src, copy.open("wb") as dst:
                 while piece := src.read(SCAN_BYTES):
                     dst.write(piece.replace(b"\r", b"\n"))
-            table = _read_csv_typed(copy, label, scratch)
-            if table is None:
-                table = _read_csv_streamed(copy, label, scratch)
+            table = _read_csv_plain(copy, label, scratch)
     except OSError:  # no room for the copy: the exact reader reads it in memory
         return None
     if table is None:
