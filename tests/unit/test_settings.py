@@ -10,7 +10,12 @@ import pytest
 from adaptnav.engine.channels import build_channels
 from adaptnav.estimation.noise.process import QAdaptation
 from adaptnav.estimation.noise.vb import VariationalBayes
-from adaptnav.estimation.settings import DEFAULT_R_BOUNDS, DEFAULT_ROBUST_DOF, FilterSettings
+from adaptnav.estimation.settings import (
+    DEFAULT_R_BOUNDS,
+    DEFAULT_ROBUST_DOF,
+    FilterSettings,
+    SensorOverrides,
+)
 from adaptnav.mission import MissionError, parse_config
 from adaptnav.mission.config import FilterConfig
 from adaptnav.sensors import DVL, GNSS, Depth
@@ -128,3 +133,23 @@ def test_under_bounded_r_a_constraint_or_a_gnss_never_goes_below_its_nominal_r()
     assert dvl.r_floor == DEFAULT_R_BOUNDS["robust"][0] < 1.0
     paper = [c.strategy for c in build_channels(robust.with_kind("vb"), sensors)]
     assert all(isinstance(s, VariationalBayes) and s.r_floor == 0.0 for s in paper)
+
+
+def test_under_robust_a_gnss_position_forgets_faster_unless_its_sensor_says() -> None:
+    """A receiver's accuracy changes within seconds: robust's GNSS R̂ forgets at
+    ``robust_gnss_rho`` per fix (0.95, docs/robustness.md 'GNSS R̂ memory'), every other sensor
+    at ``vb_rho``; a sensor's own ``vb_rho`` wins, and the paper's VB-MAESKF keeps 0.99."""
+    sensors = [(NonHolonomic(0.2), 0.1), (DVL(0.01), 0.2), (GNSS(0.02, name="rtk"), 0.25)]
+    robust = FilterSettings(kind="robust")
+    nhc, dvl, gnss = (c.strategy for c in build_channels(robust, sensors))
+    assert isinstance(nhc, VariationalBayes) and isinstance(dvl, VariationalBayes)
+    assert isinstance(gnss, VariationalBayes)
+    assert nhc.rho == dvl.rho == 0.99 and gnss.rho == 0.95
+    own = build_channels(robust, sensors, {"rtk": SensorOverrides(vb_rho=0.98)})
+    assert [c.strategy.rho for c in own] == [0.99, 0.99, 0.98]  # type: ignore[attr-defined]
+    set_ = build_channels(robust.updated(robust_gnss_rho=0.9), sensors)
+    assert set_[2].strategy.rho == 0.9  # type: ignore[attr-defined]
+    paper = build_channels(robust.with_kind("vb"), sensors)
+    assert [c.strategy.rho for c in paper] == [0.99, 0.99, 0.99]  # type: ignore[attr-defined]
+    with pytest.raises(pydantic.ValidationError, match="robust_gnss_rho"):
+        FilterSettings(robust_gnss_rho=1.5)

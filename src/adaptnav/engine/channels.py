@@ -4,6 +4,7 @@ guard that :class:`~adaptnav.estimation.settings.FilterSettings` gives it."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 from adaptnav.engine.batch import SensorChannel
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
@@ -19,11 +20,15 @@ def build_channels(
 ) -> list[SensorChannel]:
     """Engine channels for ``sensors`` given as (model, nominal period in s). A motion
     constraint's and a GNSS position's R̂ is held at or above its nominal R under bounded R̂
-    (estimation/settings.py, ``CONSTRAINT_R_FLOOR``)."""
+    (estimation/settings.py, ``CONSTRAINT_R_FLOOR``); under the robust filter a GNSS position
+    without a ``vb_rho`` of its own forgets at ``settings.robust_gnss_rho``
+    (``DEFAULT_ROBUST_GNSS_RHO``)."""
     ov = overrides or {}
     out = []
     for model, period in sensors:
         o = ov.get(model.name, SensorOverrides())
+        if settings.kind == "robust" and isinstance(model, GNSS) and o.vb_rho is None:
+            o = replace(o, vb_rho=settings.robust_gnss_rho)
         at_nominal = bool(getattr(model, "CONSTRAINT", False)) or isinstance(model, GNSS)
         out.append(
             SensorChannel(
