@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -67,6 +69,39 @@ def test_estimates_cover_the_true_calibration_and_improve_the_solution(
     assert load(folder).meta["calibration"] == found
     save(without, folder)
     assert not (folder / CALIBRATION_FILE).exists()
+
+
+def test_the_long_run_sigma_grows_with_the_correlation_of_the_readings(
+    missions: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """docs/calibration.md, 'Correlated readings': on the simulator's white reading noise every
+    state's long-run factor is near 1; with an AR(1) error added to the DVL (σ 5 cm/s, lag-1
+    correlation 0.95 at 3 Hz: a 7-s correlation time), the factors of the DVL's scale, pitch
+    and yaw exceed 2.5 while the depth meter's and the inclinometer's stay as they were."""
+    est = missions[1]
+    white = api.run(load_mission(est), "robust").meta["calibration"]
+    for name, c in white.items():
+        assert 0.7 < c["long_run_factor"] < 1.5, (name, c)
+        want = c["sigma"] * math.sqrt(max(1.0, c["long_run_factor"]))
+        assert c["sigma_long_run"] == pytest.approx(want, rel=1e-12)
+    cor = tmp_path / "correlated"
+    shutil.copytree(est, cor)
+    table = pd.read_parquet(cor / "dvl.parquet")
+    rng, rho, n = np.random.default_rng(1), 0.95, len(table)
+    e = rng.normal(0.0, 0.05 * math.sqrt(1.0 - rho * rho), (n, 3))
+    x = np.zeros((n, 3))
+    x[0] = rng.normal(0.0, 0.05, 3)
+    for k in range(1, n):
+        x[k] = rho * x[k - 1] + e[k]
+    columns = ["vx_m_s", "vy_m_s", "vz_m_s"]
+    table[columns] = table[columns].to_numpy() + x
+    table.to_parquet(cor / "dvl.parquet")
+    found = api.run(load_mission(cor), "robust").meta["calibration"]
+    for name in ("dvl.scale", "dvl.misalignment_pitch", "dvl.misalignment_yaw"):
+        assert found[name]["long_run_factor"] > 2.5, (name, found[name])
+        assert found[name]["sigma_long_run"] > 1.5 * found[name]["sigma"], name
+    for name in ("depth.bias", "inclinometer.bias_roll", "inclinometer.bias_pitch"):
+        assert abs(found[name]["long_run_factor"] - white[name]["long_run_factor"]) < 0.3, name
 
 
 def test_a_smoothed_run_estimates_them_too(missions: tuple[Path, Path]) -> None:

@@ -36,21 +36,24 @@ def _segment(n: int, scale: float, sd: float) -> dict[str, Any]:
     one = {k: 0.0 for k in SCRIPT.AKIT_STATES} | {f"sd_{k}": 1.0 for k in SCRIPT.AKIT_STATES}
     one |= {"dvl.scale": scale, "sd_dvl.scale": sd}
     est = one | {"rel_without_pct": 0.2, "rel_with_pct": 0.2, "rel_smoothed_pct": 0.1}
+    # a filter's σ allowing for correlated readings: twice its σ here
+    est |= {f"sdl_{k}": 2.0 * est[f"sd_{k}"] for k in SCRIPT.AKIT_STATES}
     return {"segment": n, "reference_scale_pct": 0.0, "reference_p95": 5.0, "vb": est,
             "robust": est, "fit_velocity": one, "fit_position": one}  # fmt: skip
 
 
 def test_agreement_is_the_weighted_mean_and_the_chi_square_of_the_spread() -> None:
     """Three segments 0, 0, 4.5 with σ 1: mean 1.5, χ² 2.25 + 2.25 + 9 = 13.5 on 2, the third
-    3σ off the mean; with σ 1, 1, 2 it counts a quarter: mean 0.5, χ² 0.25 + 0.25 + 4, all
-    three within 2σ."""
+    3σ off the mean, and with the filter's long-run σ of 2 a quarter of it, 3.4; with σ 1, 1, 2
+    it counts a quarter: mean 0.5, χ² 0.25 + 0.25 + 4, all three within 2σ (a fit: no long-run
+    column, its σ allows for correlated readings already)."""
     rows = [_segment(1, 0.0, 1.0), _segment(2, 0.0, 1.0), _segment(3, 4.5, 1.0)]
     assert SCRIPT._agreement(rows, "vb", "dvl.scale") == [
-        "scale, VB-MAESKF", "1.500", "13.5 on 2", "2/3",
+        "scale, VB-MAESKF", "1.500", "13.5 on 2", "2/3", "3.4 on 2",
     ]  # fmt: skip
     rows[2] = _segment(3, 4.5, 2.0)
-    label, mean, chi2, inside = SCRIPT._agreement(rows, "fit_position", "dvl.scale")
-    assert label == "scale, fit to the reference's positions"
+    label, mean, chi2, inside, long_run = SCRIPT._agreement(rows, "fit_position", "dvl.scale")
+    assert label == "scale, fit to the reference's positions" and long_run == "-"
     assert float(mean) == pytest.approx(0.5) and chi2 == "4.5 on 2" and inside == "3/3"
     text = SCRIPT.akit_section(rows)
     assert "smoothed / forward 0.500 and 0.500" in text and text.count("**PASS**") == 4

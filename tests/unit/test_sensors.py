@@ -553,3 +553,33 @@ def test_models_satisfy_the_protocol_and_configs_are_frozen() -> None:
 def test_measurement_checks_shapes() -> None:
     with pytest.raises(ValueError, match="Measurement"):
         Measurement(np.zeros(2), np.zeros((2, N_STATES)), np.eye(3), ("a", "b"))
+
+
+def test_calibration_regressors_are_the_readings_derivatives() -> None:
+    """``sensors.calibration.regressors`` against finite differences of the conventions
+    (sensors/calibration.py): ``(1 + s) z``, ``M(δ) z``, ``z + b``; up to one constant factor
+    per state (the long-run factor is a ratio, blind to it): here +1 for scale and bias, -1 for
+    the misalignment angles."""
+    from adaptnav.sensors import calibration as cal
+
+    rng = np.random.default_rng(5)
+    z = rng.normal(0.0, 1.5, (7, 3))
+    eps = 1e-7
+    (scale,) = cal.regressors(cal.SCALE, z) or ()
+    np.testing.assert_allclose(scale, ((1.0 + eps) * z - z) / eps, rtol=1e-6)
+    angles = cal.regressors(cal.MISALIGNMENT, z)
+    assert angles is not None
+    for a, h in enumerate(angles):
+        d = np.zeros(3)
+        d[a] = eps
+        fd = (z @ cal.misalignment(d).T - z @ cal.misalignment(-d).T) / (2 * eps)
+        np.testing.assert_allclose(h, -fd, atol=1e-6)
+    tilt = cal.regressors(cal.TILT_BIAS, z[:, :2])
+    depth = cal.regressors(cal.DEPTH_BIAS, z[:, :1])
+    assert tilt is not None and depth is not None
+    np.testing.assert_array_equal(tilt[0], np.tile([1.0, 0.0], (7, 1)))
+    np.testing.assert_array_equal(tilt[1], np.tile([0.0, 1.0], (7, 1)))
+    np.testing.assert_array_equal(depth[0], np.ones((7, 1)))
+    # a quantity it does not know, or readings of the wrong width: no regressor
+    assert cal.regressors(cal.MISALIGNMENT, z[:, :2]) is None
+    assert cal.regressors(cal.TILT_BIAS, z[:, :1]) is None

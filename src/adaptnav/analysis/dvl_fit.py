@@ -58,6 +58,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from adaptnav.analysis.floor import dvl_readings, dvl_sensor, imu_rate_at
 from adaptnav.core import earth
+from adaptnav.estimation import long_run
 from adaptnav.mission import Mission
 from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_SIZE, NOM_VEL
 from adaptnav.sensors import dvl
@@ -185,8 +186,9 @@ def fit_readings(z: Array, h: Array, nominal: Array) -> ReadingsFit:
 def _long_run_prewhitened(g: Array) -> tuple[float, float, Array]:
     """(ρ, bandwidth, S): the long-run covariance S of the g_k, prewhitened (Andrews & Monahan
     1992): ``g_k = B g_{k-1} + u_k`` fitted by least squares (B's singular values capped at
-    :data:`MAX_RHO`), Newey-West on the u_k (:func:`_bandwidth`, :func:`_long_run`), then
-    ``S = (I - B)⁻¹ S_u (I - B)⁻ᵀ``. ρ is the g_k's own largest lag-1 correlation."""
+    :data:`MAX_RHO`), Newey-West on the u_k (:func:`_bandwidth`,
+    ``estimation.long_run.bartlett``), then ``S = (I - B)⁻¹ S_u (I - B)⁻ᵀ``. ρ is the g_k's
+    own largest lag-1 correlation."""
     rho = _bandwidth(g)[0]
     if g.shape[0] < 10:
         return rho, 0.0, np.asarray(g.T @ g, dtype=float)
@@ -197,7 +199,7 @@ def _long_run_prewhitened(g: Array) -> tuple[float, float, Array]:
     u = Y - X @ B.T
     bandwidth = _bandwidth(u)[1]
     D = np.linalg.inv(np.eye(g.shape[1]) - B)
-    return rho, bandwidth, np.asarray(D @ _long_run(u, bandwidth) @ D.T, dtype=float)
+    return rho, bandwidth, np.asarray(D @ long_run.bartlett(u, bandwidth) @ D.T, dtype=float)
 
 
 def _bandwidth(g: Array) -> tuple[float, float]:
@@ -214,19 +216,6 @@ def _bandwidth(g: Array) -> tuple[float, float]:
     r = min(max(rho, 0.0), MAX_RHO)
     alpha = 4.0 * r * r / ((1.0 - r) ** 2 * (1.0 + r) ** 2)
     return rho, float(min(1.1447 * (alpha * n) ** (1.0 / 3.0), n / 4.0))
-
-
-def _long_run(g: Array, bandwidth: float) -> Array:
-    """``Σ_l k(l / S) Γ_l`` over lags |l| < S, ``Γ_l = Σ_k g_k g_{k-l}ᵀ``, Bartlett weights
-    ``k(x) = 1 - |x|`` (Newey & West 1987): the covariance of ``Σ_k g_k`` when the g_k are
-    correlated over a few readings; ``Γ_0`` alone (the sandwich) at bandwidth 0."""
-    S = g.T @ g
-    lag = 1
-    while lag < bandwidth:
-        G = g[lag:].T @ g[:-lag]
-        S += (1.0 - lag / bandwidth) * (G + G.T)
-        lag += 1
-    return np.asarray(S, dtype=float)
 
 
 def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Array, Array]:

@@ -26,6 +26,7 @@ from adaptnav.core import attitude, earth
 from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align
 from adaptnav.engine.channels import build_channels
+from adaptnav.estimation.long_run import variance_factor
 from adaptnav.estimation.settings import FilterKind, FilterSettings
 from adaptnav.mission import (
     ImuData,
@@ -41,6 +42,7 @@ from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_SIZE, NavState
+from adaptnav.sensors.calibration import regressors as calibration_regressors
 from adaptnav.sensors.inclinometer import PendulumInclinometer
 from adaptnav.sensors.registry import KINDS
 
@@ -476,7 +478,11 @@ def run(
     if not states:
         return result
     return replace(
-        result, meta={**result.meta, "calibration": _calibration(states, result.solution)}
+        result,
+        meta={
+            **result.meta,
+            "calibration": _calibration(states, result.solution, result.ledger, m.sensors),
+        },
     )
 
 
@@ -504,22 +510,57 @@ def engine_config(
 
 
 def _calibration(
-    states: tuple[calibration.CalibrationState, ...], solution: pd.DataFrame
+    states: tuple[calibration.CalibrationState, ...],
+    solution: pd.DataFrame,
+    ledger: pd.DataFrame,
+    sensors: Mapping[str, SensorData],
 ) -> dict[str, dict[str, Any]]:
     """Each calibration state's estimate and σ at the end of the run (smoothed: the whole
-    run's), with its prior σ, in its report unit (docs/calibration.md; ``calibration.json``)."""
+    run's), with its prior σ, in its report unit (docs/calibration.md; ``calibration.json``),
+    and the σ allowing for the correlation of its sensor's readings: ``sigma_long_run = σ
+    sqrt(max(1, F))``, F the long-run variance factor (:func:`_long_run_factor`; None, and so
+    ``sigma_long_run``, where it cannot be told)."""
     out: dict[str, dict[str, Any]] = {}
     last = solution.iloc[-1]
     for st in states:
         f = st.quantity.factor
-        for name in st.names:
+        factors = _long_run_factor(st, ledger, sensors[st.sensor])
+        for name, lrv in zip(st.names, factors, strict=True):
+            sigma = float(last[f"sd_{name}"]) * f
+            known = math.isfinite(lrv)
             out[name] = {
                 "estimate": float(last[name]) * f,
-                "sigma": float(last[f"sd_{name}"]) * f,
+                "sigma": sigma,
+                "sigma_long_run": sigma * math.sqrt(max(1.0, lrv)) if known else None,
+                "long_run_factor": lrv if known else None,
                 "prior_sigma": st.sigma * f,
                 "unit": st.quantity.unit,
             }
     return out
+
+
+def _long_run_factor(
+    st: calibration.CalibrationState, ledger: pd.DataFrame, data: SensorData
+) -> list[float]:
+    """Per state of ``st``, the long-run variance factor F (estimation.long_run.variance_factor)
+    of its score over the sensor's used readings, ``g_k = Σ_j h_kj ν_kj / r_kj``: h the state's
+    regressor at reading k (sensors.calibration.regressors), ν the innovation and r the R the
+    filter used (docs/calibration.md, 'Correlated readings'). The filter's σ takes the g_k as
+    uncorrelated; F is by how much the variance of their sum exceeds that. NaN where the
+    regressor or the readings are unknown."""
+    used = ledger[(ledger["sensor"] == st.sensor) & (ledger["fate"] == "used")]
+    file_rows = used["row"].to_numpy(dtype=np.int64)
+    idx = np.clip(np.searchsorted(data.rows, file_rows), 0, max(len(data.rows) - 1, 0))
+    d = data.z.shape[1] if data.z.ndim == 2 else 1
+    if len(data.rows) == 0 or not np.array_equal(data.rows[idx], file_rows):
+        return [math.nan] * len(st.names)
+    nu = np.column_stack([used[f"nu_{j}"].to_numpy(dtype=float) for j in range(d)])
+    r = np.column_stack([used[f"r_{j}"].to_numpy(dtype=float) for j in range(d)])
+    hs = calibration_regressors(st.quantity, data.z[idx].reshape(len(idx), d))
+    if hs is None:
+        return [math.nan] * len(st.names)
+    w = nu / np.where(r > 0.0, r, np.nan)
+    return [variance_factor(np.sum(h * w, axis=1)) for h in hs]
 
 
 @dataclass(frozen=True)

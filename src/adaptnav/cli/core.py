@@ -178,16 +178,21 @@ def _print_run(result: Result, out: Path) -> None:
 
 def _calibration_table(found: dict[str, dict[str, Any]], smoothed: bool) -> Table:
     """The run's calibration states (``calibration.json``; docs/calibration.md): each final
-    estimate ± σ (of a ``smoothed`` run, the smoothed one: the whole run's) and the prior σ, in
-    the state's report unit."""
+    estimate ± σ (of a ``smoothed`` run, the smoothed one: the whole run's), its σ allowing for
+    correlated readings ('Correlated readings'; - where the run could not tell) and the prior
+    σ, in the state's report unit."""
     when = "RTS-smoothed over the run" if smoothed else "at the end of the run"
     table = Table(title=f"calibration states {when}")
-    for col in ("state", "estimate ± σ", "prior σ"):
+    for col in ("state", "estimate ± σ", "σ, correlated readings", "prior σ"):
         table.add_column(col)
     for name, c in found.items():
         unit = c["unit"]
+        long_run = c.get("sigma_long_run")
         table.add_row(
-            name, f"{c['estimate']:.3f} ± {c['sigma']:.3f} {unit}", f"{c['prior_sigma']:.3f} {unit}"
+            name,
+            f"{c['estimate']:.3f} ± {c['sigma']:.3f} {unit}",
+            "-" if long_run is None else f"{long_run:.3f} {unit}",
+            f"{c['prior_sigma']:.3f} {unit}",
         )
     return table
 

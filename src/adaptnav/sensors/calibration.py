@@ -79,6 +79,26 @@ TILT_BIAS = Quantity(
 """An inclinometer's roll and pitch biases (its mounting and zero): 0.5° each."""
 
 
+def regressors(quantity: Quantity, z: ArrayLike) -> tuple[Array, ...] | None:
+    """Per state of ``quantity``, how it moves each reading (n, d) of the sensor's readings z
+    (n, d), to first order and up to a constant factor: ``∂z/∂state`` near zero calibration
+    (module docstring's conventions). Scale: z itself; misalignment angle a: ``e_a × z``
+    (``M(δ) z ≈ z - δ × z``); a bias: its component's unit vector. None for a quantity this
+    function does not know (the long-run σ of docs/calibration.md, 'Correlated readings', is
+    then not given)."""
+    za = np.atleast_2d(np.asarray(z, dtype=float))
+    if quantity == SCALE:
+        return (za,)
+    if quantity == MISALIGNMENT and za.shape[1] == 3:
+        return tuple(np.cross(np.eye(3)[a], za) for a in range(3))
+    if quantity in (DEPTH_BIAS, TILT_BIAS) and za.shape[1] >= len(quantity.states):
+        return tuple(
+            np.broadcast_to(np.eye(za.shape[1])[j], za.shape).copy()
+            for j in range(len(quantity.states))
+        )
+    return None
+
+
 def misalignment(d: ArrayLike) -> Array:
     """``M(δ) = euler_to_dcm(δ)ᵀ`` (module docstring)."""
     a = np.asarray(d, dtype=float)
