@@ -44,17 +44,18 @@ def test_the_factor_of_a_long_ar1_series_is_its_known_value(rho: float) -> None:
     assert long_run.variance_factor(x) == pytest.approx(want, rel=0.15)
 
 
-def test_the_factor_predicts_the_spread_of_sums_over_draws() -> None:
-    """400 terms per draw (an A-KIT segment's DVL readings), 2000 draws at ρ = 0.5: the mean of
-    (Σ g)² / Σ g² is 3 (the AR(1) value), and with the factor near 1 - measured 1.23: the
-    Bartlett estimate's small-sample bias, which leaves σ about 10 % low (docs/calibration.md,
-    'Correlated readings')."""
-    x = _ar1(np.random.default_rng(11), 0.5, 400, draws=2000)
+@pytest.mark.parametrize("rho", [0.0, 0.5, 0.8])
+def test_the_factor_predicts_the_spread_of_sums_over_draws(rho: float) -> None:
+    """400 terms per draw (an A-KIT segment's DVL readings), 2000 draws: the mean of
+    (Σ g)² / Σ g² is (1 + ρ)/(1 - ρ) (1, 3, 9), and with the factor near 1. Without the
+    prewhitening (the Bartlett sum alone, its bandwidth from the data) it was 1.23 at ρ = 0.5
+    and 1.53 at 0.8: the small-sample shortfall the prewhitening removes."""
+    x = _ar1(np.random.default_rng(11), rho, 400, draws=2000)
     x -= x.mean()  # the population mean, known here: the sum's spread about it
     sums, squares = x.sum(axis=1) ** 2, (x * x).sum(axis=1)
     factors = np.array([long_run.variance_factor(row) for row in x])
-    assert np.mean(sums / squares) == pytest.approx(3.0, rel=0.15)
-    assert 0.95 < np.mean(sums / (factors * squares)) < 1.3
+    assert np.mean(sums / squares) == pytest.approx((1 + rho) / (1 - rho), rel=0.15)
+    assert 0.9 < np.mean(sums / (factors * squares)) < 1.12
 
 
 def test_too_few_or_constant_terms_have_no_factor() -> None:

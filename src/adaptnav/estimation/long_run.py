@@ -17,6 +17,14 @@ autocovariances γ_l of a scalar series up to lag ``p = ⌊4 (n/100)^(2/9)⌋``:
 It looks at several lags, not only the first, so a correlation that shows at lags of 5-20
 readings (the innovations of a filter, which tracks the slowest part of an error into its
 states) widens it even when the lag-1 correlation is small.
+
+A strongly correlated series needs a bandwidth longer than a few hundred terms can support,
+and the Bartlett sum then falls short (an AR(1) series of 400 terms with ρ = 0.5: 20 % short
+in variance). :func:`variance_factor` therefore prewhitens first (Andrews & Monahan 1992,
+"An improved heteroskedasticity and autocorrelation consistent covariance matrix estimator",
+Econometrica 60(4)): ``u_k = g_k - ρ̂ g_{k-1}`` with ρ̂ the lag-1 correlation (clipped to
+±:data:`MAX_RHO`), the Bartlett sum of the u_k with their own bandwidth, recoloured by
+``1 / (1 - ρ̂)²``. What the AR(1) leaves, at longer lags, the bandwidth of the u_k still sees.
 """
 
 from __future__ import annotations
@@ -28,10 +36,12 @@ from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 
-__all__ = ["MIN_TERMS", "bandwidth", "bartlett", "variance_factor"]
+__all__ = ["MAX_RHO", "MIN_TERMS", "bandwidth", "bartlett", "variance_factor"]
 
 MIN_TERMS = 20
 """Fewer terms than this say nothing about their correlation (:func:`variance_factor`)."""
+MAX_RHO = 0.95
+"""Largest lag-1 correlation the prewhitening takes (its recolouring 1 / (1 - ρ̂)² ≤ 400)."""
 
 
 def bartlett(g: Array, bandwidth: float) -> Array:
@@ -65,16 +75,20 @@ def bandwidth(g: Array) -> float:
 
 
 def variance_factor(g: Array) -> float:
-    """``S / Γ_0`` of the scalar series ``g`` about its mean, S with :func:`bandwidth`'s b: by
-    how much the variance of a sum of the terms exceeds the sum of their variances (1 for
-    uncorrelated terms, ``(1 + ρ) / (1 - ρ)`` for a long AR(1) series of lag-1 correlation ρ).
-    NaN for fewer than :data:`MIN_TERMS` terms or none finite: their correlation is unknown."""
+    """``S / Γ_0`` of the scalar series ``g`` about its mean, S its long-run variance
+    prewhitened (module docstring): by how much the variance of a sum of the terms exceeds the
+    sum of their variances (1 for uncorrelated terms, ``(1 + ρ) / (1 - ρ)`` for an AR(1) series
+    of lag-1 correlation ρ). NaN for fewer than :data:`MIN_TERMS` finite terms or no variance:
+    their correlation is unknown."""
     g = np.asarray(g, dtype=float)
     g = g[np.isfinite(g)]
     if g.size < MIN_TERMS:
         return math.nan
-    v = (g - g.mean())[:, None]
-    g0 = float(v[:, 0] @ v[:, 0])
+    v = g - g.mean()
+    g0 = float(v @ v)
     if not g0 > 0.0:
         return math.nan
-    return float(bartlett(v, bandwidth(g))[0, 0] / g0)
+    rho = float(np.clip(np.dot(v[1:], v[:-1]) / np.dot(v[:-1], v[:-1]), -MAX_RHO, MAX_RHO))
+    u = v[1:] - rho * v[:-1]
+    S_u = bartlett((u - u.mean())[:, None], bandwidth(u))[0, 0] * v.size / u.size
+    return float(S_u / (1.0 - rho) ** 2 / g0)
