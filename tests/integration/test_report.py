@@ -258,6 +258,7 @@ def test_report_of_runs_estimating_calibration_has_their_figure_and_table(
     assert [a["text"] for a in spec["layout"]["annotations"]] == list(calibrated.TRUTH)
     assert {t["legendgroup"] for t in spec["data"]} == {"meskf", "vb"}
     (caption,) = [c for c in page.captions if "calibration states the filters estimated" in c]
+    assert "σ allowing for correlated readings" in text
     assert "±2σ" in caption and "true value" in caption
     assert 'href="#calibration"' in text
     true = calibrated.true_states(mission)
@@ -271,7 +272,9 @@ def test_report_of_runs_estimating_calibration_has_their_figure_and_table(
         for cell, name in zip(cells, ("meskf", "vb"), strict=True):
             c = found[name][state]
             z = (c["estimate"] - true[state]) / c["sigma"]
-            assert cell == f"{c['estimate']:.3f} ± {c['sigma']:.3f} ({z:+.1f} σ)", (name, state)
+            assert cell == (
+                f"{c['estimate']:.3f} ± {c['sigma']:.3f} [{c['sigma_long_run']:.3f}] ({z:+.1f} σ)"
+            ), (name, state)
 
 
 def test_evaluate_finds_the_true_calibration_of_a_compared_run(

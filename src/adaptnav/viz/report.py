@@ -288,9 +288,10 @@ class CalibrationRow:
     unit: str
     prior_sigma: Num
     true: float | None
-    estimates: tuple[tuple[Num, Num, float | None] | None, ...]
+    estimates: tuple[tuple[Num, Num, float | None, Num] | None, ...]
     """Per filter of :attr:`Calibration.filters`: (estimate, σ, error / σ or None when the true
-    value is unknown); None: the filter did not estimate this state."""
+    value is unknown, σ allowing for correlated readings or None: ``sigma_long_run``); None:
+    the filter did not estimate this state."""
 
 
 @dataclass(frozen=True)
@@ -895,15 +896,17 @@ def _calibration(
     return Calibration(tuple(_label(n) for n in found), tuple(rows), bool(truth))
 
 
-def _estimate(entry: Any, true: float | None) -> tuple[Num, Num, float | None] | None:
-    """(estimate, σ, error / σ) of one state's ``calibration.json`` entry; None without one."""
+def _estimate(entry: Any, true: float | None) -> tuple[Num, Num, float | None, Num] | None:
+    """(estimate, σ, error / σ, σ allowing for correlated readings) of one state's
+    ``calibration.json`` entry (docs/calibration.md, 'Correlated readings'; a run folder
+    written before 0.3.9 has no ``sigma_long_run``: None); None without an entry."""
     if not isinstance(entry, dict):
         return None
     estimate, sigma = _number(entry.get("estimate")), _number(entry.get("sigma"))
     z = None
     if true is not None and isinstance(estimate, float) and isinstance(sigma, float) and sigma > 0:
         z = (estimate - true) / sigma
-    return (estimate, sigma, z)
+    return (estimate, sigma, z, _number(entry.get("sigma_long_run")))
 
 
 def _ledger(names: Sequence[Any], results: Mapping[str, Mapping[str, Any]]) -> list[LedgerRow]:
