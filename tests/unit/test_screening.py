@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pydantic
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -22,7 +23,13 @@ from typer.testing import CliRunner
 from adaptnav.cli import app
 from adaptnav.mission import MissionError, load_mission
 from adaptnav.mission.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
-from adaptnav.mission.screening import STUCK_MIN_READINGS, stuck_mask, stuck_runs
+from adaptnav.mission.screening import (
+    SPIKE_HALF_WINDOW,
+    STUCK_MIN_READINGS,
+    spike_mask,
+    stuck_mask,
+    stuck_runs,
+)
 from helpers import badinput
 
 SEED = 12
@@ -348,3 +355,99 @@ def test_an_all_zero_dvl_is_left_to_zero_is_lost(mission: Path) -> None:
     _set(mission, "zero_is_lost = true")
     lost = [d.row for d in load_mission(mission).dropped if "bottom lock lost" in d.reason]
     assert lost == rows
+
+
+# --- isolated spikes (docs/robustness.md, 'Spikes') ----------------------------------------
+
+
+def _smooth_dvl(n: int, seed: int, sigma: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """n readings at 3 Hz of a vehicle speeding up and turning, with white noise ``sigma``."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 3.0
+    z = np.column_stack([1.0 + 0.5 * np.tanh((t - t[-1] / 2) / 20), 0.2 * np.sin(t / 15), 0 * t])
+    return t, z + rng.normal(0.0, sigma, (n, 3))
+
+
+def test_isolated_spikes_are_caught_and_nothing_else() -> None:
+    t, z = _smooth_dvl(3000, SEED)
+    spikes = [100, 777, 1501, 2999]  # the last reading has neighbours on one side only
+    z[spikes[0], 0] += 1.0
+    z[spikes[1], 1] -= 2.0
+    z[spikes[2]] += [1.5, -1.5, 3.0]
+    z[spikes[3], 2] += 1.2
+    got = spike_mask(t, z, 10.0, np.full(3, 0.048), 1 / 3)
+    assert np.flatnonzero(got).tolist() == spikes
+
+
+def test_a_step_or_a_burst_is_not_an_isolated_spike() -> None:
+    """A step in speed is a change, not a spike: monotonic within the window, each reading is
+    its window's median. A burst as long as the half window is no isolated spike either: it is
+    the guard's (and the filter's) to judge."""
+    t, z = _smooth_dvl(600, SEED)
+    z[300:, 0] += 1.0
+    burst = slice(100, 100 + SPIKE_HALF_WINDOW + 1)
+    z[burst, 1] += 2.0
+    assert not spike_mask(t, z, 10.0, np.full(3, 0.048), 1 / 3).any()
+
+
+def test_a_spike_just_after_a_gap_is_judged_by_the_readings_after_the_gap() -> None:
+    """The readings on the far side of a gap are no neighbours: 300 s apart, the vehicle's
+    velocity has changed (here by 1 m/s), and the first reading after the gap, a spike, is
+    judged by the ones after it (robust's worst faulted run, docs/robustness.md)."""
+    t, z = _smooth_dvl(3000, SEED)
+    keep = np.ones(3000, dtype=bool)
+    keep[1000:1900] = False
+    z[1900:, 0] += 1.0
+    z[1900, 1] += 1.5
+    got = spike_mask(t[keep], z[keep], 10.0, np.full(3, 0.048), 1 / 3)
+    assert np.flatnonzero(keep)[got].tolist() == [1900]
+
+
+def test_gaussian_noise_is_left_alone() -> None:
+    """60 000 readings of white noise 10× the floor (the simulated trials' noisy segments):
+    at 10 MADs fewer than 3 in 10 000 are flagged (7e-5 measured; with 7 readings in the
+    window instead of 15: 7e-3)."""
+    rng = np.random.default_rng(SEED)
+    t = np.arange(60_000) / 3.0
+    z = rng.normal(0.0, 0.1, (60_000, 3))
+    assert spike_mask(t, z, 10.0, np.full(3, 0.01), 1 / 3).mean() < 3e-4
+
+
+def test_spikes_off_short_or_unknown() -> None:
+    t, z = _smooth_dvl(50, SEED)
+    z[20, 0] += 3.0
+    floor = np.full(3, 0.048)
+    assert not spike_mask(t, z, 0.0, floor, 1 / 3).any()  # off
+    assert not spike_mask(t[:3], z[:3], 10.0, floor, 1 / 3).any()  # too few neighbours
+    z[20, 1] = np.nan  # the other components are still evidence
+    assert np.flatnonzero(spike_mask(t, z, 10.0, floor, 1 / 3)).tolist() == [20]
+    z[20] = np.nan  # a reading with nothing finite is not a spike (the loader drops it)
+    assert not spike_mask(t, z, 10.0, floor, 1 / 3).any()
+
+
+def test_spikes_dropped_at_load_with_their_reason_when_asked(mission: Path) -> None:
+    """Off by default: a spike reaches the filter; with ``spike_mads = 10`` in the DVL's section
+    it is dropped at load with its reason (and so has its fate in the ledger)."""
+    dvl = badinput.read(mission, "dvl")
+    k = int(np.flatnonzero(dvl["t_s"].to_numpy() > FREEZE_FROM_S)[0])
+    dvl.loc[k, "vy_m_s"] += 2.0
+    badinput.write(mission, "dvl", dvl)
+    assert not any(d.reason.startswith("spike") for d in load_mission(mission).dropped)
+    _set(mission, "spike_mads = 10.0")
+    spikes = [d for d in load_mission(mission).dropped if d.reason.startswith("spike")]
+    reasons = {d.reason for d in spikes}
+    assert reasons == {"spike: more than 10 MADs from the median of its neighbours (spike_mads)"}
+    # ours, and the simulator's own DVL outliers (the oracle's known outliers)
+    outliers = set(np.flatnonzero(dvl["is_outlier"].to_numpy() != 0).tolist())
+    found = {d.row for d in spikes}
+    assert k in found and found - {k} <= outliers and found - {k}
+
+
+def test_spike_mads_is_a_dvl_setting() -> None:
+    base = {"kind": "depth", "file": "depth.csv", "sigma": [0.1, "m"]}
+    with pytest.raises(pydantic.ValidationError, match="spike_mads: only for dvl sensors"):
+        SensorConfig.model_validate({**base, "spike_mads": 10.0})
+    with pytest.raises(pydantic.ValidationError, match="spike_mads"):
+        SensorConfig.model_validate(
+            {"kind": "dvl", "file": "dvl.csv", "sigma": [0.01, "m/s"], "spike_mads": -1.0}
+        )

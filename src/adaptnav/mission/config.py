@@ -364,6 +364,11 @@ class SensorConfig(_Model):
     """DVL only: the table's column holding the DVL's own bottom-lock flag (1 or true: locked,
     0 or false: lost), as DVL drivers report it; a reading flagged lost is dropped at load
     with that reason."""
+    spike_mads: NonNegative | None = None
+    """DVL only: drop at load, as an isolated spike, a reading with a component more than this
+    many scaled median absolute deviations (at least the nominal σ) from the median of it and
+    its neighbours (a Hampel test, :func:`adaptnav.mission.screening.spike_mask`;
+    docs/robustness.md, 'Spikes'). None or 0: off, the default; 10 is the value measured."""
     limits: tuple[float, float] | dict[str, tuple[float, float]] | None = None
     """Plausible range of a reading, in the SI unit of its column: ``[min, max]`` for every
     component, or ``{ column = [min, max] }`` per column; the rest from

@@ -28,7 +28,7 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
-from adaptnav.mission.screening import stuck_runs
+from adaptnav.mission.screening import spike_mask, stuck_runs
 from adaptnav.mission.tables import (
     IMU_INCREMENT_COLUMNS,
     IMU_RATE_COLUMNS,
@@ -441,6 +441,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
         )
     _drop_stuck(table, name, cfg, t, z, keep, journal)
+    _drop_spikes(table, name, cfg, t, z, keep, journal)
     rows = np.flatnonzero(keep).astype(np.int64)
     tk = t[rows]
     if cfg.rate_hz is not None:
@@ -512,6 +513,32 @@ def _drop_stuck(
         for r in kept[a + 1 : b + 1].tolist():
             keep[r] = False
             journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
+
+
+def _drop_spikes(
+    table: Table,
+    name: str,
+    cfg: SensorConfig,
+    t: Array,
+    z: Array,
+    keep: NDArray[np.bool_],
+    journal: Journal,
+) -> None:
+    """Drop (``keep`` set False, ledger "spike: ...") the readings still kept that
+    :func:`adaptnav.mission.screening.spike_mask` finds, when ``spike_mads`` is set
+    (docs/robustness.md, 'Spikes')."""
+    mads = cfg.spike_mads or 0.0
+    kept = np.flatnonzero(keep)
+    if not mads > 0.0 or kept.size < 2:
+        return
+    tk, zk = t[kept], z[kept]
+    period = 1.0 / cfg.rate_hz if cfg.rate_hz is not None else float(np.median(np.diff(tk)))
+    floor = np.broadcast_to(np.asarray(cfg.sigma_si(), dtype=float), (zk.shape[1],))
+    for i in np.flatnonzero(spike_mask(tk, zk, mads, floor, period)).tolist():
+        r = int(kept[i])
+        keep[r] = False
+        reason = f"spike: more than {mads:g} MADs from the median of its neighbours (spike_mads)"
+        journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
 
 
 def implausible_reason(cfg: SensorConfig, c: int, value: float, limits: Array) -> str:

@@ -22,6 +22,8 @@ done with the readings caught (dropped, with their reason, to the run's ledger).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -175,3 +177,54 @@ def stuck_mask(
     np.add.at(marks, runs[:, 0] + 1, 1)
     np.add.at(marks, runs[:, 1] + 1, -1)
     return np.asarray(np.cumsum(marks[:n]) > 0, dtype=np.bool_)
+
+
+SPIKE_HALF_WINDOW = 7
+"""Neighbours on each side a reading is compared with (:func:`spike_mask`): 15 readings in all;
+fewer make the median absolute deviation too noisy a scale (Gaussian noise in 3 components at
+10 MADs: 7e-5 of the readings flagged with 15 readings, 7e-3 with 7)."""
+SPIKE_MIN_NEIGHBOURS = 3
+"""Fewest neighbours (the reading itself not counted) that make a median to judge it by."""
+SPIKE_REACH_PERIODS = 1.5
+"""A neighbour counts only within this many sensor periods per step of index from the reading
+(so across a data gap the readings on its far side are no neighbours)."""
+
+
+def spike_mask(
+    t: ArrayLike, z: ArrayLike, mads: float, floor: ArrayLike, period: float
+) -> NDArray[np.bool_]:
+    """Which readings (n,) of ``z`` (n, d) at times ``t`` are isolated spikes, by a Hampel
+    test (Hampel 1974; docs/robustness.md, 'Spikes'): with ``m_j`` the median and
+    ``s_j = 1.4826 median |z_j - m_j|`` the scaled median absolute deviation of component j
+    over the reading and its neighbours (:data:`SPIKE_HALF_WINDOW` each side, each within
+    ``SPIKE_REACH_PERIODS × period`` per index step, at least :data:`SPIKE_MIN_NEIGHBOURS`),
+
+        |z_j - m_j| > mads · max(s_j, floor_j)      for some component j.
+
+    ``floor`` (d,) keeps a quiet stretch (s_j near 0) from turning ordinary noise into spikes:
+    the sensor's nominal σ. ``mads`` ≤ 0 finds none. A run of bad readings as long as the half
+    window is not an isolated spike and is left to the filter's guard. Non-finite components
+    are no evidence either way."""
+    tt, zz = np.asarray(t, dtype=float), np.atleast_2d(np.asarray(z, dtype=float))
+    n, h = zz.shape[0], SPIKE_HALF_WINDOW
+    out = np.zeros(n, dtype=bool)
+    if not mads > 0.0 or n < SPIKE_MIN_NEIGHBOURS + 1 or not period > 0.0:
+        return out
+    pad_z = np.pad(zz, ((h, h), (0, 0)), constant_values=np.nan)
+    pad_t = np.pad(tt, (h, h), constant_values=np.nan)
+    win_z = np.lib.stride_tricks.sliding_window_view(pad_z, 2 * h + 1, axis=0)  # (n, d, 2h+1)
+    win_t = np.lib.stride_tricks.sliding_window_view(pad_t, 2 * h + 1)  # (n, 2h+1)
+    steps = np.abs(np.arange(-h, h + 1))
+    near = np.abs(win_t - tt[:, None]) <= SPIKE_REACH_PERIODS * period * np.maximum(steps, 1)
+    near[:, h] = True
+    enough = near.sum(axis=1) - 1 >= SPIKE_MIN_NEIGHBOURS
+    vals = np.where(near[:, None, :], win_z, np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN window: no evidence
+        med = np.nanmedian(vals, axis=2)
+        mad = 1.4826 * np.nanmedian(np.abs(vals - med[:, :, None]), axis=2)
+    scale = np.maximum(mad, np.asarray(floor, dtype=float)[None, :])
+    with np.errstate(invalid="ignore"):
+        off = np.abs(zz - med) > mads * scale
+    out[:] = enough & np.any(off & np.isfinite(zz), axis=1)
+    return out
