@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from adaptnav.cli import app
-from adaptnav.mission import MissionError, load_mission
+from adaptnav.mission import MissionError, load_mission, screening
 from adaptnav.mission.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
 from adaptnav.mission.screening import (
     SPIKE_HALF_WINDOW,
@@ -451,3 +451,16 @@ def test_spike_mads_is_a_dvl_setting() -> None:
         SensorConfig.model_validate(
             {"kind": "dvl", "file": "dvl.csv", "sigma": [0.01, "m/s"], "spike_mads": -1.0}
         )
+
+
+def test_spikes_are_judged_the_same_across_block_seams(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The readings are judged in blocks (memory): every block sees its neighbours across the
+    seams, so the answer is the one-block answer."""
+    t, z = _smooth_dvl(2000, SEED)
+    rng = np.random.default_rng(SEED)
+    z[rng.choice(2000, 40, replace=False), 1] += 2.0
+    floor = np.full(3, 0.048)
+    whole = spike_mask(t, z, 10.0, floor, 1 / 3)
+    assert whole.sum() >= 38
+    monkeypatch.setattr(screening, "_SPIKE_BLOCK", 7)
+    np.testing.assert_array_equal(spike_mask(t, z, 10.0, floor, 1 / 3), whole)

@@ -212,10 +212,29 @@ def spike_mask(
         return out
     pad_z = np.pad(zz, ((h, h), (0, 0)), constant_values=np.nan)
     pad_t = np.pad(tt, (h, h), constant_values=np.nan)
-    win_z = np.lib.stride_tricks.sliding_window_view(pad_z, 2 * h + 1, axis=0)  # (n, d, 2h+1)
-    win_t = np.lib.stride_tricks.sliding_window_view(pad_t, 2 * h + 1)  # (n, 2h+1)
+    fl = np.asarray(floor, dtype=float)
+    for a in range(0, n, _SPIKE_BLOCK):  # blocks: the windows take 2h + 1 copies of each
+        b = min(a + _SPIKE_BLOCK, n)
+        out[a:b] = _spikes(
+            tt[a:b], zz[a:b], pad_t[a : b + 2 * h], pad_z[a : b + 2 * h], mads, fl, period
+        )
+    return out
+
+
+_SPIKE_BLOCK = 1 << 16
+"""Readings judged at once by :func:`spike_mask` (their windows: about 25 MB for a DVL)."""
+
+
+def _spikes(
+    t: Array, z: Array, pad_t: Array, pad_z: Array, mads: float, floor: Array, period: float
+) -> NDArray[np.bool_]:
+    """:func:`spike_mask` of the readings t, z (m, d), their windows in ``pad_t``, ``pad_z``
+    (m + 2h rows: the h readings before and after, NaN past either end)."""
+    h = SPIKE_HALF_WINDOW
+    win_z = np.lib.stride_tricks.sliding_window_view(pad_z, 2 * h + 1, axis=0)  # (m, d, 2h+1)
+    win_t = np.lib.stride_tricks.sliding_window_view(pad_t, 2 * h + 1)  # (m, 2h+1)
     steps = np.abs(np.arange(-h, h + 1))
-    near = np.abs(win_t - tt[:, None]) <= SPIKE_REACH_PERIODS * period * np.maximum(steps, 1)
+    near = np.abs(win_t - t[:, None]) <= SPIKE_REACH_PERIODS * period * np.maximum(steps, 1)
     near[:, h] = True
     enough = near.sum(axis=1) - 1 >= SPIKE_MIN_NEIGHBOURS
     vals = np.where(near[:, None, :], win_z, np.nan)
@@ -223,8 +242,7 @@ def spike_mask(
         warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN window: no evidence
         med = np.nanmedian(vals, axis=2)
         mad = 1.4826 * np.nanmedian(np.abs(vals - med[:, :, None]), axis=2)
-    scale = np.maximum(mad, np.asarray(floor, dtype=float)[None, :])
+    scale = np.maximum(mad, floor[None, :])
     with np.errstate(invalid="ignore"):
-        off = np.abs(zz - med) > mads * scale
-    out[:] = enough & np.any(off & np.isfinite(zz), axis=1)
-    return out
+        off = np.abs(z - med) > mads * scale
+    return np.asarray(enough & np.any(off & np.isfinite(z), axis=1))
