@@ -440,8 +440,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
         journal.drop(
             table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
         )
-    _drop_stuck(table, name, cfg, t, z, keep, journal)
-    _drop_spikes(table, name, cfg, t, z, keep, journal)
+    _drop_screened(table, name, cfg, t, z, keep, journal)
     rows = np.flatnonzero(keep).astype(np.int64)
     tk = t[rows]
     if cfg.rate_hz is not None:
@@ -486,7 +485,7 @@ _UNIT = {"s": "m/s", "m": "m", "rad": "rad"}
 """Unit of a column by its name's last part (``vx_m_s`` → m/s, ``depth_m`` → m)."""
 
 
-def _drop_stuck(
+def _drop_screened(
     table: Table,
     name: str,
     cfg: SensorConfig,
@@ -495,50 +494,46 @@ def _drop_stuck(
     keep: NDArray[np.bool_],
     journal: Journal,
 ) -> None:
-    """Drop (``keep`` set False, ledger "stuck: ...") the readings still kept that
-    :func:`adaptnav.mission.screening.stuck_runs` catches: a run unchanged within
-    ``resolution`` for ``stuck_s`` or longer, all but its first reading (docs/robustness.md)."""
-    stuck_s = cfg.stuck_duration_s()
-    if stuck_s <= 0.0:
-        return
-    kept = np.flatnonzero(keep)
-    zk = z[kept]
-    if cfg.kind == "dvl":
-        # An all-zero vector is zero_is_lost's business (a lost bottom lock, or a vehicle
-        # resting on the bottom: the user says which), so it breaks a run, like NaN.
-        zk = np.where(np.all(zk == 0.0, axis=1)[:, None], np.nan, zk)
-    resolution = cfg.resolution_si()
-    for a, b in stuck_runs(t[kept], zk, resolution, stuck_s).tolist():
-        reason = stuck_reason(cfg, resolution, float(t[kept[a]]), float(t[kept[b]]))
-        for r in kept[a + 1 : b + 1].tolist():
+    """Drop (``keep`` set False, ledger) the readings still kept that the screening catches
+    (:mod:`adaptnav.mission.screening`; docs/robustness.md): stuck runs, then isolated
+    spikes."""
+    for caught in (_stuck_caught, _spikes_caught):
+        kept = np.flatnonzero(keep)
+        for i, reason in caught(cfg, t[kept], z[kept]):
+            r = int(kept[i])
             keep[r] = False
             journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
 
 
-def _drop_spikes(
-    table: Table,
-    name: str,
-    cfg: SensorConfig,
-    t: Array,
-    z: Array,
-    keep: NDArray[np.bool_],
-    journal: Journal,
-) -> None:
-    """Drop (``keep`` set False, ledger "spike: ...") the readings still kept that
-    :func:`adaptnav.mission.screening.spike_mask` finds, when ``spike_mads`` is set
-    (docs/robustness.md, 'Spikes')."""
+def _stuck_caught(cfg: SensorConfig, t: Array, z: Array) -> list[tuple[int, str]]:
+    """(index, "stuck: ...") of the readings ``t``, ``z`` that
+    :func:`adaptnav.mission.screening.stuck_runs` catches: a run unchanged within
+    ``resolution`` for ``stuck_s`` or longer, all but its first reading."""
+    stuck_s = cfg.stuck_duration_s()
+    if stuck_s <= 0.0:
+        return []
+    if cfg.kind == "dvl":
+        # An all-zero vector is zero_is_lost's business (a lost bottom lock, or a vehicle
+        # resting on the bottom: the user says which), so it breaks a run, like NaN.
+        z = np.where(np.all(z == 0.0, axis=1)[:, None], np.nan, z)
+    resolution = cfg.resolution_si()
+    out = []
+    for a, b in stuck_runs(t, z, resolution, stuck_s).tolist():
+        reason = stuck_reason(cfg, resolution, float(t[a]), float(t[b]))
+        out += [(i, reason) for i in range(a + 1, b + 1)]
+    return out
+
+
+def _spikes_caught(cfg: SensorConfig, t: Array, z: Array) -> list[tuple[int, str]]:
+    """(index, "spike: ...") of the readings ``t``, ``z`` that
+    :func:`adaptnav.mission.screening.spike_mask` finds, when ``spike_mads`` is set."""
     mads = cfg.spike_mads or 0.0
-    kept = np.flatnonzero(keep)
-    if not mads > 0.0 or kept.size < 2:
-        return
-    tk, zk = t[kept], z[kept]
-    period = 1.0 / cfg.rate_hz if cfg.rate_hz is not None else float(np.median(np.diff(tk)))
-    floor = np.broadcast_to(np.asarray(cfg.sigma_si(), dtype=float), (zk.shape[1],))
-    for i in np.flatnonzero(spike_mask(tk, zk, mads, floor, period)).tolist():
-        r = int(kept[i])
-        keep[r] = False
-        reason = f"spike: more than {mads:g} MADs from the median of its neighbours (spike_mads)"
-        journal.drop(table.label, table.where(r), DroppedRow(name, r, float(t[r]), reason))
+    if not mads > 0.0 or t.size < 2:
+        return []
+    period = 1.0 / cfg.rate_hz if cfg.rate_hz is not None else float(np.median(np.diff(t)))
+    floor = np.broadcast_to(np.asarray(cfg.sigma_si(), dtype=float), (z.shape[1],))
+    reason = f"spike: more than {mads:g} MADs from the median of its neighbours (spike_mads)"
+    return [(i, reason) for i in np.flatnonzero(spike_mask(t, z, mads, floor, period)).tolist()]
 
 
 def implausible_reason(cfg: SensorConfig, c: int, value: float, limits: Array) -> str:
