@@ -138,6 +138,9 @@ def test_run_prints_the_estimates_and_evaluate_scores_them_against_the_truth(
         assert s["estimate"] == found[name]["estimate"] and s["sigma"] == found[name]["sigma"]
         assert s["error"] == pytest.approx(error, rel=1e-9, abs=1e-12), name
         assert s["error_over_sigma"] == pytest.approx(error / found[name]["sigma"], rel=1e-9)
+        assert s["error_over_sigma_long_run"] == pytest.approx(
+            error / found[name]["sigma_long_run"], rel=1e-9
+        )
         assert s["unit"] == found[name]["unit"]
     res = runner.invoke(app, ["evaluate", str(out)])
     assert res.exit_code == 0, res.output

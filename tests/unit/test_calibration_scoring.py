@@ -57,7 +57,13 @@ def test_without_the_simulators_record_no_state_has_a_true_value() -> None:
 def test_errors_are_estimate_minus_true_and_over_sigma_for_the_states_with_a_truth() -> None:
     meta = {
         "calibration": {
-            "pressure.bias": {"estimate": 0.25, "sigma": 0.1, "prior_sigma": 0.5, "unit": "m"},
+            "pressure.bias": {
+                "estimate": 0.25,
+                "sigma": 0.1,
+                "sigma_long_run": 0.2,
+                "prior_sigma": 0.5,
+                "unit": "m",
+            },
             "tilt.bias_roll": {"estimate": 0.1, "sigma": 0.0, "prior_sigma": 0.5, "unit": "deg"},
             "other.bias": {"estimate": 1.0, "sigma": 1.0, "prior_sigma": 1.0, "unit": "m"},
         }
@@ -68,5 +74,8 @@ def test_errors_are_estimate_minus_true_and_over_sigma_for_the_states_with_a_tru
     bias = scored["pressure.bias"]
     assert bias["unit"] == "m" and bias["true"] == 0.3 and bias["estimate"] == 0.25
     assert bias["error"] == pytest.approx(-0.05) and bias["error_over_sigma"] == pytest.approx(-0.5)
+    assert bias["error_over_sigma_long_run"] == pytest.approx(-0.25)
     assert math.isnan(cast(float, scored["tilt.bias_roll"]["error_over_sigma"]))
+    # a run folder written before 0.3.9 has no long-run σ: no such ratio
+    assert math.isnan(cast(float, scored["tilt.bias_roll"]["error_over_sigma_long_run"]))
     assert calibration_errors(cast(Result, SimpleNamespace(meta={})), {"pressure.bias": 0.3}) == {}

@@ -105,12 +105,16 @@ def calibration_errors(
 ) -> dict[str, dict[str, float | str]]:
     """Per calibration state of the run with a true value in ``truth`` (:func:`true_values`),
     in its report unit: ``unit, true, estimate, sigma, error = estimate - true,
-    error_over_sigma`` (NaN when σ is not positive); empty when there is none."""
+    error_over_sigma`` (NaN when σ is not positive), and ``error_over_sigma_long_run``, the
+    error over the σ allowing for correlated readings (``sigma_long_run``, docs/calibration.md
+    'Correlated readings'; NaN when the run has none); empty when there is none."""
     out: dict[str, dict[str, float | str]] = {}
     for name, found in (result.meta.get("calibration") or {}).items():
         if name not in truth:
             continue
         estimate, sigma = float(found["estimate"]), float(found["sigma"])
+        long_run = found.get("sigma_long_run")
+        lr = float(long_run) if long_run is not None else math.nan
         error = estimate - truth[name]
         out[name] = {
             "unit": str(found["unit"]),
@@ -119,5 +123,6 @@ def calibration_errors(
             "sigma": sigma,
             "error": error,
             "error_over_sigma": error / sigma if sigma > 0.0 else math.nan,
+            "error_over_sigma_long_run": error / lr if lr > 0.0 else math.nan,
         }
     return out
