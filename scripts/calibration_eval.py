@@ -319,22 +319,23 @@ def _agreement(rows: list[dict[str, Any]], who: str, k: str) -> list[str]:
     also the χ² with its σ allowing for correlated readings (``sigma_long_run``; the fits' σ
     allow for it already)."""
     v = np.array([r[who][k] for r in rows])
+    sd = np.array([r[who]["sd_" + k] for r in rows])
+    mean, chi2 = _spread(v, sd)
+    inside = int(np.sum(np.abs(v - mean) <= 2.0 * sd))
+    long_run = "-"
+    if "sdl_" + k in rows[0][who]:
+        long_run = (
+            f"{_spread(v, np.array([r[who]['sdl_' + k] for r in rows]))[1]:.1f} on {v.size - 1}"
+        )
     label = f"{k.removeprefix('dvl.')}, {ESTIMATOR_LABELS[who]}"
-    out = [label]
-    for key in ("sd_", "sdl_"):
-        if key + k not in rows[0][who]:
-            out.append("-")
-            continue
-        sd = np.array([r[who][key + k] for r in rows])
-        w = 1.0 / sd**2
-        mean = float((w * v).sum() / w.sum())
-        chi2 = float(((v - mean) ** 2 * w).sum())
-        if key == "sd_":
-            inside = int(np.sum(np.abs(v - mean) <= 2.0 * sd))
-            out += [_f(mean, ".3f"), f"{chi2:.1f} on {v.size - 1}", f"{inside}/{v.size}"]
-        else:
-            out.append(f"{chi2:.1f} on {v.size - 1}")
-    return out
+    return [label, _f(mean, ".3f"), f"{chi2:.1f} on {v.size - 1}", f"{inside}/{v.size}", long_run]
+
+
+def _spread(v: np.ndarray, sd: np.ndarray) -> tuple[float, float]:
+    """The weighted mean of ``v`` (weights 1/sd²) and the χ² of ``v`` about it."""
+    w = 1.0 / sd**2
+    mean = float((w * v).sum() / w.sum())
+    return mean, float(((v - mean) ** 2 * w).sum())
 
 
 def _smoothing_line(rows: list[dict[str, Any]], filt: str) -> str:

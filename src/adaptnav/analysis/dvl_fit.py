@@ -79,8 +79,8 @@ __all__ = [
 
 OUTLIER_SIGMAS = 5.0
 """A reading with an axis this many robust σ off the fit is excluded from it."""
-MAX_RHO = 0.95
-"""Largest lag-1 correlation the covariance's bandwidth is sized for."""
+MAX_RHO = long_run.MAX_RHO
+"""Largest lag-1 correlation the covariance's bandwidth and prewhitening take."""
 MAX_CONDITION = 1e10
 """Above this condition number of ``Jᵀ W J`` the readings do not observe the four numbers."""
 NAMES = (*SCALE.states, *MISALIGNMENT.states)

@@ -551,12 +551,12 @@ def _long_run_factor(
     used = ledger[(ledger["sensor"] == st.sensor) & (ledger["fate"] == "used")]
     file_rows = used["row"].to_numpy(dtype=np.int64)
     idx = np.clip(np.searchsorted(data.rows, file_rows), 0, max(len(data.rows) - 1, 0))
-    d = data.z.shape[1] if data.z.ndim == 2 else 1
     if len(data.rows) == 0 or not np.array_equal(data.rows[idx], file_rows):
         return [math.nan] * len(st.names)
-    nu = np.column_stack([used[f"nu_{j}"].to_numpy(dtype=float) for j in range(d)])
-    r = np.column_stack([used[f"r_{j}"].to_numpy(dtype=float) for j in range(d)])
-    hs = calibration_regressors(st.quantity, data.z[idx].reshape(len(idx), d))
+    d = data.z.shape[1]
+    nu = used[[f"nu_{j}" for j in range(d)]].to_numpy(dtype=float)
+    r = used[[f"r_{j}" for j in range(d)]].to_numpy(dtype=float)
+    hs = calibration_regressors(st.quantity, data.z[idx])
     if hs is None:
         return [math.nan] * len(st.names)
     w = nu / np.where(r > 0.0, r, np.nan)

@@ -93,8 +93,7 @@ def regressors(quantity: Quantity, z: ArrayLike) -> tuple[Array, ...] | None:
         return tuple(np.cross(np.eye(3)[a], za) for a in range(3))
     if quantity in (DEPTH_BIAS, TILT_BIAS) and za.shape[1] >= len(quantity.states):
         return tuple(
-            np.broadcast_to(np.eye(za.shape[1])[j], za.shape).copy()
-            for j in range(len(quantity.states))
+            np.tile(np.eye(za.shape[1])[j], (len(za), 1)) for j in range(len(quantity.states))
         )
     return None
 
