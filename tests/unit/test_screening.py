@@ -24,8 +24,10 @@ from adaptnav.cli import app
 from adaptnav.mission import MissionError, load_mission, screening
 from adaptnav.mission.config import SENSOR_KINDS, STUCK_DEFAULTS, SensorConfig, parse_config
 from adaptnav.mission.screening import (
+    AFTER_GAP_READINGS,
     SPIKE_HALF_WINDOW,
     STUCK_MIN_READINGS,
+    after_gap_mask,
     spike_mask,
     stuck_mask,
     stuck_runs,
@@ -432,10 +434,10 @@ def test_spikes_dropped_at_load_with_their_reason_when_asked(mission: Path) -> N
     k = int(np.flatnonzero(dvl["t_s"].to_numpy() > FREEZE_FROM_S)[0])
     dvl.loc[k, "vy_m_s"] += 2.0
     badinput.write(mission, "dvl", dvl)
-    assert not any(d.reason.startswith("spike") for d in load_mission(mission).dropped)
+    assert not any(d.reason.startswith("spike:") for d in load_mission(mission).dropped)
     _set(mission, "spike_mads = 10.0")
     spikes = [d for d in load_mission(mission).dropped if d.reason.startswith("spike")]
-    reasons = {d.reason for d in spikes}
+    reasons = {d.reason for d in spikes if not d.reason.startswith("spike after a gap")}
     assert reasons == {"spike: more than 10 MADs from the median of its neighbours (spike_mads)"}
     # ours, and the simulator's own DVL outliers (the oracle's known outliers)
     outliers = set(np.flatnonzero(dvl["is_outlier"].to_numpy() != 0).tolist())
@@ -464,3 +466,82 @@ def test_spikes_are_judged_the_same_across_block_seams(monkeypatch: pytest.Monke
     assert whole.sum() >= 38
     monkeypatch.setattr(screening, "_SPIKE_BLOCK", 7)
     np.testing.assert_array_equal(spike_mask(t, z, 10.0, floor, 1 / 3), whole)
+
+
+# --- the first readings after a gap (docs/robustness.md, 'After a gap') ----------------------
+
+
+def test_after_gap_marks_the_first_readings_after_each_long_gap() -> None:
+    t = np.concatenate([np.arange(30.0), 50.0 + np.arange(3.0), 100.0 + np.arange(30.0)])
+    got = np.flatnonzero(after_gap_mask(t, 10.0)).tolist()
+    # 20 s after reading 29: readings 30-32, then 47 s after 32: the next seven
+    assert got == [30, 31, 32, *range(33, 33 + AFTER_GAP_READINGS)]
+    assert not after_gap_mask(t, 50.0).any()  # no gap that long
+    assert not after_gap_mask(t, 0.0).any()  # off
+    assert not after_gap_mask(t[:1], 1.0).any()
+
+
+def test_judging_some_readings_gives_the_whole_tests_answer_for_them() -> None:
+    """``judge`` only limits which readings are judged: each against the same neighbours."""
+    t, z = _smooth_dvl(3000, SEED)
+    rng = np.random.default_rng(SEED)
+    keep = np.ones(3000, dtype=bool)
+    for a in rng.choice(2900, 12, replace=False):
+        keep[a : a + 40] = False  # gaps of about 13 s
+    z[rng.choice(3000, 60, replace=False), 0] += 2.0
+    t, z = t[keep], z[keep]
+    floor = np.full(3, 0.048)
+    whole = spike_mask(t, z, 10.0, floor, 1 / 3)
+    after = after_gap_mask(t, 10.0)
+    some = spike_mask(t, z, 10.0, floor, 1 / 3, judge=after)
+    np.testing.assert_array_equal(some, whole & after)
+    assert after.sum() >= 50 and whole.sum() >= 40 and some.sum() >= 1  # the case is exercised
+
+
+GAP_S = 15.0
+"""A DVL gap longer than the default ``after_gap_s`` (10 s), within the tiny mission."""
+
+
+def _gap_and_spike(mission: Path, spike: float) -> int:
+    """Remove 15 s of the DVL's readings under way and add ``spike`` m/s to the first
+    reading after the gap; returns that reading's row in the (shortened) table."""
+    dvl = badinput.read(mission, "dvl")
+    t = dvl["t_s"].to_numpy()
+    gone = (t > FREEZE_FROM_S) & (t < FREEZE_FROM_S + GAP_S)
+    dvl = dvl[~gone].reset_index(drop=True)
+    k = int(np.flatnonzero(dvl["t_s"].to_numpy() >= FREEZE_FROM_S + GAP_S)[0])
+    dvl.loc[k, "vx_m_s"] += spike
+    badinput.write(mission, "dvl", dvl)
+    return k
+
+
+def test_a_spike_after_a_gap_is_dropped_by_default(mission: Path, tmp_path: Path) -> None:
+    """The DVL back after 15 s with a spike of 1.5 m/s on its first reading: dropped at load
+    with its reason, by default; with ``after_gap_s = 0`` the filter takes it."""
+    k = _gap_and_spike(mission, 1.5)
+    dvl = _run(mission, tmp_path / "on")
+    assert dvl.loc[k, "fate"] == "dropped"
+    assert dvl.loc[k, "reason"] == (
+        "spike after a gap: reading 1 after 15.3 s without one, more than 10 MADs from the "
+        "median of the readings around it (after_gap_s)"
+    )
+    after = dvl.loc[k + 1 : k + AFTER_GAP_READINGS, "reason"].fillna("")
+    assert not after.str.startswith("spike").any()  # (two are the simulator's NaN dropout)
+    _set(mission, "after_gap_s = 0.0")
+    assert _run(mission, tmp_path / "off").loc[k, "fate"] == "used"
+
+
+def test_a_good_reading_after_a_gap_is_kept(mission: Path) -> None:
+    """Without the spike nothing after the gap is dropped (the vehicle's own change of
+    velocity over the gap is no spike: the readings after it agree)."""
+    _gap_and_spike(mission, 0.0)
+    assert not any(d.reason.startswith("spike") for d in load_mission(mission).dropped)
+
+
+def test_after_gap_s_is_a_dvl_setting() -> None:
+    base = {"kind": "depth", "file": "depth.csv", "sigma": [0.1, "m"]}
+    with pytest.raises(pydantic.ValidationError, match="after_gap_s: only for dvl sensors"):
+        SensorConfig.model_validate({**base, "after_gap_s": 10.0})
+    cfg = SensorConfig.model_validate({"kind": "dvl", "file": "dvl.csv", "sigma": [0.01, "m/s"]})
+    assert cfg.after_gap_duration_s() == 10.0
+    assert SensorConfig.model_validate({**base}).after_gap_duration_s() == 0.0

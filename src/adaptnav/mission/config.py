@@ -36,6 +36,7 @@ from adaptnav.core.units import DEG, SIGMA_RANGE_SI, Kind, UnitError, check_sigm
 from adaptnav.estimation.settings import FilterSettings, SensorOverrides
 from adaptnav.models.imu_noise import NOISE_FIELDS, ImuNoise, check_value, pair_si
 from adaptnav.sensors import registry
+from adaptnav.sensors.dvl import DVL_AFTER_GAP_S
 from adaptnav.sensors.kind import StuckDefault
 from adaptnav.sensors.registry import KINDS
 
@@ -369,6 +370,12 @@ class SensorConfig(_Model):
     many scaled median absolute deviations (at least the nominal σ) from the median of it and
     its neighbours (a Hampel test, :func:`adaptnav.mission.screening.spike_mask`;
     docs/robustness.md, 'Spikes'). None or 0: off, the default; 10 is the value measured."""
+    after_gap_s: NonNegative | None = None
+    """DVL only: after a gap of at least this many seconds between its readings, judge the
+    first readings by the same Hampel test against the readings after them (10 MADs,
+    :func:`adaptnav.mission.screening.after_gap_mask`), and drop a spike at load: after a
+    long gap the filter's own velocity is too uncertain to tell it from the drift
+    (docs/robustness.md, 'After a gap'). None: 10 s (``DVL_AFTER_GAP_S``); 0: off."""
     limits: tuple[float, float] | dict[str, tuple[float, float]] | None = None
     """Plausible range of a reading, in the SI unit of its column: ``[min, max]`` for every
     component, or ``{ column = [min, max] }`` per column; the rest from
@@ -552,6 +559,13 @@ class SensorConfig(_Model):
         elif self.limits is not None:
             out[:] = self.limits
         return out
+
+    def after_gap_duration_s(self) -> float:
+        """Gap (s) after which a DVL's first readings are screened: ``after_gap_s``, else
+        :data:`adaptnav.sensors.dvl.DVL_AFTER_GAP_S`; 0 (off) for every other kind."""
+        if self.kind != "dvl":
+            return 0.0
+        return DVL_AFTER_GAP_S if self.after_gap_s is None else self.after_gap_s
 
     def stuck_duration_s(self) -> float:
         """Minimum duration (s) of a stuck run: ``stuck_s``, else the kind's default

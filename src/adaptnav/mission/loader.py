@@ -28,7 +28,7 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
-from adaptnav.mission.screening import spike_mask, stuck_runs
+from adaptnav.mission.screening import AFTER_GAP_MADS, after_gap_mask, spike_mask, stuck_runs
 from adaptnav.mission.tables import (
     IMU_INCREMENT_COLUMNS,
     IMU_RATE_COLUMNS,
@@ -526,14 +526,41 @@ def _stuck_caught(cfg: SensorConfig, t: Array, z: Array) -> list[tuple[int, str]
 
 def _spikes_caught(cfg: SensorConfig, t: Array, z: Array) -> list[tuple[int, str]]:
     """(index, "spike: ...") of the readings ``t``, ``z`` that
-    :func:`adaptnav.mission.screening.spike_mask` finds, when ``spike_mads`` is set."""
-    mads = cfg.spike_mads or 0.0
-    if not mads > 0.0 or t.size < 2:
+    :func:`adaptnav.mission.screening.spike_mask` finds: every reading when ``spike_mads`` is
+    set, and the first readings after a gap of ``after_gap_s`` (a DVL's default) at
+    :data:`~adaptnav.mission.screening.AFTER_GAP_MADS`."""
+    mads, gap_s = cfg.spike_mads or 0.0, cfg.after_gap_duration_s()
+    if not (mads > 0.0 or gap_s > 0.0) or t.size < 2:
         return []
     period = 1.0 / cfg.rate_hz if cfg.rate_hz is not None else float(np.median(np.diff(t)))
     floor = np.broadcast_to(np.asarray(cfg.sigma_si(), dtype=float), (z.shape[1],))
-    reason = f"spike: more than {mads:g} MADs from the median of its neighbours (spike_mads)"
-    return [(i, reason) for i in np.flatnonzero(spike_mask(t, z, mads, floor, period)).tolist()]
+    # A reading with no finite value is no neighbour and no reading: a DVL that reports a
+    # lost lock as NaN rows leaves a gap as one whose rows are missing does.
+    rows = np.flatnonzero(np.any(np.isfinite(z), axis=1))
+    t, z = t[rows], z[rows]
+    caught = spike_mask(t, z, mads, floor, period)
+    out = [(int(rows[i]), spike_reason(mads)) for i in np.flatnonzero(caught).tolist()]
+    after = after_gap_mask(t, gap_s) & ~caught
+    if after.any():
+        found = spike_mask(t, z, AFTER_GAP_MADS, floor, period, judge=after)
+        starts = np.flatnonzero(np.diff(t) >= gap_s) + 1
+        for i in np.flatnonzero(found).tolist():
+            a = int(starts[np.searchsorted(starts, i, side="right") - 1])
+            out.append((int(rows[i]), after_gap_reason(float(t[a] - t[a - 1]), i - a + 1)))
+    return sorted(out)
+
+
+def spike_reason(mads: float) -> str:
+    """The ledger reason of an isolated spike (``spike_mads``)."""
+    return f"spike: more than {mads:g} MADs from the median of its neighbours (spike_mads)"
+
+
+def after_gap_reason(gap: float, k: int) -> str:
+    """The ledger reason of a spike among the first readings after a gap (``after_gap_s``)."""
+    return (
+        f"spike after a gap: reading {k} after {gap:.1f} s without one, more than "
+        f"{AFTER_GAP_MADS:g} MADs from the median of the readings around it (after_gap_s)"
+    )
 
 
 def implausible_reason(cfg: SensorConfig, c: int, value: float, limits: Array) -> str:

@@ -191,7 +191,12 @@ SPIKE_REACH_PERIODS = 1.5
 
 
 def spike_mask(
-    t: ArrayLike, z: ArrayLike, mads: float, floor: ArrayLike, period: float
+    t: ArrayLike,
+    z: ArrayLike,
+    mads: float,
+    floor: ArrayLike,
+    period: float,
+    judge: ArrayLike | None = None,
 ) -> NDArray[np.bool_]:
     """Which readings (n,) of ``z`` (n, d) at times ``t`` are isolated spikes, by a Hampel
     test (Hampel 1974; docs/robustness.md, 'Spikes'): with ``m_j`` the median and
@@ -204,7 +209,8 @@ def spike_mask(
     ``floor`` (d,) keeps a quiet stretch (s_j near 0) from turning ordinary noise into spikes:
     the sensor's nominal σ. ``mads`` ≤ 0 finds none. A run of bad readings as long as the half
     window is not an isolated spike and is left to the filter's guard. Non-finite components
-    are no evidence either way."""
+    are no evidence either way. ``judge`` (n,) bool, if given, limits the test to those
+    readings (their neighbours are all readings all the same): :func:`after_gap_mask`."""
     tt, zz = np.asarray(t, dtype=float), np.atleast_2d(np.asarray(z, dtype=float))
     n, h = zz.shape[0], SPIKE_HALF_WINDOW
     out = np.zeros(n, dtype=bool)
@@ -213,10 +219,22 @@ def spike_mask(
     pad_z = np.pad(zz, ((h, h), (0, 0)), constant_values=np.nan)
     pad_t = np.pad(tt, (h, h), constant_values=np.nan)
     fl = np.asarray(floor, dtype=float)
+    if judge is not None:
+        idx = np.flatnonzero(np.asarray(judge, dtype=bool))
+        at = idx[:, None] + np.arange(2 * h + 1)  # rows of pad_*: the window of each
+        win_z = np.moveaxis(pad_z[at], 1, 2)  # (m, d, 2h+1)
+        out[idx] = _spikes(tt[idx], zz[idx], pad_t[at], win_z, mads, fl, period)
+        return out
     for a in range(0, n, _SPIKE_BLOCK):  # blocks: the windows take 2h + 1 copies of each
         b = min(a + _SPIKE_BLOCK, n)
         out[a:b] = _spikes(
-            tt[a:b], zz[a:b], pad_t[a : b + 2 * h], pad_z[a : b + 2 * h], mads, fl, period
+            tt[a:b],
+            zz[a:b],
+            np.lib.stride_tricks.sliding_window_view(pad_t[a : b + 2 * h], 2 * h + 1),
+            np.lib.stride_tricks.sliding_window_view(pad_z[a : b + 2 * h], 2 * h + 1, axis=0),
+            mads,
+            fl,
+            period,
         )
     return out
 
@@ -226,13 +244,11 @@ _SPIKE_BLOCK = 1 << 16
 
 
 def _spikes(
-    t: Array, z: Array, pad_t: Array, pad_z: Array, mads: float, floor: Array, period: float
+    t: Array, z: Array, win_t: Array, win_z: Array, mads: float, floor: Array, period: float
 ) -> NDArray[np.bool_]:
-    """:func:`spike_mask` of the readings t, z (m, d), their windows in ``pad_t``, ``pad_z``
-    (m + 2h rows: the h readings before and after, NaN past either end)."""
+    """:func:`spike_mask` of the readings t, z (m, d), given their windows ``win_t`` (m, 2h+1)
+    and ``win_z`` (m, d, 2h+1): the h readings before and after each, NaN past either end."""
     h = SPIKE_HALF_WINDOW
-    win_z = np.lib.stride_tricks.sliding_window_view(pad_z, 2 * h + 1, axis=0)  # (m, d, 2h+1)
-    win_t = np.lib.stride_tricks.sliding_window_view(pad_t, 2 * h + 1)  # (m, 2h+1)
     steps = np.abs(np.arange(-h, h + 1))
     near = np.abs(win_t - t[:, None]) <= SPIKE_REACH_PERIODS * period * np.maximum(steps, 1)
     near[:, h] = True
@@ -246,3 +262,27 @@ def _spikes(
     with np.errstate(invalid="ignore"):
         off = np.abs(z - med) > mads * scale
     return np.asarray(enough & np.any(off & np.isfinite(z), axis=1))
+
+
+AFTER_GAP_MADS = 10.0
+"""The Hampel threshold (:func:`spike_mask`'s ``mads``) for the readings just after a gap
+(``after_gap_s``): the value measured for ``spike_mads`` (docs/robustness.md, 'Spikes')."""
+AFTER_GAP_READINGS = SPIKE_HALF_WINDOW
+"""Readings after a gap that :func:`after_gap_mask` marks: a burst shorter than this is one
+the Hampel test can see, since their windows reach the readings after it."""
+
+
+def after_gap_mask(
+    t: ArrayLike, gap_s: float, count: int = AFTER_GAP_READINGS
+) -> NDArray[np.bool_]:
+    """Which readings (n,) at times ``t`` (increasing) are among the first ``count`` after a
+    gap: an interval ``t_i - t_{i-1} >= gap_s`` between consecutive readings (docs/robustness.md,
+    'After a gap'). ``gap_s`` ≤ 0 marks none; the first reading of all is not after a gap."""
+    tt = np.asarray(t, dtype=float)
+    out = np.zeros(tt.size, dtype=bool)
+    if not gap_s > 0.0 or tt.size < 2:
+        return out
+    starts = np.flatnonzero(np.diff(tt) >= gap_s) + 1
+    for a in starts.tolist():
+        out[a : a + count] = True
+    return out

@@ -225,6 +225,12 @@ DVL_STUCK_S = 10.0
 """A DVL's noise (mm/s per ping, even at rest) spans its output step, so ten seconds of one
 vector is a frozen driver; it is longer than a ping interval, even in deep water (a driver that
 holds the last ping until the next one repeats it that long)."""
+DVL_AFTER_GAP_S = 10.0
+"""A gap in the DVL's readings after which its first readings are screened against the ones
+after them (``after_gap_s``, docs/robustness.md 'After a gap'): by then the velocity the
+filter carries is no better than one reading (a tactical IMU's 0.25-mg accelerometer bias
+alone gives 2.5 cm/s in 10 s, a DVL's σ at 2 m/s is 4 cm/s), so the innovation can no longer
+tell a spike from the drift."""
 COLUMNS = ("vx_m_s", "vy_m_s", "vz_m_s")
 
 
@@ -252,7 +258,7 @@ KIND = SensorKind(
     stuck=StuckDefault(DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in COLUMNS}),
     lever_arm=True,
     mounting=True,
-    options=frozenset({"zero_is_lost", "status_column", "spike_mads"}),
+    options=frozenset({"zero_is_lost", "status_column", "spike_mads", "after_gap_s"}),
     linearised=(DVL,),
     calibration={q.name: q for q in (SCALE, MISALIGNMENT)},
     ideal_reading=ideal,
