@@ -75,3 +75,80 @@ def test_a_run_of_unchanged_readings_is_held_until_it_ends(tmp_path: Path) -> No
     assert [r.row for r in out] == [1, 2] and drops == [] and screen.held_from == math.inf
     out, drops = screen.push(Reading(2.5, v, 3))
     assert out == [] and [d.reason for d in drops] == [OUT_OF_ORDER_REASON]
+
+
+def _dvl_with_gaps(seed: int) -> pd.DataFrame:
+    """600 readings at 2 Hz with a gap of rows removed, a gap of NaN rows and a short one,
+    spikes just after each and mid-stream, and a stuck run just after the first gap."""
+    rng = np.random.default_rng(seed)
+    n = 600
+    t = 10.0 + 0.5 * np.arange(n)
+    z = 1.0 + 0.05 * rng.standard_normal((n, 3))
+    z[:, 1] += np.linspace(0.0, 2.0, n)  # the vehicle speeding up sideways
+    z[140] += [2.0, 0.0, 0.0]  # first after the removed rows (100..139)
+    z[142, 2] -= 1.5  # third after it
+    z[150:180] = z[150]  # stuck for 14.5 s
+    z[300:330] = math.nan  # lost lock reported as NaN: a 15.5-s gap in the finite readings
+    z[330, 1] += 3.0
+    z[400, 0] += 2.0  # after 4.5 s without a reading: no gap (after_gap_s is 10 s)
+    z[[250, 501, 555], 0] -= 2.0  # mid-stream spikes
+    keep = np.ones(n, dtype=bool)
+    keep[100:140] = False
+    keep[395:400] = False
+    return pd.DataFrame(
+        {"t_s": t[keep], "vx_m_s": z[keep, 0], "vy_m_s": z[keep, 1], "vz_m_s": z[keep, 2]}
+    )
+
+
+@pytest.mark.parametrize(("seed", "mads"), [(1, None), (2, None), (1, 10.0), (3, 6.0)])
+def test_the_spike_screens_live_drop_what_the_loader_does(
+    tmp_path: Path, seed: int, mads: float | None
+) -> None:
+    """The first readings after a gap (by default) and, with ``spike_mads``, every reading,
+    judged one at a time as the loader judges the table: the same verdicts, reasons and
+    readings released."""
+    cfg = config_dict()
+    cfg["sensors"]["dvl"]["rate_hz"] = 2.0
+    if mads is not None:
+        cfg["sensors"]["dvl"]["spike_mads"] = mads
+    dvl = _dvl_with_gaps(seed)
+    m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl}))
+    screen = LiveScreen("dvl", m.config.sensors["dvl"], m.sensors["dvl"].period)
+    released: list[Reading] = []
+    dropped = []
+    for r, row in enumerate(dvl.to_numpy()):
+        out, drops = screen.push(Reading(float(row[0]), row[1:].copy(), r))
+        released += out
+        dropped += drops
+    out, drops = screen.close()
+    released += out
+    dropped += drops
+    kept = m.sensors["dvl"]
+    assert [r.row for r in released] == kept.rows.tolist()
+    np.testing.assert_array_equal(np.array([r.z for r in released]), kept.z)
+    expected = sorted((d.row, d.t, d.reason) for d in m.dropped)
+    assert sorted((d.row, d.t, d.reason) for d in dropped) == expected
+    assert any(d.reason.startswith("stuck") for d in dropped)
+    spikes = sum(d.reason.startswith("spike:") for d in dropped)
+    after = sum(d.reason.startswith("spike after a gap") for d in dropped)
+    assert (spikes, after >= 3) == (0, True) if mads is None else spikes >= 6
+
+
+def test_a_spike_after_a_gap_is_held_then_dropped(tmp_path: Path) -> None:
+    """A reading to be judged is held until the 7 readings after it have come (3.5 s at
+    2 Hz), the readings behind it too; the stream's end judges what is left."""
+    cfg = config_dict()
+    m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": _dvl(1)}))
+    screen = LiveScreen("dvl", m.config.sensors["dvl"], 0.5)
+    v = np.array([1.0, 0.1, 0.0])
+    for k in range(5):
+        assert [r.row for r in screen.push(Reading(k * 0.5, v + 0.01 * k, k))[0]] == [k]
+    assert screen.held_from == math.inf
+    out, drops = screen.push(Reading(30.0, v + 2.0, 5))  # after 28 s: held
+    assert (out, drops, screen.held_from) == ([], [], 30.0)
+    for k in range(6, 13):
+        out, drops = screen.push(Reading(30.0 + 0.5 * (k - 5), v + 0.01 * k, k))
+    assert [d.row for d in drops] == [5] and drops[0].reason.startswith("spike after a gap")
+    assert out == []  # the next six after the gap are judged too: each waits for its window
+    out, drops = screen.close()
+    assert [r.row for r in out] == list(range(6, 13)) and drops == []

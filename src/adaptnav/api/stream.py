@@ -124,7 +124,9 @@ class Stream:
         )
         self._channels = runner.sensor_channels(cfg, s, periods, self._states)
         self._aiding = set(periods)
-        self._screens = {n: LiveScreen(n, c) for n, c in cfg.sensors.items()}
+        self._screens = {
+            n: LiveScreen(n, c, periods.get(n, math.nan)) for n, c in cfg.sensors.items()
+        }
         self._rows = dict.fromkeys(cfg.sensors, 0)
         gnss = [n for n, c in cfg.sensors.items() if c.kind == "gnss" and c.use != "off"]
         self._fix_sensor = gnss[0] if gnss else None
