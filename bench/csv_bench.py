@@ -25,6 +25,9 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
   line, found by the streamed reader's scan (up to 0.3.5, by the exact reader);
 - ``read_table`` on ``imu.csv`` with every line break a lone CR (``mac.csv``: classic Mac OS),
   read from a temporary LF copy (up to 0.3.7, by the exact reader);
+- ``read_table`` on ``imu.csv`` with one lone CR inside line :data:`DAMAGED_LINE`
+  (``stray.csv``: a file joined from Mac and Unix parts): the error naming that line, found
+  piece by piece (up to 0.3.9, by the exact reader);
 - ``read_table`` on the IMU table written as Parquet but named ``binary.csv``: the "not a CSV
   text file" error (up to 0.3.7 after reading the whole file into memory).
 
@@ -61,6 +64,7 @@ READERS = (
     "read_table_quoted",
     "read_table_damaged",
     "read_table_cr",
+    "read_table_stray_cr",
     "read_table_binary",
 )
 """What is measured, one subprocess each (see the module docstring)."""
@@ -111,6 +115,9 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     line = text[start : text.index(b"\n", start)]
     (root / "damaged.csv").write_bytes(
         text[:start] + b",".join(line.split(b",")[:4]) + text[start + len(line) :]
+    )
+    (root / "stray.csv").write_bytes(
+        text[:start] + line.replace(b",", b"\r", 1) + text[start + len(line) :]
     )
     (root / "mac.csv").write_bytes(text.replace(b"\n", b"\r"))
     del text
@@ -182,6 +189,14 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
         journal = tb.Journal()
         tb.read_table(mac, mac.name, journal)
         assert journal.repairs[0].action == "read CR line breaks as line breaks"
+    elif reader == "read_table_stray_cr":
+        stray = imu_csv.parent / "stray.csv"
+        try:
+            tb.read_table(stray, stray.name, tb.Journal())
+        except MissionError as exc:
+            assert str(exc).startswith(f"stray.csv line {DAMAGED_LINE}: a carriage return"), exc
+        else:
+            raise AssertionError("stray.csv was read")
     elif reader == "read_table_binary":
         binary = imu_csv.parent / "binary.csv"
         try:
@@ -249,6 +264,8 @@ def bench_csv_memory() -> list[str]:
         f"error naming it, peak {peak('read_table_damaged')}",
         f"csv memory: that imu.csv with lone-CR line breaks (classic Mac OS) → read_table peak "
         f"{peak('read_table_cr')}",
+        f"csv memory: that imu.csv with a lone CR inside line {DAMAGED_LINE:,} → read_table's "
+        f"error naming it, peak {peak('read_table_stray_cr')}",
         f"csv memory: the IMU table as Parquet named binary.csv ({size_binary:.0f} MB) → "
         f"read_table's error, peak {peak('read_table_binary', size_binary)}",
     ]

@@ -523,6 +523,74 @@ def test_a_lone_cr_among_lf_line_breaks_is_an_error_naming_its_line(
     assert err.value.line == at
 
 
+STRAY_TOKENS = (
+    b"1.0", b",", b"\n", b"\r\n", b"\r", b"\xe9", b"\xc3\xa9", b"\xef\xbb\xbf", b" ", b'"', b"\x00",
+)  # fmt: skip
+"""Pieces of the random files of :func:`test_the_stray_cr_error_is_the_exact_readers`."""
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        ("1.0,2.0\n3.0\r4.0\n5.0,6.0\n", "line 3: a carriage return (CR) alone"),
+        ("1.0,2.0\r\n" * 3000 + "3.0\r4.0\r\n", "line 3002: a carriage return (CR) alone"),
+        ("1.0,2.0\n3.0\r\r\n", "line 3: a carriage return (CR) alone"),  # CR, then CRLF
+        ("1.0,2.0\n\r", None),  # the very last byte: a CRLF file cut short, no error here
+        ("1.0,2.0\n3.0\r4.0\n" + "5.0,\xb0\n", "line 4, v: not UTF-8 text"),  # decoded first
+        ("1.0,2.0\n3.0\r4.0\n" + "5.0,6.0\n" * 3000 + "\xe9,1\n", "line 3004, t_s: not UTF-8"),
+        ("1.0,2.0\n1.0,2.0,3.0\n" + "5.0,6.0\n" * 3000 + "7\r8\n", "line 3004: a carriage"),
+    ],
+    ids=[
+        "numbers",
+        "crlf-far",
+        "cr-crlf",
+        "final-cr",
+        "latin1-after",
+        "latin1-far",
+        "fields-first",
+    ],
+)
+def test_a_lone_cr_among_lf_is_found_without_the_file_in_memory(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, body: str, expected: str | None
+) -> None:
+    """The exact reader's error for a file with a lone CR among LF line breaks (or, first, its
+    error for a byte that is not UTF-8 anywhere in the file), found piece by piece: the exact
+    reader, which holds the file's text about ten times over, does not run (up to 0.3.9 it
+    did). The last case has a wrong field count on line 3 and the lone CR in a later piece:
+    the exact reader reports the CR (it looks for it before counting fields), and so must the
+    streamed scan, which reported the field count up to 0.3.9."""
+    path = tmp_path / "x.csv"
+    path.write_bytes(b"t_s,v\n" + body.encode("latin-1"))
+    exact = outcome(EXACT, path)[2]
+    if expected is None:
+        assert tb._stray_cr(path, "x.csv") is None
+        return
+    assert exact is not None and f"x.csv {expected}" in exact, exact
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    with pytest.raises(MissionError) as err:
+        read(path)
+    assert str(err.value) == exact
+    assert err.value.line == int(expected.split("line ")[1].split(",")[0].split(":")[0])
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.lists(st.sampled_from(STRAY_TOKENS), max_size=60), st.booleans())
+def test_the_stray_cr_error_is_the_exact_readers(tokens: list[bytes], bom: bool) -> None:
+    """On random files of numbers, commas, quotes, line breaks of every kind, Latin-1 and UTF-8
+    bytes and NUL: whenever the piecewise pass gives an error it is the exact reader's, and it
+    gives one whenever the exact reader reports a lone CR."""
+    raw = (tb.BOM if bom else b"") + b"t_s,v\n" + b"".join(tokens)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "x.csv"
+        path.write_bytes(raw)
+        exact = outcome(EXACT, path)[2]
+        mine = tb._stray_cr(path, "x.csv")
+    if mine is not None:
+        assert str(mine) == exact
+    if exact is not None and "carriage return (CR) alone" in exact:
+        assert mine is not None
+
+
 SOUP = (
     b"1", b"2.5", b"-0", b",", b",", b"\n", b"\n", b"\r\n", b"\r", b'"', b" ", b"\t", b"abc",
     b"nan", b"\x00", b"\xe9", b"\xef\xbb\xbf", b"e5", b"+", b"inf", b"True", b"\x0c", b"1e999",

@@ -310,6 +310,8 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     table = _read_csv_plain(path, label, journal)
     if table is None:
         table = _read_csv_cr(path, label, journal)
+    if table is None and (error := _stray_cr(path, label)) is not None:
+        raise error
     return table if table is not None else _read_csv_exact(path, label, journal)
 
 
@@ -360,6 +362,73 @@ def _lone_crs(path: Path) -> int:
     except OSError:
         return 0
     return crs
+
+
+def _stray_cr(path: Path, label: str) -> MissionError | None:
+    """The exact reader's error for a file with a lone CR among LF line breaks, found piece by
+    piece instead of in the whole text (docs/robustness.md, "Memory"), or None for any other
+    file (the exact reader reads it, or gives its own error).
+
+    The exact reader decodes the whole file first (:func:`_decode`), then looks for the lone
+    CR (:func:`_line_breaks`): so the error is the first byte that is not UTF-8, if the file has
+    one anywhere, else the line of the first lone CR (not the file's last byte: a CRLF file cut
+    short). A file whose first :data:`BINARY_PROBE` bytes hold a NUL is the exact reader's, which
+    refuses it after that probe. Pieces are cut after a line break, so a line's bytes (and every
+    UTF-8 sequence) lie in one piece: the memory is a piece or the longest line."""
+    names: list[str] | None = None
+    cr_line = 0
+    lines = 1  # the line the next piece starts on
+    try:
+        with path.open("rb") as f:
+            if b"\x00" in f.read(BINARY_PROBE):
+                return None
+            f.seek(0)
+            carry = f.read(len(BOM)).removeprefix(BOM)
+            while True:
+                chunk = f.read(SCAN_BYTES)
+                buf = carry + chunk
+                cut = buf.rfind(b"\n") + 1 if chunk else len(buf)
+                piece, carry = buf[:cut], buf[cut:]
+                if names is None and b"\n" in piece:
+                    names = _header_names(piece[: piece.index(b"\n")])
+                try:
+                    piece.decode("utf-8")
+                except UnicodeDecodeError as exc:
+                    return _piece_not_utf8(piece, exc.start, lines, names or [], label)
+                if not cr_line:
+                    cr_line = _lone_cr_line(piece, lines, last=not chunk)
+                lines += piece.count(b"\n")
+                if not chunk:
+                    break
+    except OSError:
+        return None
+    if not cr_line or lines == 1:  # no lone CR; or no LF: classic Mac OS, not this error
+        return None
+    return MissionError(
+        f"{label} line {cr_line}: a carriage return (CR) alone inside the line, among LF line "
+        "breaks (a file joined from Mac and Unix parts?): save it with LF or CRLF line breaks",
+        file=label,
+        line=cr_line,
+    )
+
+
+def _header_names(raw: bytes) -> list[str]:
+    """The header's names as :func:`_not_utf8` reads them (none if the header is odd)."""
+    try:
+        header = raw.decode("utf-8").rstrip("\r")
+        return [h.strip() for h in _fields(header, '"' in header)]
+    except (UnicodeDecodeError, csv.Error):
+        return []
+
+
+def _lone_cr_line(piece: bytes, first_line: int, last: bool) -> int:
+    """The line of the first CR of ``piece`` (starting at line ``first_line``) not followed by
+    LF, the file's very last byte excepted when ``last``; 0 if none."""
+    body = piece[:-1] if last and piece.endswith(b"\r") else piece
+    at = body.find(b"\r")
+    while at >= 0 and body[at + 1 : at + 2] == b"\n":
+        at = body.find(b"\r", at + 1)
+    return 0 if at < 0 else first_line + body.count(b"\n", 0, at)
 
 
 def _cr_repair(journal: Journal, label: str, crs: int) -> None:
@@ -541,8 +610,8 @@ def _wrong_field_count(
     them, and may find an unclosed one first), no such line (a line of other white space, a
     form feed say: blank to the exact reader), a short line with nothing but white space after
     it (the file's cut last line, a repair), or the rest of the file (read on from ``carry``
-    and ``f`` piece by piece, nothing kept) not UTF-8, or with NUL (the exact reader's own
-    errors come first)."""
+    and ``f`` piece by piece, nothing kept) not UTF-8, with NUL or with a lone CR (the exact
+    reader's own errors come first)."""
     if b'"' in piece:
         return
     lines = piece.split(b"\n")
@@ -559,9 +628,14 @@ def _wrong_field_count(
     decoder = codecs.getincrementaldecoder("utf-8")()
     more = False  # a character after the line that is surely not white space (ASCII)
     rest = b"\n".join(lines[k + 1 :]) + carry
+    held = b""  # a CR that ended the bytes before: a CRLF's, or lone?
     while True:
         if b'"' in rest or b"\x00" in rest:
             return
+        both = held + rest
+        held = b"\r" if both.endswith(b"\r") else b""
+        if b"\r" in both[: len(both) - len(held)].replace(b"\r\n", b""):
+            return  # a lone CR after it: the exact reader's error comes first (_stray_cr)
         try:
             decoder.decode(rest, final=not rest)
         except UnicodeDecodeError:
