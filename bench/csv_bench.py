@@ -28,6 +28,9 @@ and imports, measured just before) and the wall time (best of :data:`REPEATS`) o
 - ``read_table`` on ``imu.csv`` with one lone CR inside line :data:`DAMAGED_LINE`
   (``stray.csv``: a file joined from Mac and Unix parts): the error naming that line, found
   piece by piece (up to 0.3.9, by the exact reader);
+- ``read_table`` on ``imu.csv`` with a line holding a form feed inserted before line
+  :data:`DAMAGED_LINE` (``formfeed.csv``: blank to the exact reader, a row to pandas), read
+  from a temporary copy with that line emptied (up to 0.3.9, by the exact reader);
 - ``read_table`` on the IMU table written as Parquet but named ``binary.csv``: the "not a CSV
   text file" error (up to 0.3.7 after reading the whole file into memory).
 
@@ -65,6 +68,7 @@ READERS = (
     "read_table_damaged",
     "read_table_cr",
     "read_table_stray_cr",
+    "read_table_formfeed",
     "read_table_binary",
 )
 """What is measured, one subprocess each (see the module docstring)."""
@@ -119,6 +123,7 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
     (root / "stray.csv").write_bytes(
         text[:start] + line.replace(b",", b"\r", 1) + text[start + len(line) :]
     )
+    (root / "formfeed.csv").write_bytes(text[:start] + b"\x0c\n" + text[start:])
     (root / "mac.csv").write_bytes(text.replace(b"\n", b"\r"))
     del text
     imu.to_parquet(root / "binary.csv")
@@ -197,6 +202,12 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
             assert str(exc).startswith(f"stray.csv line {DAMAGED_LINE}: a carriage return"), exc
         else:
             raise AssertionError("stray.csv was read")
+    elif reader == "read_table_formfeed":
+        formfeed = imu_csv.parent / "formfeed.csv"
+        table = tb.read_table(formfeed, formfeed.name, tb.Journal())
+        assert len(table.df) == ROWS and table.where(DAMAGED_LINE - 2) == (
+            f"formfeed.csv line {DAMAGED_LINE + 1}"
+        ), table.where(DAMAGED_LINE - 2)
     elif reader == "read_table_binary":
         binary = imu_csv.parent / "binary.csv"
         try:
@@ -266,6 +277,8 @@ def bench_csv_memory() -> list[str]:
         f"{peak('read_table_cr')}",
         f"csv memory: that imu.csv with a lone CR inside line {DAMAGED_LINE:,} → read_table's "
         f"error naming it, peak {peak('read_table_stray_cr')}",
+        f"csv memory: that imu.csv with a form-feed line before line {DAMAGED_LINE:,} → "
+        f"read_table peak {peak('read_table_formfeed')}",
         f"csv memory: the IMU table as Parquet named binary.csv ({size_binary:.0f} MB) → "
         f"read_table's error, peak {peak('read_table_binary', size_binary)}",
     ]

@@ -453,6 +453,54 @@ def test_a_line_of_spaces_is_a_blank_line(
     assert declined == [True]
 
 
+@pytest.mark.parametrize(
+    ("odd", "case"),
+    [
+        ("\x0c", "middle"),  # a form feed
+        ("\x0b \t", "middle"),  # a vertical tab among spaces
+        ("\u00a0", "middle"),  # a no-break space (two bytes in UTF-8)
+        ("\x1c\u3000", "crlf"),  # a file separator and an ideographic space, CRLF breaks
+        ("\x0c", "wrong count after"),
+        ("\x0c", "cut last line"),
+        ("\x0c", "last line"),  # the file's last line, without a line break: the exact reader's
+    ],
+)
+def test_a_line_of_other_white_space_is_a_blank_line_without_the_exact_reader(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, odd: str, case: str
+) -> None:
+    """A line of white space other than spaces and tabs is blank to the exact reader, a data
+    line to pandas and pyarrow: read from a copy with it emptied, the same table, lines,
+    repairs and errors as the exact reader's, without the exact reader (up to 0.3.9 it read
+    such a file, at about 10× its size)."""
+    lines = _clean_lines(800)
+    lines[3] = lines[601] = odd
+    if case == "wrong count after":
+        lines[700] += ",1.0"
+    if case == "cut last line":
+        lines[-1] = lines[-1][:5]
+    end = "" if case in ("cut last line", "last line") else "\n"
+    if case == "last line":
+        lines.append(odd)
+    newline = "\r\n" if case == "crlf" else "\n"
+    path = tmp_path / "dvl.csv"
+    path.write_bytes((newline.join(lines) + end.replace("\n", newline)).encode())
+    expected, repairs, error = outcome(EXACT, path)
+    if case == "last line":
+        assert tb._read_csv_blanked(path, "dvl.csv", tb.Journal()) is None
+        return
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    got, got_repairs, got_error = outcome(tb.read_table, path)
+    assert got_error == error
+    assert [str(r) for r in got_repairs] == [str(r) for r in repairs]
+    if expected is None:
+        assert error is not None and error.startswith("dvl.csv line 701: 5 fields")
+        return
+    assert got is not None
+    assert_same_table(got, expected)
+    assert got.where(1) == "dvl.csv line 3" and got.where(2) == "dvl.csv line 5"
+    assert len(got.df) == 798 - (case == "cut last line")
+
+
 def test_classic_mac_line_breaks_are_read_as_line_breaks_with_a_repair(tmp_path: Path) -> None:
     """A file whose every line break is a lone CR: read as the same file with LF (until 0.3.5 a
     csv.Error traceback from the exact reader's header)."""
@@ -822,3 +870,42 @@ def test_a_reader_and_the_exact_one_agree(
         logging.disable(logging.NOTSET)
     assert read_by_it >= least, read_by_it
     print(f"{read_by_it} read, {reported} of them an error")
+
+
+ODD_BLANKS = ("\x0c", "\x0b", "\u00a0", " \x0c\t", "\x1c", "\u2003")
+"""Lines blank to ``str.strip`` (the exact reader) but not to pandas or pyarrow."""
+
+
+def test_the_blanked_copy_and_the_exact_reader_agree(tmp_path: Path, small: None) -> None:
+    """400 random files (:func:`_random_csv`, text columns among them) with 1-3 lines of other
+    white space inserted after a line break: whenever the blanked copy is read it is the exact
+    reader's table, repairs and error; most are."""
+    rng = np.random.default_rng(2027)
+    path = tmp_path / "x.csv"
+    read_by_it = 0
+    logging.disable(logging.WARNING)
+    try:
+        for _ in range(400):
+            raw = _random_csv(rng, text=bool(rng.random() < 0.5))
+            crlf = b"\r\n" in raw
+            for _ in range(int(rng.integers(1, 4))):
+                breaks = [i + 1 for i in range(len(raw)) if raw[i : i + 1] == b"\n"]
+                if not breaks:
+                    break
+                at = int(rng.choice(breaks))
+                line = str(rng.choice(ODD_BLANKS)).encode() + (b"\r\n" if crlf else b"\n")
+                raw = raw[:at] + line + raw[at:]
+            path.write_bytes(raw)
+            a, repairs_a, error_a = outcome(tb._read_csv_blanked, path)
+            if a is None and error_a is None:
+                continue
+            read_by_it += 1
+            b, repairs_b, error = outcome(EXACT, path)
+            assert error == error_a, raw
+            if a is not None:
+                assert b is not None
+                assert_same_table(a, b)
+                assert repairs_a == repairs_b
+    finally:
+        logging.disable(logging.NOTSET)
+    assert read_by_it >= 250, read_by_it

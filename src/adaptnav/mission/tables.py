@@ -310,6 +310,8 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
     table = _read_csv_plain(path, label, journal)
     if table is None:
         table = _read_csv_cr(path, label, journal)
+    if table is None:
+        table = _read_csv_blanked(path, label, journal)
     if table is None and (error := _stray_cr(path, label)) is not None:
         raise error
     return table if table is not None else _read_csv_exact(path, label, journal)
@@ -362,6 +364,65 @@ def _lone_crs(path: Path) -> int:
     except OSError:
         return 0
     return crs
+
+
+def _read_csv_blanked(path: Path, label: str, journal: Journal) -> Table | None:
+    """A CSV with lines of other white space (a form feed, a vertical tab, a no-break space:
+    blank to the exact reader's ``str.strip``, a data line to pandas and pyarrow), read as the
+    exact reader reads it without holding it in memory: copied piece by piece into a temporary
+    file with those lines emptied (their line breaks kept, so every line keeps its number),
+    which the typed or the streamed reader reads, then deleted. None for any other file, one
+    that is not UTF-8 or has a lone CR, one whose last line, without a line break, is such a
+    line (the exact reader's cut-last-line rule reads the text's end), or when both decline
+    the copy (the exact reader then reads the original and speaks)."""
+    try:
+        with path.open("rb") as src:
+            if not _odd_blanks(src, None):
+                return None
+            src.seek(0)
+            scratch = Journal()
+            with tempfile.TemporaryDirectory(prefix="adaptnav-blank-") as tmp:
+                copy = Path(tmp) / path.name
+                with copy.open("wb") as dst:
+                    _odd_blanks(src, dst)
+                table = _read_csv_plain(copy, label, scratch)
+    except OSError:  # no room for the copy: the exact reader reads it in memory
+        return None
+    if table is None:
+        return None
+    for r in scratch.repairs:
+        journal.repair(r.file, r.line, r.field, r.action, r.detail)
+    return replace(table, path=path)
+
+
+def _odd_blanks(src: BinaryIO, dst: BinaryIO | None) -> int:
+    """The lines of ``src`` that only ``str.strip`` finds blank (white space other than spaces
+    and tabs on them), counted, and with ``dst`` written there emptied (the rest as it is);
+    0 when the file is not one :func:`_read_csv_blanked` reads. Pieces are cut after a line
+    break, so every line (and UTF-8 sequence) lies in one."""
+    found = 0
+    carry = b""
+    while True:
+        chunk = src.read(SCAN_BYTES)
+        buf = carry + chunk
+        cut = buf.rfind(b"\n") + 1 if chunk else len(buf)
+        piece, carry = buf[:cut], buf[cut:]
+        if b"\r" in piece.replace(b"\r\n", b""):
+            return 0  # a lone CR: an error for the exact reader (_stray_cr)
+        try:
+            lines = piece.decode("utf-8").split("\n")
+        except UnicodeDecodeError:
+            return 0
+        for i, line in enumerate(lines[:-1]):
+            if not line.strip() and line.strip(" \t\r"):
+                lines[i] = "\r" if line.endswith("\r") else ""
+                found += 1
+        if not chunk and lines[-1] and not lines[-1].strip():
+            return 0
+        if dst is not None:
+            dst.write("\n".join(lines).encode("utf-8"))
+        if not chunk:
+            return found
 
 
 def _stray_cr(path: Path, label: str) -> MissionError | None:
