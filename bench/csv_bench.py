@@ -165,7 +165,7 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     """Peak RSS above this process's baseline (MB) and seconds of one ``reader`` run."""
     import pandas as pd
 
-    from adaptnav.mission import MissionError, load_mission
+    from adaptnav.mission import load_mission
     from adaptnav.mission import tables as tb
 
     base = _peak_rss_mb()
@@ -182,26 +182,14 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
         quoted = imu_csv.parent / "quoted.csv"
         tb.read_table(quoted, quoted.name, tb.Journal())
     elif reader == "read_table_damaged":
-        damaged = imu_csv.parent / "damaged.csv"
-        try:
-            tb.read_table(damaged, damaged.name, tb.Journal())
-        except MissionError as exc:
-            assert str(exc).startswith(f"damaged.csv line {DAMAGED_LINE}: 4 fields"), exc
-        else:
-            raise AssertionError("damaged.csv was read")
+        _refused(imu_csv.parent / "damaged.csv", f" line {DAMAGED_LINE}: 4 fields")
     elif reader == "read_table_cr":
         mac = imu_csv.parent / "mac.csv"
         journal = tb.Journal()
         tb.read_table(mac, mac.name, journal)
         assert journal.repairs[0].action == "read CR line breaks as line breaks"
     elif reader == "read_table_stray_cr":
-        stray = imu_csv.parent / "stray.csv"
-        try:
-            tb.read_table(stray, stray.name, tb.Journal())
-        except MissionError as exc:
-            assert str(exc).startswith(f"stray.csv line {DAMAGED_LINE}: a carriage return"), exc
-        else:
-            raise AssertionError("stray.csv was read")
+        _refused(imu_csv.parent / "stray.csv", f" line {DAMAGED_LINE}: a carriage return")
     elif reader == "read_table_formfeed":
         formfeed = imu_csv.parent / "formfeed.csv"
         table = tb.read_table(formfeed, formfeed.name, tb.Journal())
@@ -209,13 +197,7 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
             f"formfeed.csv line {DAMAGED_LINE + 1}"
         ), table.where(DAMAGED_LINE - 2)
     elif reader == "read_table_binary":
-        binary = imu_csv.parent / "binary.csv"
-        try:
-            tb.read_table(binary, binary.name, tb.Journal())
-        except MissionError as exc:
-            assert "not a CSV text file" in str(exc), exc
-        else:
-            raise AssertionError("binary.csv was read")
+        _refused(imu_csv.parent / "binary.csv", ": not a CSV text file")
     elif reader == "exact_text":
         stamped = imu_csv.parent / "stamped.csv"
         tb._read_csv_exact(stamped, stamped.name, tb.Journal())
@@ -226,6 +208,20 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
     else:
         load_mission(imu_csv.parent)
     return {"peak_mb": _peak_rss_mb() - base, "seconds": time.perf_counter() - t0}
+
+
+def _refused(path: Path, error: str) -> None:
+    """``read_table`` of ``path`` must be refused with a MissionError that starts with the
+    file's name and then ``error``."""
+    from adaptnav.mission import MissionError
+    from adaptnav.mission import tables as tb
+
+    try:
+        tb.read_table(path, path.name, tb.Journal())
+    except MissionError as exc:
+        assert str(exc).startswith(path.name + error), exc
+    else:
+        raise AssertionError(f"{path.name} was read")
 
 
 def _in_subprocess(*args: str) -> dict[str, float]:

@@ -15,8 +15,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav.mission import load_mission
+from adaptnav.mission import Mission, load_mission
 from adaptnav.mission.live import OUT_OF_ORDER_REASON, LiveScreen, Reading
+from adaptnav.mission.tables import DroppedRow
 from helpers.missions import config_dict, imu_rates, write_dir
 
 
@@ -35,15 +36,11 @@ def _dvl(seed: int) -> pd.DataFrame:
     return pd.DataFrame({"t_s": t, "vx_m_s": z[:, 0], "vy_m_s": z[:, 1], "vz_m_s": z[:, 2]})
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_a_live_screen_keeps_and_drops_what_the_loader_does(tmp_path: Path, seed: int) -> None:
-    cfg = config_dict()
-    cfg["sensors"]["dvl"]["zero_is_lost"] = True
-    dvl = _dvl(seed)
-    m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl}))
-    screen = LiveScreen("dvl", m.config.sensors["dvl"])
+def _as_the_loader(screen: LiveScreen, dvl: pd.DataFrame, m: Mission) -> list[DroppedRow]:
+    """Push the table ``dvl`` row by row and close: the readings released must be the ones
+    the loader kept of mission ``m``, the rows dropped its drops; returns them."""
     released: list[Reading] = []
-    dropped = []
+    dropped: list[DroppedRow] = []
     for r, row in enumerate(dvl.to_numpy()):
         out, drops = screen.push(Reading(float(row[0]), row[1:].copy(), r))
         released += out
@@ -56,6 +53,18 @@ def test_a_live_screen_keeps_and_drops_what_the_loader_does(tmp_path: Path, seed
     np.testing.assert_array_equal(np.array([r.z for r in released]), kept.z)
     expected = sorted((d.row, d.t, d.reason) for d in m.dropped)
     assert sorted((d.row, d.t, d.reason) for d in dropped) == expected
+    return dropped
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_live_screen_keeps_and_drops_what_the_loader_does(tmp_path: Path, seed: int) -> None:
+    cfg = config_dict()
+    cfg["sensors"]["dvl"]["zero_is_lost"] = True
+    dvl = _dvl(seed)
+    m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl}))
+    screen = LiveScreen("dvl", m.config.sensors["dvl"])
+    dropped = _as_the_loader(screen, dvl, m)
+    expected = sorted((d.row, d.t, d.reason) for d in m.dropped)
     reasons = {d.reason.split(":")[0] for d in dropped}
     assert {"duplicate timestamp", "implausible", "stuck"} <= reasons
     assert len(expected) == 1 + 2 + 1 + 149 + 1
@@ -114,20 +123,7 @@ def test_the_spike_screens_live_drop_what_the_loader_does(
     dvl = _dvl_with_gaps(seed)
     m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl}))
     screen = LiveScreen("dvl", m.config.sensors["dvl"], m.sensors["dvl"].period)
-    released: list[Reading] = []
-    dropped = []
-    for r, row in enumerate(dvl.to_numpy()):
-        out, drops = screen.push(Reading(float(row[0]), row[1:].copy(), r))
-        released += out
-        dropped += drops
-    out, drops = screen.close()
-    released += out
-    dropped += drops
-    kept = m.sensors["dvl"]
-    assert [r.row for r in released] == kept.rows.tolist()
-    np.testing.assert_array_equal(np.array([r.z for r in released]), kept.z)
-    expected = sorted((d.row, d.t, d.reason) for d in m.dropped)
-    assert sorted((d.row, d.t, d.reason) for d in dropped) == expected
+    dropped = _as_the_loader(screen, dvl, m)
     assert any(d.reason.startswith("stuck") for d in dropped)
     spikes = sum(d.reason.startswith("spike:") for d in dropped)
     after = sum(d.reason.startswith("spike after a gap") for d in dropped)
