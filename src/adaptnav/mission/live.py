@@ -177,10 +177,12 @@ class LiveScreen:
 
 @dataclass(frozen=True)
 class _Held:
-    """A reading held by :class:`_SpikeScreen`: whether it is to be judged, and if it is
+    """A reading held by :class:`_SpikeScreen`: whether it has a finite value (else it is no
+    neighbour), whether it is to be judged, and if it is
     among the first readings after a gap, its place after it (1, 2, ...) and the gap (s)."""
 
     r: Reading
+    finite: bool
     judge: bool
     after: int
     gap: float
@@ -224,7 +226,7 @@ class _SpikeScreen:
                 self._t_prev = r.t
             after = self._after if finite else 0
             judge = finite and (self._mads > 0.0 or after > 0)
-            self._held.append(_Held(r, judge, after, self._gap))
+            self._held.append(_Held(r, finite, judge, after, self._gap))
         released, drops = self.settle(final=False)
         return released, dropped + drops
 
@@ -237,13 +239,13 @@ class _SpikeScreen:
             h = self._held[0]
             why = None
             if h.judge:
-                later = [q.r for q in self._held if q.r.t > h.r.t and np.any(np.isfinite(q.r.z))]
+                later = [q.r for q in self._held if q.finite and q.r.t > h.r.t]
                 whole = len(later) >= SPIKE_HALF_WINDOW or self._held[-1].r.t - h.r.t > self._reach
                 if not (final or whole):
                     break
                 why = self._verdict(h, later[:SPIKE_HALF_WINDOW])
             self._held.popleft()
-            if np.any(np.isfinite(h.r.z)):
+            if h.finite:
                 self._past.append(h.r)
             if why is None:
                 out.append(h.r)
