@@ -300,8 +300,8 @@ class Navigator:
         dx = res.correction.dx
         self.x = errorstate.inject(self.x, dx)
         P = res.correction.P
-        if self.config.reset_covariance:
-            G = errorstate.reset_jacobian(dx)
+        if self.config.reset_mode != errorstate.RESET_OFF:
+            G = errorstate.reset_jacobian(dx, self.config.reset_mode)
             P = G @ P @ G.T
         self.P = np.ascontiguousarray(0.5 * (P + P.T))
         if not np.all(np.diag(self.P) > 0):

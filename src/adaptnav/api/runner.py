@@ -121,6 +121,7 @@ def start_state(
         imu.t, imu.dt, imu.dtheta, imu.dvel, ini.alignment_s, position, noise,
         accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
         position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
+        invariant_reset=cfg.filter.invariant_reset is not False,
     )  # fmt: skip
     check_angles_at_rest(cfg, sensors, a.x0, a.P0, a.coarse.mean_specific_force, t_start, a.t_end)
     check_depth_at_rest(cfg, sensors, a.x0, t_start, a.t_end)
@@ -496,8 +497,8 @@ def engine_config(
 ) -> engine.EngineConfig:
     """The engine's settings for filter ``s`` on a mission configured by ``cfg``: Q from
     ``noise``, the epoch policy, the output rate, the divergence guard, Q adaptation, the state
-    layout with the calibration states, F's specific-force low-pass and the covariance blocks if
-    configured."""
+    layout with the calibration states, F's specific-force low-pass, the covariance blocks and the
+    reset if configured."""
     config = engine.EngineConfig(
         noise, policy, output_every=cfg.output_every(), divergence=s.divergence_guard(),
         q_adaptation=s.q_adaptation, smooth=smooth, layout=calibration.layout(states),
@@ -506,6 +507,8 @@ def engine_config(
         config = replace(config, specific_force_tau_s=cfg.filter.specific_force_tau_s)
     if cfg.filter.covariance_block_s is not None:
         config = replace(config, covariance_block_s=cfg.filter.covariance_block_s)
+    if cfg.filter.invariant_reset is not None:
+        config = replace(config, invariant_reset=cfg.filter.invariant_reset)
     return config
 
 

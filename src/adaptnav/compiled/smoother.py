@@ -35,7 +35,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from adaptnav.compiled.propagation import _W, jit, jit_inline, jit_nogil
-from adaptnav.compiled.update import _cho_solve, _cholesky, inject
+from adaptnav.compiled.update import _cho_solve, _cholesky, inject, reset_velocity
+from adaptnav.models.errorstate import RESET_INVARIANT, RESET_OFF
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -233,9 +234,9 @@ def gather(sm: Store, rows: IntArray, columns: IntArray) -> tuple[Array, Array]:
 
 
 @jit_inline
-def _reset_inverse(dx: Array, reset: bool) -> tuple[float, ...]:
+def _reset_inverse(dx: Array, reset: int) -> tuple[float, ...]:
     """``G⁻¹`` of the attitude block (row-major 3×3), twin of smoother.reset_inverse."""
-    if not reset:
+    if reset == RESET_OFF:
         return (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     h0, h1, h2 = 0.5 * dx[6], 0.5 * dx[7], 0.5 * dx[8]
     s = 1.0 / (1.0 + h0 * h0 + h1 * h1 + h2 * h2)
@@ -247,8 +248,11 @@ def _reset_inverse(dx: Array, reset: bool) -> tuple[float, ...]:
 
 
 @jit_inline
-def _to_prior_coordinates(Gi: tuple[float, ...], e: Array, P: Array, rows: Array) -> None:
-    """``e ← G⁻¹ e``, ``P ← G⁻¹ P G⁻ᵀ`` in place, G⁻¹ acting on the attitude block (6-8)."""
+def _to_prior_coordinates(dx: Array, reset: int, e: Array, P: Array, rows: Array) -> None:
+    """``e ← G⁻¹ e``, ``P ← G⁻¹ P G⁻ᵀ`` in place for the reset ``G`` of ``reset``
+    (errorstate.RESET_*): ``G⁻¹ = J(-dv̂) diag(I, A⁻¹)`` with A the attitude block and
+    J(d) = I except ``-[d×]`` in the velocity-attitude block (update.reset_velocity)."""
+    Gi = _reset_inverse(dx, reset)
     n = P.shape[0]
     e6, e7, e8 = e[6], e[7], e[8]
     for a in range(3):
@@ -263,6 +267,13 @@ def _to_prior_coordinates(Gi: tuple[float, ...], e: Array, P: Array, rows: Array
         p6, p7, p8 = P[i, 6], P[i, 7], P[i, 8]
         for a in range(3):
             P[i, 6 + a] = Gi[3 * a] * p6 + Gi[3 * a + 1] * p7 + Gi[3 * a + 2] * p8
+    if reset == RESET_INVARIANT:
+        d0, d1, d2 = dx[3], dx[4], dx[5]
+        e6, e7, e8 = e[6], e[7], e[8]
+        e[3] += d1 * e8 - d2 * e7  # e_v += [dv̂×] e_att
+        e[4] += d2 * e6 - d0 * e8
+        e[5] += d0 * e7 - d1 * e6
+        reset_velocity(P, -d0, -d1, -d2, rows)
 
 
 @jit_inline
@@ -338,7 +349,7 @@ def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
 
 
 @jit
-def _factor(sm: Store, b: int, reset: bool, e: Array, Ps: Array, work: Array) -> bool:
+def _factor(sm: Store, b: int, reset: int, e: Array, Ps: Array, work: Array) -> bool:
     """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
     the coordinates before its feedback, equation (1)): with ``Δ = diag(P⁻)^(-1/2)``, the
     Cholesky factor L of ``Δ P⁻ Δ`` into ``work[1]`` (its condition is ~1e2 where P⁻'s is
@@ -349,7 +360,7 @@ def _factor(sm: Store, b: int, reset: bool, e: Array, Ps: Array, work: Array) ->
     Pm, L, D, T = work[0], work[1], work[3], work[4]
     r = sm[SM_PRIOR][b]
     dx = sm[SM_DX][r]
-    _to_prior_coordinates(_reset_inverse(dx, reset), e, Ps, T[:3])
+    _to_prior_coordinates(dx, reset, e, Ps, T[:3])
     unpack(sm[SM_PM][r], Pm, n)
     d, f = T[3], T[4]
     for i in range(n):
@@ -449,7 +460,7 @@ def reported(n: int) -> list[tuple[int, int]]:
     })  # fmt: skip
 
 
-def backward(sm: Store, reset: bool, threads: int = 1, chunk: int = 0, full: bool = True) -> None:
+def backward(sm: Store, reset: int, threads: int = 1, chunk: int = 0, full: bool = True) -> None:
     """The RTS backward pass over the stored nodes, in place: each node's x becomes ``x^s``
     and its packed P becomes ``P^s`` (docs/smoothing.md, 'The backward pass').
 
@@ -510,7 +521,7 @@ CHUNK = 256
 
 
 @jit_nogil
-def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, kept: Array) -> None:
+def anchors(sm: Store, reset: int, ups: IntArray, lo: int, hi: int, e: Array, kept: Array) -> None:
     """The backward pass's sequential part (:func:`backward`), for the update nodes
     ``b = ups[k]``, k from hi - 1 down to lo (``ups``: the update nodes, ascending), after the
     runs above hi: at each b its factor (:func:`_factor`) and from it the smoothed x and P of
@@ -548,7 +559,7 @@ def anchors(sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, e: Array, k
 
 @jit_nogil
 def interiors(
-    sm: Store, reset: bool, ups: IntArray, lo: int, hi: int, kept: Array, full: bool
+    sm: Store, reset: int, ups: IntArray, lo: int, hi: int, kept: Array, full: bool
 ) -> None:
     """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
     same range: for the update nodes ``b = ups[lo:hi]``, b's factor again (:func:`_factor`,

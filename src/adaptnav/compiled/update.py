@@ -77,6 +77,7 @@ from adaptnav.core.earth import E2, A
 from adaptnav.estimation.health import EIG_FLOOR, MIN_LOCKOUT_FACTOR
 from adaptnav.estimation.noise.base import NoiseKind
 from adaptnav.estimation.noise.process import EVENT_STEP, GAP_PERIODS
+from adaptnav.models.errorstate import RESET_INVARIANT, RESET_OFF
 from adaptnav.sensors import kind as sensor_kind
 from adaptnav.sensors import registry
 from adaptnav.sensors.depth import Depth
@@ -1075,7 +1076,39 @@ def inject(x: Array, dx: Array) -> None:
 
 
 @jit_inline
-def _reset(P: Array, dx: Array, rows: Array, blk: Array) -> None:
+def reset_velocity(P: Array, d0: float, d1: float, d2: float, rows: Array) -> None:
+    """``P ← J P Jᵀ`` in place, J = I except the velocity-attitude block ``-[d×]`` (with d = dv̂,
+    the invariant term of errorstate.reset_jacobian; J's inverse is the same with -d): rows 3-5
+    of ``J P`` into ``rows`` (3, ≥ n; scratch), mirrored into the columns outside the velocity
+    block, whose ``(J P Jᵀ)`` is symmetrised, so P stays exactly symmetric."""
+    J = (0.0, d2, -d1, -d2, 0.0, d0, d1, -d0, 0.0)  # -[d×], row-major
+    n = P.shape[0]
+    for a in range(3):
+        j0, j1, j2 = J[3 * a], J[3 * a + 1], J[3 * a + 2]
+        for j in range(n):
+            rows[a, j] = P[3 + a, j] + j0 * P[6, j] + j1 * P[7, j] + j2 * P[8, j]
+    for a in range(3):
+        for j in range(n):
+            if j < 3 or j > 5:
+                P[3 + a, j] = rows[a, j]
+                P[j, 3 + a] = rows[a, j]
+    for a in range(3):
+        for b in range(a, 3):
+            ab = rows[a, 3 + b] + J[3 * b] * rows[a, 6] + J[3 * b + 1] * rows[a, 7]
+            ab += J[3 * b + 2] * rows[a, 8]
+            ba = rows[b, 3 + a] + J[3 * a] * rows[b, 6] + J[3 * a + 1] * rows[b, 7]
+            ba += J[3 * a + 2] * rows[b, 8]
+            P[3 + a, 3 + b] = 0.5 * (ab + ba)
+            P[3 + b, 3 + a] = P[3 + a, 3 + b]
+
+
+@jit_inline
+def _reset(P: Array, dx: Array, rows: Array, blk: Array, mode: int) -> None:
+    """``P ← G P Gᵀ`` in place for errorstate.reset_jacobian's ``mode`` (≥ RESET_ATTITUDE):
+    the velocity term first (it reads the attitude rows before their reset; the two commute
+    to first order), then the attitude block, symmetrised."""
+    if mode == RESET_INVARIANT:
+        reset_velocity(P, dx[3], dx[4], dx[5], rows)
     h0, h1, h2 = 0.5 * dx[6], 0.5 * dx[7], 0.5 * dx[8]
     Gs = (1.0, -h2, h1, h2, 1.0, -h0, -h1, h0, 1.0)
     for a in range(3):
@@ -1097,10 +1130,10 @@ def _reset(P: Array, dx: Array, rows: Array, blk: Array) -> None:
 
 
 @jit
-def reset(P: Array, dx: Array) -> None:
-    """``P ← G P Gᵀ`` in place, ``G = I + ½ [phi×]`` on the attitude block (twin of
+def reset(P: Array, dx: Array, mode: int = RESET_INVARIANT) -> None:
+    """``P ← G P Gᵀ`` in place for ``mode`` RESET_ATTITUDE or RESET_INVARIANT (twin of
     errorstate.reset_jacobian), then symmetrised; P symmetric on entry."""
-    _reset(P, dx, np.empty((3, P.shape[0])), np.empty((3, 3)))
+    _reset(P, dx, np.empty((3, P.shape[0])), np.empty((3, 3)), mode)
 
 
 # --- one measurement epoch ----------------------------------------------------------------------
@@ -1278,7 +1311,7 @@ def epoch(
     s_state: Array,
     rings: Array,
     kind: int,
-    reset_covariance: bool,
+    reset: int,
     lg_int: IntArray,
     lg_flt: Array,
     n_ledger: int,
@@ -1294,7 +1327,7 @@ def epoch(
     adaptation state is predicted over the time since its previous epoch (VB: ``ρ`` or
     ``ρ^(dt/T)``, paper eqs. (12), (13)); the gate, if any, tests it against
     ``S = H P Hᵀ + R_now``. The accepted blocks are stacked into one
-    update (:func:`stacked_update`); x ← x ⊕ dx, P ← G P⁺ Gᵀ (if ``reset_covariance``),
+    update (:func:`stacked_update`); x ← x ⊕ dx, P ← G P⁺ Gᵀ (``reset``: errorstate.RESET_*),
     symmetrised. Every reading's fate goes to the ledger tables from row ``n_ledger`` on
     (dropped and rejected as met, then the used ones with their NIS ``yᵀ S_i⁻¹ y``, S_i with
     the prior P and the R used). ``ws``: :func:`workspace` for at least ``len(s_int)``
@@ -1457,8 +1490,8 @@ def epoch(
         return n_ledger + 1
     dx, P_new, R_used, W = ws[WS_DX], ws[WS_P_NEW], ws[WS_R_USED], ws[WS_W]
     inject(x, dx)
-    if reset_covariance:
-        _reset(P_new, dx, Ut3, S3)
+    if reset != RESET_OFF:
+        _reset(P_new, dx, Ut3, S3, reset)
     for i in range(P.shape[0]):  # P⁺ and its reset are exactly symmetric
         for j in range(P.shape[0]):
             P[i, j] = P_new[i, j]

@@ -86,7 +86,14 @@ from adaptnav.estimation.noise import (
 from adaptnav.estimation.noise.process import QAdaptation
 from adaptnav.estimation.smoother import Nodes
 from adaptnav.models import errorstate
-from adaptnav.models.errorstate import CORE, N_STATES, StateLayout
+from adaptnav.models.errorstate import (
+    CORE,
+    N_STATES,
+    RESET_ATTITUDE,
+    RESET_INVARIANT,
+    RESET_OFF,
+    StateLayout,
+)
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.models.strapdown import NOM_SIZE
 from adaptnav.sensors.base import MeasurementModel
@@ -248,6 +255,11 @@ class EngineConfig:
     """Propagate P over blocks of IMU steps of this length (s) with ``Φ = exp(Σ F_k T_k)`` to
     second order, closed early at every update and output row; 0: every step
     (docs/filters.md, 'Covariance blocks')."""
+    invariant_reset: bool = True
+    """With ``reset_covariance``, the reset also carries the velocity error in the attitude
+    error's frame across the feedback (errorstate.reset_jacobian, RESET_INVARIANT;
+    docs/filters.md, 'Feedback and reset'); False: the attitude block's reset only, as up to
+    0.3.10."""
 
     def __post_init__(self) -> None:
         if self.epoch_policy not in ("exact", "grid"):
@@ -267,6 +279,13 @@ class EngineConfig:
                 f"covariance_block_s: value {self.covariance_block_s!r} must be in "
                 f"[0, {MAX_COVARIANCE_BLOCK_S:g}] s"
             )
+
+    @property
+    def reset_mode(self) -> int:
+        """The reset the update kernel applies (errorstate.RESET_*)."""
+        if not self.reset_covariance:
+            return RESET_OFF
+        return RESET_INVARIANT if self.invariant_reset else RESET_ATTITUDE
 
 
 @dataclass(frozen=True)
@@ -656,7 +675,7 @@ def _navigate(
     s_state: Array,
     rings: Array,
     kind: int,
-    reset_covariance: bool,
+    reset: int,
     python_lin: bool,
     lg_int: IntArray,
     lg_flt: Array,
@@ -702,7 +721,7 @@ def _navigate(
                     return NAV_PYTHON
         n = uk.epoch(
             x, P, rates, cur[uk.C_T], q_idx, head, end - head, st_sensor, st_z, fb, s_int,
-            s_flt, s_state, rings, kind, reset_covariance, lg_int, lg_flt, n, ws,
+            s_flt, s_state, rings, kind, reset, lg_int, lg_flt, n, ws,
         )  # fmt: skip
         icur[I_HEAD] = end
         if n < 0:
@@ -1016,7 +1035,7 @@ class Navigator:
                 self._tau_f, self.config.covariance_block_s, self._out_t,
                 self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
                 self._s_flt, self._s_state, self._rings, self._kind,
-                self.config.reset_covariance, self._python_lin, self._lg_int, self._lg_flt,
+                self.config.reset_mode, self._python_lin, self._lg_int, self._lg_flt,
                 self._ws, self._sm,
             )  # fmt: skip
             if status == NAV_DONE:
@@ -1032,7 +1051,7 @@ class Navigator:
         return (
             self.x, self._P, self._rates, 0.0, self._q_idx, 0, 0, self._st_sensor, self._st_z,
             np.zeros((0, uk.N_FB)), self._s_int, self._s_flt, self._s_state, self._rings,
-            self._kind, self.config.reset_covariance, self._lg_int, self._lg_flt, 0, self._ws,
+            self._kind, self.config.reset_mode, self._lg_int, self._lg_flt, 0, self._ws,
         )  # fmt: skip
 
     def _advance_args(self, tk: Array, dts: Array, dth: Array, dv: Array) -> tuple[Any, ...]:
@@ -1081,7 +1100,7 @@ class Navigator:
         n = uk.epoch(
             self.x, self._P, self._rates, self.t, self._q_idx, head, g, self._st_sensor,
             self._st_z, self._fb, self._s_int, self._s_flt, self._s_state, self._rings,
-            self._kind, self.config.reset_covariance, self._lg_int, self._lg_flt,
+            self._kind, self.config.reset_mode, self._lg_int, self._lg_flt,
             int(self._icur[I_N_LEDGER]), self._ws,
         )  # fmt: skip
         self._icur[I_HEAD] = end
@@ -1308,7 +1327,7 @@ class Navigator:
         Phi[:, range(9, N_STATES), range(9, N_STATES)] = stored[:, smk.PHI_DIAG :]
         return Nodes(
             sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), dx, P,
-            P_prior, Phi, self.config.reset_covariance,
+            P_prior, Phi, self.config.reset_mode,
             sm[smk.SM_OUT][: int(self._icur[I_N_OUT])].copy(),
         )  # fmt: skip
 
@@ -1322,7 +1341,7 @@ class Navigator:
         if self._smoothed is None:
             threads = min(SMOOTHER_THREADS, coldstart.cores())
             # the solution reports P^s's diagonal and P_CROSS_PAIRS only (smk.reported)
-            smk.backward(sm, self.config.reset_covariance, threads, full=False)
+            smk.backward(sm, self.config.reset_mode, threads, full=False)
             counts = sm[smk.SM_COUNT]
             nodes, priors = int(counts[smk.K_NODES]), int(counts[smk.K_PRIORS])
             rows = int(self._icur[I_N_OUT])

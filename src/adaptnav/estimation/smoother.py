@@ -16,11 +16,12 @@ covariance, relative to ``x_j``)::
     x^s_j    = x_j ⊕ e^s_j
 
 starting from ``e^s = 0``, ``P^s = P`` at the last node. The first line takes the smoothed
-error back to the coordinates before node j+1's feedback: ``G = I + ½ [dx_att×]`` is the reset
-Jacobian (:func:`adaptnav.models.errorstate.reset_jacobian`) when the filter resets P, the
-identity otherwise. Nothing else of the update is needed: RTS uses only the prediction
-``P⁻_{j+1} = Φ P_j Φᵀ + Q`` (with any inflation of P before the update counted as process
-noise), so gating, adaptive R and Joseph form leave the backward pass as it is.
+error back to the coordinates before node j+1's feedback: G is the reset Jacobian
+(:func:`adaptnav.models.errorstate.reset_jacobian`: ``I + ½ [dx_att×]`` on the attitude block and
+``-[dx_vel×]`` in the velocity-attitude block) when the filter resets P, the identity
+otherwise. Nothing else of the update is needed: RTS uses only the prediction ``P⁻_{j+1} = Φ
+P_j Φᵀ + Q`` (with any inflation of P before the update counted as process noise), so gating,
+adaptive R and Joseph form leave the backward pass as it is.
 
 ``P⁻_{j+1}`` is factored after scaling by its diagonal (positions in m² beside gyro biases in
 rad²/s²: condition numbers of 1e20 otherwise). The compiled twin is
@@ -37,8 +38,9 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from adaptnav.core import attitude
 from adaptnav.models import errorstate
-from adaptnav.models.errorstate import ATT
+from adaptnav.models.errorstate import ATT, VEL
 
 Array = NDArray[np.float64]
 
@@ -47,8 +49,8 @@ Array = NDArray[np.float64]
 class Nodes:
     """What the forward pass stores for the backward one, per node j = 0..N-1 (module
     docstring): ``t`` (N,), ``x`` (N, 16 + m), ``dx`` (N, n), ``P``, ``P_prior``, ``Phi``
-    (N, n, n; ``Phi[0]`` unused) with n = 15 + m error states, and whether the filter resets
-    P after feedback."""
+    (N, n, n; ``Phi[0]`` unused) with n = 15 + m error states, and how the filter resets P
+    after feedback."""
 
     t: Array
     x: Array
@@ -56,19 +58,25 @@ class Nodes:
     P: Array
     P_prior: Array
     Phi: Array
-    reset: bool = True
+    reset: int = errorstate.RESET_INVARIANT
+    """The filter's reset after feedback (errorstate.RESET_*)."""
     rows: NDArray[np.int64] | None = None
     """The node of each output row, where the nodes come from a run (else None)."""
 
 
-def reset_inverse(dx: Array, n: int, reset: bool) -> Array:
-    """``G⁻¹`` for the reset Jacobian ``G = I + [h×]``, ``h = ½ dx_att``, on the attitude block:
-    ``(I - [h×] + h hᵀ) / (1 + |h|²)``; the identity when the filter does not reset P."""
+def reset_inverse(dx: Array, n: int, reset: int) -> Array:
+    """``G⁻¹`` for the reset Jacobian G of ``reset`` (errorstate.RESET_*;
+    :func:`adaptnav.models.errorstate.reset_jacobian`): with ``h = ½ dx_att``, the attitude block
+    ``A⁻¹ = (I - [h×] + h hᵀ) / (1 + |h|²)`` and, for RESET_INVARIANT, the velocity-attitude block
+    ``[dv̂×] A⁻¹`` (G is block upper triangular, its velocity block the identity); the identity
+    for RESET_OFF."""
     Gi = np.eye(n)
-    if reset:
+    if reset >= errorstate.RESET_ATTITUDE:
         h = 0.5 * np.asarray(dx[ATT], dtype=float)
         skew = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
         Gi[ATT, ATT] = (np.eye(3) - skew + np.outer(h, h)) / (1.0 + h @ h)
+    if reset == errorstate.RESET_INVARIANT:
+        Gi[VEL, ATT] = attitude.skew(dx[VEL]) @ Gi[ATT, ATT]
     return Gi
 
 

@@ -638,8 +638,8 @@ class InitialConfig(_Model):
 
 class FilterConfig(FilterSettings):
     """``[filter]``: the filter's settings (:class:`adaptnav.estimation.settings.FilterSettings`,
-    where each field is declared, constrained and defaulted once) and four of the engine's:
-    output rate, epoch policy, the specific-force low-pass and the covariance blocks."""
+    where each field is declared, constrained and defaulted once) and five of the engine's:
+    output rate, epoch policy, the specific-force low-pass, the covariance blocks and the reset."""
 
     epoch_policy: Literal["exact", "grid"] = "exact"
     output_rate_hz: Positive = 10.0
@@ -650,6 +650,10 @@ class FilterConfig(FilterSettings):
     """Span (s) of the blocks of IMU steps P is propagated over (0: every step); None: the
     engine's default (``adaptnav.engine.batch.EngineConfig``; docs/filters.md, 'Covariance
     blocks')."""
+    invariant_reset: StrictBool | None = None
+    """Carry the velocity error in the attitude error's frame across each feedback (the reset's
+    velocity-attitude term); false: the attitude block's reset only, as up to 0.3.10; None: the
+    engine's default, true (docs/filters.md, 'Feedback and reset')."""
 
     @field_validator("kind")
     @classmethod

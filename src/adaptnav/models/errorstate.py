@@ -321,16 +321,37 @@ def difference(x_true: ArrayLike, x_hat: ArrayLike) -> Array:
     return dx
 
 
-def reset_jacobian(dx: ArrayLike) -> Array:
-    """Jacobian of the error reset after feedback: ``P ← G_r P G_rᵀ`` (Solà 2017 §6.3;
-    docs/filters.md, 'Feedback and reset').
+RESET_OFF = 0
+"""P is not reset after feedback (the paper's filters read literally)."""
+RESET_ATTITUDE = 1
+"""The attitude block's reset only: ``G_r = I + ½ [phî×]`` there (Solà 2017 §6.3)."""
+RESET_INVARIANT = 2
+"""The attitude block's reset and the velocity-attitude term ``-[dv̂×]`` (:func:`reset_jacobian`;
+docs/filters.md, 'Feedback and reset'): the default."""
 
-    With the left (n-frame) attitude error, the new error after injecting phi_hat is
-    ``phi' = Log(Exp(phi) Exp(-phi_hat)) ≈ phi - phi_hat + ½ phi_hat × phi``, so the attitude
-    block is ``I + ½ [phi_hat×]``; other blocks (and declared ones) are identity to first
-    order.
+
+def reset_jacobian(dx: ArrayLike, mode: int = RESET_INVARIANT) -> Array:
+    """Jacobian of the error reset after feedback: ``P ← G_r P G_rᵀ`` (docs/filters.md,
+    'Feedback and reset').
+
+    Attitude (``mode >= RESET_ATTITUDE``; Solà 2017 §6.3): with the left (n-frame) attitude error,
+    the new error after injecting phî is ``phi' = Log(Exp(phi) Exp(-phî)) ≈ phi - phî + ½ phî ×
+    phi``, so the attitude block is ``I + ½ [phî×]``.
+
+    Velocity (``mode == RESET_INVARIANT``): the velocity error seen in the frame of the attitude
+    error, ``ξ = dv + [v̂×] phi`` (the invariant error of Barrau & Bonnabel 2017), is carried
+    across the feedback unchanged instead of dv. With v̂ moved by dv̂ that makes the
+    velocity-attitude block ``-[dv̂×]``: a rotation of the whole solution about the vertical,
+    ``(dv, phi) = (e_D × v̂, e_D)``, which no DVL reading sees, stays unseen at the moved v̂.
+    Without it the next update takes ``e_D × dv̂`` as information on yaw that it is not, and the
+    filter claims a heading it does not have.
+
+    Other blocks (and declared ones) are the identity to first order; RESET_OFF: the identity.
     """
     d = np.asarray(dx, dtype=float)
     G = np.eye(max(d.size, N_STATES))  # declared states (StateLayout): identity
-    G[ATT, ATT] += 0.5 * attitude.skew(d[ATT])
+    if mode >= RESET_ATTITUDE:
+        G[ATT, ATT] += 0.5 * attitude.skew(d[ATT])
+    if mode == RESET_INVARIANT:
+        G[VEL, ATT] = -attitude.skew(d[VEL])
     return G
