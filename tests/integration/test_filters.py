@@ -134,8 +134,24 @@ def _rmse(out: engine.EngineOutput, ds: synthetic.Dataset) -> float:
     return float(np.sqrt((err**2).sum(axis=1).mean()))
 
 
+def _velocity_rmse(out: engine.EngineOutput, ds: synthetic.Dataset, after: float) -> float:
+    k = np.round(out.t / ds.dt).astype(int)
+    err = np.array(
+        [errorstate.difference(ds.truth[i], x)[3:6] for i, x in zip(k, out.x, strict=True)]
+    )
+    return float(np.sqrt((err[out.t > after] ** 2).sum(axis=1).mean()))
+
+
 def test_vb_follows_a_noise_jump_and_resists_outliers() -> None:
-    """DVL σ ×10 after 150 s and 1% outliers of 20σ: VB's R̂ follows, and it beats MESKF."""
+    """DVL σ ×10 after 150 s and 1% outliers of 20σ: VB's R̂ follows, and after the jump its
+    velocity error is well below MESKF's, whose fixed R trusts the noisy DVL ten times too much.
+
+    (Up to 0.3.10 the test compared the position RMSE, 2.64 m against MESKF's 3.80 m; most of
+    MESKF's was yaw lost to the large velocity corrections of outliers and noise through the reset
+    (docs/filters.md, 'The velocity-attitude term'). With that fixed MESKF's position RMSE on this
+    300-s run is 2.00 m, and the position no longer tells the two apart on so short a run; the
+    velocity after the jump does, on every seed tried: 0.041 against 0.070 m/s here, 0.03-0.06
+    against 0.06-0.08 on seeds 8-11.)"""
     ds = synthetic.make(
         7,
         duration=300.0,
@@ -155,9 +171,9 @@ def test_vb_follows_a_noise_jump_and_resists_outliers() -> None:
     )
     assert 0.3 * 0.02**2 < before < 3 * 0.02**2
     assert 0.3 * 0.2**2 < after < 3 * 0.2**2
-    e_vb, e_me = _rmse(vb, ds), _rmse(meskf, ds)
-    print(f"position RMSE: VB {e_vb:.2f} m, MESKF {e_me:.2f} m")
-    assert e_vb < e_me
+    e_vb, e_me = _velocity_rmse(vb, ds, 160.0), _velocity_rmse(meskf, ds, 160.0)
+    print(f"velocity RMSE after the jump: VB {e_vb:.4f} m/s, MESKF {e_me:.4f} m/s")
+    assert e_vb < 0.75 * e_me
 
 
 # --- the paper's update, written out plainly, against the engine on the IMU grid ---------------

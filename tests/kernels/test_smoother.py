@@ -174,14 +174,17 @@ def _store(nodes: smoother.Nodes) -> smk.Store:
     return sm
 
 
-@pytest.mark.parametrize(("declared", "sparse"), [(0, False), (4, False), (0, True)])
+@pytest.mark.parametrize(
+    ("declared", "sparse", "reset"), [(0, False, 1), (0, False, 2), (4, False, 2), (0, True, 2)]
+)
 def test_compiled_backward_equals_the_twin(
-    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int, sparse: bool
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]], declared: int, sparse: bool, reset: int
 ) -> None:
-    """With the reset Jacobian and real nominal states; ``declared`` states beyond the core
-    (random walks, Φ = I there, as errorstate.StateLayout has them). The compiled pass
-    multiplies the gains between update nodes out, the twin goes node by node; ``sparse``: an
-    update at a fifth of the nodes, for runs of many nodes without one."""
+    """With the reset Jacobian (``reset``: errorstate.RESET_ATTITUDE or RESET_INVARIANT) and real
+    nominal states; ``declared`` states beyond the core (random walks, Φ = I there, as
+    errorstate.StateLayout has them). The compiled pass multiplies the gains between update
+    nodes out, the twin goes node by node; ``sparse``: an update at a fifth of the nodes, for
+    runs of many nodes without one."""
     base = _kalman(0.2)[0] if sparse else linear[0]
     rng = np.random.default_rng(11)
     N, n = base.dx.shape[0], 15 + declared
@@ -196,11 +199,14 @@ def test_compiled_backward_equals_the_twin(
     dx = np.zeros((N, n))
     dx[:, :15] = base.dx
     dx[:, 6:9] = np.where(base.dx[:, 6:9] != 0.0, rng.normal(0.0, 0.02, (N, 3)), 0.0)
-    nodes = smoother.Nodes(base.t, _nominal(rng, N, declared), dx, P, P_prior, Phi, reset=True)
+    dx[:, 3:6] = np.where(base.dx[:, 3:6] != 0.0, rng.normal(0.0, 0.05, (N, 3)), 0.0)
+    nodes = smoother.Nodes(
+        base.t, _nominal(rng, N, declared), dx, P, P_prior, Phi, reset=reset
+    )  # fmt: skip
     x_s, P_s, _ = smoother.rts(nodes)
     assert np.all(np.diagonal(P_s, axis1=1, axis2=2) > 0.0)
     sm = _store(nodes)
-    smk.backward(sm, True)
+    smk.backward(sm, reset)
     assert sm[smk.SM_COUNT][smk.K_FAILED] == 0
     np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
     got = np.zeros((N, n, n))
@@ -268,14 +274,25 @@ def test_without_full_the_reported_elements_are_those_of_the_full_pass() -> None
 
 
 def test_reset_inverse_undoes_the_reset_jacobian() -> None:
-    from adaptnav.models.errorstate import reset_jacobian
-
-    dx = np.zeros(15)
-    dx[6:9] = (0.03, -0.02, 0.05)
-    np.testing.assert_allclose(
-        smoother.reset_inverse(dx, 15, True) @ reset_jacobian(dx), np.eye(15), atol=1e-15
+    from adaptnav.models.errorstate import (
+        RESET_ATTITUDE,
+        RESET_INVARIANT,
+        RESET_OFF,
+        reset_jacobian,
     )
-    assert np.array_equal(smoother.reset_inverse(dx, 15, False), np.eye(15))
+
+    dx = np.zeros(17)
+    dx[3:9] = (0.05, -0.04, 0.01, 0.03, -0.02, 0.05)
+    for mode in (RESET_ATTITUDE, RESET_INVARIANT):
+        np.testing.assert_allclose(
+            smoother.reset_inverse(dx, 17, mode) @ reset_jacobian(dx, mode), np.eye(17),
+            atol=1e-15,
+        )  # fmt: skip
+    assert not np.array_equal(
+        smoother.reset_inverse(dx, 17, RESET_ATTITUDE),
+        smoother.reset_inverse(dx, 17, RESET_INVARIANT),
+    )
+    assert np.array_equal(smoother.reset_inverse(dx, 17, RESET_OFF), np.eye(17))
 
 
 def test_a_node_whose_prior_is_not_positive_definite_keeps_its_filtered_values(

@@ -392,10 +392,11 @@ def test_inject_and_reset_equal_errorstate() -> None:
         assert np.abs(errorstate.difference(got, ref)[:3]).max() < 1e-6  # m
         _assert_rel(got[3:], ref[3:])
         P = _random_P(rng)
-        G = errorstate.reset_jacobian(dx)
+        mode = (errorstate.RESET_ATTITUDE, errorstate.RESET_INVARIANT)[k % 2]
+        G = errorstate.reset_jacobian(dx, mode)
         P_ref = G @ P @ G.T
         P_ref = 0.5 * (P_ref + P_ref.T)
-        uk.reset(P, dx)
+        uk.reset(P, dx, mode)
         _assert_P(P, P_ref)
         assert np.array_equal(P, P.T)
 

@@ -287,6 +287,69 @@ def test_reset_jacobian_matches_finite_differences() -> None:
     assert np.abs(G - np.eye(3)).max() > 5e-3  # and the first-order term is really there
 
 
+def _dvl_sensitivity(x: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """∂h/∂ε of the DVL reading (lever arm, rate) at ``x ⊕ ε d``, by central differences of the
+    nonlinear ``dvl.predict`` and ``inject`` (not of any Jacobian)."""
+    from adaptnav.sensors import dvl
+
+    w = np.array([0.01, -0.02, 0.05])
+    lever = (1.0, 0.2, 1.5)
+    eps = 1e-6
+    up = dvl.predict(errorstate.inject(x, eps * d), w, lever)
+    down = dvl.predict(errorstate.inject(x, -eps * d), w, lever)
+    return np.asarray((up - down) / (2 * eps))
+
+
+def _vertical_rotation(x: np.ndarray) -> np.ndarray:
+    """The error direction of a rotation of the whole solution about the vertical at ``x``:
+    ``dv = e_D × v``, ``phi = e_D`` (docs/filters.md, 'Feedback and reset')."""
+    d = np.zeros(errorstate.N_STATES)
+    d[VEL] = np.cross([0.0, 0.0, 1.0], x[3:6])
+    d[ATT] = (0.0, 0.0, 1.0)
+    return d
+
+
+def test_the_reset_keeps_the_vertical_rotation_unseen_by_the_dvl() -> None:
+    """A DVL cannot see the whole solution turned about the vertical. The direction that held
+    no information before a feedback must hold none after it: ``G N(x⁻)`` is unseen at
+    ``x⁺``. With the attitude block's reset alone it is seen through ``e_D × dv̂``."""
+    x = _state(0.6, -20.0, np.array([1.8, -0.9, 0.1]), np.array([0.02, -0.01, 2.1]),
+               np.zeros(3), np.array([1e-5, -2e-5, 3e-5]))  # fmt: skip
+    N = _vertical_rotation(x)
+    assert np.abs(_dvl_sensitivity(x, N)).max() < 1e-8  # unseen before the feedback
+    dx = np.zeros(errorstate.N_STATES)
+    dx[VEL] = (0.05, -0.03, 0.01)
+    after = errorstate.inject(x, dx)
+    G = errorstate.reset_jacobian(dx)
+    assert np.abs(_dvl_sensitivity(after, G @ N)).max() < 1e-8
+    G_att = errorstate.reset_jacobian(dx, errorstate.RESET_ATTITUDE)
+    seen = np.abs(_dvl_sensitivity(after, G_att @ N)).max()
+    assert seen > 0.5 * np.linalg.norm(np.cross([0.0, 0.0, 1.0], dx[VEL]))
+    # An attitude correction as well: the attitude block's own first-order term is left, a tilt
+    # of ½ |phî| per unit of yaw (gravity makes tilt observable; the rotation stays unseen to
+    # first order).
+    dx[ATT] = (2e-4, -1e-4, 3e-3)
+    after = errorstate.inject(x, dx)
+    G = errorstate.reset_jacobian(dx)
+    bound = np.linalg.norm(x[3:6]) * 0.5 * np.linalg.norm(dx[ATT][:2]) * 1.5
+    assert np.abs(_dvl_sensitivity(after, G @ N)).max() < bound
+    G_off = errorstate.reset_jacobian(dx, errorstate.RESET_OFF)
+    assert np.array_equal(G_off, np.eye(errorstate.N_STATES))
+
+
+def test_the_reset_modes_nest() -> None:
+    """RESET_INVARIANT = RESET_ATTITUDE plus the velocity-attitude block ``-[dv̂×]``, nothing
+    else; declared states stay the identity."""
+    dx = np.arange(1.0, 18.0) * 1e-3
+    G2 = errorstate.reset_jacobian(dx)
+    G1 = errorstate.reset_jacobian(dx, errorstate.RESET_ATTITUDE)
+    diff = G2 - G1
+    np.testing.assert_array_equal(diff[VEL, ATT], -attitude.skew(dx[VEL]))
+    diff[VEL, ATT] = 0.0
+    assert not diff.any()
+    assert G2.shape == (17, 17) and np.array_equal(G2[15:, :], np.eye(17)[15:, :])
+
+
 def test_noise_input_and_discretization() -> None:
     """Qd is symmetric PSD and ≈ G Q Gᵀ dt for small dt; Gauss-Markov PSD is 2σ²/τ."""
     noise = ImuNoise.from_datasheet(

@@ -30,6 +30,7 @@ def test_the_mission_section_is_the_settings_plus_the_engine_fields() -> None:
         "output_rate_hz",
         "specific_force_tau_s",
         "covariance_block_s",
+        "invariant_reset",
     }
     for name, field in settings.items():
         # Inherited, not copied: one declaration, one default.

@@ -121,7 +121,6 @@ def start_state(
         imu.t, imu.dt, imu.dtheta, imu.dvel, ini.alignment_s, position, noise,
         accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
         position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
-        invariant_reset=cfg.filter.invariant_reset is not False,
     )  # fmt: skip
     check_angles_at_rest(cfg, sensors, a.x0, a.P0, a.coarse.mean_specific_force, t_start, a.t_end)
     check_depth_at_rest(cfg, sensors, a.x0, t_start, a.t_end)

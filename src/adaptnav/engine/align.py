@@ -483,7 +483,6 @@ def fine_align(
     gnss: GNSS | None = None,
     gnss_readings: tuple[ArrayLike, ArrayLike] | None = None,
     output_every: int = 100,
-    invariant_reset: bool = True,
 ) -> FineAlignment:
     """Fine alignment: the ESKF over the static window with ZUPTs (and GNSS fixes if given).
 
@@ -493,8 +492,7 @@ def fine_align(
     seconds and the GNSS fixes ``gnss_readings = (t (n,), z (n, d))`` stamped inside the window
     (``z`` as :class:`adaptnav.sensors.gnss.GNSS` reads them). What this can and cannot estimate at
     rest is in the module docstring: the horizontal accelerometer bias is not separable from tilt,
-    the east gyro bias not from heading. ``invariant_reset``: the reset's velocity-attitude term
-    (EngineConfig.invariant_reset).
+    the east gyro bias not from heading.
     """
     t = np.atleast_1d(np.asarray(imu_t, dtype=float))
     dth, dv, d = _increments(dtheta, dvel, imu_dt)
@@ -523,8 +521,11 @@ def fine_align(
             period = float(np.median(np.diff(tg))) if tg.size > 1 else 1.0
             channels.append(SensorChannel(gnss, period, strategy))
             readings[gnss.name] = (tg[keep], zg[keep])
+    # At rest F takes -g_n, not the nominal's own (noisy) motion, so the velocity-attitude term
+    # of the reset, which follows that motion, would make P depend on the noise
+    # (docs/filters.md, 'The velocity-attitude term'; tests/unit/test_align.py).
     config = EngineConfig(
-        imu_noise, "exact", True, output_every, at_rest=True, invariant_reset=invariant_reset
+        imu_noise, "exact", True, output_every, at_rest=True, invariant_reset=False
     )
     out = run_batch(config, channels, x0, P0, start, t, d, dth, dv, readings)
     half = start + 0.5 * (t_end - start)
@@ -605,7 +606,6 @@ def align(
     zupt_period: float = 0.1,
     max_heading_sigma: float = MAX_HEADING_SIGMA,
     tolerances: StaticTolerances = StaticTolerances(),
-    invariant_reset: bool = True,
 ) -> Alignment:
     """Static alignment over the first ``window`` seconds of the IMU data (docs/alignment.md).
 
@@ -627,8 +627,6 @@ def align(
         gnss, gnss_readings: optional GNSS model and fixes ``(t, z)`` for the fine alignment.
         zupt, zupt_period: the zero-velocity pseudo-measurement and its period (s).
         max_heading_sigma, tolerances: see :func:`coarse_align`.
-        invariant_reset: the reset's velocity-attitude term in the fine alignment
-            (EngineConfig.invariant_reset; False: as up to 0.3.10).
     """
     t, d, dth, dv = _imu_arrays(imu_t, imu_dt, dtheta, dvel)
     window = float(window)
@@ -666,7 +664,7 @@ def align(
     )  # fmt: skip
     fine = fine_align(
         tw, dw, dthw, dvw, x0, P0, imu_noise, t0=start, zupt=zupt, zupt_period=zupt_period,
-        gnss=gnss, gnss_readings=gnss_readings, invariant_reset=invariant_reset,
+        gnss=gnss, gnss_readings=gnss_readings,
     )  # fmt: skip
     return Alignment(
         fine.x, fine.P, fine.t_end, roll, pitch, yaw, info.heading_source, info, P0,
