@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from adaptnav import __version__
 from adaptnav.api import oracle
 from adaptnav.api.diagnosis import with_warnings
 from adaptnav.api.results import Result, dropped_ledger, ledger_frame
@@ -39,6 +40,7 @@ from adaptnav.mission import (
 )
 from adaptnav.mission.config import with_overrides
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
+from adaptnav.models import errorstate
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
 from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_SIZE, NavState
@@ -458,8 +460,10 @@ def run(
     imu_samples = int(m.imu.t.size - nav_from)
     meta: dict[str, Any] = {
         "mission_dir": str(m.root),
+        "adaptnav_version": __version__,
         "filter_settings": s.as_dict(),
         "epoch_policy": policy,
+        "engine": engine_meta(config),
         **(
             {"oracle_nominal_R": [n for n, o in feed.known.items() if o.r_diag is None]}
             if s.kind == "oracle"
@@ -484,6 +488,21 @@ def run(
             "calibration": _calibration(states, result.solution, result.ledger, m.sensors),
         },
     )
+
+
+def engine_meta(config: engine.EngineConfig) -> dict[str, Any]:
+    """The engine's settings that a mission may set and a run's ``summary.json`` records, beside
+    the filter's: F's specific-force low-pass, the covariance blocks and the reset
+    (docs/filters.md)."""
+    return {
+        "specific_force_tau_s": config.specific_force_tau_s,
+        "covariance_block_s": config.covariance_block_s,
+        "reset": {
+            errorstate.RESET_OFF: "off",
+            errorstate.RESET_ATTITUDE: "attitude",
+            errorstate.RESET_INVARIANT: "invariant",
+        }[config.reset_mode],
+    }
 
 
 def engine_config(

@@ -31,6 +31,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from adaptnav import __version__
 from adaptnav.api import runner
 from adaptnav.api.diagnosis import with_warnings
 from adaptnav.api.results import SOLUTION_COLUMNS, Result, declared_columns, solution_rows
@@ -359,8 +360,10 @@ class Stream:
         out = replace(out, ledger=[*out.ledger, *self._extra])
         meta: dict[str, Any] = {
             "mission_dir": self._root,
+            "adaptnav_version": __version__,
             "filter_settings": self.settings.as_dict(),
             "epoch_policy": self.policy,
+            "engine": runner.engine_meta(self._engine),
             "imu_samples": self._fed,
             "q_scale_final": out.q_scale,
             "elapsed_s": time.perf_counter() - self._started,
