@@ -5,6 +5,7 @@ Data are made here from known motion (tests/helpers/synthetic.py), not by the si
 
 from __future__ import annotations
 
+import math
 from functools import cache
 
 import numpy as np
@@ -126,18 +127,16 @@ def _run_batch(kind: str, ds: synthetic.Dataset, **settings: object) -> engine.E
     )  # fmt: skip
 
 
-def _rmse(out: engine.EngineOutput, ds: synthetic.Dataset) -> float:
+def _rmse(
+    out: engine.EngineOutput,
+    ds: synthetic.Dataset,
+    block: slice = errorstate.POS,
+    after: float = -math.inf,
+) -> float:
+    """RMS of the error's ``block`` (position by default) over the output rows after ``after``."""
     k = np.round(out.t / ds.dt).astype(int)
     err = np.array(
-        [errorstate.difference(ds.truth[i], x)[:3] for i, x in zip(k, out.x, strict=True)]
-    )
-    return float(np.sqrt((err**2).sum(axis=1).mean()))
-
-
-def _velocity_rmse(out: engine.EngineOutput, ds: synthetic.Dataset, after: float) -> float:
-    k = np.round(out.t / ds.dt).astype(int)
-    err = np.array(
-        [errorstate.difference(ds.truth[i], x)[3:6] for i, x in zip(k, out.x, strict=True)]
+        [errorstate.difference(ds.truth[i], x)[block] for i, x in zip(k, out.x, strict=True)]
     )
     return float(np.sqrt((err[out.t > after] ** 2).sum(axis=1).mean()))
 
@@ -171,7 +170,7 @@ def test_vb_follows_a_noise_jump_and_resists_outliers() -> None:
     )
     assert 0.3 * 0.02**2 < before < 3 * 0.02**2
     assert 0.3 * 0.2**2 < after < 3 * 0.2**2
-    e_vb, e_me = _velocity_rmse(vb, ds, 160.0), _velocity_rmse(meskf, ds, 160.0)
+    e_vb, e_me = (_rmse(out, ds, errorstate.VEL, after=160.0) for out in (vb, meskf))
     print(f"velocity RMSE after the jump: VB {e_vb:.4f} m/s, MESKF {e_me:.4f} m/s")
     assert e_vb < 0.75 * e_me
 

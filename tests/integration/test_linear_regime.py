@@ -28,9 +28,9 @@ import pytest
 
 from adaptnav import api
 from adaptnav.analysis import evaluate
-from adaptnav.core import attitude
 from adaptnav.mission import Mission, load_mission, with_overrides
 from adaptnav.models import errorstate
+from adaptnav.models.strapdown import NavState
 from adaptnav.sim import scenarios
 from adaptnav.sim.sensors import Disturbances
 
@@ -73,16 +73,15 @@ def _mission(folder: Path, s: float) -> Mission:
     return replace(m, config=with_overrides(m.config, overrides))
 
 
-def _truth_state(m: Mission, t0: float, like: np.ndarray) -> np.ndarray:
+def _truth_state(m: Mission, t0: float) -> np.ndarray:
     """The true nominal state at ``t0`` (a sample of the truth table)."""
     assert m.truth is not None
-    row = m.truth.iloc[int(np.argmin(np.abs(m.truth["t_s"].to_numpy() - t0)))]
-    x = like.copy()
-    x[0:6] = [row.lat_rad, row.lon_rad, row.h_m, row.vn_m_s, row.ve_m_s, row.vd_m_s]
-    x[6:10] = attitude.euler_to_quat(row.roll_rad, row.pitch_rad, row.yaw_rad)
-    x[10:16] = [row.ba_x_m_s2, row.ba_y_m_s2, row.ba_z_m_s2,
-                row.bg_x_rad_s, row.bg_y_rad_s, row.bg_z_rad_s]  # fmt: skip
-    return x
+    r = m.truth.iloc[int(np.argmin(np.abs(m.truth["t_s"].to_numpy() - t0)))]
+    return NavState.from_euler(
+        r.lat_rad, r.lon_rad, r.h_m, (r.vn_m_s, r.ve_m_s, r.vd_m_s),
+        r.roll_rad, r.pitch_rad, r.yaw_rad,
+        (r.ba_x_m_s2, r.ba_y_m_s2, r.ba_z_m_s2), (r.bg_x_rad_s, r.bg_y_rad_s, r.bg_z_rad_s),
+    ).to_array()  # fmt: skip
 
 
 def _metrics(m: Mission, start: tuple[np.ndarray, np.ndarray, float]) -> np.ndarray:
@@ -110,8 +109,8 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[int, float], np
             for s in (0.1, 1.0)
         )
         x0, P0, t0 = api.initial_state(small)[:3]
-        error = errorstate.difference(_truth_state(small, t0, x0), x0)
-        x0_big = errorstate.inject(_truth_state(big, t0, x0), -10.0 * error)
+        error = errorstate.difference(_truth_state(small, t0), x0)
+        x0_big = errorstate.inject(_truth_state(big, t0), -10.0 * error)
         out[seed, 0.1] = _metrics(small, (x0, P0, t0))
         out[seed, 1.0] = _metrics(big, (x0_big, 100.0 * P0, t0))
     return out

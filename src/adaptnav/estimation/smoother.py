@@ -73,8 +73,7 @@ def reset_inverse(dx: Array, n: int, reset: int) -> Array:
     Gi = np.eye(n)
     if reset >= errorstate.RESET_ATTITUDE:
         h = 0.5 * np.asarray(dx[ATT], dtype=float)
-        skew = np.array([[0.0, -h[2], h[1]], [h[2], 0.0, -h[0]], [-h[1], h[0], 0.0]])
-        Gi[ATT, ATT] = (np.eye(3) - skew + np.outer(h, h)) / (1.0 + h @ h)
+        Gi[ATT, ATT] = (np.eye(3) - attitude.skew(h) + np.outer(h, h)) / (1.0 + h @ h)
     if reset == errorstate.RESET_INVARIANT:
         Gi[VEL, ATT] = attitude.skew(dx[VEL]) @ Gi[ATT, ATT]
     return Gi
