@@ -13,6 +13,12 @@ attitude NEES of both against the χ²(3) band (:data:`adaptnav.analysis.evaluat
 smoother's store per hour of IMU and the run time, one figure and every run in an appendix. The
 filters always run (only the missions are cached), so the page judges the code as it is.
 
+Two cases of aiding per mission (``--cases``): ``paper``, as above, and ``surfacing``, the same
+mission with its last GNSS fix used as well (:func:`surfacing`: a vehicle that surfaces at the end
+of the dive). Beside each measured ratio the page gives the one the filter's own covariance
+predicts, the RMS over the epochs and seeds of the smoothed position σ over the forward one
+(:func:`rms_sigma`): what the smoother expects to gain from the information the mission holds.
+
 Smoke test: ``python scripts/smoothing_eval.py --presets demo --seeds 1 --filters vb --jobs 1
 --cache /tmp/s-cache --out /tmp/s.md --figures /tmp/s``.
 """
@@ -48,6 +54,18 @@ TARGET_FILTERS = ("vb", "robust")
 """The filters the issue's targets name; the others are extra rows."""
 RMSE_RATIO_TARGET = 0.6
 """Mean smoothed relative RMSE over the seeds ≤ 0.6 × the mean forward one."""
+CASES = ("paper", "surfacing")
+"""The aiding of each mission (module docstring; :func:`surfacing`)."""
+
+
+def case_label(case: str, fixes: int = 1) -> str:
+    """How the page names a case: ``paper's aiding``, ``+ last GNSS fix`` (``+ last 120 GNSS
+    fixes``)."""
+    if case == "paper":
+        return "paper's aiding"
+    return "+ last GNSS fix" if fixes == 1 else f"+ last {fixes} GNSS fixes"
+
+
 SCORES = (
     "rmse_m", "relative_rmse_pct", "horizontal_rmse_m", "final_horizontal_error_m",
     "mean_nees_position", "mean_nees_velocity", "mean_nees_attitude", "nees_position_in_95",
@@ -61,6 +79,12 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sweep_arguments(p, DEFAULT_FILTERS, 10, min(DEFAULT_JOBS, os.cpu_count() or 1))
     p.add_argument("--cache", type=Path, default=ROOT / "runs" / "reproduce-cache")
+    p.add_argument(
+        "--cases", default=",".join(CASES), help=f"comma-separated cases [{','.join(CASES)}]"
+    )
+    p.add_argument(
+        "--surfacing-fixes", type=int, default=1, help="GNSS fixes at the end, case surfacing [1]"
+    )
     p.add_argument("--figure-seed", type=int, default=1, help="seed of the figure [1]")
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-smoothing.md")
     p.add_argument(
@@ -71,6 +95,11 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     a = p.parse_args(argv)
     check_sweep_arguments(p, a)
+    a.case_list = list(dict.fromkeys(x.strip() for x in a.cases.split(",") if x.strip()))
+    if not a.case_list or set(a.case_list) - set(CASES):
+        p.error(f"--cases: {a.cases!r}; use {', '.join(CASES)}")
+    if a.surfacing_fixes < 1:
+        p.error(f"--surfacing-fixes: {a.surfacing_fixes} must be >= 1")
     if not 1 <= a.figure_seed <= a.seeds:
         p.error(f"--figure-seed must be in 1..{a.seeds}")
     return a
@@ -91,6 +120,39 @@ def _trace(result: Any, truth: pd.DataFrame) -> pd.DataFrame:
     return e[["t_s", "error_m", "horizontal_m"]].assign(sd_horizontal_m=np.hypot(*sd))
 
 
+def rms_sigma(result: Any, truth: pd.DataFrame) -> float:
+    """``sqrt(mean(sd_N² + sd_E² + sd_D²))`` (m) at the truth epochs the RMSE covers: the RMSE
+    the filter expects of itself, which its RMSE matches on average when it is consistent."""
+    from adaptnav.analysis.evaluate import POSITION_SD, position_errors
+
+    e = position_errors(result.solution, truth)
+    t_sol = result.solution["t_s"].to_numpy(dtype=float)
+    var = sum(np.interp(e["t_s"], t_sol, result.solution[c].to_numpy(dtype=float) ** 2)
+              for c in POSITION_SD)  # fmt: skip
+    return float(np.sqrt(np.mean(var)))
+
+
+def surfacing(mission: Any, fixes: int = 1) -> Any:
+    """``mission`` with its (first) GNSS sensor aiding at its last ``fixes`` fixes as well: a
+    vehicle that surfaces at the end of the dive. None if it has no GNSS fix. One fix by
+    default, not the minutes of 1-Hz fixes a surfacing gives: the simulated GNSS error has a
+    2.5-m Gauss-Markov part with a 120-s correlation time (docs/simulation.md) and the filter
+    takes fixes as white, so a run of fixes within one correlation time is trusted as if their
+    errors averaged out (measured with the last 120 fixes: docs/smoothing.md, 'What smoothing
+    can and cannot do')."""
+    have = mission.sensors
+    names = [n for n, c in mission.config.sensors.items()
+             if c.kind == "gnss" and n in have and have[n].t.size]  # fmt: skip
+    if not names:
+        return None
+    g = mission.sensors[names[0]]
+    last = slice(max(g.t.size - fixes, 0), None)
+    fix = dataclasses.replace(g, t=g.t[last], z=g.z[last], rows=g.rows[last])
+    config = mission.config.model_copy(deep=True)
+    config.sensors[names[0]] = config.sensors[names[0]].model_copy(update={"use": "aid"})
+    return dataclasses.replace(mission, sensors={**mission.sensors, names[0]: fix}, config=config)
+
+
 def _run_filter(mission: Any, initial: Any, kind: str, trace: bool) -> dict[str, Any]:
     """One smoothed run of ``kind`` scored forward and smoothed; with ``trace`` also both
     solutions' error traces (key ``traces``)."""
@@ -105,6 +167,7 @@ def _run_filter(mission: Any, initial: Any, kind: str, trace: bool) -> dict[str,
     for name, result in (("forward", forward), ("smoothed", smoothed)):
         m = evaluate.evaluate(result, mission.truth)
         row |= {f"{name}_{k}": float(getattr(m, k)) for k in SCORES}
+        row[f"{name}_rms_sigma_m"] = rms_sigma(result, mission.truth)
     row["relative_rmse_ratio"] = (
         row["smoothed_relative_rmse_pct"] / row["forward_relative_rmse_pct"]
     )
@@ -139,33 +202,42 @@ def _plain_rmse(cache: Path, preset: str, seed: int, kind: str) -> float:
 
 
 def run_seed(
-    cache: str, preset: str, seed: int, filters: Sequence[str], traced: Sequence[str]
-) -> list[dict[str, Any]]:
+    cache: str, preset: str, seed: int, filters: Sequence[str], traced: Sequence[str],
+    cases: Sequence[str] = CASES[:1], fixes: int = 1,
+) -> list[dict[str, Any]]:  # fmt: skip
     """Every filter of ``filters`` smoothed on mission (preset, seed), prepared in ``cache``
-    once: one row per filter (``error`` says why a run failed; its numbers are then NaN); the
-    rows of the filters in ``traced`` keep their error traces."""
+    once, in each of ``cases`` (:data:`CASES`; a mission without a GNSS fix has no
+    ``surfacing`` rows): one row per case and filter (``error`` says why a run failed; its
+    numbers are then NaN); the first case's rows of the filters in ``traced`` keep their error
+    traces."""
     from adaptnav.experiments.cache import load_prepared, prepare_mission
     from adaptnav.experiments.spec import RunSpec
 
     root = Path(cache)
     spec = RunSpec(preset, seed, filters[0])
     prepare_mission(root, spec)
-    mission, initial = load_prepared(root, spec.mission_name)
+    paper, initial = load_prepared(root, spec.mission_name)
+    missions = {"paper": paper,
+                "surfacing": surfacing(paper, fixes) if "surfacing" in cases else None}  # fmt: skip
     rows = []
-    for kind in filters:
-        base = {"preset": preset, "seed": seed, "filter": kind,
-                "plain_relative_rmse_pct": _plain_rmse(root, preset, seed, kind)}  # fmt: skip
-        try:
-            row = _run_filter(mission, initial, kind, kind in traced)
-            rows.append({**base, **row, "error": None})
-        except Exception as exc:  # reported on the page, the other runs go on
-            rows.append({**base, "error": f"{type(exc).__name__}: {exc}"})
+    for case in (c for c in cases if missions[c] is not None):
+        for kind in filters:
+            plain = _plain_rmse(root, preset, seed, kind) if case == "paper" else math.nan
+            base = {"case": case, "aiding": case_label(case, fixes), "preset": preset,
+                    "seed": seed, "filter": kind, "plain_relative_rmse_pct": plain}  # fmt: skip
+            try:
+                traces = case == cases[0] and kind in traced
+                row = _run_filter(missions[case], initial, kind, traces)
+                rows.append({**base, **row, "error": None})
+            except Exception as exc:  # reported on the page, the other runs go on
+                rows.append({**base, "error": f"{type(exc).__name__}: {exc}"})
     return rows
 
 
 def run_all(
     cache: Path, tasks: Sequence[tuple[str, int]], filters: Sequence[str], jobs: int,
-    traced: tuple[str, int], scheduler: str | None = None,
+    traced: tuple[str, int], scheduler: str | None = None, cases: Sequence[str] = CASES[:1],
+    fixes: int = 1,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Every (preset, seed) task through :func:`run_seed` on a dask cluster (``scheduler``, else
     ``$ADAPTNAV_SCHEDULER``, else ``jobs`` local workers; 1: in this process); on the ``traced``
@@ -183,7 +255,8 @@ def run_all(
         return _figure_filters(filters) if task == traced else []
 
     # jobs = 1 runs in this process (no pickling: also when this file is loaded by path)
-    work = [(str(cache.resolve()), p, s, list(filters), trace((p, s))) for p, s in tasks]
+    work = [(str(cache.resolve()), p, s, list(filters), trace((p, s)), list(cases), fixes)
+            for p, s in tasks]  # fmt: skip
     run_tasks(run_seed, work, jobs, report, scheduler)
     return rows
 
@@ -205,19 +278,29 @@ def nees_class(value: float) -> str:
 
 
 def summarize(table: pd.DataFrame) -> pd.DataFrame:
-    """Per preset and filter, over the seeds that ran: means of the forward and smoothed
+    """Per case, preset and filter, over the seeds that ran: means of the forward and smoothed
     metrics, the ratio of the mean relative RMSEs and the mean and worst per-seed ratio, the
+    RMS over the seeds of the smoothed RMSE over the forward one (``rms_ratio``) and of the
+    filter's own σ (``sigma_ratio``, :func:`rms_sigma`: the ratio the filter predicts), the
     store per hour and the run time, and both verdicts (``rmse_ok``: ratio of the means ≤
     :data:`RMSE_RATIO_TARGET`; ``nees_ok``: the smoothed mean position NEES in the same place
     against the χ²(3) band as the forward one, :func:`nees_class`)."""
     out = []
-    for (preset, kind), g in table.groupby(["preset", "filter"], sort=False):
+    for (case, preset, kind), g in table.groupby(["case", "preset", "filter"], sort=False):
         ok = g[g["error"].isna()]
-        row: dict[str, Any] = {"preset": preset, "filter": kind, "seeds": len(ok),
+        row: dict[str, Any] = {"case": case, "aiding": g["aiding"].iloc[0], "preset": preset,
+                               "filter": kind, "seeds": len(ok),
                                "failed": len(g) - len(ok)}  # fmt: skip
         for name in ("forward", "smoothed"):
-            row |= {f"{name}_{k}": ok[f"{name}_{k}"].mean() for k in SCORES}
+            row |= {f"{name}_{k}": ok[f"{name}_{k}"].mean() for k in (*SCORES, "rms_sigma_m")}
+
+        def rms_ratio(key: str, ok: pd.DataFrame = ok) -> float:
+            return float(np.sqrt(np.mean(ok[f"smoothed_{key}"] ** 2)
+                                 / np.mean(ok[f"forward_{key}"] ** 2)))  # fmt: skip
+
         row |= {
+            "rms_ratio": rms_ratio("rmse_m"),
+            "sigma_ratio": rms_ratio("rms_sigma_m"),
             "ratio_of_means": row["smoothed_relative_rmse_pct"] / row["forward_relative_rmse_pct"],
             "ratio_mean": ok["relative_rmse_ratio"].mean(),
             "ratio_worst": ok["relative_rmse_ratio"].max(),
@@ -248,17 +331,19 @@ def _verdict(ok: bool) -> str:
 
 
 def _targets_table(summary: pd.DataFrame) -> str:
-    header = ["preset", "filter", "relative RMSE % forward → smoothed",
+    header = ["aiding", "preset", "filter", "relative RMSE % forward → smoothed",
               "ratio of the means (mean / worst per seed)", f"≤ {RMSE_RATIO_TARGET:g}",
-              "position NEES forward → smoothed", "same band"]  # fmt: skip
+              "RMS ratio: RMSE / the filter's σ", "position NEES forward → smoothed",
+              "same band"]  # fmt: skip
     rows = []
     for r in summary[summary["filter"].isin(TARGET_FILTERS)].itertuples():
         rows.append([
-            str(r.preset), _label(str(r.filter)),
+            str(r.aiding), str(r.preset), _label(str(r.filter)),
             f"{_f(r.forward_relative_rmse_pct, '.3f')} → {_f(r.smoothed_relative_rmse_pct, '.3f')}",
             f"{_f(r.ratio_of_means, '.3f')} ({_f(r.ratio_mean, '.3f')} / "
             f"{_f(r.ratio_worst, '.3f')})",
             _verdict(bool(r.rmse_ok)),
+            f"{_f(r.rms_ratio, '.3f')} / {_f(r.sigma_ratio, '.3f')}",
             " → ".join(f"{_f(v, '.2f')} ({nees_class(v)})" for v in (
                 r.forward_mean_nees_position, r.smoothed_mean_nees_position)),
             _verdict(bool(r.nees_ok)),
@@ -272,17 +357,18 @@ def _pair(r: Any, key: str, fmt: str, scale: float = 1.0) -> str:
 
 
 def _summary_table(summary: pd.DataFrame) -> str:
-    header = ["preset", "filter", "seeds", "relative RMSE %", "RMSE m", "ratio of means",
-              "mean ratio", "NEES pos", "NEES att", "% epochs in band pos", "yaw RMSE °",
+    header = ["aiding", "preset", "filter", "seeds", "relative RMSE %", "RMSE m",
+              "ratio of means", "mean ratio", "RMS σ m", "NEES pos", "NEES att",
+              "% epochs in band pos", "yaw RMSE °",
               "final horiz. error m", "store MB per h of IMU",
               "run s (forward + backward)"]  # fmt: skip
     rows = []
     for r in summary.itertuples():
         rows.append([
-            str(r.preset), _label(str(r.filter)),
+            str(r.aiding), str(r.preset), _label(str(r.filter)),
             str(r.seeds) + (f" ({r.failed} failed)" if r.failed else ""),
             _pair(r, "relative_rmse_pct", ".3f"), _pair(r, "rmse_m", ".1f"),
-            _f(r.ratio_of_means, ".3f"), _f(r.ratio_mean, ".3f"),
+            _f(r.ratio_of_means, ".3f"), _f(r.ratio_mean, ".3f"), _pair(r, "rms_sigma_m", ".1f"),
             _pair(r, "mean_nees_position", ".2f"), _pair(r, "mean_nees_attitude", ".2f"),
             _pair(r, "nees_position_in_95", ".0f", 100.0),
             _pair(r, "yaw_rmse_rad", ".3f", 180.0 / math.pi),
@@ -293,14 +379,14 @@ def _summary_table(summary: pd.DataFrame) -> str:
 
 
 def _seed_table(table: pd.DataFrame) -> str:
-    header = ["preset", "seed", "filter", "relative RMSE % forward / smoothed", "ratio",
+    header = ["aiding", "preset", "seed", "filter", "relative RMSE % forward / smoothed", "ratio",
               "NEES pos forward / smoothed", "NEES att forward / smoothed",
               "yaw RMSE ° forward / smoothed", "plain run's relative RMSE %", "failed nodes",
               "run s"]  # fmt: skip
     rows = []
     for r in table[table["error"].isna()].itertuples():
         rows.append([
-            str(r.preset), str(r.seed), _label(str(r.filter)),
+            str(r.aiding), str(r.preset), str(r.seed), _label(str(r.filter)),
             _pair(r, "relative_rmse_pct", ".3f"), _f(r.relative_rmse_ratio, ".3f"),
             _pair(r, "mean_nees_position", ".2f"), _pair(r, "mean_nees_attitude", ".2f"),
             _pair(r, "yaw_rmse_rad", ".3f", 180.0 / math.pi),
@@ -328,7 +414,8 @@ def _verdict_lines(summary: pd.DataFrame) -> list[str]:
     lines = []
     for r in summary[summary["filter"].isin(TARGET_FILTERS)].itertuples():
         lines.append(
-            f"{r.preset} {_label(str(r.filter))}: smoothed / forward relative RMSE "
+            f"{r.preset} {_label(str(r.filter))}, {r.aiding}: smoothed / "
+            "forward relative RMSE "
             f"{_f(r.ratio_of_means, '.3f')} (target ≤ {RMSE_RATIO_TARGET:g}) "
             f"{_verdict(bool(r.rmse_ok)).strip('*')}; position NEES "
             f"{_f(r.forward_mean_nees_position, '.2f')} → "
@@ -395,6 +482,10 @@ def page(
         "- missions: the simulated sea trials of docs/results.md (`adaptnav simulate`, every "
         "disturbance on; DVL, depth and inclinometer aiding, GNSS only to initialise: the "
         "paper's configuration), one per preset and seed, each with its static alignment;",
+        "- aiding: *paper's aiding* as simulated; *+ last GNSS fix*: the same mission with its "
+        "last GNSS fix, at its very end, used as well (a vehicle that surfaces at the end of the "
+        "dive and takes one fix; one, not minutes of fixes, because the simulated fixes' errors "
+        "are correlated over 120 s and the filter takes them as white: docs/smoothing.md);",
         "- each filter at its defaults, run once from that alignment with the RTS backward "
         "pass (`adaptnav.api.run(..., smooth=True)`); the run's forward solution and its "
         "smoothed one are scored against the truth over the same span;",
@@ -405,6 +496,10 @@ def page(
         f"seeds; target: the smoothed one in the same place as the forward one against the "
         f"χ²(3) 95 % band [{NEES_BAND[0]:.3f}, {NEES_BAND[1]:.3f}] (below, inside or above; "
         "mean 3 for a consistent filter);",
+        "- RMS ratio: `sqrt(mean RMSE_smoothed² / mean RMSE_forward²)` over the seeds, beside "
+        "the same ratio of the RMS position σ each solution claims (`sd_N² + sd_E² + sd_D²` at "
+        "the truth epochs): the gain the filter's own model expects from the information the "
+        "mission holds, which a consistent smoother's measured ratio matches on average;",
         "- store: the bytes the forward pass keeps for the backward one, per hour of 100-Hz "
         "IMU; run s: `api.run` with the backward pass (forward, store, backward, tables).",
         "",
@@ -447,11 +542,13 @@ def _sorted(
     """The runs in page order (preset, seed, filter as given); the traces left out."""
     table = pd.DataFrame([{k: v for k, v in r.items() if k != "traces"} for r in rows])
     keys = pd.DataFrame({
+        "case": table["case"].map({c: i for i, c in enumerate(CASES)}),
         "preset": table["preset"].map({p: i for i, p in enumerate(presets)}),
         "seed": table["seed"],
         "filter": table["filter"].map({f: i for i, f in enumerate(filters)}),
     })  # fmt: skip
-    return table.loc[keys.sort_values(["preset", "seed", "filter"]).index].reset_index(drop=True)
+    order = keys.sort_values(["case", "preset", "seed", "filter"]).index
+    return table.loc[order].reset_index(drop=True)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -462,7 +559,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_length = sorted(args.preset_list, key=lambda p: p != "paper-1")
     tasks = [(p, s) for p in by_length for s in range(1, args.seeds + 1)]
     traced = (args.preset_list[0], args.figure_seed)
-    rows = run_all(args.cache, tasks, args.filter_list, args.jobs, traced, args.scheduler)
+    cases = (args.case_list, args.surfacing_fixes)
+    rows = run_all(args.cache, tasks, args.filter_list, args.jobs, traced, args.scheduler, *cases)
     wall = time.perf_counter() - started
     table = _sorted(rows, args.preset_list, args.filter_list)
     summary = summarize(table)

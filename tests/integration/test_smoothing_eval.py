@@ -26,13 +26,22 @@ def test_smoothing_evaluation_script_writes_the_results_page(tmp_path: Path) -> 
                     "position_error.png", "runs.csv"):  # fmt: skip
         assert heading in text
     runs = pd.read_csv(figs / "runs.csv")
-    assert list(runs["filter"]) == ["vb", "meskf"] and runs["error"].isna().all()
+    assert list(runs["filter"]) == ["vb", "meskf"] * 2 and runs["error"].isna().all()
+    assert list(runs["case"]) == ["paper"] * 2 + ["surfacing"] * 2
+    # the forward pass is the same until the last fix, the one epoch where the cases differ
+    paper, surfaced = (runs[runs["case"] == c].reset_index() for c in ("paper", "surfacing"))
+    np.testing.assert_allclose(
+        surfaced["forward_relative_rmse_pct"], paper["forward_relative_rmse_pct"], rtol=0.05
+    )
+    assert (surfaced["smoothed_rms_sigma_m"] < paper["smoothed_rms_sigma_m"]).all()
+    assert (runs["smoothed_rms_sigma_m"] < runs["forward_rms_sigma_m"]).all()
     assert (runs["failed_nodes"] == 0).all() and (runs["store_mb_per_h"] > 0).all()
     ratio = runs["smoothed_relative_rmse_pct"] / runs["forward_relative_rmse_pct"]
     np.testing.assert_allclose(runs["relative_rmse_ratio"], ratio, rtol=1e-5)  # CSV: 6 digits
     assert (figs / "position_error.png").stat().st_size > 10_000
-    # only VB-MAESKF is a target filter: one verdict line, both verdicts on it
-    assert text.count("- demo VB-MAESKF: smoothed / forward relative RMSE") == 1
+    # only VB-MAESKF is a target filter: one verdict line per case, both verdicts on it
+    for case in ("paper's aiding", "+ last GNSS fix"):
+        assert text.count(f"- demo VB-MAESKF, {case}: smoothed / forward relative RMSE") == 1
     assert "demo MESKF: smoothed" not in text
 
 
@@ -40,9 +49,10 @@ def _row(
     seed: int, forward: float, smoothed: float, nees: tuple[float, float]
 ) -> dict[str, object]:
     """One run of the table of runs: relative RMSE forward and smoothed, position NEES both."""
-    row: dict[str, object] = {"preset": "p", "filter": "vb", "seed": seed, "error": None}
+    row: dict[str, object] = {"case": "paper", "aiding": "paper's aiding", "preset": "p",
+                              "filter": "vb", "seed": seed, "error": None}  # fmt: skip
     for name in ("forward", "smoothed"):
-        row |= {f"{name}_{k}": 1.0 for k in SCRIPT.SCORES}
+        row |= {f"{name}_{k}": 1.0 for k in (*SCRIPT.SCORES, "rms_sigma_m")}
     row |= {
         "forward_relative_rmse_pct": forward,
         "smoothed_relative_rmse_pct": smoothed,
@@ -72,3 +82,18 @@ def test_the_verdicts_are_on_the_ratio_of_the_means_and_the_nees_band() -> None:
                                                            "error": "ValueError: x"}])  # fmt: skip
     (row,) = mod.summarize(failed).to_dict("records")
     assert row["seeds"] == 1 and row["failed"] == 1 and not row["rmse_ok"] and not row["nees_ok"]
+
+
+def test_the_rms_ratios_are_taken_over_the_seeds_as_mean_squares() -> None:
+    """``rms_ratio`` = sqrt(mean RMSE_s² / mean RMSE_f²) and ``sigma_ratio`` the same of the
+    filter's RMS σ: numbers worked by hand (sqrt(2.5 / 12.5) and sqrt(1 / 4))."""
+    rows = []
+    for seed, (f, s) in enumerate(((3.0, 1.0), (4.0, 2.0)), start=1):
+        row = _row(seed, 1.0, 0.5, (3.0, 3.0))
+        row |= {"forward_rmse_m": f, "smoothed_rmse_m": s,
+                "forward_rms_sigma_m": 2.0, "smoothed_rms_sigma_m": 1.0}  # fmt: skip
+        rows.append(row)
+    (row,) = SCRIPT.summarize(pd.DataFrame(rows)).to_dict("records")
+    assert math.isclose(row["rms_ratio"], math.sqrt(2.5 / 12.5))
+    assert math.isclose(row["sigma_ratio"], 0.5)
+    assert row["case"] == "paper"
