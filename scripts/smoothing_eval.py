@@ -43,6 +43,7 @@ from adaptnav import __version__
 from adaptnav.analysis.evaluate import NEES_BAND
 from adaptnav.experiments.figures import LABELS
 from adaptnav.experiments.runner import check_sweep_arguments, run_tasks, sweep_arguments
+from adaptnav.mission.screening import thinned_mask
 from adaptnav.viz.pages import fmt_number as _f
 from adaptnav.viz.pages import git_revision, markdown_table
 
@@ -58,12 +59,13 @@ CASES = ("paper", "surfacing")
 """The aiding of each mission (module docstring; :func:`surfacing`)."""
 
 
-def case_label(case: str, fixes: int = 1) -> str:
+def case_label(case: str, fixes: int = 1, min_interval_s: float = 0.0) -> str:
     """How the page names a case: ``paper's aiding``, ``+ last GNSS fix`` (``+ last 120 GNSS
-    fixes``)."""
+    fixes``, ``+ last 600 GNSS fixes, 240 s apart``)."""
     if case == "paper":
         return "paper's aiding"
-    return "+ last GNSS fix" if fixes == 1 else f"+ last {fixes} GNSS fixes"
+    label = "+ last GNSS fix" if fixes == 1 else f"+ last {fixes} GNSS fixes"
+    return label + (f", {min_interval_s:g} s apart" if min_interval_s > 0.0 else "")
 
 
 SCORES = (
@@ -85,6 +87,12 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--surfacing-fixes", type=int, default=1, help="GNSS fixes at the end, case surfacing [1]"
     )
+    p.add_argument(
+        "--surfacing-min-interval",
+        type=float,
+        default=0.0,
+        help="thin those fixes to this many seconds apart (min_interval_s) [0: off]",
+    )
     p.add_argument("--figure-seed", type=int, default=1, help="seed of the figure [1]")
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-smoothing.md")
     p.add_argument(
@@ -100,6 +108,8 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
         p.error(f"--cases: {a.cases!r}; use {', '.join(CASES)}")
     if a.surfacing_fixes < 1:
         p.error(f"--surfacing-fixes: {a.surfacing_fixes} must be >= 1")
+    if not a.surfacing_min_interval >= 0.0:
+        p.error(f"--surfacing-min-interval: {a.surfacing_min_interval} must be >= 0")
     if not 1 <= a.figure_seed <= a.seeds:
         p.error(f"--figure-seed must be in 1..{a.seeds}")
     return a
@@ -132,21 +142,23 @@ def rms_sigma(result: Any, truth: pd.DataFrame) -> float:
     return float(np.sqrt(np.mean(var)))
 
 
-def surfacing(mission: Any, fixes: int = 1) -> Any:
+def surfacing(mission: Any, fixes: int = 1, min_interval_s: float = 0.0) -> Any:
     """``mission`` with its (first) GNSS sensor aiding at its last ``fixes`` fixes as well: a
     vehicle that surfaces at the end of the dive. None if it has no GNSS fix. One fix by
     default, not the minutes of 1-Hz fixes a surfacing gives: the simulated GNSS error has a
     2.5-m Gauss-Markov part with a 120-s correlation time (docs/simulation.md) and the filter
     takes fixes as white, so a run of fixes within one correlation time is trusted as if their
     errors averaged out (measured with the last 120 fixes: docs/smoothing.md, 'What smoothing
-    can and cannot do')."""
+    can and cannot do'), unless they are thinned to one per correlation time: ``min_interval_s``,
+    the sensor setting of that name (:func:`adaptnav.mission.screening.thinned_mask`)."""
     have = mission.sensors
     names = [n for n, c in mission.config.sensors.items()
              if c.kind == "gnss" and n in have and have[n].t.size]  # fmt: skip
     if not names:
         return None
     g = mission.sensors[names[0]]
-    last = slice(max(g.t.size - fixes, 0), None)
+    last = np.arange(max(g.t.size - fixes, 0), g.t.size)
+    last = last[~thinned_mask(g.t[last], min_interval_s)]
     fix = dataclasses.replace(g, t=g.t[last], z=g.z[last], rows=g.rows[last])
     config = mission.config.model_copy(deep=True)
     config.sensors[names[0]] = config.sensors[names[0]].model_copy(update={"use": "aid"})
@@ -203,7 +215,7 @@ def _plain_rmse(cache: Path, preset: str, seed: int, kind: str) -> float:
 
 def run_seed(
     cache: str, preset: str, seed: int, filters: Sequence[str], traced: Sequence[str],
-    cases: Sequence[str] = CASES[:1], fixes: int = 1,
+    cases: Sequence[str] = CASES[:1], fixes: int = 1, min_interval_s: float = 0.0,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Every filter of ``filters`` smoothed on mission (preset, seed), prepared in ``cache``
     once, in each of ``cases`` (:data:`CASES`; a mission without a GNSS fix has no
@@ -218,13 +230,15 @@ def run_seed(
     prepare_mission(root, spec)
     paper, initial = load_prepared(root, spec.mission_name)
     missions = {"paper": paper,
-                "surfacing": surfacing(paper, fixes) if "surfacing" in cases else None}  # fmt: skip
+                "surfacing": surfacing(paper, fixes, min_interval_s)
+                if "surfacing" in cases else None}  # fmt: skip
     rows = []
     for case in (c for c in cases if missions[c] is not None):
         for kind in filters:
             plain = _plain_rmse(root, preset, seed, kind) if case == "paper" else math.nan
-            base = {"case": case, "aiding": case_label(case, fixes), "preset": preset,
-                    "seed": seed, "filter": kind, "plain_relative_rmse_pct": plain}  # fmt: skip
+            label = case_label(case, fixes, min_interval_s)
+            base = {"case": case, "aiding": label, "preset": preset, "seed": seed,
+                    "filter": kind, "plain_relative_rmse_pct": plain}  # fmt: skip
             try:
                 traces = case == cases[0] and kind in traced
                 row = _run_filter(missions[case], initial, kind, traces)
@@ -237,7 +251,7 @@ def run_seed(
 def run_all(
     cache: Path, tasks: Sequence[tuple[str, int]], filters: Sequence[str], jobs: int,
     traced: tuple[str, int], scheduler: str | None = None, cases: Sequence[str] = CASES[:1],
-    fixes: int = 1,
+    fixes: int = 1, min_interval_s: float = 0.0,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Every (preset, seed) task through :func:`run_seed` on a dask cluster (``scheduler``, else
     ``$ADAPTNAV_SCHEDULER``, else ``jobs`` local workers; 1: in this process); on the ``traced``
@@ -255,7 +269,8 @@ def run_all(
         return _figure_filters(filters) if task == traced else []
 
     # jobs = 1 runs in this process (no pickling: also when this file is loaded by path)
-    work = [(str(cache.resolve()), p, s, list(filters), trace((p, s)), list(cases), fixes)
+    work = [(str(cache.resolve()), p, s, list(filters), trace((p, s)), list(cases), fixes,
+             min_interval_s)
             for p, s in tasks]  # fmt: skip
     run_tasks(run_seed, work, jobs, report, scheduler)
     return rows
@@ -559,7 +574,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_length = sorted(args.preset_list, key=lambda p: p != "paper-1")
     tasks = [(p, s) for p in by_length for s in range(1, args.seeds + 1)]
     traced = (args.preset_list[0], args.figure_seed)
-    cases = (args.case_list, args.surfacing_fixes)
+    cases = (args.case_list, args.surfacing_fixes, args.surfacing_min_interval)
     rows = run_all(args.cache, tasks, args.filter_list, args.jobs, traced, args.scheduler, *cases)
     wall = time.perf_counter() - started
     table = _sorted(rows, args.preset_list, args.filter_list)

@@ -148,3 +148,21 @@ def test_a_spike_after_a_gap_is_held_then_dropped(tmp_path: Path) -> None:
     assert out == []  # the next six after the gap are judged too: each waits for its window
     out, drops = screen.close()
     assert [r.row for r in out] == list(range(6, 13)) and drops == []
+
+
+@pytest.mark.parametrize(("seed", "gap"), [(1, 1.2), (2, 0.9), (3, 5.0)])
+def test_thinning_live_drops_what_the_loader_does(tmp_path: Path, seed: int, gap: float) -> None:
+    """``min_interval_s`` after the other screens, the first reading of a stretch kept: the
+    same readings released and the same reasons, on the table with gaps, NaN, spikes and a
+    stuck run (the stuck and spike screens decide first, so their drops are no anchors)."""
+    cfg = config_dict()
+    cfg["sensors"]["dvl"] |= {"rate_hz": 2.0, "min_interval_s": gap}
+    dvl = _dvl_with_gaps(seed)
+    m = load_mission(write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl}))
+    screen = LiveScreen("dvl", m.config.sensors["dvl"], m.sensors["dvl"].period)
+    dropped = _as_the_loader(screen, dvl, m)
+    thinned = [d for d in dropped if d.reason.startswith("thinned: ")]
+    assert thinned and any(d.reason.startswith("stuck") for d in dropped)
+    kept = m.sensors["dvl"]
+    finite = np.any(np.isfinite(kept.z), axis=1)
+    assert np.diff(kept.t[finite]).min() >= gap

@@ -31,6 +31,7 @@ from adaptnav.mission.screening import (
     spike_mask,
     stuck_mask,
     stuck_runs,
+    thinned_mask,
 )
 from helpers import badinput
 
@@ -545,3 +546,60 @@ def test_after_gap_s_is_a_dvl_setting() -> None:
     cfg = SensorConfig.model_validate({"kind": "dvl", "file": "dvl.csv", "sigma": [0.01, "m/s"]})
     assert cfg.after_gap_duration_s() == 10.0
     assert SensorConfig.model_validate({**base}).after_gap_duration_s() == 0.0
+
+
+# --- thinning (min_interval_s) ---------------------------------------------------------------
+
+
+def test_thinning_keeps_the_first_of_each_stretch_and_readings_the_interval_apart() -> None:
+    """Worked by hand, interval 1 s: 0 kept; 0.5 too soon; 1.0 kept (exactly 1 s); 2.0 kept;
+    2.4 too soon; 3.1 kept. A reading that does not count (no finite value) is neither an
+    anchor nor dropped: without 1.0 as an anchor, 2.0 is still 2 s after 0 and kept."""
+    t = np.array([0.0, 0.5, 1.0, 2.0, 2.4, 3.1])
+    assert np.flatnonzero(thinned_mask(t, 1.0)).tolist() == [1, 4]
+    usable = np.array([True, True, False, True, True, True])
+    assert np.flatnonzero(thinned_mask(t, 1.0, usable)).tolist() == [1, 4]
+    # 1.5 s: 0 kept, 0.5 and 1.0 too soon, 2.0 kept, 2.4 and 3.1 (1.1 s after 2.0) too soon
+    assert np.flatnonzero(thinned_mask(t, 1.5)).tolist() == [1, 2, 4, 5]
+    assert not thinned_mask(t, 0.0).any() and not thinned_mask(t, math.nan).any()
+    assert not thinned_mask(np.array([]), 1.0).any()
+
+
+def _set_gps(mission: Path, line: str) -> None:
+    toml = (mission / "mission.toml").read_text()
+    section = '[sensors.gps]\nkind = "gnss"\n'
+    assert section in toml
+    (mission / "mission.toml").write_text(toml.replace(section, f"{section}{line}\n"))
+
+
+def test_gnss_fixes_closer_than_min_interval_are_dropped_with_their_reason(
+    mission: Path, tmp_path: Path
+) -> None:
+    """On the code before ``min_interval_s`` every fix was kept. The tiny mission's fixes
+    come at 1 Hz: with 5 s, the fixes kept are 5 s apart or more, each dropped fix names its
+    distance to the last one kept, and every fix has its fate in the run's ledger."""
+    t = badinput.read(mission, "gps")["t_s"].to_numpy()
+    assert not load_mission(mission).dropped
+    _set_gps(mission, "min_interval_s = 5.0")
+    m = load_mission(mission)
+    kept = m.sensors["gps"].t
+    assert kept[0] == t[0] and np.diff(kept).min() >= 5.0 and np.diff(kept).max() < 7.0
+    thinned = {d.row: d.reason for d in m.dropped}
+    assert len(thinned) == t.size - kept.size
+    assert thinned[1] == (
+        f"thinned: {t[1] - t[0]:.3f} s after the last reading kept, less than min_interval_s = 5 s"
+    )
+    res = runner.invoke(app, ["run", str(mission), "--out", str(tmp_path / "run")])
+    assert res.exit_code == 0, res.output
+    ledger = pd.read_parquet(tmp_path / "run" / "ledger.parquet")
+    gps = ledger[ledger["sensor"] == "gps"].set_index("row")
+    assert sorted(gps.index) == list(range(t.size))
+    assert (gps.loc[sorted(thinned), "fate"] == "dropped").all()
+    assert set(gps.loc[sorted(thinned), "reason"]) == set(thinned.values())
+
+
+def test_min_interval_s_must_not_be_negative() -> None:
+    base = {"kind": "gnss", "file": "gps.csv", "sigma": [2.0, "m"]}
+    with pytest.raises(pydantic.ValidationError, match="min_interval_s"):
+        SensorConfig.model_validate({**base, "min_interval_s": -1.0})
+    assert SensorConfig.model_validate({**base, "min_interval_s": 120.0}).min_interval_s == 120.0

@@ -386,6 +386,12 @@ class SensorConfig(_Model):
     taken as stuck (a frozen sensor or driver): the readings of such a run after its first are
     dropped at load (ledger: "stuck"). 0: no detection; None: the kind's default,
     :data:`STUCK_DEFAULTS`. docs/robustness.md."""
+    min_interval_s: NonNegative | None = None
+    """Shortest time (s) between two readings kept: a reading less than this after the last
+    one kept is dropped at load (ledger: "thinned"). For readings whose errors are correlated
+    over about this time (a GNSS receiver's multipath and atmosphere: a minute or two), which
+    the filter takes as independent and so would trust far too much when many come in a row.
+    None or 0: off. docs/robustness.md, 'Correlated readings'."""
     estimate: tuple[str, ...] | None = None
     """Calibration quantities to estimate as states of the filter (docs/calibration.md): of the
     DVL ``scale`` and ``misalignment``, of the depth meter and the inclinometer ``bias``;

@@ -19,7 +19,9 @@ A reading pushed to :class:`LiveScreen` is, in the loader's order:
   reading with ``spike_mads`` set, else the first readings after a gap of ``after_gap_s``
   (:func:`~adaptnav.mission.screening.after_gap_mask`). A reading to be judged is **held**
   until its window is whole (the 7 readings after it, or one beyond the window's reach:
-  2.3 s at 3 Hz), then dropped as the loader drops it or released with the readings behind it.
+  2.3 s at 3 Hz), then dropped as the loader drops it or released with the readings behind it;
+* last, with ``min_interval_s``, dropped if it comes less than that after the last reading
+  released (:func:`adaptnav.mission.screening.thinned_mask`, read forwards).
 
 The released readings are the loader's kept ones, in the same order; the drops are its
 :class:`~adaptnav.mission.tables.DroppedRow` with the same reasons. One check of the loader has
@@ -44,6 +46,7 @@ from adaptnav.mission.loader import (
     lost_status_reason,
     spike_reason,
     stuck_reason,
+    thinned_reason,
 )
 from adaptnav.mission.screening import (
     AFTER_GAP_MADS,
@@ -99,6 +102,8 @@ class LiveScreen:
         self._t_last = -math.inf
         self._run: _Run | None = None
         self._spikes = _SpikeScreen(name, cfg, period)
+        self._min_interval = cfg.min_interval_s or 0.0
+        self._t_kept = -math.inf
 
     @property
     def held_from(self) -> float:
@@ -113,14 +118,34 @@ class LiveScreen:
         why = self._first_check(reading, lock)
         if why is not None:
             return [], [DroppedRow(self.name, reading.row, reading.t, why)]
-        return self._spikes.push(*self._screen_stuck(reading))
+        return self._thin(*self._spikes.push(*self._screen_stuck(reading)))
 
     def close(self) -> tuple[list[Reading], list[DroppedRow]]:
         """The end of the stream: the run under way ends (its held readings are released, or
         dropped if it is stuck), and the readings held for the spike screen are judged."""
         released, dropped = self._spikes.push(*self._end_run())
         more, drops = self._spikes.settle(final=True)
-        return released + more, dropped + drops
+        return self._thin(released + more, dropped + drops)
+
+    def _thin(
+        self, released: list[Reading], dropped: list[DroppedRow]
+    ) -> tuple[list[Reading], list[DroppedRow]]:
+        """Drop the released readings less than ``min_interval_s`` after the last one kept (a
+        reading without a finite value is passed on and does not count)."""
+        if not self._min_interval > 0.0:
+            return released, dropped
+        out: list[Reading] = []
+        for r in released:
+            after = r.t - self._t_kept
+            if not np.any(np.isfinite(r.z)):
+                out.append(r)
+            elif after < self._min_interval:
+                why = thinned_reason(after, self._min_interval)
+                dropped = [*dropped, DroppedRow(self.name, r.row, r.t, why)]
+            else:
+                self._t_kept = r.t
+                out.append(r)
+        return out, dropped
 
     def _first_check(self, r: Reading, lock: bool) -> str | None:
         """The reason to drop ``r`` before the stuck-run screen, or None (the loader's order:

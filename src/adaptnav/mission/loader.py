@@ -28,7 +28,13 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
-from adaptnav.mission.screening import AFTER_GAP_MADS, after_gap_mask, spike_mask, stuck_runs
+from adaptnav.mission.screening import (
+    AFTER_GAP_MADS,
+    after_gap_mask,
+    spike_mask,
+    stuck_runs,
+    thinned_mask,
+)
 from adaptnav.mission.tables import (
     IMU_INCREMENT_COLUMNS,
     IMU_RATE_COLUMNS,
@@ -496,8 +502,8 @@ def _drop_screened(
 ) -> None:
     """Drop (``keep`` set False, ledger) the readings still kept that the screening catches
     (:mod:`adaptnav.mission.screening`; docs/robustness.md): stuck runs, then isolated
-    spikes."""
-    for caught in (_stuck_caught, _spikes_caught):
+    spikes, then the readings closer than ``min_interval_s`` to the last one kept."""
+    for caught in (_stuck_caught, _spikes_caught, _thinned_caught):
         kept = np.flatnonzero(keep)
         for i, reason in caught(cfg, t[kept], z[kept]):
             r = int(kept[i])
@@ -548,6 +554,31 @@ def _spikes_caught(cfg: SensorConfig, t: Array, z: Array) -> list[tuple[int, str
             a = int(starts[np.searchsorted(starts, i, side="right") - 1])
             out.append((int(rows[i]), after_gap_reason(float(t[a] - t[a - 1]), i - a + 1)))
     return sorted(out)
+
+
+def _thinned_caught(cfg: SensorConfig, t: Array, z: Array) -> list[tuple[int, str]]:
+    """(index, "thinned: ...") of the readings ``t``, ``z`` that
+    :func:`adaptnav.mission.screening.thinned_mask` drops for ``min_interval_s`` (readings
+    without a finite value do not count)."""
+    gap = cfg.min_interval_s or 0.0
+    if not gap > 0.0:
+        return []
+    usable = np.any(np.isfinite(z), axis=1)
+    thin = thinned_mask(t, gap, usable)
+    caught, anchors = np.flatnonzero(thin), np.flatnonzero(usable & ~thin)
+    if caught.size == 0:
+        return []
+    last = anchors[np.searchsorted(anchors, caught) - 1]
+    return [(int(i), thinned_reason(float(t[i] - t[a]), gap))
+            for i, a in zip(caught.tolist(), last.tolist(), strict=True)]  # fmt: skip
+
+
+def thinned_reason(after: float, min_interval_s: float) -> str:
+    """The ledger reason of a reading dropped by ``min_interval_s``."""
+    return (
+        f"thinned: {after:.3f} s after the last reading kept, less than min_interval_s = "
+        f"{min_interval_s:g} s"
+    )
 
 
 def spike_reason(mads: float) -> str:
