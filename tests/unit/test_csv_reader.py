@@ -462,7 +462,8 @@ def test_a_line_of_spaces_is_a_blank_line(
         ("\x1c\u3000", "crlf"),  # a file separator and an ideographic space, CRLF breaks
         ("\x0c", "wrong count after"),
         ("\x0c", "cut last line"),
-        ("\x0c", "last line"),  # the file's last line, without a line break: the exact reader's
+        ("\x0c", "last line"),  # the file's last line, without a line break (since 0.4.1)
+        ("\u00a0", "last line"),
     ],
 )
 def test_a_line_of_other_white_space_is_a_blank_line_without_the_exact_reader(
@@ -485,9 +486,6 @@ def test_a_line_of_other_white_space_is_a_blank_line_without_the_exact_reader(
     path = tmp_path / "dvl.csv"
     path.write_bytes((newline.join(lines) + end.replace("\n", newline)).encode())
     expected, repairs, error = outcome(EXACT, path)
-    if case == "last line":
-        assert tb._read_csv_blanked(path, "dvl.csv", tb.Journal()) is None
-        return
     monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
     got, got_repairs, got_error = outcome(tb.read_table, path)
     assert got_error == error
@@ -515,7 +513,8 @@ def test_classic_mac_line_breaks_are_read_as_line_breaks_with_a_repair(tmp_path:
 
 
 @pytest.mark.parametrize(
-    "case", ["numbers", "text column", "cut last line", "blank lines", "wrong field count"]
+    "case",
+    ["numbers", "text column", "cut last line", "blank lines", "wrong field count", "form feed"],
 )
 def test_classic_mac_files_are_read_as_the_exact_reader_reads_them_without_it(
     tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, case: str
@@ -531,6 +530,8 @@ def test_classic_mac_files_are_read_as_the_exact_reader_reads_them_without_it(
         ]
     elif case == "blank lines":
         lines[300:300] = ["", "  "]
+    elif case == "form feed":  # its LF copy is read from a blanked copy (since 0.4.1)
+        lines[300:300] = ["\x0c", "\u00a0"]
     elif case == "wrong field count":
         lines[500] += ",7.0"
     text = "\r".join(lines) + ("" if case == "cut last line" else "\r")
@@ -895,6 +896,8 @@ def test_the_blanked_copy_and_the_exact_reader_agree(tmp_path: Path, small: None
                 at = int(rng.choice(breaks))
                 line = str(rng.choice(ODD_BLANKS)).encode() + (b"\r\n" if crlf else b"\n")
                 raw = raw[:at] + line + raw[at:]
+            if rng.random() < 0.3 and raw.endswith(b"\n"):  # one more, without a line break
+                raw += str(rng.choice(ODD_BLANKS)).encode()
             path.write_bytes(raw)
             a, repairs_a, error_a = outcome(tb._read_csv_blanked, path)
             if a is None and error_a is None:
@@ -909,3 +912,33 @@ def test_the_blanked_copy_and_the_exact_reader_agree(tmp_path: Path, small: None
     finally:
         logging.disable(logging.NOTSET)
     assert read_by_it >= 250, read_by_it
+
+
+@pytest.mark.parametrize(
+    "tail",
+    ["   ", "\t", "\x0c", "\u00a0", "\n\x0c", " \x0b\u2003"],
+    ids=["spaces", "tab", "form-feed", "nbsp", "blank-line-then-form-feed", "mixed"],
+)
+@pytest.mark.parametrize("newline", ["\n", "\r\n"], ids=["lf", "crlf"])
+def test_white_space_after_the_last_line_break_leaves_the_last_line_whole(
+    tmp_path: Path, tail: str, newline: str
+) -> None:
+    """A file that ends in white space without a line break was not cut inside its last data
+    line, which has its line break: every reader keeps that line, with no repair. Up to 0.4.0
+    each took the file's missing final line break for a cut and dropped the line when its last
+    value was shorter than the column's ('6' after '4.5'); the typed reader instead dropped a
+    last no-break space as a line of 1 of 2 fields and kept the line: the two disagreed."""
+    path = tmp_path / "dvl.csv"
+    body = newline.join(["t_s,vx_m_s", "1,2.5", "3,4.5", "5,6"])
+    path.write_bytes((body + newline + tail.replace("\n", newline)).encode())
+    for reader in (EXACT, tb.read_table):
+        table, repairs, error = outcome(reader, path)
+        assert error is None and table is not None, error
+        assert table.df["vx_m_s"].tolist() == [2.5, 4.5, 6.0]
+        assert [table.where(i) for i in range(3)] == [f"dvl.csv line {k}" for k in (2, 3, 4)]
+        assert repairs == []
+    path.write_bytes(body.encode())  # ends inside its last line: that line may be cut
+    for reader in (EXACT, tb.read_table):
+        table, repairs, error = outcome(reader, path)
+        assert table is not None and table.df["vx_m_s"].tolist() == [2.5, 4.5]
+        assert [r.action for r in repairs] == ["dropped truncated last line"]

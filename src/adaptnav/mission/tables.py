@@ -328,8 +328,9 @@ def _read_csv_cr(path: Path, label: str, journal: Journal) -> Table | None:
     reads it (:func:`_line_breaks`: the CRs taken for line breaks, one repair for the whole
     file) without holding it in memory: copied piece by piece with LF for CR into a temporary
     file (``tempfile``'s folder, ``TMPDIR``) that the typed or the streamed reader reads, then
-    deleted. None for any other file, or when both decline the copy (the exact reader then
-    reads the original and speaks)."""
+    deleted (with lines of other white space, :func:`_read_csv_blanked` reads it). None for any
+    other file, or when every way declines the copy (the exact reader then reads the original
+    and speaks)."""
     crs = _lone_crs(path)
     if crs == 0:
         return None
@@ -341,6 +342,8 @@ def _read_csv_cr(path: Path, label: str, journal: Journal) -> Table | None:
                 while piece := src.read(SCAN_BYTES):
                     dst.write(piece.replace(b"\r", b"\n"))
             table = _read_csv_plain(copy, label, scratch)
+            if table is None:  # lines of other white space too: their copy of this copy
+                table = _read_csv_blanked(copy, label, scratch)
     except OSError:  # no room for the copy: the exact reader reads it in memory
         return None
     if table is None:
@@ -371,10 +374,10 @@ def _read_csv_blanked(path: Path, label: str, journal: Journal) -> Table | None:
     blank to the exact reader's ``str.strip``, a data line to pandas and pyarrow), read as the
     exact reader reads it without holding it in memory: copied piece by piece into a temporary
     file with those lines emptied (their line breaks kept, so every line keeps its number),
-    which the typed or the streamed reader reads, then deleted. None for any other file, one
-    that is not UTF-8 or has a lone CR, one whose last line, without a line break, is such a
-    line (the exact reader's cut-last-line rule reads the text's end), or when both decline
-    the copy (the exact reader then reads the original and speaks)."""
+    which the typed or the streamed reader reads, then deleted (a last line without a line
+    break that is such a line is emptied too). None for any other file, one that is not UTF-8
+    or has a lone CR, or when both decline the copy (the exact reader then reads the original
+    and speaks)."""
     try:
         with path.open("rb") as src:
             if not _odd_blanks(src, None):
@@ -417,8 +420,9 @@ def _odd_blanks(src: BinaryIO, dst: BinaryIO | None) -> int:
             if not line.strip() and line.strip(" \t\r"):
                 lines[i] = "\r" if line.endswith("\r") else ""
                 found += 1
-        if not chunk and lines[-1] and not lines[-1].strip():
-            return 0
+        if not chunk and lines[-1].strip(" \t\r") and not lines[-1].strip():
+            lines[-1] = ""  # blank to the exact reader, the last data line kept whole
+            found += 1
         if dst is not None:
             dst.write("\n".join(lines).encode("utf-8"))
         if not chunk:
@@ -837,7 +841,7 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
     if c < n:
         repair = (line, "", f"{c} of {n} fields: {text[:60]!r}")
         cut = (line, _time_of(fields[: c - 1], header))
-    elif not layout.ends_with_break:
+    elif line == layout.n_lines:  # the file's last line, no line break after it
         before = [len(_fields(t, '"' in t)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
         value = fields[-1].strip()
         if not before or len(value) < max(before):
@@ -868,7 +872,7 @@ def _tail_lines(f: BinaryIO, layout: _Layout) -> list[tuple[int, int, str]] | No
         buf = f.read(step) + buf
         parts = buf.split(b"\n")
         whole = 0 if pos == layout.data_start else 1  # the first part may be a line's end
-        if sum(1 for p in parts[whole:] if p.strip()) >= want or pos == layout.data_start:
+        if sum(1 for p in parts[whole:] if not _blank(p)) >= want or pos == layout.data_start:
             break
         if len(buf) > TAIL_MAX_BYTES:
             return None  # a tail of blank lines: not worth a special case
@@ -877,13 +881,19 @@ def _tail_lines(f: BinaryIO, layout: _Layout) -> list[tuple[int, int, str]] | No
     line = layout.n_lines
     for part in reversed(parts[whole:]):
         offset -= len(part)
-        if part.strip():
+        if not _blank(part):
             found.append((line, offset, part.decode("utf-8").rstrip("\r")))
             if len(found) == want:
                 break
         offset -= 1  # its line break
         line -= 1
     return found[::-1]
+
+
+def _blank(line: bytes) -> bool:
+    """Whether a line is blank to the exact reader (``str.strip``: a form feed or a no-break
+    space is white space too); an undecodable byte is not."""
+    return not line.decode("utf-8", "replace").strip()
 
 
 def _read_columns(
@@ -1099,7 +1109,7 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     _check_header(header, label, head + 1)
     quoted = '"' in text
     data, cut = _check_field_counts(lines, keep[1:], header, head, quoted, label, journal)
-    if cut is None and data and not text.endswith(("\n", "\r")):
+    if cut is None and data and data[-1] == len(lines) - 1 and not text.endswith("\r"):
         data, cut = _drop_cut_last_line(lines, data, header, quoted, label, journal)
     body = "\n".join([lines[head], *(lines[i] for i in data)])
     df = _parse_csv(body, label)
@@ -1277,10 +1287,11 @@ def _drop_cut_last_line(
     label: str,
     journal: Journal,
 ) -> tuple[list[int], tuple[int, float] | None]:
-    """(data line indices, cut) of a file without a line break at the end: it may have been
-    cut inside the last line's last field (-0.0979034 → -0.0979). That line is kept only if
-    the field is as long as the longest of its column on the lines before (a fixed-width
-    writer); otherwise dropped and recorded (docs/robustness.md)."""
+    """(data line indices, cut) of a file whose last data line is its last line, without a
+    line break after it: it may have been cut inside that line's last field (-0.0979034 →
+    -0.0979); blank lines after a data line's line break (spaces, a form feed) leave it whole.
+    That line is kept only if the field is as long as the longest of its column on the lines
+    before (a fixed-width writer); otherwise dropped and recorded (docs/robustness.md)."""
     last = _fields(lines[data[-1]], quoted)
     before = [len(_fields(lines[i], quoted)[-1].strip()) for i in data[-1 - CUT_WINDOW : -1]]
     value = last[-1].strip()
