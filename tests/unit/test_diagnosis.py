@@ -1,5 +1,6 @@
-"""The after-run diagnosis of sensors at odds with the rest (api/diagnosis.py), on ledgers
-built by hand: the window arithmetic and what counts as disagreement."""
+"""The after-run diagnosis of sensors at odds with the rest and of correlated innovations
+(api/diagnosis.py), on ledgers built by hand: the window arithmetic, what counts as
+disagreement, and when innovations count as correlated."""
 
 from __future__ import annotations
 
@@ -11,6 +12,10 @@ import pytest
 
 from adaptnav.api import diagnosis as dg
 from adaptnav.api.results import LEDGER_COLUMNS, typed_ledger
+from adaptnav.engine.batch import SensorChannel
+from adaptnav.estimation.noise.fixed import FixedNoise
+from adaptnav.sensors.dvl import DVL
+from adaptnav.sensors.nhc import NonHolonomic
 
 R_DVL = np.array([0.048**2] * 3)
 
@@ -112,3 +117,52 @@ def test_an_unbounded_r_counts_from_the_ratio() -> None:
     led = ledger("dvl", t, ["used"] * t.size, [""] * t.size, r)
     (w,) = dg.diagnose(led, {"dvl": R_DVL}, {"dvl": math.inf})
     assert w.at_limit == 300 and f"{dg.RATIO:g} × its nominal variance" in w.message
+
+
+# --- correlated innovations --------------------------------------------------------------------
+
+
+def _innovations(sensor: str, nu: np.ndarray) -> pd.DataFrame:
+    """Ledger rows of one sensor, every reading used, with innovations ``nu`` (n, d)."""
+    n, d = nu.shape
+    frame = ledger(sensor, np.arange(n, dtype=float), ["used"] * n, [""] * n, np.ones((n, 3)))
+    for j in range(d):
+        frame[f"nu_{j}"] = nu[:, j]
+    return frame
+
+
+def _ar1(rho: float, n: int, d: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    e = rng.standard_normal((n, d))
+    out = np.empty_like(e)
+    out[0] = e[0]
+    for k in range(1, n):
+        out[k] = rho * out[k - 1] + e[k]
+    return out
+
+
+def test_white_innovations_give_no_correlation_warning() -> None:
+    channel = SensorChannel(DVL(0.048), 1 / 3, FixedNoise())
+    for seed in range(5):
+        white = _innovations("dvl", np.random.default_rng(seed).standard_normal((2000, 3)))
+        assert dg.correlated(white, [channel]) == []
+
+
+def test_correlated_innovations_are_flagged_with_their_factor() -> None:
+    """An AR(1) series with ρ = 0.6 on the y axis: long-run variance factor (1 + ρ)/(1 - ρ) = 4
+    (worked by hand), the component named; ρ = 0.2 (factor 1.5) is not flagged; a motion
+    constraint and a sensor with too few readings are not judged."""
+    rng = np.random.default_rng(3)
+    nu = rng.standard_normal((3000, 3))
+    nu[:, 1] = _ar1(0.6, 3000, 1, 4)[:, 0]
+    channel = SensorChannel(DVL(0.048), 1 / 3, FixedNoise())
+    (w,) = dg.correlated(_innovations("dvl", nu), [channel])
+    assert (w.sensor, w.component, w.readings, w.kind) == ("dvl", "dvl_y", 3000, "correlated")
+    assert w.factor == pytest.approx(4.0, rel=0.25)
+    assert "dvl_y: long-run variance" in w.message and "min_interval_s" in w.message
+    nu[:, 1] = _ar1(0.2, 3000, 1, 5)[:, 0]
+    assert dg.correlated(_innovations("dvl", nu), [channel]) == []
+    nhc = SensorChannel(NonHolonomic(0.1), 0.1, FixedNoise())
+    assert dg.correlated(_innovations("nhc", _ar1(0.9, 3000, 2, 6)), [nhc]) == []
+    short = _innovations("dvl", _ar1(0.9, dg.CORRELATED_READINGS - 1, 3, 7))
+    assert dg.correlated(short, [channel]) == []

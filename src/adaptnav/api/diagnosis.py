@@ -26,6 +26,17 @@ and the sensor is flagged when a window of at least :data:`MIN_READINGS` reading
 above :data:`SHARE`. A burst shorter than half the window (a spike, ten seconds of a depth at
 +1000 m) is not flagged: the ledger and the guard's events already say what happened to it.
 
+A second warning looks at what the filter took: a consistent Kalman filter's innovations are
+white (Mehra 1970), and a sensor whose errors are correlated from reading to reading (a GNSS
+receiver's multipath over a minute, a DVL's scale and mounting errors) leaves innovations that
+are not. Per aiding sensor that is not a motion constraint (the NHC's and ZUPT's residuals are
+the vehicle's own motion), over its used readings in time order, each component's long-run
+variance factor F of its innovations (:func:`adaptnav.estimation.long_run.variance_factor`: 1
+for white ones, ``(1 + ρ) / (1 - ρ)`` for a lag-1 correlation ρ) is computed, and the sensor is
+flagged when some F ≥ :data:`CORRELATED_FACTOR` over at least :data:`CORRELATED_READINGS`
+readings: the filter then counts the readings as more independent than they are and its σ is
+too small, by up to √F.
+
 The warnings go into the run's ``meta.warnings`` (``summary.json``), the command line prints
 them after the run and with ``evaluate``, and the report shows them. The thresholds and what
 they separate on the simulated trials, the real data and the faulty sensors:
@@ -45,6 +56,7 @@ from numpy.typing import NDArray
 
 from adaptnav.api.results import Result
 from adaptnav.engine.batch import SensorChannel, nominal_R
+from adaptnav.estimation.long_run import variance_factor
 from adaptnav.estimation.noise.matching import CovarianceMatching
 from adaptnav.estimation.noise.vb import VariationalBayes
 
@@ -63,6 +75,18 @@ to tenfold for minutes (docs/simulation.md), which an adaptive R̂ follows: 100 
 DISAGREEING = frozenset({"gate component", "gate chi2", "guard chi2 (nominal R)"})
 """Ledger reasons of a rejection that says the reading disagreed with the prediction (not, e.g.,
 a covariance repair)."""
+CORRELATED_FACTOR = 2.5
+"""Long-run variance factor of a component's innovations at or above which the sensor is
+flagged as correlated (docs/robustness.md, 'Correlated readings': 0.9-1.2 for the adaptive
+filters' sensors on the simulated trials, 2.9-3.8 for ten minutes of simulated GNSS fixes
+given as white, 3.0-6.0 for the A-KIT DVL's x axis)."""
+CORRELATED_READINGS = 100
+"""Fewer used readings than this are not judged for correlation."""
+CORRELATED_HINT = (
+    "the filter takes their errors as independent, so its σ is too small; a GNSS's correlated "
+    "errors: thin its fixes (min_interval_s); a DVL's: estimate its scale and misalignment "
+    '(estimate = ["scale", "misalignment"]); docs/robustness.md, "Correlated readings"'
+)
 HINT = (
     "either the sensor's configuration is wrong (its units, sign, mounting_rpy_deg, lever "
     "arm or sigma) or the filter's model is ([imu.noise], or an adaptive R that ran away: "
@@ -155,6 +179,65 @@ def diagnose(
     return out
 
 
+@dataclass(frozen=True)
+class CorrelationWarning:
+    """One sensor whose innovations are correlated (module docstring)."""
+
+    sensor: str
+    readings: int
+    """Its used readings."""
+    component: str
+    """The component with the largest factor."""
+    factor: float
+    """That component's long-run variance factor."""
+    message: str
+    kind: str = "correlated"
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def innovation_factors(ledger: pd.DataFrame, sensor: str, d: int) -> tuple[int, Array]:
+    """The number of ``sensor``'s used readings and, per component of its d, the long-run
+    variance factor of its innovations in time order (NaN for fewer than
+    :data:`CORRELATED_READINGS` finite ones)."""
+    rows = ledger[(ledger["sensor"] == sensor) & (ledger["fate"] == "used")]
+    rows = rows.sort_values("t", kind="stable")
+    out = np.full(d, math.nan)
+    for j in range(d):
+        column = f"nu_{j}"
+        if column not in rows:
+            continue
+        nu = rows[column].to_numpy(dtype=float)
+        nu = nu[np.isfinite(nu)]
+        if nu.size >= CORRELATED_READINGS:
+            out[j] = variance_factor(nu)
+    return len(rows), out
+
+
+def correlated(ledger: pd.DataFrame, channels: Sequence[SensorChannel]) -> list[CorrelationWarning]:
+    """The sensors of ``channels`` (motion constraints left out) whose innovations in the run's
+    ``ledger`` are correlated (module docstring), in that order."""
+    out = []
+    for c in channels:
+        if getattr(c.model, "CONSTRAINT", False):
+            continue
+        names = tuple(getattr(c.model, "names", ()))
+        n, factors = innovation_factors(ledger, c.name, c.model.dim)
+        if not np.any(factors >= CORRELATED_FACTOR):
+            continue
+        j = int(np.nanargmax(factors))
+        component = names[j] if j < len(names) else f"{c.name}_{j}"
+        f = float(factors[j])
+        message = (
+            f"{c.name}: its innovations are correlated from reading to reading ({component}: "
+            f"long-run variance {f:.1f} × their variance over {n} readings, 1 when white): "
+            f"{CORRELATED_HINT}"
+        )
+        out.append(CorrelationWarning(c.name, n, component, f, message))
+    return out
+
+
 def channel_ceiling(channel: SensorChannel) -> float:
     """The ceiling of a channel's R̂ as a factor of its nominal variance (inf: none, or a
     fixed R)."""
@@ -168,10 +251,15 @@ def channel_ceiling(channel: SensorChannel) -> float:
 
 def with_warnings(result: Result, channels: Sequence[SensorChannel]) -> Result:
     """``result`` with ``meta.warnings``: :func:`diagnose` of its ledger for ``channels``
-    (the run's aiding sensors), as JSON values (an empty list when none is at odds)."""
+    (the run's aiding sensors), then :func:`correlated` of the others, as JSON values (an
+    empty list when none is flagged)."""
     found = diagnose(
         result.ledger,
         {c.name: np.diag(nominal_R(c.model)) for c in channels},
         {c.name: channel_ceiling(c) for c in channels},
     )
-    return replace(result, meta={**result.meta, "warnings": [w.as_dict() for w in found]})
+    at_odds = {w.sensor for w in found}  # their warning says more than correlation would
+    others = [c for c in channels if c.name not in at_odds]
+    warnings = [w.as_dict() for w in found]
+    warnings += [w.as_dict() for w in correlated(result.ledger, others)]
+    return replace(result, meta={**result.meta, "warnings": warnings})
