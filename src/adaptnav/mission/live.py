@@ -135,17 +135,18 @@ class LiveScreen:
         if not self._min_interval > 0.0:
             return released, dropped
         out: list[Reading] = []
+        drops = list(dropped)
         for r in released:
             after = r.t - self._t_kept
             if not np.any(np.isfinite(r.z)):
                 out.append(r)
             elif after < self._min_interval:
                 why = thinned_reason(after, self._min_interval)
-                dropped = [*dropped, DroppedRow(self.name, r.row, r.t, why)]
+                drops.append(DroppedRow(self.name, r.row, r.t, why))
             else:
                 self._t_kept = r.t
                 out.append(r)
-        return out, dropped
+        return out, drops
 
     def _first_check(self, r: Reading, lock: bool) -> str | None:
         """The reason to drop ``r`` before the stuck-run screen, or None (the loader's order:
