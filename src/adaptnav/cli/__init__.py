@@ -7,6 +7,7 @@ One module per group of commands, each registering on the one :data:`app`:
 :mod:`~adaptnav.cli.importers` (import akit, import rtklib);
 :mod:`~adaptnav.cli.rosbag` (import rosbag, export rosbag);
 :mod:`~adaptnav.cli.nmea` (import nmea);
+:mod:`~adaptnav.cli.track` (export track);
 :mod:`~adaptnav.cli.sweep` (sweep q, sweep process-noise, sweep seeds).
 """
 
@@ -17,6 +18,7 @@ from adaptnav.cli import importers as importers
 from adaptnav.cli import nmea as nmea
 from adaptnav.cli import rosbag as rosbag
 from adaptnav.cli import sweep as sweep
+from adaptnav.cli import track as track
 from adaptnav.cli._app import app
 
 __all__ = ["app"]
