@@ -603,3 +603,28 @@ def test_min_interval_s_must_not_be_negative() -> None:
     with pytest.raises(pydantic.ValidationError, match="min_interval_s"):
         SensorConfig.model_validate({**base, "min_interval_s": -1.0})
     assert SensorConfig.model_validate({**base, "min_interval_s": 120.0}).min_interval_s == 120.0
+
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(
+    gaps=st.lists(st.floats(0.0, 5.0, allow_nan=False), min_size=1, max_size=60),
+    interval=st.floats(0.1, 10.0, allow_nan=False),
+    unusable=st.lists(st.booleans(), min_size=60, max_size=60),
+)
+def test_thinning_is_the_greedy_walk(
+    gaps: list[float], interval: float, unusable: list[bool]
+) -> None:
+    """For any times and unusable readings: the kept usable readings are at least the interval
+    apart, each dropped one is closer than that to the last kept before it, the first usable
+    reading is kept, and an unusable one is never dropped."""
+    t = np.cumsum(gaps)
+    usable = ~np.array(unusable[: t.size])
+    drop = thinned_mask(t, interval, usable)
+    assert not np.any(drop & ~usable)
+    kept = np.flatnonzero(usable & ~drop)
+    assert np.all(np.diff(t[kept]) >= interval)
+    if usable.any():
+        assert kept.size and kept[0] == np.flatnonzero(usable)[0]
+    for i in np.flatnonzero(drop).tolist():
+        before = kept[kept < i]
+        assert before.size and t[i] - t[before[-1]] < interval
