@@ -219,6 +219,25 @@ def test_imported_mission_keeps_the_replaced_sections(original: Path, imported: 
     assert (imported / "gps_velocity.parquet").is_file()
 
 
+def test_min_interval_s_goes_into_the_gnss_section(
+    original: Path, logs: list[Path], tmp_path: Path
+) -> None:
+    """``--min-interval-s 30`` writes ``min_interval_s = 30`` into ``[sensors.gps]``, and the
+    mission then keeps fixes at least 30 s apart (on the code before, the option did not
+    exist)."""
+    out = tmp_path / "m"
+    result = runner.invoke(
+        app,
+        ["import", "nmea", *map(str, logs), "--mission", str(original), "--t0-utc",
+         T0.isoformat(), "--gnss-name", "gps", "--min-interval-s", "30", "--out", str(out)],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    m = load_mission(out)
+    assert m.config.sensors["gps"].min_interval_s == 30.0
+    assert np.diff(m.sensors["gps"].t).min() >= 30.0
+    assert any(d.reason.startswith("thinned: ") for d in m.dropped)
+
+
 def test_run_on_the_imported_mission_matches_the_original(original: Path, imported: Path) -> None:
     """Same fixes to 0.2 mm and 5 ms, same σ: the position RMSE agrees within 1 % (a t0 off
     by 1 s moves it by 4 %)."""
@@ -293,6 +312,7 @@ def test_day_rolls_over_without_rmc(tmp_path: Path) -> None:
         ("ok", ["--mission", "{mission}"], "--t0-utc is required"),
         ("ok", ["--mission", "{mission}", "--t0-utc", "2030-01-01T00:00:00"], "no NMEA reading"),
         ("ok", ["--sigma-m", "1,2"], "--sigma-m"),
+        ("ok", ["--min-interval-s", "-1"], "--min-interval-s -1.0: must be finite and >= 0"),
         ("ok", ["--t0-utc", "yesterday"], "--t0-utc"),
         ("ok", ["--gnss-name", "dvl", "--mission", "{mission}", "--t0-utc", "2024-03-10"],
          "dvl sensor, not gnss"),

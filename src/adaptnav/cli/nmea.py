@@ -97,6 +97,13 @@ def nmea(
             "--use-height/--no-use-height", help="aid with the height (default: mission's, no)"
         ),
     ] = None,
+    min_interval_s: Annotated[
+        float | None,
+        typer.Option(
+            help="keep GNSS fixes at least this far apart, s (their errors are correlated: "
+            "docs/nmea.md) (default: the mission's, else all)"
+        ),
+    ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
     quiet: Quiet = False,
@@ -121,7 +128,7 @@ def nmea(
             opts = Options(
                 gnss_name, heading_name, _floats("--sigma-m", sigma_m, (1, 3)),
                 heading_sigma_deg, (lever[0], lever[1], lever[2]) if lever else None,
-                use_height, "csv" if csv else "parquet",
+                use_height, "csv" if csv else "parquet", min_interval_s,
             )  # fmt: skip
             import_nmea(logs, tmp, mission=mission, t0_utc=t0, date=day,
                         uere_m=UERE_M if uere_m is None else uere_m,

@@ -621,6 +621,9 @@ class Options:
     lever_arm_m: tuple[float, float, float] | None = None
     use_height: bool | None = None
     fmt: Literal["parquet", "csv"] = "parquet"
+    min_interval_s: float | None = None
+    """The GNSS section's ``min_interval_s`` (docs/robustness.md, 'Correlated readings'); None:
+    the replaced section's, else none."""
 
     def __post_init__(self) -> None:
         sigmas = (*(self.sigma_m or ()), *((self.heading_sigma_deg,) if self.heading_sigma_deg
@@ -629,6 +632,13 @@ class Options:
             raise NmeaError(f"σ {list(sigmas)}: every σ must be finite and > 0", field="sigma")
         if self.sigma_m is not None and len(self.sigma_m) not in (1, 3):
             raise NmeaError(f"--sigma-m {list(self.sigma_m)}: give one σ or three (N, E, D)")
+        if self.min_interval_s is not None and not (
+            math.isfinite(self.min_interval_s) and self.min_interval_s >= 0.0
+        ):
+            raise NmeaError(
+                f"--min-interval-s {self.min_interval_s}: must be finite and >= 0",
+                field="min_interval_s",
+            )
         if self.gnss_name == self.heading_name:
             raise NmeaError(f"--gnss-name and --heading-name are both {self.gnss_name!r}")
 
@@ -667,6 +677,8 @@ def _gnss_section(
                use_height=height)  # fmt: skip
     if opts.lever_arm_m is not None:
         doc["lever_arm_m"] = list(opts.lever_arm_m)
+    if opts.min_interval_s is not None:
+        doc["min_interval_s"] = opts.min_interval_s
     return doc, source
 
 
