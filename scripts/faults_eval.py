@@ -325,8 +325,9 @@ def page(
         "## Runs that ended with a sensor warning",
         "",
         "Runs whose filter found a sensor at odds with the INS and the other sensors over "
-        "most of a minute (docs/robustness.md, 'Sensors at odds with the rest'), of the runs "
-        "of each filter and case (presets × seeds):",
+        "most of a minute (docs/robustness.md, 'Sensors at odds with the rest'), or whose "
+        "innovations were correlated (`:correlated`; 'Correlated readings'), of the runs of "
+        "each filter and case (presets × seeds):",
         "",
         _warnings_table(table, list(dict.fromkeys(table["case"]))),
         "",

@@ -333,3 +333,11 @@ def test_a_run_that_raises_fails_its_target_only(
         table, fb.summarize(table), ["tiny"], ["clean", "depth_spike"], "header", "x"
     )
     assert "**no** (1 failed)" in text and "the filter broke down" in text
+
+
+def test_a_runs_warnings_are_named_with_their_kind() -> None:
+    """``warned`` names a sensor at odds by its name and one with correlated innovations as
+    ``name:correlated`` (api/diagnosis.py's two warnings), so the page tells them apart."""
+    assert fb._warned({"sensor": "dvl", "message": "dvl: at odds"}) == "dvl"
+    correlated = {"sensor": "depth", "kind": "correlated", "message": "depth: ..."}
+    assert fb._warned(correlated) == "depth:correlated"

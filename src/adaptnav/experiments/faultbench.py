@@ -118,6 +118,13 @@ def _horizontal_mahalanobis(solution: pd.DataFrame, t: float, e_ne: np.ndarray) 
     return float(np.sqrt(evaluate.nees_from(e_ne[None, :], P[None])[0]))
 
 
+def _warned(warning: dict[str, Any]) -> str:
+    """A run's warning (api/diagnosis.py) as ``warned`` names it: the sensor, with
+    ``:correlated`` for correlated innovations."""
+    kind = warning.get("kind")
+    return str(warning["sensor"]) + (f":{kind}" if kind else "")
+
+
 def score(
     result: Result,
     truth: pd.DataFrame,
@@ -130,8 +137,8 @@ def score(
     :func:`adaptnav.analysis.evaluate.position_errors`), ``dropout_end_m``, ``dropout_sigma_m``,
     ``dropout_ratio`` and ``dropout_mahalanobis`` (:func:`_horizontal_mahalanobis`) at the end
     of ``dropout_window_s`` (scored on every run, the clean one too, as a reference), ``warned``
-    (the sensors the run found at odds with the rest, space-separated: api/diagnosis.py), and
-    the fates of the injected readings of ``log``."""
+    (the sensors the run warned of, space-separated, those with correlated innovations as
+    ``dvl:correlated``: api/diagnosis.py), and the fates of the injected readings of ``log``."""
     m = evaluate.evaluate(result, truth)
     errors = evaluate.position_errors(result.solution, truth)
     delta = math.nan
@@ -161,7 +168,7 @@ def score(
         "dropout_sigma_m": sigma,
         "dropout_ratio": end_m / sigma if sigma > 0.0 else math.nan,
         "dropout_mahalanobis": mahalanobis,
-        "warned": " ".join(w["sensor"] for w in result.meta.get("warnings", [])),
+        "warned": " ".join(_warned(w) for w in result.meta.get("warnings", [])),
         **_fates(result, log),
     }
 
