@@ -194,3 +194,23 @@ def test_the_scale_is_unbiased_on_paper_1(tmp_path_factory: pytest.TempPathFacto
         f"mean error {bias:+.3f} %, standard error {standard_error:.3f} %; per seed "
         f"{np.round(errors, 3).tolist()}"
     )
+
+
+def test_a_gnss_bias_state_runs_and_is_reported(mission: Path, tmp_path: Path) -> None:
+    """``[sensors.gps] estimate = ["bias"]`` on the tiny mission's GNSS, used as an aid: the
+    run writes both bias states to calibration.json with a σ no larger than the prior (2.5 m)
+    and a finite estimate; on the code before, "bias" was no GNSS quantity and the mission was
+    refused."""
+    toml = (mission / "mission.toml").read_text()
+    section = '[sensors.gps]\nkind = "gnss"\n'
+    assert section in toml
+    toml = toml.replace(section, section + 'estimate = ["bias"]\n')
+    toml = toml.replace('use = "init"', 'use = "aid"')
+    (mission / "mission.toml").write_text(toml)
+    res = runner.invoke(app, ["run", str(mission), "--out", str(tmp_path / "r"), "--quiet"])
+    assert res.exit_code == 0, res.output
+    cal = json.loads((tmp_path / "r" / "calibration.json").read_text())
+    for state in ("gps.bias_N", "gps.bias_E"):
+        entry = cal[state] if state in cal else cal["states"][state]
+        assert entry["unit"] == "m" and entry["prior_sigma"] == 2.5
+        assert 0.0 < entry["sigma"] <= 2.5 and abs(entry["estimate"]) < 10.0

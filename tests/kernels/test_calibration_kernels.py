@@ -17,10 +17,11 @@ from adaptnav.models import errorstate
 from adaptnav.sensors.calibration import misalignment, misalignment_derivatives
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
+from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 
 # Declared error states 15..20: DVL scale, DVL misalignment (3), two biases (the depth uses
-# the first, the inclinometers both).
+# the first, the inclinometers and the GNSS both).
 SCALE, MIS, BIAS = 15, 16, 19
 N = 21
 
@@ -33,7 +34,7 @@ def _state(rng: np.random.Generator) -> np.ndarray:
     x[10:13], x[13:16] = rng.normal(0, 0.02, 3), rng.normal(0, 1e-3, 3)
     x[SCALE + 1] = rng.normal(0.0, 0.02)
     x[MIS + 1 : MIS + 4] = rng.normal(0.0, 0.05, 3)
-    x[BIAS + 1 : BIAS + 3] = rng.normal(0.0, 0.02, 2)
+    x[BIAS + 1 : BIAS + 3] = rng.normal(0.0, 0.02, 2)  # rad, or m for the GNSS
     return x
 
 
@@ -47,6 +48,8 @@ def _models(rng: np.random.Generator) -> list[Any]:
         Depth(0.05, lever, cal_bias=BIAS),
         Inclinometer(0.002, C, cal_bias=BIAS),
         PendulumInclinometer(0.002, C, cal_bias=BIAS),
+        GNSS(0.5, lever, True, cal_bias=BIAS),
+        GNSS(0.5, lever, False, cal_bias=BIAS),
     ]
 
 
@@ -88,10 +91,17 @@ def test_calibrated_h_against_finite_differences() -> None:
             fd = np.zeros_like(m.H)
             for k in range(N):
                 dx = np.zeros(N)
-                dx[k] = 1e-6
-                plus = _h(model, errorstate.inject(x, dx), w, f)
-                minus = _h(model, errorstate.inject(x, -dx), w, f)
-                fd[:, k] = (plus - minus) / 2e-6
+                eps = 1e-6
+                if isinstance(model, GNSS):  # 1 cm, 1 mrad: 1 µm is near a latitude's spacing
+                    eps = 1e-2 if k < 3 or k >= BIAS else 1e-3
+                dx[k] = eps
+                if isinstance(model, GNSS):  # its residual is in metres: H = -dy/ddx at z = h(x)
+                    plus = -model.evaluate(errorstate.inject(x, dx), h0).y
+                    minus = -model.evaluate(errorstate.inject(x, -dx), h0).y
+                else:
+                    plus = _h(model, errorstate.inject(x, dx), w, f)
+                    minus = _h(model, errorstate.inject(x, -dx), w, f)
+                fd[:, k] = (plus - minus) / (2 * eps)
             np.testing.assert_allclose(m.H, fd, atol=2e-6 * max(1.0, np.abs(fd).max()))
             if isinstance(model, DVL) and model.cal_scale < 0 and model.cal_misalignment < 0:
                 assert np.all(m.H[:, 15:] == 0.0)
@@ -104,7 +114,8 @@ def test_compiled_linearisations_with_calibration_equal_evaluate(row: int) -> No
     for _ in range(10):
         x = _state(rng)
         for model in _models(rng):
-            z = _h(model, x, w, f) + rng.normal(0.0, 0.01, model.dim)
+            noise = 1e-7 if isinstance(model, GNSS) else 0.01  # rad: 0.6 m of a GNSS fix
+            z = _h(model, x, w, f) + rng.normal(0.0, noise, model.dim)
             m = _measurement(model, x, z, w, f)
             spec = uk.compiled_linearisation(model)
             assert spec is not None

@@ -425,7 +425,8 @@ def _lin_pendulum(par: Array, x: Array, z: Array, f: Array, y: Array, H: Array, 
 
 @jit_inline
 def _lin_gnss(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> None:
-    """GNSS (sensors.gnss): antenna lat, lon (, h) with lever arm; residual in NED metres."""
+    """GNSS (sensors.gnss): antenna lat, lon (, h) with lever arm; residual in NED metres; the
+    horizontal bias states, if any, subtracted from its N and E components."""
     lat, lon, h = x[0], x[1], x[2]
     a = _matvec(_dcm(x), _par_vec(par, PAR_LB))
     RM, RN, dRM, dRN = _radii(lat)
@@ -446,6 +447,7 @@ def _lin_gnss(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> Non
         y[r + 2] = -(z[2] - (h - a[2]))
         H[r + 2, 2] = 1.0
         H[r + 2, 6], H[r + 2, 7] = a[1], -a[0]
+    _bias(par, x, y, H, r, 2)  # horizontal bias states, if any (sensors.gnss.GNSS.cal_bias)
 
 
 @jit

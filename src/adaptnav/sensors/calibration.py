@@ -77,6 +77,13 @@ TILT_BIAS = Quantity(
     180.0 / math.pi,
 )
 """An inclinometer's roll and pitch biases (its mounting and zero): 0.5° each."""
+GNSS_BIAS = Quantity(
+    "bias", ("bias_N", "bias_E"), 2.5, 0.0, Kind.LENGTH, Kind.LENGTH_RANDOM_WALK, "m", 1.0
+)
+"""A GNSS receiver's horizontal position error that lasts (multipath, atmosphere): 2.5 m north
+and east, constant by default. Over a burst of fixes shorter than its correlation time (a
+surfacing's few minutes) it holds the fixes' common error in a state instead of letting the
+filter average it away as white noise (docs/calibration.md, 'GNSS bias')."""
 
 
 def regressors(quantity: Quantity, z: ArrayLike) -> tuple[Array, ...] | None:
@@ -91,7 +98,7 @@ def regressors(quantity: Quantity, z: ArrayLike) -> tuple[Array, ...] | None:
         return (za,)
     if quantity == MISALIGNMENT and za.shape[1] == 3:
         return tuple(np.cross(np.eye(3)[a], za) for a in range(3))
-    if quantity in (DEPTH_BIAS, TILT_BIAS) and za.shape[1] >= len(quantity.states):
+    if quantity in (DEPTH_BIAS, TILT_BIAS, GNSS_BIAS) and za.shape[1] >= len(quantity.states):
         return tuple(
             np.tile(np.eye(za.shape[1])[j], (len(za), 1)) for j in range(len(quantity.states))
         )

@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike
 from adaptnav.core import attitude, earth
 from adaptnav.core.units import Kind
 from adaptnav.models.errorstate import ATT, N_STATES, POS
-from adaptnav.models.strapdown import NOM_ATT
+from adaptnav.models.strapdown import NOM_ATT, NOM_SIZE
 from adaptnav.sensors.base import (
     Array,
     Components,
@@ -49,6 +49,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
+from adaptnav.sensors.calibration import GNSS_BIAS, bias, widen
 from adaptnav.sensors.kind import IdealInput, SensorKind, StuckDefault, pack_params
 
 
@@ -114,6 +115,9 @@ class GNSS(Components):
         l_b: lever arm from the IMU to the antenna (transducer), body FRD (m).
         use_height: also use the height (3 components) or only lat, lon (2).
         name: sensor name; components are ``{name}_N``, ``{name}_E`` (, ``{name}_D``).
+        cal_bias: error-state index of its horizontal bias states (north, east, m;
+            docs/calibration.md, 'GNSS bias'); -1: none. The antenna then reads ``r + a + b``:
+            the residual's N and E components less b, H with 1 on each.
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("N", "E", "D")
@@ -122,13 +126,15 @@ class GNSS(Components):
     l_b: Array = field(default_factory=lambda: np.zeros(3))
     use_height: bool = True
     name: str = "gnss"
+    cal_bias: int = -1
 
     LIN_CODE: ClassVar[int] = 4
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
 
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(self.l_b, flag=1.0 if self.use_height else 0.0)
+        flag = 1.0 if self.use_height else 0.0
+        return pack_params(self.l_b, flag=flag, calibration=(self.cal_bias, -1))
 
     def __post_init__(self) -> None:
         if not isinstance(self.use_height, bool):
@@ -146,12 +152,23 @@ class GNSS(Components):
         return (f"{self.name}_N", f"{self.name}_E", f"{self.name}_D")[: self.dim]
 
     def predict(self, x: ArrayLike) -> Array:
-        """See :func:`predict`."""
-        return predict(x, self.l_b, self.use_height)
+        """See :func:`predict`; with the bias states (north, east, m) the antenna moved by them."""
+        xa = np.asarray(x, dtype=float)
+        out = predict(xa[:NOM_SIZE], self.l_b, self.use_height)
+        b = bias(xa, self.cal_bias, 2)
+        lat, h = float(xa[0]), float(xa[2])
+        out[0] += b[0] / (float(earth.meridian_radius(lat)) + h)
+        rn = float(earth.transverse_radius(lat)) + h
+        out[1] = float(attitude.wrap_angle(out[1] + b[1] / (rn * math.cos(lat))))
+        return out
 
     def jacobian(self, x: ArrayLike) -> Array:
-        """See :func:`jacobian`."""
-        return jacobian(x, self.l_b, self.use_height)
+        """See :func:`jacobian`; a column per error state of x (15 + m), 1 on the bias states."""
+        xa = np.asarray(x, dtype=float)
+        H = widen(xa, jacobian(xa[:NOM_SIZE], self.l_b, self.use_height))
+        if self.cal_bias >= 0 and H.shape[1] > N_STATES:
+            H[0, self.cal_bias] = H[1, self.cal_bias + 1] = 1.0
+        return H
 
     def evaluate(
         self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
@@ -163,8 +180,10 @@ class GNSS(Components):
         zz = check_reading(self.name, z, self.dim)
         if zz is None:
             return None
-        y = residual(x, zz, self.l_b)
-        return Measurement(y, self.jacobian(x), self.R, self.names)
+        xa = np.asarray(x, dtype=float)
+        y = residual(xa[:NOM_SIZE], zz, self.l_b)
+        y[:2] -= bias(xa, self.cal_bias, 2)
+        return Measurement(y, self.jacobian(xa), self.R, self.names)
 
 
 def ideal(t: IdealInput) -> Array:
@@ -188,7 +207,7 @@ KIND = SensorKind(
     name="gnss",
     columns=("lat_rad", "lon_rad", "h_m"),
     sigma_kind=Kind.LENGTH,
-    build=lambda s: GNSS(s.sigma, s.l_b, s.use_height, s.name),
+    build=lambda s: GNSS(s.sigma, s.l_b, s.use_height, s.name, s.calibration.get("bias", -1)),
     limits={
         "lat_rad": (-math.pi / 2, math.pi / 2),
         "lon_rad": (-math.pi, 2.0 * math.pi),
@@ -208,6 +227,7 @@ KIND = SensorKind(
     options=frozenset({"use_height"}),
     optional_columns=1,
     linearised=(GNSS,),
+    calibration={"bias": GNSS_BIAS},
     ideal_reading=ideal,
 )
 """GNSS (or USBL) fixes as a sensor kind (sensors/kind.py): latitude within ±90°, longitude in
