@@ -10,6 +10,8 @@ import shutil
 from pathlib import Path
 
 import numba
+import numba.core.config
+import pytest
 
 from adaptnav import compiled
 from adaptnav.compiled import KERNEL_FOLDERS, PACKAGE, cache_dir, kernel_fingerprint
@@ -44,8 +46,24 @@ def test_the_cache_folder_is_keyed_and_in_use() -> None:
     assert cache_dir(fp, {"NUMBA_CACHE_DIR": "/n"}) == Path("/n/kernels-0123456789abcdef")
     assert cache_dir(fp, {"XDG_CACHE_HOME": "/x"}) == Path("/x/adaptnav/numba/kernels-" + fp)
     assert cache_dir(fp, {}).parent.name == "numba"
+    # a child process inherits the keyed folder and keeps it
+    assert cache_dir(fp, {"NUMBA_CACHE_DIR": "/n/kernels-" + fp}) == Path("/n/kernels-" + fp)
+    assert cache_dir(fp, {"NUMBA_CACHE_DIR": "/n/kernels-0"}) == Path("/n/kernels-0/kernels-" + fp)
     here = cache_dir(kernel_fingerprint())
     assert Path(numba.config.CACHE_DIR) == here  # type: ignore[attr-defined]
     assert compiled.cache_dir is cache_dir
     # the engine's loop is cached there, not beside its source
     assert Path(batch._navigate._cache._cache_path).is_relative_to(here)
+
+
+def test_the_cache_folder_survives_numba_rereading_its_environment(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Found in CI, 2026-12-04: dask's nanny sets NUMBA_NUM_THREADS in the parent when a worker
+    starts, Numba's next compilation re-read every setting from the environment, and the
+    folder set only in numba.config was gone (kernels defined later cached beside their
+    sources)."""
+    here = cache_dir(kernel_fingerprint())
+    monkeypatch.setenv("NUMBA_DEBUG_CACHE", "0")  # any change to a NUMBA_* variable will do
+    numba.core.config.reload_config()
+    assert Path(numba.config.CACHE_DIR) == here  # type: ignore[attr-defined]

@@ -13,7 +13,13 @@ folder named by a hash of every file the kernels are compiled from or freeze con
 (:data:`KERNEL_FOLDERS`, :func:`kernel_fingerprint`): ``NUMBA_CACHE_DIR/kernels-<hash>`` when
 that variable is set, else ``$XDG_CACHE_HOME`` (or ``~/.cache``) ``/adaptnav/numba/kernels-<hash>``.
 Any change to those files compiles afresh; processes of one source (the cold start's second
-process, dask workers) share one folder. docs/performance.md, 'Cold start'.
+process, dask workers) share one folder. The folder is also put in this process's
+``NUMBA_CACHE_DIR``: Numba re-reads its settings from the environment before each compilation
+once any ``NUMBA_*`` variable has changed (dask's nanny sets ``NUMBA_NUM_THREADS`` in the parent
+when it starts a worker), and a setting made only in ``numba.config`` was then lost, so that
+kernels defined afterwards were cached beside their sources again. A child process inherits the
+variable and, its folder already being keyed on the same sources, uses it as it is.
+docs/performance.md, 'Cold start'.
 """
 
 from __future__ import annotations
@@ -46,8 +52,12 @@ def kernel_fingerprint(package: Path = PACKAGE) -> str:
 
 
 def cache_dir(fingerprint: str, environ: Mapping[str, str] = os.environ) -> Path:
-    """The folder of the compiled functions' cache (module docstring)."""
+    """The folder of the compiled functions' cache (module docstring); ``NUMBA_CACHE_DIR``
+    already naming this fingerprint's folder is that folder."""
+    folder = f"kernels-{fingerprint}"
     root = environ.get("NUMBA_CACHE_DIR")
+    if root and Path(root).name == folder:
+        return Path(root)
     if not root:
         base = environ.get("XDG_CACHE_HOME")
         if not base:
@@ -56,7 +66,8 @@ def cache_dir(fingerprint: str, environ: Mapping[str, str] = os.environ) -> Path
             except RuntimeError:  # no home directory to be found: the temporary folder
                 base = tempfile.gettempdir()
         root = str(Path(base) / "adaptnav" / "numba")
-    return Path(root) / f"kernels-{fingerprint}"
+    return Path(root) / folder
 
 
-numba.config.CACHE_DIR = str(cache_dir(kernel_fingerprint()))  # type: ignore[attr-defined]
+os.environ["NUMBA_CACHE_DIR"] = str(cache_dir(kernel_fingerprint()))
+numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]  # type: ignore[attr-defined]
