@@ -18,6 +18,9 @@ mission with its last GNSS fix used as well (:func:`surfacing`: a vehicle that s
 of the dive). Beside each measured ratio the page gives the one the filter's own covariance
 predicts, the RMS over the epochs and seeds of the smoothed position σ over the forward one
 (:func:`rms_sigma`): what the smoother expects to gain from the information the mission holds.
+``--surfacing-gnss-bias`` gives the surfacing's GNSS a bias state (docs/calibration.md, 'GNSS
+bias'): ``constant``, or ``gauss-markov`` with the simulator's own σ and τ of the fixes' slow
+error (adaptnav.sim.sensors.GpsSpec: 2.5 m, 120 s).
 
 Smoke test: ``python scripts/smoothing_eval.py --presets demo --seeds 1 --filters vb --jobs 1
 --cache /tmp/s-cache --out /tmp/s.md --figures /tmp/s``.
@@ -57,15 +60,19 @@ RMSE_RATIO_TARGET = 0.6
 """Mean smoothed relative RMSE over the seeds ≤ 0.6 × the mean forward one."""
 CASES = ("paper", "surfacing")
 """The aiding of each mission (module docstring; :func:`surfacing`)."""
+GNSS_BIAS = ("none", "constant", "gauss-markov")
+"""The surfacing GNSS's bias state (module docstring)."""
 
 
-def case_label(case: str, fixes: int = 1, min_interval_s: float = 0.0) -> str:
+def case_label(case: str, fixes: int = 1, min_interval_s: float = 0.0, bias: str = "none") -> str:
     """How the page names a case: ``paper's aiding``, ``+ last GNSS fix`` (``+ last 120 GNSS
-    fixes``, ``+ last 600 GNSS fixes, 240 s apart``)."""
+    fixes``, ``+ last 600 GNSS fixes, 240 s apart``, ``+ last 600 GNSS fixes, Gauss-Markov bias
+    state``)."""
     if case == "paper":
         return "paper's aiding"
     label = "+ last GNSS fix" if fixes == 1 else f"+ last {fixes} GNSS fixes"
-    return label + (f", {min_interval_s:g} s apart" if min_interval_s > 0.0 else "")
+    label += f", {min_interval_s:g} s apart" if min_interval_s > 0.0 else ""
+    return label + (f", {bias} bias state" if bias != "none" else "")
 
 
 SCORES = (
@@ -92,6 +99,12 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
         type=float,
         default=0.0,
         help="thin those fixes to this many seconds apart (min_interval_s) [0: off]",
+    )
+    p.add_argument(
+        "--surfacing-gnss-bias",
+        choices=GNSS_BIAS,
+        default="none",
+        help="the GNSS's bias state in case surfacing (module docstring) [none]",
     )
     p.add_argument("--figure-seed", type=int, default=1, help="seed of the figure [1]")
     p.add_argument("--out", type=Path, default=ROOT / "docs" / "results-smoothing.md")
@@ -142,7 +155,7 @@ def rms_sigma(result: Any, truth: pd.DataFrame) -> float:
     return float(np.sqrt(np.mean(var)))
 
 
-def surfacing(mission: Any, fixes: int = 1, min_interval_s: float = 0.0) -> Any:
+def surfacing(mission: Any, fixes: int = 1, min_interval_s: float = 0.0, bias: str = "none") -> Any:
     """``mission`` with its (first) GNSS sensor aiding at its last ``fixes`` fixes as well: a
     vehicle that surfaces at the end of the dive. None if it has no GNSS fix. One fix by
     default, not the minutes of 1-Hz fixes a surfacing gives: the simulated GNSS error has a
@@ -150,7 +163,8 @@ def surfacing(mission: Any, fixes: int = 1, min_interval_s: float = 0.0) -> Any:
     takes fixes as white, so a run of fixes within one correlation time is trusted as if their
     errors averaged out (measured with the last 120 fixes: docs/smoothing.md, 'What smoothing
     can and cannot do'), unless they are thinned to one per correlation time: ``min_interval_s``,
-    the sensor setting of that name (:func:`adaptnav.mission.screening.thinned_mask`)."""
+    the sensor setting of that name (:func:`adaptnav.mission.screening.thinned_mask`), or the
+    GNSS is given a ``bias`` state (:data:`GNSS_BIAS`)."""
     have = mission.sensors
     names = [n for n, c in mission.config.sensors.items()
              if c.kind == "gnss" and n in have and have[n].t.size]  # fmt: skip
@@ -162,6 +176,18 @@ def surfacing(mission: Any, fixes: int = 1, min_interval_s: float = 0.0) -> Any:
     fix = dataclasses.replace(g, t=g.t[last], z=g.z[last], rows=g.rows[last])
     config = mission.config.model_copy(deep=True)
     config.sensors[names[0]] = config.sensors[names[0]].model_copy(update={"use": "aid"})
+    if bias != "none":
+        from adaptnav.mission.config import with_overrides
+        from adaptnav.sim.sensors import GpsSpec
+
+        spec = GpsSpec()
+        prior = {"sigma": [spec.sigma_gm, "m"]}
+        if bias == "gauss-markov":
+            prior["tau"] = [spec.tau_gm, "s"]
+        at = f"sensors.{names[0]}"
+        config = with_overrides(
+            config, [(f"{at}.estimate", ["bias"]), (f"{at}.calibration", {"bias": prior})]
+        )
     return dataclasses.replace(mission, sensors={**mission.sensors, names[0]: fix}, config=config)
 
 
@@ -216,6 +242,7 @@ def _plain_rmse(cache: Path, preset: str, seed: int, kind: str) -> float:
 def run_seed(
     cache: str, preset: str, seed: int, filters: Sequence[str], traced: Sequence[str],
     cases: Sequence[str] = CASES[:1], fixes: int = 1, min_interval_s: float = 0.0,
+    bias: str = "none",
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Every filter of ``filters`` smoothed on mission (preset, seed), prepared in ``cache``
     once, in each of ``cases`` (:data:`CASES`; a mission without a GNSS fix has no
@@ -230,13 +257,13 @@ def run_seed(
     prepare_mission(root, spec)
     paper, initial = load_prepared(root, spec.mission_name)
     missions = {"paper": paper,
-                "surfacing": surfacing(paper, fixes, min_interval_s)
+                "surfacing": surfacing(paper, fixes, min_interval_s, bias)
                 if "surfacing" in cases else None}  # fmt: skip
     rows = []
     for case in (c for c in cases if missions[c] is not None):
         for kind in filters:
             plain = _plain_rmse(root, preset, seed, kind) if case == "paper" else math.nan
-            label = case_label(case, fixes, min_interval_s)
+            label = case_label(case, fixes, min_interval_s, bias)
             base = {"case": case, "aiding": label, "preset": preset, "seed": seed,
                     "filter": kind, "plain_relative_rmse_pct": plain}  # fmt: skip
             try:
@@ -251,7 +278,7 @@ def run_seed(
 def run_all(
     cache: Path, tasks: Sequence[tuple[str, int]], filters: Sequence[str], jobs: int,
     traced: tuple[str, int], scheduler: str | None = None, cases: Sequence[str] = CASES[:1],
-    fixes: int = 1, min_interval_s: float = 0.0,
+    fixes: int = 1, min_interval_s: float = 0.0, bias: str = "none",
 ) -> list[dict[str, Any]]:  # fmt: skip
     """Every (preset, seed) task through :func:`run_seed` on a dask cluster (``scheduler``, else
     ``$ADAPTNAV_SCHEDULER``, else ``jobs`` local workers; 1: in this process); on the ``traced``
@@ -270,7 +297,7 @@ def run_all(
 
     # jobs = 1 runs in this process (no pickling: also when this file is loaded by path)
     work = [(str(cache.resolve()), p, s, list(filters), trace((p, s)), list(cases), fixes,
-             min_interval_s)
+             min_interval_s, bias)
             for p, s in tasks]  # fmt: skip
     run_tasks(run_seed, work, jobs, report, scheduler)
     return rows
@@ -574,7 +601,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     by_length = sorted(args.preset_list, key=lambda p: p != "paper-1")
     tasks = [(p, s) for p in by_length for s in range(1, args.seeds + 1)]
     traced = (args.preset_list[0], args.figure_seed)
-    cases = (args.case_list, args.surfacing_fixes, args.surfacing_min_interval)
+    cases = (
+        args.case_list, args.surfacing_fixes, args.surfacing_min_interval,
+        args.surfacing_gnss_bias,
+    )  # fmt: skip
     rows = run_all(args.cache, tasks, args.filter_list, args.jobs, traced, args.scheduler, *cases)
     wall = time.perf_counter() - started
     table = _sorted(rows, args.preset_list, args.filter_list)

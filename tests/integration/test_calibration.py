@@ -196,15 +196,19 @@ def test_the_scale_is_unbiased_on_paper_1(tmp_path_factory: pytest.TempPathFacto
     )
 
 
-def test_a_gnss_bias_state_runs_and_is_reported(mission: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("tau", [None, 120.0])
+def test_a_gnss_bias_state_runs_and_is_reported(
+    mission: Path, tmp_path: Path, tau: float | None
+) -> None:
     """``[sensors.gps] estimate = ["bias"]`` on the tiny mission's GNSS, used as an aid: the
     run writes both bias states to calibration.json with a σ no larger than the prior (2.5 m)
     and a finite estimate; on the code before, "bias" was no GNSS quantity and the mission was
-    refused."""
+    refused. With a correlation time (a Gauss-Markov bias, 0.4.2) the file gives it."""
     toml = (mission / "mission.toml").read_text()
     section = '[sensors.gps]\nkind = "gnss"\n'
     assert section in toml
-    toml = toml.replace(section, section + 'estimate = ["bias"]\n')
+    gm = "" if tau is None else f'calibration.bias = {{ tau = [{tau}, "s"] }}\n'
+    toml = toml.replace(section, section + 'estimate = ["bias"]\n' + gm)
     toml = toml.replace('use = "init"', 'use = "aid"')
     (mission / "mission.toml").write_text(toml)
     res = runner.invoke(app, ["run", str(mission), "--out", str(tmp_path / "r"), "--quiet"])
@@ -214,3 +218,4 @@ def test_a_gnss_bias_state_runs_and_is_reported(mission: Path, tmp_path: Path) -
         entry = cal[state] if state in cal else cal["states"][state]
         assert entry["unit"] == "m" and entry["prior_sigma"] == 2.5
         assert 0.0 < entry["sigma"] <= 2.5 and abs(entry["estimate"]) < 10.0
+        assert entry["tau_s"] == tau

@@ -16,24 +16,40 @@ from adaptnav.engine import batch as engine
 from adaptnav.estimation import smoother
 from adaptnav.estimation.noise import FixedNoise, VariationalBayes
 from adaptnav.models import errorstate
-from adaptnav.models.errorstate import N_STATES
+from adaptnav.models.errorstate import CORE, N_STATES, StateBlock, StateLayout
 from adaptnav.models.strapdown import NOM_SIZE
 from helpers import synthetic
 
 NAMES = ("dvl", "depth")
 
 
-def _run(seed: int, smooth: bool, vb: bool = False) -> tuple[engine.Navigator, synthetic.Dataset]:
+DEPTH_BIAS_GM = StateLayout((StateBlock("depth.bias", ("depth.bias",), (2 * 0.3**2 / 20,),
+                                        (1 / 20.0,)),))  # fmt: skip
+"""A depth bias as a Gauss-Markov state: σ 0.3 m, τ = 20 s."""
+
+
+def _run(
+    seed: int, smooth: bool, vb: bool = False, layout: StateLayout = CORE
+) -> tuple[engine.Navigator, synthetic.Dataset]:
     ds = synthetic.make(seed, duration=120.0, sensors=NAMES)
     periods = synthetic.periods()
     strategy = VariationalBayes() if vb else FixedNoise()
+    models = dict(ds.models)
+    x0, P0 = ds.x0_hat, ds.P0
+    if layout.n > N_STATES:  # the depth meter reads its bias state (truth: none)
+        models["depth"] = replace(ds.models["depth"], cal_bias=N_STATES)  # type: ignore[type-var]
+        x0 = np.concatenate([x0, [0.2]])
+        P0 = np.zeros((layout.n, layout.n))
+        P0[:N_STATES, :N_STATES] = ds.P0
+        P0[N_STATES, N_STATES] = 0.3**2
     channels = [
-        engine.SensorChannel(ds.models[n], periods[n], strategy)  # type: ignore[arg-type]
+        engine.SensorChannel(models[n], periods[n], strategy)  # type: ignore[arg-type]
         for n in NAMES
     ]
     nav = engine.Navigator(
-        engine.EngineConfig(synthetic.NOISE, smooth=smooth), channels, ds.x0_hat, ds.P0, ds.t0
-    )
+        engine.EngineConfig(synthetic.NOISE, smooth=smooth, layout=layout), channels, x0, P0,
+        ds.t0,
+    )  # fmt: skip
     for n in NAMES:
         nav.feed_measurements(n, *ds.readings[n])
     nav.feed_imu(ds.imu_t, ds.dt, ds.dtheta, ds.dvel)
@@ -50,9 +66,15 @@ def test_storing_nodes_leaves_the_forward_pass_bit_for_bit(vb: bool) -> None:
     assert pd.DataFrame(plain.ledger).equals(pd.DataFrame(with_store.ledger))  # NaN-aware
 
 
-def test_compiled_smoothing_equals_the_readable_pass_over_the_stored_nodes() -> None:
-    nav, _ = _run(4, True, vb=True)
+@pytest.mark.parametrize("layout", [CORE, DEPTH_BIAS_GM], ids=["core", "Gauss-Markov bias"])
+def test_compiled_smoothing_equals_the_readable_pass_over_the_stored_nodes(
+    layout: StateLayout,
+) -> None:
+    nav, _ = _run(4, True, vb=True, layout=layout)
     nodes = nav.smoother_nodes()
+    if layout.n > N_STATES:  # the bias's Φ between nodes: exp(-Δt/τ)
+        np.testing.assert_allclose(nodes.Phi[1:, N_STATES, N_STATES],
+                                   np.exp(-np.diff(nodes.t) / 20.0), rtol=1e-14)  # fmt: skip
     assert nodes.rows is not None
     # Between nodes the store's P⁻ is the propagation of the previous P plus a PSD process
     # noise: what RTS assumes.
@@ -66,6 +88,7 @@ def test_compiled_smoothing_equals_the_readable_pass_over_the_stored_nodes() -> 
     assert sm is not None and sm.failed == 0
     rows = nodes.rows
     np.testing.assert_allclose(sm.x, x_s[rows, :NOM_SIZE], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(sm.declared, x_s[rows, NOM_SIZE:], rtol=0, atol=1e-12)
     diag = np.diagonal(P_s[rows], axis1=1, axis2=2)[:, :N_STATES]
     np.testing.assert_allclose(sm.P_diag, diag, rtol=1e-9)
     np.testing.assert_array_equal(sm.t, out.t)

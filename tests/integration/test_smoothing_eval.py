@@ -43,6 +43,18 @@ def test_smoothing_evaluation_script_writes_the_results_page(tmp_path: Path) -> 
     for case in ("paper's aiding", "+ last GNSS fix"):
         assert text.count(f"- demo VB-MAESKF, {case}: smoothed / forward relative RMSE") == 1
     assert "demo MESKF: smoothed" not in text
+    # the surfacing GNSS's bias state: the simulator's slow error as a Gauss-Markov state
+    from adaptnav.experiments.cache import load_prepared
+    from adaptnav.experiments.spec import RunSpec
+
+    mission, _ = load_prepared(tmp_path / "cache", RunSpec("demo", 1, "vb").mission_name)
+    for bias, tau in (("constant", math.inf), ("gauss-markov", 120.0)):
+        m = mod.surfacing(mission, 5, 0.0, bias)
+        (gnss,) = (c for c in m.config.sensors.values() if c.kind == "gnss")
+        assert gnss.use == "aid" and gnss.calibration_si()["bias"] == (2.5, 0.0, tau)
+    assert mod.case_label("surfacing", 600, 0.0, "gauss-markov") == (
+        "+ last 600 GNSS fixes, gauss-markov bias state"
+    )
 
 
 def _row(

@@ -44,17 +44,28 @@ def _linear() -> tuple[smoother.Nodes, Array, dict[str, Array]]:
     return _kalman(0.6)
 
 
-def _kalman(p_update: float) -> tuple[smoother.Nodes, Array, dict[str, Array]]:
-    """A closed-loop Kalman filter on a random linear-Gaussian model (15 states, 24 nodes, an
-    update at a node with probability ``p_update``, none at 5-7 - consecutive nodes without one
-    included), its nodes and its filtered means; and the model, for the batch posterior."""
+def _kalman(
+    p_update: float, rates: tuple[float, ...] = ()
+) -> tuple[smoother.Nodes, Array, dict[str, Array]]:
+    """A closed-loop Kalman filter on a random linear-Gaussian model (15 states, 24 nodes 1 s
+    apart, an update at a node with probability ``p_update``, none at 5-7 - consecutive nodes
+    without one included), its nodes and its filtered means; and the model, for the batch
+    posterior. ``rates``: declared states after the core, one per 1/τ (1/s), each a
+    Gauss-Markov process of its own (0: a random walk) that only the readings couple to the
+    core, as errorstate.StateLayout has them."""
     rng = np.random.default_rng(5)
-    n, N, d = 15, 24, 4
-    scales = np.logspace(1, -5, n)  # m-sized beside rad/s-sized states
+    m = len(rates)
+    n, N, d = 15 + m, 24, 4
+    scales = np.concatenate([np.logspace(1, -5, 15), np.full(m, 0.01)])
     Phi = np.stack([np.eye(n) + 0.05 * rng.normal(size=(n, n)) * np.outer(scales, 1 / scales)
                     for _ in range(N)])  # fmt: skip
     Phi[:, 9:, :] *= np.eye(n)[9:]  # rows 9-14 diagonal, as the biases' are
+    decay = np.exp(-np.asarray(rates, dtype=float))  # over the 1 s between nodes
+    Phi[:, 15:, 15:] = np.diag(decay)
+    Phi[:, :15, 15:] = 0.0
     Q = np.stack([_spd(rng, n, 0.05 * scales) for _ in range(N)])
+    Q[:, :15, 15:] = Q[:, 15:, :15] = 0.0
+    Q[:, 15:, 15:] = np.diag(np.full(m, 1e-5))
     H = rng.normal(size=(d, n)) / scales
     R = np.diag(rng.uniform(0.5, 2.0, d))
     P0 = _spd(rng, n, scales)
@@ -82,7 +93,7 @@ def _kalman(p_update: float) -> tuple[smoother.Nodes, Array, dict[str, Array]]:
         Ps.append(P.copy())
         dxs.append(dx)
     nodes = smoother.Nodes(
-        np.arange(N, dtype=float), _nominal(rng, N, 0), np.array(dxs), np.array(Ps),
+        np.arange(N, dtype=float), _nominal(rng, N, m), np.array(dxs), np.array(Ps),
         np.array(priors), Phi, reset=False,
     )  # fmt: skip
     model = {"Phi": Phi, "Q": Q, "H": H, "R": R, "P0": P0, "z": z, "updated": updated}
@@ -160,10 +171,11 @@ def test_accumulated_phi_is_the_product_of_the_steps(steps: int) -> None:
         assert np.all(off == 0.0)  # the product keeps rows 9-14 diagonal: nothing is lost
 
 
-def _store(nodes: smoother.Nodes) -> smk.Store:
-    """The compiled store holding ``nodes``, filled as the forward pass fills it."""
+def _store(nodes: smoother.Nodes, rates: tuple[float, ...] = ()) -> smk.Store:
+    """The compiled store holding ``nodes``, filled as the forward pass fills it; ``rates``: the
+    declared states' 1/τ (none: random walks), from which the store has their Φ."""
     N, n = nodes.dx.shape
-    sm = smk.store(1, 1, nodes.x.shape[1], n)
+    sm = smk.store(1, 1, nodes.x.shape[1], n, np.array(rates) if rates else None)
     sm = smk.grown(sm, N, N)
     for j in range(N):
         sm[smk.SM_ACC][: smk.CORE, : smk.CORE] = nodes.Phi[j][: smk.CORE, : smk.CORE]
@@ -306,3 +318,32 @@ def test_a_node_whose_prior_is_not_positive_definite_keeps_its_filtered_values(
     smk.backward(sm, False)
     assert sm[smk.SM_COUNT][smk.K_FAILED] == 1
     np.testing.assert_array_equal(sm[smk.SM_X][j - 1], nodes.x[j - 1])
+
+
+@pytest.mark.parametrize("rates", [(0.0, 0.0), (0.3, 0.05), (1.0, 0.0)])
+def test_gauss_markov_declared_states_smooth_exactly(rates: tuple[float, float]) -> None:
+    """Two declared states after the core, Gauss-Markov (1/τ > 0) or random walks, coupled to
+    the core by the readings only: the readable pass is the exact posterior, and the compiled
+    pass, whose store has their Φ from the node times and 1/τ alone, equals it."""
+    nodes, means, model = _kalman(0.5, rates)
+    x_s, P_s, e_s = smoother.rts(nodes)
+    mu, cov = _batch_posterior(model)
+    N, n = means.shape
+    for j in range(N):
+        block = cov[j * n : (j + 1) * n, j * n : (j + 1) * n]
+        sd = np.sqrt(np.diag(block))
+        np.testing.assert_allclose((means[j] + e_s[j] - mu[j]) / sd, 0.0, atol=1e-7)
+        np.testing.assert_allclose(P_s[j] / np.outer(sd, sd), block / np.outer(sd, sd),
+                                   atol=1e-7)  # fmt: skip
+    assert np.abs(e_s[:-1, 15:]).max() > 0.0  # the declared states were smoothed too
+    sm = _store(nodes, rates)
+    np.testing.assert_allclose(sm[smk.SM_PHI][1:N, smk.N_PHI :], np.exp(-np.array(rates))[None]
+                               .repeat(N - 1, 0), rtol=1e-15)  # fmt: skip
+    smk.backward(sm, False, 2, 3)
+    np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
+    got = np.zeros((N, n, n))
+    for j in range(N):
+        smk.unpack(sm[smk.SM_P][j], got[j], n)
+    sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
+    np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
+                               P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip

@@ -27,6 +27,9 @@ from helpers import synthetic
 SCALE = StateBlock("dvl_scale", ("dvl_scale",), (1e-10,))
 MISALIGNMENT = StateBlock("dvl_misalignment", ("dvl_mis_x", "dvl_mis_y", "dvl_mis_z"), (0.0,) * 3)
 LAYOUT = StateLayout((SCALE, MISALIGNMENT))
+GM_BIAS = StateBlock("gnss_bias", ("gnss_bias_N", "gnss_bias_E"), (2 * 2.5**2 / 120.0,) * 2,
+                     (1 / 120.0, 1 / 30.0))  # fmt: skip
+GM_LAYOUT = StateLayout((SCALE, GM_BIAS, StateBlock("depth_bias", ("depth_bias",), (1e-6,))))
 
 
 def test_a_layout_names_and_places_its_blocks() -> None:
@@ -68,9 +71,39 @@ def _rel(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> None:
     assert np.max(np.abs(a - b) / scale) < tol
 
 
-def test_compiled_propagation_of_declared_blocks_equals_the_twin() -> None:
+def test_gauss_markov_step_is_the_integral_of_its_model() -> None:
+    """``b' = -b/τ + w``, w of PSD q, over T: transition exp(-T/τ) and added variance
+    ∫₀ᵀ exp(-2s/τ) q ds (by quadrature here); a random walk (1/τ = 0) gives 1 and q T; and a
+    stationary process keeps its variance q τ / 2."""
+    from scipy.integrate import quad
+
+    q, T = np.array([0.3, 0.3, 2e-3]), 0.7
+    r = np.array([1 / 120.0, 2.0, 0.0])
+    d, qd = errorstate.gauss_markov(q, r, T)
+    for k in range(3):
+        integral = quad(lambda u, k=k: math.exp(-2.0 * u * r[k]) * q[k], 0.0, T)[0]
+        assert qd[k] == pytest.approx(integral, rel=1e-12)
+        assert d[k] == pytest.approx(math.exp(-T * r[k]), rel=1e-15)
+    steady = q[:2] / (2.0 * r[:2])
+    np.testing.assert_allclose(d[:2] ** 2 * steady + qd[:2], steady, rtol=1e-12)
+    Phi, Qd = errorstate.augment(np.eye(N_STATES), np.zeros((N_STATES, N_STATES)), q, T, r)
+    np.testing.assert_array_equal(np.diag(Phi)[N_STATES:], d)
+    np.testing.assert_array_equal(np.diag(Qd)[N_STATES:], qd)
+    assert GM_LAYOUT.kernel_psd(np.ones(12)).tolist() == [
+        *[1.0] * 12, 1e-10, *GM_BIAS.psd, 1e-6, 0.0, *GM_BIAS.inv_tau, 0.0,
+    ]  # fmt: skip
+    with pytest.raises(ValueError, match="one 1/tau per state"):
+        StateBlock("b", ("b0", "b1"), (1.0, 1.0), (0.1,))
+    with pytest.raises(ValueError, match="1/tau must be finite and >= 0"):
+        StateBlock("b", ("b0",), (1.0,), (-0.1,))
+
+
+@pytest.mark.parametrize("layout", [LAYOUT, GM_LAYOUT], ids=["random walks", "Gauss-Markov"])
+def test_compiled_propagation_of_declared_blocks_equals_the_twin(layout: StateLayout) -> None:
     rng = np.random.default_rng(3)
-    q = np.concatenate([errorstate.noise_psd(synthetic.NOISE), LAYOUT.extra_psd() + 1e-8])
+    core_q = errorstate.noise_psd(synthetic.NOISE)
+    q = layout.kernel_psd(core_q)
+    q[12 : 12 + 4] += 1e-8
     for _ in range(3):
         x, P = _state(rng), _covariance(rng)
         n = 200
@@ -81,10 +114,17 @@ def test_compiled_propagation_of_declared_blocks_equals_the_twin() -> None:
         xn, Pn, _, _ = propagate_numpy(x, P, *args)
         _rel(xc, xn)
         _rel(Pc, Pn)
-        assert np.all(xc[NOM_SIZE:] == x[NOM_SIZE:])  # declared states are constants of motion
+        # the declared states' nominal values follow their mean: constant, or exp(-t/τ)
+        decay = np.exp(-n * 0.01 * layout.extra_inv_tau())
+        _rel(xc[NOM_SIZE:], x[NOM_SIZE:] * decay, 1e-12)
         w, f = dth[0] / 0.01, dv[0] / 0.01
         part = (w, f, w * 1.1, f * 0.9, 0.01, 0.002, 0.007, q, 300.0, 200.0)
-        _rel(propagate_partial(x, P, *part)[1], propagate_partial_numpy(x, P, *part)[1])
+        got, want = propagate_partial(x, P, *part), propagate_partial_numpy(x, P, *part)
+        for a, b in zip(got, want, strict=True):
+            _rel(a, b)
+    if layout is LAYOUT:  # 12 + m PSDs alone still mean random walks
+        args = (dth, dv, 0.01, dth[0] / 0.01, dv[0] / 0.01, q[: 12 + 4], 300.0, 200.0)
+        _rel(propagate(x, P, *args)[1], Pc)
 
 
 def test_compiled_correction_feedback_and_reset_with_declared_states() -> None:
@@ -144,3 +184,20 @@ def test_an_unobserved_block_leaves_the_core_alone_and_grows_as_a_random_walk() 
         engine.Navigator(
             engine.EngineConfig(synthetic.NOISE, layout=LAYOUT), [], core.x, core.P, 0.0
         )
+
+
+def test_an_unobserved_gauss_markov_block_keeps_its_sigma_and_its_mean_decays() -> None:
+    """Started at its steady variance q τ / 2, an unobserved Gauss-Markov state keeps it
+    (a random walk's would grow by q t), its nominal value follows its mean, exp(-t/τ) of the
+    start, and the core is untouched."""
+    tau = np.array([40.0, 300.0, 1e4, 7.0])
+    steady = StateLayout(
+        (StateBlock("gm", ("g0", "g1", "g2", "g3"), tuple(2e-4 / tau), tuple(1.0 / tau)),)
+    )
+    core, wide = _run(CORE), _run(steady)
+    np.testing.assert_array_equal(core.output().x, wide.output().x)
+    np.testing.assert_array_equal(core.P, wide.P[:N_STATES, :N_STATES])
+    elapsed = wide.t - synthetic.make(7, duration=120.0).t0
+    _rel(np.diag(wide.P)[N_STATES:], np.full(4, 1e-4), 1e-9)
+    _rel(wide.x[NOM_SIZE:], 0.02 * np.exp(-elapsed / tau), 1e-9)
+    assert np.all(wide.P[:N_STATES, N_STATES:] == 0.0)

@@ -64,6 +64,13 @@ def test_estimated_quantities_become_blocks_after_the_core_in_order() -> None:
         ({"estimate": ["scale"], "calibration": {"scale": {"sigma": [1, "deg"]}}},
          "unknown unit 'deg' for ratio"),
         ({"estimate": ["scale"], "calibration": {"scale": {"sigma": [0, "%"]}}}, "must be > 0"),
+        ({"estimate": ["scale"], "calibration": {"scale": {"tau": [0, "s"]}}},
+         "calibration.scale.tau: must be > 0"),
+        ({"estimate": ["scale"], "calibration": {"scale": {"tau": [10, "m"]}}},
+         "unknown unit 'm' for time"),
+        ({"estimate": ["scale"],
+          "calibration": {"scale": {"tau": [60, "s"], "random_walk": [1, "%/sqrt(h)"]}}},
+         "calibration.scale: give random_walk or tau"),
     ],
 )  # fmt: skip
 def test_what_cannot_be_estimated_is_an_error_naming_the_key(
@@ -71,6 +78,20 @@ def test_what_cannot_be_estimated_is_an_error_naming_the_key(
 ) -> None:
     with pytest.raises(MissionError, match=message):
         _config(dvl)
+
+
+def test_a_correlation_time_makes_a_gauss_markov_state_that_keeps_its_sigma() -> None:
+    gnss = {"kind": "gnss", "file": "g.csv", "sigma": [1.5, "m"], "estimate": ["bias"],
+            "calibration": {"bias": {"sigma": [2.5, "m"], "tau": [2, "min"]}}}  # fmt: skip
+    cfg = _config({"estimate": ["scale"], "calibration": {"scale": {"tau": ["inf", "s"]}}},
+                  gps=gnss)  # fmt: skip
+    scale, bias = calibration.calibration_states(cfg)
+    assert math.isinf(scale.tau) and bias.tau == pytest.approx(120.0)
+    layout = calibration.layout((scale, bias))
+    # steady variance q τ / 2 = σ²
+    np.testing.assert_allclose(layout.extra_psd(), [0.0, 2 * 2.5**2 / 120.0, 2 * 2.5**2 / 120.0])
+    np.testing.assert_allclose(layout.extra_inv_tau(), [0.0, 1 / 120.0, 1 / 120.0])
+    assert "tau" in cfg.dump_toml()
 
 
 def test_a_mission_without_calibration_writes_no_keys_for_it() -> None:

@@ -537,7 +537,8 @@ def _calibration(
     sensors: Mapping[str, SensorData],
 ) -> dict[str, dict[str, Any]]:
     """Each calibration state's estimate and σ at the end of the run (smoothed: the whole
-    run's), with its prior σ, in its report unit (docs/calibration.md; ``calibration.json``),
+    run's), with its prior σ, in its report unit, and the correlation time of a Gauss-Markov
+    quantity (``tau_s``; None for a random walk) (docs/calibration.md; ``calibration.json``),
     and the σ allowing for the correlation of its sensor's readings: ``sigma_long_run = σ
     sqrt(max(1, F))``, F the long-run variance factor (:func:`_long_run_factor`; None, and so
     ``sigma_long_run``, where it cannot be told)."""
@@ -555,6 +556,7 @@ def _calibration(
                 "sigma_long_run": sigma * math.sqrt(max(1.0, lrv)) if known else None,
                 "long_run_factor": lrv if known else None,
                 "prior_sigma": st.sigma * f,
+                "tau_s": st.tau if math.isfinite(st.tau) else None,
                 "unit": st.quantity.unit,
             }
     return out

@@ -612,34 +612,56 @@ def _work(P: Array, q_psd: Array) -> tuple[Array, Array, Array, Array, int]:
     """Zeroed flat work arrays Aᵀ, Φᵀ, M, the core of P copied into the padded flat layout, and
     n = 16.
 
-    n comes from the sizes of P (15 + m) and q_psd (12 + m, m declared states) at run time on
-    purpose: a compile-time 16 would let LLVM unroll the column loops instead of vectorizing
-    them, and so would a bound it can see (``min(P.shape[0], 15) + 1`` costs a fifth of the
-    propagation's speed). Shapes are not checked in the compiled functions;
+    n comes from the sizes of P (15 + m) and q_psd (12, or 12 + 2m with m declared states) at
+    run time on purpose: a compile-time 16 would let LLVM unroll the column loops instead of
+    vectorizing them, and so would a bound it can see (``min(P.shape[0], 15) + 1`` costs a fifth
+    of the propagation's speed). Shapes are not checked in the compiled functions;
     :mod:`adaptnav.engine.propagation` and the engine do that.
     """
-    n = P.shape[0] + 13 - q_psd.shape[0]  # (15 + m) + 1 - m
+    n = _width(P, q_psd)
     Pw = np.zeros(15 * _W)
     _pad(P, Pw)
     return np.zeros(15 * _W), np.zeros(15 * _W), np.zeros(9 * _W), Pw, n
 
 
 @jit_inline
-def _extra_step(P: Array, PhiT: Array, tmp: Array, q_psd: Array, T: float) -> None:
-    """The declared state blocks beyond the core (errorstate.StateLayout) over one step, in P
-    in place: ``P_ce ← Φ P_ce`` (Φ the core's, from ``PhiT``), ``P_ee ← P_ee + diag(q_e) T``
-    with q_e = ``q_psd[12:]`` (twin: errorstate.augment). Nothing for the core alone; ``tmp``
-    (15) is scratch."""
+def _width(P: Array, q_psd: Array) -> int:
+    """16, from the sizes of P (15 + m) and q_psd (12 + 2m; 12 for m = 0) (:func:`_work`)."""
+    m: int = P.shape[0] - 15
+    n: int = P.shape[0] + m + 13 - q_psd.shape[0]  # (15 + m) + m + 13 - (12 + 2m)
+    return n
+
+
+@jit_inline
+def _extra_step(x: Array, P: Array, PhiT: Array, tmp: Array, q_psd: Array, T: float) -> None:
+    """The declared states beyond the core (errorstate.StateLayout) over a block of span T, in
+    place: with each state's transition d and noise q_d (errorstate.gauss_markov: ``d =
+    exp(-T/τ)``, ``q_d = (q τ/2)(1 - d²)``; ``d = 1``, ``q_d = q T`` for 1/τ = 0), ``P_ce ← Φ
+    P_ce D``, ``P_ee ← D P_ee D + diag(q_d)`` and the nominal values ``x_e ← D x_e``; q =
+    ``q_psd[12:12 + m]``, 1/τ = ``q_psd[12 + m:]`` (twin: errorstate.augment and
+    adaptnav.engine.propagation.CovarianceBlock.close). Nothing for the core alone; ``tmp`` (15)
+    is scratch."""
+    m = P.shape[0] - 15
     for j in range(15, P.shape[0]):
+        e = j - 15
+        r = q_psd[12 + m + e]
+        d = math.exp(-T * r) if r > 0.0 else 1.0
         for k in range(15):
             tmp[k] = P[k, j]
         for i in range(15):
             s = 0.0
             for k in range(15):
                 s += PhiT[k * _W + i] * tmp[k]
-            P[i, j] = s
-            P[j, i] = s
-        P[j, j] += q_psd[12 + j - 15] * T
+            P[i, j] = s * d
+            P[j, i] = s * d
+        if r > 0.0:
+            for k in range(15, P.shape[0]):
+                P[j, k] *= d
+                P[k, j] *= d
+            P[j, j] += -0.5 * q_psd[12 + e] / r * math.expm1(-2.0 * T * r)
+            x[16 + e] *= d
+        else:
+            P[j, j] += q_psd[12 + e] * T
 
 
 @jit_inline
@@ -733,7 +755,7 @@ def _propagate(
         if block_full(T_block, block_s) or k == rot.shape[0] - 1:
             _flush(Pw, At, PhiT, M, N, n)
             if extra:
-                _extra_step(P, PhiT, M, q_psd, T_block)
+                _extra_step(x, P, PhiT, M, q_psd, T_block)
             T_block = 0.0
         wp, fp = wc, fc
     _store(x, state)

@@ -8,12 +8,13 @@ per *node* (each output row and each measurement epoch) its time, the nominal st
 node, P after the node and the core transition Φ from the previous node, and for an update node
 the fed-back correction dx and P before the update (P packed, upper triangle by rows:
 :func:`pack`). Φ is
-accumulated step by step (:func:`accumulate`, ``Φ_acc ← Φ_step Φ_acc``); declared state blocks
-are random walks uncoupled in Φ (errorstate.StateLayout), so their part of Φ is the identity
-and is not stored. The store is sized by the engine before each IMU chunk (at most one node per
-output row and per queued reading), so these kernels never grow it.
+accumulated step by step (:func:`accumulate`, ``Φ_acc ← Φ_step Φ_acc``); declared states are
+uncoupled in Φ (errorstate.StateLayout), each a random walk or a Gauss-Markov process, so their
+part of Φ is diagonal: ``exp(-Δt/τ)`` over the Δt since the node before, from the node times and
+the store's 1/τ (1 for a random walk). The store is sized by the engine before each IMU chunk
+(at most one node per output row and per queued reading), so these kernels never grow it.
 
-Memory per node: (1 + 16 + m) + n(n+1)/2 + 141 float64 and two int64 (n = 15 + m error
+Memory per node: (1 + 16 + m) + n(n+1)/2 + 141 + m float64 and two int64 (n = 15 + m error
 states, m declared; Φ's rows 9-14 are diagonal and only their diagonal is kept), 2.2 KB for the
 core, plus n + n(n+1)/2 float64 (1.1 KB) per update node.
 
@@ -43,14 +44,16 @@ IntArray = NDArray[np.int64]
 CORE = 15
 
 Store = tuple[NDArray[Any], ...]
-"""``(t (N,), x (N, 16 + m), dx (M, n), P (N, n(n+1)/2), Phi (N, N_PHI), prior (N,) int64:
-the node's row in dx and P_prior (-1: no update), P_prior (M, n(n+1)/2), acc (24, 16): Φ_acc
-(rows 0-14, columns 0-14) and scratch, counters (N_COUNT,) int64, out (N,) int64: the node of
-each output row)``; N nodes, M of them with an update."""
-SM_T, SM_X, SM_DX, SM_P, SM_PHI, SM_PRIOR, SM_PM, SM_ACC, SM_COUNT, SM_OUT = range(10)
+"""``(t (N,), x (N, 16 + m), dx (M, n), P (N, n(n+1)/2), Phi (N, N_PHI + m), prior (N,)
+int64: the node's row in dx and P_prior (-1: no update), P_prior (M, n(n+1)/2), acc (24, 16):
+Φ_acc (rows 0-14, columns 0-14) and scratch, counters (N_COUNT,) int64, out (N,) int64: the
+node of each output row, inv_tau (m,): the declared states' 1/τ)``; N nodes, M of them with an
+update, m declared states."""
+SM_T, SM_X, SM_DX, SM_P, SM_PHI, SM_PRIOR, SM_PM, SM_ACC, SM_COUNT, SM_OUT, SM_TAU = range(11)
 PHI_DIAG = 9 * CORE
 """A stored Φ: its rows 0-8 (row-major, 135 numbers), then the diagonal of rows 9-14, the
-whole of those rows (the biases' Gauss-Markov dynamics: :func:`accumulate`)."""
+whole of those rows (the biases' Gauss-Markov dynamics: :func:`accumulate`), then the
+diagonal of the m declared states' rows (from :data:`N_PHI` on)."""
 N_PHI = PHI_DIAG + 6
 K_NODES, K_PRIORS, K_STEPS, K_FAILED = range(4)
 """Counters: nodes and update nodes stored, steps accumulated into Φ since the last node,
@@ -76,16 +79,20 @@ def packed_index(i: int, j: int, n: int) -> int:
     return i * n - i * (i - 1) // 2 + (j - i)
 
 
-def store(c: int, m: int, nominal_size: int, n: int) -> Store:
-    """An empty store for ``c`` nodes and ``m`` update nodes. A run without smoothing has none
-    (None): the engine's loop is then compiled without the smoother's code (adaptnav.engine.batch,
+def store(c: int, m: int, nominal_size: int, n: int, inv_tau: Array | None = None) -> Store:
+    """An empty store for ``c`` nodes and ``m`` update nodes, n error states, the declared ones'
+    1/τ ``inv_tau`` (n - 15; None: random walks). A run without smoothing has none (None): the
+    engine's loop is then compiled without the smoother's code (adaptnav.engine.batch,
     '_navigate')."""
     k = packed_size(n)
     counts = np.zeros(N_COUNT, dtype=np.int64)
+    rates = np.zeros(n - CORE) if inv_tau is None else np.array(inv_tau, dtype=float)
+    if rates.shape != (n - CORE,):
+        raise ValueError(f"inv_tau: {n - CORE} rates expected, got {rates.shape}")
     return (
         np.zeros(c), np.zeros((c, nominal_size)), np.zeros((m, n)), np.zeros((c, k)),
-        np.zeros((c, N_PHI)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
-        np.eye(CORE + 9, _W), counts, np.zeros(c, dtype=np.int64),
+        np.zeros((c, N_PHI + n - CORE)), np.full(c, -1, dtype=np.int64), np.zeros((m, k)),
+        np.eye(CORE + 9, _W), counts, np.zeros(c, dtype=np.int64), rates,
     )  # fmt: skip
 
 
@@ -177,8 +184,9 @@ def accumulate(sm: Store, PhiT: Array) -> None:
 def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> int:
     """Store a node at t: x and P after it, and when ``prior`` holds the P an update started
     from (``prior[0, 0]`` not NaN), dx and that P (else dx may be empty); Φ_acc
-    becomes the node's Φ (the identity if no step was accumulated since the last node). Returns
-    the node's index."""
+    becomes the node's Φ (the identity if no step was accumulated since the last node), the
+    declared states' part ``exp(-(t - t_prev)/τ)`` (module docstring). Returns the node's
+    index."""
     counts = sm[SM_COUNT]
     j = int(counts[K_NODES])
     sm[SM_T][j] = t
@@ -193,6 +201,10 @@ def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> in
             phi[i * CORE + c] = acc[i, c] if steps else (1.0 if i == c else 0.0)
     for a in range(6):
         phi[PHI_DIAG + a] = acc[9 + a, 9 + a] if steps else 1.0
+    rates = sm[SM_TAU]
+    span = t - sm[SM_T][j - 1] if steps and j > 0 else 0.0
+    for a in range(rates.shape[0]):
+        phi[N_PHI + a] = math.exp(-span * rates[a]) if rates[a] > 0.0 else 1.0
     if prior.shape[0] > 0 and not math.isnan(prior[0, 0]):
         m = counts[K_PRIORS]
         pack(prior, sm[SM_PM][m])
@@ -304,8 +316,8 @@ def _product(X: Array, Y: Array, out: Array, acc: Array, n: int, xt: bool) -> No
 
 @jit_inline
 def _psi_product(psi: Array, P: Array, A: Array, acc: Array, n: int) -> None:
-    """``A = Ψ P`` for a stored-layout Ψ (:data:`PHI_DIAG`; the identity on declared blocks)
-    and P as in :func:`_product`; rows 0-8 three at a time in ``acc``."""
+    """``A = Ψ P`` for a stored-layout Ψ (:data:`PHI_DIAG`; diagonal on the declared states,
+    from :data:`N_PHI` on) and P as in :func:`_product`; rows 0-8 three at a time in ``acc``."""
     W = A.shape[1]
     for i in range(0, 9, 3):
         for q in range(3):
@@ -326,13 +338,15 @@ def _psi_product(psi: Array, P: Array, A: Array, acc: Array, n: int) -> None:
         for c in range(W):
             A[i, c] = a * P[i, c]
     for i in range(CORE, n):
+        a = psi[N_PHI + i - CORE]
         for c in range(W):
-            A[i, c] = P[i, c]
+            A[i, c] = a * P[i, c]
 
 
 @jit_inline
 def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
-    """``Ψ ← Ψ Φ``, both in the stored layout (rows 9-14 diagonal, and so is the product's)."""
+    """``Ψ ← Ψ Φ``, both in the stored layout (rows 9-14 and the declared states' diagonal, and
+    so are the product's)."""
     for i in range(9):
         for c in range(CORE):
             acc[0, c] = 0.0
@@ -344,8 +358,8 @@ def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
             acc[0, c] += psi[i * CORE + c] * phi[PHI_DIAG + c - 9]
         for c in range(CORE):
             psi[i * CORE + c] = acc[0, c]
-    for a in range(6):
-        psi[PHI_DIAG + a] *= phi[PHI_DIAG + a]
+    for a in range(PHI_DIAG, psi.shape[0]):
+        psi[a] *= phi[a]
 
 
 @jit
@@ -534,7 +548,7 @@ def anchors(sm: Store, reset: int, ups: IntArray, lo: int, hi: int, e: Array, ke
     counts = sm[SM_COUNT]
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
-    psi = np.zeros(N_PHI)
+    psi = np.zeros(sm[SM_PHI].shape[1])
     Ps, work, scratch = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((5, W, W))
     unpack(sm[SM_P][ups[hi - 1]], Ps, n)
     for k in range(hi - 1, lo - 1, -1):

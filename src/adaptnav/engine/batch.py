@@ -66,6 +66,7 @@ from adaptnav.compiled.propagation import (
     _pad,
     _store,
     _unpad,
+    _width,
     block_full,
     jit,
     jit_inline,
@@ -447,7 +448,7 @@ def _engine_work(P: Array, q_psd: Array, rates: Array, wsp: Array) -> tuple[uk.W
     _pad(P, Pw)
     # n from the sizes at run time: LLVM then vectorizes the covariance's column loops
     # (compiled.propagation._work)
-    wk = (wsp[0], wsp[1], wsp[2], Pw, P.shape[0] + 13 - q_psd.shape[0])
+    wk = (wsp[0], wsp[1], wsp[2], Pw, _width(P, q_psd))
     beta = rates[uk.R_Q, 0]
     if beta != 1.0:
         q_psd = q_psd.copy()
@@ -458,10 +459,18 @@ def _engine_work(P: Array, q_psd: Array, rates: Array, wsp: Array) -> tuple[uk.W
 
 @jit
 def _close_block(
-    wk: uk.Work, N: Array, P: Array, q_psd: Array, cur: Array, sm: smk.Store | None, extra: bool
+    wk: uk.Work,
+    N: Array,
+    x: Array,
+    P: Array,
+    q_psd: Array,
+    cur: Array,
+    sm: smk.Store | None,
+    extra: bool,
 ) -> None:
     """Propagate the covariance over the open block, if any (compiled.propagation._flush), and
-    hand its Φ to the smoother and the declared states (docs/filters.md, 'Covariance blocks').
+    hand its Φ to the smoother and the declared states, whose nominal values in x move with
+    them (compiled.propagation._extra_step; docs/filters.md, 'Covariance blocks').
 
     Called, not inlined: :func:`_advance` closes blocks in five places, and five inlined copies
     of the covariance step doubled the kernels' compile time (bench/cold_bench.py)."""
@@ -471,7 +480,7 @@ def _close_block(
         if sm is not None:
             smk.accumulate(sm, wk[1])
         if extra:
-            _extra_step(P, wk[1], wk[2], q_psd, T_block)
+            _extra_step(x, P, wk[1], wk[2], q_psd, T_block)
         cur[uk.C_BLOCK] = 0.0
 
 
@@ -533,7 +542,7 @@ def _advance(
             icur[I_CLOSE] = 0
             icur[I_DONE] += 1
             if icur[I_DONE] % every == 0:
-                _close_block(wk, N, P, q_psd, cur, sm, extra)
+                _close_block(wk, N, x, P, q_psd, cur, sm, extra)
                 _output_row(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
         k = icur[I_START]
         t_start, dt, offset = cur[uk.C_T_START], cur[uk.C_DT], cur[uk.C_OFFSET]
@@ -604,7 +613,7 @@ def _advance(
             )
             cur[uk.C_BLOCK] += T
             if block_full(cur[uk.C_BLOCK], block_s):
-                _close_block(wk, N, P, q_psd, cur, sm, extra)
+                _close_block(wk, N, x, P, q_psd, cur, sm, extra)
         if whole:
             for c in range(3):
                 rates[uk.R_W_CUR, c], rates[uk.R_F_CUR, c] = wc[c], fc[c]
@@ -614,7 +623,7 @@ def _advance(
             icur[I_START] = k + 1
             icur[I_DONE] += 1
             if icur[I_DONE] % every == 0:
-                _close_block(wk, N, P, q_psd, cur, sm, extra)
+                _close_block(wk, N, x, P, q_psd, cur, sm, extra)
                 _output_row(tk[k], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
             continue
         cur[uk.C_OFFSET] = tau
@@ -622,11 +631,11 @@ def _advance(
         if status == _ADVANCE_EPOCH:
             if tau >= dt:
                 icur[I_CLOSE] = 1
-            _close_block(wk, N, P, q_psd, cur, sm, extra)
+            _close_block(wk, N, x, P, q_psd, cur, sm, extra)
             break
         icur[I_DONE] += 1
         if icur[I_DONE] % every == 0:
-            _close_block(wk, N, P, q_psd, cur, sm, extra)
+            _close_block(wk, N, x, P, q_psd, cur, sm, extra)
             _output_row(cur[uk.C_T], state, Pw, icur, out_t, out_x, out_p, x, P, sm)
     _store(x, state)
     _unpad(Pw, P)
@@ -635,14 +644,21 @@ def _advance(
 
 @jit
 def finish_block(
-    P: Array, q_psd: Array, cur: Array, rates: Array, sm: smk.Store | None, wsp: Array, N: Array
+    x: Array,
+    P: Array,
+    q_psd: Array,
+    cur: Array,
+    rates: Array,
+    sm: smk.Store | None,
+    wsp: Array,
+    N: Array,
 ) -> None:
     """Close the open covariance block (:func:`_advance`), so that P is current; with the Q
     adaptation's scale on the PSDs as :func:`_advance` applies it. (Python's way in: the end of
     the data, or P read between chunks.)"""
     if cur[uk.C_BLOCK] > 0.0:
         wk, q = _engine_work(P, q_psd, rates, wsp)
-        _close_block(wk, N, P, q, cur, sm, P.shape[0] > N_STATES)
+        _close_block(wk, N, x, P, q, cur, sm, P.shape[0] > N_STATES)
         _unpad(wk[3], P)
 
 
@@ -756,9 +772,7 @@ class Navigator:
         n = config.layout.n
         if self.x.shape != (config.layout.nominal_size,) or self._P.shape != (n, n):
             raise ValueError(f"x0 must be ({config.layout.nominal_size},), P0 ({n}, {n})")
-        self._q = np.concatenate(
-            [errorstate.noise_psd(config.imu_noise), config.layout.extra_psd()]
-        )
+        self._q = config.layout.kernel_psd(errorstate.noise_psd(config.imu_noise))
         self._tau_a = float(config.imu_noise.accel_bias_tau)
         self._tau_g = float(config.imu_noise.gyro_bias_tau)
         self._grid = config.epoch_policy == "grid"
@@ -779,7 +793,11 @@ class Navigator:
         self._allocate()
         # None without smoothing: the compiled loop's smoother branches are then pruned by
         # Numba at compile time (the argument's type is None), not compiled and skipped
-        self._sm = smk.store(64, 16, config.layout.nominal_size, n) if config.smooth else None
+        self._sm = (
+            smk.store(64, 16, config.layout.nominal_size, n, config.layout.extra_inv_tau())
+            if config.smooth
+            else None
+        )
         self._smoothed: Smoothed | None = None
         self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
         self._record()
@@ -873,8 +891,8 @@ class Navigator:
             return self._P
         P = self._P.copy()
         finish_block(
-            P, self._q, self._cur.copy(), self._rates, None, self._ws[uk.WS_PROP].copy(),
-            self._ws[uk.WS_NOISE].copy(),
+            self.x.copy(), P, self._q, self._cur.copy(), self._rates, None,
+            self._ws[uk.WS_PROP].copy(), self._ws[uk.WS_NOISE].copy(),
         )  # fmt: skip
         return P
 
@@ -1083,7 +1101,7 @@ class Navigator:
             ws = self._ws
             coldstart.compile_here(
                 finish_block,
-                (self._P, self._q, self._cur, self._rates, self._sm, ws[uk.WS_PROP],
+                (self.x, self._P, self._q, self._cur, self._rates, self._sm, ws[uk.WS_PROP],
                  ws[uk.WS_NOISE]),
             )  # fmt: skip
             coldstart.join(child)
@@ -1292,7 +1310,7 @@ class Navigator:
         """Bring P up to the current time (close the open covariance block) and drop every
         reading still queued (the IMU ended before its stamp), with a reason."""
         finish_block(
-            self._P, self._q, self._cur, self._rates, self._sm, self._ws[uk.WS_PROP],
+            self.x, self._P, self._q, self._cur, self._rates, self._sm, self._ws[uk.WS_PROP],
             self._ws[uk.WS_NOISE],
         )  # fmt: skip
         self._sort_queue()
@@ -1308,8 +1326,8 @@ class Navigator:
 
     def smoother_nodes(self) -> Nodes:
         """The forward pass's node store as the readable smoother takes it
-        (:class:`adaptnav.estimation.smoother.Nodes`: full matrices, Φ with the identity on
-        declared blocks); before :meth:`smooth`, which overwrites the store."""
+        (:class:`adaptnav.estimation.smoother.Nodes`: full matrices, Φ diagonal on the declared
+        states); before :meth:`smooth`, which overwrites the store."""
         sm = self._sm
         if sm is None or self._smoothed is not None:
             raise RuntimeError("no forward store: smoothing is off or the store was smoothed")
@@ -1324,7 +1342,8 @@ class Navigator:
         Phi = np.tile(np.eye(n), (N, 1, 1))
         stored = sm[smk.SM_PHI][:N]
         Phi[:, :9, :N_STATES] = stored[:, : smk.PHI_DIAG].reshape(N, 9, N_STATES)
-        Phi[:, range(9, N_STATES), range(9, N_STATES)] = stored[:, smk.PHI_DIAG :]
+        Phi[:, range(9, N_STATES), range(9, N_STATES)] = stored[:, smk.PHI_DIAG : smk.N_PHI]
+        Phi[:, range(N_STATES, n), range(N_STATES, n)] = stored[:, smk.N_PHI :]
         return Nodes(
             sm[smk.SM_T][:N].copy(), sm[smk.SM_X][:N].copy(), dx, P,
             P_prior, Phi, self.config.reset_mode,

@@ -45,17 +45,22 @@ def _state_inputs(
     x: ArrayLike, P: ArrayLike, w_prev: ArrayLike, f_prev: ArrayLike, q_psd: ArrayLike
 ) -> tuple[Array, Array, Array, Array, Array]:
     """Validated float64 copies of (x, P, w_prev, f_prev, q_psd); with m declared states
-    (errorstate.StateLayout) x has 16 + m numbers, P is (15 + m)², q_psd 12 + m PSDs."""
+    (errorstate.StateLayout) x has 16 + m numbers, P is (15 + m)², and q_psd 12 + m PSDs (the
+    declared states random walks) or 12 + 2m (then their 1/τ as well:
+    errorstate.StateLayout.kernel_psd), returned as 12 + 2m for m > 0."""
     Pa = np.array(P, dtype=np.float64)
     if Pa.ndim != 2 or Pa.shape[0] != Pa.shape[1] or Pa.shape[0] < N_STATES:
         raise ValueError(f"P must be n×n with n >= {N_STATES}, got {Pa.shape}")
     m = Pa.shape[0] - N_STATES
+    q = np.array(q_psd, dtype=np.float64).ravel()
+    if m > 0 and q.shape == (N_NOISE + m,):
+        q = np.concatenate([q, np.zeros(m)])
     return (
         _vec(x, NOM_SIZE + m, "x"),
         Pa,
         _vec(w_prev, 3, "w_prev"),
         _vec(f_prev, 3, "f_prev"),
-        _vec(q_psd, N_NOISE + m, "q_psd"),
+        _vec(q, N_NOISE + 2 * m if m else N_NOISE, "q_psd"),
     )
 
 
@@ -106,7 +111,9 @@ class CovarianceBlock:
     """The covariance over a block of steps (docs/filters.md, 'Covariance blocks'; readable twin
     of the compiled engine's): each step adds ``A += F_k T_k`` and ``S += G_k Q G_kᵀ T_k``; the
     block closes with ``Φ = I + A + A²/2`` and ``Qd = ½ (Φ S Φᵀ + S)``, ``P ← Φ P Φᵀ + Qd``. A
-    block of one step is steps 2-4 of the module docstring (``block_s = 0``: every step)."""
+    block of one step is steps 2-4 of the module docstring (``block_s = 0``: every step). The
+    declared states move over the block's whole span (errorstate.augment; their nominal values
+    decay with it: :meth:`close`'s ``x``)."""
 
     def __init__(self, q: Array, tau_a: float, tau_g: float) -> None:
         self.q, self.tau_a, self.tau_g = q, tau_a, tau_g
@@ -124,13 +131,18 @@ class CovarianceBlock:
         self.S += (G * self.q[:N_NOISE]) @ G.T * T
         self.T += T
 
-    def close(self, P: Array) -> Array:
-        """P propagated over the block; the block emptied."""
+    def close(self, P: Array, x: Array) -> Array:
+        """P propagated over the block; the block emptied. With declared states their nominal
+        values in ``x`` (16 + m) decay with their Gauss-Markov transition, in place: the nominal
+        follows the process's mean, ``b̂' = -b̂/τ``, so that the error obeys the same model."""
         Phi = errorstate.transition(self.A, 1.0)
         Qd = 0.5 * (Phi @ self.S @ Phi.T + self.S)
         Qd = 0.5 * (Qd + Qd.T)
-        if P.shape[0] > N_STATES:  # declared blocks: random walks (errorstate.StateLayout)
-            Phi, Qd = errorstate.augment(Phi, Qd, self.q[N_NOISE:], self.T)
+        m = P.shape[0] - N_STATES
+        if m > 0:  # declared blocks (errorstate.StateLayout)
+            psd, inv_tau = self.q[N_NOISE : N_NOISE + m], self.q[N_NOISE + m :]
+            Phi, Qd = errorstate.augment(Phi, Qd, psd, self.T, inv_tau)
+            x[NOM_SIZE:] *= np.diag(Phi)[N_STATES:]
         self.A[:] = 0.0
         self.S[:] = 0.0
         self.T = 0.0
@@ -177,7 +189,7 @@ def propagate_numpy(
         )
         block.add(replace(mid, f_n=low_pass(flp, mid.f_n, T, tau_f).copy()), T)
         if kernels.block_full(block.T, block_s) or k == dth.shape[0] - 1:
-            Pa = block.close(Pa)
+            Pa = block.close(Pa, xa)
         wp, fp = wc, fc
     return xa, Pa, wp.copy(), fp.copy()
 
@@ -218,7 +230,8 @@ def propagate_partial_numpy(
     )
     block = CovarianceBlock(q, tau_a, tau_g)
     block.add(replace(mid, f_n=low_pass(flp, mid.f_n, tb - ta, tau_f).copy()), tb - ta)
-    return xa, block.close(Pa)
+    Pa = block.close(Pa, xa)
+    return xa, Pa
 
 
 def propagate(

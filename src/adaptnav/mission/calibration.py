@@ -3,12 +3,14 @@
 ``[sensors.<name>] estimate = [...]`` of every aiding sensor becomes, in the order of the
 ``[sensors]`` tables and of each ``estimate`` list, one :class:`~adaptnav.models.errorstate.
 StateBlock` per quantity, named ``<sensor>.<quantity>`` with states ``<sensor>.<state>``
-(``dvl.scale``, ``dvl.misalignment_yaw``), random walks of the configured density; their
+(``dvl.scale``, ``dvl.misalignment_yaw``), random walks of the configured density or, with a
+correlation time τ, first-order Gauss-Markov processes of σ the prior σ (PSD ``2σ²/τ``); their
 nominal values start at zero (no error) with the configured prior σ.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +34,8 @@ class CalibrationState:
     """Error-state index of its first state (its nominal values at index + 1)."""
     sigma: float
     random_walk: float
+    tau: float = math.inf
+    """Correlation time (s) of a Gauss-Markov quantity; inf: a random walk."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -39,10 +43,16 @@ class CalibrationState:
 
     @property
     def block(self) -> StateBlock:
+        """Its states: a random walk of PSD ``random_walk²``, or with a finite τ a Gauss-Markov
+        process that keeps the prior σ (PSD ``2σ²/τ``: steady variance ``q τ / 2 = σ²``)."""
+        n = len(self.names)
+        if math.isinf(self.tau):
+            return StateBlock(
+                f"{self.sensor}.{self.quantity.name}", self.names, (self.random_walk**2,) * n
+            )
+        q = 2.0 * self.sigma**2 / self.tau
         return StateBlock(
-            f"{self.sensor}.{self.quantity.name}",
-            self.names,
-            (self.random_walk**2,) * len(self.names),
+            f"{self.sensor}.{self.quantity.name}", self.names, (q,) * n, (1.0 / self.tau,) * n
         )
 
 
@@ -53,9 +63,9 @@ def calibration_states(cfg: MissionConfig) -> tuple[CalibrationState, ...]:
     for name, scfg in cfg.sensors.items():
         if scfg.use != "aid":
             continue
-        for quantity, (sigma, rw) in scfg.calibration_si().items():
+        for quantity, (sigma, rw, tau) in scfg.calibration_si().items():
             q = KINDS[scfg.kind].calibration[quantity]
-            out.append(CalibrationState(name, q, first, sigma, rw))
+            out.append(CalibrationState(name, q, first, sigma, rw, tau))
             first += len(q.states)
     return tuple(out)
 

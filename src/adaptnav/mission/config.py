@@ -317,10 +317,13 @@ def _check_table_file(v: str) -> str:
 class CalibrationConfig(_Model):
     """``[sensors.<name>.calibration.<quantity>]``: the prior σ and the random-walk density of
     an estimated calibration quantity, ``[value, "unit"]`` (docs/calibration.md); each left
-    out takes the kind's default (sensors/calibration.py)."""
+    out takes the kind's default (sensors/calibration.py). Or, instead of a random walk, a
+    correlation time ``tau``: the quantity is then a first-order Gauss-Markov process whose σ,
+    at the start and ever after, is ``sigma`` (docs/calibration.md, 'Gauss-Markov states')."""
 
     sigma: Pair | None = None
     random_walk: Pair | None = None
+    tau: Pair | None = None
 
 
 class SensorConfig(_Model):
@@ -513,14 +516,23 @@ class SensorConfig(_Model):
         for name in self.calibration or {}:
             if name not in estimate:
                 raise ValueError(f"calibration.{name}: not in estimate = {list(estimate)}")
+        for name, given in (self.calibration or {}).items():
+            if given.tau is not None and given.random_walk is not None:
+                raise ValueError(
+                    f"calibration.{name}: give random_walk or tau (a Gauss-Markov process whose "
+                    "σ is sigma), not both"
+                )
         for name, spec in self.calibration_si().items():
             if not spec[0] > 0.0:
                 raise ValueError(f"calibration.{name}.sigma: must be > 0")
+            if not spec[2] > 0.0:
+                raise ValueError(f"calibration.{name}.tau: must be > 0 (inf: a random walk)")
             unit = si_unit(KINDS[self.kind].calibration[name].sigma_kind)
             check_sigma(f"calibration.{name}.sigma", spec[0], unit)
 
-    def calibration_si(self) -> dict[str, tuple[float, float]]:
-        """Prior σ and random-walk density (SI) of each estimated quantity, by name."""
+    def calibration_si(self) -> dict[str, tuple[float, float, float]]:
+        """Prior σ, random-walk density and correlation time (SI; inf: none, a random walk) of
+        each estimated quantity, by name."""
         out = {}
         for name in self.estimate or ():
             q = KINDS[self.kind].calibration[name]
@@ -532,7 +544,8 @@ class SensorConfig(_Model):
                 if given.random_walk is None
                 else _pair_si(given.random_walk, q.random_walk_kind, f"{at}.random_walk")
             )
-            out[name] = (float(sigma), float(rw))
+            tau = math.inf if given.tau is None else _pair_si(given.tau, Kind.TIME, f"{at}.tau")
+            out[name] = (float(sigma), float(rw), float(tau))
         return out
 
     def surface_h(self) -> float:

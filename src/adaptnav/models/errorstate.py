@@ -50,20 +50,34 @@ STATE_NAMES: tuple[str, ...] = (
 @dataclass(frozen=True)
 class StateBlock:
     """Error states beyond the core that a sensor or model declares (e.g. a DVL scale factor,
-    an inclinometer bias): the block's name, its states' names and the random-walk PSD driving
-    each (state unit² / s; 0: a constant). Their nominal values follow the core's 16 numbers in
-    the nominal state; feedback adds their error estimate (docs/architecture.md, 'Adding a state
+    an inclinometer bias): the block's name, its states' names, the PSD q driving each (state
+    unit² / s) and, optionally, each state's inverse correlation time 1/τ (1/s). With 1/τ = 0
+    (the default) a state is a random walk, ``b' = w`` (a constant for q = 0); else a first-order
+    Gauss-Markov process ``b' = -b/τ + w``, whose variance settles at ``q τ / 2``
+    (:func:`gauss_markov`). Their nominal values follow the core's 16 numbers in the nominal
+    state; feedback adds their error estimate (docs/architecture.md, 'Adding a state
     block')."""
 
     name: str
     states: tuple[str, ...]
     psd: tuple[float, ...]
+    inv_tau: tuple[float, ...] = ()
+    """Per state 1/τ (1/s); empty: every state a random walk."""
 
     def __post_init__(self) -> None:
         if not self.states or len(self.psd) != len(self.states):
             raise ValueError(f"state block {self.name!r}: one PSD per state, at least one state")
         if not all(math.isfinite(q) and q >= 0.0 for q in self.psd):
             raise ValueError(f"state block {self.name!r}: PSDs must be finite and >= 0")
+        if self.inv_tau and len(self.inv_tau) != len(self.states):
+            raise ValueError(f"state block {self.name!r}: one 1/tau per state, or none")
+        if not all(math.isfinite(r) and r >= 0.0 for r in self.inv_tau):
+            raise ValueError(f"state block {self.name!r}: 1/tau must be finite and >= 0")
+
+    @property
+    def rates(self) -> tuple[float, ...]:
+        """1/τ of each state (0: a random walk)."""
+        return self.inv_tau or (0.0,) * len(self.states)
 
 
 CORE_BLOCKS: dict[str, slice] = {
@@ -80,8 +94,9 @@ CORE_BLOCKS: dict[str, slice] = {
 class StateLayout:
     """The error state: the 15 core states, then the declared blocks in order, with named
     indices. The compiled kernels take their size from P (``adaptnav.compiled``): the core is
-    propagated with its F, each declared block as a random walk (Φ = I, Qd = PSD·T) coupled to
-    the core only through P and the measurements' H."""
+    propagated with its F, each declared state as a random walk or a Gauss-Markov process of its
+    own (:func:`gauss_markov`: Φ diagonal), coupled to the core only through P and the
+    measurements' H."""
 
     extra: tuple[StateBlock, ...] = ()
 
@@ -123,20 +138,57 @@ class StateLayout:
         :func:`noise_psd` for the kernels)."""
         return np.array([q for b in self.extra for q in b.psd], dtype=float)
 
+    def extra_inv_tau(self) -> Array:
+        """The declared states' 1/τ (1/s; 0: a random walk), in order."""
+        return np.array([r for b in self.extra for r in b.rates], dtype=float)
+
+    def kernel_psd(self, core_psd: ArrayLike) -> Array:
+        """What the propagation kernels take as ``q_psd``: the 12 IMU PSDs ``core_psd``
+        (:func:`noise_psd`), then with m declared states their m PSDs and their m 1/τ
+        (adaptnav.compiled.propagation, ``_extra_step``)."""
+        core = np.asarray(core_psd, dtype=float)
+        if not self.extra:
+            return core.copy()
+        return np.concatenate([core, self.extra_psd(), self.extra_inv_tau()])
+
 
 CORE = StateLayout()
 """The paper's 15-state error model alone."""
 
 
-def augment(Phi: ArrayLike, Qd: ArrayLike, extra_psd: ArrayLike, dt: float) -> tuple[Array, Array]:
-    """Φ and Qd of the whole layout from the core's: ``blockdiag(Φ, I)`` and
-    ``blockdiag(Qd, diag(q_e) dt)`` (the declared blocks are random walks, :class:`StateLayout`)."""
+def gauss_markov(psd: ArrayLike, inv_tau: ArrayLike, T: float) -> tuple[Array, Array]:
+    """Each declared state over T: its transition ``d = exp(-T/τ)`` and the variance its driving
+    noise adds, ``∫₀ᵀ e^(-2s/τ) q ds = (q τ / 2)(1 - e^(-2T/τ))``, exact for the first-order
+    Gauss-Markov ``b' = -b/τ + w`` (Groves 2013, §14.2.7; Brown & Hwang, §4.2); ``d = 1`` and
+    ``q T`` for 1/τ = 0 (a random walk)."""
+    q = np.asarray(psd, dtype=float)
+    r = np.asarray(inv_tau, dtype=float)
+    gm = r > 0.0
+    safe = np.where(gm, r, 1.0)
+    d = np.where(gm, np.exp(-T * r), 1.0)
+    qd = np.where(gm, -0.5 * q / safe * np.expm1(-2.0 * T * r), q * T)
+    return d, qd
+
+
+def augment(
+    Phi: ArrayLike,
+    Qd: ArrayLike,
+    extra_psd: ArrayLike,
+    dt: float,
+    extra_inv_tau: ArrayLike | None = None,
+) -> tuple[Array, Array]:
+    """Φ and Qd of the whole layout from the core's: ``blockdiag(Φ, diag(d))`` and
+    ``blockdiag(Qd, diag(q_d))`` with d and q_d of :func:`gauss_markov` (1/τ = 0 when
+    ``extra_inv_tau`` is None: ``blockdiag(Φ, I)``, ``blockdiag(Qd, diag(q) dt)``)."""
     q = np.asarray(extra_psd, dtype=float)
+    r = np.zeros(q.size) if extra_inv_tau is None else np.asarray(extra_inv_tau, dtype=float)
+    d, qd = gauss_markov(q, r, dt)
     n = N_STATES + q.size
-    Phi_n, Qd_n = np.eye(n), np.zeros((n, n))
+    Phi_n, Qd_n = np.zeros((n, n)), np.zeros((n, n))
     Phi_n[:N_STATES, :N_STATES] = Phi
+    Phi_n[N_STATES:, N_STATES:] = np.diag(d)
     Qd_n[:N_STATES, :N_STATES] = Qd
-    Qd_n[N_STATES:, N_STATES:] = np.diag(q * dt)
+    Qd_n[N_STATES:, N_STATES:] = np.diag(qd)
     return Phi_n, Qd_n
 
 
