@@ -20,10 +20,10 @@ from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 
-# Declared error states 15..20: DVL scale, DVL misalignment (3), two biases (the depth uses
-# the first, the inclinometers and the GNSS both).
+# Declared error states 15..21: DVL scale, DVL misalignment (3), three biases (the depth uses
+# the first, the inclinometers and the GNSS two, the DVL all three).
 SCALE, MIS, BIAS = 15, 16, 19
-N = 21
+N = 22
 
 
 def _state(rng: np.random.Generator) -> np.ndarray:
@@ -34,7 +34,7 @@ def _state(rng: np.random.Generator) -> np.ndarray:
     x[10:13], x[13:16] = rng.normal(0, 0.02, 3), rng.normal(0, 1e-3, 3)
     x[SCALE + 1] = rng.normal(0.0, 0.02)
     x[MIS + 1 : MIS + 4] = rng.normal(0.0, 0.05, 3)
-    x[BIAS + 1 : BIAS + 3] = rng.normal(0.0, 0.02, 2)  # rad, or m for the GNSS
+    x[BIAS + 1 : BIAS + 4] = rng.normal(0.0, 0.02, 3)  # rad, m for the GNSS, m/s for the DVL
     return x
 
 
@@ -44,6 +44,8 @@ def _models(rng: np.random.Generator) -> list[Any]:
         DVL(0.01, lever, C, cal_scale=SCALE, cal_misalignment=MIS),
         DVL(0.01, lever, C, cal_misalignment=MIS),
         DVL(0.01, lever, C, cal_scale=SCALE),
+        DVL(0.01, lever, C, cal_scale=SCALE, cal_misalignment=MIS, cal_bias=BIAS),
+        DVL(0.01, lever, C, cal_bias=BIAS),
         DVL(0.01, lever, C),  # no calibration, on a state that has some: zero columns
         Depth(0.05, lever, cal_bias=BIAS),
         Inclinometer(0.002, C, cal_bias=BIAS),
@@ -103,8 +105,11 @@ def test_calibrated_h_against_finite_differences() -> None:
                     minus = _h(model, errorstate.inject(x, -dx), w, f)
                 fd[:, k] = (plus - minus) / (2 * eps)
             np.testing.assert_allclose(m.H, fd, atol=2e-6 * max(1.0, np.abs(fd).max()))
-            if isinstance(model, DVL) and model.cal_scale < 0 and model.cal_misalignment < 0:
-                assert np.all(m.H[:, 15:] == 0.0)
+            if isinstance(model, DVL) and max(model.cal_scale, model.cal_misalignment) < 0:
+                assert np.all(m.H[:, 15:BIAS] == 0.0)  # a bias alone: only its own columns
+                np.testing.assert_array_equal(
+                    m.H[:, BIAS:], np.eye(3) if model.cal_bias >= 0 else np.zeros((3, 3))
+                )
 
 
 @pytest.mark.parametrize("row", [0, 2])
@@ -156,7 +161,7 @@ def test_the_midpoint_jacobian_is_a_secant_of_the_calibrated_dvl() -> None:
 
 def _P(rng: np.random.Generator) -> np.ndarray:
     sig = np.r_[[3.0] * 3, [0.1] * 3, [0.01] * 3, [0.01] * 3, [1e-4] * 3, 0.01, [0.03] * 3, 0.02,
-                0.02]  # fmt: skip
+                0.02, 0.02]  # fmt: skip
     L = np.tril(rng.normal(0.0, 0.3, (N, N)), -1) + np.eye(N)
     P = (sig[:, None] * (L @ L.T)) * sig[None, :]
     return 0.5 * (P + P.T)

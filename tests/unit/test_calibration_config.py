@@ -57,7 +57,7 @@ def test_estimated_quantities_become_blocks_after_the_core_in_order() -> None:
 @pytest.mark.parametrize(
     ("dvl", "message"),
     [
-        ({"estimate": ["bias"]}, "estimate: a dvl sensor cannot estimate 'bias' \\(scale, misal"),
+        ({"estimate": ["offset"]}, "a dvl sensor cannot estimate 'offset' \\(scale, misal"),
         ({"estimate": ["scale", "scale"]}, "names a quantity twice"),
         ({"estimate": ["scale"], "calibration": {"misalignment": {}}},
          "calibration.misalignment: not in estimate"),

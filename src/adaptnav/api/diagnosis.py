@@ -84,8 +84,9 @@ CORRELATED_READINGS = 100
 """Fewer used readings than this are not judged for correlation."""
 CORRELATED_HINT = (
     "the filter takes their errors as independent, so its σ is too small; a GNSS's correlated "
-    'errors: give them a state (estimate = ["bias"]) or thin its fixes (min_interval_s); a '
-    "DVL's: estimate its scale and misalignment "
+    'errors: give them a bias state with their correlation time (estimate = ["bias"], '
+    "calibration.bias.tau) or thin its fixes (min_interval_s); a DVL's: estimate its scale and "
+    "misalignment "
     '(estimate = ["scale", "misalignment"]); docs/robustness.md, "Correlated readings"'
 )
 HINT = (

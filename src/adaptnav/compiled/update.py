@@ -275,7 +275,7 @@ def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: in
             H[k, 3 + c] = row[c]
             H[k, 6 + c] = h_phi[c]
             H[k, 12 + c] = h_bg[c]
-    if a0 == 0 and (par[PAR_CAL] >= 0.0 or par[PAR_CAL + 1] >= 0.0):
+    if a0 == 0 and (par[PAR_CAL] >= 0.0 or par[PAR_CAL + 1] >= 0.0 or par[PAR_CAL + 2] >= 0.0):
         _calibrate_dvl(par, x, z, pred, y, H, r)
 
 
@@ -326,10 +326,10 @@ def _misaligned(d: Vec3, which: int, v: Vec3) -> Vec3:
 @jit
 def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, r: int) -> None:
     """The DVL's calibration states (twin: sensors.dvl.calibrate, calibrate_jacobian):
-    ``h = (1 + s) M(δ) p``, H's core rows mixed by ``(1 + s) M``, ``M p`` on s,
-    ``(1 + s) (∂M/∂δ_i) p`` on δ. Called, not inlined (as are the rotations it uses): it is
-    rare, and inlined it was a third of the linearisations' compile time."""
-    ks, km = int(par[PAR_CAL]), int(par[PAR_CAL + 1])
+    ``h = (1 + s) M(δ) p + b``, H's core rows mixed by ``(1 + s) M``, ``M p`` on s,
+    ``(1 + s) (∂M/∂δ_i) p`` on δ, 1 on each b. Called, not inlined (as are the rotations it
+    uses): it is rare, and inlined it was a third of the linearisations' compile time."""
+    ks, km, kb = int(par[PAR_CAL]), int(par[PAR_CAL + 1]), int(par[PAR_CAL + 2])
     g = 1.0 + x[ks + 1] if ks >= 0 else 1.0
     d = (x[km + 1], x[km + 2], x[km + 3]) if km >= 0 else (0.0, 0.0, 0.0)
     mp = _misaligned(d, -1, p)
@@ -346,6 +346,10 @@ def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, 
             dp = _misaligned(d, i, p)
             for a in range(3):
                 H[r + a, km + i] = g * dp[a]
+    if kb >= 0:
+        for a in range(3):
+            y[r + a] -= x[kb + 1 + a]
+            H[r + a, kb + a] = 1.0
 
 
 @jit_inline

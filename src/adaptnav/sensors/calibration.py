@@ -13,7 +13,8 @@ Conventions (the simulator's, docs/simulation.md, 'Calibration errors'):
 * misalignment ``δ = (roll, pitch, yaw)``: the true sensor frame is the configured one rotated by
   the ZYX Euler angles δ, so a reading is ``M(δ) z_nominal``, ``M = euler_to_dcm(δ)ᵀ``
   (``≈ I - [δ×]``);
-* bias ``b``: the sensor reads the true value plus b.
+* bias ``b``: the sensor reads the true value plus b (a DVL's after its scale and
+  misalignment: ``(1 + s) M(δ) h + b``, b in the DVL's frame).
 """
 
 from __future__ import annotations
@@ -77,6 +78,20 @@ TILT_BIAS = Quantity(
     180.0 / math.pi,
 )
 """An inclinometer's roll and pitch biases (its mounting and zero): 0.5° each."""
+DVL_BIAS = Quantity(
+    "bias",
+    ("bias_x", "bias_y", "bias_z"),
+    0.005,
+    0.0,
+    Kind.SPEED,
+    Kind.VELOCITY_RANDOM_WALK,
+    "mm/s",
+    1000.0,
+)
+"""A DVL's velocity bias in its own frame (the transducers' beam geometry and electronics, a
+bottom that moves with the water, sound speed over the beams): 5 mm/s per axis a priori (a
+datasheet's "± 2-5 mm/s" beside its scale term), constant by default; with a correlation time
+it follows an error that wanders (docs/calibration.md, 'DVL bias')."""
 GNSS_BIAS = Quantity(
     "bias", ("bias_N", "bias_E"), 2.5, 0.0, Kind.LENGTH, Kind.LENGTH_RANDOM_WALK, "m", 1.0
 )
@@ -98,7 +113,8 @@ def regressors(quantity: Quantity, z: ArrayLike) -> tuple[Array, ...] | None:
         return (za,)
     if quantity == MISALIGNMENT and za.shape[1] == 3:
         return tuple(np.cross(np.eye(3)[a], za) for a in range(3))
-    if quantity in (DEPTH_BIAS, TILT_BIAS, GNSS_BIAS) and za.shape[1] >= len(quantity.states):
+    biases = (DEPTH_BIAS, TILT_BIAS, GNSS_BIAS, DVL_BIAS)
+    if quantity in biases and za.shape[1] >= len(quantity.states):
         return tuple(
             np.tile(np.eye(za.shape[1])[j], (len(za), 1)) for j in range(len(quantity.states))
         )

@@ -16,10 +16,10 @@ and ``b_g,true = b_g + db_g``::
     H_phi  = C_sb Cᵀ [v_n×]              (-Cᵀ phi × v = Cᵀ v × phi)
     H_dbg  = C_sb [l_b×]                 (-(db_g × l) = l × db_g)
 
-With its calibration states (docs/calibration.md), scale s and misalignment δ, the DVL reads
-``z = (1 + s) M(δ) h``, M of sensors/calibration.py: H becomes ``(1 + s) M H``, and its columns
-are ``M h`` on s and ``(1 + s) (∂M/∂δ_i) h`` on δ (:func:`calibrate`,
-:func:`calibrate_jacobian`).
+With its calibration states (docs/calibration.md), scale s, misalignment δ and bias b (DVL
+frame), the DVL reads ``z = (1 + s) M(δ) h + b``, M of sensors/calibration.py: H becomes
+``(1 + s) M H``, and its columns are ``M h`` on s, ``(1 + s) (∂M/∂δ_i) h`` on δ and the
+identity on b (:func:`calibrate`, :func:`calibrate_jacobian`).
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ from adaptnav.sensors.base import (
     check_vector3,
 )
 from adaptnav.sensors.calibration import (
+    DVL_BIAS,
     MISALIGNMENT,
     SCALE,
     misalignment,
@@ -114,13 +115,18 @@ def _calibration(x: Array, scale: int, mis: int) -> tuple[float, Array]:
     return gain, (x[mis + 1 : mis + 4] if mis >= 0 else np.zeros(3))
 
 
-def calibrate(x: ArrayLike, h: Array, scale: int, mis: int) -> Array:
-    """The calibrated reading ``(1 + s) M(δ) h`` of the error-free ``h`` (module docstring)."""
-    gain, d = _calibration(np.asarray(x, dtype=float), scale, mis)
-    return np.asarray(gain * misalignment(d) @ h, dtype=float)
+def calibrate(x: ArrayLike, h: Array, scale: int, mis: int, bias: int = -1) -> Array:
+    """The calibrated reading ``(1 + s) M(δ) h + b`` of the error-free ``h`` (module
+    docstring; ``bias``: the error-state index of b_x, -1: none)."""
+    xa = np.asarray(x, dtype=float)
+    gain, d = _calibration(xa, scale, mis)
+    b = xa[bias + 1 : bias + 4] if bias >= 0 else np.zeros(3)
+    return np.asarray(gain * misalignment(d) @ h + b, dtype=float)
 
 
-def calibrate_jacobian(x: ArrayLike, h: Array, H: Array, scale: int, mis: int) -> Array:
+def calibrate_jacobian(
+    x: ArrayLike, h: Array, H: Array, scale: int, mis: int, bias: int = -1
+) -> Array:
     """H of the calibrated reading (module docstring) from the error-free ``h`` and the core's
     ``H`` (3×15): a column per error state of x (15 + m)."""
     xa = np.asarray(x, dtype=float)
@@ -132,6 +138,8 @@ def calibrate_jacobian(x: ArrayLike, h: Array, H: Array, scale: int, mis: int) -
     if mis >= 0:
         for i, dM in enumerate(misalignment_derivatives(d)):
             out[:, mis + i] = gain * dM @ h
+    if bias >= 0:
+        out[:, bias : bias + 3] += np.eye(3)
     return out
 
 
@@ -144,8 +152,9 @@ class DVL(Components):
         l_b: lever arm from the IMU to the DVL, body FRD (m).
         C_sb: mounting rotation, DVL frame from body frame (identity: DVL axes = body axes).
         name: sensor name; components are named ``{name}_x``, ``_y``, ``_z``.
-        cal_scale, cal_misalignment: error-state indices of its scale state and its first
-            misalignment state (docs/calibration.md); -1: not estimated.
+        cal_scale, cal_misalignment, cal_bias: error-state indices of its scale state, its first
+            misalignment state and its first bias state (docs/calibration.md); -1: not
+            estimated.
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("x", "y", "z")
@@ -159,6 +168,7 @@ class DVL(Components):
     name: str = "dvl"
     cal_scale: int = -1
     cal_misalignment: int = -1
+    cal_bias: int = -1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, DIM))
@@ -168,7 +178,8 @@ class DVL(Components):
 
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        return pack_params(self.l_b, self.C_sb, calibration=(self.cal_scale, self.cal_misalignment))
+        cal = (self.cal_scale, self.cal_misalignment, self.cal_bias)
+        return pack_params(self.l_b, self.C_sb, calibration=cal)
 
     @property
     def midpoint_update(self) -> bool:
@@ -185,7 +196,8 @@ class DVL(Components):
         H = jacobian(core, self.l_b, self.C_sb)
         if x.size == NOM_SIZE:
             return h, H
-        return h, calibrate_jacobian(x, h, H, self.cal_scale, self.cal_misalignment)
+        cal = (self.cal_scale, self.cal_misalignment, self.cal_bias)
+        return h, calibrate_jacobian(x, h, H, *cal)
 
     def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`predict` (and :func:`calibrate` for a state with declared states);
@@ -194,7 +206,7 @@ class DVL(Components):
         h = predict(xa[:NOM_SIZE], omega_ib_b, self.l_b, self.C_sb)
         if xa.size == NOM_SIZE:
             return h
-        return calibrate(xa, h, self.cal_scale, self.cal_misalignment)
+        return calibrate(xa, h, self.cal_scale, self.cal_misalignment, self.cal_bias)
 
     def jacobian(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
         """See :func:`jacobian` (and :func:`calibrate_jacobian`: 3 × (15 + m) for a state with
@@ -217,7 +229,7 @@ class DVL(Components):
         xa = np.asarray(x, dtype=float)
         h, H = self._calibrated(xa, omega_ib_b)
         if xa.size > NOM_SIZE:
-            h = calibrate(xa, h, self.cal_scale, self.cal_misalignment)
+            h = calibrate(xa, h, self.cal_scale, self.cal_misalignment, self.cal_bias)
         return Measurement(zz - h, H, self.R, self.names)
 
 
@@ -253,6 +265,7 @@ KIND = SensorKind(
         s.name,
         s.calibration.get("scale", -1),
         s.calibration.get("misalignment", -1),
+        s.calibration.get("bias", -1),
     ),
     limits={c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in COLUMNS},
     stuck=StuckDefault(DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in COLUMNS}),
@@ -260,7 +273,7 @@ KIND = SensorKind(
     mounting=True,
     options=frozenset({"zero_is_lost", "status_column", "spike_mads", "after_gap_s"}),
     linearised=(DVL,),
-    calibration={q.name: q for q in (SCALE, MISALIGNMENT)},
+    calibration={q.name: q for q in (SCALE, MISALIGNMENT, DVL_BIAS)},
     ideal_reading=ideal,
 )
 """The DVL as a sensor kind (sensors/kind.py): |velocity| <= 20 m/s per axis; stuck after 10 s

@@ -36,22 +36,27 @@ Array = NDArray[np.float64]
 
 N_PAR = 16
 """Packed linearisation parameters: ``[l_b (3) | C_sb (9, row-major) | flag | calibration
-state indices (2) | unused]``; ``flag`` is a kind's one scalar (GNSS: use_height; depth: the
-water surface's height)."""
+state indices (3)]``; ``flag`` is a kind's one scalar (GNSS: use_height; depth: the water
+surface's height)."""
 PAR_LB, PAR_CSB, PAR_FLAG, PAR_CAL = 0, 3, 12, 13
-"""``par[PAR_CAL]``, ``par[PAR_CAL + 1]``: error-state indices of the model's calibration blocks
-(sensors/calibration.py; -1: none), as the model's class defines them."""
+"""``par[PAR_CAL]``, ``par[PAR_CAL + 1]``, ``par[PAR_CAL + 2]``: error-state indices of the
+model's calibration blocks (sensors/calibration.py; -1: none), as the model's class defines
+them."""
 
 
 def pack_params(
     l_b: ArrayLike | None = None,
     C_sb: ArrayLike | None = None,
     flag: float = 0.0,
-    calibration: tuple[int, int] = (-1, -1),
+    calibration: tuple[int, ...] = (-1, -1, -1),
 ) -> Array:
-    """A model's parameters as the compiled ``linearise`` reads them (:data:`N_PAR`)."""
+    """A model's parameters as the compiled ``linearise`` reads them (:data:`N_PAR`); up to three
+    calibration indices, the rest -1."""
+    if len(calibration) > N_PAR - PAR_CAL:
+        raise ValueError(f"at most {N_PAR - PAR_CAL} calibration blocks, got {calibration}")
     par = np.zeros(N_PAR)
-    par[PAR_CAL : PAR_CAL + 2] = calibration
+    par[PAR_CAL:] = -1.0
+    par[PAR_CAL : PAR_CAL + len(calibration)] = calibration
     par[PAR_CSB : PAR_CSB + 9] = np.eye(3).ravel()
     if l_b is not None:
         par[PAR_LB : PAR_LB + 3] = np.asarray(l_b, dtype=float)
