@@ -202,9 +202,10 @@ def node(sm: Store, t: float, x: Array, P: Array, dx: Array, prior: Array) -> in
     for a in range(6):
         phi[PHI_DIAG + a] = acc[9 + a, 9 + a] if steps else 1.0
     rates = sm[SM_TAU]
-    span = t - sm[SM_T][j - 1] if steps and j > 0 else 0.0
-    for a in range(rates.shape[0]):
-        phi[N_PHI + a] = math.exp(-span * rates[a]) if rates[a] > 0.0 else 1.0
+    if rates.shape[0] > 0:
+        span = t - sm[SM_T][j - 1] if steps and j > 0 else 0.0
+        for a in range(rates.shape[0]):
+            phi[N_PHI + a] = math.exp(-span * rates[a]) if rates[a] > 0.0 else 1.0
     if prior.shape[0] > 0 and not math.isnan(prior[0, 0]):
         m = counts[K_PRIORS]
         pack(prior, sm[SM_PM][m])
@@ -358,7 +359,9 @@ def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
             acc[0, c] += psi[i * CORE + c] * phi[PHI_DIAG + c - 9]
         for c in range(CORE):
             psi[i * CORE + c] = acc[0, c]
-    for a in range(PHI_DIAG, psi.shape[0]):
+    for a in range(6):
+        psi[PHI_DIAG + a] *= phi[PHI_DIAG + a]
+    for a in range(N_PHI, psi.shape[0]):
         psi[a] *= phi[a]
 
 
