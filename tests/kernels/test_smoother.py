@@ -125,11 +125,9 @@ def _batch_posterior(model: dict[str, Array]) -> tuple[Array, Array]:
     return (cov @ h).reshape(N, n), cov
 
 
-def test_rts_is_the_exact_posterior_of_a_linear_gaussian_model(
-    linear: tuple[smoother.Nodes, Array, dict[str, Array]],
-) -> None:
-    nodes, means, model = linear
-    _, P_s, e_s = smoother.rts(nodes)
+def _assert_posterior(means: Array, e_s: Array, P_s: Array, model: dict[str, Array]) -> None:
+    """The filtered means plus the smoothed errors, and the smoothed covariances, are the
+    batch posterior's (:func:`_batch_posterior`), in units of its σ."""
     mu, cov = _batch_posterior(model)
     n = means.shape[1]
     for j in range(means.shape[0]):
@@ -138,6 +136,27 @@ def test_rts_is_the_exact_posterior_of_a_linear_gaussian_model(
         np.testing.assert_allclose((means[j] + e_s[j] - mu[j]) / sd, 0.0, atol=1e-7)
         np.testing.assert_allclose(P_s[j] / np.outer(sd, sd), block / np.outer(sd, sd),
                                    atol=1e-7)  # fmt: skip
+
+
+def _assert_store(sm: smk.Store, x_s: Array, P_s: Array) -> None:
+    """The compiled pass's store holds the readable pass's smoothed x and P (P in units of its
+    σ)."""
+    N, n = P_s.shape[0], P_s.shape[1]
+    np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
+    got = np.zeros((N, n, n))
+    for j in range(N):
+        smk.unpack(sm[smk.SM_P][j], got[j], n)
+    sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
+    np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
+                               P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip
+
+
+def test_rts_is_the_exact_posterior_of_a_linear_gaussian_model(
+    linear: tuple[smoother.Nodes, Array, dict[str, Array]],
+) -> None:
+    nodes, means, model = linear
+    _, P_s, e_s = smoother.rts(nodes)
+    _assert_posterior(means, e_s, P_s, model)
     # the smoother used what came after: it differs from the filter but at the last node
     assert np.abs(e_s[:-1]).max() > 0.0 and np.all(e_s[-1] == 0.0)
     assert np.all(np.diag(P_s[0]) < np.diag(nodes.P[0]))
@@ -220,13 +239,7 @@ def test_compiled_backward_equals_the_twin(
     sm = _store(nodes)
     smk.backward(sm, reset)
     assert sm[smk.SM_COUNT][smk.K_FAILED] == 0
-    np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
-    got = np.zeros((N, n, n))
-    for j in range(N):
-        smk.unpack(sm[smk.SM_P][j], got[j], n)
-    sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
-    np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
-                               P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip
+    _assert_store(sm, x_s, P_s)
 
 
 @pytest.mark.parametrize(("threads", "chunk"), [(1, 2), (2, 1), (2, 3), (3, 2), (7, 0)])
@@ -327,23 +340,11 @@ def test_gauss_markov_declared_states_smooth_exactly(rates: tuple[float, float])
     pass, whose store has their Φ from the node times and 1/τ alone, equals it."""
     nodes, means, model = _kalman(0.5, rates)
     x_s, P_s, e_s = smoother.rts(nodes)
-    mu, cov = _batch_posterior(model)
-    N, n = means.shape
-    for j in range(N):
-        block = cov[j * n : (j + 1) * n, j * n : (j + 1) * n]
-        sd = np.sqrt(np.diag(block))
-        np.testing.assert_allclose((means[j] + e_s[j] - mu[j]) / sd, 0.0, atol=1e-7)
-        np.testing.assert_allclose(P_s[j] / np.outer(sd, sd), block / np.outer(sd, sd),
-                                   atol=1e-7)  # fmt: skip
+    _assert_posterior(means, e_s, P_s, model)
+    N = means.shape[0]
     assert np.abs(e_s[:-1, 15:]).max() > 0.0  # the declared states were smoothed too
     sm = _store(nodes, rates)
     np.testing.assert_allclose(sm[smk.SM_PHI][1:N, smk.N_PHI :], np.exp(-np.array(rates))[None]
                                .repeat(N - 1, 0), rtol=1e-15)  # fmt: skip
     smk.backward(sm, False, 2, 3)
-    np.testing.assert_allclose(sm[smk.SM_X][:N], x_s, rtol=1e-12, atol=1e-12)
-    got = np.zeros((N, n, n))
-    for j in range(N):
-        smk.unpack(sm[smk.SM_P][j], got[j], n)
-    sd = np.sqrt(np.diagonal(P_s, axis1=1, axis2=2))
-    np.testing.assert_allclose(got / (sd[:, :, None] * sd[:, None, :]),
-                               P_s / (sd[:, :, None] * sd[:, None, :]), atol=1e-9)  # fmt: skip
+    _assert_store(sm, x_s, P_s)
