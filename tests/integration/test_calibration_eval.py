@@ -57,3 +57,29 @@ def test_agreement_is_the_weighted_mean_and_the_chi_square_of_the_spread() -> No
     assert float(mean) == pytest.approx(0.5) and chi2 == "4.5 on 2" and inside == "3/3"
     text = SCRIPT.akit_section(rows)
     assert "smoothed / forward 0.500 and 0.500" in text and text.count("**PASS**") == 4
+
+
+def test_the_timing_table_gives_means_spreads_and_the_named_segments_roll() -> None:
+    """Two shifts of three segments: the means of the error and the NEES, each estimate's χ²
+    about its weighted mean (roll 0, 0, 0.3 with σ 0.1: mean 0.1, χ² 1 + 1 + 4 = 6 on 2), and
+    the roll of the segments the table names."""
+
+    def rows(roll: float) -> list[dict[str, Any]]:
+        out = []
+        for n, r in zip((7, 8, 9), (0.0, 0.0, roll), strict=True):
+            one = {k: 0.0 for k in SCRIPT.AKIT_STATES} | {
+                f"sd_{k}": 0.1 for k in SCRIPT.AKIT_STATES
+            }
+            out.append(one | {"segment": n, "rel_pct": 0.1 * n, "nees": 3.0,
+                              "dvl.misalignment_roll": r})  # fmt: skip
+        return out
+
+    text = SCRIPT.timing_section({0.0: rows(0.3), 0.1: rows(0.0)})
+    lines = [
+        line
+        for line in text.splitlines()
+        if line.startswith("| 0 (as") or line.startswith("| +0.1")
+    ]
+    assert lines[0] == "| 0 (as recorded) | 0.800 | 3.00 | 0.0 | 6.0 | 0.0 | 0.0 | +0.00°, +0.30° |"
+    assert lines[1] == "| +0.1 | 0.800 | 3.00 | 0.0 | 0.0 | 0.0 | 0.0 | +0.00°, +0.00° |"
+    assert "on 2 degrees of freedom" in text
