@@ -183,6 +183,10 @@ PLAUSIBLE = "is not a plausible standard deviation"
          "(got 1e-300)"),
         (lambda d: d["initial"].update(sigma_attitude_deg=500.0), "initial.sigma_attitude_deg",
          "180"),
+        (lambda d: d["sensors"]["dvl"].update(latency_s=1000.0), "sensors.dvl.latency_s",
+         "less than or equal to 60"),
+        (lambda d: d["sensors"]["dvl"].update(latency_s=float("nan")), "sensors.dvl.latency_s",
+         "finite"),
     ],
 )  # fmt: skip
 def test_absurd_sigmas_and_heights_are_errors_naming_the_key(

@@ -128,6 +128,9 @@ class Stream:
         self._screens = {
             n: LiveScreen(n, c, periods.get(n, math.nan)) for n, c in cfg.sensors.items()
         }
+        self._latency = {n: c.latency_s or 0.0 for n, c in cfg.sensors.items()}
+        self._lag = max([0.0, *self._latency.values()])
+        """How far the IMU is held behind its newest stamp: the largest ``latency_s``."""
         self._rows = dict.fromkeys(cfg.sensors, 0)
         gnss = [n for n, c in cfg.sensors.items() if c.kind == "gnss" and c.use != "off"]
         self._fix_sensor = gnss[0] if gnss else None
@@ -206,7 +209,8 @@ class Stream:
             raise ValueError(f"{sensor}: a reading has {cfg.dim} value(s) {cfg.columns}, got {zz}")
         r = row if row is not None else self._rows[sensor]
         self._rows[sensor] = r + 1
-        self._route(sensor, *self._screens[sensor].push(Reading(float(t), zz, int(r)), lock))
+        at = float(t) - self._latency[sensor]  # the reading's own time (latency_s)
+        self._route(sensor, *self._screens[sensor].push(Reading(at, zz, int(r)), lock))
         self._hold = min(s.held_from for s in self._screens.values())
         return self._advance()
 
@@ -281,8 +285,17 @@ class Stream:
         for, and return the solution rows that determined."""
         if self._nav is None and not self._try_start():
             return []
-        self._feed_imu(self._hold)
+        self._feed_imu(self._horizon())
         return self._new_rows()
+
+    def _horizon(self) -> float:
+        """The IMU is integrated up to (not including) this time: the oldest reading a screen
+        holds back and, with a ``latency_s``, the newest IMU stamp less the largest latency (a
+        reading still to come, stamped after that sample, may be that much older than its
+        stamp)."""
+        if self._lag > 0.0:
+            return min(self._hold, self._t_imu - self._lag)
+        return self._hold
 
     def _feed_imu(self, before: float) -> None:
         nav, imu = self._nav, self._imu
@@ -304,7 +317,7 @@ class Stream:
             if imu[-1][0] <= start + ini.alignment_s:  # before the median: once per sample
                 return False
             stop = start + ini.alignment_s + 0.5 * float(np.median([s[1] for s in imu]))
-            if imu[-1][0] <= stop or self._hold <= stop:  # as align._window_samples
+            if imu[-1][0] <= stop or self._horizon() <= stop:  # as align._window_samples
                 return False
         fixes: dict[str, SensorData] = {}
         if self._fix_sensor is not None and self._fixes:
@@ -418,12 +431,14 @@ def replay(mission: Mission) -> Iterator[Item]:
     """A recorded mission's inputs as a stream would receive them: every IMU interval and every
     reading the loader kept (of every configured sensor, off ones included), in time order; at
     one stamp, readings before the IMU sample (the batch engine's order: a reading stamped at the
-    end of an interval is used in it)."""
+    end of an interval is used in it). A sensor's readings carry their stamps as recorded: the
+    loader's times plus its ``latency_s``."""
     imu = mission.imu
     z = np.hstack([imu.dtheta, imu.dvel])
     streams = [_keyed(IMU, 1, imu.t, z, np.arange(imu.t.size), imu.dt)]
     for name, d in {**mission.sensors, **mission.off}.items():
-        streams.append(_keyed(name, 0, d.t, d.z, d.rows, np.full(d.t.size, math.nan)))
+        stamps = d.t + (mission.config.sensors[name].latency_s or 0.0)
+        streams.append(_keyed(name, 0, stamps, d.z, d.rows, np.full(d.t.size, math.nan)))
     for _, _, item in heapq.merge(*streams, key=lambda e: (e[0], e[1])):
         yield item
 

@@ -389,6 +389,12 @@ class SensorConfig(_Model):
     taken as stuck (a frozen sensor or driver): the readings of such a run after its first are
     dropped at load (ledger: "stuck"). 0: no detection; None: the kind's default,
     :data:`STUCK_DEFAULTS`. docs/robustness.md."""
+    latency_s: Annotated[float, Field(ge=-60.0, le=60.0, allow_inf_nan=False)] | None = None
+    """How much older a reading is than its stamp (s): a DVL's ping-to-output delay, a GNSS
+    receiver's position latency, a logger that stamps on arrival. The readings are taken at
+    ``t_s - latency_s`` (at load, before any screening: the ledger's times are those; a stream
+    holds the IMU back by the largest latency so that a reading still to come is never late).
+    None or 0: as stamped. docs/data-format.md, 'Latency'."""
     min_interval_s: NonNegative | None = None
     """Shortest time (s) between two readings kept: a reading less than this after the last
     one kept is dropped at load (ledger: "thinned"). For readings whose errors are correlated

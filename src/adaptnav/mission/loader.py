@@ -428,6 +428,10 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
         )
     t, z, used = take_columns(table, cfg.columns, f"sensor {name!r}", journal)
     check_order(table, t)
+    if cfg.latency_s:  # the readings' own times (docs/data-format.md, 'Latency')
+        t = t - cfg.latency_s
+        log.info("sensor %r: readings taken %g s before their stamps (latency_s)", name,
+                 cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
     keep = np.ones(t.size, dtype=bool)
