@@ -141,16 +141,20 @@ def logs(original: Path, tmp_path_factory: pytest.TempPathFactory) -> list[Path]
     return paths
 
 
-@pytest.fixture(scope="module")
-def imported(original: Path, logs: list[Path], tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("imp") / "mission"
+def _import(original: Path, logs: list[Path], out: Path, *options: str) -> Path:
+    """``adaptnav import nmea`` of ``logs`` onto ``original`` (fixes as ``gps``) into ``out``."""
     result = runner.invoke(
         app,
         ["import", "nmea", *map(str, logs), "--mission", str(original), "--t0-utc",
-         T0.isoformat(), "--gnss-name", "gps", "--sigma-m", "2.915", "--out", str(out)],
+         T0.isoformat(), "--gnss-name", "gps", *options, "--out", str(out)],
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     return out
+
+
+@pytest.fixture(scope="module")
+def imported(original: Path, logs: list[Path], tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _import(original, logs, tmp_path_factory.mktemp("imp") / "mission", "--sigma-m", "2.915")
 
 
 # --- known sentences -----------------------------------------------------------------------------
@@ -225,14 +229,7 @@ def test_min_interval_s_goes_into_the_gnss_section(
     """``--min-interval-s 30`` writes ``min_interval_s = 30`` into ``[sensors.gps]``, and the
     mission then keeps fixes at least 30 s apart (on the code before, the option did not
     exist)."""
-    out = tmp_path / "m"
-    result = runner.invoke(
-        app,
-        ["import", "nmea", *map(str, logs), "--mission", str(original), "--t0-utc",
-         T0.isoformat(), "--gnss-name", "gps", "--min-interval-s", "30", "--out", str(out)],
-    )  # fmt: skip
-    assert result.exit_code == 0, result.output
-    m = load_mission(out)
+    m = load_mission(_import(original, logs, tmp_path / "m", "--min-interval-s", "30"))
     assert m.config.sensors["gps"].min_interval_s == 30.0
     assert np.diff(m.sensors["gps"].t).min() >= 30.0
     assert any(d.reason.startswith("thinned: ") for d in m.dropped)

@@ -329,7 +329,7 @@ def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, 
     ``h = (1 + s) M(δ) p + b``, H's core rows mixed by ``(1 + s) M``, ``M p`` on s,
     ``(1 + s) (∂M/∂δ_i) p`` on δ, 1 on each b. Called, not inlined (as are the rotations it
     uses): it is rare, and inlined it was a third of the linearisations' compile time."""
-    ks, km, kb = int(par[PAR_CAL]), int(par[PAR_CAL + 1]), int(par[PAR_CAL + 2])
+    ks, km = int(par[PAR_CAL]), int(par[PAR_CAL + 1])
     g = 1.0 + x[ks + 1] if ks >= 0 else 1.0
     d = (x[km + 1], x[km + 2], x[km + 3]) if km >= 0 else (0.0, 0.0, 0.0)
     mp = _misaligned(d, -1, p)
@@ -346,10 +346,7 @@ def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, 
             dp = _misaligned(d, i, p)
             for a in range(3):
                 H[r + a, km + i] = g * dp[a]
-    if kb >= 0:
-        for a in range(3):
-            y[r + a] -= x[kb + 1 + a]
-            H[r + a, kb + a] = 1.0
+    _bias(par, x, y, H, r, 3, 2)
 
 
 @jit_inline
@@ -365,10 +362,10 @@ def _lin_depth(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> No
 
 
 @jit_inline
-def _bias(par: Array, x: Array, y: Array, H: Array, r: int, d: int) -> None:
-    """A reading plus its bias states from error index ``par[PAR_CAL]`` (-1: none): ``y -= b``,
-    1 on each bias (twin: sensors.calibration.bias, bias_jacobian)."""
-    kb = int(par[PAR_CAL])
+def _bias(par: Array, x: Array, y: Array, H: Array, r: int, d: int, slot: int = 0) -> None:
+    """A reading plus its d bias states from error index ``par[PAR_CAL + slot]`` (-1: none):
+    ``y -= b``, 1 on each bias (twin: sensors.calibration.bias, bias_jacobian)."""
+    kb = int(par[PAR_CAL + slot])
     if kb >= 0:
         for a in range(d):
             y[r + a] -= x[kb + 1 + a]

@@ -45,15 +45,10 @@ class CalibrationState:
     def block(self) -> StateBlock:
         """Its states: a random walk of PSD ``random_walk²``, or with a finite τ a Gauss-Markov
         process that keeps the prior σ (PSD ``2σ²/τ``: steady variance ``q τ / 2 = σ²``)."""
+        rate = 0.0 if math.isinf(self.tau) else 1.0 / self.tau
+        q = 2.0 * self.sigma**2 * rate if rate > 0.0 else self.random_walk**2
         n = len(self.names)
-        if math.isinf(self.tau):
-            return StateBlock(
-                f"{self.sensor}.{self.quantity.name}", self.names, (self.random_walk**2,) * n
-            )
-        q = 2.0 * self.sigma**2 / self.tau
-        return StateBlock(
-            f"{self.sensor}.{self.quantity.name}", self.names, (q,) * n, (1.0 / self.tau,) * n
-        )
+        return StateBlock(f"{self.sensor}.{self.quantity.name}", self.names, (q,) * n, (rate,) * n)
 
 
 def calibration_states(cfg: MissionConfig) -> tuple[CalibrationState, ...]:

@@ -55,6 +55,7 @@ from adaptnav.mission.screening import (
     SPIKE_REACH_PERIODS,
     STUCK_MIN_READINGS,
     spike_mask,
+    thinned_mask,
 )
 from adaptnav.mission.tables import DroppedRow
 
@@ -132,20 +133,20 @@ class LiveScreen:
     ) -> tuple[list[Reading], list[DroppedRow]]:
         """Drop the released readings less than ``min_interval_s`` after the last one kept (a
         reading without a finite value is passed on and does not count)."""
-        if not self._min_interval > 0.0:
+        if not self._min_interval > 0.0 or not released:
             return released, dropped
+        usable = [bool(np.any(np.isfinite(r.z))) for r in released]
+        thin = thinned_mask([r.t for r in released], self._min_interval, usable, self._t_kept)
         out: list[Reading] = []
         drops = list(dropped)
-        for r in released:
-            after = r.t - self._t_kept
-            if not np.any(np.isfinite(r.z)):
-                out.append(r)
-            elif after < self._min_interval:
-                why = thinned_reason(after, self._min_interval)
+        for r, counts, drop in zip(released, usable, thin.tolist(), strict=True):
+            if drop:
+                why = thinned_reason(r.t - self._t_kept, self._min_interval)
                 drops.append(DroppedRow(self.name, r.row, r.t, why))
-            else:
+                continue
+            out.append(r)
+            if counts:
                 self._t_kept = r.t
-                out.append(r)
         return out, drops
 
     def _first_check(self, r: Reading, lock: bool) -> str | None:

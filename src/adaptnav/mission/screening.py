@@ -289,20 +289,23 @@ def after_gap_mask(
 
 
 def thinned_mask(
-    t: ArrayLike, min_interval_s: float, usable: ArrayLike | None = None
+    t: ArrayLike,
+    min_interval_s: float,
+    usable: ArrayLike | None = None,
+    last: float = -np.inf,
 ) -> NDArray[np.bool_]:
     """Which readings (n,) at times ``t`` (increasing) to drop so that the ones kept are at
     least ``min_interval_s`` apart (docs/robustness.md, 'Correlated readings'): greedily in
     time order, a reading less than ``min_interval_s`` after the last one kept is dropped, so
     the first reading of every stretch is kept. ``usable`` (n,) marks the readings that count:
-    one that does not (no finite value) is neither kept as an anchor nor dropped.
-    ``min_interval_s`` ≤ 0 drops none."""
+    one that does not (no finite value) is neither kept as an anchor nor dropped. ``last``: the
+    time of the reading kept before these (a stream's earlier ones). ``min_interval_s`` ≤ 0
+    drops none."""
     tt = np.asarray(t, dtype=float)
     out = np.zeros(tt.size, dtype=bool)
     if not min_interval_s > 0.0:
         return out
     ok = np.ones(tt.size, dtype=bool) if usable is None else np.asarray(usable, dtype=bool)
-    last = -np.inf
     for i in np.flatnonzero(ok).tolist():
         if tt[i] - last < min_interval_s:
             out[i] = True

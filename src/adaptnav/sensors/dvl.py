@@ -53,6 +53,7 @@ from adaptnav.sensors.calibration import (
     misalignment_derivatives,
     widen,
 )
+from adaptnav.sensors.calibration import bias as nominal_bias
 from adaptnav.sensors.kind import (
     MAX_SPEED_M_S,
     SPEED_RESOLUTION_M_S,
@@ -120,8 +121,7 @@ def calibrate(x: ArrayLike, h: Array, scale: int, mis: int, bias: int = -1) -> A
     docstring; ``bias``: the error-state index of b_x, -1: none)."""
     xa = np.asarray(x, dtype=float)
     gain, d = _calibration(xa, scale, mis)
-    b = xa[bias + 1 : bias + 4] if bias >= 0 else np.zeros(3)
-    return np.asarray(gain * misalignment(d) @ h + b, dtype=float)
+    return np.asarray(gain * misalignment(d) @ h + nominal_bias(xa, bias, DIM), dtype=float)
 
 
 def calibrate_jacobian(
