@@ -20,10 +20,10 @@ from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
 from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 
-# Declared error states 15..21: DVL scale, DVL misalignment (3), three biases (the depth uses
-# the first, the inclinometers and the GNSS two, the DVL all three).
-SCALE, MIS, BIAS = 15, 16, 19
-N = 22
+# Declared error states 15..22: DVL scale, DVL misalignment (3), three biases (the depth uses
+# the first, the inclinometers and the GNSS two, the DVL all three), the DVL's latency.
+SCALE, MIS, BIAS, LAT = 15, 16, 19, 22
+N = 23
 
 
 def _state(rng: np.random.Generator) -> np.ndarray:
@@ -35,6 +35,7 @@ def _state(rng: np.random.Generator) -> np.ndarray:
     x[SCALE + 1] = rng.normal(0.0, 0.02)
     x[MIS + 1 : MIS + 4] = rng.normal(0.0, 0.05, 3)
     x[BIAS + 1 : BIAS + 4] = rng.normal(0.0, 0.02, 3)  # rad, m for the GNSS, m/s for the DVL
+    x[LAT + 1] = rng.normal(0.0, 0.2)  # s
     return x
 
 
@@ -47,6 +48,8 @@ def _models(rng: np.random.Generator) -> list[Any]:
         DVL(0.01, lever, C, cal_scale=SCALE, cal_misalignment=MIS, cal_bias=BIAS),
         DVL(0.01, lever, C, cal_bias=BIAS),
         DVL(0.01, lever, C),  # no calibration, on a state that has some: zero columns
+        DVL(0.01, lever, C, cal_latency=LAT),
+        DVL(0.01, lever, C, "dvl", SCALE, MIS, BIAS, LAT),
         Depth(0.05, lever, cal_bias=BIAS),
         Inclinometer(0.002, C, cal_bias=BIAS),
         PendulumInclinometer(0.002, C, cal_bias=BIAS),
@@ -57,14 +60,14 @@ def _models(rng: np.random.Generator) -> list[Any]:
 
 def _h(model: Any, x: np.ndarray, w: np.ndarray, f: np.ndarray) -> np.ndarray:
     if isinstance(model, DVL):
-        return np.asarray(model.predict(x, w))
+        return np.asarray(model.predict(x, w, f))
     if isinstance(model, PendulumInclinometer):
         return np.asarray(model.predict(x, f))
     return np.atleast_1d(np.asarray(model.predict(x)))
 
 
 def _measurement(model: Any, x: np.ndarray, z: np.ndarray, w: np.ndarray, f: np.ndarray) -> Any:
-    if isinstance(model, PendulumInclinometer):
+    if isinstance(model, PendulumInclinometer | DVL):
         return model.evaluate(x, z, w, f)
     return model.evaluate(x, z, w)
 
@@ -108,8 +111,10 @@ def test_calibrated_h_against_finite_differences() -> None:
             if isinstance(model, DVL) and max(model.cal_scale, model.cal_misalignment) < 0:
                 assert np.all(m.H[:, 15:BIAS] == 0.0)  # a bias alone: only its own columns
                 np.testing.assert_array_equal(
-                    m.H[:, BIAS:], np.eye(3) if model.cal_bias >= 0 else np.zeros((3, 3))
+                    m.H[:, BIAS:LAT], np.eye(3) if model.cal_bias >= 0 else np.zeros((3, 3))
                 )
+            if isinstance(model, DVL):  # the latency's column: -ḣ, nonzero when it is a state
+                assert np.any(m.H[:, LAT] != 0.0) == (model.cal_latency >= 0)
 
 
 @pytest.mark.parametrize("row", [0, 2])
@@ -161,7 +166,7 @@ def test_the_midpoint_jacobian_is_a_secant_of_the_calibrated_dvl() -> None:
 
 def _P(rng: np.random.Generator) -> np.ndarray:
     sig = np.r_[[3.0] * 3, [0.1] * 3, [0.01] * 3, [0.01] * 3, [1e-4] * 3, 0.01, [0.03] * 3, 0.02,
-                0.02, 0.02]  # fmt: skip
+                0.02, 0.02, 0.05]  # fmt: skip
     L = np.tril(rng.normal(0.0, 0.3, (N, N)), -1) + np.eye(N)
     P = (sig[:, None] * (L @ L.T)) * sig[None, :]
     return 0.5 * (P + P.T)
@@ -172,22 +177,24 @@ def _P(rng: np.random.Generator) -> np.ndarray:
 def test_compiled_midpoint_equals_midpoint_jacobian(kind: int, iterations: int) -> None:
     """compiled.update._midpoint (the epoch's re-linearisation of a calibrated DVL and a depth
     meter read at the same epoch) == kalman.midpoint_jacobian with their ``evaluate``, the R
-    each sensor's strategy has now (fixed: nominal; VB: β/α), and the residuals left at x."""
+    each sensor's strategy has now (fixed: nominal; VB: β/α), and the residuals left at x; a
+    DVL with a latency state as well (its H needs the specific force)."""
     rng = np.random.default_rng(13)
-    w = rng.uniform(-0.3, 0.3, 3)
-    for _ in range(5):
+    w, f = rng.uniform(-0.3, 0.3, 3), np.array([0.4, -0.2, -9.9])
+    for trial in range(6):
         lever, C = rng.uniform(-2, 2, 3), attitude.euler_to_dcm(*rng.uniform(-0.5, 0.5, 3))
-        models = [DVL(0.02, lever, C, cal_scale=SCALE, cal_misalignment=MIS),
+        latency = LAT if trial % 2 else -1
+        models = [DVL(0.02, lever, C, "dvl", SCALE, MIS, cal_latency=latency),
                   Depth(0.05, lever, cal_bias=BIAS)]  # fmt: skip
         x, P = _state(rng), _P(rng)
-        zs = [_h(m, x, w, w) + rng.normal(0.0, 0.05, m.dim) for m in models]
+        zs = [_h(m, x, w, f) + rng.normal(0.0, 0.05, m.dim) for m in models]
         n = len(models)
         ws = uk.workspace(n, N)
         H, y, Rb, blk = ws[uk.WS_H], ws[uk.WS_Y], ws[uk.WS_RB], ws[uk.WS_BLK]
         s_int = np.zeros((n, uk.N_SINT), dtype=np.int64)
         s_flt, s_state = np.zeros((n, uk.N_SFLT)), np.zeros((n, uk.N_SSTATE))
         st_z, rates = np.zeros((n, 3)), np.zeros((uk.N_RATES, 3))
-        rates[uk.R_W_CUR] = w
+        rates[uk.R_W_CUR], rates[uk.R_F_CUR] = w, f
         Rs = []
         for i, (m, z) in enumerate(zip(models, zs, strict=True)):
             spec = uk.compiled_linearisation(m)
@@ -202,12 +209,13 @@ def test_compiled_midpoint_equals_midpoint_jacobian(kind: int, iterations: int) 
             st_z[i, : m.dim] = z
             blk[0, i], blk[1, i], blk[2, i + 1] = i, i, blk[2, i] + m.dim
             Rb[i, : m.dim, : m.dim] = m.R
-            uk.linearise(spec[0], spec[1], x, st_z[i], w, w, y, H, blk[2, i])
+            uk.linearise(spec[0], spec[1], x, st_z[i], w, f, y, H, blk[2, i])
         D = int(blk[2, n])
-        y0 = np.concatenate([m.evaluate(x, z, w).y for m, z in zip(models, zs, strict=True)])
+        pairs = list(zip(models, zs, strict=True))
+        y0 = np.concatenate([_measurement(m, x, z, w, f).y for m, z in pairs])
 
-        def jacobian(xx: np.ndarray, models: list[Any] = models, zs: list[Any] = zs) -> np.ndarray:
-            return np.vstack([m.evaluate(xx, z, w).H for m, z in zip(models, zs, strict=True)])
+        def jacobian(xx: np.ndarray, pairs: list[Any] = pairs) -> np.ndarray:
+            return np.vstack([_measurement(m, xx, z, w, f).H for m, z in pairs])
 
         R = np.zeros((D, D))
         R[:3, :3], R[3:, 3:] = Rs

@@ -70,3 +70,11 @@ def test_bad_specs_are_refused_naming_field_and_value(fields: dict, message: str
 def test_si_constructor_validates() -> None:
     with pytest.raises(UnitError, match="vrw"):
         ImuNoise(arw=1e-5, vrw=float("nan"))
+
+
+def test_a_latency_prior_takes_milliseconds_and_its_random_walk_per_root_hour() -> None:
+    """The DVL latency state's units (sensors/calibration.LATENCY, 0.4.3): ``ms`` is a time,
+    ``ms/sqrt(h)`` a time random walk; neither existed before."""
+    assert to_si(50.0, "ms", Kind.TIME, "sigma") == pytest.approx(0.05)
+    assert to_si(60.0, "ms/sqrt(h)", Kind.TIME_RANDOM_WALK, "rw") == pytest.approx(1e-3)
+    assert to_si(1.0, "s/sqrt(s)", Kind.TIME_RANDOM_WALK, "rw") == 1.0

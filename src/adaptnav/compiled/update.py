@@ -64,6 +64,7 @@ from adaptnav.compiled.propagation import (
     _add_half_noise,
     _cross,
     _fill_At,
+    _gravity,
     _low_pass,
     _matvec,
     _quat_mult,
@@ -104,7 +105,8 @@ LIN_DVL, LIN_DEPTH, LIN_NHC = DVL.LIN_CODE, Depth.LIN_CODE, NonHolonomic.LIN_COD
 LIN_INCLINOMETER, LIN_PENDULUM = Inclinometer.LIN_CODE, PendulumInclinometer.LIN_CODE
 LIN_HEADING, LIN_GNSS, LIN_ZUPT = Heading.LIN_CODE, GNSS.LIN_CODE, ZeroVelocity.LIN_CODE
 N_PAR = sensor_kind.N_PAR
-"""Packed parameters (sensors/kind.py): ``[l_b (3) | C_sb (9, row-major) | flag | unused]``."""
+"""Packed parameters (sensors/kind.py): ``[l_b (3) | C_sb (9, row-major) | flag | calibration
+state indices (4)]``."""
 PAR_LB, PAR_CSB, PAR_FLAG = sensor_kind.PAR_LB, sensor_kind.PAR_CSB, sensor_kind.PAR_FLAG
 PAR_CAL = sensor_kind.PAR_CAL
 
@@ -116,16 +118,17 @@ S_GUARD = 8  # 1: the nominal-R χ² guard is on (gate.Guard)
 S_MIDPOINT = 9  # iterations of the midpoint linearisation (0: linearised at the prior; _midpoint)
 N_SINT = 10
 # s_flt: float64 settings; columns 0..N_PAR-1 are the linearisation parameters
-F_RNOM, F_GATE_Q, F_PERIOD = 16, 25, 26  # nominal R (3×3 row-major), gate q, period
-F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE, F_DOF = 27, 28, 29, 30, 31, 32  # strategy settings
-F_RMIN, F_RMAX = 33, 34  # bounds on the adapted R̂ as factors of the nominal variance
-F_GUARD_Q, F_LOCKOUT_S = 35, 36  # the guard's χ² threshold; lockout time (0: no lockout reset)
-F_DIV_NIS, F_DIV_WINDOW, F_INFLATE_MAX = 37, 38, 39  # the windowed NIS test (estimation/health.py)
-F_GUARD_K, F_LOCKOUT_MAX = 40, 41  # the guard's headroom κ on the nominal R; lockout's cap
-F_GAP = 42  # matching: restart the window after a gap of this many periods (0: never)
-F_QA_GAIN, F_QA_TARGET, F_QA_MAX, F_QA_WINDOW = 43, 44, 45, 46  # Q adaptation (noise/process)
-F_WEIGHTS_ONLY = 47  # VB with dof: 1.0, β learns the whole residual (λ weights the reading only)
-N_SFLT = 48
+_F = N_PAR  # the settings after the linearisation parameters
+F_RNOM, F_GATE_Q, F_PERIOD = _F, _F + 9, _F + 10  # nominal R (3×3 row-major), gate q, period
+F_RHO, F_TOL, F_IRREGULAR, F_FLOOR, F_RAE, F_DOF = range(_F + 11, _F + 17)  # strategy settings
+F_RMIN, F_RMAX = _F + 17, _F + 18  # bounds on the adapted R̂ as factors of the nominal variance
+F_GUARD_Q, F_LOCKOUT_S = _F + 19, _F + 20  # the guard's χ² threshold; lockout time (0: none)
+F_DIV_NIS, F_DIV_WINDOW, F_INFLATE_MAX = range(_F + 21, _F + 24)  # windowed NIS (health.py)
+F_GUARD_K, F_LOCKOUT_MAX = _F + 24, _F + 25  # the guard's headroom κ on the nominal R; cap
+F_GAP = _F + 26  # matching: restart the window after a gap of this many periods (0: never)
+F_QA_GAIN, F_QA_TARGET, F_QA_MAX, F_QA_WINDOW = range(_F + 27, _F + 31)  # Q adaptation
+F_WEIGHTS_ONLY = _F + 31  # VB with dof: 1.0, β learns the whole residual (λ weights only)
+N_SFLT = _F + 32
 # s_state: float64 adaptation state: last epoch, VB α and β, matching R̂ (3×3 row-major)
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
 X_NIS, X_NIS_N, X_REJ_SINCE = 16, 17, 18  # mean NIS/d over the window, its count; lockout start
@@ -245,7 +248,9 @@ def _euler(M: Mat3) -> tuple[float, float, float]:
 
 
 @jit_inline
-def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: int, a0: int) -> None:
+def _lin_dvl(
+    par: Array, x: Array, z: Array, w: Array, f: Array, y: Array, H: Array, r: int, a0: int
+) -> None:
     """DVL (sensors.dvl): ``h = C_sb (C_nbᵀ v_n + (ω̃ - b_g) × l_b)``; H on dv, phi, db_g.
 
     Components ``a0..2`` of the sensor-frame velocity: all three for the DVL (a0 = 0), the
@@ -275,8 +280,57 @@ def _lin_dvl(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: in
             H[k, 3 + c] = row[c]
             H[k, 6 + c] = h_phi[c]
             H[k, 12 + c] = h_bg[c]
-    if a0 == 0 and (par[PAR_CAL] >= 0.0 or par[PAR_CAL + 1] >= 0.0 or par[PAR_CAL + 2] >= 0.0):
+    if a0 == 0 and (
+        par[PAR_CAL] >= 0.0
+        or par[PAR_CAL + 1] >= 0.0
+        or par[PAR_CAL + 2] >= 0.0
+        or par[PAR_CAL + 3] >= 0.0
+    ):
+        if par[PAR_CAL + 3] >= 0.0:
+            pred = _delay_dvl(par, x, w, f, pred, H, r)
         _calibrate_dvl(par, x, z, pred, y, H, r)
+
+
+@jit
+def _delay_dvl(par: Array, x: Array, w: Array, f: Array, p: Vec3, H: Array, r: int) -> Vec3:
+    """The DVL's reading τ_d earlier (twin: sensors.dvl.DVL._delayed, rate, rate_jacobian):
+    returns ``p - τ_d ḣ``, ``ḣ = C_sb (f̃ - b_a + C_nbᵀ g_n - ω × v_b)``; H's core rows
+    ``H - τ_d Ḣ`` and ``-ḣ`` on τ_d (mixed by the scale and misalignment after). Row a of
+    ``C_sb [ω×]`` is ``(C_sb)_a × ω`` and ``uᵀ C_nbᵀ = (C_nb u)ᵀ``."""
+    kl = int(par[PAR_CAL + 3])
+    delay = x[kl + 1]
+    C = _dcm(x)
+    Cs = _par_mat(par, PAR_CSB)
+    v = (x[3], x[4], x[5])
+    v_b = (
+        C[0] * v[0] + C[3] * v[1] + C[6] * v[2],
+        C[1] * v[0] + C[4] * v[1] + C[7] * v[2],
+        C[2] * v[0] + C[5] * v[1] + C[8] * v[2],
+    )
+    s = math.sin(x[0])
+    g = _gravity((s, 0.0, 1.0 / math.sqrt(1.0 - E2 * s * s), 0.0, 0.0, 0.0, 0.0), x[2])
+    rate = (w[0] - x[13], w[1] - x[14], w[2] - x[15])
+    wv = _cross(rate, v_b)
+    acc = (
+        f[0] - x[10] + C[6] * g - wv[0],
+        f[1] - x[11] + C[7] * g - wv[1],
+        f[2] - x[12] + C[8] * g - wv[2],
+    )
+    h_dot = _matvec(Cs, acc)
+    for a in range(3):
+        k = r + a
+        row = (Cs[3 * a], Cs[3 * a + 1], Cs[3 * a + 2])
+        cq = _matvec(C, _cross(row, rate))
+        h_att = _cross(_matvec(C, row), (0.0, 0.0, g))
+        h_vv = _cross(cq, v)
+        h_bg = _cross(row, v_b)
+        for c in range(3):
+            H[k, 3 + c] += delay * cq[c]
+            H[k, 6 + c] -= delay * (h_att[c] - h_vv[c])
+            H[k, 9 + c] += delay * row[c]
+            H[k, 12 + c] += delay * h_bg[c]
+        H[k, kl] = -h_dot[a]
+    return (p[0] - delay * h_dot[0], p[1] - delay * h_dot[1], p[2] - delay * h_dot[2])
 
 
 @jit
@@ -326,14 +380,18 @@ def _misaligned(d: Vec3, which: int, v: Vec3) -> Vec3:
 @jit
 def _calibrate_dvl(par: Array, x: Array, z: Array, p: Vec3, y: Array, H: Array, r: int) -> None:
     """The DVL's calibration states (twin: sensors.dvl.calibrate, calibrate_jacobian):
-    ``h = (1 + s) M(δ) p + b``, H's core rows mixed by ``(1 + s) M``, ``M p`` on s,
-    ``(1 + s) (∂M/∂δ_i) p`` on δ, 1 on each b. Called, not inlined (as are the rotations it
-    uses): it is rare, and inlined it was a third of the linearisations' compile time."""
-    ks, km = int(par[PAR_CAL]), int(par[PAR_CAL + 1])
+    ``h = (1 + s) M(δ) p + b``, H's core rows (and its latency column) mixed by ``(1 + s) M``,
+    ``M p`` on s, ``(1 + s) (∂M/∂δ_i) p`` on δ, 1 on each b. Called, not inlined (as are the
+    rotations it uses): it is rare, and inlined it was a third of the linearisations' compile
+    time."""
+    ks, km, kl = int(par[PAR_CAL]), int(par[PAR_CAL + 1]), int(par[PAR_CAL + 3])
     g = 1.0 + x[ks + 1] if ks >= 0 else 1.0
     d = (x[km + 1], x[km + 2], x[km + 3]) if km >= 0 else (0.0, 0.0, 0.0)
     mp = _misaligned(d, -1, p)
-    for c in range(N_STATES):
+    for cc in range(N_STATES + 1):
+        c = kl if cc == N_STATES else cc
+        if c < 0:
+            continue
         col = _misaligned(d, -1, (H[r, c], H[r + 1, c], H[r + 2, c]))
         for a in range(3):
             H[r + a, c] = g * col[a]
@@ -468,7 +526,7 @@ def linearise(
                 H[row + a, c] = 0.0
     # One call site per inlined helper: each site is inlined and compiled anew (cold start)
     if code in (LIN_DVL, LIN_NHC):
-        _lin_dvl(par, x, z, w, y, H, row, 1 if code == LIN_NHC else 0)
+        _lin_dvl(par, x, z, w, f, y, H, row, 1 if code == LIN_NHC else 0)
     elif code == LIN_DEPTH:
         _lin_depth(par, x, z, y, H, row)
     elif code in (LIN_INCLINOMETER, LIN_HEADING):

@@ -28,6 +28,7 @@ class Kind(StrEnum):
     RATIO = "ratio"  # → 1 (a scale-factor error)
     RATIO_RANDOM_WALK = "ratio random walk"  # → 1/√s
     LENGTH_RANDOM_WALK = "length random walk"  # → m/√s
+    TIME_RANDOM_WALK = "time random walk"  # → s/√s (a clock offset that wanders)
 
 
 _FACTORS: dict[Kind, dict[str, float]] = {
@@ -57,7 +58,7 @@ _FACTORS: dict[Kind, dict[str, float]] = {
         "deg/hr": DEG / 3600.0,
     },
     Kind.ACCELERATION: {"m/s^2": 1.0, "g": G0, "mg": 1e-3 * G0, "ug": 1e-6 * G0},
-    Kind.TIME: {"s": 1.0, "min": 60.0, "h": 3600.0, "hr": 3600.0},
+    Kind.TIME: {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "hr": 3600.0},
     Kind.ANGLE: {"rad": 1.0, "deg": DEG},
     Kind.SPEED: {"m/s": 1.0, "mm/s": 1e-3, "cm/s": 1e-2, "kn": 1852.0 / 3600.0},
     Kind.LENGTH: {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "km": 1e3},
@@ -80,6 +81,7 @@ _FACTORS: dict[Kind, dict[str, float]] = {
         "ppm/sqrt(h)": 1e-6 / 60.0,
     },
     Kind.LENGTH_RANDOM_WALK: {"m/sqrt(s)": 1.0, "m/sqrt(h)": 1.0 / 60.0, "cm/sqrt(h)": 1e-2 / 60.0},
+    Kind.TIME_RANDOM_WALK: {"s/sqrt(s)": 1.0, "ms/sqrt(s)": 1e-3, "ms/sqrt(h)": 1e-3 / 60.0},
 }
 
 

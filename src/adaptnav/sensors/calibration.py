@@ -14,7 +14,9 @@ Conventions (the simulator's, docs/simulation.md, 'Calibration errors'):
   the ZYX Euler angles δ, so a reading is ``M(δ) z_nominal``, ``M = euler_to_dcm(δ)ᵀ``
   (``≈ I - [δ×]``);
 * bias ``b``: the sensor reads the true value plus b (a DVL's after its scale and
-  misalignment: ``(1 + s) M(δ) h + b``, b in the DVL's frame).
+  misalignment: ``(1 + s) M(δ) h + b``, b in the DVL's frame);
+* latency ``δ``: a reading stamped t was taken at ``t - δ`` (``latency_s``'s sign,
+  docs/data-format.md 'Latency'), so to first order it reads ``h - δ ḣ``.
 """
 
 from __future__ import annotations
@@ -92,6 +94,11 @@ DVL_BIAS = Quantity(
 bottom that moves with the water, sound speed over the beams): 5 mm/s per axis a priori (a
 datasheet's "± 2-5 mm/s" beside its scale term), constant by default; with a correlation time
 it follows an error that wanders (docs/calibration.md, 'DVL bias')."""
+LATENCY = Quantity(
+    "latency", ("latency",), 0.1, 0.0, Kind.TIME, Kind.TIME_RANDOM_WALK, "ms", 1000.0
+)
+"""A sensor's latency that its stamps do not account for (a DVL's ping-to-output time, a
+logger's clock): 100 ms a priori, constant by default (docs/calibration.md, 'DVL latency')."""
 GNSS_BIAS = Quantity(
     "bias", ("bias_N", "bias_E"), 2.5, 0.0, Kind.LENGTH, Kind.LENGTH_RANDOM_WALK, "m", 1.0
 )

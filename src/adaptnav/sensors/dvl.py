@@ -20,6 +20,19 @@ With its calibration states (docs/calibration.md), scale s, misalignment δ and 
 frame), the DVL reads ``z = (1 + s) M(δ) h + b``, M of sensors/calibration.py: H becomes
 ``(1 + s) M H``, and its columns are ``M h`` on s, ``(1 + s) (∂M/∂δ_i) h`` on δ and the
 identity on b (:func:`calibrate`, :func:`calibrate_jacobian`).
+
+With a latency state τ_d (a reading stamped t taken at t - τ_d), h is first replaced by its
+value τ_d earlier, to first order ``h - τ_d ḣ`` (docs/calibration.md, 'DVL latency'), with the
+rate of the body velocity from the IMU (:func:`rate`)::
+
+    ḣ ≈ C_sb (f̃ - b_a + C_nbᵀ g_n - ω × C_nbᵀ v_n),    ω = ω̃ - b_g
+
+(``d/dt (C_nbᵀ v_n) = C_nbᵀ v̇_n - ω_nb × v_b`` with ``v̇_n = C_nb f + g_n``; the earth and
+transport rates' terms, ~1e-4 m/s² at 2 m/s, and the lever arm's angular acceleration are
+left out). Its H (:func:`rate_jacobian`): ``-C_sb [ω×] C_nbᵀ`` on dv,
+``C_sb (C_nbᵀ [g_n×] - [ω×] C_nbᵀ [v_n×])`` on phi, ``-C_sb`` on db_a and ``-C_sb [v_b×]``
+on db_g (gravity's change with position is left out: ~3e-6 /s² per m). H on the core becomes
+``H - τ_d Ḣ``, and on τ_d it is ``-(1 + s) M ḣ``.
 """
 
 from __future__ import annotations
@@ -30,10 +43,10 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from adaptnav.core import attitude
+from adaptnav.core import attitude, earth
 from adaptnav.core.units import Kind
-from adaptnav.models.errorstate import ATT, BG, N_STATES, VEL
-from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_SIZE, NOM_VEL
+from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, VEL
+from adaptnav.models.strapdown import NOM_ATT, NOM_BA, NOM_BG, NOM_SIZE, NOM_VEL
 from adaptnav.sensors.base import (
     Array,
     Components,
@@ -47,6 +60,7 @@ from adaptnav.sensors.base import (
 )
 from adaptnav.sensors.calibration import (
     DVL_BIAS,
+    LATENCY,
     MISALIGNMENT,
     SCALE,
     misalignment,
@@ -108,6 +122,44 @@ def jacobian(
     return H
 
 
+def _force(f_ib_b: ArrayLike | None) -> Array:
+    if f_ib_b is None:
+        raise ValueError("a DVL with a latency state needs the accelerometer's f_ib_b")
+    f = np.asarray(f_ib_b, dtype=float)
+    if f.shape != (3,):
+        raise ValueError(f"f_ib_b must have shape (3,), got {f.shape}")
+    return f
+
+
+def rate(
+    x: ArrayLike, omega_ib_b: ArrayLike, f_ib_b: ArrayLike, C_sb: ArrayLike | None = None
+) -> Array:
+    """``ḣ ≈ C_sb (f̃ - b_a + C_nbᵀ g_n - ω × C_nbᵀ v_n)``, the rate of the error-free reading
+    (m/s², module docstring), from the raw gyro rate and specific force."""
+    xa = check_state(x)
+    C = attitude.quat_to_dcm(xa[NOM_ATT])
+    v_b = C.T @ xa[NOM_VEL]
+    w = _rate(xa, omega_ib_b, np.zeros(3))
+    acc = _force(f_ib_b) - xa[NOM_BA] + C.T @ earth.gravity_n(xa[0], xa[2]) - np.cross(w, v_b)
+    C_s = np.eye(3) if C_sb is None else np.asarray(C_sb, dtype=float)
+    return np.asarray(C_s @ acc, dtype=float)
+
+
+def rate_jacobian(x: ArrayLike, omega_ib_b: ArrayLike, C_sb: ArrayLike | None = None) -> Array:
+    """Ḣ (3×15), the error state's effect on :func:`rate` (module docstring)."""
+    xa = check_state(x)
+    C = attitude.quat_to_dcm(xa[NOM_ATT])
+    C_s = np.eye(3) if C_sb is None else np.asarray(C_sb, dtype=float)
+    W = attitude.skew(_rate(xa, omega_ib_b, np.zeros(3)))
+    g = earth.gravity_n(xa[0], xa[2])
+    H = np.zeros((DIM, N_STATES))
+    H[:, VEL] = -C_s @ W @ C.T
+    H[:, ATT] = C_s @ (C.T @ attitude.skew(g) - W @ C.T @ attitude.skew(xa[NOM_VEL]))
+    H[:, BA] = -C_s
+    H[:, BG] = -C_s @ attitude.skew(C.T @ xa[NOM_VEL])
+    return H
+
+
 def _calibration(x: Array, scale: int, mis: int) -> tuple[float, Array]:
     """``(1 + s, δ)`` of the state x, for the error-state indices ``scale``, ``mis`` of the
     scale and the first misalignment state (-1: not estimated, 0 and zeros; nominal values at
@@ -152,9 +204,9 @@ class DVL(Components):
         l_b: lever arm from the IMU to the DVL, body FRD (m).
         C_sb: mounting rotation, DVL frame from body frame (identity: DVL axes = body axes).
         name: sensor name; components are named ``{name}_x``, ``_y``, ``_z``.
-        cal_scale, cal_misalignment, cal_bias: error-state indices of its scale state, its first
-            misalignment state and its first bias state (docs/calibration.md); -1: not
-            estimated.
+        cal_scale, cal_misalignment, cal_bias, cal_latency: error-state indices of its scale
+            state, its first misalignment state, its first bias state and its latency state
+            (docs/calibration.md); -1: not estimated.
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("x", "y", "z")
@@ -169,6 +221,7 @@ class DVL(Components):
     cal_scale: int = -1
     cal_misalignment: int = -1
     cal_bias: int = -1
+    cal_latency: int = -1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sigma", check_sigma("sigma", self.sigma, DIM))
@@ -178,7 +231,7 @@ class DVL(Components):
 
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
-        cal = (self.cal_scale, self.cal_misalignment, self.cal_bias)
+        cal = (self.cal_scale, self.cal_misalignment, self.cal_bias, self.cal_latency)
         return pack_params(self.l_b, self.C_sb, calibration=cal)
 
     @property
@@ -186,48 +239,84 @@ class DVL(Components):
         """Its reading multiplies declared states with the core's (the scale times the velocity,
         the misalignment rotating it): the engine linearises its updates at the midpoint of
         their step (compiled.update._midpoint; docs/calibration.md, 'The midpoint update')."""
-        return self.cal_scale >= 0 or self.cal_misalignment >= 0
+        return self.cal_scale >= 0 or self.cal_misalignment >= 0 or self.cal_latency >= 0
 
-    def _calibrated(self, x: Array, omega_ib_b: ArrayLike | None) -> tuple[Array, Array]:
-        """The error-free h of ``x``'s core and H (:func:`calibrate_jacobian`; 3 × 15 on the
-        core alone)."""
+    def _delayed(
+        self, x: Array, omega_ib_b: ArrayLike | None, f_ib_b: ArrayLike | None, with_H: bool
+    ) -> tuple[Array, Array | None, Array | None]:
+        """The error-free h of ``x``'s core, τ_d earlier with a latency state (``h - τ_d ḣ``),
+        its H on the core when ``with_H`` (``H - τ_d Ḣ``), and ḣ (None without a latency
+        state; module docstring)."""
         core = x[:NOM_SIZE]
         h = predict(core, omega_ib_b, self.l_b, self.C_sb)
-        H = jacobian(core, self.l_b, self.C_sb)
+        H = jacobian(core, self.l_b, self.C_sb) if with_H else None
+        if self.cal_latency < 0 or x.size == NOM_SIZE:
+            return h, H, None
+        if omega_ib_b is None:
+            raise ValueError("a DVL with a latency state needs the gyro rate omega_ib_b")
+        w = omega_ib_b
+        delay = x[self.cal_latency + 1]
+        h_dot = rate(core, w, _force(f_ib_b), self.C_sb)
+        if H is not None:
+            H = H - delay * rate_jacobian(core, w, self.C_sb)
+        return h - delay * h_dot, H, h_dot
+
+    def _calibrated(
+        self, x: Array, omega_ib_b: ArrayLike | None, f_ib_b: ArrayLike | None
+    ) -> tuple[Array, Array]:
+        """The (delayed) error-free h of ``x``'s core and H (:func:`calibrate_jacobian`; 3 × 15
+        on the core alone; ``-(1 + s) M ḣ`` on the latency)."""
+        h, H, h_dot = self._delayed(x, omega_ib_b, f_ib_b, True)
+        assert H is not None
         if x.size == NOM_SIZE:
             return h, H
         cal = (self.cal_scale, self.cal_misalignment, self.cal_bias)
-        return h, calibrate_jacobian(x, h, H, *cal)
+        out = calibrate_jacobian(x, h, H, *cal)
+        if h_dot is not None:
+            gain, d = _calibration(x, self.cal_scale, self.cal_misalignment)
+            out[:, self.cal_latency] = -gain * misalignment(d) @ h_dot
+        return h, out
 
-    def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
+    def predict(
+        self, x: ArrayLike, omega_ib_b: ArrayLike | None = None, f_ib_b: ArrayLike | None = None
+    ) -> Array:
         """See :func:`predict` (and :func:`calibrate` for a state with declared states);
-        ``omega_ib_b`` is the raw gyro rate (rad/s)."""
+        ``omega_ib_b`` is the raw gyro rate (rad/s), ``f_ib_b`` the raw specific force (m/s²,
+        needed with a latency state)."""
         xa = np.asarray(x, dtype=float)
-        h = predict(xa[:NOM_SIZE], omega_ib_b, self.l_b, self.C_sb)
+        h = self._delayed(xa, omega_ib_b, f_ib_b, False)[0]
         if xa.size == NOM_SIZE:
             return h
         return calibrate(xa, h, self.cal_scale, self.cal_misalignment, self.cal_bias)
 
-    def jacobian(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
+    def jacobian(
+        self, x: ArrayLike, omega_ib_b: ArrayLike | None = None, f_ib_b: ArrayLike | None = None
+    ) -> Array:
         """See :func:`jacobian` (and :func:`calibrate_jacobian`: 3 × (15 + m) for a state with
-        m declared states; it needs the rate then, for the lever arm's part of h)."""
+        m declared states; it needs the rate then, for the lever arm's part of h, and with a
+        latency state the specific force)."""
         xa = np.asarray(x, dtype=float)
         if xa.size == NOM_SIZE:
             return jacobian(xa, self.l_b, self.C_sb)
-        return self._calibrated(xa, omega_ib_b)[1]
+        return self._calibrated(xa, omega_ib_b, f_ib_b)[1]
 
     def evaluate(
-        self, x: Array, z: ArrayLike, omega_ib_b: ArrayLike | None = None
+        self,
+        x: Array,
+        z: ArrayLike,
+        omega_ib_b: ArrayLike | None = None,
+        f_ib_b: ArrayLike | None = None,
     ) -> Measurement | None:
         """Residual ``z - h(x)``, H and R; None if the reading has a NaN/inf (lost bottom lock).
 
-        ``omega_ib_b`` (raw gyro rate, rad/s) is required when the lever arm is non-zero.
+        ``omega_ib_b`` (raw gyro rate, rad/s) is required when the lever arm is non-zero,
+        ``f_ib_b`` (raw specific force, m/s²) with a latency state.
         """
         zz = check_reading(self.name, z, DIM)
         if zz is None:
             return None
         xa = np.asarray(x, dtype=float)
-        h, H = self._calibrated(xa, omega_ib_b)
+        h, H = self._calibrated(xa, omega_ib_b, f_ib_b)
         if xa.size > NOM_SIZE:
             h = calibrate(xa, h, self.cal_scale, self.cal_misalignment, self.cal_bias)
         return Measurement(zz - h, H, self.R, self.names)
@@ -266,6 +355,7 @@ KIND = SensorKind(
         s.calibration.get("scale", -1),
         s.calibration.get("misalignment", -1),
         s.calibration.get("bias", -1),
+        s.calibration.get("latency", -1),
     ),
     limits={c: (-MAX_SPEED_M_S, MAX_SPEED_M_S) for c in COLUMNS},
     stuck=StuckDefault(DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in COLUMNS}),
@@ -273,7 +363,7 @@ KIND = SensorKind(
     mounting=True,
     options=frozenset({"zero_is_lost", "status_column", "spike_mads", "after_gap_s"}),
     linearised=(DVL,),
-    calibration={q.name: q for q in (SCALE, MISALIGNMENT, DVL_BIAS)},
+    calibration={q.name: q for q in (SCALE, MISALIGNMENT, DVL_BIAS, LATENCY)},
     ideal_reading=ideal,
 )
 """The DVL as a sensor kind (sensors/kind.py): |velocity| <= 20 m/s per axis; stuck after 10 s

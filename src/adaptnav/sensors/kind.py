@@ -34,12 +34,12 @@ from adaptnav.sensors.calibration import Quantity
 
 Array = NDArray[np.float64]
 
-N_PAR = 16
+N_PAR = 17
 """Packed linearisation parameters: ``[l_b (3) | C_sb (9, row-major) | flag | calibration
-state indices (3)]``; ``flag`` is a kind's one scalar (GNSS: use_height; depth: the water
+state indices (4)]``; ``flag`` is a kind's one scalar (GNSS: use_height; depth: the water
 surface's height)."""
 PAR_LB, PAR_CSB, PAR_FLAG, PAR_CAL = 0, 3, 12, 13
-"""``par[PAR_CAL]``, ``par[PAR_CAL + 1]``, ``par[PAR_CAL + 2]``: error-state indices of the
+"""``par[PAR_CAL]`` to ``par[PAR_CAL + 3]``: error-state indices of the
 model's calibration blocks (sensors/calibration.py; -1: none), as the model's class defines
 them."""
 
@@ -50,7 +50,7 @@ def pack_params(
     flag: float = 0.0,
     calibration: tuple[int, ...] = (-1, -1, -1),
 ) -> Array:
-    """A model's parameters as the compiled ``linearise`` reads them (:data:`N_PAR`); up to three
+    """A model's parameters as the compiled ``linearise`` reads them (:data:`N_PAR`); up to four
     calibration indices, the rest -1."""
     if len(calibration) > N_PAR - PAR_CAL:
         raise ValueError(f"at most {N_PAR - PAR_CAL} calibration blocks, got {calibration}")
