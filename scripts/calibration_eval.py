@@ -74,21 +74,84 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 
 def missions(cache: Path, preset: str, seed: int) -> tuple[Path, Path]:
-    """The simulated mission with the DVL's calibration errors, and its copy that estimates
-    them; simulated once (atomically: a half-written folder is never reused)."""
-    base = cache / f"{preset}-s{seed}-scale{SCALE}-yaw{YAW_DEG}"
+    """The simulated mission with the DVL's scale and misalignment errors, and its copy that
+    estimates them (:func:`simulated`)."""
+    cal = Calibration(SCALE, (0.0, 0.0, math.radians(YAW_DEG)))
+    return simulated(cache / f"{preset}-s{seed}-scale{SCALE}-yaw{YAW_DEG}", preset, seed, cal,
+                     ESTIMATE)  # fmt: skip
+
+
+def simulated(
+    base: Path, preset: str, seed: int, cal: Calibration, setting: tuple[str, Any]
+) -> tuple[Path, Path]:
+    """The mission ``base`` simulated with the calibration errors ``cal``, and its copy with
+    the override ``setting`` (``base`` + ``-estimate``); simulated once (atomically: a
+    half-written folder is never reused)."""
     est = base.with_name(base.name + "-estimate")
     if not (base / "mission.toml").is_file():
         tmp = base.with_name(base.name + ".tmp")
         shutil.rmtree(tmp, ignore_errors=True)
-        cal = Calibration(SCALE, (0.0, 0.0, math.radians(YAW_DEG)))
         simulate(preset, seed, tmp, calibration=cal)
         shutil.rmtree(base, ignore_errors=True)
         tmp.rename(base)
         shutil.rmtree(est, ignore_errors=True)
     if not (est / "mission.toml").is_file():
-        derived(base, est, ESTIMATE)
+        derived(base, est, setting)
     return base, est
+
+
+LATENCY_MS = 100.0
+"""The DVL latency of the latency table (ms): every reading stamped this much after it was
+taken (``adaptnav simulate --dvl-latency-ms``)."""
+LATENCY = ("sensors.dvl.estimate", ["latency"])
+AKIT_LATENCY = ("sensors.dvl.estimate", ["scale", "misalignment", "latency"])
+
+
+def latency_score(cache: Path, preset: str, seed: int) -> dict[str, Any]:
+    """``robust`` on the mission whose DVL is :data:`LATENCY_MS` late (no other calibration
+    error), without and with the latency state: RMSE, and the estimate with its σ (ms)."""
+    cal = Calibration(dvl_latency=LATENCY_MS / 1000.0)
+    base, est = simulated(cache / f"{preset}-s{seed}-latency{LATENCY_MS:g}ms", preset, seed,
+                          cal, LATENCY)  # fmt: skip
+    m0, m1 = load_mission(base), load_mission(est)
+    r0, r1 = api.run(m0, "robust"), api.run(m1, "robust")
+    c = r1.meta["calibration"]["dvl.latency"]
+    e1 = evaluate.evaluate(r1, m1.truth)
+    return {
+        "seed": seed,
+        "rmse_without_m": evaluate.evaluate(r0, m0.truth).rmse_m,
+        "rmse_with_m": e1.rmse_m,
+        "nees_with": e1.mean_nees_position,
+        "latency_ms": c["estimate"],
+        "latency_sd_ms": c["sigma"],
+    }
+
+
+def latency_section(rows: list[dict[str, Any]], preset: str) -> str:
+    """The simulated latency table: per seed the RMSE without and with the state and the
+    estimate against the truth."""
+    body = [
+        [str(r["seed"]), _f(r["rmse_without_m"], ".1f"), _f(r["rmse_with_m"], ".1f"),
+         f"{_f(r['latency_ms'], '.1f')} ± {_f(r['latency_sd_ms'], '.1f')}",
+         _f((r["latency_ms"] - LATENCY_MS) / r["latency_sd_ms"], "+.2f"),
+         _f(r["nees_with"], ".2f")]
+        for r in rows
+    ]  # fmt: skip
+    return "\n".join([
+        "## DVL latency on simulated missions",
+        "",
+        f"`{preset}`, the paper's configuration as above, with a DVL free of scale and "
+        f"misalignment errors but stamped {LATENCY_MS:g} ms late (`adaptnav simulate {preset} "
+        f"--dvl-latency-ms {LATENCY_MS:g}`); robust without and with `estimate = [\"latency\"]` "
+        "(docs/calibration.md, 'DVL latency'; prior 100 ms).",
+        "",
+        markdown_table(
+            ["seed", "RMSE without (m)", "RMSE with (m)", "latency (ms) ± σ",
+             f"(estimate - {LATENCY_MS:g}) / σ", "NEES pos. with"],
+            body,
+        ),
+        "",
+    ])  # fmt: skip
 
 
 def derived(src: Path, out: Path, setting: tuple[str, Any]) -> Path:
@@ -341,6 +404,82 @@ def akit_timing(cache: Path, shift: float) -> list[dict[str, Any]]:
             **{f"sd_{k}": c[k]["sigma"] for k in AKIT_STATES},
         })  # fmt: skip
     return rows
+
+
+def akit_latency(cache: Path) -> list[dict[str, Any]]:
+    """``robust`` with the DVL's scale, misalignment and latency states on each A-KIT segment
+    (the missions of :func:`akit_segment` with :data:`AKIT_LATENCY`), smoothed: per segment
+    the forward and smoothed relative RMSE and the forward pass's estimates with their σ."""
+    rows = []
+    for n in range(1, 10):
+        m = load_mission(derived(cache / f"akit-{n}", cache / f"akit-{n}-latency", AKIT_LATENCY))
+        start = api.initial_state(m)[:3]
+        smoothed = api.run(m, "robust", initial=start, smooth=True)
+        forward = dataclasses.replace(smoothed, solution=smoothed.forward, forward=None)
+        c = forward.meta["calibration"]
+        rows.append({
+            "segment": n,
+            "rel_pct": evaluate.evaluate(forward, m.truth).relative_rmse_pct,
+            "rel_smoothed_pct": evaluate.evaluate(smoothed, m.truth).relative_rmse_pct,
+            **{k: c[k]["estimate"] for k in (*AKIT_STATES, "dvl.latency")},
+            **{f"sd_{k}": c[k]["sigma"] for k in (*AKIT_STATES, "dvl.latency")},
+        })  # fmt: skip
+    return rows
+
+
+def akit_latency_section(rows: list[dict[str, Any]], plain: list[dict[str, Any]]) -> str:
+    """The A-KIT latency table: per segment the latency and the roll and yaw misalignments
+    with their σ, the relative RMSE forward and smoothed; then the means and each estimate's
+    χ² across the segments, beside robust's with scale and misalignment only (``plain``, the
+    rows of :func:`akit_segment`)."""
+    shown = ("dvl.latency", "dvl.misalignment_roll", "dvl.misalignment_yaw")
+    body = [
+        [str(r["segment"]),
+         *(f"{_f(r[k], '+.1f' if k == 'dvl.latency' else '+.3f')} ± "
+           f"{_f(r['sd_' + k], '.1f' if k == 'dvl.latency' else '.3f')}" for k in shown),
+         _f(r["rel_pct"], ".3f"), _f(r["rel_smoothed_pct"], ".3f")]
+        for r in rows
+    ]  # fmt: skip
+    summary = []
+    for label, rs in (("scale, misalignment", [p["robust"] for p in plain]),
+                      ("+ latency", rows)):  # fmt: skip
+        cells = [label]
+        for k in shown:
+            if k not in rs[0]:
+                cells.append("-")
+                continue
+            mean, chi2 = _spread(np.array([r[k] for r in rs]), np.array([r["sd_" + k] for r in rs]))
+            cells.append(f"{_f(mean, '+.1f' if k == 'dvl.latency' else '+.3f')}, {chi2:.1f}")
+        fwd = float(np.mean([r.get("rel_pct", r.get("rel_with_pct")) for r in rs]))
+        smo = float(np.mean([r["rel_smoothed_pct"] for r in rs]))
+        cells += [_f(fwd, ".3f"), _f(smo, ".3f"), _f(smo / fwd, ".3f")]
+        summary.append(cells)
+    dof = len(rows) - 1
+    return "\n".join([
+        "## A-KIT: the DVL's latency as a state",
+        "",
+        "robust with `estimate = [\"scale\", \"misalignment\", \"latency\"]` on the DVL, from "
+        "the reference's start, smoothed (docs/calibration.md, 'DVL latency'): the forward "
+        "pass's estimates (latency in ms, angles in °) and the relative RMSE forward and "
+        "smoothed, per segment:",
+        "",
+        markdown_table(
+            ["segment", "latency (ms)", "roll misalignment (°)", "yaw misalignment (°)",
+             "relative RMSE % forward", "smoothed"],
+            body,
+        ),
+        "",
+        f"Means over the segments, and the χ² of each estimate's spread on {dof} degrees of "
+        "freedom, beside the same filter with scale and misalignment only (the first A-KIT "
+        "table):",
+        "",
+        markdown_table(
+            ["DVL states", "latency: mean (ms), χ²", "roll: mean (°), χ²", "yaw: mean (°), χ²",
+             "relative RMSE % forward", "smoothed", "smoothed / forward"],
+            summary,
+        ),
+        "",
+    ])  # fmt: skip
 
 
 def timing_section(by_shift: dict[float, list[dict[str, Any]]]) -> str:
@@ -637,8 +776,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"%, yaw {r['yaw_deg']:.3f} ± {r['yaw_sd_deg']:.3f} deg",
                 file=sys.stderr,
             )
+    latency = [latency_score(args.cache, args.preset, s) for s in range(1, args.seeds + 1)]
     akit_rows = []
     timing: dict[float, list[dict[str, Any]]] = {}
+    akit_lat: list[dict[str, Any]] = []
     if args.akit is not None and args.akit.is_dir():
         for n in range(1, 10):
             akit_rows.append(akit_segment(args.akit, args.cache, n))
@@ -646,10 +787,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         for shift in TIMING_SHIFTS_S:
             timing[shift] = akit_timing(args.cache, shift)
             print(f"A-KIT, DVL stamps moved by {shift:+.1f} s: done", file=sys.stderr)
+        akit_lat = akit_latency(args.cache)
     limits = limit_rows(args.cache, args.preset, args.seeds)
     text = page(rows, args, time.perf_counter() - started) + "\n" + limits_section(rows, limits)
+    text += "\n" + latency_section(latency, args.preset)
     if akit_rows:
         text += "\n" + akit_section(akit_rows) + "\n" + timing_section(timing)
+        text += "\n" + akit_latency_section(akit_lat, akit_rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     tmp = args.out.with_name(args.out.name + ".tmp")
     tmp.write_text(text, encoding="utf-8")

@@ -21,11 +21,12 @@ def test_the_script_writes_the_page_with_the_limits_and_the_truth_fit(tmp_path: 
     text = out.read_text()
     for part in ("## Means and the issue's targets", "## Every run", "truth fit: yaw (°)",
                  "## What limits the estimates", "robust + a heading sensor (0.5°)",
-                 "robust + GNSS positions (2.9 m)", "truth fit (no filter)"):  # fmt: skip
+                 "robust + GNSS positions (2.9 m)", "truth fit (no filter)",
+                 "## DVL latency on simulated missions", "(estimate - 100) / σ"):  # fmt: skip
         assert part in text, part
     assert "## A-KIT" not in text
     # the aided missions are the estimating one with one sensor's use changed, nothing else
-    est = next((tmp_path / "cache").glob("demo-s1-*-estimate"))
+    est = next((tmp_path / "cache").glob("demo-s1-scale*-estimate"))
     gnss = est.with_name(est.name + "-gps")
     assert 'use = "aid"' in (gnss / "mission.toml").read_text()
     assert 'use = "init"' in (est / "mission.toml").read_text()
@@ -83,3 +84,19 @@ def test_the_timing_table_gives_means_spreads_and_the_named_segments_roll() -> N
     assert lines[0] == "| 0 (as recorded) | 0.800 | 3.00 | 0.0 | 6.0 | 0.0 | 0.0 | +0.00°, +0.30° |"
     assert lines[1] == "| +0.1 | 0.800 | 3.00 | 0.0 | 0.0 | 0.0 | 0.0 | +0.00°, +0.00° |"
     assert "on 2 degrees of freedom" in text
+
+
+def test_the_akit_latency_table_sets_the_latency_runs_beside_the_plain_ones() -> None:
+    """Three segments: latencies -10, -20, -30 ms with σ 5 (weighted mean -20, χ² 4 + 0 + 4 = 8
+    on 2), their relative RMSE means forward and smoothed; the plain runs' row has no latency
+    and takes its forward error from ``rel_with_pct``."""
+    rows, plain = [], []
+    for n, lat in zip((1, 2, 3), (-10.0, -20.0, -30.0), strict=True):
+        one = {k: 0.0 for k in SCRIPT.AKIT_STATES} | {f"sd_{k}": 0.1 for k in SCRIPT.AKIT_STATES}
+        rows.append(one | {"segment": n, "dvl.latency": lat, "sd_dvl.latency": 5.0,
+                           "rel_pct": 0.2, "rel_smoothed_pct": 0.1})  # fmt: skip
+        plain.append({"robust": one | {"rel_with_pct": 0.4, "rel_smoothed_pct": 0.3}})
+    text = SCRIPT.akit_latency_section(rows, plain)
+    assert "| 2 | -20.0 ± 5.0 | +0.000 ± 0.100 | +0.000 ± 0.100 | 0.200 | 0.100 |" in text
+    assert "| + latency | -20.0, 8.0 | +0.000, 0.0 | +0.000, 0.0 | 0.200 | 0.100 | 0.500 |" in text
+    assert "| scale, misalignment | - | +0.000, 0.0 | +0.000, 0.0 | 0.400 | 0.300 | 0.750 |" in text

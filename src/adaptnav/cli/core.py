@@ -384,6 +384,14 @@ DvlMisalignment = Annotated[
 DepthBias = Annotated[
     str | None, typer.Option("--depth-bias-m", metavar="B", help="true depth-meter bias (m)")
 ]
+DvlLatency = Annotated[
+    str | None,
+    typer.Option(
+        "--dvl-latency-ms",
+        metavar="MS",
+        help="true DVL latency (ms): each reading stamped this much after it was taken",
+    ),
+]
 InclinometerBias = Annotated[
     str | None,
     typer.Option(
@@ -420,6 +428,7 @@ def simulate(
     dvl_misalignment_deg: DvlMisalignment = None,
     depth_bias_m: DepthBias = None,
     inclinometer_bias_deg: InclinometerBias = None,
+    dvl_latency_ms: DvlLatency = None,
     force: Force = False,
     quiet: Quiet = False,
 ) -> None:
@@ -433,9 +442,10 @@ def simulate(
     imu_uncalibrated_turn_on, imu_scale_factor, sensor_noise, dvl_noise_segments,
     dvl_outliers, dvl_dropouts, depth_sea_state, inclinometer_pendulum, clock_offsets,
     clock_jitter (see docs/simulation.md). The sensors are perfectly calibrated unless
-    --dvl-scale, --dvl-misalignment-deg, --depth-bias-m or --inclinometer-bias-deg give them
-    true calibration errors (saved in simulation.json; docs/simulation.md, 'Calibration
-    errors'); e.g. --dvl-misalignment-deg 0,0,1 --inclinometer-bias-deg=-0.2,0.1.
+    --dvl-scale, --dvl-misalignment-deg, --depth-bias-m, --inclinometer-bias-deg or
+    --dvl-latency-ms give them true calibration errors (saved in simulation.json;
+    docs/simulation.md, 'Calibration errors'); e.g. --dvl-misalignment-deg 0,0,1
+    --inclinometer-bias-deg=-0.2,0.1.
     """
     from dataclasses import fields, replace
 
@@ -454,7 +464,9 @@ def simulate(
             if name not in known:
                 _fail(f"unknown disturbance {name!r}; known: {', '.join(sorted(known))}")
             d = replace(d, **{name: value})
-    cal = _calibration(dvl_scale, dvl_misalignment_deg, depth_bias_m, inclinometer_bias_deg)
+    cal = _calibration(
+        dvl_scale, dvl_misalignment_deg, depth_bias_m, inclinometer_bias_deg, dvl_latency_ms
+    )
     with output(out, force) as tmp, Stages(quiet) as st:
         st.begin(f"simulating {preset} (seed {seed})")
         run_simulation(preset, seed, tmp, d, cal)
@@ -470,6 +482,7 @@ def _calibration(
     dvl_misalignment_deg: str | None,
     depth_bias_m: str | None,
     inclinometer_bias_deg: str | None,
+    dvl_latency_ms: str | None = None,
 ) -> Calibration:
     """The sensors' true calibration errors from ``simulate``'s flags (degrees to rad); a bad
     value fails naming its flag (docs/simulation.md, 'Calibration errors')."""
@@ -483,6 +496,7 @@ def _calibration(
         ("--dvl-misalignment-deg", dvl_misalignment_deg, "dvl_misalignment", 3, DEG),
         ("--depth-bias-m", depth_bias_m, "depth_bias", 1, 1.0),
         ("--inclinometer-bias-deg", inclinometer_bias_deg, "inclinometer_bias", 2, DEG),
+        ("--dvl-latency-ms", dvl_latency_ms, "dvl_latency", 1, 1e-3),
     )
     cal = NO_CALIBRATION
     for flag, text, name, count, unit in given:

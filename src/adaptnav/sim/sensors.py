@@ -147,6 +147,9 @@ class Disturbances:
 MAX_SCALE_ERROR = 0.5
 """A DVL scale factor s beyond 1 ± this is refused: such a DVL is broken, not miscalibrated
 (and 101 or 0.01 for 1.01 are typos)."""
+MAX_DVL_LATENCY_S = 1.0
+"""A DVL latency beyond ±1 s is refused: a ping-to-output time or a logger's delay is
+milliseconds to a few tenths of a second; more is a clock in the wrong unit, or a typo."""
 MAX_DEPTH_BIAS_M = 100.0
 """A depth bias beyond ±100 m is refused: a wrong atmospheric pressure or zero is metres to
 tens of metres (1 bar ≈ 10 m of water); a larger one is a different sensor, or a typo."""
@@ -180,12 +183,15 @@ class Calibration:
         depth_bias: b (m) in ``z = depth + b``.
         inclinometer_bias: (b_roll, b_pitch) (rad) added to the angles the inclinometer
             outputs (the pendulum's tilt, or the attitude's roll and pitch).
+        dvl_latency: τ_d (s): each DVL reading, taken at its true sampling instant t, is
+            stamped ``t + τ_d`` (the state ``dvl.latency`` of docs/calibration.md).
     """
 
     dvl_scale: float = 1.0
     dvl_misalignment: tuple[float, float, float] = (0.0, 0.0, 0.0)
     depth_bias: float = 0.0
     inclinometer_bias: tuple[float, float] = (0.0, 0.0)
+    dvl_latency: float = 0.0
 
     def __post_init__(self) -> None:
         s = float(self.dvl_scale)
@@ -197,8 +203,12 @@ class Calibration:
         b = float(self.depth_bias)
         if not abs(b) <= MAX_DEPTH_BIAS_M:  # also refuses NaN
             raise ValueError(f"depth bias {b:g} m is beyond ±{MAX_DEPTH_BIAS_M:g} m")
+        lag = float(self.dvl_latency)
+        if not abs(lag) <= MAX_DVL_LATENCY_S:  # also refuses NaN
+            raise ValueError(f"DVL latency {lag:g} s is beyond ±{MAX_DVL_LATENCY_S:g} s")
         object.__setattr__(self, "dvl_scale", s)
         object.__setattr__(self, "depth_bias", b)
+        object.__setattr__(self, "dvl_latency", lag)
         for name, label, n in (
             ("dvl_misalignment", "DVL misalignment", 3),
             ("inclinometer_bias", "inclinometer bias", 2),
@@ -222,6 +232,7 @@ class Calibration:
             "depth_bias_m": self.depth_bias,
             "inclinometer_bias_rad": list(self.inclinometer_bias),
             "inclinometer_bias_deg": [math.degrees(a) for a in self.inclinometer_bias],
+            "dvl_latency_s": self.dvl_latency,
         }
 
 
@@ -474,7 +485,7 @@ def dvl(
     z[is_drop] = np.nan
     df = pd.DataFrame(
         {
-            "t_s": truth.t,
+            "t_s": truth.t + calibration.dvl_latency,
             "vx_m_s": z[:, 0],
             "vy_m_s": z[:, 1],
             "vz_m_s": z[:, 2],
