@@ -374,6 +374,7 @@ def akit_segment(src: Path, cache: Path, n: int) -> dict[str, Any]:
             **{f"sd_dvl.{k}": v for k, v in fit.sigma.items()},
             "used": fit.used,
             "readings": fit.readings,
+            "residual_mm_s": 1000.0 * float(np.sqrt(np.mean(np.square(fit.residual_rms_m_s)))),
         }
     return row
 
@@ -581,7 +582,14 @@ def akit_section(rows: list[dict[str, Any]]) -> str:
         for r in rows
         for who in ESTIMATORS
     ]
-    agree = [_agreement(rows, who, k) for k in AKIT_STATES for who in ESTIMATORS]
+    worst = max(rows, key=lambda r: r["fit_velocity"]["residual_mm_s"])
+    rest = [r for r in rows if r is not worst]
+    agree = [
+        [*_agreement(rows, who, k), _agreement(rest, who, k)[2]]
+        for k in AKIT_STATES
+        for who in ESTIMATORS
+    ]
+    residuals = sorted((r["fit_velocity"]["residual_mm_s"] for r in rows), reverse=True)
     rmse_header = ["segment"] + [
         f"{LABELS[f]} {what} (%)" for f in FILTERS for what in ("without", "with", "smoothed")
     ]
@@ -626,7 +634,10 @@ def akit_section(rows: list[dict[str, Any]]) -> str:
                 estimates,
             ),
             "",
-            "Agreement across the segments:",
+            "Agreement across the segments, and without the segment whose DVL agrees least "
+            f"with the reference's velocity (segment {worst['segment']}: the residual of the "
+            f"fit to it {_f(residuals[0], '.1f')} mm/s RMS over the three axes, the next "
+            f"{_f(residuals[1], '.1f')} mm/s; chosen by the fit, without a filter):",
             "",
             markdown_table(
                 [
@@ -635,6 +646,7 @@ def akit_section(rows: list[dict[str, Any]]) -> str:
                     "χ² (dof)",
                     "within 2σ of the mean",
                     "χ² with the long-run σ (dof)",
+                    f"χ² without segment {worst['segment']} (dof)",
                 ],
                 agree,
             ),

@@ -39,8 +39,9 @@ def _segment(n: int, scale: float, sd: float) -> dict[str, Any]:
     est = one | {"rel_without_pct": 0.2, "rel_with_pct": 0.2, "rel_smoothed_pct": 0.1}
     # a filter's σ allowing for correlated readings: twice its σ here
     est |= {f"sdl_{k}": 2.0 * est[f"sd_{k}"] for k in SCRIPT.AKIT_STATES}
+    fit = one | {"residual_mm_s": 10.0 + n}  # the last segment's DVL fits the reference worst
     return {"segment": n, "reference_scale_pct": 0.0, "reference_p95": 5.0, "vb": est,
-            "robust": est, "fit_velocity": one, "fit_position": one}  # fmt: skip
+            "robust": est, "fit_velocity": fit, "fit_position": one}  # fmt: skip
 
 
 def test_agreement_is_the_weighted_mean_and_the_chi_square_of_the_spread() -> None:
@@ -58,6 +59,10 @@ def test_agreement_is_the_weighted_mean_and_the_chi_square_of_the_spread() -> No
     assert float(mean) == pytest.approx(0.5) and chi2 == "4.5 on 2" and inside == "3/3"
     text = SCRIPT.akit_section(rows)
     assert "smoothed / forward 0.500 and 0.500" in text and text.count("**PASS**") == 4
+    # without segment 3 (the largest residual against the reference's velocity, 13 mm/s): the
+    # two left agree exactly (χ² 0 on 1)
+    assert "segment 3: the residual of the fit to it 13.0 mm/s" in text
+    assert "| scale, VB-MAESKF | 0.500 | 4.5 on 2 | 3/3 | 1.1 on 2 | 0.0 on 1 |" in text
 
 
 def test_the_timing_table_gives_means_spreads_and_the_named_segments_roll() -> None:
