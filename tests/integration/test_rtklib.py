@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
 import struct
 from functools import cache
 from pathlib import Path
@@ -479,3 +481,41 @@ def test_rtklib_evaluation_script_writes_the_results_page(tmp_path: Path) -> Non
     assert (smoothed["length_s"] == mod.SMOOTH_OUTAGE_S).sum() == 2 * len(mod.FILTERS)
     # a verdict per filter in the table and in its line
     assert text.count("PASS") + text.count("FAIL") == 2 * len(mod.FILTERS)
+
+
+def _with_latency_state(src: Path, root: Path) -> Path:
+    """The mission ``src`` with ``estimate = ["latency"]`` on its GNSS (hard links for the
+    tables)."""
+    shutil.copytree(src, root, copy_function=os.link)
+    toml = (root / "mission.toml").read_text()
+    (root / "mission.toml").unlink()  # a hard link: write a new file, not the original
+    head = '[sensors.gnss]\nkind = "gnss"\n'
+    assert head in toml
+    (root / "mission.toml").write_text(toml.replace(head, head + 'estimate = ["latency"]\n'))
+    return root
+
+
+@needs_data
+def test_a_gnss_latency_state_measures_the_imu_time_offset(drive: Drive, tmp_path: Path) -> None:
+    """``[sensors.gnss] estimate = ["latency"]`` (0.4.3; docs/calibration.md, 'GNSS latency') on
+    the drive with the NHC, imported with the published IMU time offset (-0.125 s) and with
+    -0.2 s: each estimate to a few ms, and the two put the IMU's offset at the same place
+    (offset + latency within 3σ: moving the IMU 75 ms moves the latency 75 ms back), beyond the
+    published one. Imported at -0.2 s, nearer that place, the plain filter's outage drift is
+    smaller than at the published offset: the state measured a timing error, not an
+    artefact."""
+    found = {}
+    for offset in (rtklib.PUBLISHED_IMU_TIME_OFFSET_S, -0.2):
+        root = _with_latency_state(drive.mission(offset), tmp_path / f"{offset}")
+        m = load_mission(root)
+        x0, P0, t0, _ = api.initial_state(m)
+        c = api.run(m, "robust", initial=(x0, P0, t0)).meta["calibration"]["gnss.latency"]
+        assert c["unit"] == "ms" and c["sigma"] < 10.0, c
+        found[offset] = (offset + c["estimate"] / 1000.0, c["sigma"] / 1000.0)
+    print(f"\nIMU time offset implied (s): {found}")
+    (a, sa), (b, sb) = found.values()
+    assert abs(a - b) < 3.0 * math.hypot(sa, sb)
+    assert 0.5 * (a + b) < rtklib.PUBLISHED_IMU_TIME_OFFSET_S - 0.05
+    drift = {off: drive.drift(off)[:, 3].mean() for off in (-0.125, -0.2)}
+    print(f"mean outage drift (m): {drift}")
+    assert drift[-0.2] < drift[-0.125]

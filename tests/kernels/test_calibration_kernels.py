@@ -55,6 +55,8 @@ def _models(rng: np.random.Generator) -> list[Any]:
         PendulumInclinometer(0.002, C, cal_bias=BIAS),
         GNSS(0.5, lever, True, cal_bias=BIAS),
         GNSS(0.5, lever, False, cal_bias=BIAS),
+        GNSS(0.5, lever, True, cal_latency=LAT),
+        GNSS(0.5, lever, False, "gnss", BIAS, LAT),
     ]
 
 
@@ -63,6 +65,8 @@ def _h(model: Any, x: np.ndarray, w: np.ndarray, f: np.ndarray) -> np.ndarray:
         return np.asarray(model.predict(x, w, f))
     if isinstance(model, PendulumInclinometer):
         return np.asarray(model.predict(x, f))
+    if isinstance(model, GNSS):
+        return np.asarray(model.predict(x, w))
     return np.atleast_1d(np.asarray(model.predict(x)))
 
 
@@ -101,8 +105,8 @@ def test_calibrated_h_against_finite_differences() -> None:
                     eps = 1e-2 if k < 3 or k >= BIAS else 1e-3
                 dx[k] = eps
                 if isinstance(model, GNSS):  # its residual is in metres: H = -dy/ddx at z = h(x)
-                    plus = -model.evaluate(errorstate.inject(x, dx), h0).y
-                    minus = -model.evaluate(errorstate.inject(x, -dx), h0).y
+                    plus = -model.evaluate(errorstate.inject(x, dx), h0, w).y
+                    minus = -model.evaluate(errorstate.inject(x, -dx), h0, w).y
                 else:
                     plus = _h(model, errorstate.inject(x, dx), w, f)
                     minus = _h(model, errorstate.inject(x, -dx), w, f)

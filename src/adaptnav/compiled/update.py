@@ -483,9 +483,10 @@ def _lin_pendulum(par: Array, x: Array, z: Array, f: Array, y: Array, H: Array, 
 
 
 @jit_inline
-def _lin_gnss(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> None:
+def _lin_gnss(par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: int) -> None:
     """GNSS (sensors.gnss): antenna lat, lon (, h) with lever arm; residual in NED metres; the
-    horizontal bias states, if any, subtracted from its N and E components."""
+    horizontal bias states, if any, subtracted from its N and E components; a latency state,
+    if any (:func:`_gnss_latency`)."""
     lat, lon, h = x[0], x[1], x[2]
     a = _matvec(_dcm(x), _par_vec(par, PAR_LB))
     RM, RN, dRM, dRN = _radii(lat)
@@ -507,6 +508,31 @@ def _lin_gnss(par: Array, x: Array, z: Array, y: Array, H: Array, r: int) -> Non
         H[r + 2, 2] = 1.0
         H[r + 2, 6], H[r + 2, 7] = a[1], -a[0]
     _bias(par, x, y, H, r, 2)  # horizontal bias states, if any (sensors.gnss.GNSS.cal_bias)
+    if par[PAR_CAL + 3] >= 0.0:
+        _gnss_latency(par, x, w, y, H, r, 3 if par[PAR_FLAG] != 0.0 else 2)
+
+
+@jit
+def _gnss_latency(par: Array, x: Array, w: Array, y: Array, H: Array, r: int, d: int) -> None:
+    """The fix τ earlier (twin: sensors.gnss.GNSS with ``cal_latency``): with the antenna's
+    velocity ``v_a = v_n + u``, ``u = C_nb ((ω̃ - b_g) × l_b)``, the residual gains ``τ v_a``,
+    H ``-τ`` on dv, ``τ [u×]`` on phi, ``-τ C_nb [l_b×]`` on db_g (row k: ``(C_nb)_k × l_b``)
+    and ``-v_a`` on τ. Called, not inlined: rare."""
+    kl = int(par[PAR_CAL + 3])
+    lag = x[kl + 1]
+    C = _dcm(x)
+    lever = _par_vec(par, PAR_LB)
+    u = _matvec(C, _cross((w[0] - x[13], w[1] - x[14], w[2] - x[15]), lever))
+    skew_u = (0.0, -u[2], u[1], u[2], 0.0, -u[0], -u[1], u[0], 0.0)
+    for k in range(d):
+        v_a = x[3 + k] + u[k]
+        y[r + k] += lag * v_a
+        H[r + k, 3 + k] -= lag
+        c_l = _cross((C[3 * k], C[3 * k + 1], C[3 * k + 2]), lever)
+        for c in range(3):
+            H[r + k, 6 + c] += lag * skew_u[3 * k + c]
+            H[r + k, 12 + c] -= lag * c_l[c]
+        H[r + k, kl] = -v_a
 
 
 @jit
@@ -532,7 +558,7 @@ def linearise(
     elif code in (LIN_INCLINOMETER, LIN_HEADING):
         _lin_attitude(par, x, z, y, H, row, code == LIN_HEADING)
     elif code == LIN_GNSS:
-        _lin_gnss(par, x, z, y, H, row)
+        _lin_gnss(par, x, z, w, y, H, row)
     elif code == LIN_PENDULUM:
         _lin_pendulum(par, x, z, f, y, H, row)
     elif code == LIN_ZUPT:

@@ -24,6 +24,12 @@ lat + dr_N/(R_M + h), ..., ``C_true = Exp(phi) C``) this is
 
 The curvature terms (a/R ≈ 1e-6, a tan(lat)/R at high latitude) change nothing in practice but
 make H the true Jacobian of the model above.
+
+With a latency state τ (docs/calibration.md, 'GNSS latency': a fix stamped t is the antenna's
+position at t - τ) the antenna is taken τ earlier, ``r_a - τ v_a`` with its velocity
+``v_a = v_n + C_nb (ω × l_b)``, ω = ω̃ - b_g: the residual gains ``+τ v_a`` and H gains
+``-τ ∂v_a/∂dx`` (``-τ I`` on dv, ``τ [(C_nb (ω × l_b))×]`` on phi, ``-τ C_nb [l_b×]`` on db_g)
+and ``-v_a`` on τ (the change of the radii with position over τ v_a is left out: ~1e-8).
 """
 
 from __future__ import annotations
@@ -37,8 +43,8 @@ from numpy.typing import ArrayLike
 
 from adaptnav.core import attitude, earth
 from adaptnav.core.units import Kind
-from adaptnav.models.errorstate import ATT, N_STATES, POS
-from adaptnav.models.strapdown import NOM_ATT, NOM_SIZE
+from adaptnav.models.errorstate import ATT, BG, N_STATES, POS, VEL
+from adaptnav.models.strapdown import NOM_ATT, NOM_BG, NOM_SIZE, NOM_VEL
 from adaptnav.sensors.base import (
     Array,
     Components,
@@ -49,7 +55,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
 )
-from adaptnav.sensors.calibration import GNSS_BIAS, bias, widen
+from adaptnav.sensors.calibration import GNSS_BIAS, LATENCY, bias, widen
 from adaptnav.sensors.kind import IdealInput, SensorKind, StuckDefault, pack_params
 
 
@@ -86,6 +92,14 @@ def residual(x: ArrayLike, z: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0)) -> Ar
     return y
 
 
+def antenna_velocity(x: ArrayLike, omega_ib_b: ArrayLike, l_b: ArrayLike) -> Array:
+    """``v_a = v_n + C_nb ((ω̃ - b_g) × l_b)``, the antenna's NED velocity (m/s)."""
+    xa = check_state(x)
+    rate = np.asarray(omega_ib_b, dtype=float) - xa[NOM_BG]
+    turn = _lever_n(xa, np.cross(rate, np.asarray(l_b, dtype=float)))
+    return np.asarray(xa[NOM_VEL] + turn, dtype=float)
+
+
 def jacobian(x: ArrayLike, l_b: ArrayLike = (0.0, 0.0, 0.0), use_height: bool = True) -> Array:
     """H (2 or 3 × 15) on dr and phi, as in the module docstring."""
     xa = check_state(x)
@@ -118,6 +132,7 @@ class GNSS(Components):
         cal_bias: error-state index of its horizontal bias states (north, east, m;
             docs/calibration.md, 'GNSS bias'); -1: none. The antenna then reads ``r + a + b``:
             the residual's N and E components less b, H with 1 on each.
+        cal_latency: error-state index of its latency state (s; module docstring); -1: none.
     """
 
     COMPONENTS: ClassVar[tuple[str, ...]] = ("N", "E", "D")
@@ -127,6 +142,7 @@ class GNSS(Components):
     use_height: bool = True
     name: str = "gnss"
     cal_bias: int = -1
+    cal_latency: int = -1
 
     LIN_CODE: ClassVar[int] = 4
     """Its branch in the compiled ``linearise`` (sensors/kind.py)."""
@@ -134,7 +150,8 @@ class GNSS(Components):
     def lin_params(self) -> Array:
         """Its parameters for the compiled ``linearise`` (sensors/kind.py)."""
         flag = 1.0 if self.use_height else 0.0
-        return pack_params(self.l_b, flag=flag, calibration=(self.cal_bias, -1))
+        cal = (self.cal_bias, -1, -1, self.cal_latency)
+        return pack_params(self.l_b, flag=flag, calibration=cal)
 
     def __post_init__(self) -> None:
         if not isinstance(self.use_height, bool):
@@ -148,26 +165,55 @@ class GNSS(Components):
         return 3 if self.use_height else 2
 
     @property
+    def midpoint_update(self) -> bool:
+        """With a latency state its reading multiplies τ with the velocity: linearised at the
+        midpoint of the update's step, as a calibrated DVL (docs/calibration.md)."""
+        return self.cal_latency >= 0
+
+    def _latency(self, x: Array, omega_ib_b: ArrayLike | None) -> tuple[float, Array]:
+        """``(τ, v_a)`` (module docstring); ``(0, zeros)`` without a latency state."""
+        if self.cal_latency < 0 or x.size == NOM_SIZE:
+            return 0.0, np.zeros(3)
+        if omega_ib_b is None:
+            raise ValueError("a GNSS with a latency state needs the gyro rate omega_ib_b")
+        return float(x[self.cal_latency + 1]), antenna_velocity(x[:NOM_SIZE], omega_ib_b, self.l_b)
+
+    @property
     def names(self) -> tuple[str, ...]:
         return (f"{self.name}_N", f"{self.name}_E", f"{self.name}_D")[: self.dim]
 
-    def predict(self, x: ArrayLike) -> Array:
-        """See :func:`predict`; with the bias states (north, east, m) the antenna moved by them."""
+    def predict(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
+        """See :func:`predict`; with the bias states (north, east, m) the antenna moved by them,
+        with a latency state moved by ``-τ v_a`` (``omega_ib_b``, the raw gyro rate, needed
+        then)."""
         xa = np.asarray(x, dtype=float)
         out = predict(xa[:NOM_SIZE], self.l_b, self.use_height)
-        b = bias(xa, self.cal_bias, 2)
+        lag, v_a = self._latency(xa, omega_ib_b)
+        b = bias(xa, self.cal_bias, 2) - lag * v_a[:2]
         lat, h = float(xa[0]), float(xa[2])
         out[0] += b[0] / (float(earth.meridian_radius(lat)) + h)
         rn = float(earth.transverse_radius(lat)) + h
         out[1] = float(attitude.wrap_angle(out[1] + b[1] / (rn * math.cos(lat))))
+        if self.use_height:
+            out[2] += lag * v_a[2]
         return out
 
-    def jacobian(self, x: ArrayLike) -> Array:
-        """See :func:`jacobian`; a column per error state of x (15 + m), 1 on the bias states."""
+    def jacobian(self, x: ArrayLike, omega_ib_b: ArrayLike | None = None) -> Array:
+        """See :func:`jacobian`; a column per error state of x (15 + m), 1 on the bias states,
+        and with a latency state its terms (module docstring)."""
         xa = np.asarray(x, dtype=float)
         H = widen(xa, jacobian(xa[:NOM_SIZE], self.l_b, self.use_height))
         if self.cal_bias >= 0 and H.shape[1] > N_STATES:
             H[0, self.cal_bias] = H[1, self.cal_bias + 1] = 1.0
+        lag, v_a = self._latency(xa, omega_ib_b)
+        if self.cal_latency >= 0 and H.shape[1] > N_STATES:
+            d = self.dim
+            turn = v_a - xa[NOM_VEL]
+            C = attitude.quat_to_dcm(xa[NOM_ATT])
+            H[:, VEL] -= lag * np.eye(3)[:d]
+            H[:, ATT] += lag * attitude.skew(turn)[:d]
+            H[:, BG] -= lag * (C @ attitude.skew(self.l_b))[:d]
+            H[:, self.cal_latency] = -v_a[:d]
         return H
 
     def evaluate(
@@ -175,7 +221,8 @@ class GNSS(Components):
     ) -> Measurement | None:
         """Residual in NED metres (see :func:`residual`), H and R; None if z has a NaN/inf.
 
-        ``z = [lat, lon(, h)]`` (rad, rad, m), of length :attr:`dim`; ``omega_ib_b`` is not used.
+        ``z = [lat, lon(, h)]`` (rad, rad, m), of length :attr:`dim`; ``omega_ib_b`` (the raw
+        gyro rate) is used only with a latency state.
         """
         zz = check_reading(self.name, z, self.dim)
         if zz is None:
@@ -183,7 +230,9 @@ class GNSS(Components):
         xa = np.asarray(x, dtype=float)
         y = residual(xa[:NOM_SIZE], zz, self.l_b)
         y[:2] -= bias(xa, self.cal_bias, 2)
-        return Measurement(y, self.jacobian(xa), self.R, self.names)
+        lag, v_a = self._latency(xa, omega_ib_b)
+        y += lag * v_a[: self.dim]
+        return Measurement(y, self.jacobian(xa, omega_ib_b), self.R, self.names)
 
 
 def ideal(t: IdealInput) -> Array:
@@ -207,7 +256,14 @@ KIND = SensorKind(
     name="gnss",
     columns=("lat_rad", "lon_rad", "h_m"),
     sigma_kind=Kind.LENGTH,
-    build=lambda s: GNSS(s.sigma, s.l_b, s.use_height, s.name, s.calibration.get("bias", -1)),
+    build=lambda s: GNSS(
+        s.sigma,
+        s.l_b,
+        s.use_height,
+        s.name,
+        s.calibration.get("bias", -1),
+        s.calibration.get("latency", -1),
+    ),
     limits={
         "lat_rad": (-math.pi / 2, math.pi / 2),
         "lon_rad": (-math.pi, 2.0 * math.pi),
@@ -227,7 +283,7 @@ KIND = SensorKind(
     options=frozenset({"use_height"}),
     optional_columns=1,
     linearised=(GNSS,),
-    calibration={"bias": GNSS_BIAS},
+    calibration={"bias": GNSS_BIAS, "latency": LATENCY},
     ideal_reading=ideal,
 )
 """GNSS (or USBL) fixes as a sensor kind (sensors/kind.py): latitude within ±90°, longitude in
