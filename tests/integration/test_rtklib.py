@@ -481,6 +481,11 @@ def test_rtklib_evaluation_script_writes_the_results_page(tmp_path: Path) -> Non
     assert (smoothed["length_s"] == mod.SMOOTH_OUTAGE_S).sum() == 2 * len(mod.FILTERS)
     # a verdict per filter in the table and in its line
     assert text.count("PASS") + text.count("FAIL") == 2 * len(mod.FILTERS)
+    # the timing section: the GNSS latency on every import puts the IMU at one offset (0.4.3)
+    assert "## The IMU's time offset, measured by the filter" in text
+    rows = [line.split(" | ") for line in text.splitlines() if line.startswith("| GNSS + NHC | ")]
+    implied = [float(r[3]) for r in rows if len(r) == 7]
+    assert len(implied) == len(mod.TIMING_OFFSETS_S) and max(implied) - min(implied) < 0.02
 
 
 def _with_latency_state(src: Path, root: Path) -> Path:
