@@ -178,6 +178,17 @@ def check_vector3(field: str, value: object) -> Array:
     return _frozen(a)
 
 
+def need_force(f_ib_b: ArrayLike | None, who: str) -> Array:
+    """The raw specific force f̃_ib_b (m/s², shape (3,)) a model needs (``who``: "a pendulum
+    inclinometer"); a ValueError naming it when it is missing or of the wrong shape."""
+    if f_ib_b is None:
+        raise ValueError(f"{who} needs the accelerometer's specific force f_ib_b")
+    f = np.asarray(f_ib_b, dtype=float)
+    if f.shape != (3,):
+        raise ValueError(f"f_ib_b must have shape (3,), got {f.shape}")
+    return f
+
+
 def check_rotation(field: str, value: object) -> Array:
     """A proper rotation matrix (3×3, orthonormal to rounding, det = +1)."""
     a = _as_float_array(field, value)

@@ -57,6 +57,7 @@ from adaptnav.sensors.base import (
     check_sigma,
     check_state,
     check_vector3,
+    need_force,
 )
 from adaptnav.sensors.calibration import (
     DVL_BIAS,
@@ -122,15 +123,6 @@ def jacobian(
     return H
 
 
-def _force(f_ib_b: ArrayLike | None) -> Array:
-    if f_ib_b is None:
-        raise ValueError("a DVL with a latency state needs the accelerometer's f_ib_b")
-    f = np.asarray(f_ib_b, dtype=float)
-    if f.shape != (3,):
-        raise ValueError(f"f_ib_b must have shape (3,), got {f.shape}")
-    return f
-
-
 def rate(
     x: ArrayLike, omega_ib_b: ArrayLike, f_ib_b: ArrayLike, C_sb: ArrayLike | None = None
 ) -> Array:
@@ -140,7 +132,8 @@ def rate(
     C = attitude.quat_to_dcm(xa[NOM_ATT])
     v_b = C.T @ xa[NOM_VEL]
     w = _rate(xa, omega_ib_b, np.zeros(3))
-    acc = _force(f_ib_b) - xa[NOM_BA] + C.T @ earth.gravity_n(xa[0], xa[2]) - np.cross(w, v_b)
+    f = need_force(f_ib_b, "a DVL's rate")
+    acc = f - xa[NOM_BA] + C.T @ earth.gravity_n(xa[0], xa[2]) - np.cross(w, v_b)
     C_s = np.eye(3) if C_sb is None else np.asarray(C_sb, dtype=float)
     return np.asarray(C_s @ acc, dtype=float)
 
@@ -256,7 +249,7 @@ class DVL(Components):
             raise ValueError("a DVL with a latency state needs the gyro rate omega_ib_b")
         w = omega_ib_b
         delay = x[self.cal_latency + 1]
-        h_dot = rate(core, w, _force(f_ib_b), self.C_sb)
+        h_dot = rate(core, w, need_force(f_ib_b, "a DVL with a latency state"), self.C_sb)
         if H is not None:
             H = H - delay * rate_jacobian(core, w, self.C_sb)
         return h - delay * h_dot, H, h_dot

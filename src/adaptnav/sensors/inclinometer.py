@@ -67,6 +67,7 @@ from adaptnav.sensors.base import (
     check_sigma,
     check_state,
     euler_jacobian,
+    need_force,
 )
 from adaptnav.sensors.calibration import TILT_BIAS, bias, bias_jacobian
 from adaptnav.sensors.kind import (
@@ -241,12 +242,7 @@ class PendulumInclinometer(_TwoAxis):
 
 
 def _need_force(f_ib_b: ArrayLike | None) -> Array:
-    if f_ib_b is None:
-        raise ValueError("a pendulum inclinometer needs the accelerometer's specific force f_ib_b")
-    f = np.asarray(f_ib_b, dtype=float)
-    if f.shape != (3,):
-        raise ValueError(f"f_ib_b must have shape (3,), got {f.shape}")
-    return f
+    return need_force(f_ib_b, "a pendulum inclinometer")
 
 
 def _build(s: SensorSetup) -> Inclinometer | PendulumInclinometer:
