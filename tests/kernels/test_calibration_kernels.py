@@ -18,6 +18,7 @@ from adaptnav.sensors.calibration import misalignment, misalignment_derivatives
 from adaptnav.sensors.depth import Depth
 from adaptnav.sensors.dvl import DVL
 from adaptnav.sensors.gnss import GNSS
+from adaptnav.sensors.heading import Heading
 from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 
 # Declared error states 15..22: DVL scale, DVL misalignment (3), three biases (the depth uses
@@ -57,6 +58,8 @@ def _models(rng: np.random.Generator) -> list[Any]:
         GNSS(0.5, lever, False, cal_bias=BIAS),
         GNSS(0.5, lever, True, cal_latency=LAT),
         GNSS(0.5, lever, False, "gnss", BIAS, LAT),
+        Heading(0.01, C, cal_latency=LAT),
+        Heading(0.01, C),  # no latency, on a state that has one: zero columns
     ]
 
 
@@ -65,7 +68,7 @@ def _h(model: Any, x: np.ndarray, w: np.ndarray, f: np.ndarray) -> np.ndarray:
         return np.asarray(model.predict(x, w, f))
     if isinstance(model, PendulumInclinometer):
         return np.asarray(model.predict(x, f))
-    if isinstance(model, GNSS):
+    if isinstance(model, GNSS | Heading):
         return np.asarray(model.predict(x, w))
     return np.atleast_1d(np.asarray(model.predict(x)))
 

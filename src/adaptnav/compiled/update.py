@@ -432,11 +432,11 @@ def _bias(par: Array, x: Array, y: Array, H: Array, r: int, d: int, slot: int = 
 
 @jit_inline
 def _lin_attitude(
-    par: Array, x: Array, z: Array, y: Array, H: Array, r: int, heading: bool
+    par: Array, x: Array, z: Array, w: Array, y: Array, H: Array, r: int, heading: bool
 ) -> None:
     """Inclinometer (roll, pitch) or heading (yaw) of ``C_ns = C_nb C_sbᵀ``: wrapped residuals,
     H on phi from the Euler-angle Jacobian (sensors.inclinometer, sensors.heading,
-    sensors.base.euler_jacobian)."""
+    sensors.base.euler_jacobian); a heading's latency state, if any (:func:`_heading_latency`)."""
     M = _mul_bt(_dcm(x), _par_mat(par, PAR_CSB))
     roll, pitch, yaw = _euler(M)
     sy, cy = math.sin(yaw), math.cos(yaw)
@@ -447,6 +447,8 @@ def _lin_attitude(
         H[r, 6] = cy * tp
         H[r, 7] = sy * tp
         H[r, 8] = 1.0
+        if par[PAR_CAL + 3] >= 0.0:
+            _heading_latency(par, x, w, sy, cy, tp, cp, y, H, r)
     else:
         kb = int(par[PAR_CAL])
         b0, b1 = (x[kb + 1], x[kb + 2]) if kb >= 0 else (0.0, 0.0)
@@ -458,6 +460,31 @@ def _lin_attitude(
         H[r + 1, 7] = cy
         if kb >= 0:
             H[r, kb], H[r + 1, kb + 1] = 1.0, 1.0
+
+
+@jit
+def _heading_latency(
+    par: Array, x: Array, w: Array, sy: float, cy: float, tp: float, cp: float, y: Array,
+    H: Array, r: int,
+) -> None:  # fmt: skip
+    """The heading τ earlier (twin: sensors.heading.Heading with ``cal_latency``): with
+    ``u = C_nb (ω̃ - b_g)`` and the rows ``E_ψ``, ``E_θ`` of the Euler-angle Jacobian, the
+    residual gains ``τ ψ̇`` (``ψ̇ = E_ψ · u``), H ``-τ ∂ψ̇/∂phi`` and ``τ E_ψ C_nb`` on db_g, and
+    ``-ψ̇`` on τ. Called, not inlined: rare."""
+    kl = int(par[PAR_CAL + 3])
+    lag = x[kl + 1]
+    C = _dcm(x)
+    u = _matvec(C, (w[0] - x[13], w[1] - x[14], w[2] - x[15]))
+    e_yaw, e_pitch = (cy * tp, sy * tp, 1.0), (-sy, cy, 0.0)
+    turn = e_yaw[0] * u[0] + e_yaw[1] * u[1] + u[2]
+    d_yaw = -sy * tp * u[0] + cy * tp * u[1]
+    d_pitch = (cy * u[0] + sy * u[1]) / (cp * cp)
+    eu = _cross(e_yaw, u)
+    for c in range(3):
+        H[r, 6 + c] -= lag * (d_yaw * e_yaw[c] + d_pitch * e_pitch[c] - eu[c])
+        H[r, 12 + c] += lag * (e_yaw[0] * C[c] + e_yaw[1] * C[3 + c] + C[6 + c])
+    H[r, kl] = -turn
+    y[r] = _wrap(y[r] + lag * turn)
 
 
 @jit_inline
@@ -556,7 +583,7 @@ def linearise(
     elif code == LIN_DEPTH:
         _lin_depth(par, x, z, y, H, row)
     elif code in (LIN_INCLINOMETER, LIN_HEADING):
-        _lin_attitude(par, x, z, y, H, row, code == LIN_HEADING)
+        _lin_attitude(par, x, z, w, y, H, row, code == LIN_HEADING)
     elif code == LIN_GNSS:
         _lin_gnss(par, x, z, w, y, H, row)
     elif code == LIN_PENDULUM:
