@@ -269,6 +269,7 @@ def test_a_dvl_latency_state_finds_the_stamps_delay(
     for lag, f in found.items():
         assert f["unit"] == "ms" and f["prior_sigma"] == pytest.approx(100.0)
         assert f["sigma"] < 0.3 * f["prior_sigma"], f
+        assert f["long_run_factor"] > 0.0 and f["sigma_long_run"] >= f["sigma"], f
         assert abs(f["estimate"] - 1000.0 * lag) < 3.0 * f["sigma"], (lag, f)
     gap = found[0.2]["estimate"] - found[0.0]["estimate"]
     assert abs(gap - 200.0) < 3.0 * found[0.2]["sigma"], gap

@@ -99,9 +99,11 @@ def test_the_akit_latency_table_sets_the_latency_runs_beside_the_plain_ones() ->
     for n, lat in zip((1, 2, 3), (-10.0, -20.0, -30.0), strict=True):
         one = {k: 0.0 for k in SCRIPT.AKIT_STATES} | {f"sd_{k}": 0.1 for k in SCRIPT.AKIT_STATES}
         rows.append(one | {"segment": n, "dvl.latency": lat, "sd_dvl.latency": 5.0,
-                           "rel_pct": 0.2, "rel_smoothed_pct": 0.1})  # fmt: skip
+                           "sdl_dvl.latency": 10.0, "rel_pct": 0.2,
+                           "rel_smoothed_pct": 0.1})  # fmt: skip
         plain.append({"robust": one | {"rel_with_pct": 0.4, "rel_smoothed_pct": 0.3}})
     text = SCRIPT.akit_latency_section(rows, plain)
-    assert "| 2 | -20.0 ± 5.0 | +0.000 ± 0.100 | +0.000 ± 0.100 | 0.200 | 0.100 |" in text
+    assert "| 2 | -20.0 ± 5.0 | +0.000 ± 0.100 | +0.000 ± 0.100 | 10.0 | 0.200 | 0.100 |" in text
+    assert "with the latency's σ allowing for correlated readings its χ² is 2.0" in text
     assert "| + latency | -20.0, 8.0 | +0.000, 0.0 | +0.000, 0.0 | 0.200 | 0.100 | 0.500 |" in text
     assert "| scale, misalignment | - | +0.000, 0.0 | +0.000, 0.0 | 0.400 | 0.300 | 0.750 |" in text

@@ -583,3 +583,32 @@ def test_calibration_regressors_are_the_readings_derivatives() -> None:
     # a quantity it does not know, or readings of the wrong width: no regressor
     assert cal.regressors(cal.MISALIGNMENT, z[:, :2]) is None
     assert cal.regressors(cal.TILT_BIAS, z[:, :1]) is None
+
+
+def test_a_latency_regressor_is_minus_the_readings_rate() -> None:
+    """The latency's regressor (0.4.3): ``z(t - τ) ≈ z - τ ż``, so ``-ż`` from the kind's
+    ``reading_rate``: exact on a quadratic in time at uneven times (central differences), a
+    heading across the ±π wrap, a GNSS fix moving at a known NED velocity; none without a rate,
+    and NaN for times that do not increase."""
+    from adaptnav.sensors import calibration as cal
+    from adaptnav.sensors.base import readings_rate
+    from adaptnav.sensors.gnss import fix_rate
+    from adaptnav.sensors.heading import heading_rate
+
+    t = np.array([0.0, 0.4, 1.0, 1.3, 2.0, 2.9])
+    z = np.stack([t**2, 3.0 * t, -t], axis=1)
+    rate = readings_rate(z, t)
+    np.testing.assert_allclose(rate[1:-1], np.stack([2 * t, 3 + 0 * t, -1 + 0 * t], 1)[1:-1])
+    (h,) = cal.regressors(cal.LATENCY, z, rate) or ()
+    np.testing.assert_array_equal(h, -rate)
+    assert cal.regressors(cal.LATENCY, z) is None
+    assert np.isnan(readings_rate(z, np.r_[t[:3], t[2], t[4:]])).all()
+    yaw = np.remainder(3.0 + 0.2 * t + math.pi, 2 * math.pi) - math.pi  # crosses +π
+    np.testing.assert_allclose(heading_rate(yaw[:, None], t), 0.2)
+    lat0, v = math.radians(45.0), np.array([3.0, -4.0, 0.5])
+    rm = float(earth.meridian_radius(lat0)) + 10.0
+    rn = float(earth.transverse_radius(lat0)) + 10.0
+    fixes = np.stack([lat0 + v[0] * t / rm, math.pi - 1e-7 + v[1] * t / (rn * math.cos(lat0)),
+                      10.0 - v[2] * t], axis=1)  # fmt: skip
+    fixes[:, 1] = np.remainder(fixes[:, 1] + math.pi, 2 * math.pi) - math.pi  # the antimeridian
+    np.testing.assert_allclose(fix_rate(fixes, t), np.tile(v, (t.size, 1)), rtol=1e-6, atol=1e-6)

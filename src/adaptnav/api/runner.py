@@ -579,7 +579,9 @@ def _long_run_factor(
     d = data.z.shape[1]
     nu = used[[f"nu_{j}" for j in range(d)]].to_numpy(dtype=float)
     r = used[[f"r_{j}" for j in range(d)]].to_numpy(dtype=float)
-    hs = calibration_regressors(st.quantity, data.z[idx])
+    hook = KINDS[data.kind].reading_rate
+    rate = None if hook is None or idx.size < 3 else hook(data.z[idx], data.t[idx])
+    hs = calibration_regressors(st.quantity, data.z[idx], rate)
     if hs is None:
         return [math.nan] * len(st.names)
     w = nu / np.where(r > 0.0, r, np.nan)

@@ -178,6 +178,16 @@ def check_vector3(field: str, value: object) -> Array:
     return _frozen(a)
 
 
+def readings_rate(z: ArrayLike, t: ArrayLike) -> Array:
+    """``dz/dt`` of readings z (n, d) at times t (n,), central differences (one-sided at the
+    ends; a kind's ``reading_rate``); NaN throughout unless the times strictly increase."""
+    za = np.atleast_2d(np.asarray(z, dtype=float))
+    ta = np.asarray(t, dtype=float)
+    if ta.size < 2 or not np.all(np.diff(ta) > 0.0):
+        return np.full(za.shape, np.nan)
+    return np.asarray(np.gradient(za, ta, axis=0), dtype=float)
+
+
 def need_force(f_ib_b: ArrayLike | None, who: str) -> Array:
     """The raw specific force f̃_ib_b (m/s², shape (3,)) a model needs (``who``: "a pendulum
     inclinometer"); a ValueError naming it when it is missing or of the wrong shape."""

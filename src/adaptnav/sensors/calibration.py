@@ -108,14 +108,19 @@ surfacing's few minutes) it holds the fixes' common error in a state instead of 
 filter average it away as white noise (docs/calibration.md, 'GNSS bias')."""
 
 
-def regressors(quantity: Quantity, z: ArrayLike) -> tuple[Array, ...] | None:
+def regressors(
+    quantity: Quantity, z: ArrayLike, rate: ArrayLike | None = None
+) -> tuple[Array, ...] | None:
     """Per state of ``quantity``, how it moves each reading (n, d) of the sensor's readings z
     (n, d), to first order and up to a constant factor: ``∂z/∂state`` near zero calibration
     (module docstring's conventions). Scale: z itself; misalignment angle a: ``e_a × z``
-    (``M(δ) z ≈ z - δ × z``); a bias: its component's unit vector. None for a quantity this
-    function does not know (the long-run σ of docs/calibration.md, 'Correlated readings', is
-    then not given)."""
+    (``M(δ) z ≈ z - δ × z``); a bias: its component's unit vector; a latency: ``-ż``, from
+    ``rate`` (the readings' rate in the residual's units, the kind's ``reading_rate``). None
+    for a quantity this function does not know or a latency without ``rate`` (the long-run σ
+    of docs/calibration.md, 'Correlated readings', is then not given)."""
     za = np.atleast_2d(np.asarray(z, dtype=float))
+    if quantity == LATENCY:
+        return None if rate is None else (-np.atleast_2d(np.asarray(rate, dtype=float)),)
     if quantity == SCALE:
         return (za,)
     if quantity == MISALIGNMENT and za.shape[1] == 3:

@@ -58,6 +58,7 @@ from adaptnav.sensors.base import (
     check_state,
     check_vector3,
     need_force,
+    readings_rate,
 )
 from adaptnav.sensors.calibration import (
     DVL_BIAS,
@@ -358,6 +359,7 @@ KIND = SensorKind(
     linearised=(DVL,),
     calibration={q.name: q for q in (SCALE, MISALIGNMENT, DVL_BIAS, LATENCY)},
     ideal_reading=ideal,
+    reading_rate=readings_rate,
 )
 """The DVL as a sensor kind (sensors/kind.py): |velocity| <= 20 m/s per axis; stuck after 10 s
 within 0.01 mm/s (docs/robustness.md)."""

@@ -54,6 +54,7 @@ from adaptnav.sensors.base import (
     check_sigma,
     check_state,
     check_vector3,
+    readings_rate,
 )
 from adaptnav.sensors.calibration import GNSS_BIAS, LATENCY, bias, widen
 from adaptnav.sensors.kind import IdealInput, SensorKind, StuckDefault, pack_params
@@ -235,6 +236,21 @@ class GNSS(Components):
         return Measurement(y, self.jacobian(xa, omega_ib_b), self.R, self.names)
 
 
+def fix_rate(z: Array, t: Array) -> Array:
+    """The velocity (NED m/s) of fixes z (n, 2 or 3: lat, lon(, h)) at times t: their offsets
+    from the first fix in metres (radii there; longitude unwrapped) by :func:`readings_rate`."""
+    za = np.atleast_2d(np.asarray(z, dtype=float))
+    lat0, h0 = za[0, 0], za[0, 2] if za.shape[1] > 2 else 0.0
+    rm = float(earth.meridian_radius(lat0)) + h0
+    rn = float(earth.transverse_radius(lat0)) + h0
+    ned = np.empty(za.shape)
+    ned[:, 0] = (za[:, 0] - lat0) * rm
+    ned[:, 1] = np.unwrap(za[:, 1] - za[0, 1]) * rn * math.cos(lat0)
+    if za.shape[1] > 2:
+        ned[:, 2] = -(za[:, 2] - h0)
+    return readings_rate(ned, t)
+
+
 def ideal(t: IdealInput) -> Array:
     """Error-free fixes (N, 3) of the antenna, height included: :func:`predict` at each true
     state, over all N at once."""
@@ -284,6 +300,7 @@ KIND = SensorKind(
     optional_columns=1,
     linearised=(GNSS,),
     calibration={"bias": GNSS_BIAS, "latency": LATENCY},
+    reading_rate=fix_rate,
     ideal_reading=ideal,
 )
 """GNSS (or USBL) fixes as a sensor kind (sensors/kind.py): latitude within ±90°, longitude in

@@ -45,6 +45,7 @@ from adaptnav.sensors.base import (
     check_scalar_sigma,
     check_state,
     euler_jacobian,
+    readings_rate,
 )
 from adaptnav.sensors.calibration import LATENCY, widen
 from adaptnav.sensors.kind import (
@@ -182,6 +183,11 @@ class Heading(Components):
         return Measurement(y, self.jacobian(x, omega_ib_b), self.R, self.names)
 
 
+def heading_rate(z: Array, t: Array) -> Array:
+    """``dψ/dt`` of headings z (n, 1) at times t, across the ±π wrap (:func:`readings_rate`)."""
+    return readings_rate(np.unwrap(np.asarray(z, dtype=float), axis=0), t)
+
+
 def ideal(t: IdealInput) -> Array:
     """Error-free readings (N, 1): :func:`predict` at each true state, over all N at once (the
     yaw of ``C_nb C_sbᵀ``)."""
@@ -201,6 +207,7 @@ KIND = SensorKind(
     linearised=(Heading,),
     calibration={"latency": LATENCY},
     ideal_reading=ideal,
+    reading_rate=heading_rate,
 )
 """The heading sensor as a sensor kind (sensors/kind.py): heading within ±360°; stuck after
 60 s within 1e-6 rad (docs/robustness.md)."""

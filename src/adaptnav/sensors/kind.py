@@ -194,6 +194,10 @@ class SensorKind:
     """Its error-free readings (N, len(columns)) of the true motion, in the SI units of
     :attr:`columns` (optional ones included): the filter's own ``predict`` at the truth, so that
     the simulator and the filter share every convention. None: the simulator cannot make it."""
+    reading_rate: Callable[[Array, Array], Array] | None = None
+    """The rate of change of its readings z (n, d) at their times t (n,), in the units of its
+    residual (a GNSS's in NED m/s): the regressor of its latency state for the long-run σ
+    (docs/calibration.md, 'Correlated readings'). None: not given."""
 
     def dims(self) -> tuple[int, ...]:
         """The numbers of components it can have (with and without its optional columns)."""
