@@ -181,11 +181,14 @@ def test_simulate_calibration_flags_reach_simulation_json(tmp_path: Path) -> Non
     args = ["simulate", "demo", "--out", str(out), "--dvl-scale", "1.01"]
     args += ["--dvl-misalignment-deg", "0.5,-0.25,1", "--depth-bias-m", "-0.3"]
     args += ["--inclinometer-bias-deg", "-0.5,0.2", "--dvl-latency-ms", "150"]
+    args += ["--gps-latency-ms", "-20", "--heading-latency-ms", "75"]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
     truth = json.loads((out / "simulation.json").read_text())["calibration"]
     assert truth["dvl_scale_factor"] == 1.01 and truth["depth_bias_m"] == -0.3
     assert truth["dvl_latency_s"] == pytest.approx(0.15)
+    assert truth["gps_latency_s"] == pytest.approx(-0.02)
+    assert truth["heading_latency_s"] == pytest.approx(0.075)
     assert truth["dvl_misalignment_deg"] == pytest.approx([0.5, -0.25, 1.0])
     assert truth["dvl_misalignment_rad"] == pytest.approx(np.radians([0.5, -0.25, 1.0]).tolist())
     assert truth["inclinometer_bias_deg"] == pytest.approx([-0.5, 0.2])
@@ -195,16 +198,22 @@ def test_simulate_calibration_flags_reach_simulation_json(tmp_path: Path) -> Non
 def test_a_simulated_dvl_latency_stamps_each_reading_late(tmp_path: Path) -> None:
     """``--dvl-latency-ms 150`` (0.4.3): the DVL's stamps are those of the mission without it
     plus 0.15 s, its readings and every other table the same; the truth of its state
-    ``dvl.latency`` is 150 ms (analysis.calibration.true_values)."""
+    ``dvl.latency`` is 150 ms (analysis.calibration.true_values); the GPS and the heading
+    likewise with theirs."""
     from adaptnav.analysis.calibration import mission_truth
 
-    for name, extra in (("plain", []), ("late", ["--dvl-latency-ms", "150"])):
+    late_args = ["--dvl-latency-ms", "150", "--gps-latency-ms", "200", "--heading-latency-ms", "50"]
+    for name, extra in (("plain", []), ("late", late_args)):
         res = runner.invoke(app, ["simulate", "demo", "--out", str(tmp_path / name), *extra])
         assert res.exit_code == 0, res.output
     plain, late = (load_mission(tmp_path / n) for n in ("plain", "late"))
     np.testing.assert_allclose(late.sensors["dvl"].t, plain.sensors["dvl"].t + 0.15, atol=1e-9)
     np.testing.assert_array_equal(late.sensors["dvl"].z, plain.sensors["dvl"].z)
     np.testing.assert_array_equal(late.sensors["depth"].t, plain.sensors["depth"].t)
+    for sensor, lag in (("gps", 0.2), ("heading", 0.05)):
+        a, b = (pd.read_parquet(tmp_path / n / f"{sensor}.parquet") for n in ("late", "plain"))
+        np.testing.assert_allclose(a["t_s"], b["t_s"] + lag, atol=1e-9)
+        assert a.drop(columns="t_s").equals(b.drop(columns="t_s"))
     toml = (tmp_path / "late" / "mission.toml").read_text()
     head = '[sensors.dvl]\nkind = "dvl"\n'
     assert head in toml
@@ -241,6 +250,8 @@ def test_a_negative_seed_is_refused(tmp_path: Path) -> None:
         (["--inclinometer-bias-deg=-10.5,0"], "angle -10.5° is beyond ±10°"),
         (["--dvl-latency-ms", "1500"], "DVL latency 1.5 s is beyond ±1 s"),
         (["--dvl-latency-ms", "nan"], "DVL latency nan s is beyond ±1 s"),
+        (["--gps-latency-ms", "-2000"], "GPS latency -2 s is beyond ±1 s"),
+        (["--heading-latency-ms", "inf"], "heading latency inf s is beyond ±1 s"),
     ],
 )
 def test_simulate_refuses_bad_calibration_values(

@@ -13,7 +13,8 @@ sensor's kind in the mission's configuration (:data:`TRUTH_KEYS`):
 * ``dvl.misalignment_{roll,pitch,yaw}`` = ``dvl_misalignment_rad[0, 1, 2]``;
 * ``depth.bias`` = ``depth_bias_m``;
 * ``inclinometer.bias_{roll,pitch}`` = ``inclinometer_bias_rad[0, 1]``;
-* ``dvl.latency`` = ``dvl_latency_s`` (not recorded before 0.4.3: no true value then).
+* ``dvl.latency``, ``gnss.latency``, ``heading.latency`` = ``dvl_latency_s``,
+  ``gps_latency_s``, ``heading_latency_s`` (not recorded before 0.4.3: no true value then).
 
 The error of an estimate is ``estimate - true``, and ``error / σ`` says whether the filter's
 σ covers it (within ±2 about 95 % of the time for a consistent filter).
@@ -46,6 +47,8 @@ TRUTH_KEYS: dict[tuple[str, str], tuple[str, int | None, float]] = {
     ("inclinometer", "bias_roll"): ("inclinometer_bias_rad", 0, 0.0),
     ("inclinometer", "bias_pitch"): ("inclinometer_bias_rad", 1, 0.0),
     ("dvl", "latency"): ("dvl_latency_s", None, 0.0),
+    ("gnss", "latency"): ("gps_latency_s", None, 0.0),
+    ("heading", "latency"): ("heading_latency_s", None, 0.0),
 }
 """(sensor kind, state) → (key of ``simulation.json``'s ``calibration``, index in its list or
 None for a number, offset): the true state (SI) is ``value[index] - offset``."""

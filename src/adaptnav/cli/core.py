@@ -392,6 +392,16 @@ DvlLatency = Annotated[
         help="true DVL latency (ms): each reading stamped this much after it was taken",
     ),
 ]
+GpsLatency = Annotated[
+    str | None,
+    typer.Option("--gps-latency-ms", metavar="MS", help="true GPS latency (ms), as the DVL's"),
+]
+HeadingLatency = Annotated[
+    str | None,
+    typer.Option(
+        "--heading-latency-ms", metavar="MS", help="true heading latency (ms), as the DVL's"
+    ),
+]
 InclinometerBias = Annotated[
     str | None,
     typer.Option(
@@ -429,6 +439,8 @@ def simulate(
     depth_bias_m: DepthBias = None,
     inclinometer_bias_deg: InclinometerBias = None,
     dvl_latency_ms: DvlLatency = None,
+    gps_latency_ms: GpsLatency = None,
+    heading_latency_ms: HeadingLatency = None,
     force: Force = False,
     quiet: Quiet = False,
 ) -> None:
@@ -442,8 +454,9 @@ def simulate(
     imu_uncalibrated_turn_on, imu_scale_factor, sensor_noise, dvl_noise_segments,
     dvl_outliers, dvl_dropouts, depth_sea_state, inclinometer_pendulum, clock_offsets,
     clock_jitter (see docs/simulation.md). The sensors are perfectly calibrated unless
-    --dvl-scale, --dvl-misalignment-deg, --depth-bias-m, --inclinometer-bias-deg or
-    --dvl-latency-ms give them true calibration errors (saved in simulation.json;
+    --dvl-scale, --dvl-misalignment-deg, --depth-bias-m, --inclinometer-bias-deg,
+    --dvl-latency-ms, --gps-latency-ms or --heading-latency-ms give them true calibration
+    errors (saved in simulation.json;
     docs/simulation.md, 'Calibration errors'); e.g. --dvl-misalignment-deg 0,0,1
     --inclinometer-bias-deg=-0.2,0.1.
     """
@@ -464,8 +477,9 @@ def simulate(
             if name not in known:
                 _fail(f"unknown disturbance {name!r}; known: {', '.join(sorted(known))}")
             d = replace(d, **{name: value})
+    latencies = (dvl_latency_ms, gps_latency_ms, heading_latency_ms)
     cal = _calibration(
-        dvl_scale, dvl_misalignment_deg, depth_bias_m, inclinometer_bias_deg, dvl_latency_ms
+        dvl_scale, dvl_misalignment_deg, depth_bias_m, inclinometer_bias_deg, latencies
     )
     with output(out, force) as tmp, Stages(quiet) as st:
         st.begin(f"simulating {preset} (seed {seed})")
@@ -482,7 +496,7 @@ def _calibration(
     dvl_misalignment_deg: str | None,
     depth_bias_m: str | None,
     inclinometer_bias_deg: str | None,
-    dvl_latency_ms: str | None = None,
+    latencies_ms: tuple[str | None, str | None, str | None] = (None, None, None),
 ) -> Calibration:
     """The sensors' true calibration errors from ``simulate``'s flags (degrees to rad); a bad
     value fails naming its flag (docs/simulation.md, 'Calibration errors')."""
@@ -496,7 +510,9 @@ def _calibration(
         ("--dvl-misalignment-deg", dvl_misalignment_deg, "dvl_misalignment", 3, DEG),
         ("--depth-bias-m", depth_bias_m, "depth_bias", 1, 1.0),
         ("--inclinometer-bias-deg", inclinometer_bias_deg, "inclinometer_bias", 2, DEG),
-        ("--dvl-latency-ms", dvl_latency_ms, "dvl_latency", 1, 1e-3),
+        ("--dvl-latency-ms", latencies_ms[0], "dvl_latency", 1, 1e-3),
+        ("--gps-latency-ms", latencies_ms[1], "gps_latency", 1, 1e-3),
+        ("--heading-latency-ms", latencies_ms[2], "heading_latency", 1, 1e-3),
     )
     cal = NO_CALIBRATION
     for flag, text, name, count, unit in given:

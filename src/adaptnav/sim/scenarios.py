@@ -454,8 +454,8 @@ def sensor_tables(
         "inclinometer": sensors.inclinometer(
             sc.inclinometer, incl_truth, rngs["inclinometer_noise"], dist, cal
         ),
-        "heading": sensors.heading(sc.heading, head_truth, rngs["heading_noise"], dist),
-        "gps": sensors.gps(sc.gps, gps_truth, rngs["gps_noise"], dist),
+        "heading": sensors.heading(sc.heading, head_truth, rngs["heading_noise"], dist, cal),
+        "gps": sensors.gps(sc.gps, gps_truth, rngs["gps_noise"], dist, cal),
         **{
             g.key: sensors.generic(
                 g, clock(g.key, g.rate_hz, g.jitter), rngs[f"{g.key}_noise"], dist

@@ -147,8 +147,8 @@ class Disturbances:
 MAX_SCALE_ERROR = 0.5
 """A DVL scale factor s beyond 1 ± this is refused: such a DVL is broken, not miscalibrated
 (and 101 or 0.01 for 1.01 are typos)."""
-MAX_DVL_LATENCY_S = 1.0
-"""A DVL latency beyond ±1 s is refused: a ping-to-output time or a logger's delay is
+MAX_LATENCY_S = 1.0
+"""A sensor latency beyond ±1 s is refused: a ping-to-output time or a logger's delay is
 milliseconds to a few tenths of a second; more is a clock in the wrong unit, or a typo."""
 MAX_DEPTH_BIAS_M = 100.0
 """A depth bias beyond ±100 m is refused: a wrong atmospheric pressure or zero is metres to
@@ -185,6 +185,8 @@ class Calibration:
             outputs (the pendulum's tilt, or the attitude's roll and pitch).
         dvl_latency: τ_d (s): each DVL reading, taken at its true sampling instant t, is
             stamped ``t + τ_d`` (the state ``dvl.latency`` of docs/calibration.md).
+        gps_latency, heading_latency: the same for the GPS's fixes and the heading sensor's
+            readings (the GNSS's and the heading's ``latency`` states).
     """
 
     dvl_scale: float = 1.0
@@ -192,6 +194,8 @@ class Calibration:
     depth_bias: float = 0.0
     inclinometer_bias: tuple[float, float] = (0.0, 0.0)
     dvl_latency: float = 0.0
+    gps_latency: float = 0.0
+    heading_latency: float = 0.0
 
     def __post_init__(self) -> None:
         s = float(self.dvl_scale)
@@ -203,12 +207,14 @@ class Calibration:
         b = float(self.depth_bias)
         if not abs(b) <= MAX_DEPTH_BIAS_M:  # also refuses NaN
             raise ValueError(f"depth bias {b:g} m is beyond ±{MAX_DEPTH_BIAS_M:g} m")
-        lag = float(self.dvl_latency)
-        if not abs(lag) <= MAX_DVL_LATENCY_S:  # also refuses NaN
-            raise ValueError(f"DVL latency {lag:g} s is beyond ±{MAX_DVL_LATENCY_S:g} s")
+        for name, label in (("dvl_latency", "DVL"), ("gps_latency", "GPS"),
+                            ("heading_latency", "heading")):  # fmt: skip
+            lag = float(getattr(self, name))
+            if not abs(lag) <= MAX_LATENCY_S:  # also refuses NaN
+                raise ValueError(f"{label} latency {lag:g} s is beyond ±{MAX_LATENCY_S:g} s")
+            object.__setattr__(self, name, lag)
         object.__setattr__(self, "dvl_scale", s)
         object.__setattr__(self, "depth_bias", b)
-        object.__setattr__(self, "dvl_latency", lag)
         for name, label, n in (
             ("dvl_misalignment", "DVL misalignment", 3),
             ("inclinometer_bias", "inclinometer bias", 2),
@@ -233,6 +239,8 @@ class Calibration:
             "inclinometer_bias_rad": list(self.inclinometer_bias),
             "inclinometer_bias_deg": [math.degrees(a) for a in self.inclinometer_bias],
             "dvl_latency_s": self.dvl_latency,
+            "gps_latency_s": self.gps_latency,
+            "heading_latency_s": self.heading_latency,
         }
 
 
@@ -636,14 +644,21 @@ def heading(
     truth: Truth,
     rng: np.random.Generator,
     dist: Disturbances,
+    calibration: Calibration = NO_CALIBRATION,
 ) -> pd.DataFrame:
-    """Heading table: the error-free yaw plus white noise, wrapped to (-π, π]."""
+    """Heading table: the error-free yaw plus white noise, wrapped to (-π, π]; each reading
+    stamped ``calibration.heading_latency`` after its instant."""
     n = truth.t.size
     true = ideal("heading", truth)[:, 0]
     sigma = spec.sigma if dist.sensor_noise else 0.0
     z = attitude.wrap_angle(true + sigma * rng.standard_normal(n))
     return pd.DataFrame(
-        {"t_s": truth.t, "yaw_rad": z, "true_yaw_rad": true, "sigma_rad": np.full(n, sigma)}
+        {
+            "t_s": truth.t + calibration.heading_latency,
+            "yaw_rad": z,
+            "true_yaw_rad": true,
+            "sigma_rad": np.full(n, sigma),
+        }
     )
 
 
@@ -652,9 +667,11 @@ def gps(
     truth: Truth,
     rng: np.random.Generator,
     dist: Disturbances,
+    calibration: Calibration = NO_CALIBRATION,
 ) -> pd.DataFrame:
     """GPS table: the antenna's error-free fix plus white and Gauss-Markov errors in N, E
-    metres (no height: the missions use the GPS horizontally)."""
+    metres (no height: the missions use the GPS horizontally); each fix stamped
+    ``calibration.gps_latency`` after its instant."""
     n = truth.t.size
     clean = ideal("gnss", truth, spec.lever_arm)[:, :2]
     white = spec.sigma_white * rng.standard_normal((n, 2))
@@ -675,7 +692,7 @@ def gps(
     z_lon = clean[:, 1] + err[:, 1] / (rn * np.cos(lat))
     return pd.DataFrame(
         {
-            "t_s": truth.t,
+            "t_s": truth.t + calibration.gps_latency,
             "lat_rad": z_lat,
             "lon_rad": z_lon,
             "err_n_m": err[:, 0],
