@@ -16,6 +16,7 @@ Smoke test: ``python scripts/rtklib_eval.py --noise measured --out /tmp/r.md --f
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime as dt
 import json
 import os
@@ -171,7 +172,7 @@ def _timing(src: Path, work: Path, noise: str) -> list[dict[str, Any]]:
     from adaptnav import api
     from adaptnav.analysis import evaluate
     from adaptnav.importers import rtklib
-    from adaptnav.mission import load_config, load_mission, with_overrides, write_config
+    from adaptnav.mission import load_mission, with_overrides
 
     rows = []
     for nhc in (False, True):
@@ -183,26 +184,20 @@ def _timing(src: Path, work: Path, noise: str) -> list[dict[str, Any]]:
                 nhc_sigma_m_s=rtklib.NHC_SIGMA_M_S if nhc else None,
             )  # fmt: skip
             used = json.loads((root / "import.json").read_text())["imu_time_offset_s"]["used"]
-            est = root / "latency"
-            est.mkdir(exist_ok=True)
-            cfg = with_overrides(load_config(root / "mission.toml"),
-                                 [("sensors.gnss.estimate", ["latency"])])  # fmt: skip
-            for table in root.glob("*.parquet"):
-                (est / table.name).unlink(missing_ok=True)
-                os.link(table, est / table.name)
-            write_config(cfg, est / "mission.toml")
+            m = load_mission(root)
+            assert m.truth is not None
+            latency = [("sensors.gnss.estimate", ["latency"])]
+            estimating = dataclasses.replace(m, config=with_overrides(m.config, latency))
+            start = api.initial_state(m)[:3]
             row: dict[str, Any] = {"nhc": nhc, "offset_s": used}
-            for name, folder in (("plain", root), ("latency", est)):
-                m = load_mission(folder)
-                start = api.initial_state(m)[:3]
-                for kind in ("meskf", "robust") if name == "plain" else ("robust",):
-                    run = api.run(m, kind, initial=start)  # type: ignore[arg-type]
-                    assert m.truth is not None
-                    drift = evaluate.outage_drift(run.solution, m.truth, rtklib.DEFAULT_OUTAGES_S)
-                    row[f"{name}_{kind}_drift_m"] = float(drift["end_horizontal_m"].mean())
-                if name == "latency":
-                    c = run.meta["calibration"]["gnss.latency"]
-                    row["latency_ms"], row["latency_sd_ms"] = c["estimate"], c["sigma"]
+            for name, mission, kind in (
+                ("plain", m, "meskf"), ("plain", m, "robust"), ("latency", estimating, "robust")
+            ):  # fmt: skip
+                run = api.run(mission, kind, initial=start)  # type: ignore[arg-type]
+                drift = evaluate.outage_drift(run.solution, m.truth, rtklib.DEFAULT_OUTAGES_S)
+                row[f"{name}_{kind}_drift_m"] = float(drift["end_horizontal_m"].mean())
+            c = run.meta["calibration"]["gnss.latency"]
+            row["latency_ms"], row["latency_sd_ms"] = c["estimate"], c["sigma"]
             rows.append(row)
     return rows
 

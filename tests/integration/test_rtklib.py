@@ -6,9 +6,8 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import shutil
 import struct
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -23,7 +22,7 @@ from adaptnav.cli import app
 from adaptnav.core.units import G0
 from adaptnav.importers import rtklib, tracks
 from adaptnav.importers.rtklib import RtklibError
-from adaptnav.mission import load_mission
+from adaptnav.mission import load_mission, with_overrides
 from helpers import SHARED_DATA
 from helpers.script_loader import load_script
 
@@ -488,20 +487,8 @@ def test_rtklib_evaluation_script_writes_the_results_page(tmp_path: Path) -> Non
     assert len(implied) == len(mod.TIMING_OFFSETS_S) and max(implied) - min(implied) < 0.02
 
 
-def _with_latency_state(src: Path, root: Path) -> Path:
-    """The mission ``src`` with ``estimate = ["latency"]`` on its GNSS (hard links for the
-    tables)."""
-    shutil.copytree(src, root, copy_function=os.link)
-    toml = (root / "mission.toml").read_text()
-    (root / "mission.toml").unlink()  # a hard link: write a new file, not the original
-    head = '[sensors.gnss]\nkind = "gnss"\n'
-    assert head in toml
-    (root / "mission.toml").write_text(toml.replace(head, head + 'estimate = ["latency"]\n'))
-    return root
-
-
 @needs_data
-def test_a_gnss_latency_state_measures_the_imu_time_offset(drive: Drive, tmp_path: Path) -> None:
+def test_a_gnss_latency_state_measures_the_imu_time_offset(drive: Drive) -> None:
     """``[sensors.gnss] estimate = ["latency"]`` (0.4.3; docs/calibration.md, 'GNSS latency') on
     the drive with the NHC, imported with the published IMU time offset (-0.125 s) and with
     -0.2 s: each estimate to a few ms, and the two put the IMU's offset at the same place
@@ -511,8 +498,10 @@ def test_a_gnss_latency_state_measures_the_imu_time_offset(drive: Drive, tmp_pat
     artefact."""
     found = {}
     for offset in (rtklib.PUBLISHED_IMU_TIME_OFFSET_S, -0.2):
-        root = _with_latency_state(drive.mission(offset), tmp_path / f"{offset}")
-        m = load_mission(root)
+        plain = load_mission(drive.mission(offset))
+        m = replace(
+            plain, config=with_overrides(plain.config, [("sensors.gnss.estimate", ["latency"])])
+        )
         x0, P0, t0, _ = api.initial_state(m)
         c = api.run(m, "robust", initial=(x0, P0, t0)).meta["calibration"]["gnss.latency"]
         assert c["unit"] == "ms" and c["sigma"] < 10.0, c

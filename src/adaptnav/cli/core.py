@@ -384,24 +384,20 @@ DvlMisalignment = Annotated[
 DepthBias = Annotated[
     str | None, typer.Option("--depth-bias-m", metavar="B", help="true depth-meter bias (m)")
 ]
-DvlLatency = Annotated[
-    str | None,
-    typer.Option(
-        "--dvl-latency-ms",
+
+
+def _latency_option(sensor: str, label: str) -> Any:
+    """The ``simulate`` flag of one sensor's true latency (ms), ``--<sensor>-latency-ms``."""
+    return typer.Option(
+        f"--{sensor}-latency-ms",
         metavar="MS",
-        help="true DVL latency (ms): each reading stamped this much after it was taken",
-    ),
-]
-GpsLatency = Annotated[
-    str | None,
-    typer.Option("--gps-latency-ms", metavar="MS", help="true GPS latency (ms), as the DVL's"),
-]
-HeadingLatency = Annotated[
-    str | None,
-    typer.Option(
-        "--heading-latency-ms", metavar="MS", help="true heading latency (ms), as the DVL's"
-    ),
-]
+        help=f"true {label} latency (ms): each reading stamped this much after it was taken",
+    )
+
+
+DvlLatency = Annotated[str | None, _latency_option("dvl", "DVL")]
+GpsLatency = Annotated[str | None, _latency_option("gps", "GPS")]
+HeadingLatency = Annotated[str | None, _latency_option("heading", "heading")]
 InclinometerBias = Annotated[
     str | None,
     typer.Option(
@@ -456,9 +452,8 @@ def simulate(
     clock_jitter (see docs/simulation.md). The sensors are perfectly calibrated unless
     --dvl-scale, --dvl-misalignment-deg, --depth-bias-m, --inclinometer-bias-deg,
     --dvl-latency-ms, --gps-latency-ms or --heading-latency-ms give them true calibration
-    errors (saved in simulation.json;
-    docs/simulation.md, 'Calibration errors'); e.g. --dvl-misalignment-deg 0,0,1
-    --inclinometer-bias-deg=-0.2,0.1.
+    errors (saved in simulation.json; docs/simulation.md, 'Calibration errors'); e.g.
+    --dvl-misalignment-deg 0,0,1 --inclinometer-bias-deg=-0.2,0.1.
     """
     from dataclasses import fields, replace
 

@@ -287,28 +287,32 @@ def _lin_dvl(
         or par[PAR_CAL + 3] >= 0.0
     ):
         if par[PAR_CAL + 3] >= 0.0:
-            pred = _delay_dvl(par, x, w, f, pred, H, r)
+            pred = _delay_dvl(par, x, w, f, C, v_b, pred, H, r)
         _calibrate_dvl(par, x, z, pred, y, H, r)
 
 
 @jit
-def _delay_dvl(par: Array, x: Array, w: Array, f: Array, p: Vec3, H: Array, r: int) -> Vec3:
+def _normal_gravity(lat: float, h: float) -> float:
+    """g(L, h) (twin of earth.gravity) from the latitude alone: compiled.propagation._gravity
+    reads only sin L and 1/sqrt(1 - e² sin² L) of the Earth tuple it is given."""
+    s = math.sin(lat)
+    return _gravity((s, 0.0, 1.0 / math.sqrt(1.0 - E2 * s * s), 0.0, 0.0, 0.0, 0.0), h)
+
+
+@jit
+def _delay_dvl(
+    par: Array, x: Array, w: Array, f: Array, C: Mat3, v_b: Vec3, p: Vec3, H: Array, r: int
+) -> Vec3:
     """The DVL's reading τ_d earlier (twin: sensors.dvl.DVL._delayed, rate, rate_jacobian):
     returns ``p - τ_d ḣ``, ``ḣ = C_sb (f̃ - b_a + C_nbᵀ g_n - ω × v_b)``; H's core rows
-    ``H - τ_d Ḣ`` and ``-ḣ`` on τ_d (mixed by the scale and misalignment after). Row a of
-    ``C_sb [ω×]`` is ``(C_sb)_a × ω`` and ``uᵀ C_nbᵀ = (C_nb u)ᵀ``."""
+    ``H - τ_d Ḣ`` and ``-ḣ`` on τ_d (mixed by the scale and misalignment after). ``C``:
+    C_nb, ``v_b = C_nbᵀ v_n`` (:func:`_lin_dvl`'s). Row a of ``C_sb [ω×]`` is
+    ``(C_sb)_a × ω`` and ``uᵀ C_nbᵀ = (C_nb u)ᵀ``."""
     kl = int(par[PAR_CAL + 3])
     delay = x[kl + 1]
-    C = _dcm(x)
     Cs = _par_mat(par, PAR_CSB)
     v = (x[3], x[4], x[5])
-    v_b = (
-        C[0] * v[0] + C[3] * v[1] + C[6] * v[2],
-        C[1] * v[0] + C[4] * v[1] + C[7] * v[2],
-        C[2] * v[0] + C[5] * v[1] + C[8] * v[2],
-    )
-    s = math.sin(x[0])
-    g = _gravity((s, 0.0, 1.0 / math.sqrt(1.0 - E2 * s * s), 0.0, 0.0, 0.0, 0.0), x[2])
+    g = _normal_gravity(x[0], x[2])
     rate = (w[0] - x[13], w[1] - x[14], w[2] - x[15])
     wv = _cross(rate, v_b)
     acc = (
