@@ -942,3 +942,142 @@ def test_white_space_after_the_last_line_break_leaves_the_last_line_whole(
         table, repairs, error = outcome(reader, path)
         assert table is not None and table.df["vx_m_s"].tolist() == [2.5, 4.5]
         assert [r.action for r in repairs] == ["dropped truncated last line"]
+
+
+# --- the line-by-line reader: the exact reader's rules without the text in memory ---------------
+
+
+QUOTED_ROWS = '0.0,1.0,"a,b"\n' * 3000
+"""Lines of a file with quotes: the streamed reader's scan leaves its field counts to the csv
+module, and a wrong one to the exact reader's order of errors."""
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        (QUOTED_ROWS + '0.1,1.1,"lost\nlock"\n' + QUOTED_ROWS, "line 3002: a quoted field is not"),
+        (QUOTED_ROWS + "0.2,1.2\n" + QUOTED_ROWS, "line 3002: 2 fields, the header (line 1)"),
+        ("0.0,1.0,x\n0.5\n" + QUOTED_ROWS, "line 3: 1 fields, the header (line 1) has 3"),
+        (QUOTED_ROWS + '0.1,1.1,"open\n' + "0.2,1.2,x\n" * 20_000, "line 3002: field larger than"),
+        ("0.0,1.0\n" + QUOTED_ROWS + '0.1,"a\nb",c\n', "line 3003: a quoted field is not closed"),
+    ],
+    ids=["line-break-in-quotes", "count-then-quotes", "short-line-not-last", "never-closed",
+         "break-after-count"],
+)  # fmt: skip
+def test_the_exact_readers_line_errors_are_found_without_the_file_in_memory(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, body: str, expected: str
+) -> None:
+    """A file with quotes whose lines the exact reader refuses - a line break inside quotes, a
+    wrong field count, a quote never closed (the csv module's field limit) - gets the exact
+    reader's error, found line by line (tables._read_csv_lines) without the exact reader,
+    which holds the whole file as text and as lines (about 2.6× a wide file for such an
+    error; up to 0.4.3 it read these). In the last case a wrong field count comes first and a
+    line break inside quotes after it: the exact reader counts the fields of every line
+    before it compares them, so the quote is its error."""
+    path = tmp_path / "x.csv"
+    path.write_bytes(b"t_s,v,note\n" + body.encode())
+    exact = outcome(EXACT, path)[2]
+    assert exact is not None and exact.startswith(f"x.csv {expected}"), exact
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    with pytest.raises(MissionError) as err:
+        read(path)
+    assert str(err.value) == exact
+    assert err.value.line == int(expected.split("line ")[1].split(":")[0])
+
+
+LINE_TEXTS = ("OK", '"a,b"', '"x, ""y"", z"', 'say "hi"', '"open', 'close"', '"two\nlines"', "")
+"""Cells of :func:`_quoted_csv`'s files: quoted commas, quotes that do not open a field, a
+quote left open, a line break inside quotes."""
+
+
+def _quoted_csv(rng: np.random.Generator) -> bytes:
+    """A small CSV with quotes of every kind (:data:`LINE_TEXTS`), now and then a short or a
+    long line, a header with a trailing comma, blank lines (a form feed too), CRLF, a BOM, a
+    cut end."""
+    n_cols = int(rng.choice([1, 2, 3, 5]))
+    lines = [",".join(('"c%d"' if rng.random() < 0.2 else "c%d") % i for i in range(n_cols))]
+    if rng.random() < 0.05:
+        lines[0] += ","
+    for _ in range(int(rng.choice([0, 1, 2, 3, 40]))):
+        row = [
+            str(rng.choice(LINE_TEXTS)) if rng.random() < 0.3 else repr(float(rng.normal()))
+            for _ in range(n_cols)
+        ]
+        row = row[:-1] if rng.random() < 0.05 else row + ["1"] * (rng.random() < 0.03)
+        lines.append(",".join(row))
+    for _ in range(int(rng.choice([0, 1, 3]))):
+        lines.insert(int(rng.integers(0, len(lines) + 1)), str(rng.choice(["", "  ", "\x0c"])))
+    newline = "\r\n" if rng.random() < 0.3 else "\n"
+    text = newline.join(lines) + (newline if rng.random() < 0.6 else "")
+    if rng.random() < 0.3:
+        text = text[: max(len(text) - int(rng.integers(1, 4)), 1)]
+    return (("\ufeff" if rng.random() < 0.1 else "") + text).encode()
+
+
+def _lines_only(path: Path, label: str, journal: tb.Journal) -> tb.Table | None:
+    return tb._read_csv_lines(path, label, journal)
+
+
+@pytest.mark.parametrize(
+    ("make", "seed"),
+    [
+        (_quoted_csv, 31),
+        (lambda rng: _random_csv(rng, text=True, texts=QUOTED), 32),
+        (lambda rng: _random_csv(rng, text=True), 33),
+        (_random_csv, 34),
+    ],
+    ids=["quotes", "quoted-commas", "text", "numbers"],
+)
+def test_the_line_by_line_reader_is_the_exact_one(
+    tmp_path: Path, small: None, make: Any, seed: int
+) -> None:
+    """On seeded files of every shape - quotes of every kind, quoted commas, text columns,
+    numbers; short, long and cut lines, blank lines, CRLF, a BOM - the line-by-line reader
+    (tables._read_csv_lines) gives the exact reader's table, repairs or error, file by file,
+    and declines none of them but a file whose line breaks are all a lone CR (classic Mac OS:
+    the exact reader's own repair)."""
+    rng = np.random.default_rng(seed)
+    path = tmp_path / "x.csv"
+    errors = 0
+    logging.disable(logging.WARNING)
+    try:
+        for _ in range(400):
+            raw = make(rng)
+            path.write_bytes(raw)
+            a, repairs_a, error_a = outcome(_lines_only, path)
+            if a is None and error_a is None:  # declined: only classic Mac OS line breaks
+                assert b"\n" not in raw and b"\r" in raw, raw
+                continue
+            b, repairs_b, error_b = outcome(EXACT, path)
+            assert error_a == error_b, path.read_bytes()
+            errors += error_a is not None
+            if a is not None:
+                assert b is not None
+                assert_same_table(a, b)
+                assert repairs_a == repairs_b
+    finally:
+        logging.disable(logging.NOTSET)
+    assert errors >= 10, errors
+
+
+@pytest.mark.parametrize(
+    "blank", ["\n", "  \r\n", "\n\x0c\n"], ids=["empty", "spaces", "form-feed"]
+)
+def test_a_header_after_blank_lines_is_read_without_the_exact_reader(
+    tmp_path: Path, small: None, monkeypatch: pytest.MonkeyPatch, blank: str
+) -> None:
+    """Blank lines before the header (a logger's empty first line) leave the file to the
+    exact reader's rules, which the line-by-line reader follows without holding the text
+    (up to 0.4.3 the exact reader read it, about 9× a narrow file's size)."""
+    path = tmp_path / "depth.csv"
+    path.write_text(
+        blank + "t_s,depth_m\n" + "".join(f"{k / 10:.1f},{10 + k % 7}.5\n" for k in range(900))
+    )
+    expected = outcome(EXACT, path)
+    monkeypatch.setattr(tb, "_read_csv_exact", lambda *_: pytest.fail("the exact reader ran"))
+    table, repairs = read(path)
+    assert expected[0] is not None and expected[1] == repairs == []
+    assert_same_table(table, expected[0])
+    first = 2 + blank.count("\n")
+    assert table.lines[0] == first and table.lines[-1] == first + 899
+    assert table.df["depth_m"].iloc[1] == 11.5

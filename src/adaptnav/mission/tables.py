@@ -21,11 +21,12 @@ import logging
 import math
 import re
 import tempfile
-from collections import Counter
-from collections.abc import Sequence
+from array import array
+from collections import Counter, deque
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, BinaryIO, Literal
+from typing import Any, BinaryIO, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -314,6 +315,8 @@ def _read_csv(path: Path, label: str, journal: Journal) -> Table:
         table = _read_csv_blanked(path, label, journal)
     if table is None and (error := _stray_cr(path, label)) is not None:
         raise error
+    if table is None:
+        table = _read_csv_lines(path, label, journal)
     return table if table is not None else _read_csv_exact(path, label, journal)
 
 
@@ -475,6 +478,211 @@ def _stray_cr(path: Path, label: str) -> MissionError | None:
         file=label,
         line=cr_line,
     )
+
+
+def _read_csv_lines(path: Path, label: str, journal: Journal) -> Table | None:
+    """The exact reader's table, errors and repairs (:func:`_read_csv_exact`), read line by
+    line: the data lines written to a temporary file (``tempfile``'s folder, ``TMPDIR``) that
+    pandas parses with the exact reader's call, their line numbers kept (8 bytes a line), and
+    only the record under way and the last :data:`CUT_WINDOW` + 1 data lines held as text
+    (docs/robustness.md, "Memory"). For a file the other ways declined that has neither a
+    byte that is not UTF-8 nor a lone CR among LF breaks (:func:`_stray_cr` says so first).
+
+    None, for the exact reader, on what it says in its own way: a NUL in the file's first
+    :data:`BINARY_PROBE` bytes, a CR inside a line (a classic Mac OS file), a csv module error
+    in a file without quotes (the exact reader counts commas there), no room for the file."""
+    try:
+        with path.open("rb") as f, tempfile.TemporaryFile(prefix="adaptnav-exact-") as body:
+            if b"\x00" in f.read(BINARY_PROBE):
+                return None
+            f.seek(0)
+            walk = _walk_lines(f, body, label)
+            if walk is None:
+                return None
+            cut = _cut_last_line(walk, label, journal)
+            rows = walk.rows if cut is None else walk.rows[:-1]
+            if cut is not None:
+                body.truncate(walk.tail[-1][2])
+            body.seek(0)
+            df = _parse_csv(cast(BinaryIO, body), label)
+    except (OSError, UnicodeDecodeError, _CrInsideLineError):
+        return None
+    return _exact_table(path, label, df, walk.header, walk.head, rows, cut)
+
+
+def _exact_table(
+    path: Path,
+    label: str,
+    df: pd.DataFrame,
+    header: list[str],
+    head: int,
+    rows: NDArray[np.int64],
+    cut: tuple[int, float] | None,
+) -> Table:
+    """The exact reader's table of pandas' ``df`` of the data lines ``rows`` (file lines),
+    the header on line ``head``; the error when pandas splits the header otherwise."""
+    if len(df.columns) != len(header):
+        raise MissionError(
+            f"{label} line {head}: the header's quotes split it into {len(header)} names "
+            f"for the csv module and {len(df.columns)} for pandas (a quote after a space?)",
+            file=label,
+            line=head,
+        )
+    df.columns = pd.Index(header)
+    if len(df) != len(rows):  # pragma: no cover - guarded by the field count
+        raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
+    return Table(label, path, "csv", df, rows, cut)
+
+
+class _CrInsideLineError(Exception):
+    """A file :func:`_read_csv_lines` leaves to the exact reader (a CR inside a line)."""
+
+
+@dataclass
+class _Ends:
+    """How the lines of :func:`_text_lines` ended: the number of the last one given, whether
+    it had a line break, whether it ended in a CR without one (a CRLF file cut short)."""
+
+    line: int = 0
+    lf: bool = True
+    cr: bool = False
+
+
+def _text_lines(f: BinaryIO, ends: _Ends) -> Iterator[str]:
+    """The file's lines as the exact reader splits them (at LF, a BOM dropped, trailing CRs
+    stripped), ``ends`` kept up to date; :class:`_CrInsideLineError` for a CR left inside a
+    line or a file without LF that has a CR (classic Mac OS), UnicodeDecodeError for bytes
+    that are not UTF-8."""
+    for k, raw in enumerate(f):
+        ends.line, ends.lf = k + 1, raw.endswith(b"\n")
+        line = (raw.removeprefix(BOM) if k == 0 else raw).removesuffix(b"\n").decode("utf-8")
+        ends.cr = not ends.lf and line.endswith("\r")
+        line = line.rstrip("\r")
+        if "\r" in line or (ends.cr and k == 0):  # a lone CR; or no LF at all: classic Mac OS
+            raise _CrInsideLineError
+        yield line
+
+
+@dataclass
+class _Walk:
+    """What :func:`_walk_lines` found: the header and its line, the data lines' numbers, the
+    first with a wrong field count (line, count) and whether it is the last, whether the file
+    has a quote, the last data lines (line, text, offset in the body file), and whether the
+    last data line is the file's last, without a line break or a CR after it."""
+
+    header: list[str]
+    head: int
+    rows: NDArray[np.int64]
+    wrong: tuple[int, int] | None
+    wrong_last: bool
+    quoted: bool
+    tail: deque[tuple[int, str, int]]
+    open_end: bool
+
+
+def _walk_lines(f: BinaryIO, body: Any, label: str) -> _Walk | None:
+    """One pass over the lines of ``f``: the header and the data lines written to ``body``
+    (UTF-8, one a line), the exact reader's errors at its lines raised in its order (no header
+    line; a header it refuses; a quoted field not closed on its line, or the csv module's own
+    error, before any wrong field count: the exact reader counts every line's fields first).
+    None where the exact reader says it its own way (:func:`_read_csv_lines`)."""
+    ends = _Ends()
+    lines = _text_lines(f, ends)
+    first = next((s for s in lines if s.strip()), None)
+    if first is None:
+        raise MissionError(f"{label}: empty file (no header line)", file=label)
+    head = ends.line
+    header = [h.strip() for h in next(csv.reader([first]))]
+    _check_header(header, label, head)
+    body.write(first.encode())
+    rows = array("q")
+    tail: deque[tuple[int, str, int]] = deque(maxlen=CUT_WINDOW + 1)
+    starts: deque[int] = deque()  # the lines of the record under way
+    quote = ['"' in first]
+
+    def data() -> Iterator[str]:
+        for s in lines:
+            if s.strip():
+                starts.append(ends.line)
+                quote[0] = quote[0] or '"' in s
+                rows.append(ends.line)
+                tail.append((ends.line, s, body.tell()))
+                body.write(b"\n" + s.encode())
+                yield s
+
+    reader = csv.reader(data())
+    wrong: tuple[int, int] | None = None
+    wrong_last = True
+    try:
+        for n_rows, row in enumerate(reader, 1):
+            if reader.line_num != n_rows:
+                raise _quote_not_closed(label, starts[0])
+            line = starts.popleft()
+            wrong_last = wrong is None
+            if wrong is None and len(row) != len(header):
+                wrong = line, len(row)
+    except csv.Error as exc:
+        if not quote[0] and not _quote_after(f):
+            return None
+        raise MissionError(f"{label} line {starts[0]}: {exc}", file=label, line=starts[0]) from None
+    open_end = bool(rows) and rows[-1] == ends.line and not ends.lf and not ends.cr
+    rows_array = np.frombuffer(rows, dtype=np.int64).copy() if rows else np.zeros(0, np.int64)
+    return _Walk(header, head, rows_array, wrong, wrong_last, quote[0], tail, open_end)
+
+
+def _quote_not_closed(label: str, line: int) -> MissionError:
+    """The exact reader's error for a quoted field that runs over the end of ``line``."""
+    return MissionError(
+        f"{label} line {line}: a quoted field is not closed on its line (a line break inside "
+        "quotes is not supported)",
+        file=label,
+        line=line,
+    )
+
+
+def _cut_last_line(walk: _Walk, label: str, journal: Journal) -> tuple[int, float] | None:
+    """The exact reader's verdict after its field counts (:func:`_check_field_counts`,
+    :func:`_drop_cut_last_line`) from what :func:`_walk_lines` kept: the wrong field count's
+    error, or the last data line dropped as cut short (recorded; its line and ``t_s``), or
+    None."""
+    n = len(walk.header)
+    if walk.wrong is not None:
+        line, c = walk.wrong
+        if not (c < n and walk.wrong_last):
+            raise MissionError(
+                f"{label} line {line}: {c} fields, the header (line {walk.head}) has {n}",
+                file=label,
+                line=line,
+            )
+        text = walk.tail[-1][1]
+        journal.repair(label, line, "", "dropped truncated last line",
+                       f"{c} of {n} fields: {text[:60]!r}")  # fmt: skip
+        return line, _time_of(_fields(text, walk.quoted)[: c - 1], walk.header)
+    if not walk.open_end:
+        return None
+    line, text = walk.tail[-1][:2]
+    last = _fields(text, walk.quoted)
+    before = [len(_fields(t, walk.quoted)[-1].strip()) for _, t, _ in list(walk.tail)[:-1]]
+    value = last[-1].strip()
+    if before and len(value) >= max(before):
+        return None
+    journal.repair(
+        label,
+        line,
+        walk.header[-1],
+        "dropped truncated last line",
+        f"the file ends without a line break and the last value {value!r} is shorter "
+        f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+    )
+    return line, _time_of(last[:-1], walk.header)
+
+
+def _quote_after(f: BinaryIO) -> bool:
+    """Whether a quote follows in the rest of ``f``, read piece by piece."""
+    while piece := f.read(SCAN_BYTES):
+        if b'"' in piece:
+            return True
+    return False
 
 
 def _header_names(raw: bytes) -> list[str]:
@@ -1096,34 +1304,34 @@ def _read_csv_streamed(path: Path, label: str, journal: Journal) -> Table | None
 def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     """The whole file as text, line by line: every error and repair located exactly.
 
-    Slow and memory-hungry (about 11× the file at its peak, docs/robustness.md, "Memory"): only
-    for the files :func:`_read_csv_typed` leaves to it.
+    Slow and memory-hungry (about 3.2× the file at its peak, more for short lines,
+    docs/robustness.md, "Memory"): only for the few files the other ways leave to it
+    (:func:`_read_csv_lines` reads most of those it used to). The text is let go once split
+    into lines, the lines once joined, and pandas gets the body as UTF-8 bytes (a StringIO
+    holds 4 bytes a character).
     """
     text = _line_breaks(_decode(path, label), label, journal)
+    quoted, ends_cr = '"' in text, text.endswith("\r")
     lines = [s.rstrip("\r") for s in text.split("\n")]
+    del text
     keep = [i for i, s in enumerate(lines) if s.strip()]
     if not keep:
         raise MissionError(f"{label}: empty file (no header line)", file=label)
     head = keep[0]
     header = [h.strip() for h in next(csv.reader([lines[head]]))]
     _check_header(header, label, head + 1)
-    quoted = '"' in text
     data, cut = _check_field_counts(lines, keep[1:], header, head, quoted, label, journal)
-    if cut is None and data and data[-1] == len(lines) - 1 and not text.endswith("\r"):
+    del keep
+    if cut is None and data and data[-1] == len(lines) - 1 and not ends_cr:
         data, cut = _drop_cut_last_line(lines, data, header, quoted, label, journal)
-    body = "\n".join([lines[head], *(lines[i] for i in data)])
+    joined = "\n".join([lines[head], *(lines[i] for i in data)])
+    del lines
+    body = io.BytesIO(joined.encode())
+    del joined
     df = _parse_csv(body, label)
-    if len(df.columns) != len(header):
-        raise MissionError(
-            f"{label} line {head + 1}: the header's quotes split it into {len(header)} names "
-            f"for the csv module and {len(df.columns)} for pandas (a quote after a space?)",
-            file=label,
-            line=head + 1,
-        )
-    df.columns = pd.Index(header)
-    if len(df) != len(data):  # pragma: no cover - guarded by the field count above
-        raise MissionError(f"{label}: CSV rows do not match its lines (quoted newlines?)")
-    return Table(label, path, "csv", df, np.asarray(data, dtype=np.int64) + 1, cut)
+    del body
+    rows = np.asarray(data, dtype=np.int64) + 1
+    return _exact_table(path, label, df, header, head + 1, rows, cut)
 
 
 def _line_breaks(text: str, label: str, journal: Journal) -> str:
@@ -1308,10 +1516,11 @@ def _drop_cut_last_line(
     return data[:-1], (data[-1] + 1, _time_of(last[:-1], header))
 
 
-def _parse_csv(body: str, label: str) -> pd.DataFrame:
-    """pandas' parse of the checked lines (floats read exactly: round_trip before pandas 3)."""
+def _parse_csv(body: BinaryIO, label: str) -> pd.DataFrame:
+    """pandas' parse of the checked lines, UTF-8 (floats read exactly: round_trip before
+    pandas 3)."""
     try:
-        df: pd.DataFrame = pd.read_csv(io.StringIO(body), **_PANDAS_OPTIONS)
+        df: pd.DataFrame = pd.read_csv(body, encoding="utf-8", **_PANDAS_OPTIONS)
     except (pd.errors.ParserError, ValueError, csv.Error) as exc:
         raise MissionError(f"{label}: cannot parse as CSV ({exc})", file=label) from None
     return df
