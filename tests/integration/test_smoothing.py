@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from adaptnav.engine import batch as engine
+from adaptnav.engine import prefault
 from adaptnav.estimation import smoother
 from adaptnav.estimation.noise import FixedNoise, VariationalBayes
 from adaptnav.models import errorstate
@@ -64,6 +65,27 @@ def test_storing_nodes_leaves_the_forward_pass_bit_for_bit(vb: bool) -> None:
     for name in ("t", "x", "P_diag", "P_cross", "x_final", "P_final"):
         np.testing.assert_array_equal(getattr(plain, name), getattr(with_store, name))
     assert pd.DataFrame(plain.ledger).equals(pd.DataFrame(with_store.ledger))  # NaN-aware
+
+
+def test_the_store_faulted_in_by_a_helper_changes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """engine.prefault over every store the navigator allocates (however small) or over none:
+    the same smoothed solution, bit for bit."""
+    started: list[int] = []
+    start = prefault.start
+
+    def spy(arrays: list[np.ndarray]) -> prefault.Prefault | None:
+        started.append(len(arrays))
+        return start(arrays)
+
+    monkeypatch.setattr(prefault, "MIN_BYTES", 0)
+    monkeypatch.setattr(prefault, "start", spy)
+    helped = _run(5, True, vb=True)[0].output().smoothed
+    assert started and started[0] == len(engine.smk.NODE_ARRAYS) + len(engine.smk.UPDATE_ARRAYS)
+    monkeypatch.setattr(prefault, "start", lambda arrays: None)
+    alone = _run(5, True, vb=True)[0].output().smoothed
+    assert helped is not None and alone is not None
+    for name in ("t", "x", "P_diag", "P_cross", "declared", "declared_var"):
+        np.testing.assert_array_equal(getattr(helped, name), getattr(alone, name))
 
 
 @pytest.mark.parametrize("layout", [CORE, DEPTH_BIAS_GM], ids=["core", "Gauss-Markov bias"])

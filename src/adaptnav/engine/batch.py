@@ -73,7 +73,7 @@ from adaptnav.compiled.propagation import (
     jit_nogil,
 )
 from adaptnav.core import earth
-from adaptnav.engine import coldstart
+from adaptnav.engine import coldstart, prefault
 from adaptnav.estimation.gate import Gate, Guard
 from adaptnav.estimation.health import OFF, DivergenceGuard
 from adaptnav.estimation.noise import (
@@ -799,6 +799,7 @@ class Navigator:
             else None
         )
         self._smoothed: Smoothed | None = None
+        self._prefault: prefault.Prefault | None = None
         self._state_cache: list[tuple[int, Any] | None] = [None] * len(self.channels)
         self._record()
 
@@ -1241,11 +1242,27 @@ class Navigator:
         if self._sm is None:
             return
         counts = self._sm[smk.SM_COUNT]
-        self._sm = smk.grown(
-            self._sm,
-            int(counts[smk.K_NODES]) + rows + readings,
-            int(counts[smk.K_PRIORS]) + readings,
-        )
+        nodes, priors = int(counts[smk.K_NODES]), int(counts[smk.K_PRIORS])
+        old, self._sm = self._sm, smk.grown(self._sm, nodes + rows + readings, priors + readings)
+        # the rows this chunk may write, of the arrays just allocated, faulted in by a helper
+        fresh = [
+            self._sm[k][first : first + more]
+            for keys, first, more in (
+                (smk.NODE_ARRAYS, nodes, rows + readings),
+                (smk.UPDATE_ARRAYS, priors, readings),
+            )
+            for k in keys
+            if self._sm[k] is not old[k]
+        ]
+        if fresh:
+            self._stop_prefault()
+            self._prefault = prefault.start(fresh)
+
+    def _stop_prefault(self) -> None:
+        """Stop the helper faulting in the store's pages, if any (engine.prefault)."""
+        if self._prefault is not None:
+            self._prefault.stop()
+            self._prefault = None
 
     @property
     def records(self) -> _Records:
@@ -1358,6 +1375,7 @@ class Navigator:
         if sm is None:
             raise RuntimeError("smoothing needs EngineConfig(smooth=True) from the start")
         if self._smoothed is None:
+            self._stop_prefault()  # the rows it has not reached are not needed
             threads = min(SMOOTHER_THREADS, coldstart.cores())
             # the solution reports P^s's diagonal and P_CROSS_PAIRS only (smk.reported)
             smk.backward(sm, self.config.reset_mode, threads, full=False)
