@@ -594,7 +594,7 @@ def _walk_lines(f: BinaryIO, body: Any, label: str) -> _Walk | None:
     head = ends.line
     header = [h.strip() for h in next(csv.reader([first]))]
     _check_header(header, label, head)
-    body.write(first.encode())
+    size = [body.write(first.encode())]  # bytes written
     rows = array("q")
     tail: deque[tuple[int, str, int]] = deque(maxlen=CUT_WINDOW + 1)
     starts: deque[int] = deque()  # the lines of the record under way
@@ -606,8 +606,8 @@ def _walk_lines(f: BinaryIO, body: Any, label: str) -> _Walk | None:
                 starts.append(ends.line)
                 quote[0] = quote[0] or '"' in s
                 rows.append(ends.line)
-                tail.append((ends.line, s, body.tell()))
-                body.write(b"\n" + s.encode())
+                tail.append((ends.line, s, size[0]))
+                size[0] += body.write(b"\n" + s.encode())
                 yield s
 
     reader = csv.reader(data())
