@@ -196,7 +196,8 @@ def extra_columns(root: Path, draw: Draw) -> Expect:
 
 def quoted_note(root: Path, draw: Draw) -> Expect:
     """A logger's note column, quoted: a comma inside quotes is a text cell like any other; a
-    line break inside quotes (one cell over two lines) is an error naming the file."""
+    line break inside quotes (one cell over two lines) is an error naming the file (a sensor
+    that is off skips it; found by a wider run of this test with random seeds)."""
     name = _table(draw, TABLES)
     path = root / f"{name}.csv"
     lines = path.read_text().splitlines()
@@ -205,7 +206,8 @@ def quoted_note(root: Path, draw: Draw) -> Expect:
     note = '"lost\n2 beams"' if broken else '"lost, 2 beams"'
     body = [f"{line},{note if i == k else 'ok'}" for i, line in enumerate(lines[1:], 1)]
     path.write_text("\n".join([lines[0] + ",note", *body]) + "\n")
-    return expect(f"{name}.csv", "error" if broken else "fine")
+    # the heading is off: a table it cannot read is skipped and logged (loader._load_off_sensor)
+    return expect(f"{name}.csv", "error" if broken and name != "heading" else "fine")
 
 
 def latin1_note(root: Path, draw: Draw) -> Expect:
