@@ -456,7 +456,9 @@ def toml_syntax(root: Path, draw: Draw) -> Expect:
     k = int(draw(st.integers(0, len(text) - 1)))
     bad = str(draw(st.sampled_from(['"', "[", "= =", "\x00", "\n[mission]\n"])))
     (root / "mission.toml").write_text(text[:k] + bad + text[k:])
-    return expect("mission.toml", "error", "fine")
+    # still TOML when it lands inside a string: a table's file name then changes, and the error
+    # names that file ("[gps.csv: file not found"; found by a run with random seeds)
+    return expect(("mission.toml", "file not found"), "error", "fine")
 
 
 def toml_bad_type(root: Path, draw: Draw) -> Expect:
