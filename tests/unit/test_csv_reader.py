@@ -1080,3 +1080,24 @@ def test_a_header_after_blank_lines_is_read_without_the_exact_reader(
     first = 2 + blank.count("\n")
     assert table.lines[0] == first and table.lines[-1] == first + 899
     assert table.df["depth_m"].iloc[1] == 11.5
+
+
+def test_the_exact_reader_parses_in_memory_without_room_for_its_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The exact reader hands pandas its lines in a temporary file (tables._body_file); with
+    no room for it (a full TMPDIR) it hands them over in memory, the same table."""
+    path = tmp_path / "x.csv"
+    path.write_text('\nt_s,v,note\n0.0,1.5,"a,b"\n0.1,2.5,ok\n0.2,-3.5e-3,\n')
+    expected, repairs, error = outcome(EXACT, path)
+    assert expected is not None and error is None and repairs == []
+
+    def full(*_args: Any) -> Any:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(tb, "_body_file", full)
+    table, _, error = outcome(EXACT, path)
+    assert table is not None and error is None
+    assert_same_table(table, expected)
+    assert table.df["v"].tolist() == [1.5, 2.5, -3.5e-3]
+    assert table.lines.tolist() == [3, 4, 5]

@@ -97,6 +97,8 @@ blocks were no faster and raised the peak above baseline from 100 to 213 MB (the
 several blocks in flight)."""
 SCAN_BYTES = 1 << 22
 """CSV bytes read at a time by the pass that finds the lines (then dropped)."""
+BODY_LINES = 1 << 16
+"""Lines the exact reader joins and writes to its body file at a time (:func:`_body_file`)."""
 TAIL_BYTES = 1 << 16
 """CSV bytes read at a time, backwards from the end, for the last CUT_WINDOW + 1 lines."""
 TAIL_MAX_BYTES = 1 << 22
@@ -1304,11 +1306,10 @@ def _read_csv_streamed(path: Path, label: str, journal: Journal) -> Table | None
 def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     """The whole file as text, line by line: every error and repair located exactly.
 
-    Slow and memory-hungry (about 3.2× the file at its peak, more for short lines,
+    Slow and memory-hungry (about 2.5× the file at its peak, more for short lines,
     docs/robustness.md, "Memory"): only for the few files the other ways leave to it
     (:func:`_read_csv_lines` reads most of those it used to). The text is let go once split
-    into lines, the lines once joined, and pandas gets the body as UTF-8 bytes (a StringIO
-    holds 4 bytes a character).
+    into lines, and the lines once written to the file pandas parses (:func:`_body_file`).
     """
     text = _line_breaks(_decode(path, label), label, journal)
     quoted, ends_cr = '"' in text, text.endswith("\r")
@@ -1324,12 +1325,13 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     del keep
     if cut is None and data and data[-1] == len(lines) - 1 and not ends_cr:
         data, cut = _drop_cut_last_line(lines, data, header, quoted, label, journal)
-    joined = "\n".join([lines[head], *(lines[i] for i in data)])
+    try:
+        body = _body_file(lines, [head, *data])
+    except OSError:  # no room for the temporary file: the body in memory
+        body = io.BytesIO("\n".join(lines[i] for i in [head, *data]).encode())
     del lines
-    body = io.BytesIO(joined.encode())
-    del joined
-    df = _parse_csv(body, label)
-    del body
+    with body:
+        df = _parse_csv(body, label)
     rows = np.asarray(data, dtype=np.int64) + 1
     return _exact_table(path, label, df, header, head + 1, rows, cut)
 
@@ -1514,6 +1516,22 @@ def _drop_cut_last_line(
         f"than its column's ({max(before, default=0)} characters): cut mid-number?",
     )
     return data[:-1], (data[-1] + 1, _time_of(last[:-1], header))
+
+
+def _body_file(lines: list[str], rows: list[int]) -> BinaryIO:
+    """The lines ``rows`` (the header's first) as UTF-8, one a line, in a temporary file
+    (``tempfile``'s folder, ``TMPDIR``) written :data:`BODY_LINES` lines at a time and
+    rewound; the caller closes it (which deletes it)."""
+    f = tempfile.TemporaryFile(prefix="adaptnav-exact-")  # noqa: SIM115 - the caller's to close
+    try:
+        for k in range(0, len(rows), BODY_LINES):
+            part = "\n".join(lines[i] for i in rows[k : k + BODY_LINES])
+            f.write((b"\n" if k else b"") + part.encode())
+        f.seek(0)
+    except BaseException:
+        f.close()
+        raise
+    return cast(BinaryIO, f)
 
 
 def _parse_csv(body: BinaryIO, label: str) -> pd.DataFrame:
