@@ -60,8 +60,8 @@ def _ranges(arrays: Sequence[NDArray[np.generic]]) -> list[tuple[int, int]]:
 
 class Prefault:
     """A helper thread faulting in the pages of some arrays, piece by piece, until it is done,
-    finds the call unsupported, or is stopped (:meth:`stop`). It keeps the arrays alive while
-    it runs."""
+    finds the call unsupported, or is stopped (:meth:`stop`). It holds the arrays, so they
+    outlive its work; its owner drops it when done with it."""
 
     def __init__(self, arrays: Sequence[NDArray[np.generic]], madvise: Callable[..., int]):
         self._arrays = list(arrays)
@@ -78,7 +78,6 @@ class Prefault:
                 n = min(PIECE_BYTES, start + length - at)
                 if self._madvise(at, n, MADV_POPULATE_WRITE) != 0:
                     return  # EINVAL before Linux 5.14, ENOMEM: the writes fault them in
-        self._arrays = []
 
     def wait(self) -> None:
         """Wait until every page is faulted in (or the call turned out unsupported)."""

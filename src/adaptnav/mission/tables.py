@@ -502,8 +502,9 @@ def _read_csv_lines(path: Path, label: str, journal: Journal) -> Table | None:
             if walk is None:
                 return None
             cut = _cut_last_line(walk, label, journal)
-            rows = walk.rows if cut is None else walk.rows[:-1]
-            if cut is not None:
+            rows = walk.rows
+            if cut is not None:  # the last data line dropped: from the table and the body
+                rows = rows[:-1]
                 body.truncate(walk.tail[-1][2])
             body.seek(0)
             df = _parse_csv(cast(BinaryIO, body), label)
@@ -596,20 +597,21 @@ def _walk_lines(f: BinaryIO, body: Any, label: str) -> _Walk | None:
     head = ends.line
     header = [h.strip() for h in next(csv.reader([first]))]
     _check_header(header, label, head)
-    size = [body.write(first.encode())]  # bytes written
+    size = body.write(first.encode())  # bytes written
     rows = array("q")
     tail: deque[tuple[int, str, int]] = deque(maxlen=CUT_WINDOW + 1)
     starts: deque[int] = deque()  # the lines of the record under way
-    quote = ['"' in first]
+    quoted = '"' in first
 
     def data() -> Iterator[str]:
+        nonlocal size, quoted
         for s in lines:
             if s.strip():
                 starts.append(ends.line)
-                quote[0] = quote[0] or '"' in s
+                quoted = quoted or '"' in s
                 rows.append(ends.line)
-                tail.append((ends.line, s, size[0]))
-                size[0] += body.write(b"\n" + s.encode())
+                tail.append((ends.line, s, size))
+                size += body.write(b"\n" + s.encode())
                 yield s
 
     reader = csv.reader(data())
@@ -624,12 +626,12 @@ def _walk_lines(f: BinaryIO, body: Any, label: str) -> _Walk | None:
             if wrong is None and len(row) != len(header):
                 wrong = line, len(row)
     except csv.Error as exc:
-        if not quote[0] and not _quote_after(f):
+        if not quoted and not _quote_after(f):
             return None
         raise MissionError(f"{label} line {starts[0]}: {exc}", file=label, line=starts[0]) from None
     open_end = bool(rows) and rows[-1] == ends.line and not ends.lf and not ends.cr
     rows_array = np.frombuffer(rows, dtype=np.int64).copy() if rows else np.zeros(0, np.int64)
-    return _Walk(header, head, rows_array, wrong, wrong_last, quote[0], tail, open_end)
+    return _Walk(header, head, rows_array, wrong, wrong_last, quoted, tail, open_end)
 
 
 def _quote_not_closed(label: str, line: int) -> MissionError:
@@ -657,26 +659,37 @@ def _cut_last_line(walk: _Walk, label: str, journal: Journal) -> tuple[int, floa
                 line=line,
             )
         text = walk.tail[-1][1]
-        journal.repair(label, line, "", "dropped truncated last line",
-                       f"{c} of {n} fields: {text[:60]!r}")  # fmt: skip
+        journal.repair(label, line, "", "dropped truncated last line", _short_line(c, n, text))
         return line, _time_of(_fields(text, walk.quoted)[: c - 1], walk.header)
     if not walk.open_end:
         return None
     line, text = walk.tail[-1][:2]
     last = _fields(text, walk.quoted)
     before = [len(_fields(t, walk.quoted)[-1].strip()) for _, t, _ in list(walk.tail)[:-1]]
-    value = last[-1].strip()
+    detail = _cut_number(last[-1].strip(), before)
+    if detail is None:
+        return None
+    journal.repair(label, line, walk.header[-1], "dropped truncated last line", detail)
+    return line, _time_of(last[:-1], walk.header)
+
+
+def _short_line(c: int, n: int, text: str) -> str:
+    """The "dropped truncated last line" repair's detail for a last line ``text`` with ``c``
+    of the header's ``n`` fields."""
+    return f"{c} of {n} fields: {text[:60]!r}"
+
+
+def _cut_number(value: str, before: list[int]) -> str | None:
+    """The "dropped truncated last line" repair's detail for a last line without a line break
+    whose last value is shorter than the longest of its column on the lines before (their
+    lengths ``before``; none: cut too): a number cut short. None when it is as long (a
+    fixed-width writer's line is whole)."""
     if before and len(value) >= max(before):
         return None
-    journal.repair(
-        label,
-        line,
-        walk.header[-1],
-        "dropped truncated last line",
+    return (
         f"the file ends without a line break and the last value {value!r} is shorter "
-        f"than its column's ({max(before, default=0)} characters): cut mid-number?",
+        f"than its column's ({max(before, default=0)} characters): cut mid-number?"
     )
-    return line, _time_of(last[:-1], walk.header)
 
 
 def _quote_after(f: BinaryIO) -> bool:
@@ -1049,18 +1062,13 @@ def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
     repair: tuple[int, str, str] | None = None
     cut: tuple[int, float] | None = None
     if c < n:
-        repair = (line, "", f"{c} of {n} fields: {text[:60]!r}")
+        repair = (line, "", _short_line(c, n, text))
         cut = (line, _time_of(fields[: c - 1], header))
     elif line == layout.n_lines:  # the file's last line, no line break after it
         before = [len(_fields(t, '"' in t)[-1].strip()) for _, _, t in tail[-1 - CUT_WINDOW : -1]]
-        value = fields[-1].strip()
-        if not before or len(value) < max(before):
-            repair = (
-                line,
-                header[-1],
-                f"the file ends without a line break and the last value {value!r} is shorter "
-                f"than its column's ({max(before, default=0)} characters): cut mid-number?",
-            )
+        detail = _cut_number(fields[-1].strip(), before)
+        if detail is not None:
+            repair = (line, header[-1], detail)
             cut = (line, _time_of(fields[:-1], header))
     if cut is None:
         return _Plan(layout.size, lines, None, None)
@@ -1325,10 +1333,11 @@ def _read_csv_exact(path: Path, label: str, journal: Journal) -> Table:
     del keep
     if cut is None and data and data[-1] == len(lines) - 1 and not ends_cr:
         data, cut = _drop_cut_last_line(lines, data, header, quoted, label, journal)
+    parsed = [head, *data]
     try:
-        body = _body_file(lines, [head, *data])
+        body = _body_file(lines, parsed)
     except OSError:  # no room for the temporary file: the body in memory
-        body = io.BytesIO("\n".join(lines[i] for i in [head, *data]).encode())
+        body = io.BytesIO("\n".join(lines[i] for i in parsed).encode())
     del lines
     with body:
         df = _parse_csv(body, label)
@@ -1450,11 +1459,7 @@ def _check_field_counts(
             continue
         if c < n and j == len(data) - 1:
             journal.repair(
-                label,
-                i + 1,
-                "",
-                "dropped truncated last line",
-                f"{c} of {n} fields: {lines[i][:60]!r}",
+                label, i + 1, "", "dropped truncated last line", _short_line(c, n, lines[i])
             )
             return data[:-1], (i + 1, _time_of(_fields(lines[i], quoted)[: c - 1], header))
         raise MissionError(
@@ -1504,17 +1509,10 @@ def _drop_cut_last_line(
     before (a fixed-width writer); otherwise dropped and recorded (docs/robustness.md)."""
     last = _fields(lines[data[-1]], quoted)
     before = [len(_fields(lines[i], quoted)[-1].strip()) for i in data[-1 - CUT_WINDOW : -1]]
-    value = last[-1].strip()
-    if before and len(value) >= max(before):
+    detail = _cut_number(last[-1].strip(), before)
+    if detail is None:
         return data, None
-    journal.repair(
-        label,
-        data[-1] + 1,
-        header[-1],
-        "dropped truncated last line",
-        f"the file ends without a line break and the last value {value!r} is shorter "
-        f"than its column's ({max(before, default=0)} characters): cut mid-number?",
-    )
+    journal.repair(label, data[-1] + 1, header[-1], "dropped truncated last line", detail)
     return data[:-1], (data[-1] + 1, _time_of(last[:-1], header))
 
 
