@@ -91,10 +91,12 @@ _LOG_CAP = 10
 CUT_WINDOW = 100
 """Lines before the last whose last field's length is compared with the last one's, in a CSV
 that does not end with a line break (a cut number is shorter)."""
-CSV_BLOCK_BYTES = 1 << 20
-"""CSV text pyarrow parses per batch (its default). Measured on a 138 MB IMU file: 4 MiB
-blocks were no faster and raised the peak above baseline from 100 to 213 MB (the reader holds
-several blocks in flight)."""
+CSV_BLOCK_BYTES = 1 << 18
+"""CSV text pyarrow parses per batch. Its reader holds some twenty blocks in flight (read
+ahead and parsed), so the block size sets a fixed part of the peak: measured above the
+baseline, 4 MiB blocks took 213 MB on a 138 MB IMU file and 1 MiB (pyarrow's default) 100-114
+MB, 256 KiB 80 MB, with no change in time (a 29 MB file of two columns: 95-101 MB at 1 MiB,
+61 MB at 256 KiB; 128 KiB was slower)."""
 SCAN_BYTES = 1 << 22
 """CSV bytes read at a time by the pass that finds the lines (then dropped)."""
 BODY_LINES = 1 << 16
@@ -735,10 +737,14 @@ class _Layout:
     """Where a CSV's lines are, from one pass over its bytes (nothing kept but this)."""
 
     header: list[str]
+    head: int
+    """The header's line (1-based): 1, or after blank lines."""
+    header_start: int
+    """Byte offset of the header line (after a BOM and blank lines)."""
     size: int
     """Bytes the scan read: the file's size then (a file still growing is read up to it)."""
     data_start: int
-    """Byte offset of line 2, the first after the header."""
+    """Byte offset of the line after the header."""
     n_lines: int
     """Lines as ``text.split("\\n")`` counts them (an empty one after a final line break)."""
     blank: NDArray[np.int64]
@@ -782,7 +788,8 @@ def _read_csv_typed(path: Path, label: str, journal: Journal) -> Table | None:
         return None
     if plan is None:
         return None
-    columns = _read_columns(path, plan.limit, layout.header, plan.lines.size)
+    head = (path, layout.header_start, plan.limit)
+    columns = _read_columns(head, layout.header, plan.lines.size)
     if columns is None:
         return None
     if plan.repair is not None:
@@ -806,7 +813,8 @@ def _header_ok(header: list[str], label: str) -> bool:
 def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout | None:
     """The layout of an open CSV, or None if it is not a plain table (of numbers).
 
-    Plain: a header on line 1 with at least two names (quoted or not); after it, line breaks LF or
+    Plain: a header with at least two names (quoted or not) on line 1 or after blank lines
+    (empty, or spaces and tabs; a BOM first); after it, line breaks LF or
     CRLF (a lone CR is a line break to pyarrow and pandas, not to the exact reader) and at
     least one line; and either (``numbers_only``) only the bytes of :data:`_NUMBER_BYTES`, no
     ``+`` but an exponent's, or else UTF-8 text without NUL whose every line but the blank ones
@@ -823,10 +831,13 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
     """
     first = f.read(SCAN_BYTES)
     size = len(first)
-    end = first.find(b"\n")
+    bom = len(BOM) if first.startswith(BOM) else 0
+    header_start = _LEADING_BLANKS.match(first, bom).end()  # type: ignore[union-attr]
+    end = first.find(b"\n", header_start)
     if end < 0:
-        return None  # no line after the header, or a header longer than a piece
-    head = first[:end].removeprefix(BOM).removesuffix(b"\r")
+        return None  # no line after the header, or a header (or blank lines) beyond a piece
+    head_line = 1 + first.count(b"\n", 0, header_start)
+    head = first[header_start:end].removesuffix(b"\r")
     if any(c in head for c in (b"\r", b"\x00")):
         return None
     try:
@@ -858,13 +869,14 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
             if numbers_only:
                 if piece.translate(None, _NUMBER_BYTES) or _leading_plus(piece):
                     return None
-            elif not _text_piece(piece, first, 2 + breaks, header, label):
+            elif not _text_piece(piece, first, head_line + 1 + breaks, header, label):
                 return None
             before = len(blank)
-            _blank_lines(piece, 2 + breaks, blank)
+            _blank_lines(piece, head_line + 1 + breaks, blank)
             if not numbers_only and not _fields_ok(piece, len(header), len(blank) - before):
                 if label and _header_ok(header, label):
-                    _wrong_field_count(f, piece, carry, 2 + breaks, len(header), label)
+                    line = head_line + 1 + breaks
+                    _wrong_field_count(f, piece, carry, line, head_line, len(header), label)
                 return None
             breaks += piece.count(b"\n")
             last = piece[-1:]
@@ -872,15 +884,21 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
             break
         chunk = f.read(SCAN_BYTES)
         size += len(chunk)
-    n_lines = breaks + 2
+    n_lines = head_line + 1 + breaks
     ends_with_break = last == b"\n"
     if ends_with_break:
         blank.append(n_lines)  # the empty string after the final line break
-    if n_lines - 1 - len(blank) < 1:
+    if n_lines - head_line - len(blank) < 1:
         return None  # no data line: the exact reader gives the table its empty columns
-    return _Layout(header, size, data_start, n_lines, np.asarray(blank, np.int64), ends_with_break)
+    blanks = np.asarray(blank, np.int64)
+    return _Layout(
+        header, head_line, header_start, size, data_start, n_lines, blanks, ends_with_break
+    )
 
 
+_LEADING_BLANKS = re.compile(rb"(?:[ \t]*\r?\n)*")
+"""Blank lines before the header: empty, or spaces and tabs (LF or CRLF), as
+:data:`_BLANK_AFTER` finds them after it."""
 _NOT_TEXT = b" \t\n\r\x0b\x0c\x1c\x1d\x1e\x1f" + bytes(range(128, 256))
 """The bytes that are white space to ``str.strip`` (the exact reader's blank lines) and every
 non-ASCII byte (NBSP and other Unicode white space are made of these): a byte not among them
@@ -888,12 +906,12 @@ is a character that makes its line a data line."""
 
 
 def _wrong_field_count(
-    f: BinaryIO, piece: bytes, carry: bytes, first_line: int, n: int, label: str
+    f: BinaryIO, piece: bytes, carry: bytes, first_line: int, head: int, n: int, label: str
 ) -> None:
     """Raise the exact reader's error for the first line of ``piece`` (which starts at line
     ``first_line``; earlier lines were all right) with other than ``n`` fields, when the exact
-    reader would raise it: MissionError ``"{label} line {i}: {c} fields, the header (line 1)
-    has {n}"`` (:func:`_check_field_counts`). Returns, leaving the file to the exact reader,
+    reader would raise it: MissionError ``"{label} line {i}: {c} fields, the header (line
+    {head}) has {n}"`` (:func:`_check_field_counts`). Returns, leaving the file to the exact reader,
     whenever that is not certain: quotes in this piece or after it (the csv module counts
     them, and may find an unclosed one first), no such line (a line of other white space, a
     form feed say: blank to the exact reader), a short line with nothing but white space after
@@ -936,7 +954,9 @@ def _wrong_field_count(
         return  # the last data line cut short (or a line of Unicode white space after it?)
     line = first_line + k
     raise MissionError(
-        f"{label} line {line}: {c} fields, the header (line 1) has {n}", file=label, line=line
+        f"{label} line {line}: {c} fields, the header (line {head}) has {n}",
+        file=label,
+        line=line,
     )
 
 
@@ -1035,8 +1055,11 @@ _BLANK_AFTER = re.compile(rb"\n[ \t]*\r?(?=\n)")
 
 def _data_lines(layout: _Layout) -> NDArray[np.int64]:
     """The file line of every data line: those after the header but the blank ones."""
-    lines = np.arange(2, layout.n_lines + 1, dtype=np.int64)
-    return np.delete(lines, layout.blank - 2) if layout.blank.size else lines
+    first = layout.head + 1
+    lines = np.arange(first, layout.n_lines + 1, dtype=np.int64)
+    if layout.blank.size == 1 and layout.blank[0] == layout.n_lines:
+        return lines[:-1]  # only the empty string after the final line break: no copy
+    return np.delete(lines, layout.blank - first) if layout.blank.size else lines
 
 
 def _plan_last_line(f: BinaryIO, layout: _Layout) -> _Plan | None:
@@ -1114,22 +1137,24 @@ def _blank(line: bytes) -> bool:
     return not line.decode("utf-8", "replace").strip()
 
 
-def _read_columns(
-    path: Path, limit: int, header: list[str], rows: int
-) -> list[NDArray[Any]] | None:
-    """The first ``limit`` bytes of a CSV parsed into one array per column, or None.
+_Span = tuple[Path, int, int]
+"""A CSV's bytes from its header line to a limit: (path, start, limit)."""
+
+
+def _read_columns(span: _Span, header: list[str], rows: int) -> list[NDArray[Any]] | None:
+    """A CSV's ``span`` (its header line first) parsed into one array per column, or None.
 
     Types as pandas would infer them: pyarrow's inference on the first block says int64
     (kept, float64 once a cell is missing, as in pandas) or float64 (also for a block of
     missing cells); any other type is the exact reader's. An int64 column that turns out to
     hold non-integers later is read again as float64.
     """
-    types = _probe_types(path, limit, header)
+    types = _probe_types(span, header)
     if types is None:
         return None
     for _ in range(len(header) + 1):  # each retry turns one int64 column into float64
         try:
-            return _convert(path, limit, header, types, rows)
+            return _convert(span, header, types, rows)
         except pa.ArrowInvalid as exc:
             name = _widened(str(exc), types)
             if name is None:
@@ -1154,14 +1179,17 @@ def _open_csv(src: _Head, header: list[str], types: dict[str, Any] | None) -> An
             true_values=list(PANDAS_TRUE),
             false_values=list(PANDAS_FALSE),
         ),
+        # The default pool (mimalloc) keeps what the batches freed, some 10 MB more at the
+        # peak on a 29 MB file; malloc gives it back and was no slower.
+        memory_pool=pa.system_memory_pool(),
     )
 
 
-def _probe_types(path: Path, limit: int, header: list[str]) -> dict[str, Any] | None:
+def _probe_types(span: _Span, header: list[str]) -> dict[str, Any] | None:
     """Per column, pa.int64(), pa.float64() or pa.bool_() from the first block; None for
     another type."""
     try:
-        with _Head(path, limit) as src:
+        with _Head(*span) as src:
             reader = _open_csv(src, header, None)
             schema = reader.schema
             reader.close()
@@ -1181,7 +1209,7 @@ def _probe_types(path: Path, limit: int, header: list[str]) -> dict[str, Any] | 
 
 
 def _convert(
-    path: Path, limit: int, header: list[str], types: dict[str, Any], rows: int
+    span: _Span, header: list[str], types: dict[str, Any], rows: int
 ) -> list[NDArray[Any]] | None:
     """Stream the batches into columns of ``rows`` values; None if the count differs, if a
     cell reads as NaN that pandas would not (``NAN``, ``+nan``: not missing-value spellings), or
@@ -1192,7 +1220,7 @@ def _convert(
     ]
     huge = [False] * len(header)
     at = 0
-    with _Head(path, limit) as src:
+    with _Head(*span) as src:
         reader = _open_csv(src, header, types)
         try:
             for batch in reader:
@@ -1247,12 +1275,14 @@ def _widened(message: str, types: dict[str, Any]) -> str | None:
 
 
 class _Head(io.RawIOBase):
-    """The first ``limit`` bytes of a file, as pyarrow reads a Python file object."""
+    """A file's bytes from ``start`` up to ``limit``, as pyarrow or pandas reads a Python file
+    object."""
 
-    def __init__(self, path: Path, limit: int) -> None:
+    def __init__(self, path: Path, start: int, limit: int) -> None:
         super().__init__()
         self._file = path.open("rb", buffering=0)
-        self._left = limit
+        self._file.seek(start)
+        self._left = limit - start
 
     def readable(self) -> bool:
         return True
@@ -1298,7 +1328,7 @@ def _read_csv_streamed(path: Path, label: str, journal: Journal) -> Table | None
     if plan is None:
         return None
     try:
-        with io.BufferedReader(_Head(path, plan.limit)) as src:
+        with io.BufferedReader(_Head(path, layout.header_start, plan.limit)) as src:
             df: pd.DataFrame = pd.read_csv(src, encoding="utf-8-sig", **_PANDAS_OPTIONS)
     except (pd.errors.ParserError, ValueError, csv.Error, OSError):
         return None
