@@ -73,6 +73,7 @@ READERS = (
     "exact_text",
     "read_table_quoted",
     "read_table_blank_first",
+    "read_table_narrow",
     "read_table_quoted_break",
     "read_table_quoted_damaged",
     "read_table_damaged",
@@ -163,6 +164,11 @@ def write_mission(root: Path, rows: int = ROWS, seed: int = 0) -> Path:
         }
     )
     dvl.to_csv(root / "dvl.csv", index=False)
+    n_depth = 2 * rows  # a depth meter's two short columns: 15 bytes a line
+    depth = pd.DataFrame(
+        {"t_s": np.arange(1, n_depth + 1) / RATE_HZ, "depth_m": rng.normal(10.0, 1.0, n_depth)}
+    )
+    depth.to_csv(root / "narrow.csv", index=False, float_format="%.3f")
     config = {
         "mission": {"name": "csv-bench"},
         "imu": {
@@ -210,6 +216,10 @@ def measure(reader: str, imu_csv: Path) -> dict[str, float]:
         blank = imu_csv.parent / "blank-first.csv"
         table = tb.read_table(blank, blank.name, tb.Journal())
         assert len(table.df) == ROWS and int(table.lines[0]) == 3, table.lines[:1]
+    elif reader == "read_table_narrow":
+        narrow = imu_csv.parent / "narrow.csv"
+        table = tb.read_table(narrow, narrow.name, tb.Journal())
+        assert len(table.df) == 2 * ROWS, len(table.df)
     elif reader == "read_table_quoted_break":
         _refused(imu_csv.parent / "quoted-break.csv", f" line {DAMAGED_LINE}: a quoted field")
     elif reader == "read_table_quoted_damaged":
@@ -276,6 +286,7 @@ def bench_csv_memory() -> list[str]:
         size_stamped = (imu_csv.parent / "stamped.csv").stat().st_size / MB
         size_quoted = (imu_csv.parent / "quoted.csv").stat().st_size / MB
         size_binary = (imu_csv.parent / "binary.csv").stat().st_size / MB
+        size_narrow = (imu_csv.parent / "narrow.csv").stat().st_size / MB
         got = {r: {"peak_mb": 0.0, "seconds": math.inf} for r in READERS}
         for _ in range(REPEATS):
             for r in READERS:
@@ -303,6 +314,8 @@ def bench_csv_memory() -> list[str]:
         f"({size_quoted:.0f} MB) → read_table peak {peak('read_table_quoted', size_quoted)}",
         f"csv memory: that imu.csv with a blank first line → read_table peak "
         f"{peak('read_table_blank_first')}",
+        f"csv memory: a depth table of {2 * ROWS:,} lines t_s,depth_m ({size_narrow:.0f} MB, "
+        f"15 bytes a line) → read_table peak {peak('read_table_narrow', size_narrow)}",
         f"csv memory: the quoted file with a line break inside the quotes of line "
         f"{DAMAGED_LINE:,} → read_table's error naming it, peak "
         f"{peak('read_table_quoted_break', size_quoted)}; with that line cut after 4 fields, "
