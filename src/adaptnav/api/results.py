@@ -496,6 +496,49 @@ def save(result: Result, run_dir: str | Path) -> Path:
     return folder
 
 
+def check_times(solution: pd.DataFrame, label: str) -> None:
+    """A solution table's rows must be epochs in time order: at least one, every ``t_s`` a
+    finite number, each after the one before (what :func:`save` writes). Raises
+    :class:`RunFolderError` naming the row (0-based) otherwise: a table edited or damaged
+    after the run, which evaluation and export would otherwise take as it is."""
+    if len(solution) == 0:
+        raise RunFolderError(f"{label}: no rows (a run writes at least one epoch)")
+    t = pd.to_numeric(solution["t_s"], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        k = int(bad[0])
+        raise RunFolderError(
+            f"{label} row {k}, t_s: {_shown(solution['t_s'].iloc[k])} is not a time"
+        )
+    back = np.flatnonzero(np.diff(t) <= 0.0)
+    if back.size:
+        k = int(back[0]) + 1
+        raise RunFolderError(
+            f"{label} row {k}, t_s: {t[k]!r} does not follow row {k - 1}'s {t[k - 1]!r} "
+            "(a solution's times increase)"
+        )
+
+
+def _shown(value: Any) -> str:
+    """A cell as a message shows it: ``nan``, ``inf``, ``1.5``, ``'abc'``."""
+    return repr(float(value)) if isinstance(value, float | np.floating) else repr(value)
+
+
+def check_finite(solution: pd.DataFrame, columns: Sequence[str], label: str) -> None:
+    """Every value of ``columns`` must be a finite number: a run writes no NaN or infinity in
+    its solution, so one is damage, and an exporter would write it on (a NaN pose in a bag, a
+    gap in a KML line). Raises ValueError naming the first such row (0-based) and column."""
+    for name in columns:
+        values = pd.to_numeric(solution[name], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(
+                f"{label} row {k}, {name}: {_shown(solution[name].iloc[k])} is not a finite number "
+                f"({bad.size} such row(s); a run writes none: a damaged table?)"
+            )
+
+
 def load(run_dir: str | Path) -> Result:
     """Read a run folder written by :func:`save`.
 
@@ -544,6 +587,8 @@ def load(run_dir: str | Path) -> Result:
         missing = [c for c in _REQUIRED[name] if c not in table.columns]
         if missing:
             raise RunFolderError(f"{table_path}: missing columns {missing}")
+        if name in ("solution", "forward"):
+            check_times(table, str(table_path))
         tables[name] = table
     return Result(
         filter=str(info["filter"]),

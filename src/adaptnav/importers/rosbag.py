@@ -18,6 +18,7 @@ import datetime as dt
 import json
 import logging
 import math
+import re
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -827,10 +828,13 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
     (``C P Cᵀ`` with ``C = C_NED_ENU``: the attitude error φ is a world-frame rotation), the
     velocity block into FLU (``C_FRD_FLU C_bn P_v C_nb C_FRD_FLU``); no position-attitude
     correlation is kept in a solution table, so that block is zero."""
-    from adaptnav.api.results import covariance_block
+    from adaptnav.api.results import check_finite, covariance_block
     from adaptnav.core import earth
     from adaptnav.core.attitude import euler_to_dcm
 
+    check_finite(solution, _exported_columns(solution), "solution")
+    t_ns = origin_ns + np.round(solution["t_s"].to_numpy(dtype=float) * NS).astype(np.int64)
+    check_stamps(int(t_ns[0]), int(t_ns[-1]))
     lat, lon, h = (solution[c].to_numpy(dtype=float) for c in ("lat_rad", "lon_rad", "h_m"))
     datum = (float(lat[0]), float(lon[0]), float(h[0]))
     r_enu = rosmsg.enu_to_ned(earth.geodetic_to_ned(lat, lon, h, *datum))
@@ -845,7 +849,6 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
     twist = np.zeros((n, 6, 6))
     twist[:, :3, :3] = to_flu @ covariance_block(solution, VELOCITY) @ to_flu.transpose(0, 2, 1)
     twist[:, [3, 4, 5], [3, 4, 5]] = UNKNOWN_VARIANCE
-    t_ns = origin_ns + np.round(solution["t_s"].to_numpy(dtype=float) * NS).astype(np.int64)
     return OdometryRows(
         t_ns,
         datum,
@@ -855,6 +858,63 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
         pose.reshape(n, 36),
         twist.reshape(n, 36),
     )
+
+
+def _exported_columns(solution: pd.DataFrame) -> list[str]:
+    """The solution columns an Odometry message carries: position, velocity, attitude, their
+    σ and (when the table has them) their covariances."""
+    from adaptnav.api.results import STATE_COLUMNS, cov_column, has_covariances
+
+    columns = list(STATE_COLUMNS[:9])
+    for block in (POSITION, VELOCITY, ATTITUDE):
+        columns += [f"sd_{a}" for a in block]
+        if has_covariances(solution, block):
+            columns += [cov_column(a, b) for i, a in enumerate(block) for b in block[i + 1 :]]
+    return columns
+
+
+ROS_TIME_END_S = 2**31
+"""A ROS 2 stamp's seconds are an int32 (``builtin_interfaces/msg/Time``): from 0 (ROS time is
+not negative) to 2³¹ s, early 2038."""
+
+
+def check_stamps(first_ns: int, last_ns: int) -> None:
+    """The export's first and last stamps (ns) must lie in ROS 2's time range
+    (:data:`ROS_TIME_END_S`); ValueError naming them otherwise (a wrong --stamp-origin-ns)."""
+    if first_ns < 0 or last_ns >= ROS_TIME_END_S * NS:
+        raise ValueError(
+            f"stamps {first_ns} to {last_ns} ns: outside ROS 2's time range, 0 to 2^31 s "
+            "(1970 to 2038; a stamp's seconds are an int32): check --stamp-origin-ns"
+        )
+
+
+_ROS_NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+"""A fully qualified ROS 2 topic name: ``/`` then tokens of letters, digits and underscores,
+none starting with a digit, separated by single ``/`` (no ``~`` or ``{}`` substitutions: a
+bag holds names resolved)."""
+_FRAME_ID = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_./-]*")
+"""A tf2 frame id: no leading ``/`` (tf2 refuses it), no spaces."""
+
+
+def check_topics(names: ExportTopics) -> None:
+    """ValueError naming the option whose value ROS 2 tools would refuse: a topic that is not
+    a fully qualified name, the odometry topic equal to the datum's (one topic, two types), a
+    frame id that is empty, starts with ``/`` or holds a space, or the two frames the same."""
+    if not _ROS_NAME.fullmatch(names.odometry):
+        raise ValueError(
+            f"--topic: {names.odometry!r} is not a ROS 2 topic name (/ then letters, digits "
+            "and _, e.g. /adaptnav/odometry)"
+        )
+    if names.odometry == names.datum:
+        raise ValueError(f"--topic: {names.odometry!r} is the datum's topic (a NavSatFix)")
+    frames = (("--frame-id", names.frame_id), ("--child-frame-id", names.child_frame_id))
+    for option, frame in frames:
+        if not _FRAME_ID.fullmatch(frame):
+            raise ValueError(
+                f"{option}: {frame!r} is not a frame id (letters, digits, _ . / -; no leading /)"
+            )
+    if names.frame_id == names.child_frame_id:
+        raise ValueError(f"--child-frame-id: {names.child_frame_id!r} is the world frame too")
 
 
 @dataclass(frozen=True)
@@ -954,6 +1014,7 @@ def export_run(
     ``stamp_origin_ns`` (default :func:`run_stamp_origin`). Returns what was written."""
     from adaptnav.api.results import load
 
+    check_topics(names)
     result = load(run_dir)
     origin = run_stamp_origin(result.meta) if stamp_origin_ns is None else stamp_origin_ns
     rows = odometry_rows(result.solution, origin)

@@ -28,6 +28,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from adaptnav.api.results import check_finite
+
 Array = NDArray[np.float64]
 
 MAX_POINTS = 20000
@@ -58,10 +60,12 @@ _COLUMNS = {  # track.csv column ← (solution column, factor)
 
 def track_table(solution: pd.DataFrame) -> pd.DataFrame:
     """``track.csv``'s table of a run's ``solution`` (module docstring). Raises ValueError
-    naming the first column it lacks."""
+    naming the first column it lacks, or the first row and column that is not a finite number
+    (:func:`adaptnav.api.results.check_finite`)."""
     missing = [src for src, _ in _COLUMNS.values() if src not in solution.columns]
     if missing:
         raise ValueError(f"solution: no column {missing[0]!r} (not a run's solution table?)")
+    check_finite(solution, [src for src, _ in _COLUMNS.values()], "solution")
     out = pd.DataFrame(
         {name: solution[src].to_numpy(dtype=float) * k for name, (src, k) in _COLUMNS.items()}
     )

@@ -831,28 +831,11 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
     """
     first = f.read(SCAN_BYTES)
     size = len(first)
-    bom = len(BOM) if first.startswith(BOM) else 0
-    header_start = _LEADING_BLANKS.match(first, bom).end()  # type: ignore[union-attr]
-    end = first.find(b"\n", header_start)
-    if end < 0:
-        return None  # no line after the header, or a header (or blank lines) beyond a piece
+    found = _header_line(first)
+    if found is None:
+        return None
+    header, header_start, data_start = found
     head_line = 1 + first.count(b"\n", 0, header_start)
-    head = first[header_start:end].removesuffix(b"\r")
-    if any(c in head for c in (b"\r", b"\x00")):
-        return None
-    try:
-        text = head.decode("utf-8")
-    except UnicodeDecodeError:
-        return None
-    # A quoted header ("t_s","vx_m_s", as csv writers quoting every cell give it) is read as
-    # the exact reader reads it: by the csv module, names stripped; a quote left in a name is
-    # its to report.
-    header = [h.strip() for h in _fields(text, '"' in text)]
-    if any('"' in h for h in header):
-        return None
-    if not text.strip() or len(header) < 2:
-        return None
-    data_start = end + 1
     blank: list[int] = []
     breaks = 0  # line breaks after the header's
     last = b"\n"  # the file's last byte so far: the header's line break
@@ -894,6 +877,31 @@ def _scan(f: BinaryIO, *, numbers_only: bool = True, label: str = "") -> _Layout
     return _Layout(
         header, head_line, header_start, size, data_start, n_lines, blanks, ends_with_break
     )
+
+
+def _header_line(first: bytes) -> tuple[list[str], int, int] | None:
+    """(names, the header line's offset, the next line's) in a CSV's first bytes: the first
+    line after a BOM and blank lines (:data:`_LEADING_BLANKS`); None if there is none with a
+    line break after it, or it is not a plain header of two names or more."""
+    bom = len(BOM) if first.startswith(BOM) else 0
+    header_start = _LEADING_BLANKS.match(first, bom).end()  # type: ignore[union-attr]
+    end = first.find(b"\n", header_start)
+    if end < 0:
+        return None  # no line after the header, or a header (or blank lines) beyond a piece
+    head = first[header_start:end].removesuffix(b"\r")
+    if any(c in head for c in (b"\r", b"\x00")):
+        return None
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    # A quoted header ("t_s","vx_m_s", as csv writers quoting every cell give it) is read as
+    # the exact reader reads it: by the csv module, names stripped; a quote left in a name is
+    # its to report.
+    header = [h.strip() for h in _fields(text, '"' in text)]
+    if any('"' in h for h in header) or not text.strip() or len(header) < 2:
+        return None
+    return header, header_start, end + 1
 
 
 _LEADING_BLANKS = re.compile(rb"(?:[ \t]*\r?\n)*")
