@@ -288,6 +288,118 @@ def test_each_bad_line_is_repaired_with_its_reason(tmp_path: Path) -> None:
     assert len(nmea.heading) == 8 and len(nmea.velocity) == 16
 
 
+def _with_field(line: str, index: int, text: str) -> str:
+    """The sentence with field ``index`` (0: the address) set to ``text``, checksum anew."""
+    fields = line[1:].partition("*")[0].split(",")
+    fields[index] = text
+    return sentence(",".join(fields))
+
+
+def test_a_heading_after_a_fix_with_a_bad_field_takes_that_fixs_time(tmp_path: Path) -> None:
+    """GGA and HDT only: the GGA of 12 s has no altitude (a repair) and the HDT of 11 s is
+    missing. The HDT of 12 s follows the bad GGA, whose time is good: it is stamped 12 s (up
+    to 0.4.4 the bad GGA's time went with it, and that heading took 11 s, silently)."""
+    lines = [line for line in _good_epochs(4) if line[3:6] in ("GGA", "HDT")]
+    lines[4] = _with_field(lines[4], 9, "")  # the GGA of 12 s (line 5): no altitude
+    del lines[3]  # the HDT of 11 s
+    log = tmp_path / "gga-hdt.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log], date=dt.date(2024, 3, 10))
+    assert {(r.line, r.field, r.action) for r in nmea.repairs} == {(4, "altitude", "empty field")}
+    t0 = T0.timestamp()
+    np.testing.assert_allclose(nmea.heading["utc_s"] - t0, [10.0, 12.0, 13.0], atol=1e-6)
+    np.testing.assert_allclose(nmea.gnss["utc_s"] - t0, [10.0, 11.0, 13.0], atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("kind", "index", "text", "field", "detail"),
+    [
+        ("RMC", 7, "-5.0", "spd_over_grnd", "outside [0, inf]"),
+        ("RMC", 8, "400.0", "true_course", "outside [0, 360]"),
+        ("VTG", 1, "361", "true_track", "outside [0, 360]"),
+        ("VTG", 7, "-3.0", "spd_over_grnd_kmph", "outside [0, inf]"),
+        ("GGA", 7, "-3", "num_sats", "outside [0, inf]"),
+        ("GGA", 7, "7.5", "num_sats", "is not a count"),
+        ("GGA", 8, "-1.2", "horizontal_dil", "outside [0, inf]"),
+        ("GGA", 10, "F", "altitude_units", "heights in metres (M) only"),
+        ("GGA", 9, "1_000", "altitude", "is not a number"),
+        ("GGA", 9, "1e3", "altitude", "is not a number"),
+        ("GGA", 9, "inf", "altitude", "is not a number"),
+    ],
+)
+def test_a_field_out_of_its_range_is_a_repair(
+    tmp_path: Path, kind: str, index: int, text: str, field: str, detail: str
+) -> None:
+    """Numbers Python's float takes but NMEA does not write, and values no receiver gives: the
+    sentence goes to the repair log with its field (up to 0.4.4 kept: a negative speed, a
+    course of 400°, -3 satellites, a height in feet read as metres)."""
+    lines = _good_epochs(3)
+    k = next(i for i, line in enumerate(lines) if line[3:6] == kind and i > 3)
+    lines[k] = _with_field(lines[k], index, text)
+    log = tmp_path / "odd.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    (repair,) = nmea.repairs
+    assert (repair.line, repair.field, repair.action) == (k + 1, field, "bad field")
+    assert detail in repair.detail
+    assert k + 1 not in set(nmea.gnss["nmea_line"]) | set(nmea.velocity["nmea_line"])
+
+
+def test_a_two_digit_zda_year_is_a_repair(tmp_path: Path) -> None:
+    """ZDA's year has four digits; ``24`` is not read as the year 24 (up to 0.4.4 it was, and
+    every time was 2000 years early, without a word)."""
+    gga = [line for line in _good_epochs(3) if line[3:6] == "GGA"]
+    zda = sentence("GPZDA,235940.00,10,03,24,00,00")
+    log = tmp_path / "zda.nmea"
+    log.write_text("\n".join([zda, *gga]) + "\n", encoding="ascii")
+    with pytest.raises(NmeaError, match="no date"):
+        read_nmea([log])
+    nmea = read_nmea([log], date=dt.date(2024, 3, 10))
+    assert [(r.line, r.field, r.action) for r in nmea.repairs] == [(1, "year", "bad field")]
+    assert nmea.gnss["utc_s"].iloc[0] == pytest.approx(T0.timestamp() + 10.0)
+
+
+def test_a_date_that_moves_the_day_is_in_the_repair_log(tmp_path: Path) -> None:
+    """A 1-Hz stream whose RMC date jumps two days while its times of day run on: the
+    re-anchored day is kept (a log with a gap of days reads right) and now logged (up to
+    0.4.4: a 2-day jump in the times, silently)."""
+    lines = _good_epochs(5)
+    for k in (8, 12, 16):  # the RMCs of the third epoch on
+        lines[k] = _with_field(lines[k], 9, "120324")
+    log = tmp_path / "date.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    moved = [r for r in nmea.repairs if r.action == "date re-anchored"]
+    assert [(r.line, r.field) for r in moved] == [(9, "(date)")]
+    assert "later times move +2 day(s)" in moved[0].detail
+    assert np.diff(nmea.gnss["utc_s"]).round(6).tolist() == [1.0, 172801.0, 1.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--gnss-name", "g", "--heading-name", "g_velocity"], "--heading-name 'g_velocity'"),
+        (["--gnss-name", "../evil"], "--gnss-name: sensor name '../evil'"),
+        (["--heading-name", "a/b"], "--heading-name: sensor name 'a/b'"),
+        (["--gnss-name", ""], "--gnss-name: sensor name ''"),
+        (["--gnss-name", "truth"], "--gnss-name: sensor name 'truth' is reserved"),
+        (["--lever-arm-m", "nan,0,0"], "[sensors.gnss]: lever_arm_m[0]: Input should be a finite"),
+    ],
+)
+def test_names_and_options_are_checked_before_anything_is_written(
+    tmp_path: Path, args: list[str], message: str
+) -> None:
+    log = tmp_path / "log.nmea"
+    log.write_text("\n".join(_good_epochs(3)) + "\n", encoding="ascii")
+    work = tmp_path / "work"
+    work.mkdir()
+    result = runner.invoke(app, ["import", "nmea", str(log), "--out", str(work / "o"), *args])
+    assert result.exit_code == 2, result.output
+    assert message in " ".join(result.output.split()), result.output
+    assert "Traceback" not in result.output
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["log.nmea", "work"]
+
+
 def test_day_rolls_over_without_rmc(tmp_path: Path) -> None:
     log = tmp_path / "gga.nmea"
     log.write_text(

@@ -32,6 +32,7 @@ import hashlib
 import json
 import logging
 import math
+import re
 import shutil
 from collections import Counter
 from collections.abc import Iterator, Mapping, Sequence
@@ -46,10 +47,11 @@ import pynmea2
 from adaptnav.mission.config import (
     MissionConfig,
     MissionError,
-    SensorConfig,
     dumps_toml,
     load_config,
     parse_config,
+    parse_sensor,
+    sensor_name_problem,
 )
 from adaptnav.mission.loader import CONFIG_NAME, OutsideImuSpanError, load_mission
 from adaptnav.mission.tables import Journal, Repair, write_table
@@ -155,18 +157,37 @@ def _required(msg: pynmea2.TalkerSentence, name: str) -> str:
     return text
 
 
-def _number(msg: pynmea2.TalkerSentence, name: str, *, optional: bool = False) -> float:
-    """A finite number; an empty optional field is NaN."""
+_NMEA_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
+"""A number as NMEA 0183 writes one: digits, a point, a sign; no exponent, no ``inf``, no
+``1_000`` (all of which Python's ``float`` would take)."""
+
+
+def _number(
+    msg: pynmea2.TalkerSentence,
+    name: str,
+    *,
+    optional: bool = False,
+    low: float = -math.inf,
+    high: float = math.inf,
+) -> float:
+    """A number in ``[low, high]``; an empty optional field is NaN."""
     text = _field(msg, name) if optional else _required(msg, name)
     if not text:
         return math.nan
-    try:
-        value = float(text)
-    except ValueError:
-        raise _LineError(name, "bad field", f"{name} = {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise _LineError(name, "bad field", f"{name} = {text!r} is not finite")
+    if not _NMEA_NUMBER.fullmatch(text):
+        raise _LineError(name, "bad field", f"{name} = {text!r} is not a number")
+    value = float(text)
+    if not low <= value <= high:
+        raise _LineError(name, "bad field", f"{name} = {text!r} outside [{low:g}, {high:g}]")
     return value
+
+
+def _metres(msg: pynmea2.TalkerSentence, name: str) -> None:
+    """A GGA's height unit must be M (metres): a receiver set to feet says F."""
+    idx = msg.name_to_idx[name]
+    unit = str(msg.data[idx]).strip().upper() if idx < len(msg.data) else ""
+    if unit not in ("M", ""):
+        raise _LineError(name, "bad field", f"{name} = {unit!r}: heights in metres (M) only")
 
 
 def _time_of_day(msg: pynmea2.TalkerSentence) -> float:
@@ -218,14 +239,19 @@ def _gga(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
         why = ("gps_qual", "not a measurement", f"quality {quality} ({name})")
         return _Record("GGA", *where, tod, unused=why)
     alt, sep = _number(msg, "altitude"), _number(msg, "geo_sep", optional=True)
+    _metres(msg, "altitude_units")
+    _metres(msg, "geo_sep_units")
+    n_sats = _number(msg, "num_sats", optional=True, low=0.0)
+    if not (math.isnan(n_sats) or n_sats.is_integer()):
+        raise _LineError("num_sats", "bad field", f"num_sats = {n_sats} is not a count")
     values = {
         "lat_deg": _angle(msg, "lat", "NS", 90.0),
         "lon_deg": _angle(msg, "lon", "EW", 180.0),
         "h_m": alt + (0.0 if math.isnan(sep) else sep),
         "geoid_separation_m": sep,
         "quality": float(quality),
-        "hdop": _number(msg, "horizontal_dil", optional=True),
-        "n_sats": _number(msg, "num_sats", optional=True),
+        "hdop": _number(msg, "horizontal_dil", optional=True, low=0.0),
+        "n_sats": n_sats,
     }
     return _Record("GGA", *where, tod, values=values)
 
@@ -243,17 +269,22 @@ def _rmc(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     date = _day(2000 + yy if yy < 80 else 1900 + yy, int(text[2:4]), int(text[:2]), "datestamp",
                 text)  # fmt: skip
     values = {
-        "sog_m_s": _number(msg, "spd_over_grnd") * KNOTS_M_S,
-        "cog_deg": _number(msg, "true_course", optional=True),
+        "sog_m_s": _number(msg, "spd_over_grnd", low=0.0) * KNOTS_M_S,
+        "cog_deg": _number(msg, "true_course", optional=True, low=0.0, high=360.0),
     }
     return _Record("RMC", *where, tod, date, values)
 
 
 def _vtg(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     """A VTG: speed (km/h field, else knots) and true course (empty when slow)."""
-    kmph = _number(msg, "spd_over_grnd_kmph", optional=True)
-    speed = kmph / 3.6 if math.isfinite(kmph) else _number(msg, "spd_over_grnd_kts") * KNOTS_M_S
-    values = {"sog_m_s": speed, "cog_deg": _number(msg, "true_track", optional=True)}
+    kmph = _number(msg, "spd_over_grnd_kmph", optional=True, low=0.0)
+    speed = (
+        kmph / 3.6
+        if math.isfinite(kmph)
+        else _number(msg, "spd_over_grnd_kts", low=0.0) * KNOTS_M_S
+    )
+    course = _number(msg, "true_track", optional=True, low=0.0, high=360.0)
+    values = {"sog_m_s": speed, "cog_deg": course}
     return _Record("VTG", *where, None, values=values)
 
 
@@ -273,6 +304,8 @@ def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     parts = [_required(msg, k) for k in ("year", "month", "day")]
     if not all(p.isdigit() for p in parts):
         raise _LineError("day", "bad field", f"date {'-'.join(parts)!r} is not numeric")
+    if len(parts[0]) != 4:  # ZDA's year has four digits; "24" is not 2024 to this reader
+        raise _LineError("year", "bad field", f"year {parts[0]!r} is not four digits")
     date = _day(int(parts[0]), int(parts[1]), int(parts[2]), "day", "-".join(parts))
     return _Record("ZDA", *where, tod, date)
 
@@ -323,7 +356,15 @@ def _record(text: str, where: tuple[int, int], ignored: Counter[str]) -> _Record
         return None
     if msg.talker not in TALKERS:
         raise _LineError("(talker)", "unknown talker", f"{msg.talker}{msg.sentence_type}")
-    return _READERS[msg.sentence_type](msg, where)
+    try:
+        return _READERS[msg.sentence_type](msg, where)
+    except _LineError as bad:
+        if msg.sentence_type not in TIMED or bad.field in ("timestamp", "status"):
+            raise
+        # A field other than the time is bad: the sentence gives no reading, but its time
+        # still counts, for the HDT and VTG after it (up to 0.4.4 they took an older one).
+        unused = (bad.field, bad.action, bad.detail)
+        return _Record(msg.sentence_type, *where, _time_of_day(msg), unused=unused)
 
 
 # --- files --------------------------------------------------------------------------------------
@@ -411,12 +452,16 @@ def _midnight_s(day: dt.date) -> float:
 
 
 def _utc(
-    timed: Sequence[tuple[_Record, int, float]], date: dt.date | None, names: Sequence[str]
+    timed: Sequence[tuple[_Record, int, float]],
+    date: dt.date | None,
+    names: Sequence[str],
+    journal: Journal,
 ) -> tuple[list[float], str]:
     """UTC (s since 1970) of each timed record and where the date came from. The date of day
     index d is ``base + d`` with ``base`` from the first RMC/ZDA date (re-anchored at every
-    later one, so a log with gaps of days stays right), else ``date`` (the date of the first
-    timed sentence); with both, they must agree."""
+    later one, so a log with gaps of days stays right: each re-anchoring is in the repair
+    log, since a wrong date moves every later time by whole days), else ``date`` (the date of
+    the first timed sentence); with both, they must agree."""
     dated = [(r, d) for r, d, _ in timed if r.date is not None]
     if dated:
         first, d0 = dated[0]
@@ -440,7 +485,12 @@ def _utc(
         )
     utc = []
     for r, d, tod in timed:
-        if r.date is not None:
+        if r.date is not None and r.date != base + dt.timedelta(days=d):
+            days = (r.date - base - dt.timedelta(days=d)).days
+            why = (f"{r.kind} date {r.date.isoformat()} where the times of day before give "
+                   f"{(base + dt.timedelta(days=d)).isoformat()}: later times move {days:+d} "
+                   "day(s) (a gap of days in the log, or a wrong date?)")  # fmt: skip
+            journal.repair(names[r.file], r.line, "(date)", "date re-anchored", why)
             base = r.date - dt.timedelta(days=d)
         utc.append(_midnight_s(base + dt.timedelta(days=d)) + tod)
     return utc, source
@@ -577,7 +627,7 @@ def read_nmea(
     journal, ignored = Journal(), Counter[str]()
     records = [r for i, p in enumerate(files) for r in _read_file(i, p, journal, ignored)]
     timed, rollovers = _days(records, names, journal)
-    utc, source = _utc(timed, date, names)
+    utc, source = _utc(timed, date, names, journal)
     stamped = [(r, t) for (r, _, _), t in zip(timed, utc, strict=True)]
     for r, _ in stamped:
         if r.unused is not None:
@@ -639,8 +689,19 @@ class Options:
                 f"--min-interval-s {self.min_interval_s}: must be finite and >= 0",
                 field="min_interval_s",
             )
-        if self.gnss_name == self.heading_name:
-            raise NmeaError(f"--gnss-name and --heading-name are both {self.gnss_name!r}")
+        for option, name in (
+            ("--gnss-name", self.gnss_name),
+            ("--heading-name", self.heading_name),
+        ):
+            problem = sensor_name_problem(name)
+            if problem is not None:
+                raise NmeaError(f"{option}: {problem}", field=option.removeprefix("--"))
+        if self.heading_name in (self.gnss_name, f"{self.gnss_name}_velocity"):
+            raise NmeaError(
+                f"--heading-name {self.heading_name!r}: the GNSS's table is {self.gnss_name!r} "
+                f"and its speed and course {self.gnss_name + '_velocity'!r}: name the heading "
+                "otherwise"
+            )
 
 
 def _old_section(config: MissionConfig | None, name: str, kind: str) -> dict[str, Any] | None:
@@ -865,6 +926,8 @@ def import_nmea(
     first = min(float(df["utc_s"].min()) for df in (nmea.gnss, nmea.heading) if not df.empty)
     t0 = t0_utc.timestamp() if t0_utc is not None else first
     sections, sources = _sections(nmea, config, options)
+    for name, doc in sections.items():  # before anything is written (docs/nmea.md, 'Usage')
+        parse_sensor(name, doc, "the import's options")
     tables = _tables(nmea, t0, options)
     root = Path(out_dir)
     root.mkdir(parents=True, exist_ok=True)
@@ -878,8 +941,6 @@ def import_nmea(
         (root / CONFIG_NAME).write_text(merged.dump_toml(), encoding="utf-8")
         record["mission"] = {"source": str(mission), **_check_span(root, tables)}
     else:
-        for doc in sections.values():
-            SensorConfig.model_validate(doc)  # what a mission.toml will check
         head = f"# NMEA import: t_s = UTC - {record['time']['t0_utc']} (import.json)\n"
         text = dumps_toml({"sensors": sections})
         (root / "sensors.toml").write_text(head + text, encoding="utf-8")

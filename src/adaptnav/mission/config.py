@@ -55,6 +55,17 @@ FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
 
 
+def sensor_name_problem(name: str) -> str | None:
+    """Why ``name`` cannot name a sensor (``[sensors.<name>]``, and the importers' table
+    files named after it), or None: a letter then letters, digits, '_' or '-' (no path), not
+    a reserved name."""
+    if not _NAME_RE.match(name):
+        return f"sensor name {name!r}: use a letter then letters, digits, '_' or '-'"
+    if name in RESERVED_NAMES:
+        return f"sensor name {name!r} is reserved ({', '.join(RESERVED_NAMES)})"
+    return None
+
+
 SENSOR_KINDS = registry.SENSOR_KINDS
 """The sensor kinds a mission may configure (adaptnav.sensors.registry)."""
 SENSOR_COLUMNS: dict[str, tuple[str, ...]] = {k: v.columns for k, v in KINDS.items()}
@@ -719,12 +730,9 @@ class MissionConfig(_Model):
     @classmethod
     def _check_names(cls, v: dict[str, SensorConfig]) -> dict[str, SensorConfig]:
         for name in v:
-            if not _NAME_RE.match(name):
-                raise ValueError(
-                    f"sensor name {name!r}: use a letter then letters, digits, '_' or '-'"
-                )
-            if name in RESERVED_NAMES:
-                raise ValueError(f"sensor name {name!r} is reserved ({', '.join(RESERVED_NAMES)})")
+            problem = sensor_name_problem(name)
+            if problem is not None:
+                raise ValueError(problem)
         return v
 
     @model_validator(mode="after")
@@ -847,6 +855,18 @@ def parse_config(data: Mapping[str, Any], source: str = "mission.toml") -> Missi
         return MissionConfig.model_validate(dict(data))
     except ValidationError as exc:
         raise _explain(source, exc) from None
+
+
+def parse_sensor(name: str, doc: Mapping[str, Any], source: str) -> SensorConfig:
+    """Validate one ``[sensors.<name>]`` section (an importer's, before it writes anything);
+    errors become :class:`MissionError` naming ``source``, the section and its keys."""
+    problem = sensor_name_problem(name)
+    if problem is not None:
+        raise MissionError(f"{source}: {problem}", file=source)
+    try:
+        return SensorConfig.model_validate(dict(doc))
+    except ValidationError as exc:
+        raise _explain(f"{source} [sensors.{name}]", exc) from None
 
 
 def with_overrides(
