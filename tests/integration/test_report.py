@@ -589,3 +589,42 @@ def test_every_figure_takes_each_filters_colour_from_the_one_mapping(
 
     for fig in figs:  # drawn through pyplot, and not closed by the replaced _save
         plt.close(fig)
+
+
+@pytest.mark.parametrize(
+    ("name", "make", "extra", "message"),
+    [
+        ("mission.toml", "file", [], "not an .html file name"),
+        ("summary.json", "file", ["--force"], "not an .html file name"),
+        ("old.html", "file", [], "exists; give --force to replace it"),
+        ("folder.html", "folder", [], "is a folder"),
+        ("/proc/adaptnav-report.html", None, [], "cannot write"),
+    ],
+)
+def test_report_out_never_writes_over_what_it_should_not(
+    report: tuple[Path, Path],
+    tmp_path: Path,
+    name: str,
+    make: str | None,
+    extra: list[str],
+    message: str,
+) -> None:
+    """``report --out`` names an HTML file and replaces one only with ``--force`` (up to 0.4.4
+    it wrote the page over any file, a mission.toml or a run's summary.json included, and a
+    folder or an unwritable place was a traceback)."""
+    out = Path(name) if name.startswith("/") else tmp_path / name
+    if make == "file":
+        out.write_text("keep me\n")
+    elif make == "folder":
+        out.mkdir()
+    res = runner.invoke(app, ["report", str(report[0]), "--out", str(out), *extra])
+    assert res.exit_code == 2, res.output
+    assert message in " ".join(res.output.split()), res.output
+    assert "Traceback" not in res.output
+    if make == "file":
+        assert out.read_text() == "keep me\n"
+    forced = runner.invoke(
+        app, ["report", str(report[0]), "--out", str(tmp_path / "old.html"), "--force"]
+    )
+    assert forced.exit_code == 0, forced.output
+    assert (tmp_path / "old.html").read_text().startswith("<!DOCTYPE html>")

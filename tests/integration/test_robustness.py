@@ -557,6 +557,22 @@ def test_a_reading_that_would_break_the_filter_is_rejected_or_a_clear_error(
     assert "mission.toml" in line
 
 
+def test_a_diverged_state_is_an_error_not_a_solution_of_nan(mission: Path, tmp_path: Path) -> None:
+    """An initial velocity of 1e12 m/s (state mode): the nominal state overflows within
+    seconds. The run stops with exit 2 naming the time (up to 0.4.4 it ran on, with a finite P,
+    and wrote a solution mostly NaN, exit 0; compare then crashed in matplotlib)."""
+    toml = (mission / "mission.toml").read_text()
+    toml = toml.replace('mode = "alignment"', 'mode = "state"\nlat_deg = 26.8\nlon_deg = 56.0')
+    (mission / "mission.toml").write_text(
+        toml.replace("v_ned_m_s = [0.0, 0.0, 0.0]", "v_ned_m_s = [1e12, 0.0, 0.0]")
+    )
+    for command in ("run", "compare"):
+        res = cli(command, mission, "--out", tmp_path / command)
+        line = error_line(res)
+        assert "broke down: the navigation state is not finite at t = " in line, line
+        assert not (tmp_path / command).exists()
+
+
 # --- the ledger: every reading's fate ---------------------------------------------------------
 
 

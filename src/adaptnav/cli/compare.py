@@ -183,15 +183,31 @@ def report_cmd(
         Path | None,
         typer.Option("--out", "-o", help="HTML file (default: COMPARE_DIR/report.html)"),
     ] = None,
+    force: Annotated[bool, typer.Option("--force", help="replace an existing --out file")] = False,
     quiet: Quiet = False,
 ) -> None:
     """Write one self-contained HTML report of a comparison folder and print its path."""
     from adaptnav.viz.report import ReportError, write_report
 
+    if out is not None:
+        _check_report_out(out, force)
     with Stages(quiet) as st:
         st.begin(f"writing the report of {compare_dir}")
         try:
             path = write_report(compare_dir, out)
         except ReportError as exc:
             fail(str(exc))
+        except OSError as exc:
+            fail(f"--out {out}: cannot write ({exc.strerror or exc})")
     typer.echo(str(path))
+
+
+def _check_report_out(out: Path, force: bool) -> None:
+    """An explicit ``--out`` must name an .html file, not a folder, and replaces a file only
+    with ``--force`` (up to 0.4.4 it wrote over any file, a mission.toml included)."""
+    if out.suffix.lower() not in (".html", ".htm"):
+        fail(f"--out {out}: not an .html file name (the report is one HTML page)")
+    if out.is_dir():
+        fail(f"--out {out}: is a folder; give the report's file name (e.g. {out / 'report.html'})")
+    if out.exists() and not force:
+        fail(f"--out {out}: exists; give --force to replace it")

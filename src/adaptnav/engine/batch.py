@@ -384,7 +384,7 @@ interval, output rows, output decimation, first queued reading, end of the epoch
 ledger rows."""
 N_ICUR = 9
 _ADVANCE_DONE, _ADVANCE_LATE, _ADVANCE_EPOCH = 0, 1, 2
-NAV_DONE, NAV_PYTHON, NAV_SINGULAR = 0, 1, 2
+NAV_DONE, NAV_PYTHON, NAV_SINGULAR, NAV_NOT_FINITE = 0, 1, 2, 3
 
 
 @jit_inline
@@ -662,6 +662,15 @@ def finish_block(
         _unpad(wk[3], P)
 
 
+@jit
+def _finite(x: Array) -> bool:
+    """Whether every element of ``x`` is a finite number."""
+    for v in x:  # noqa: SIM110 - a compiled loop: no generator
+        if not math.isfinite(v):
+            return False
+    return True
+
+
 @jit_nogil
 def _navigate(
     x: Array,
@@ -703,7 +712,10 @@ def _navigate(
     the readings of its epoch (stamped <= the epoch, + SAME_EPOCH_S under ``exact``) and update
     with them (:func:`adaptnav.compiled.update.epoch`); until the chunk is used up (NAV_DONE).
     Returns early with NAV_PYTHON when the epoch's group ``icur[I_HEAD]..icur[I_END]`` has a
-    reading to linearise in Python, or NAV_SINGULAR if P was not finite (no repair possible).
+    reading to linearise in Python, NAV_SINGULAR if P was not finite (no repair possible), or
+    NAV_NOT_FINITE if the state x was not (a filter that diverged: a NaN or an infinity in the
+    nominal state, checked after each stretch of propagation; up to 0.4.4 it ran on and wrote
+    a solution of NaN).
 
     ``sm``: the smoother's store, or None without smoothing; Numba prunes the ``sm is not None``
     branches here and in the functions it is passed to at compile time when its type is None, so
@@ -718,6 +730,8 @@ def _navigate(
             x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, tau_f,
             block_s, out_t, out_x, out_p, sm, ws[uk.WS_PROP], ws[uk.WS_NOISE],
         )  # fmt: skip
+        if not _finite(x):
+            return NAV_NOT_FINITE
         if status == _ADVANCE_DONE:
             return NAV_DONE
         n = icur[I_N_LEDGER]
@@ -746,6 +760,13 @@ def _navigate(
         icur[I_N_LEDGER] = n
         if sm is not None:
             smk.node(sm, cur[uk.C_T], x, P, ws[uk.WS_DX], ws[uk.WS_PRIOR])
+
+
+def _not_finite_message(t: float) -> str:
+    return (
+        f"the navigation state is not finite at t = {t:.6g} s: the filter diverged (an "
+        "initial state, a mounting or a noise setting far from the data's?)"
+    )
 
 
 class Navigator:
@@ -1063,6 +1084,8 @@ class Navigator:
                 raise np.linalg.LinAlgError(
                     f"the error covariance P is not finite at t = {self.t:.6g} s"
                 )
+            if status == NAV_NOT_FINITE:
+                raise np.linalg.LinAlgError(_not_finite_message(self.t))
             self._epoch_python()
 
     def _epoch_args(self) -> tuple[Any, ...]:
@@ -1129,6 +1152,8 @@ class Navigator:
                 f"the error covariance P is not finite at t = {self.t:.6g} s"
             )
         self._icur[I_N_LEDGER] = n
+        if not np.all(np.isfinite(self.x)):
+            raise np.linalg.LinAlgError(_not_finite_message(self.t))
         if self._sm is not None:
             smk.node(self._sm, self.t, self.x, self._P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
 

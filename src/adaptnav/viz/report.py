@@ -48,6 +48,7 @@ import base64
 import datetime as _dt
 import json
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
@@ -1123,5 +1124,11 @@ def write_report(
     page = _environment().get_template(TEMPLATE).render(report=data)
     out = Path(out_file) if out_file is not None else Path(compare_dir) / REPORT_FILE
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(page, encoding="utf-8")
+    # Whole or not at all: a temporary beside it, renamed over it (never a half-written page).
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(page, encoding="utf-8")
+        os.replace(tmp, out)
+    finally:
+        tmp.unlink(missing_ok=True)
     return out
