@@ -281,6 +281,35 @@ def test_a_reference_position_off_its_neighbours_is_an_error(
     assert off == pytest.approx(metres, rel=0.01)
 
 
+@needs_data
+@pytest.mark.parametrize(
+    ("file", "edit", "line", "why"),
+    [
+        ("GT", lambda ls: [*ls[:21], *ls[23:]], 22, "a row missing"),  # lines 22-23 lost
+        ("DVL", lambda ls: [*ls[:12], ls[11], *ls[12:]], 13, "a row missing, repeated"),
+        ("IMU", lambda ls: [*ls[:500], ls[501], ls[500], *ls[502:]], 501, "out of order"),
+        ("GT", lambda ls: [*ls[:40], "999" + ls[40][ls[40].index(",") :], *ls[41:]], 41, "step"),
+        ("IMU", lambda ls: [ls[0], *ls[2:]], 2, "not 0 (rows missing at the start?)"),
+    ],
+    ids=["rows-lost", "row-repeated", "rows-swapped", "time-999", "first-row-lost"],
+)
+def test_a_row_lost_repeated_or_moved_is_an_error(
+    tmp_path: Path, file: str, edit: object, line: int, why: str
+) -> None:
+    """The rows are timed by their index (correction 1): a row lost, repeated or moved would
+    shift every later one, which the synthetic but evenly spaced ``Time [s]`` column shows.
+    Up to 0.4.4 such a file was imported (two reference rows lost: offsets and the run's
+    error 17x wrong, exit 0)."""
+    src = _copy(tmp_path)
+    _rewrite_lines(src / f"{file}_trajectory1.csv", edit)  # type: ignore[arg-type]
+    with pytest.raises(
+        AkitError, match=rf"{file}_trajectory1\.csv line {line}, Time \[s\]: "
+    ) as err:
+        akit.read_segment(src, 1)
+    assert why in str(err.value) and "timed by their index" in str(err.value)
+    assert (err.value.line, err.value.field) == (line, "Time [s]")
+
+
 # --- faults -------------------------------------------------------------------------------------
 
 

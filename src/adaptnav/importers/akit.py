@@ -285,6 +285,45 @@ def _check_reference_track(table: Table, ref: Array) -> None:
     )
 
 
+TIME_COLUMN = "Time [s]"
+"""The recordings' time column: synthetic, evenly spaced from 0 to 400 s (correction 1), so
+not used as time, but a row lost, repeated or moved shows in it (:func:`_check_rows`)."""
+TIME_STEP_TOLERANCE = 0.01
+"""How far (a fraction of the median step) a step of ``Time [s]`` may differ from the median."""
+
+
+def _check_rows(table: Table) -> None:
+    """The rows must be the recording's, all of them and in order: ``Time [s]`` (when the file
+    has it) starts at 0 and rises by one even step. The rows are timed by their index
+    (correction 1), so a row lost, repeated or moved would shift every later one in time,
+    silently (up to 0.4.4: two reference rows lost gave a mission whose offsets and result
+    were wrong, 17× the error, exit 0). AkitError naming the first line out of step."""
+    names = {str(c).strip().casefold(): str(c) for c in table.df.columns}
+    if TIME_COLUMN.casefold() not in names:
+        return
+    t = _column(table, names[TIME_COLUMN.casefold()])
+    steps = np.diff(t)
+    step = float(np.median(steps)) if steps.size else 0.0
+    off = np.flatnonzero(~(np.abs(steps - step) <= TIME_STEP_TOLERANCE * step))
+    if not (math.isfinite(t[0]) and abs(t[0]) <= TIME_STEP_TOLERANCE * step) or step <= 0.0:
+        r, why = 0, f"the first row's time is {t[0]!r}, not 0 (rows missing at the start?)"
+    elif off.size:
+        r = int(off[0]) + 1
+        why = (
+            f"{TIME_COLUMN} {t[r]!r} is {t[r] - t[r - 1]:.6g} s after the line before, where "
+            f"every other step is {step:.6g} s (a row missing, repeated or out of order?)"
+        )
+    else:
+        return
+    raise AkitError(
+        f"{table.where(r)}, {TIME_COLUMN}: {why}; the rows are timed by their index "
+        "(docs/akit.md, correction 1), so it would shift every later one",
+        file=table.label,
+        line=int(table.lines[r]),
+        field=TIME_COLUMN,
+    )
+
+
 def _read(path: Path, journal: Journal) -> Table:
     if not path.is_file():
         raise AkitError(f"{path.name}: file not found in {path.parent}", file=str(path))
@@ -294,6 +333,7 @@ def _read(path: Path, journal: Journal) -> Table:
         raise AkitError(str(exc), file=exc.file, line=exc.line, field=exc.field) from None
     if len(table) < 2:
         raise AkitError(f"{path.name}: {len(table)} data row(s), at least 2 needed", file=path.name)
+    _check_rows(table)
     return table
 
 
