@@ -117,7 +117,25 @@ def test_pos_truncated_last_line_is_dropped_and_recorded(tmp_path: Path) -> None
     assert sol.gpst_s.size == 2 and list(sol.lines) == [2, 3]
     (r,) = sol.repairs
     assert r.line == 4 and "truncated" in r.action
-    assert np.all(np.isnan(sol.v_ned))  # no velocity columns in this header
+    np.testing.assert_allclose(sol.v_ned, 0.0, atol=1e-6)  # no velocity columns: the positions'
+
+
+def test_a_pos_file_without_velocity_columns_gets_its_track_velocity(tmp_path: Path) -> None:
+    """RTKLIB writes the velocity columns only when asked: without them the speed and course
+    come from the positions (up to 0.4.4 the drive was refused as 'the vehicle never moves').
+    1e-6° of latitude per 0.25 s is 0.444 m/s north (111.0 km a degree at 40° N, known)."""
+    lines = [HEADER, *(_pos_line(18.5 + 0.25 * k, lat=40.0966268 + 1e-6 * k) for k in range(5))]
+    sol = rtklib.read_pos(_write(tmp_path / "moving.pos", lines))
+    np.testing.assert_allclose(sol.v_ned[:, 0], 111_035.0 * 1e-6 / 0.25, rtol=2e-3)
+    np.testing.assert_allclose(sol.v_ned[:, 1:], 0.0, atol=1e-3)
+    assert np.allclose(sol.course, 0.0, atol=1e-2) and sol.speed.min() > 0.44
+
+
+def test_a_bom_before_the_pos_header_is_read(tmp_path: Path) -> None:
+    """A BOM (a Windows editor's) before the first header line: read as without it (up to
+    0.4.4 'line 1: data before the column header')."""
+    path = _write(tmp_path / "bom.pos", ["\ufeff% program : RTKLIB", HEADER, _pos_line(18.5)])
+    assert rtklib.read_pos(path).gpst_s.size == 1
 
 
 @pytest.mark.parametrize(
@@ -262,6 +280,54 @@ def test_time_offset_is_estimated_near_the_published_one_and_is_needed(drive: Dr
     drift = {off: drive.drift(off, nhc=False)[:, 3].mean() for off in (None, 0.0, 0.25)}
     print(f"mean outage drift (m): {drift}")
     assert drift[None] < drift[0.0] < drift[0.25]
+
+
+@needs_data
+@pytest.mark.parametrize("scale", [1.0 / math.degrees(1.0), math.degrees(1.0)])
+def test_a_gyro_in_other_units_is_refused(scale: float) -> None:
+    """The course's changes over the fixed epochs must agree with the gyro's heading changes:
+    a gyro in rad/s read as deg/s (1/57.3) or the other way round (57.3) is an error (up to
+    0.4.4 the first was imported, start heading +62.6° where it is -6.9°, and the run drifted
+    2800 km). The real drive's gyro passes (test above)."""
+    sol, imu, tag = _real()
+    t = rtklib.imu_gpst(imu, tag)
+    window = rtklib.static_window(t, sol)
+    static = (t >= window[0]) & (t <= window[1])
+    f_b, w_b = rtklib.body_imu(imu, rtklib.mounting_dcm())
+    roll_pitch = rtklib.level(f_b[static].mean(axis=0))
+    with pytest.raises(RtklibError, match=r"course changes are [0-9.]+ times the gyro's heading"):
+        rtklib.estimate_imu_time_offset(t, w_b * scale, sol, static=static, roll_pitch=roll_pitch)
+
+
+def test_an_accelerometer_in_m_s2_is_refused(tmp_path: Path) -> None:
+    """A drive's median |acc| is about 1 g; 9.8 is m/s² under a g header (up to 0.4.4 it was
+    imported, within the ±16 g range, and the run wrote NaN positions)."""
+    rows = [
+        f"0.01,-0.02,{9.80665 + 0.01 * (k % 3):.5f},0.1,-0.2,0.3,{1000 + 10 * k}" for k in range(50)
+    ]
+    path = _write(tmp_path / "imu.csv", rows)
+    with pytest.raises(RtklibError, match=r"imu\.csv: the accelerometer's median \|acc\| is 9\.8"):
+        rtklib.read_imu_csv(path)
+    ok = _write(tmp_path / "g.csv", [r.replace("9.8", "0.9") for r in rows])
+    assert rtklib.read_imu_csv(ok).accel_g.shape == (50, 3)
+
+
+@needs_data
+def test_a_latitude_in_radians_is_refused(tmp_path: Path) -> None:
+    """Latitude in radians under ``latitude(deg)``: most velocities then disagree with the
+    positions, not a few wrong fixes but a unit mix-up, an error (up to 0.4.4: 1034 fixes left
+    out as wrong one by one, and a mission 11.8 km off)."""
+    out = []
+    for line in POS.read_text().splitlines():
+        fields = line.split()
+        if not line.startswith("%") and fields:
+            fields[2] = f"{math.radians(float(fields[2])):.9f}"
+            line = " ".join(fields)
+        out.append(line)
+    with pytest.raises(
+        RtklibError, match=r"velocities of [0-9]+ of [0-9]+ fixed solutions disagree"
+    ):
+        rtklib.read_pos(_write(tmp_path / "rad.pos", out))
 
 
 @needs_data
@@ -513,3 +579,14 @@ def test_a_gnss_latency_state_measures_the_imu_time_offset(drive: Drive) -> None
     drift = {off: drive.drift(off)[:, 3].mean() for off in (-0.125, -0.2)}
     print(f"mean outage drift (m): {drift}")
     assert drift[-0.2] < drift[-0.125]
+
+
+@pytest.mark.parametrize("offset", [math.nan, math.inf, -100.0])
+def test_a_time_offset_that_is_not_a_fraction_of_a_second_is_refused(
+    tmp_path: Path, offset: float
+) -> None:
+    """Checked before any file is read (up to 0.4.4 NaN passed and the drive was refused as
+    'the vehicle never moves')."""
+    with pytest.raises(RtklibError, match=r"--time-offset-s: .* is not a number within ±5 s"):
+        rtklib.import_drive(tmp_path / "none.pos", tmp_path / "none.csv", tmp_path / "m",
+                            time_offset_s=offset)  # fmt: skip

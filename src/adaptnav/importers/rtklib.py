@@ -56,7 +56,12 @@ from adaptnav.core import earth
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, G0
 from adaptnav.importers.timing import minimise_lag
-from adaptnav.importers.tracks import TrackError, inconsistent_fixes, inconsistent_velocities
+from adaptnav.importers.tracks import (
+    MAX_WRONG_FRACTION,
+    TrackError,
+    inconsistent_fixes,
+    inconsistent_velocities,
+)
 from adaptnav.mission.config import MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Repair
@@ -236,7 +241,7 @@ def _split_pos_lines(p: Path, text: str) -> tuple[list[str], list[list[str]], li
     names: list[str] | None = None
     rows: list[list[str]] = []
     lines: list[int] = []
-    for no, line in enumerate(text.splitlines(), start=1):
+    for no, line in enumerate(text.removeprefix("\ufeff").splitlines(), start=1):
         if not line.strip():
             continue
         if line.startswith("%"):
@@ -375,12 +380,28 @@ def read_pos(path: str | Path) -> PosSolution:
         v = np.full((t.size, 3), np.nan)
     lat, lon = np.radians(col["latitude(deg)"]), np.radians(col["longitude(deg)"])
     keep = _wrong_fixes(p, t, lat, lon, col["height(m)"], col["Q"] == 1, v, lines, repairs)
+    if np.isnan(v).all():  # no velocity columns: the speed and course from the positions
+        v = _track_velocity(t[keep], lat[keep], lon[keep], col["height(m)"][keep])
+    else:
+        v = v[keep]
     return PosSolution(
         p, t[keep], lat[keep], lon[keep], col["height(m)"][keep],
         col["Q"][keep].astype(np.int64), col["ns"][keep].astype(np.int64),
-        np.column_stack([col["sdn(m)"], col["sde(m)"], col["sdu(m)"]])[keep], v[keep],
+        np.column_stack([col["sdn(m)"], col["sde(m)"], col["sdu(m)"]])[keep], v,
         np.asarray(lines, dtype=np.int64)[keep], tuple(repairs),
     )  # fmt: skip
+
+
+def _track_velocity(t: Array, lat: Array, lon: Array, h: Array) -> Array:
+    """NED velocity (m/s) of a track from its positions, for a ``.pos`` file written without
+    RTKLIB's velocity columns (they are optional): central differences of the positions in the
+    local north-east-down frame of each epoch (one-sided at the ends; NaN for one epoch).
+    Up to 0.4.4 such a file was refused as 'the vehicle never moves'."""
+    if t.size < 2:
+        return np.full((t.size, 3), np.nan)
+    r_e = earth.geodetic_to_ecef(lat, lon, h)
+    v_e = np.gradient(r_e, t, axis=0)
+    return np.asarray(np.einsum("nij,nj->ni", earth.C_ne(lat, lon), v_e))
 
 
 WRONG_FIX = "wrong fix left out"
@@ -409,6 +430,16 @@ def _wrong_fixes(
     except TrackError as exc:
         raise RtklibError(f"{p.name}: fixed solutions: {exc}", file=p.name) from None
     fast = inconsistent_velocities(t, r_e, earth.C_ne(lat, lon), v_ned, fixed & ~jumped)
+    tested = int(np.count_nonzero(fixed & ~jumped & np.isfinite(v_ned).all(axis=1)))
+    if int(fast.sum()) > max(10, MAX_WRONG_FRACTION * tested):
+        # Not a few wrong fixes but columns that do not go together: a unit mix-up (latitude
+        # in radians, velocities in km/h) makes most velocities disagree with the positions.
+        raise RtklibError(
+            f"{p.name}: the velocities of {int(fast.sum())} of {tested} fixed solutions disagree "
+            "with the positions around them: not m/s and degrees (a unit mix-up in the "
+            "latitude, longitude or velocity columns?)",
+            file=p.name,
+        )
     for k in np.flatnonzero(jumped | fast):
         if jumped[k]:
             what, detail = "(position)", "off the line through the neighbouring fixes"
@@ -493,6 +524,14 @@ IMU_FIELDS = ("acc_x_g", "acc_y_g", "acc_z_g", "gyro_x_deg_s", "gyro_y_deg_s", "
 MAX_ACCEL_G = 16.0
 MAX_GYRO_DEG_S = 2000.0
 """Beyond a MEMS IMU's range: an absurd value (or a unit mix-up) is an error."""
+MIN_MEDIAN_G, MAX_MEDIAN_G = 0.5, 2.0
+"""The median |acc| (g) of a drive must lie between these: a car senses gravity, about 1 g, plus
+what it accelerates by (a file in m/s² reads about 9.8 here; up to 0.4.4 it was imported and the
+run wrote NaN positions)."""
+GYRO_GAIN_RANGE = (0.5, 2.0)
+"""The ratio of the GNSS course's changes to the gyro's heading changes must lie in this range
+(:func:`estimate_imu_time_offset`): 57 or 1/57 is a gyro in rad/s read as deg/s, or the other
+way round."""
 
 
 def _imu_sample_lines(p: Path, raw: list[str]) -> tuple[list[tuple[int, str]], list[Repair]]:
@@ -556,6 +595,14 @@ def _check_imu_values(p: Path, data: Array, lines: NDArray[np.int64]) -> None:
                 line=int(lines[i]),
                 field=IMU_FIELDS[j + k],
             )
+    mag = float(np.median(np.linalg.norm(data[:, :3], axis=1)))
+    if not MIN_MEDIAN_G <= mag <= MAX_MEDIAN_G:
+        raise RtklibError(
+            f"{p.name}: the accelerometer's median |acc| is {mag:.4g} g, where a vehicle on "
+            f"the ground senses about 1 g (acc_x/y/z in m/s², not g?)",
+            file=p.name,
+            field="acc_x_g",
+        )
     c = data[:, 6]
     back = np.flatnonzero(~(np.diff(c) > 0.0))
     if back.size:
@@ -707,7 +754,17 @@ def estimate_imu_time_offset(
         d = np.interp(tb - lag, t_imu, psi) - np.interp(ta - lag, t_imu, psi)
         return float(np.mean((d - dc) ** 2))
 
-    return minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05)
+    lag = minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05)
+    d = np.interp(tb - lag, t_imu, psi) - np.interp(ta - lag, t_imu, psi)
+    gain = float(np.dot(d, dc) / np.dot(d, d)) if np.dot(d, d) > 0.0 else math.inf
+    if not GYRO_GAIN_RANGE[0] <= gain <= GYRO_GAIN_RANGE[1]:
+        raise RtklibError(
+            f"{sol.path.name}: its course changes are {gain:.3g} times the gyro's heading "
+            "changes over the same epochs, where they should agree (gyro_x/y/z not in deg/s, "
+            "or the wrong IMU file?)",
+            file=sol.path.name,
+        )
+    return lag
 
 
 FORWARD_WINDOW_S = 0.5
@@ -917,6 +974,11 @@ def check_settings(
     ):
         raise ValueError(f"nhc_sigma_m_s: {nhc_sigma_m_s!r} is not two numbers > 0")
     return DriveSettings(sigma_g, sigma_nhc, imu_noise, mounting_rpy_deg)
+
+
+MAX_TIME_OFFSET_S = 5.0
+"""A given IMU time offset must be within this (s): NaN, infinities and offsets of minutes are
+refused (up to 0.4.4 NaN passed and was reported as 'the vehicle never moves')."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -1442,6 +1504,12 @@ def import_drive(
     :func:`estimate_start`, :func:`estimate_imu_noise`, :func:`select_fixes`),
     :func:`build_config`, :func:`build_tables` and :func:`build_import_record`.
     """
+    if time_offset_s is not None and not abs(time_offset_s) <= MAX_TIME_OFFSET_S:
+        raise RtklibError(
+            f"--time-offset-s: {time_offset_s!r} is not a number within ±{MAX_TIME_OFFSET_S:g} "
+            "s (the IMU's lag behind its time tag is a fraction of a second)",
+            field="time_offset_s",
+        )
     imu_p = Path(imu_path)
     tag_p = Path(tag_path) if tag_path is not None else imu_p.with_name(imu_p.name + ".tag")
     sol = read_pos(pos_path)
