@@ -157,6 +157,44 @@ def test_config_errors_name_the_key(mutate: Any, path: str, words: str) -> None:
     assert str(err).startswith("mission.toml: ")
 
 
+def _dvl(**extra: Any) -> dict[str, Any]:
+    return {"kind": "dvl", "file": "dvl.csv", "sigma": [0.02, "m/s"], **extra}
+
+
+@pytest.mark.parametrize(
+    ("mutate", "path", "words"),
+    [
+        (lambda d: d["sensors"].update(dvl2=_dvl()), "sensors.dvl2",
+         "reads dvl.csv as sensors.dvl does, both dvl"),
+        (lambda d: d["sensors"]["dvl"].update(use="init"), "sensors.dvl.use",
+         "'init' is for a GNSS"),
+        (lambda d: d["sensors"]["dvl"].update(matching_window=10**9), "sensors.dvl.matching_window",
+         "less than or equal to 100000"),
+        (lambda d: d.update(filter={"matching_window": 10**9}), "filter.matching_window",
+         "less than or equal to 100000"),
+        (lambda d: d["sensors"]["dvl"].update(mounting_rpy_deg=[0, 0, 1e300]),
+         "sensors.dvl.mounting_rpy_deg", "outside roll and yaw ±360°, pitch ±90°"),
+        (lambda d: d["initial"].update(rpy_deg=[0, 100, 0]), "initial.rpy_deg",
+         "outside roll and yaw ±360°, pitch ±90°"),
+        (lambda d: d["sensors"]["dvl"].update(
+            estimate=["scale"], calibration={"scale": {"random_walk": [1e9, "1/sqrt(s)"]}}),
+         "sensors.dvl.calibration.scale.random_walk", "plausible"),
+    ],
+)  # fmt: skip
+def test_settings_that_cannot_be_meant_are_refused(mutate: Any, path: str, words: str) -> None:
+    """Found by a search of odd settings (2026-12-04): each ran before, to a wrong answer with
+    exit 0 (a DVL twice in one file counted each reading twice; 'init' on a DVL used it for
+    nothing; a random walk of 1e9 /√s ended 1400 km off; a pitch of 100° or a mounting yaw of
+    1e300 ran far off), or to a MemoryError traceback (a matching window of 1e9)."""
+    err = _config_error(mutate)
+    assert f"{path}: " in str(err) and words in str(err), str(err)
+    assert str(err).startswith("mission.toml: ")
+    d = config_dict()
+    d["sensors"]["dvl2"] = _dvl(use="off")  # a second section on the file, left aside: fine
+    d["initial"]["rpy_deg"] = [-180.0, 90.0, 359.0]
+    assert parse_config(d).sensors["dvl2"].use == "off"
+
+
 PLAUSIBLE = "is not a plausible standard deviation"
 
 

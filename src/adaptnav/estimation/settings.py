@@ -65,6 +65,10 @@ from adaptnav.estimation.noise.process import QAdaptation
 FilterKind = Literal["meskf", "maeskf", "vb", "robust", "oracle"]
 FILTER_KINDS: tuple[FilterKind, ...] = ("meskf", "maeskf", "vb", "robust", "oracle")
 DEFAULT_GATE_Q: dict[FilterKind, float] = {"meskf": 600.0, "maeskf": 1800.0}
+MAX_MATCHING_WINDOW = 100_000
+"""MAESKF's innovation window holds at most this many readings per sensor (an hour of a
+25-Hz sensor; the paper's is 20): its ring takes memory in proportion, and up to 0.4.4 a
+window of 1e9 ended in a MemoryError traceback."""
 DEFAULT_MATCHING_GAP_PERIODS = 0.0
 """MAESKF's window restarts after a sensor gap of more than this many periods (0: never, the
 paper). An option: 10 helps MAESKF through the simulated DVL faults but costs it at the start
@@ -146,7 +150,7 @@ class FilterSettings(BaseModel):
     (estimation/gate.py)."""
     gate_sensors: tuple[str, ...] | None = None
     """Names of the gated sensors; None: every DVL (engine/channels.py)."""
-    matching_window: Annotated[int, Field(ge=1)] = 20
+    matching_window: Annotated[int, Field(ge=1, le=MAX_MATCHING_WINDOW)] = 20
     matching_floor: Positive = 1e-2
     matching_residual_based: StrictBool = False
     matching_gap_periods: NonNegative = DEFAULT_MATCHING_GAP_PERIODS

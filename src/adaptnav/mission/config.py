@@ -13,7 +13,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path, PureWindowsPath
 from typing import Annotated, Any, Literal, TypeVar
 
@@ -33,7 +33,7 @@ from pydantic import (
 
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, SIGMA_RANGE_SI, Kind, UnitError, check_sigma, si_unit, to_si
-from adaptnav.estimation.settings import FilterSettings, SensorOverrides
+from adaptnav.estimation.settings import MAX_MATCHING_WINDOW, FilterSettings, SensorOverrides
 from adaptnav.models.imu_noise import NOISE_FIELDS, ImuNoise, check_value, pair_si
 from adaptnav.sensors import registry
 from adaptnav.sensors.dvl import DVL_AFTER_GAP_S
@@ -53,6 +53,18 @@ FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
 """Initial accelerometer-bias σ (m/s², 1 mg) when neither the config nor the noise model does."""
 
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
+INIT_KINDS = ("gnss",)
+"""Kinds a sensor with ``use = "init"`` may be: what the alignment takes its position from."""
+
+
+def check_euler_deg(key: str, rpy: Sequence[float]) -> None:
+    """ZYX roll, pitch, yaw (deg): pitch within ±90°, roll and yaw within ±360° (up to 0.4.4 any
+    finite number: a pitch of 100° or a yaw of 1e300 ran, far off, with exit 0)."""
+    r, p, y = (float(a) for a in rpy)
+    if not (abs(p) <= 90.0 and abs(r) <= 360.0 and abs(y) <= 360.0):
+        raise ValueError(
+            f"{key}: {list(rpy)} outside roll and yaw ±360°, pitch ±90° (ZYX Euler angles, deg)"
+        )
 
 
 def sensor_name_problem(name: str) -> str | None:
@@ -352,7 +364,7 @@ class SensorConfig(_Model):
     use: Literal["aid", "init", "off"] = "aid"
     gate_q: Positive | None = None
     vb_rho: Annotated[float, Field(gt=0, le=1)] | None = None
-    matching_window: Annotated[int, Field(ge=1)] | None = None
+    matching_window: Annotated[int, Field(ge=1, le=MAX_MATCHING_WINDOW)] | None = None
     guard_probability: Annotated[float, Field(ge=0, lt=1)] | None = None
     """This sensor's guard p (gate.Guard, docs/robustness.md); 0: no guard on it; None: the
     filter's ``guard_probability``."""
@@ -519,6 +531,13 @@ class SensorConfig(_Model):
             raise ValueError(
                 f"mounting_rpy_deg: a {self.kind} sensor has no mounting rotation (leave it out)"
             )
+        if self.mounting_rpy_deg is not None:
+            check_euler_deg("mounting_rpy_deg", self.mounting_rpy_deg)
+        if self.use == "init" and self.kind not in INIT_KINDS:
+            raise ValueError(
+                f"use: 'init' is for a GNSS (the position the alignment takes), not a {self.kind}"
+                " ('aid' to use its readings, 'off' to leave it out)"
+            )
         return self
 
     def _check_calibration(self) -> None:
@@ -546,6 +565,10 @@ class SensorConfig(_Model):
                 raise ValueError(f"calibration.{name}.tau: must be > 0 (inf: a random walk)")
             unit = si_unit(KINDS[self.kind].calibration[name].sigma_kind)
             check_sigma(f"calibration.{name}.sigma", spec[0], unit)
+            # As a σ: beyond 1e7 SI a random walk is a wrong unit (up to 0.4.4 a scale's
+            # 1e9 /√s was taken, and the run ended 1400 km off with exit 0).
+            unit = si_unit(KINDS[self.kind].calibration[name].random_walk_kind)
+            check_sigma(f"calibration.{name}.random_walk", spec[1], unit, zero_ok=True)
 
     def calibration_si(self) -> dict[str, tuple[float, float, float]]:
         """Prior σ, random-walk density and correlation time (SI; inf: none, a random walk) of
@@ -661,6 +684,8 @@ class InitialConfig(_Model):
 
     @model_validator(mode="after")
     def _check_state_mode(self) -> InitialConfig:
+        if self.rpy_deg is not None:
+            check_euler_deg("rpy_deg", self.rpy_deg)
         if self.mode == "state":
             missing = [k for k in ("lat_deg", "lon_deg", "rpy_deg") if getattr(self, k) is None]
             if missing:
@@ -743,6 +768,17 @@ class MissionConfig(_Model):
                 raise ValueError(
                     f"filter.gate_sensors: {unknown} name no sensor (configured: "
                     f"{list(self.sensors)})"
+                )
+        seen: dict[tuple[str, str], str] = {}
+        for name, sc in self.sensors.items():
+            if sc.use == "off":
+                continue
+            other = seen.setdefault((sc.kind, sc.file), name)
+            if other != name:  # a kind reads fixed columns: the same readings, counted twice
+                raise ValueError(
+                    f"sensors.{name}: reads {sc.file} as sensors.{other} does, both {sc.kind}: "
+                    "each reading would be used twice and the filter overconfident (one "
+                    "section per sensor; 'off' to keep a second one aside)"
                 )
         if self.initial.mode == "alignment" and self.imu.initial_bias.given():
             raise ValueError(
