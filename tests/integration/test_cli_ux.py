@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -101,6 +102,23 @@ def test_evaluate_on_a_mission_folder_says_it_is_a_mission(source: Path) -> None
     assert res.exit_code == 2
     assert "is a mission folder, not a run folder" in res.output
     assert f"adaptnav run {source}" in res.output and "Traceback" not in res.output
+
+
+def test_evaluate_against_another_missions_reference_is_refused(
+    source: Path, tmp_path: Path
+) -> None:
+    """``evaluate --mission`` of a mission of another name than the run's: its truth would
+    score the run (up to 0.4.4: an RMSE of 235.7 m for a run whose own is 2.6 m, exit 0)."""
+    run = tmp_path / "run"
+    assert runner.invoke(app, ["run", str(source), "--out", str(run), "-q"]).exit_code == 0
+    other = shutil.copytree(source, tmp_path / "other")
+    toml = (other / "mission.toml").read_text()
+    (other / "mission.toml").write_text(re.sub(r'name = "[^"]*"', 'name = "other"', toml, count=1))
+    res = runner.invoke(app, ["evaluate", str(run), "--mission", str(other)])
+    assert res.exit_code == 2, res.output
+    assert "mission 'other', and the run is of" in " ".join(res.output.split())
+    ok = runner.invoke(app, ["evaluate", str(run), "--mission", str(source), "--json"])
+    assert ok.exit_code == 0, ok.output
 
 
 # --- stages and --quiet -----------------------------------------------------------------------

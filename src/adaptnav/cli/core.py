@@ -296,7 +296,14 @@ def _run_and_reference(run_dir: Path, mission: Path | None) -> tuple[Result, pd.
     try:
         result = results.load(run_dir)
         if mission is not None:
-            truth = load_mission(mission).truth
+            reference = load_mission(mission)
+            name = reference.config.mission.name
+            if name != result.mission:  # another mission's truth would score it, silently
+                _fail(
+                    f"--mission {mission}: mission {name!r}, and the run is of {result.mission!r} "
+                    "(give the run's own mission folder)"
+                )
+            truth = reference.truth
         elif source.is_file():
             try:
                 truth = pd.read_parquet(source)
