@@ -116,6 +116,33 @@ def test_parse_seeds() -> None:
     for bad in ("", "a", "5-1", "1,,2", "-3"):
         with pytest.raises(ValueError):
             parse_seeds(bad)
+    assert len(parse_seeds("1-10000")) == 10_000
+    with pytest.raises(ValueError, match="more than 10000 seeds"):  # up to 0.4.4: a hang
+        parse_seeds("0-999999999999")
+
+
+def test_a_sweep_whose_every_run_failed_is_an_error(
+    serial: tuple[Path, SweepOutcome], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Exit 2 and no folder (up to 0.4.4: exit 0 and an empty table)."""
+    from typer.testing import CliRunner
+
+    from adaptnav.cli import app
+
+    cache = _copy_missions(serial[0], tmp_path / "cache")
+
+    def boom(*args: object) -> dict[str, float]:
+        raise RuntimeError("diverged")
+
+    monkeypatch.setattr(sweep_runner, "run_one", boom)
+    res = CliRunner().invoke(
+        app,
+        ["sweep", "seeds", "demo", "--seeds", "1", "--filters", "maeskf", "--cache", str(cache),
+         "--jobs", "1", "--out", str(tmp_path / "out"), "--quiet"],
+    )  # fmt: skip
+    assert res.exit_code == 2, res.output
+    assert "every run failed (1), e.g.: " in res.output and "diverged" in res.output
+    assert not (tmp_path / "out").exists()
 
 
 def test_specs_of_the_paper_sweeps() -> None:

@@ -172,6 +172,8 @@ def _dvl(**extra: Any) -> dict[str, Any]:
          "less than or equal to 100000"),
         (lambda d: d.update(filter={"matching_window": 10**9}), "filter.matching_window",
          "less than or equal to 100000"),
+        (lambda d: d.update(filter={"specific_force_tau_s": math.inf}),
+         "filter.specific_force_tau_s", "finite"),
         (lambda d: d["sensors"]["dvl"].update(mounting_rpy_deg=[0, 0, 1e300]),
          "sensors.dvl.mounting_rpy_deg", "outside roll and yaw ±360°, pitch ±90°"),
         (lambda d: d["initial"].update(rpy_deg=[0, 100, 0]), "initial.rpy_deg",

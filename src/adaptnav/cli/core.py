@@ -128,7 +128,7 @@ def run_cmd(
     from adaptnav.engine.align import AlignmentError
     from adaptnav.mission import MissionError, load_mission
 
-    if filter and filter not in FILTER_CHOICES:
+    if filter is not None and filter not in FILTER_CHOICES:
         _fail(f"--filter: {filter!r} is not one of {', '.join(FILTER_CHOICES)}")
     if epoch_policy and epoch_policy not in ("exact", "grid"):
         _fail(f"--epoch-policy: {epoch_policy!r} is not 'exact' or 'grid'")

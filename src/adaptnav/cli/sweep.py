@@ -135,13 +135,16 @@ def _execute(
     from adaptnav.experiments.runner import run_sweep
 
     try:
-        return run_sweep(
+        outcome = run_sweep(
             specs, cache, jobs=jobs, progress=progress, keep_missions=keep, scheduler=scheduler
         )
     except SchedulerError as exc:
         fail(str(exc))
     except OSError as exc:
         fail(f"{cache}: {exc}")
+    if outcome.failed and outcome.failed >= len(outcome.table):  # nothing to show: an error
+        fail(f"every run failed ({outcome.failed}), e.g.: {next(iter(outcome.errors.values()))}")
+    return outcome
 
 
 def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:

@@ -184,8 +184,15 @@ def parse_seeds(text: str) -> list[int]:
             raise ValueError(f"seeds {text!r}: {part!r} is not N or N-M") from None
         if a < 0 or b < a:
             raise ValueError(f"seeds {text!r}: {part!r} must be N-M with 0 <= N <= M")
-        seeds += [s for s in range(a, b + 1) if s not in seeds]
+        if len(seeds) + b - a + 1 > MAX_SEEDS:  # before the range is made: 0-999999999999 hung
+            raise ValueError(f"seeds {text!r}: more than {MAX_SEEDS} seeds")
+        have = set(seeds)
+        seeds += [s for s in range(a, b + 1) if s not in have]
     return seeds
+
+
+MAX_SEEDS = 10_000
+"""Seeds one sweep takes at most: ten thousand simulated missions is days of computing."""
 
 
 def monte_carlo_specs(

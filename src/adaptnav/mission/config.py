@@ -704,9 +704,10 @@ class FilterConfig(FilterSettings):
 
     epoch_policy: Literal["exact", "grid"] = "exact"
     output_rate_hz: Positive = 10.0
-    specific_force_tau_s: Annotated[float, Field(ge=0)] | None = None
+    specific_force_tau_s: Annotated[float, Field(ge=0, le=60, allow_inf_nan=False)] | None = None
     """Time constant (s) of the low-pass on the specific force that F is evaluated with; None:
-    the engine's default (``adaptnav.engine.batch.EngineConfig``; docs/error-model.md)."""
+    the engine's default (``adaptnav.engine.batch.EngineConfig``; docs/error-model.md). At most
+    60 s (up to 0.4.4 inf was taken: F kept the first step's specific force all run)."""
     covariance_block_s: Annotated[float, Field(ge=0, le=1)] | None = None
     """Span (s) of the blocks of IMU steps P is propagated over (0: every step); None: the
     engine's default (``adaptnav.engine.batch.EngineConfig``; docs/filters.md, 'Covariance
