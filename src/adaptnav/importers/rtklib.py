@@ -674,6 +674,15 @@ def static_window(t_imu: Array, sol: PosSolution) -> tuple[float, float]:
     moving = after & (sol.speed > STATIC_SPEED_M_S)
     if not moving.any():
         raise RtklibError(f"{sol.path.name}: the vehicle never moves", file=sol.path.name)
+    first = int(np.argmax(after))
+    if moving[first]:  # what the IMU did before the GNSS's first fix is not known
+        raise RtklibError(
+            f"{sol.path.name} line {int(sol.lines[first])}: the first solution in the IMU's time "
+            f"is moving ({float(sol.speed[first]):.1f} m/s): the drive must start parked and "
+            "seen so by the GNSS, to level and take the gyro bias (a .pos that starts late?)",
+            file=sol.path.name,
+            line=int(sol.lines[first]),
+        )
     end = float(sol.gpst_s[np.argmax(moving)]) - STATIC_MARGIN_S
     if end - t_imu[0] < MIN_STATIC_S:
         raise RtklibError(
