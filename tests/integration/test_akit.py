@@ -310,6 +310,49 @@ def test_a_row_lost_repeated_or_moved_is_an_error(
     assert (err.value.line, err.value.field) == (line, "Time [s]")
 
 
+def _set_cell(path: Path, line: int, column: int, text: str) -> None:
+    def edit(lines: list[str]) -> list[str]:
+        cells = lines[line - 1].split(",")
+        cells[column] = text
+        return [*lines[: line - 1], ",".join(cells), *lines[line:]]
+
+    _rewrite_lines(path, edit)
+
+
+@needs_data
+def test_one_absurd_dvl_reading_leaves_the_offset_fit_as_it_was(tmp_path: Path) -> None:
+    """A DVL reading of 1e300 (the run's plausibility limits drop it) is left out of the DVL
+    offset fit (up to 0.4.4 it made the fit fail: 'cost minimum at the edge', no import)."""
+    src = _copy(tmp_path)
+    _set_cell(src / "DVL_trajectory1.csv", 12, 1, "1e300")
+    seg = akit.read_segment(src, 1)
+    assert seg.dvl_v[10, 0] == 1e300
+    clean = akit.estimate_dvl_offset(segment(1), offset(1))
+    assert akit.estimate_dvl_offset(seg, offset(1)) == pytest.approx(clean, abs=2e-3)
+
+
+@needs_data
+def test_an_imu_value_no_auv_reaches_is_an_error(tmp_path: Path) -> None:
+    src = _copy(tmp_path)
+    _set_cell(src / "IMU_trajectory1.csv", 102, 5, "1e300")  # GYRO Y (column 5 of the file)
+    with pytest.raises(AkitError, match=r"IMU_trajectory1\.csv line 102, GYRO Y \[rad/s\]: "
+                       r"1e\+300 is beyond ±20"):  # fmt: skip
+        akit.read_segment(src, 1)
+
+
+@needs_data
+def test_an_offset_fit_that_fails_names_its_files(tmp_path: Path) -> None:
+    """No DVL reading to fit (all NaN): the error names the two files and the offset (up to
+    0.4.4: 'cost minimum at the edge of the searched lags', nothing else)."""
+    src = _copy(tmp_path)
+    frame = pd.read_csv(src / "DVL_trajectory1.csv")
+    frame.loc[:, ["DVL X [m/s]", "DVL Y [m/s]", "DVL Z [m/s]"]] = np.nan
+    frame.to_csv(src / "DVL_trajectory1.csv", index=False)
+    with pytest.raises(ValueError, match=r"^DVL_trajectory1\.csv against GT_trajectory1\.csv, "
+                       r"the DVL time offset: cost minimum at the edge"):  # fmt: skip
+        akit.estimate_dvl_offset(akit.read_segment(src, 1), offset(1))
+
+
 # --- faults -------------------------------------------------------------------------------------
 
 

@@ -292,6 +292,29 @@ TIME_STEP_TOLERANCE = 0.01
 """How far (a fraction of the median step) a step of ``Time [s]`` may differ from the median."""
 
 
+DVL_FIT_LIMIT_M_S = 20.0
+"""DVL readings beyond this (m/s, any axis) are left out of the offset fit (an AUV moves at a
+few m/s; the mission keeps them, for the run's plausibility limits to drop)."""
+IMU_LIMITS = (20.0, 200.0)
+"""|gyro| (rad/s) and |acc| (m/s²) beyond these are no motion of an AUV but a damaged line or a
+unit slip: an error naming the line (the Phins' own ranges are smaller)."""
+
+
+def _check_imu_range(table: Table, w_f: Array) -> None:
+    """AkitError naming the first IMU line and column beyond :data:`IMU_LIMITS`."""
+    limit = np.repeat(np.asarray(IMU_LIMITS), 3)
+    bad = np.abs(w_f) > limit
+    if bad.any():
+        r, c = (int(i) for i in np.argwhere(bad)[0])
+        raise AkitError(
+            f"{table.where(r)}, {IMU_COLUMNS[c]}: {float(w_f[r, c])!r} is beyond "
+            f"±{limit[c]:g}, no motion of an AUV (a damaged line or another unit?)",
+            file=table.label,
+            line=int(table.lines[r]),
+            field=IMU_COLUMNS[c],
+        )
+
+
 def _check_rows(table: Table) -> None:
     """The rows must be the recording's, all of them and in order: ``Time [s]`` (when the file
     has it) starts at 0 and rises by one even step. The rows are timed by their index
@@ -363,6 +386,7 @@ def read_segment(src_dir: str | Path, trajectory: int, *, flip_y: bool = True) -
     dvl = _read(root / f"DVL_trajectory{n}.csv", journal)
     gt = _read(root / f"GT_trajectory{n}.csv", journal)
     w_f = _columns(imu, IMU_COLUMNS, finite=True)
+    _check_imu_range(imu, w_f)
     gyro, accel = w_f[:, :3].copy(), w_f[:, 3:].copy()
     if flip_y:
         # Correction 2: the recorded y axis points left; FRD needs it to the right. Negating
@@ -534,7 +558,9 @@ def estimate_reference_offset(
         phi = d + 0.5 * (at(coning, tb[ok]) - at(coning, ta[ok]) - np.cross(th_a, d))
         return float(np.mean(np.sum((phi - increments[ok]) ** 2, axis=1)))
 
-    return minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05)
+    n = segment.trajectory
+    what = f"IMU_trajectory{n}.csv against GT_trajectory{n}.csv, the reference offset L"
+    return minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05, what)
 
 
 def dvl_residuals(
@@ -548,14 +574,16 @@ def dvl_residuals(
 
     ``r = z - (C_nbᵀ v_n + ω_ib_b × l_b)`` (the engine's DVL model, adaptnav.sensors.dvl) with
     the reference at ``k + L`` interpolated (:func:`reference_at`) and the gyro interpolated at
-    the DVL time. Non-finite readings are left out.
+    the DVL time. Non-finite readings and those beyond :data:`DVL_FIT_LIMIT_M_S` are left out
+    (a spike the run's plausibility limits drop; up to 0.4.4 one reading of 1e300 made the
+    offset fit fail and the import with it).
     """
     tr = segment.ref_k + reference_offset_s
     t = segment.dvl_k + dvl_offset_s
     ok = (
         (t >= max(tr[0], segment.imu_t[0]))
         & (t <= min(tr[-1], segment.imu_t[-1]))
-        & np.all(np.isfinite(segment.dvl_v), axis=1)
+        & np.all(np.abs(segment.dvl_v) <= DVL_FIT_LIMIT_M_S, axis=1)  # NaN too
     )
     t = t[ok]
     ref = reference_at(segment, reference_offset_s, t)
@@ -587,7 +615,9 @@ def estimate_dvl_offset(
         _, r = dvl_residuals(segment, reference_offset_s, lag, lever_arm_m)
         return float(np.mean(np.sum(r * r, axis=1))) if r.shape[0] >= 10 else math.inf
 
-    return minimise_lag(cost, search_s[0], search_s[1], step_s, 0.15)
+    n = segment.trajectory
+    what = f"DVL_trajectory{n}.csv against GT_trajectory{n}.csv, the DVL time offset"
+    return minimise_lag(cost, search_s[0], search_s[1], step_s, 0.15, what)
 
 
 # --- a consistency check: free inertial navigation ----------------------------------------------

@@ -35,9 +35,19 @@ COARSE_STEPS = 5
 
 
 def minimise_lag(
-    cost: Callable[[float], float], lo: float, hi: float, step: float, half_width: float
+    cost: Callable[[float], float],
+    lo: float,
+    hi: float,
+    step: float,
+    half_width: float,
+    what: str = "the time offset",
 ) -> float:
     """Lag minimising ``cost`` over [lo, hi].
+
+    ValueError, its message starting with ``what`` (the files and the offset), when the best
+    lag of the coarse grid is at its edge or not finite: the two streams do not see the same
+    motion there (rows lost, a value far out of range, a unit or an axis wrong), which up to
+    0.4.4 was reported only as "cost minimum at the edge", naming neither.
 
     A grid of ``COARSE_STEPS × step`` finds the basin (the costs here have one smooth minimum
     over the span); then the cost on a grid of ``step`` within ``± half_width`` of it is
@@ -46,7 +56,13 @@ def minimise_lag(
     lever-arm term), which would otherwise move a three-point vertex by a few hundredths.
     """
     coarse = np.arange(lo, hi + 0.5 * step, COARSE_STEPS * step)
-    centre = parabolic_minimum(coarse, np.array([cost(float(x)) for x in coarse]))
+    try:
+        centre = parabolic_minimum(coarse, np.array([cost(float(x)) for x in coarse]))
+    except ValueError as exc:
+        raise ValueError(
+            f"{what}: {exc}: the two streams do not agree on any lag there (rows lost or out "
+            "of order, a value far out of range, a unit or an axis wrong?)"
+        ) from None
     fine = np.arange(centre - half_width, centre + half_width + 0.5 * step, step)
     c = np.array([cost(float(x)) for x in fine])
     ok = np.isfinite(c)
