@@ -353,6 +353,45 @@ def test_an_offset_fit_that_fails_names_its_files(tmp_path: Path) -> None:
         akit.estimate_dvl_offset(akit.read_segment(src, 1), offset(1))
 
 
+KNOT_M_S = 1852.0 / 3600.0
+GYRO_SLIP = (
+    r"reference offset L: (cost minimum at the edge .* a unit or an axis wrong|at its best the "
+    r"gyro's rotation over each second differs from the reference's by [0-9]+%)"
+)
+"""What a gyro slip gives: no lag fits at all, or the best one fits badly."""
+
+
+@needs_data
+@pytest.mark.parametrize(
+    ("file", "columns", "factor", "message"),
+    [
+        ("IMU", ["GYRO X [rad/s]", "GYRO Y [rad/s]", "GYRO Z [rad/s]"], math.degrees(1.0),
+         GYRO_SLIP),
+        ("IMU", ["GYRO Z [rad/s]"], -1.0, GYRO_SLIP),
+        ("IMU", ["ACC X [m/s^2]", "ACC Y [m/s^2]", "ACC Z [m/s^2]"], 1 / 9.80665,
+         r"IMU_trajectory1\.csv: the accelerometer's median \|acc\| is 0\.99"),
+        ("DVL", ["DVL X [m/s]", "DVL Y [m/s]", "DVL Z [m/s]"], 1 / KNOT_M_S,
+         r"the DVL differs from the reference's velocity by [0-9.]+ m/s RMS"),
+    ],
+    ids=["gyro-deg-s", "gyro-z-sign", "acc-in-g", "dvl-in-knots"],
+)  # fmt: skip
+def test_a_unit_axis_or_sign_slip_is_refused(
+    tmp_path: Path, file: str, columns: list[str], factor: float, message: str
+) -> None:
+    """Each was imported up to 0.4.4 with absurd estimates beside the README's (a gyro in °/s:
+    an IMU lever arm of 0.3 m and a run 8.7 km off). The checks' margins on segments 1-9: the
+    gyro's misfit 0.03-0.13 % against 10 %, |acc| 9.80 against 7-13, the DVL's 0.007-0.035
+    m/s against 0.5."""
+    src = _copy(tmp_path)
+    path = src / f"{file}_trajectory1.csv"
+    frame = pd.read_csv(path)
+    frame[columns] *= factor
+    frame.to_csv(path, index=False, float_format="%.17g")
+    with pytest.raises(ValueError, match=message):  # AkitError is one
+        seg = akit.read_segment(src, 1)
+        akit.estimate_dvl_offset(seg, akit.estimate_reference_offset(seg))
+
+
 # --- faults -------------------------------------------------------------------------------------
 
 

@@ -300,6 +300,18 @@ IMU_LIMITS = (20.0, 200.0)
 unit slip: an error naming the line (the Phins' own ranges are smaller)."""
 
 
+MAX_GYRO_MISFIT = 0.1
+"""The gyro's rotation over each reference second may differ from the reference's by at most
+this fraction of it (RMS) at the fitted L (segments 1-9: 0.0003-0.0013): beyond, the gyro is in
+another unit, or an axis or a sign is wrong (:func:`estimate_reference_offset`)."""
+ACC_MEDIAN_RANGE = (7.0, 13.0)
+"""The median |acc| (m/s²) of a segment must lie in this range: an AUV senses gravity, 9.8
+(segments 1-9: 9.795-9.799); an accelerometer in g reads about 1."""
+MAX_DVL_MISFIT_M_S = 0.5
+"""The DVL's RMS misfit to the reference at its fitted offset (m/s, per axis) must be below
+this (segments 1-9: 0.007-0.035): beyond, the DVL is in another unit (knots, mm/s) or axes."""
+
+
 def _check_imu_range(table: Table, w_f: Array) -> None:
     """AkitError naming the first IMU line and column beyond :data:`IMU_LIMITS`."""
     limit = np.repeat(np.asarray(IMU_LIMITS), 3)
@@ -387,6 +399,14 @@ def read_segment(src_dir: str | Path, trajectory: int, *, flip_y: bool = True) -
     gt = _read(root / f"GT_trajectory{n}.csv", journal)
     w_f = _columns(imu, IMU_COLUMNS, finite=True)
     _check_imu_range(imu, w_f)
+    acc = float(np.median(np.linalg.norm(w_f[:, 3:], axis=1)))
+    if not ACC_MEDIAN_RANGE[0] <= acc <= ACC_MEDIAN_RANGE[1]:
+        raise AkitError(
+            f"{imu.label}: the accelerometer's median |acc| is {acc:.4g}, where an AUV senses "
+            "gravity, about 9.8 m/s² (ACC X/Y/Z in g, not m/s^2?)",
+            file=imu.label,
+            field=IMU_COLUMNS[3],
+        )
     gyro, accel = w_f[:, :3].copy(), w_f[:, 3:].copy()
     if flip_y:
         # Correction 2: the recorded y axis points left; FRD needs it to the right. Negating
@@ -548,19 +568,32 @@ def estimate_reference_offset(
     def at(values: Array, t: Array) -> Array:
         return np.stack([np.interp(t, t_imu, values[:, a]) for a in range(3)], axis=-1)
 
-    def cost(lag: float) -> float:
+    def misfit(lag: float) -> tuple[Array, Array]:
+        """(gyro's φ - reference's, the reference's) over the seconds inside the IMU span."""
         ta, tb = k + lag, k + REF_PERIOD_S + lag
         ok = (ta >= t_imu[0]) & (tb <= t_imu[-1])
-        if np.count_nonzero(ok) < 10:
-            return math.inf
         th_a, th_b = at(theta, ta[ok]), at(theta, tb[ok])
         d = th_b - th_a
         phi = d + 0.5 * (at(coning, tb[ok]) - at(coning, ta[ok]) - np.cross(th_a, d))
-        return float(np.mean(np.sum((phi - increments[ok]) ** 2, axis=1)))
+        return phi - increments[ok], increments[ok]
+
+    def cost(lag: float) -> float:
+        r, _ = misfit(lag)
+        return float(np.mean(np.sum(r**2, axis=1))) if r.shape[0] >= 10 else math.inf
 
     n = segment.trajectory
     what = f"IMU_trajectory{n}.csv against GT_trajectory{n}.csv, the reference offset L"
-    return minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05, what)
+    lag = minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05, what)
+    r, inc = misfit(lag)
+    ratio = math.sqrt(float(np.sum(r**2)) / max(float(np.sum(inc**2)), 1e-300))
+    if not ratio <= MAX_GYRO_MISFIT:
+        raise AkitError(
+            f"{what}: at its best the gyro's rotation over each second differs from the "
+            f"reference's by {ratio:.0%} of it (0.03-0.13 % on segments 1-9): a gyro unit, an "
+            "axis or a sign wrong?",
+            file=f"IMU_trajectory{n}.csv",
+        )
+    return lag
 
 
 def dvl_residuals(
@@ -617,7 +650,16 @@ def estimate_dvl_offset(
 
     n = segment.trajectory
     what = f"DVL_trajectory{n}.csv against GT_trajectory{n}.csv, the DVL time offset"
-    return minimise_lag(cost, search_s[0], search_s[1], step_s, 0.15, what)
+    lag = minimise_lag(cost, search_s[0], search_s[1], step_s, 0.15, what)
+    rms = math.sqrt(cost(lag) / 3.0)
+    if not rms <= MAX_DVL_MISFIT_M_S:
+        raise AkitError(
+            f"{what}: at its best the DVL differs from the reference's velocity by {rms:.3g} "
+            f"m/s RMS per axis (0.007-0.035 on segments 1-9): DVL X/Y/Z in another unit "
+            "(knots, mm/s) or axes?",
+            file=f"DVL_trajectory{n}.csv",
+        )
+    return lag
 
 
 # --- a consistency check: free inertial navigation ----------------------------------------------
