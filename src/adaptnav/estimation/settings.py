@@ -158,8 +158,8 @@ class FilterSettings(BaseModel):
     (estimation/noise/matching.py); 0: never, the paper."""
     vb_alpha0: Positive = 1.0
     vb_rho: Annotated[float, Field(gt=0, le=1)] = 0.99
-    vb_iterations: Annotated[int, Field(ge=1)] = 5
-    vb_tol: Positive = 1e-6
+    vb_iterations: Annotated[int, Field(ge=1, le=1000)] = 5
+    vb_tol: Annotated[float, Field(ge=1e-15, allow_inf_nan=False)] = 1e-6
     vb_irregular: StrictBool = False
     vb_dof: Positive | None = None
     """Student-t ν of each reading for VB-MAESKF and robust (estimation/noise/vb.py, beyond the
@@ -198,6 +198,8 @@ class FilterSettings(BaseModel):
         cls, v: dict[FilterKind, tuple[float, float]]
     ) -> dict[FilterKind, tuple[float, float]]:
         for k, (floor, ceiling) in v.items():
+            if k in ("meskf", "oracle"):  # fixed R: a bound would be taken and do nothing
+                raise ValueError(f"{k}: its R is fixed (not adapted), there is nothing to bound")
             if not floor < ceiling:
                 raise ValueError(
                     f"{k}: [floor, ceiling] = {[floor, ceiling]} must have floor < ceiling"

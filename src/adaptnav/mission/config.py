@@ -686,6 +686,11 @@ class InitialConfig(_Model):
     def _check_state_mode(self) -> InitialConfig:
         if self.rpy_deg is not None:
             check_euler_deg("rpy_deg", self.rpy_deg)
+        if self.mode == "alignment" and any(v != 0.0 for v in self.v_ned_m_s):
+            raise ValueError(
+                f"v_ned_m_s: {list(self.v_ned_m_s)} with mode = 'alignment', which starts at "
+                "rest (v = 0): a velocity is taken with mode = 'state' only"
+            )
         if self.mode == "state":
             missing = [k for k in ("lat_deg", "lon_deg", "rpy_deg") if getattr(self, k) is None]
             if missing:
