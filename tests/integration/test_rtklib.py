@@ -149,6 +149,9 @@ def test_a_bom_before_the_pos_header_is_read(tmp_path: Path) -> None:
         ([HEADER.replace("latitude(deg)", "x-ecef(m)"), _pos_line(18.5)], "['latitude(deg)']"),
         ([_pos_line(18.5)], "line 1: data before the column header"),
         ([HEADER, _pos_line(18.5, lat=95.0)], "beyond ±90"),
+        ([HEADER, _pos_line(18.5).replace("1601.474", "1e300")], "height(m) = 1e+300 is outside"),
+        ([HEADER, _pos_line(18.5).replace("0.0099 0.0099", "-0.0100 0.0099")], "sdn(m) = -0.01"),
+        ([HEADER, _pos_line(18.5).replace("0.0099 0.0099", "nan 0.0099")], "sdn(m) = nan"),
         ([HEADER, _pos_line(18.5).replace("2025/07/08", "2025-07-08")], "is not 'YYYY/MM/DD"),
     ],
 )
@@ -604,3 +607,16 @@ def test_a_pos_that_starts_with_the_car_moving_is_refused(tmp_path: Path) -> Non
     _, imu, tag = _real()
     with pytest.raises(RtklibError, match=r"late\.pos line [0-9]+: the first solution in the IMU"):
         rtklib.static_window(rtklib.imu_gpst(imu, tag), sol)
+
+
+@needs_data
+def test_an_outage_without_fixes_to_withhold_is_refused(tmp_path: Path) -> None:
+    """The .pos cut to its first 1200 epochs: the default outages after its end would withhold
+    nothing, and evaluate would score only the others (up to 0.4.4 imported with '5 outage
+    window(s)', two of them empty, and an RMSE better than the full drive's)."""
+    lines = POS.read_text().splitlines()
+    head = [line for line in lines if line.startswith("%")]
+    data = [line for line in lines if not line.startswith("%")]
+    short = _write(tmp_path / "short.pos", [*head, *data[:1200]])
+    with pytest.raises(RtklibError, match=r"short\.pos: outage 300\+60 s holds no fixed solution"):
+        rtklib.import_drive(short, IMU, tmp_path / "m", tag_path=TAG)

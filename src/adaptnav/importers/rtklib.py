@@ -323,9 +323,19 @@ def _parse_pos_fields(
     return t, values
 
 
+POS_RANGES = {
+    "height(m)": (-12_000.0, 100_000.0),
+    "sdn(m)": (0.0, 1e6),
+    "sde(m)": (0.0, 1e6),
+    "sdu(m)": (0.0, 1e6),
+}
+"""Plausible ranges of a .pos file's height and σ columns (m): beyond, a damaged line (up to
+0.4.4 a height of 1e300 was taken, and its neighbours left out as wrong fixes instead)."""
+
+
 def _check_pos_values(p: Path, t: Array, col: dict[str, Array], lines: list[int]) -> None:
     """Refuse (RtklibError naming the line) a time that does not increase, a non-finite
-    position or a latitude beyond ±90°."""
+    position, a height or σ outside :data:`POS_RANGES` or a latitude beyond ±90°."""
     bad = np.flatnonzero(np.diff(t) <= 0.0)
     if bad.size:
         k = int(bad[0]) + 1
@@ -342,6 +352,16 @@ def _check_pos_values(p: Path, t: Array, col: dict[str, Array], lines: list[int]
             k = int(np.flatnonzero(~finite)[0])
             raise RtklibError(
                 f"{p.name} line {lines[k]}: {c} is not finite", file=p.name, line=lines[k], field=c
+            )
+    for c, (lo, hi) in POS_RANGES.items():
+        out = ~((col[c] >= lo) & (col[c] <= hi))
+        if out.any():
+            k = int(np.flatnonzero(out)[0])
+            raise RtklibError(
+                f"{p.name} line {lines[k]}: {c} = {col[c][k]} is outside [{lo:g}, {hi:g}]",
+                file=p.name,
+                line=lines[k],
+                field=c,
             )
     if np.any(np.abs(col["latitude(deg)"]) > 90.0):
         k = int(np.flatnonzero(np.abs(col["latitude(deg)"]) > 90.0)[0])
@@ -1129,6 +1149,10 @@ class FixSelection:
         return self.in_span & self.fixed
 
 
+def _span(t: Array) -> str:
+    return f"{t[0]:.1f} to {t[-1]:.1f} s" if t.size else "nowhere: none"
+
+
 def select_fixes(
     sol: PosSolution, clock: DriveClock, outages: Sequence[tuple[float, float]]
 ) -> FixSelection:
@@ -1142,6 +1166,14 @@ def select_fixes(
     per_outage = []
     for a, length in windows:
         w = in_span & fixed & (t_sol > a) & (t_sol <= a + length)
+        if not w.any():  # nothing withheld: no drift to score, an outage only in name
+            raise RtklibError(
+                f"{sol.path.name}: outage {a:g}+{length:g} s holds no fixed solution to "
+                f"withhold (fixes in the IMU's time from {_span(t_sol[in_span & fixed])}): "
+                "give --outages where the drive has fixes",
+                file=sol.path.name,
+                field="outages",
+            )
         withheld |= w
         per_outage.append({"start_s": a, "length_s": length, "fixes_withheld": int(w.sum())})
     return FixSelection(t_sol, in_span, fixed, withheld, windows, per_outage)
