@@ -189,6 +189,11 @@ def test_imu_header_optional_and_truncated_last_line_repaired(tmp_path: Path) ->
     assert plain.repairs == ()
 
 
+def _shift_counter(line: str, ms: int) -> str:
+    *values, counter = line.split(",")
+    return ",".join([*values, str(int(counter) + ms)])
+
+
 @pytest.mark.parametrize(
     ("edit", "words"),
     [
@@ -197,6 +202,10 @@ def test_imu_header_optional_and_truncated_last_line_repaired(tmp_path: Path) ->
         (lambda L: L.__setitem__(3, L[3].replace("-0.2", "5000")), "gyro_y_deg_s = 5000.0"),
         (lambda L: L.__setitem__(3, L[3].replace("1.0", "nan", 1)), "acc_z_g = nan"),
         (lambda L: L.__setitem__(2, L[1]), "line 3: counter_ms 1010 does not increase"),
+        (
+            lambda L: L.__setitem__(slice(3, None), [_shift_counter(x, 1000) for x in L[3:]]),
+            "line 4: counter_ms jumps 1010 ms after line 3, where a step is 10 ms",
+        ),
     ],
 )
 def test_imu_malformed_names_file_line_and_field(tmp_path: Path, edit: object, words: str) -> None:

@@ -62,7 +62,7 @@ from adaptnav.importers.tracks import (
     inconsistent_fixes,
     inconsistent_velocities,
 )
-from adaptnav.mission.config import MissionConfig, MissionError, parse_config
+from adaptnav.mission.config import DEFAULT_GAP_PERIODS, MissionConfig, MissionError, parse_config
 from adaptnav.mission.loader import write_mission
 from adaptnav.mission.tables import Repair
 
@@ -624,12 +624,25 @@ def _check_imu_values(p: Path, data: Array, lines: NDArray[np.int64]) -> None:
             field="acc_x_g",
         )
     c = data[:, 6]
-    back = np.flatnonzero(~(np.diff(c) > 0.0))
+    steps = np.diff(c)
+    back = np.flatnonzero(~(steps > 0.0))
     if back.size:
         i = int(back[0]) + 1
         raise RtklibError(
             f"{p.name} line {lines[i]}: counter_ms {c[i]:.0f} does not increase (line "
             f"{lines[i - 1]}: {c[i - 1]:.0f})",
+            file=p.name,
+            line=int(lines[i]),
+            field="counter_ms",
+        )
+    step = float(np.median(steps)) if steps.size else 0.0
+    gap = np.flatnonzero(steps > DEFAULT_GAP_PERIODS * step)
+    if gap.size:  # the mission would refuse it, naming a row of imu.parquet instead
+        i = int(gap[0]) + 1
+        raise RtklibError(
+            f"{p.name} line {lines[i]}: counter_ms jumps {steps[i - 1]:.0f} ms after line "
+            f"{lines[i - 1]}, where a step is {step:.0f} ms: a gap of samples (more than "
+            f"{DEFAULT_GAP_PERIODS:g} steps; cut the drive there)",
             file=p.name,
             line=int(lines[i]),
             field="counter_ms",
