@@ -52,13 +52,17 @@ C_NED_ENU: Array = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]
 
 
 def flu_to_frd(v: Array) -> Array:
-    """Vectors (..., 3) in FLU resolved in FRD (and back: the map is its own inverse)."""
-    return np.asarray(v, dtype=float) @ C_FRD_FLU.T
+    """Vectors (..., 3) in FLU resolved in FRD (and back: the map is its own inverse). A NaN
+    or an infinity in a message stays one (inf times the zeros of the map is NaN), for the
+    loader to drop and record, without NumPy's warning on stderr."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(v, dtype=float) @ C_FRD_FLU.T
 
 
 def enu_to_ned(v: Array) -> Array:
-    """Vectors (..., 3) in ENU resolved in NED (and back)."""
-    return np.asarray(v, dtype=float) @ C_NED_ENU.T
+    """Vectors (..., 3) in ENU resolved in NED (and back); NaN and inf as :func:`flu_to_frd`."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(v, dtype=float) @ C_NED_ENU.T
 
 
 def ros_to_nav_attitude(q_xyzw: Array) -> Array:
@@ -66,7 +70,8 @@ def ros_to_nav_attitude(q_xyzw: Array) -> Array:
     quaternions ``q_enu_flu`` (n, 4) ``[x, y, z, w]`` (normalised here: a driver's rounding
     must not tilt the result); yaw is the heading from true north, in (-π, π]."""
     q = np.asarray(q_xyzw, dtype=float).reshape(-1, 4)
-    wxyz = q[:, [3, 0, 1, 2]] / np.linalg.norm(q, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):  # a zero quaternion: NaN angles,
+        wxyz = q[:, [3, 0, 1, 2]] / np.linalg.norm(q, axis=1, keepdims=True)  # dropped at load
     rows = [dcm_to_euler(C_NED_ENU @ quat_to_dcm(w) @ C_FRD_FLU) for w in wxyz]
     return np.array(rows, dtype=float).reshape(-1, 3)
 
