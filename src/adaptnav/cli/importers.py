@@ -35,10 +35,9 @@ def _first_line(exc: Exception) -> str:
 def _print_repairs(info: dict[str, Any]) -> None:
     """One line per repair recorded in an import.json (a dropped truncated line, ...)."""
     for repair in info["repairs"]:
-        console.print(
-            f"[yellow]repaired:[/] {repair['file']} line {repair['line']}: {repair['action']} "
-            f"({repair['detail']})"
-        )
+        line = repair.get("line")
+        at = repair["file"] if line is None else f"{repair['file']} line {line}"  # None: whole file
+        console.print(f"[yellow]repaired:[/] {at}: {repair['action']} ({repair['detail']})")
 
 
 @import_app.command("akit")
