@@ -97,13 +97,13 @@ def demo(
 def run_cmd(
     mission_dir: Annotated[Path, typer.Argument(help="mission folder (mission.toml + tables)")],
     filter: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--filter",
             "-f",
             help="robust | meskf | maeskf | vb | oracle (default: the mission's kind, robust)",
         ),
-    ] = "",
+    ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="run folder to write")] = Path(
         "runs/run"
     ),
