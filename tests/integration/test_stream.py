@@ -107,6 +107,70 @@ def test_bad_input_is_refused_and_the_stream_goes_on(mission: Mission) -> None:
     assert stream.t == pytest.approx(t + 0.01)
 
 
+def test_a_given_start_skips_the_imu_before_it_as_the_batch_run(mission: Mission) -> None:
+    """With ``initial``, the samples stamped at or before t0 are not integrated, as the batch
+    run starts after them (up to 0.4.4 the stream integrated them: time ran back from t0 to the
+    first sample, 3x the rows and a solution about 1 km off, silently)."""
+    start = api.initial_state(mission)[:3]
+    batch = api.run(mission, "meskf", initial=start)
+    with Stream(mission, "meskf", initial=start) as stream:
+        for item in replay(mission):  # every sample, those before t0 too
+            stream.push_item(item)
+    assert stream.result is not None
+    a, b = stream.result.solution.to_numpy(), batch.solution.to_numpy()
+    assert a.shape == b.shape
+    scale = np.maximum(np.nanmax(np.abs(b), axis=0), 1e-300)
+    assert np.all(np.abs(a - b) <= 1e-9 * scale)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda x, P, t: (x, P * math.nan, t), "initial P0: every element finite"),
+        (lambda x, P, t: (x, -P, t), "the diagonal > 0"),
+        (lambda x, P, t: (x[:3], np.eye(3), t), "initial x0: 3 values"),
+        (lambda x, P, t: (x, P[:3, :3], t), "initial P0: shape (3, 3)"),
+        (lambda x, P, t: (x, P, math.nan), "initial t0: nan s is not within"),
+        (lambda x, P, t: (x, P), "initial: expected (x0, P0, t0)"),
+    ],
+)
+def test_a_bad_initial_state_is_refused_naming_it(
+    mission: Mission, change: object, message: str
+) -> None:
+    """Up to 0.4.4: a NaN P0 ran with every reading rejected and every σ NaN; a NaN t0 gave a
+    solution of one row; a wrong shape a broadcast error from deep inside."""
+    initial = change(*api.initial_state(mission)[:3])  # type: ignore[operator]
+    with pytest.raises(ValueError, match=re.escape(message)):
+        api.run(mission, "meskf", initial=initial)
+    with pytest.raises(ValueError, match=re.escape(message)):
+        Stream(mission, "meskf", initial=initial)
+    if "t0" in message:
+        x, P, _ = api.initial_state(mission)[:3]
+        with pytest.raises(ValueError, match="not within the IMU's span"):
+            api.run(mission, "meskf", initial=(x, P, float(mission.imu.t[-1]) + 100.0))
+
+
+def test_imu_samples_the_loader_refuses_are_refused(mission: Mission) -> None:
+    """A gap over imu.max_gap_s, an interval overlapping the previous one, a rate beyond 20 g:
+    ValueError and the stream unchanged (up to 0.4.4 integrated: heights of 1e24 m, then a
+    bare LinAlgError from a later sample). A reading stamped inf is refused too (it held its
+    sensor's later readings back as out of order)."""
+    start = api.initial_state(mission)[:3]
+    stream = Stream(mission, "meskf", initial=start)
+    t = start[2] + 0.01
+    stream.push_imu(t, np.zeros(3), [0.0, 0.0, -0.098])
+    with pytest.raises(ValueError, match=r"a gap over imu\.max_gap_s"):
+        stream.push_imu(t + 1e6, np.zeros(3), [0.0, 0.0, -0.098])
+    with pytest.raises(ValueError, match="an interval overlapping it"):
+        stream.push_imu(t + 0.01, np.zeros(3), [0.0, 0.0, -0.098], dt=5.0)
+    with pytest.raises(ValueError, match="a rate beyond 20 rad/s or 20 g"):
+        stream.push_imu(t + 0.01, np.zeros(3), [1e8, 0.0, 0.0])
+    with pytest.raises(ValueError, match="not a finite time"):
+        stream.push("dvl", math.inf, [0.5, 0.0, 0.0])
+    assert len(stream.push_imu(t + 0.01, np.zeros(3), [0.0, 0.0, -0.098])) == 0
+    assert stream.t == pytest.approx(t + 0.01)
+
+
 def test_a_stream_that_never_covers_the_alignment_window_says_so(mission: Mission) -> None:
     stream = Stream(mission, "robust")
     for k in range(100):

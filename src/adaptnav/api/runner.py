@@ -402,6 +402,32 @@ def _alignment_position(
     return (lat, lon, h)
 
 
+def check_initial(
+    initial: Any, t_from: float = -math.inf, t_to: float = math.inf
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """A given ``initial = (x0, P0, t0)`` as arrays, checked: x0 the nominal state (at least
+    :data:`NOM_SIZE` numbers), P0 (at least :data:`N_STATES` square), both finite, P0's diagonal
+    positive, t0 finite and within ``[t_from, t_to]`` (the IMU's span). ValueError naming what is
+    wrong (up to 0.4.4: a NaN P0 ran with every reading rejected, a NaN or late t0 gave a
+    solution of one row, a wrong shape a broadcast error from deep inside)."""
+    try:
+        x0, P0, t0 = initial
+    except (TypeError, ValueError):
+        raise ValueError(f"initial: expected (x0, P0, t0), got {initial!r:.80}") from None
+    x = np.asarray(x0, dtype=float).ravel()
+    P = np.asarray(P0, dtype=float)
+    t = float(t0)
+    if x.size < NOM_SIZE or not np.all(np.isfinite(x)):
+        raise ValueError(f"initial x0: {x.size} values, at least {NOM_SIZE} finite ones needed")
+    if P.ndim != 2 or P.shape[0] != P.shape[1] or P.shape[0] < N_STATES:
+        raise ValueError(f"initial P0: shape {P.shape}, a square of at least {N_STATES} needed")
+    if not (np.all(np.isfinite(P)) and np.all(np.diag(P) > 0.0)):
+        raise ValueError("initial P0: every element finite and the diagonal > 0 needed")
+    if not (math.isfinite(t) and t_from <= t <= t_to):
+        raise ValueError(f"initial t0: {t!r} s is not within the IMU's span [{t_from}, {t_to}] s")
+    return x, P, t
+
+
 def run(
     mission: Mission | str | Path,
     filter: FilterKind | None = None,
@@ -445,7 +471,11 @@ def run(
     started = time.perf_counter()
     if initial is None and cfg.initial.mode != "state" and progress is not None:
         progress("aligning")
-    x0, P0, t0, init_info = (*initial, {"initial": "given"}) if initial else initial_state(m)
+    if initial is not None:
+        x0, P0, t0 = check_initial(initial, float(m.imu.t[0] - m.imu.dt[0]), float(m.imu.t[-1]))
+        init_info: dict[str, Any] = {"initial": "given"}
+    else:
+        x0, P0, t0, init_info = initial_state(m)
     cfg, surfaces = resolve_surfaces(cfg, m.sensors, x0, float(m.imu.t[0] - m.imu.dt[0]), t0)
     if surfaces:
         m, init_info = replace(m, config=cfg), {**init_info, "surface_h_m": surfaces}

@@ -47,7 +47,7 @@ from adaptnav.mission import (
     load_config,
 )
 from adaptnav.mission.live import LiveScreen, Reading
-from adaptnav.mission.loader import CONFIG_NAME
+from adaptnav.mission.loader import CONFIG_NAME, MAX_ACCEL_M_S2, MAX_GYRO_RAD_S
 from adaptnav.mission.tables import DroppedRow
 from adaptnav.models.errorstate import N_STATES
 from adaptnav.models.strapdown import NOM_SIZE
@@ -149,8 +149,7 @@ class Stream:
         """The oldest stamp a screen holds back (inf: none): the IMU must not pass it."""
         self.result: Result | None = None
         if initial is not None:
-            x0, P0, t0 = initial
-            self._start(np.asarray(x0, dtype=float), np.asarray(P0, dtype=float), float(t0))
+            self._start(*runner.check_initial(initial))
             self._info = {"initial": "given"}
 
     # --- the user's side ------------------------------------------------------------------------
@@ -169,7 +168,11 @@ class Stream:
         ``imu.rate_hz``, as the loader). Returns the solution rows it determined.
 
         ValueError, the stream unchanged, for a stamp not after the previous sample's, a
-        non-positive ``dt`` or a non-finite value."""
+        non-positive ``dt``, a non-finite value, or what the loader refuses in a table: an
+        interval longer than ``imu.max_gap_s`` or overlapping the previous one (``dt`` longer
+        than the time since it), a rate beyond 20 rad/s or 20 g (up to 0.4.4 these were
+        integrated, to a state far off or a LinAlgError later). A sample stamped at or before a
+        given ``initial``'s t0 is skipped (docs/streaming.md)."""
         self._check_open()
         tt = float(t)
         step = float(dt) if dt is not None else tt - self._t_imu
@@ -184,9 +187,29 @@ class Stream:
             )
         if not math.isfinite(float(dth.sum() + dv.sum())):  # a NaN or inf anywhere: NaN or inf
             raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
+        self._check_imu(tt, step, dth, dv)
         self._t_imu = tt
+        if self._nav is not None and tt < self._t0 + START_EPS_S:
+            return []  # before a given start: not integrated, as the batch run's nav_from
         self._imu.append((tt, step, dth, dv))
         return self._advance()
+
+    def _check_imu(self, t: float, dt: float, dth: Array, dv: Array) -> None:
+        """The loader's IMU checks on one sample (:meth:`push_imu`)."""
+        since = t - self._t_imu
+        limit = self.config.imu.gap_limit_s
+        if math.isfinite(since) and (since > limit or dt > since * (1.0 + 1e-9)):
+            raise ValueError(
+                f"IMU sample t = {t!r} s, dt = {dt!r} s: {since:.6g} s after the previous "
+                f"sample: a gap over imu.max_gap_s = {limit:.6g} s, or an interval overlapping it"
+            )
+        rates = np.abs(np.concatenate([dth, dv])) / dt
+        limits = (MAX_GYRO_RAD_S,) * 3 + (MAX_ACCEL_M_S2,) * 3
+        if np.any(rates > limits):
+            raise ValueError(
+                f"IMU sample t = {t!r} s: a rate beyond 20 rad/s or 20 g ({dth / dt} rad/s, "
+                f"{dv / dt} m/s²): wrong units?"
+            )
 
     def push(
         self, sensor: str, t: float, z: ArrayLike, *, row: int | None = None, lock: bool = True
@@ -201,6 +224,8 @@ class Stream:
         self._check_open()
         if sensor not in self._screens:
             raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._screens)}")
+        if not math.isfinite(float(t)):  # it would hold its sensor's later readings back
+            raise ValueError(f"{sensor}: a reading stamped t = {t!r}, not a finite time")
         cfg = self.config.sensors[sensor]
         if cfg.use == "aid" and sensor not in self._aiding:
             raise KeyError(f"sensor {sensor!r} has no channel: the mission has no readings of it")
@@ -302,7 +327,13 @@ class Stream:
         assert nav is not None
         while imu and imu[0][0] < before:
             t, dt, dth, dv = imu.popleft()
-            nav.feed_imu_sample(t, dt, dth, dv)
+            try:
+                nav.feed_imu_sample(t, dt, dth, dv)
+            except np.linalg.LinAlgError as exc:  # as the batch run says it (runner._run_engine)
+                raise runner.FilterError(
+                    f"{CONFIG_NAME}: the {self.settings.kind} filter broke down: {exc}",
+                    file=CONFIG_NAME,
+                ) from None
             self._fed += 1
 
     def _try_start(self) -> bool:
