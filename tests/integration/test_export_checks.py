@@ -104,3 +104,32 @@ def test_a_valid_topic_and_origin_are_written(run: Path, tmp_path: Path) -> None
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     assert np.any([p.suffix == ".db3" for p in (tmp_path / "bag").iterdir()])
+
+
+def test_evaluate_refuses_a_solution_position_that_is_not_finite(run: Path, tmp_path: Path) -> None:
+    """Up to 0.4.4 the RMSE came out NaN while the NEES left the row out, exit 0."""
+    copy = tmp_path / "run"
+    shutil.copytree(run, copy)
+    solution = pd.read_parquet(run / "solution.parquet")
+    _nan_lat(solution).to_parquet(copy / "solution.parquet", index=False)
+    res = _cli("evaluate", copy, "--json")
+    assert res.exit_code == 2, res.output
+    assert f"{copy}: solution row 7, lat_rad: nan is not a finite number" in " ".join(
+        res.output.split()
+    )
+
+
+def test_a_run_is_not_saved_into_a_mission_folder(source: Path, tmp_path: Path) -> None:
+    """results.save of a run into its mission's folder, or onto a file: RunFolderError (up to
+    0.4.4 the folder became a mission and a run at once; a file gave FileExistsError)."""
+    from adaptnav import api
+    from adaptnav.api.results import RunFolderError
+
+    mission = shutil.copytree(source, tmp_path / "mission")
+    result = api.run(mission, "meskf")
+    with pytest.raises(RunFolderError, match="a mission folder"):
+        api.results.save(result, mission)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(RunFolderError, match="a file, not a folder"):
+        api.results.save(result, tmp_path / "file")
+    assert not (mission / "summary.json").exists()

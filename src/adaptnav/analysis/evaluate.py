@@ -44,7 +44,14 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy.special import gammaincinv
 
-from adaptnav.api.results import Result, covariance_block, has_covariances, jsonable, ledger_counts
+from adaptnav.api.results import (
+    Result,
+    check_finite,
+    covariance_block,
+    has_covariances,
+    jsonable,
+    ledger_counts,
+)
 from adaptnav.core import earth
 from adaptnav.core.attitude import wrap_angle
 from adaptnav.engine.batch import MAX_DIM
@@ -590,8 +597,11 @@ class Metrics:
 def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
     """Metrics of ``result`` against the reference ``truth`` (see the module docstring).
 
-    Raises ValueError if no truth sample lies within the solution's time span.
+    Raises ValueError if no truth sample lies within the solution's time span, or if a
+    solution position is not finite (a damaged run folder: the RMSE would be NaN while the
+    NEES, which leaves such rows out, would not).
     """
+    check_finite(result.solution, ("lat_rad", "lon_rad", "h_m"), "solution")
     errors = position_errors(result.solution, truth)
     if errors.empty:
         raise ValueError(

@@ -477,8 +477,14 @@ def summary(result: Result) -> dict[str, Any]:
 
 
 def save(result: Result, run_dir: str | Path) -> Path:
-    """Write the run folder (created if needed; files of the same names are replaced)."""
+    """Write the run folder (created if needed; files of the same names are replaced).
+    RunFolderError for a mission folder (it would hold a run and a mission at once) or a path
+    that is a file."""
     folder = Path(run_dir)
+    if (folder / "mission.toml").is_file():
+        raise RunFolderError(f"{folder}: a mission folder; save the run in a folder of its own")
+    if folder.exists() and not folder.is_dir():
+        raise RunFolderError(f"{folder}: a file, not a folder")
     folder.mkdir(parents=True, exist_ok=True)
     for name, filename in TABLE_FILES.items():
         table: pd.DataFrame | None = getattr(result, name)

@@ -232,7 +232,7 @@ def evaluate_cmd(
             metrics = evaluate.evaluate(result, truth)
             forward = evaluate.forward_metrics(result, truth)
         except ValueError as exc:  # a reference without the columns or times it needs
-            _fail(f"{source}: {exc}")
+            _fail(f"{run_dir if str(exc).startswith('solution ') else source}: {exc}")
         cal = _calibration_errors(result, mission)
     d = metrics.to_dict()
     if as_json:
