@@ -775,6 +775,19 @@ class MissionConfig(_Model):
                     f"filter.gate_sensors: {unknown} name no sensor (configured: "
                     f"{list(self.sensors)})"
                 )
+        if not 1.0 <= self.filter.output_rate_hz <= self.imu.rate_hz:
+            raise ValueError(
+                f"filter.output_rate_hz: {self.filter.output_rate_hz:g} Hz, between 1 Hz and the "
+                f"IMU's {self.imu.rate_hz:g} Hz (a row per IMU interval at most; fewer than one a "
+                "second leaves evaluate to score straight lines between them)"
+            )
+        if self.initial.mode == "state":
+            init = [n for n, c in self.sensors.items() if c.use == "init"]
+            if init:
+                raise ValueError(
+                    f"sensors.{init[0]}.use: 'init' with initial.mode = 'state', which starts "
+                    "from [initial] alone: nothing would use it ('aid' or 'off')"
+                )
         seen: dict[tuple[str, str], str] = {}
         for name, sc in self.sensors.items():
             if sc.use == "off":

@@ -1636,7 +1636,10 @@ def numeric(table: Table, column: str) -> Array:
             field=column,
         )
     if pd.api.types.is_numeric_dtype(s):
-        return np.asarray(s.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+        values = np.asarray(s.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+        if column == TIME_COLUMN and s.dtype == np.float32:
+            _check_float32_time(table, values)
+        return values
     text = s.astype("string").str.strip()
     text = text.where(text != "")
     conv = pd.to_numeric(text, errors="coerce")
@@ -1645,6 +1648,26 @@ def numeric(table: Table, column: str) -> Array:
         r = int(bad[0])
         raise table.error(r, column, f"value {show(s.iloc[r])} is not a number")
     return np.asarray(conv.to_numpy(dtype=float, na_value=np.nan), dtype=float)
+
+
+FLOAT32_TIME_STEP_S = 1e-3
+"""A float32 time column is refused when its spacing near the largest time exceeds this."""
+
+
+def _check_float32_time(table: Table, t: Array) -> None:
+    """A time column stored as float32 holds 24 bits: near 1.7e9 s (Unix time) its values are
+    128 s apart. Beyond :data:`FLOAT32_TIME_STEP_S` of spacing it is an error naming the file
+    (up to 0.4.4 read as it was: readings rounded onto one another dropped as duplicates, the
+    rest stamped a minute off)."""
+    top = float(np.nanmax(np.abs(t))) if np.isfinite(t).any() else 0.0
+    step = float(np.spacing(np.float32(top)))
+    if step > FLOAT32_TIME_STEP_S:
+        raise MissionError(
+            f"{table.label}, {TIME_COLUMN}: stored as float32, whose values near {top:.6g} s are "
+            f"{step:.3g} s apart: store the times as float64",
+            file=table.label,
+            field=TIME_COLUMN,
+        )
 
 
 def flag(table: Table, column: str) -> NDArray[np.bool_]:
