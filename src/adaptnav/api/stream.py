@@ -203,9 +203,9 @@ class Stream:
                 f"IMU sample t = {t!r} s, dt = {dt!r} s: {since:.6g} s after the previous "
                 f"sample: a gap over imu.max_gap_s = {limit:.6g} s, or an interval overlapping it"
             )
-        rates = np.abs(np.concatenate([dth, dv])) / dt
-        limits = (MAX_GYRO_RAD_S,) * 3 + (MAX_ACCEL_M_S2,) * 3
-        if np.any(rates > limits):
+        # Plain floats: NumPy's calls on six numbers took 18 µs of a 22-µs push (make bench).
+        g, a = max(map(abs, dth.tolist())), max(map(abs, dv.tolist()))
+        if g > MAX_GYRO_RAD_S * dt or a > MAX_ACCEL_M_S2 * dt:
             raise ValueError(
                 f"IMU sample t = {t!r} s: a rate beyond 20 rad/s or 20 g ({dth / dt} rad/s, "
                 f"{dv / dt} m/s²): wrong units?"
