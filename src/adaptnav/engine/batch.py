@@ -1152,7 +1152,7 @@ class Navigator:
                 f"the error covariance P is not finite at t = {self.t:.6g} s"
             )
         self._icur[I_N_LEDGER] = n
-        if not np.all(np.isfinite(self.x)):
+        if not _finite(self.x):  # as the compiled loop checks it
             raise np.linalg.LinAlgError(_not_finite_message(self.t))
         if self._sm is not None:
             smk.node(self._sm, self.t, self.x, self._P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])

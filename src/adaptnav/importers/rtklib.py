@@ -792,13 +792,16 @@ def estimate_imu_time_offset(
             file=sol.path.name,
         )
 
+    def turned(lag: float) -> Array:
+        """The gyro's heading change over each pair's span, shifted by ``lag``."""
+        return np.asarray(np.interp(tb - lag, t_imu, psi) - np.interp(ta - lag, t_imu, psi))
+
     def cost(lag: float) -> float:
-        d = np.interp(tb - lag, t_imu, psi) - np.interp(ta - lag, t_imu, psi)
-        return float(np.mean((d - dc) ** 2))
+        return float(np.mean((turned(lag) - dc) ** 2))
 
     what = f"the IMU against {sol.path.name}'s course, the IMU time offset"
     lag = minimise_lag(cost, -max_lag_s, max_lag_s, step_s, 0.05, what)
-    d = np.interp(tb - lag, t_imu, psi) - np.interp(ta - lag, t_imu, psi)
+    d = turned(lag)
     gain = float(np.dot(d, dc) / np.dot(d, d)) if np.dot(d, d) > 0.0 else math.inf
     if not GYRO_GAIN_RANGE[0] <= gain <= GYRO_GAIN_RANGE[1]:
         raise RtklibError(
