@@ -415,6 +415,22 @@ def test_report_command(report: tuple[Path, Path], tmp_path: Path) -> None:
         write_report(tmp_path / "sub")
 
 
+def test_a_comparison_of_a_newer_format_version_is_refused(
+    report: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """comparison.json written by a newer adaptnav (a higher format version) is refused by
+    name, not read with fields whose meaning this version does not know."""
+    folder, _ = report
+    copy = tmp_path / "cmp"
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("mission"))
+    doc = json.loads((copy / COMPARISON_JSON).read_text())
+    (copy / COMPARISON_JSON).write_text(json.dumps({**doc, "version": doc["version"] + 1}))
+    with pytest.raises(ReportError, match="written by a newer adaptnav"):
+        write_report(copy, tmp_path / "r.html")
+    res = runner.invoke(app, ["report", str(copy), "--out", str(tmp_path / "p.html")])
+    assert res.exit_code == 2 and "newer adaptnav" in res.output and "Traceback" not in res.output
+
+
 def _in_ci() -> bool:
     return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
 

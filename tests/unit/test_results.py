@@ -379,3 +379,34 @@ def test_ledger_rows_read_as_the_dicts_and_build_the_same_table() -> None:
     pd.testing.assert_frame_equal(pd.DataFrame(list(rows)), pd.DataFrame(dicts))
     assert rows != [*dicts[:1], *dicts[2:]] and rows[0] == dicts[0]
     pd.testing.assert_frame_equal(ledger_frame(rows), ledger_frame(dicts), check_exact=True)
+
+
+def test_load_refuses_a_newer_format_version(tmp_path: Path) -> None:
+    """A summary.json of a newer format version (a run folder from a newer adaptnav) is refused
+    by name; its own version, and a summary without one (the first folders), load."""
+    folder = save(make_result(), tmp_path / "run")
+    path = folder / "summary.json"
+    info = json.loads(path.read_text(encoding="utf-8"))
+    assert info["version"] == 1
+    load(folder)
+    del info["version"]
+    path.write_text(json.dumps(info), encoding="utf-8")
+    load(folder)
+    for bad, message in ((2, "written by a newer adaptnav"), ("1", "not a format version")):
+        path.write_text(json.dumps({**info, "version": bad}), encoding="utf-8")
+        with pytest.raises(RunFolderError, match=message):
+            load(folder)
+
+
+def test_format_problem() -> None:
+    from adaptnav.core.formats import format_problem
+
+    assert format_problem({"format": "f", "version": 3}, "f", 3) is None
+    assert format_problem({"format": "f"}, "f", 1) is None
+    assert "is not 'f'" in str(format_problem({"format": "g", "version": 1}, "f", 1))
+    for version in (0, -1, True, 1.0, None, "2"):
+        problem = format_problem({"format": "f", "version": version}, "f", 3)
+        assert "not a format version" in str(problem)
+    assert "version 4 was written by a newer adaptnav" in str(
+        format_problem({"format": "f", "version": 4}, "f", 3)
+    )

@@ -48,6 +48,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from adaptnav.core.formats import format_problem
 from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput, LedgerRows
 from adaptnav.mission.tables import write_parquet as write_parquet  # the one Parquet writer
 from adaptnav.models.errorstate import N_STATES, STATE_NAMES
@@ -570,8 +571,9 @@ def load(run_dir: str | Path) -> Result:
         raise RunFolderError(f"{path}: not readable JSON ({exc})") from exc
     if not isinstance(info, dict):
         raise RunFolderError(f"{path}: expected a JSON object")
-    if info.get("format", FORMAT_NAME) != FORMAT_NAME:
-        raise RunFolderError(f"{path}: format {info.get('format')!r} is not {FORMAT_NAME!r}")
+    problem = format_problem({"format": FORMAT_NAME, **info}, FORMAT_NAME, FORMAT_VERSION)
+    if problem:
+        raise RunFolderError(f"{path}: {problem}")
     missing_keys = [k for k in ("filter", "mission", "meta") if k not in info]
     if missing_keys:
         raise RunFolderError(f"{path}: missing keys {missing_keys}")

@@ -47,6 +47,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from adaptnav.core.formats import format_problem
 from adaptnav.mission import MissionConfig, load_config
 from adaptnav.mission.loader import CONFIG_NAME
 from adaptnav.mission.tables import table_format, write_table
@@ -228,8 +229,9 @@ def read_faults(folder: str | Path) -> FaultLog:
     """The :class:`FaultLog` of a faulted mission folder (its ``faults.json``)."""
     path = Path(folder) / FAULTS_FILE
     doc = json.loads(path.read_text(encoding="utf-8"))
-    if doc.get("format") != FORMAT_NAME:
-        raise ValueError(f"{path}: not a {FORMAT_NAME} file")
+    problem = format_problem(doc, FORMAT_NAME, FORMAT_VERSION)
+    if problem:
+        raise ValueError(f"{path}: {problem}")
     p = dict(doc["params"])
     p["dvl_spike_range_m_s"] = tuple(p["dvl_spike_range_m_s"])
     faults = tuple(

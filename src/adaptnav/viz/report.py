@@ -63,11 +63,13 @@ from adaptnav.analysis.compare import (
     COMPARISON_JSON,
     FILTER_LABELS,
     FORMAT_NAME,
+    FORMAT_VERSION,
     NEES_BAND_TEXT,
     PAPER_TABLE3,
     SIMULATION_FILE,
 )
 from adaptnav.api.results import CALIBRATION_FILE
+from adaptnav.core.formats import format_problem
 from adaptnav.mission import MissionConfig, MissionError, load_config
 from adaptnav.viz.series import MAX_POINTS
 
@@ -1008,8 +1010,11 @@ def _comparison(folder: Path) -> dict[str, Any]:
     if not folder.is_dir():
         raise ReportError(f"comparison folder {folder} does not exist")
     doc = _read_json(folder / COMPARISON_JSON)
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT_NAME:
+    if not isinstance(doc, dict):
         raise ReportError(f"{folder / COMPARISON_JSON}: not an {FORMAT_NAME} file")
+    problem = format_problem(doc, FORMAT_NAME, FORMAT_VERSION)
+    if problem:
+        raise ReportError(f"{folder / COMPARISON_JSON}: {problem}")
     return doc
 
 

@@ -1,0 +1,27 @@
+"""The versioned JSON documents adaptnav writes (a run's ``summary.json``, a comparison's
+``comparison.json``, a faulted mission's ``faults.json``): each names its format and carries
+an integer version, raised when a change would make an older reader misread the document.
+A reader takes its own version and older ones, and refuses a newer one by name rather than
+reading fields whose meaning it does not know (docs/robustness.md, 'Run folders')."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+
+def format_problem(doc: Mapping[str, Any], name: str, newest: int) -> str | None:
+    """What is wrong with ``doc``'s ``format`` / ``version`` for a reader of format ``name``
+    that knows versions up to ``newest``, or None. A document without a version is taken as
+    version 1 (the first documents had none)."""
+    if doc.get("format") != name:
+        return f"format {doc.get('format')!r} is not {name!r}"
+    version = doc.get("version", 1)
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        return f"version {version!r} is not a format version (a whole number from 1)"
+    if version > newest:
+        return (
+            f"{name} version {version} was written by a newer adaptnav; this one reads "
+            f"versions up to {newest}: upgrade adaptnav to read it"
+        )
+    return None
