@@ -670,6 +670,28 @@ def test_evaluate_with_a_bad_reference_is_a_clear_error(mission: Path, tmp_path:
     assert "truth.parquet: truth lacks columns" in line
 
 
+def test_evaluate_warns_when_the_reference_covers_part_of_the_run(
+    mission: Path, tmp_path: Path
+) -> None:
+    """A reference that stops a third of the way through the run scores that third only, and
+    evaluate says so (text and --json); the whole reference gives no such warning."""
+    out = tmp_path / "run"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    whole = json.loads(cli("evaluate", out, "--json").stdout)
+    assert whole["reference_coverage"] > 0.99 and not any(
+        "reference covers" in w for w in whole["warnings"]
+    )
+    truth = pd.read_parquet(out / "truth.parquet")
+    t_run = pd.read_parquet(out / "solution.parquet")["t_s"].to_numpy()
+    truth[truth["t_s"] <= t_run[0] + (t_run[-1] - t_run[0]) / 3].to_parquet(out / "truth.parquet")
+    part = json.loads(cli("evaluate", out, "--json").stdout)
+    assert 0.25 < part["reference_coverage"] < 0.4
+    assert part["run_duration_s"] == pytest.approx(whole["run_duration_s"])
+    assert any("reference covers" in w for w in part["warnings"])
+    res = cli("evaluate", out)
+    assert res.exit_code == 0 and "warning: the reference covers" in res.stderr
+
+
 def test_the_oracle_on_a_mission_without_simulated_truth(mission: Path, tmp_path: Path) -> None:
     columns = {
         "dvl": ["vx_m_s", "vy_m_s", "vz_m_s"],

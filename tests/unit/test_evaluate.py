@@ -432,6 +432,28 @@ def test_evaluate_needs_overlap() -> None:
         position_errors(sol, truth.drop(columns="h_m"))
 
 
+def test_evaluate_says_how_much_of_the_run_the_reference_covers() -> None:
+    """A 1000-s run scored against a reference of its first 400 s covers 0.4 of it (and the
+    metrics say so, with a warning); a reference with a 300-s hole covers 0.7; a whole one 1,
+    and so does one with a 0.5-s hiccup at 1 Hz... which is no hole (steps ≤ 10 × the median)."""
+    truth = straight_north()
+    sol = offset_solution(truth, np.array([0.0, 3.0, 0.0]))
+    whole = evaluate(make_result(sol, []), truth)
+    assert whole.run_duration_s == 1000.0 and whole.reference_coverage == pytest.approx(1.0)
+    assert evaluate_module.coverage_warning(whole) is None
+    first = evaluate(make_result(sol, []), truth.iloc[:401])
+    assert first.duration_s == 400.0 and first.run_duration_s == 1000.0
+    assert first.reference_coverage == pytest.approx(0.4)
+    warning = evaluate_module.coverage_warning(first)
+    assert warning is not None and "covers 40.0 % of the run's 1000.0 s" in warning
+    holed = truth[(truth["t_s"] <= 300.0) | (truth["t_s"] >= 600.0)]
+    assert evaluate(make_result(sol, []), holed).reference_coverage == pytest.approx(0.7)
+    t_ref = np.r_[np.arange(0.0, 500.0), 500.5, np.arange(501.0, 1001.0)]
+    assert evaluate_module.reference_coverage(t_ref, np.array([0.0, 1000.0])) == 1.0
+    assert evaluate_module.reference_coverage(np.array([5.0]), np.array([0.0, 10.0])) == 0.0
+    assert evaluate_module.reference_coverage(np.array([5.0]), np.array([5.0])) == 1.0
+
+
 def test_outage_drift_scores_the_end_of_each_window() -> None:
     """A solution whose east error is ½ a (t - 100)² inside (100, 130] and zero elsewhere: the
     drift at the window's end is ½ a 30², its maximum the same, the distance 30 m (1 m/s)."""

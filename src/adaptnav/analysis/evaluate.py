@@ -64,6 +64,13 @@ TRUTH_VELOCITY = ("vn_m_s", "ve_m_s", "vd_m_s")
 TRUTH_ATTITUDE = ("roll_rad", "pitch_rad", "yaw_rad")
 POSITION_SD = ("sd_dr_N", "sd_dr_E", "sd_dr_D")
 NIS_CONFIDENCE = 0.95
+COVERAGE_GAP = 10.0
+"""A step between reference samples longer than this many times their median step is a hole
+in the reference (:func:`reference_coverage`)."""
+COVERAGE_MIN_GAP_S = 1.0
+"""...and at least this long: a 100-Hz reference with a 0.5-s hiccup still covers the run."""
+COVERAGE_WARN = 0.95
+"""``evaluate`` warns when the reference covers less of the run than this share."""
 """Two-sided probability of the NIS bounds."""
 NeesBlock = Literal["position", "velocity", "attitude"]
 NEES_BLOCKS: tuple[NeesBlock, ...] = get_args(NeesBlock)
@@ -555,8 +562,10 @@ class Metrics:
 
     Position metrics cover the truth samples inside the solution span: ``duration_s`` and
     ``distance_m`` are that span's and the horizontal length of that stretch of the
-    reference. ``mean_nees_<block>`` is the mean NEES of the position, velocity and attitude
-    errors (expected 3 for a consistent filter; NaN when the truth lacks the block) and
+    reference. ``run_duration_s`` is the solution's own span and ``reference_coverage`` the
+    share of it the reference covers (:func:`reference_coverage`): below 1 the metrics score
+    only part of the run. ``mean_nees_<block>`` is the mean NEES of the position, velocity
+    and attitude errors (expected 3 for a consistent filter; NaN when the truth lacks the block) and
     ``nees_<block>_in_95`` the fraction of epochs whose NEES lies in :data:`NEES_BAND`
     (expected 0.95). ``nees_uses_correlations`` is False when the solution has no covariance
     columns (an older run folder): the NEES then use P's diagonal only.
@@ -573,6 +582,8 @@ class Metrics:
     distance_m: float
     duration_s: float
     samples: int
+    run_duration_s: float
+    reference_coverage: float
     mean_nees_position: float
     mean_nees_velocity: float
     mean_nees_attitude: float
@@ -608,7 +619,8 @@ def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
             f"no truth sample within the solution span of {result.filter!r} on {result.mission!r}"
         )
     t_truth = _check_truth(truth)
-    inside = truth[_in_span(t_truth, _solution_time(result.solution))]
+    t_sol = _solution_time(result.solution)
+    inside = truth[_in_span(t_truth, t_sol)]
     r = rmse(errors)
     distance = travelled_distance(inside)
     t = _column(errors, "t_s")
@@ -633,6 +645,8 @@ def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
         distance_m=distance,
         duration_s=float(t[-1] - t[0]),
         samples=int(t.size),
+        run_duration_s=float(t_sol[-1] - t_sol[0]),
+        reference_coverage=reference_coverage(t, t_sol),
         mean_nees_position=consistency["position"][0],
         mean_nees_velocity=consistency["velocity"][0],
         mean_nees_attitude=consistency["attitude"][0],
@@ -644,6 +658,36 @@ def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
         counts=ledger_counts(result.ledger),
         mean_nis={k: v.mean for k, v in nis.items()},
         nis=nis,
+    )
+
+
+def reference_coverage(t_ref: Array, t_sol: Array) -> float:
+    """The share of the solution's span ``[t_sol[0], t_sol[-1]]`` that the reference samples
+    ``t_ref`` (inside that span, increasing) cover (docs/metrics.md, 'What is scored'): the sum
+    of the steps between consecutive samples no longer than :data:`COVERAGE_GAP` times their
+    median step (at least :data:`COVERAGE_MIN_GAP_S`), over the span. 1 for a reference
+    sampled over the whole run; a reference that starts late, ends early or has a hole scores
+    only part of the run, and ``evaluate`` says so. A one-epoch solution: 1 if a sample is
+    at its time."""
+    span = float(t_sol[-1] - t_sol[0])
+    if span <= 0.0:
+        return 1.0 if t_ref.size else 0.0
+    steps = np.diff(t_ref)
+    if steps.size == 0:
+        return 0.0
+    longest = max(COVERAGE_MIN_GAP_S, COVERAGE_GAP * float(np.median(steps)))
+    return min(1.0, float(steps[steps <= longest].sum()) / span)
+
+
+def coverage_warning(metrics: Metrics) -> str | None:
+    """The warning ``evaluate`` gives when the reference covers less than
+    :data:`COVERAGE_WARN` of the run, or None."""
+    if not metrics.reference_coverage < COVERAGE_WARN:
+        return None
+    return (
+        f"the reference covers {100.0 * metrics.reference_coverage:.1f} % of the run's "
+        f"{metrics.run_duration_s:.1f} s (samples over {metrics.duration_s:.1f} s): the metrics "
+        "score that part only"
     )
 
 

@@ -19,6 +19,7 @@ from adaptnav.cli._app import (
     freeze_heap,
     output,
     run_progress,
+    warn,
     warn_compared,
     warn_sensors,
 )
@@ -235,6 +236,7 @@ def evaluate_cmd(
             _fail(f"{run_dir if str(exc).startswith('solution ') else source}: {exc}")
         cal = _calibration_errors(result, mission)
     d = metrics.to_dict()
+    coverage = evaluate.coverage_warning(metrics)
     if as_json:
         import json
 
@@ -242,6 +244,7 @@ def evaluate_cmd(
         if cal:
             extra["calibration"] = cal
         extra["warnings"] = [w["message"] for w in result.meta.get("warnings", [])]
+        extra["warnings"] += [coverage] if coverage else []
         typer.echo(json.dumps({"filter": result.filter, **d, **jsonable(extra)}, default=str))
         return
     console.print(_metrics_table(result, metrics, d, forward))
@@ -249,6 +252,8 @@ def evaluate_cmd(
     if cal:
         console.print(_calibration_errors_table(cal))
     warn_sensors(result.meta)
+    if coverage:
+        warn(coverage)
 
 
 def _calibration_errors(result: Result, mission: Path | None) -> dict[str, dict[str, Any]]:
@@ -341,6 +346,7 @@ def _metrics_table(
         ("max_horizontal_error_m", "max horizontal error (m)", "{:.3f}"),
         ("distance_m", "horizontal distance travelled (m)", "{:.1f}"),
         ("duration_s", "duration (s)", "{:.1f}"),
+        ("reference_coverage", "share of the run the reference covers", "{:.3f}"),
         *(
             row
             for block in evaluate.NEES_BLOCKS
