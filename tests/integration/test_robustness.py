@@ -692,6 +692,44 @@ def test_evaluate_warns_when_the_reference_covers_part_of_the_run(
     assert res.exit_code == 0 and "warning: the reference covers" in res.stderr
 
 
+def test_a_sensor_much_of_which_lies_outside_the_imus_time_is_warned_of(
+    mission: Path, tmp_path: Path
+) -> None:
+    """An IMU log that stopped half-way leaves half the DVL after its last sample: each such
+    reading has its ledger row, and the run now warns of them too; readings stamped before the
+    IMU's first sample have a reason of their own (not 'alignment'). The whole mission gives no
+    such warning."""
+    out = tmp_path / "whole"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert not [w for w in summary["meta"]["warnings"] if w.get("kind") == "outside_imu"]
+    imu = badinput.read(mission, "imu")
+    t = imu["t_s"].to_numpy()
+    cut = t[0] + 0.75 * (t[-1] - t[0])
+    badinput.write(mission, "imu", imu[t <= cut])
+    dvl = badinput.read(mission, "dvl")
+    early = dvl.iloc[:6].copy()
+    early["t_s"] = t[0] - 1.0 - 0.1 * np.arange(6)[::-1]
+    badinput.write(mission, "dvl", pd.concat([early, dvl], ignore_index=True))
+    out = tmp_path / "cut"
+    res = cli("run", mission, "--out", out)
+    assert (
+        res.exit_code == 0
+        and "warning: dvl:" in res.stderr
+        and "outside the IMU's time" in res.stderr
+    )
+    summary = json.loads((out / "summary.json").read_text())
+    found = {w["sensor"]: w for w in summary["meta"]["warnings"] if w.get("kind") == "outside_imu"}
+    assert set(found) == {"dvl", "depth", "inclinometer"}  # the IMU stopped under them all
+    w = found["dvl"]
+    n_after = int((dvl["t_s"] > t[t <= cut][-1]).sum())
+    assert (w["sensor"], w["before"], w["after"]) == ("dvl", 6, n_after)
+    assert w["readings"] == len(dvl) + 6
+    ledger = pd.read_parquet(out / "ledger.parquet")
+    rows = ledger[(ledger["sensor"] == "dvl") & (ledger["reason"] == "before the first IMU sample")]
+    assert sorted(rows["row"]) == list(range(6))
+
+
 def test_the_oracle_on_a_mission_without_simulated_truth(mission: Path, tmp_path: Path) -> None:
     columns = {
         "dvl": ["vx_m_s", "vy_m_s", "vz_m_s"],

@@ -37,6 +37,12 @@ flagged when some F ≥ :data:`CORRELATED_FACTOR` over at least :data:`CORRELATE
 readings: the filter then counts the readings as more independent than they are and its σ is
 too small, by up to √F.
 
+A third warning is about time, not disagreement: a sensor with more than
+:data:`OUTSIDE_SHARE` of its readings (and at least :data:`OUTSIDE_READINGS`) stamped before the
+IMU's first sample or after its last. Each such reading has its ledger row, but half a DVL lost
+after the IMU's log stopped, or a sensor on another clock, is not what a user expects a run to
+have done quietly.
+
 The warnings go into the run's ``meta.warnings`` (``summary.json``), the command line prints
 them after the run and with ``evaluate``, and the report shows them. The thresholds and what
 they separate on the simulated trials, the real data and the faulty sensors:
@@ -55,7 +61,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.api.results import Result
-from adaptnav.engine.batch import SensorChannel, nominal_R
+from adaptnav.engine.batch import AFTER_IMU_REASON, BEFORE_IMU_REASON, SensorChannel, nominal_R
 from adaptnav.estimation.long_run import variance_factor
 from adaptnav.estimation.noise.matching import CovarianceMatching
 from adaptnav.estimation.noise.vb import VariationalBayes
@@ -75,6 +81,16 @@ to tenfold for minutes (docs/simulation.md), which an adaptive R̂ follows: 100 
 DISAGREEING = frozenset({"gate component", "gate chi2", "guard chi2 (nominal R)"})
 """Ledger reasons of a rejection that says the reading disagreed with the prediction (not, e.g.,
 a covariance repair)."""
+OUTSIDE_SHARE = 0.05
+"""A sensor with more than this share of its readings stamped outside the IMU's time is
+flagged (:func:`outside_imu`)..."""
+OUTSIDE_READINGS = 5
+"""...when they are at least this many: a reading or two either side of the IMU is the usual
+difference between two loggers' start and stop."""
+OUTSIDE_HINT = (
+    "a log cut short, or the sensor's clock on another origin or offset than the IMU's "
+    "(docs/robustness.md, 'The ledger')"
+)
 CORRELATED_FACTOR = 2.5
 """Long-run variance factor of a component's innovations at or above which the sensor is
 flagged as correlated (docs/robustness.md, 'Correlated readings': 0.9-1.2 for the adaptive
@@ -240,6 +256,46 @@ def correlated(ledger: pd.DataFrame, channels: Sequence[SensorChannel]) -> list[
     return out
 
 
+@dataclass(frozen=True)
+class OutsideImuWarning:
+    """One sensor with many readings stamped outside the IMU's time (module docstring)."""
+
+    sensor: str
+    readings: int
+    """Its readings in the ledger (every fate)."""
+    before: int
+    """Of these, stamped before the IMU's first sample."""
+    after: int
+    """Of these, stamped after the IMU's last sample."""
+    message: str
+    kind: str = "outside_imu"
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def outside_imu(ledger: pd.DataFrame) -> list[OutsideImuWarning]:
+    """The sensors of the run's ``ledger`` (sorted) of whose readings more than
+    :data:`OUTSIDE_SHARE`, and at least :data:`OUTSIDE_READINGS`, are stamped before the IMU's
+    first sample or after its last: the ledger has them as dropped, but a log cut short or a
+    clock on another origin loses a share of the sensor that deserves more than a ledger row."""
+    out = []
+    for name, rows in ledger.groupby("sensor", sort=True):
+        reason = rows["reason"]
+        before = int((reason == BEFORE_IMU_REASON).sum())
+        after = int((reason == AFTER_IMU_REASON).sum())
+        n = len(rows)
+        if before + after < OUTSIDE_READINGS or before + after <= OUTSIDE_SHARE * n:
+            continue
+        message = (
+            f"{name}: {before + after} of its {n} readings ({100 * (before + after) / n:.0f} %) "
+            f"are stamped outside the IMU's time ({before} before its first sample, {after} "
+            f"after its last) and were not used: {OUTSIDE_HINT}"
+        )
+        out.append(OutsideImuWarning(str(name), n, before, after, message))
+    return out
+
+
 def channel_ceiling(channel: SensorChannel) -> float:
     """The ceiling of a channel's R̂ as a factor of its nominal variance (inf: none, or a
     fixed R)."""
@@ -264,4 +320,5 @@ def with_warnings(result: Result, channels: Sequence[SensorChannel]) -> Result:
     others = [c for c in channels if c.name not in at_odds]
     warnings = [w.as_dict() for w in found]
     warnings += [w.as_dict() for w in correlated(result.ledger, others)]
+    warnings += [w.as_dict() for w in outside_imu(result.ledger)]
     return replace(result, meta={**result.meta, "warnings": warnings})

@@ -657,8 +657,11 @@ def _feed(
             why = INIT_REASON if scfg.use == "init" else OFF_REASON
             extra.append(dropped_ledger(name, data.rows, data.t, why))
             continue
-        before = data.t <= t0
-        extra.append(dropped_ledger(name, data.rows[before], data.t[before], BEFORE_START_REASON))
+        early = data.t < m.imu.start
+        before = (data.t <= t0) & ~early
+        for mask, why in ((early, engine.BEFORE_IMU_REASON), (before, BEFORE_START_REASON)):
+            extra.append(dropped_ledger(name, data.rows[mask], data.t[mask], why))
+        before |= early
         keep = ~before
         if name in known:
             out = keep & known[name].outlier

@@ -164,6 +164,13 @@ class LedgerRows(Sequence[dict[str, Any]]):
     __hash__ = None  # type: ignore[assignment]  # equal to a list: not hashable either
 
 
+AFTER_IMU_REASON = "after the last IMU sample"
+"""Ledger reason of a reading stamped after the IMU's last sample (the engine drops it)."""
+BEFORE_IMU_REASON = "before the first IMU sample"
+"""Ledger reason of a reading stamped before the IMU's first interval starts (dropped before
+the engine; docs/robustness.md, 'The ledger')."""
+OUTSIDE_IMU_REASONS = frozenset({AFTER_IMU_REASON, BEFORE_IMU_REASON})
+
 _FATES: dict[int, tuple[str, str]] = {
     uk.LEDGER_USED: ("used", ""),
     uk.LEDGER_REJECTED_COMPONENT: ("rejected", "gate component"),
@@ -171,7 +178,7 @@ _FATES: dict[int, tuple[str, str]] = {
     uk.LEDGER_DUPLICATE: ("dropped", "duplicate: sensor already at this epoch"),
     uk.LEDGER_INVALID: ("dropped", "invalid reading (non-finite)"),
     uk.LEDGER_LATE: ("dropped", "late: stamped before the current time"),
-    uk.LEDGER_AFTER_IMU: ("dropped", "after the last IMU sample"),
+    uk.LEDGER_AFTER_IMU: ("dropped", AFTER_IMU_REASON),
     uk.LEDGER_REJECTED_GUARD: ("rejected", "guard chi2 (nominal R)"),
     uk.LEDGER_REJECTED_SINGULAR: ("rejected", "S not positive definite: P repaired"),
 }
