@@ -152,6 +152,31 @@ def test_a_dvl_that_never_moves_is_refused(mission: Mission) -> None:
         fit_dvl(dataclasses.replace(mission, truth=still, imu=imu))
 
 
+def test_too_few_readings_or_a_vehicle_at_rest_under_noise_are_refused(mission: Mission) -> None:
+    """Two readings fit the four numbers almost exactly and their scatter says nothing of the
+    σ: it came out as a roll of -36.7 ± 0.2° on the tiny mission. Readings at rest with a
+    reference that is noise about zero (not exactly zero: the condition number then passes)
+    gave a scale of 67 ± 54 %. Both are refused, naming the cause."""
+    assert mission.truth is not None
+    dvl = mission.sensors["dvl"]
+    pick = np.array([100, 140])
+    two = dataclasses.replace(dvl, t=dvl.t[pick], z=dvl.z[pick], rows=dvl.rows[pick])
+    with pytest.raises(ValueError, match=r"2 reading.* the fit needs at least 30"):
+        fit_dvl(dataclasses.replace(mission, sensors={**mission.sensors, "dvl": two}))
+    rng = np.random.default_rng(3)
+    still = mission.truth.copy()
+    v = ["vn_m_s", "ve_m_s", "vd_m_s"]
+    still[v] = 0.002 * rng.standard_normal((len(still), 3))
+    imu = dataclasses.replace(mission.imu, dtheta=np.zeros_like(mission.imu.dtheta))
+    at_rest = dataclasses.replace(dvl, z=0.002 * rng.standard_normal(dvl.z.shape))
+    with pytest.raises(ValueError, match="do not observe its calibration"):
+        fit_dvl(
+            dataclasses.replace(
+                mission, truth=still, imu=imu, sensors={**mission.sensors, "dvl": at_rest}
+            )
+        )
+
+
 def test_cli_prints_the_fit_and_refuses_a_bad_source(folder: Path) -> None:
     res = runner.invoke(app, ["fit-dvl", str(folder), "--json", "-q"])
     assert res.exit_code == 0, res.output

@@ -81,6 +81,14 @@ OUTLIER_SIGMAS = 5.0
 """A reading with an axis this many robust σ off the fit is excluded from it."""
 MAX_RHO = long_run.MAX_RHO
 """Largest lag-1 correlation the covariance's bandwidth and prewhitening take."""
+MIN_READINGS = 30
+"""Fewest readings the fit keeps: its σ is estimated from the readings' own scatter (module
+docstring), which a handful of readings cannot give (two readings fit four numbers almost
+exactly, and their scatter says nothing)."""
+MAX_SIGMA = {"scale": 0.10, "angle": math.radians(10.0)}
+"""Largest σ of the scale (a ratio) and of a misalignment angle (rad) a fit may have: beyond,
+the readings do not observe the quantity (a DVL at rest, a straight line), and its estimate is
+not a calibration but noise, however it is printed."""
 MAX_CONDITION = 1e10
 """Above this condition number of ``Jᵀ W J`` the readings do not observe the four numbers."""
 NAMES = (*SCALE.states, *MISALIGNMENT.states)
@@ -125,7 +133,13 @@ def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "veloc
     name = dvl_sensor(mission, sensor, "fit_dvl")
     t, z, h = _predicted(mission, name, source)
     nominal = np.broadcast_to(mission.config.sensors[name].sigma_si(), (3,))
+    if t.size < MIN_READINGS:
+        raise ValueError(
+            f"fit_dvl: {t.size} reading(s) of {name!r} inside the reference; the fit needs at "
+            f"least {MIN_READINGS} to estimate the calibration and its σ"
+        )
     fit = fit_readings(z, h, np.asarray(nominal, dtype=float))
+    _check_observed(fit, name)
     factors = (SCALE.factor, *(MISALIGNMENT.factor,) * 3)
     rms = np.sqrt(np.mean(fit.residuals**2, axis=0))
     return DvlFit(
@@ -142,6 +156,33 @@ def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "veloc
         fit.rho,
         fit.bandwidth,
     )
+
+
+def _check_observed(fit: ReadingsFit, name: str) -> None:
+    """ValueError naming the quantities whose σ exceeds :data:`MAX_SIGMA`, or when the fit
+    kept fewer than :data:`MIN_READINGS` readings."""
+    kept = int(fit.keep.sum())
+    if kept < MIN_READINGS:
+        raise ValueError(
+            f"fit_dvl: only {kept} of the readings of {name!r} agree with the others to within "
+            f"{OUTLIER_SIGMAS:g} σ; the fit needs at least {MIN_READINGS}"
+        )
+    sigma = np.sqrt(np.diag(fit.cov))
+    limits = (MAX_SIGMA["scale"], *(MAX_SIGMA["angle"],) * 3)
+    factors = (SCALE.factor, *(MISALIGNMENT.factor,) * 3)
+    units = ("%", "°", "°", "°")
+    poor = [
+        f"{k} ± {v * f:.3g} {u}"
+        for k, v, lim, f, u in zip(NAMES, sigma, limits, factors, units, strict=True)
+        if not v <= lim
+    ]
+    if poor:
+        raise ValueError(
+            f"fit_dvl: the readings of {name!r} do not observe its calibration ({', '.join(poor)}; "
+            f"a fit is reported up to σ {100 * MAX_SIGMA['scale']:g} % and "
+            f"{math.degrees(MAX_SIGMA['angle']):g}°): the vehicle at rest, or too little "
+            "speed or turning under way, over the reference's span"
+        )
 
 
 @dataclass(frozen=True)
