@@ -386,3 +386,32 @@ def test_figures_do_not_modify_the_mission_tables(saved: tuple[Comparison, Path]
     figs = plots.comparison_figures(dataclasses.replace(cmp, mission=mission))
     assert "noise_dvl" in figs
     pd.testing.assert_frame_equal(mission.tables["dvl"], before)
+
+
+def test_figures_of_a_mission_without_aiding_or_with_one_reading(
+    mission: Path, tmp_path: Path
+) -> None:
+    """A pure-INS comparison (every aiding sensor off) draws no ledger figure, which had three
+    empty panels; a sensor with one reading after the navigation start is drawn as a point,
+    where a line through one point left its panels blank."""
+    from helpers import badinput
+
+    toml = mission / "mission.toml"
+    aided = toml.read_text()
+    toml.write_text(aided.replace('use = "aid"', 'use = "off"'))
+    out = tmp_path / "ins"
+    res = runner.invoke(app, ["compare", str(mission), "-f", "vb", "--out", str(out), "-q"])
+    assert res.exit_code == 0, res.output
+    assert json.loads((out / "comparison.json").read_text())["figures"] == [
+        "figures/trajectory.png",
+        "figures/position_error.png",
+    ]
+    toml.write_text(aided)
+    depth = badinput.read(mission, "depth")
+    badinput.write(mission, "depth", depth[(depth["t_s"] < 20.0) | (depth.index == 57)])
+    cmp = compare(mission, filters=("vb",))
+    makers = plots.figure_makers(cmp)
+    for stem in ("noise_depth", "nis"):
+        fig = makers[stem]()
+        lone = [ln for ax in fig.axes for ln in ax.get_lines() if np.size(ln.get_xdata()) == 1]
+        assert lone and all(ln.get_marker() == "o" for ln in lone), stem

@@ -92,12 +92,14 @@ class _Legend:
     def line(
         self, t: Array, y: Array, where: tuple[int, int], group: str, name: str, **style: Any
     ) -> None:
-        """Add the series ``y(t)`` (t in s) to the panel ``where`` = (row, col)."""
+        """Add the series ``y(t)`` (t in s) to the panel ``where`` = (row, col); a series of
+        one point gets a marker, as a line through one point is not drawn."""
+        mode = style.pop("mode", "lines")
         self.fig.add_trace(
             go.Scatter(
                 x=minutes(t, self.start).astype(np.float32),
                 y=np.asarray(y, dtype=np.float32),
-                mode=style.pop("mode", "lines"),
+                mode=mode + "+markers" if mode == "lines" and np.size(t) == 1 else mode,
                 name=name,
                 legendgroup=group,
                 showlegend=group not in self.shown,

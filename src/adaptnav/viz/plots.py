@@ -553,6 +553,21 @@ def calibration(
     return fig
 
 
+def lone_points_marked(figure: Figure) -> Figure:
+    """``figure`` with a marker on every line of one point, which matplotlib does not draw
+    (a sensor with one reading after the navigation start left its panels blank)."""
+    for ax in figure.axes:
+        for line in ax.get_lines():
+            if np.size(line.get_xdata()) == 1 and line.get_marker() in ("None", "", None):
+                line.set_marker("o")
+                line.set_markersize(4.0)
+    return figure
+
+
+def _marked(make: Callable[[], Figure]) -> Figure:
+    return lone_points_marked(make())
+
+
 def comparison_figures(cmp: Comparison) -> dict[str, Figure]:
     """Every figure of a comparison, keyed by file stem: ``trajectory``, ``position_error``,
     ``noise_<sensor>`` per aided sensor, ``ledger_counts``, ``nis`` and, when some run
@@ -575,7 +590,8 @@ def figure_makers(cmp: Comparison) -> dict[str, Callable[[], Figure]]:
     }
     for sensor in aided_sensors(cmp.mission):
         makers[f"noise_{sensor}"] = partial(noise_variance, cmp.results, cmp.mission, sensor, t0=t0)
-    if any(not r.ledger.empty for r in cmp.results.values()):
+    # A ledger of readings all dropped before navigation (sensors off, alignment) has no bar.
+    if any(r.ledger["fate"].isin(("used", "rejected")).any() for r in cmp.results.values()):
         makers["ledger_counts"] = partial(ledger_counts, cmp.results, cmp.metrics, t0=t0)
     if any((r.ledger["fate"] == "used").any() for r in cmp.results.values()):
         makers["nis"] = partial(nis, cmp.results, t0=t0)
@@ -583,4 +599,4 @@ def figure_makers(cmp: Comparison) -> dict[str, Callable[[], Figure]]:
         units = cal.units(cmp.mission.config)
         truth = cal.true_values(cmp.mission.config, simulation_info(cmp.mission.root))
         makers["calibration"] = partial(calibration, cmp.results, units, truth, t0=t0)
-    return makers
+    return {stem: partial(_marked, make) for stem, make in makers.items()}
