@@ -334,6 +334,37 @@ def test_out_of_order_repeated_and_unset_stamps_are_repaired(tmp_path: Path) -> 
     assert m.sensors["gnss"].t.size == 9
 
 
+def test_an_imu_clock_that_steps_back_is_an_error_not_a_sort(tmp_path: Path) -> None:
+    """IMU stamps that step back 0.29 s (29 periods) and go on from there are a clock step:
+    sorting interleaved two stretches of the IMU (each increment over a wrong interval) and
+    logged it as a sort. It is an error naming the message and --log-time; a swap of two
+    neighbours is still sorted, and its repair says how far the stamps stepped back."""
+    ts = [0.01 * k for k in range(1, 201)]
+    stepped = [t - 0.3 if k >= 100 else t for k, t in enumerate(ts)]
+    imu = [(0.01 * (k + 1) + 0.001, _level_imu(t, yaw_rate=0.1)) for k, t in enumerate(stepped)]
+    bag = rw.write_bag(tmp_path / "bag", {"/imu": ("sensor_msgs/msg/Imu", imu)})
+    with pytest.raises(RosbagError, match=r"step back 0\.29 s .* at message 100.*--log-time /imu"):
+        import_bag(bag, tmp_path / "m", topics={})
+    res = CliRunner().invoke(app, ["import", "rosbag", str(bag), "--out", str(tmp_path / "c")])
+    assert res.exit_code == 2 and "Traceback" not in res.output, res.output
+    swapped = [*ts[:10], ts[11], ts[10], *ts[12:]]
+    imu = [(0.01 * (k + 1) + 0.001, _level_imu(t, yaw_rate=0.1)) for k, t in enumerate(swapped)]
+    fix = rw.T["sensor_msgs/msg/NavSatFix"]
+    status = rw.T["sensor_msgs/msg/NavSatStatus"](0, 1)
+    fixes = [
+        (t, fix(rw.header(t, "gps"), status, 26.8, 56.0, 0.0, rw.diag(3, [1.0] * 3), 2))
+        for t in ts[::10]
+    ]
+    bag = rw.write_bag(
+        tmp_path / "bag2",
+        {"/imu": ("sensor_msgs/msg/Imu", imu), "/fix": ("sensor_msgs/msg/NavSatFix", fixes)},
+    )
+    out = import_bag(bag, tmp_path / "m2", topics={"gnss": "/fix"})
+    (r,) = json.loads((out / "import.json").read_text())["repairs"]
+    assert r["action"] == "sorted by header stamp"
+    assert "largest step back 0.01 s at message 11 (1.00 sampling periods)" in r["detail"]
+
+
 FAR = "stamp far from the topic's clock: left out"
 
 

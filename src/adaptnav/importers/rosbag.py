@@ -331,9 +331,10 @@ def _order(
     late = np.flatnonzero(np.diff(ti) < 0)
     order = index[np.argsort(ti, kind="stable")]
     if late.size:
+        back = _step_back(topic, ti, index, imu=drop_repeats)
         detail = (
             f"{late.size} messages stamped before their predecessor, the first at "
-            f"message {int(index[late[0] + 1])}"
+            f"message {int(index[late[0] + 1])}; {back}"
         )
         repairs.append(Repair(topic, None, "header.stamp", "sorted by header stamp", detail))
     if drop_repeats:
@@ -345,6 +346,35 @@ def _order(
             )
             order = np.delete(order, repeat)
     return order, repairs
+
+
+IMU_STEP_BACK_PERIODS = 2.0
+"""Largest step back of an IMU's stamps, in its median sampling periods, that sorting
+repairs: beyond, its clock stepped (two stretches of the IMU would be interleaved, each
+increment over a wrong interval), an error (:func:`_step_back`)."""
+
+
+def _step_back(topic: str, ti: NDArray[np.int64], index: NDArray[np.int64], imu: bool) -> str:
+    """How far the stamps ``ti`` (ns, bag order) step back at most, as the repair's detail
+    says it; for the IMU a step back beyond :data:`IMU_STEP_BACK_PERIODS` of its median
+    period is a :class:`RosbagError` naming the message."""
+    steps = np.diff(ti).astype(np.float64) / NS
+    k = int(np.argmin(steps))
+    forward = steps[steps > 0]
+    period = float(np.median(forward)) if forward.size else math.nan
+    said = f"the largest step back {-steps[k]:.6g} s at message {int(index[k + 1])}"
+    if not imu:
+        return said
+    if not -steps[k] <= IMU_STEP_BACK_PERIODS * period:
+        raise RosbagError(
+            f"{topic}: the IMU's header stamps step back {-steps[k]:.6g} s "
+            f"({-steps[k] / period:.1f} sampling periods of {period:.6g} s) at message "
+            f"{int(index[k + 1])}: its clock stepped, and sorting would interleave two "
+            "stretches of the IMU; time it by the bag's log time (--log-time "
+            f"{topic}) or fix the stamps (docs/rosbag.md, 'Clocks')",
+            field=topic,
+        )
+    return f"{said} ({-steps[k] / period:.2f} sampling periods)"
 
 
 def _far_repair(
@@ -381,7 +411,10 @@ def build_stream(
     far = far_stamps(offsets, tolerance_s)
     if far.any():
         repairs.append(_far_repair(topic, far, offsets, t))
-    order, more = _order(topic, t, np.flatnonzero(~far), drop_repeats=role == "imu")
+    try:
+        order, more = _order(topic, t, np.flatnonzero(~far), drop_repeats=role == "imu")
+    except RosbagError as exc:
+        raise RosbagError(f"{bag.path}: {exc}", file=str(bag.path), field=topic) from None
     repairs += more
     order = order[data.keep[order]]
     if not data.keep.all():
