@@ -290,8 +290,9 @@ def test_a_reference_position_off_its_neighbours_is_an_error(
         ("IMU", lambda ls: [*ls[:500], ls[501], ls[500], *ls[502:]], 501, "out of order"),
         ("GT", lambda ls: [*ls[:40], "999" + ls[40][ls[40].index(",") :], *ls[41:]], 41, "step"),
         ("IMU", lambda ls: [ls[0], *ls[2:]], 2, "not 0 (rows missing at the start?)"),
+        ("DVL", lambda ls: [ls[0], *ls[:0:-1]], 3, "Time [s] does not rise"),
     ],
-    ids=["rows-lost", "row-repeated", "rows-swapped", "time-999", "first-row-lost"],
+    ids=["rows-lost", "row-repeated", "rows-swapped", "time-999", "first-row-lost", "reversed"],
 )
 def test_a_row_lost_repeated_or_moved_is_an_error(
     tmp_path: Path, file: str, edit: object, line: int, why: str

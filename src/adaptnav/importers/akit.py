@@ -340,7 +340,13 @@ def _check_rows(table: Table) -> None:
     steps = np.diff(t)
     step = float(np.median(steps)) if steps.size else 0.0
     off = np.flatnonzero(~(np.abs(steps - step) <= TIME_STEP_TOLERANCE * step))
-    if not (math.isfinite(t[0]) and abs(t[0]) <= TIME_STEP_TOLERANCE * step) or step <= 0.0:
+    if not step > 0.0:  # NaN, constant or falling: no even step to judge the rows by
+        r = int(np.flatnonzero(~(steps > 0.0))[0]) + 1 if steps.size else 0
+        why = (
+            f"{TIME_COLUMN} does not rise: its median step is {step!r} s, and this line's "
+            f"{t[r]!r} is not after the one before (not the recording's time, or rows reversed?)"
+        )
+    elif not (math.isfinite(t[0]) and abs(t[0]) <= TIME_STEP_TOLERANCE * step):
         r, why = 0, f"the first row's time is {t[0]!r}, not 0 (rows missing at the start?)"
     elif off.size:
         r = int(off[0]) + 1
