@@ -189,6 +189,8 @@ def _dvl(**extra: Any) -> dict[str, Any]:
                                            "use": "init"}),
                     d["initial"].update(mode="state", rpy_deg=[0, 0, 0])),
          "sensors.g.use", "'init' with initial.mode = 'state'"),
+        (lambda d: d["initial"].update(mode="state", rpy_deg=[0, 0, 0], alignment_s=300.0),
+         "initial.alignment_s", "with mode = 'state', which starts from the given state"),
         (lambda d: d["sensors"]["dvl"].update(mounting_rpy_deg=[0, 0, 1e300]),
          "sensors.dvl.mounting_rpy_deg", "outside roll and yaw ±360°, pitch ±90°"),
         (lambda d: d["initial"].update(rpy_deg=[0, 100, 0]), "initial.rpy_deg",

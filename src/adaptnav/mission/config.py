@@ -692,6 +692,13 @@ class InitialConfig(_Model):
                 "rest (v = 0): a velocity is taken with mode = 'state' only"
             )
         if self.mode == "state":
+            default = type(self).model_fields["alignment_s"].default
+            if self.alignment_s != default:  # the default is what write_config writes
+                raise ValueError(
+                    f"alignment_s: {self.alignment_s:g} s with mode = 'state', which starts from "
+                    "the given state with no alignment window: it would be ignored (drop it, "
+                    "or align with mode = 'alignment')"
+                )
             missing = [k for k in ("lat_deg", "lon_deg", "rpy_deg") if getattr(self, k) is None]
             if missing:
                 raise ValueError(f"{missing[0]}: required when mode = 'state' (missing {missing})")
