@@ -792,3 +792,25 @@ def test_the_alignment_puts_the_imu_not_the_gnss_antenna_at_the_fixes(mission: P
     np.testing.assert_allclose(moved, expected, atol=1e-6)
     assert np.hypot(*expected[:2]) == pytest.approx(math.hypot(3.0, 1.0), abs=0.05)  # tilt
     np.testing.assert_allclose(x_arm[3:], x_none[3:], atol=1e-12)
+
+
+def test_api_arguments_of_the_wrong_type_are_refused_by_name(mission: Path) -> None:
+    """``smooth="no"`` is a true string: api.run and compare smoothed it, silently. A number
+    for the mission, a bad epoch policy, a filter list holding a number and threads = 0 each
+    failed deep inside (pathlib, the engine, str.strip, the thread pool)."""
+    from adaptnav import api
+    from adaptnav.analysis.compare import compare
+
+    with pytest.raises(TypeError, match="smooth: True or False, not 'no'"):
+        api.run(mission, "vb", smooth="no")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="smooth: True or False"):
+        compare(mission, ["vb"], smooth="no")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="mission: a Mission or a mission folder, not int"):
+        api.run(123)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="epoch_policy: 'fast' is not"):
+        api.run(mission, "vb", epoch_policy="fast")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="filters: 5 is not a filter name"):
+        compare(mission, ["vb", 5])  # type: ignore[list-item]
+    with pytest.raises(ValueError, match="threads: a whole number from 1, not 0"):
+        compare(mission, ["vb"], threads=0)
+    assert api.run(mission, "vb", smooth=np.bool_(False)).forward is None

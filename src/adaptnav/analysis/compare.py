@@ -178,7 +178,12 @@ def filter_colour(name: str) -> str:
 def parse_filters(spec: str | Iterable[str]) -> tuple[str, ...]:
     """Filter names from ``"meskf,vb"`` or a sequence; ValueError for an unknown, repeated or
     empty list (the message names the offending entry and the known names)."""
+    if not isinstance(spec, str | Iterable):
+        raise TypeError(f"filters: names or 'meskf,vb', not {type(spec).__name__}")
     items = spec.split(",") if isinstance(spec, str) else list(spec)
+    odd = [s for s in items if not isinstance(s, str)]
+    if odd:
+        raise TypeError(f"filters: {odd[0]!r} is not a filter name (use {', '.join(FILTER_NAMES)})")
     names = tuple(s.strip().lower() for s in items if s.strip())
     if not names:
         raise ValueError(f"no filter given (use {', '.join(FILTER_NAMES)})")
@@ -474,9 +479,13 @@ def compare(
     """
     from adaptnav import api
     from adaptnav.analysis import evaluate
+    from adaptnav.api.runner import check_arguments
     from adaptnav.estimation.settings import FilterKind
     from adaptnav.mission import load_mission
 
+    check_arguments(mission, smooth=smooth)
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads: a whole number from 1, not {threads!r}")
     say = progress or (lambda _message: None)
     names = parse_filters(filters)
     m = mission if not isinstance(mission, str | Path) else load_mission(mission)

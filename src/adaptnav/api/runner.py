@@ -10,11 +10,12 @@ initialisation) are written to the ledger with their reason, so no reading disap
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 import pandas as pd
@@ -428,6 +429,21 @@ def check_initial(
     return x, P, t
 
 
+def check_arguments(
+    mission: object, *, smooth: object = False, epoch_policy: object = None
+) -> None:
+    """The arguments of :func:`run` (and ``compare``) whose wrong type would be taken silently
+    or fail deep inside: ``smooth`` must be a bool (the string "no" is true), ``mission`` a
+    Mission or a path, ``epoch_policy`` None, "exact" or "grid". TypeError / ValueError naming
+    the argument."""
+    if not isinstance(mission, Mission | str | os.PathLike):
+        raise TypeError(f"mission: a Mission or a mission folder, not {type(mission).__name__}")
+    if not isinstance(smooth, bool | np.bool_):
+        raise TypeError(f"smooth: True or False, not {smooth!r}")
+    if epoch_policy is not None and epoch_policy not in get_args(engine.EpochPolicy):
+        raise ValueError(f"epoch_policy: {epoch_policy!r} is not 'exact' or 'grid'")
+
+
 def run(
     mission: Mission | str | Path,
     filter: FilterKind | None = None,
@@ -460,6 +476,7 @@ def run(
             given or the mission starts from a configured state), ``"filtering"``,
             ``"smoothing"`` (:data:`adaptnav.engine.batch.Phase`); it does not change the run.
     """
+    check_arguments(mission, smooth=smooth, epoch_policy=epoch_policy)
     m = mission if isinstance(mission, Mission) else load_mission(mission)
     cfg = m.config
     s = settings if settings is not None else cfg.filter_settings()
