@@ -112,8 +112,16 @@ HINT = (
 )
 
 
+class _Warning:
+    """A warning's record as ``meta.warnings`` keeps it (JSON values)."""
+
+    def as_dict(self) -> dict[str, Any]:
+        record: dict[str, Any] = asdict(self)  # type: ignore[call-overload]
+        return record
+
+
 @dataclass(frozen=True)
-class SensorWarning:
+class SensorWarning(_Warning):
     """One sensor the filter found at odds with the rest (module docstring)."""
 
     sensor: str
@@ -129,9 +137,6 @@ class SensorWarning:
     t_to: float
     """The span of the windows above :data:`SHARE` (first start, last end), s."""
     message: str
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
 
 def disagreeing(
@@ -198,7 +203,7 @@ def diagnose(
 
 
 @dataclass(frozen=True)
-class CorrelationWarning:
+class CorrelationWarning(_Warning):
     """One sensor whose innovations are correlated (module docstring)."""
 
     sensor: str
@@ -210,9 +215,6 @@ class CorrelationWarning:
     """That component's long-run variance factor."""
     message: str
     kind: str = "correlated"
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
 
 def innovation_factors(ledger: pd.DataFrame, sensor: str, d: int) -> tuple[int, Array]:
@@ -257,7 +259,7 @@ def correlated(ledger: pd.DataFrame, channels: Sequence[SensorChannel]) -> list[
 
 
 @dataclass(frozen=True)
-class OutsideImuWarning:
+class OutsideImuWarning(_Warning):
     """One sensor with many readings stamped outside the IMU's time (module docstring)."""
 
     sensor: str
@@ -269,9 +271,6 @@ class OutsideImuWarning:
     """Of these, stamped after the IMU's last sample."""
     message: str
     kind: str = "outside_imu"
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
 
 def outside_imu(ledger: pd.DataFrame) -> list[OutsideImuWarning]:
