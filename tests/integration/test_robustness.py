@@ -814,3 +814,78 @@ def test_api_arguments_of_the_wrong_type_are_refused_by_name(mission: Path) -> N
     with pytest.raises(ValueError, match="threads: a whole number from 1, not 0"):
         compare(mission, ["vb"], threads=0)
     assert api.run(mission, "vb", smooth=np.bool_(False)).forward is None
+
+
+def _move_longitudes(mission: Path, to_rad: float, wrap: Any) -> None:
+    """Shift the GNSS fixes and the reference of the tiny mission in longitude so that the
+    fixes of its static window average ``to_rad``, then write them as ``wrap`` gives. The IMU
+    does not see the longitude (the earth's rate depends on the latitude only), so the run is
+    the same mission elsewhere."""
+    gps = badinput.read(mission, "gps")
+    shift = to_rad - float(gps.loc[gps["t_s"] <= 20.0, "lon_rad"].mean())
+    for name in ("gps", "truth"):
+        table = badinput.read(mission, name)
+        table["lon_rad"] = wrap(table["lon_rad"].to_numpy() + shift)
+        badinput.write(mission, name, table)
+
+
+@pytest.mark.parametrize(
+    ("to_rad", "wrap"),
+    [
+        (math.pi, lambda lon: np.angle(np.exp(1j * lon))),  # ±180°: fixes either side
+        (0.0, lambda lon: np.mod(lon, 2.0 * math.pi)),  # Greenwich, written 0..360°
+    ],
+    ids=["antimeridian", "greenwich-0-360"],
+)
+def test_alignment_on_the_antimeridian_or_greenwich_in_0_360(
+    mission: Path, tmp_path: Path, to_rad: float, wrap: Any
+) -> None:
+    """The alignment's position is the mean of the GNSS fixes in its window: the arithmetic
+    mean of longitudes either side of ±180° (or of 0 and 360°) is half the world off (up to
+    0.4.5: 6240 km, exit 0). The run there scores as the run at home."""
+    home = tmp_path / "home"
+    assert cli("run", mission, "--filter", "vb", "--out", home).exit_code == 0
+    rmse = json.loads(cli("evaluate", home, "--json").stdout)["rmse_m"]
+    _move_longitudes(mission, to_rad, wrap)
+    gps = badinput.read(mission, "gps")
+    window = gps.loc[gps["t_s"] <= 20.0, "lon_rad"].to_numpy()
+    assert np.ptp(window) > math.pi  # the fixes do straddle the cut
+    away = tmp_path / "away"
+    assert cli("run", mission, "--filter", "vb", "--out", away).exit_code == 0
+    moved = json.loads(cli("evaluate", away, "--json").stdout)["rmse_m"]
+    assert moved == pytest.approx(rmse, abs=0.05)
+
+
+def test_fixes_before_the_imu_are_not_averaged_into_the_start(
+    mission: Path, tmp_path: Path
+) -> None:
+    """GNSS fixes logged before the IMU started (the vessel arriving, 2 km north) are not the
+    vehicle at rest: up to 0.4.5 the alignment averaged them in and started 1.4 km off."""
+    home = tmp_path / "home"
+    assert cli("run", mission, "--filter", "vb", "--out", home).exit_code == 0
+    rmse = json.loads(cli("evaluate", home, "--json").stdout)["rmse_m"]
+    gps = badinput.read(mission, "gps")
+    early = pd.concat([gps.iloc[:1]] * 60, ignore_index=True)
+    early["t_s"] = gps["t_s"].iloc[0] - 100.0 + np.arange(60.0)
+    early["lat_rad"] += 2000.0 / 6.37e6
+    badinput.write(mission, "gps", pd.concat([early, gps], ignore_index=True))
+    out = tmp_path / "early"
+    assert cli("run", mission, "--filter", "vb", "--out", out).exit_code == 0
+    assert json.loads(cli("evaluate", out, "--json").stdout)["rmse_m"] == pytest.approx(rmse)
+
+
+def test_a_start_at_a_pole_is_refused(mission: Path, tmp_path: Path) -> None:
+    """The latitude-longitude mechanization is singular at the poles: a start at 90° ran to a
+    yaw 178° off with exit 0 (up to 0.4.5). A configured latitude, or GNSS fixes, within
+    0.01° of a pole are refused."""
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(
+        toml.replace('mode = "alignment"', 'mode = "alignment"\nlat_deg = 90.0\nlon_deg = 0.0')
+    )
+    assert "initial.lat_deg" in error_line(cli("run", mission, "--out", tmp_path / "r1"))
+    (mission / "mission.toml").write_text(toml)
+    gps = badinput.read(mission, "gps")
+    gps["lat_rad"] = math.pi / 2 - 1e-7
+    badinput.write(mission, "gps", gps)
+    line = error_line(cli("run", mission, "--out", tmp_path / "r2"))
+    assert "gps.csv" in line and "within 0.01° of a pole" in line

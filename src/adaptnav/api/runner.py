@@ -39,7 +39,7 @@ from adaptnav.mission import (
     calibration,
     load_mission,
 )
-from adaptnav.mission.config import with_overrides
+from adaptnav.mission.config import MAX_LAT_DEG, with_overrides
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
@@ -117,7 +117,7 @@ def start_state(
     if ini.mode == "state":
         x0, P0 = _configured_state(cfg, accel_sigma, gyro_sigma)
         return x0, P0, t_start, {"initial": "state"}
-    position = _alignment_position(cfg, sensors, t_start + ini.alignment_s)
+    position = _alignment_position(cfg, sensors, t_start, t_start + ini.alignment_s)
     heading = math.radians(ini.rpy_deg[2]) if ini.rpy_deg is not None else None
     heading_sigma = float(ini.sigma_attitude_rad()[2]) if heading is not None else None
     a = align(
@@ -372,10 +372,15 @@ def _configured_state(
 
 
 def _alignment_position(
-    cfg: MissionConfig, sensors: Mapping[str, SensorData], window_end: float
+    cfg: MissionConfig, sensors: Mapping[str, SensorData], t_from: float, window_end: float
 ) -> tuple[float, float, float]:
     """Where to align: the configured position, else the mean of the first GNSS sensor's valid
-    fixes inside the static window (docs/alignment.md); an error naming the file if neither."""
+    fixes inside the static window ``[t_from, window_end]`` (docs/alignment.md); an error naming
+    the file if neither. Fixes before the IMU's first interval are not the vehicle at rest (up
+    to 0.4.5 they were averaged in: a vessel's approach 2 km away moved the start 1.4 km). The
+    longitude is the circular mean: alongside on the antimeridian, or with fixes written
+    0..360° at Greenwich, the arithmetic mean of ±180° (or of 0 and 360°) is half the world off
+    (up to 0.4.5: 6240 km, exit 0)."""
     ini = cfg.initial
     if ini.lat_deg is not None and ini.lon_deg is not None:
         return (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
@@ -387,18 +392,28 @@ def _alignment_position(
             file=CONFIG_NAME,
         )
     g = sensors[gnss]
-    inside = (g.t <= window_end) & np.all(np.isfinite(g.z), axis=1)
+    window = (g.t >= t_from) & (g.t <= window_end)
+    inside = window & np.all(np.isfinite(g.z), axis=1)
     if not np.any(inside):
         file = cfg.sensors[gnss].file
-        n = int(np.count_nonzero(g.t <= window_end))
         raise MissionError(
             f"{file}: no valid fix of sensor {gnss!r} inside the static alignment window "
-            f"(t <= {window_end:.6g} s; {n} row(s) there, none finite and plausible), and no "
-            "initial.lat_deg/lon_deg to align at",
+            f"({t_from:.6g} s <= t <= {window_end:.6g} s; {int(window.sum())} row(s) there, none "
+            "finite and plausible), and no initial.lat_deg/lon_deg to align at",
             file=file,
             field=gnss,
         )
-    lat, lon = float(np.mean(g.z[inside, 0])), float(np.mean(g.z[inside, 1]))
+    lat = float(np.mean(g.z[inside, 0]))
+    lon = float(np.angle(np.mean(np.exp(1j * g.z[inside, 1]))))
+    if not abs(lat) <= math.radians(MAX_LAT_DEG):
+        file = cfg.sensors[gnss].file
+        raise MissionError(
+            f"{file}: the fixes of sensor {gnss!r} in the alignment window are at latitude "
+            f"{math.degrees(lat):.6f}°, within {90.0 - MAX_LAT_DEG:g}° of a pole, where the "
+            "latitude-longitude mechanization is singular (docs/conventions.md)",
+            file=file,
+            field="lat_rad",
+        )
     h = float(np.mean(g.z[inside, 2])) if g.z.shape[1] > 2 else ini.h_m
     return (lat, lon, h)
 
@@ -424,9 +439,30 @@ def check_initial(
         raise ValueError(f"initial P0: shape {P.shape}, a square of at least {N_STATES} needed")
     if not (np.all(np.isfinite(P)) and np.all(np.diag(P) > 0.0)):
         raise ValueError("initial P0: every element finite and the diagonal > 0 needed")
+    _check_covariance(P)
+    if not abs(x[0]) <= math.radians(MAX_LAT_DEG):
+        raise ValueError(
+            f"initial x0: latitude {math.degrees(x[0]):.6f}° is not within ±{MAX_LAT_DEG:g}° "
+            "(the mechanization is singular at the poles)"
+        )
     if not (math.isfinite(t) and t_from <= t <= t_to):
         raise ValueError(f"initial t0: {t!r} s is not within the IMU's span [{t_from}, {t_to}] s")
     return x, P, t
+
+
+def _check_covariance(P: np.ndarray) -> None:
+    """P0 must be a covariance: symmetric (to 1e-9 of its scale) and positive definite (a
+    Cholesky factor exists). Up to 0.4.5 an asymmetric or indefinite P0 ran, the smoother then
+    failed on every node and every NEES was NaN. ValueError otherwise."""
+    scale = np.sqrt(np.outer(np.diag(P), np.diag(P)))
+    if not np.all(np.abs(P - P.T) <= 1e-9 * scale):
+        i, j = np.unravel_index(int(np.argmax(np.abs(P - P.T) / scale)), P.shape)
+        raise ValueError(f"initial P0: not symmetric (P0[{i}, {j}] = {P[i, j]!r}, P0[{j}, {i}] = "
+                         f"{P[j, i]!r})")  # fmt: skip
+    try:
+        np.linalg.cholesky(P / scale)
+    except np.linalg.LinAlgError:
+        raise ValueError("initial P0: not positive definite (no Cholesky factor)") from None
 
 
 def check_arguments(

@@ -129,6 +129,10 @@ Sigma = Annotated[float, Field(ge=SIGMA_RANGE_SI[0], le=SIGMA_RANGE_SI[1], allow
 (core.units.SIGMA_RANGE_SI)."""
 SigmaDeg = Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)]
 """An attitude standard deviation in degrees: more than 180° says nothing."""
+MAX_LAT_DEG = 89.99
+"""Largest |initial.lat_deg|: the mechanization is singular at the poles
+(``adaptnav.engine.align.MAX_LAT_RAD``; docs/conventions.md)."""
+Latitude = Annotated[float, Field(ge=-MAX_LAT_DEG, le=MAX_LAT_DEG, allow_inf_nan=False)]
 H_RANGE_M = (-12_000.0, 100_000.0)
 """Initial heights accepted (m, above the ellipsoid): the deepest ocean to the edge of space."""
 SURFACE_H_RANGE_M = (-1_000.0, 10_000.0)
@@ -673,7 +677,7 @@ class InitialConfig(_Model):
 
     mode: Literal["alignment", "state"] = "alignment"
     alignment_s: Positive = 600.0
-    lat_deg: Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False)] | None = None
+    lat_deg: Latitude | None = None
     lon_deg: Annotated[float, Field(ge=-180, le=360, allow_inf_nan=False)] | None = None
     h_m: Annotated[float, Field(ge=H_RANGE_M[0], le=H_RANGE_M[1], allow_inf_nan=False)] = 0.0
     v_ned_m_s: Vec3 = (0.0, 0.0, 0.0)
