@@ -889,3 +889,22 @@ def test_a_start_at_a_pole_is_refused(mission: Path, tmp_path: Path) -> None:
     badinput.write(mission, "gps", gps)
     line = error_line(cli("run", mission, "--out", tmp_path / "r2"))
     assert "gps.csv" in line and "within 0.01° of a pole" in line
+
+
+def test_a_heading_in_degrees_in_a_radians_column_is_an_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    """A heading logged in degrees in ``yaw_rad``: every reading above 6.28° is outside the
+    plausible range and was dropped, the ones near north passed as radians, 57 times too large
+    (up to 0.4.5 the run went on with one of them used 25° off, exit 0). Most of an angle
+    column outside its range is an error naming the file and column."""
+    toml = (mission / "mission.toml").read_text()
+    head = toml.index("[sensors.heading]")
+    toml = toml[:head] + toml[head:].replace('use = "off"', 'use = "aid"', 1)
+    (mission / "mission.toml").write_text(toml)
+    heading = badinput.read(mission, "heading")
+    heading["yaw_rad"] = np.linspace(0.0, 359.0, len(heading))  # degrees, written as radians
+    badinput.write(mission, "heading", heading)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "heading.csv line 4, yaw_rad: 59 of its 61 values" in line  # the first 2 < 6.28
+    assert "degrees in a radians column?" in line
