@@ -33,10 +33,14 @@ from pathlib import Path
 import numba
 
 PACKAGE = Path(__file__).resolve().parent.parent
-KERNEL_FOLDERS = ("compiled", "engine", "sensors", "models", "core")
+KERNEL_FOLDERS = (
+    "compiled", "engine", "sensors", "models", "core", "estimation", "estimation/noise",
+)  # fmt: skip
 """The package's folders whose modules the compiled functions are, call or freeze constants of
 (``sensors/kind.py``'s parameter layout, ``models/errorstate.py``'s reset modes, the earth
-model)."""
+model, ``estimation/health.py``'s lockout constants, ``estimation/noise/process.py``'s; up to
+0.4.5 the estimation folders were left out, and a change of a constant there ran the old
+kernels from the cache)."""
 
 
 def kernel_fingerprint(package: Path = PACKAGE) -> str:
