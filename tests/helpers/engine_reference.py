@@ -108,6 +108,8 @@ class Navigator:
         self._states: list[Any] = [c.strategy.initial_state(nominal_R(c.model)) for c in channels]
         self._last_epoch = [math.nan] * len(channels)
         self._rejected_since = [math.nan] * len(channels)  # the guard's lockout clock
+        self._passed = [(math.nan, math.nan)] * len(channels)  # the guard's last pass: t, stat
+        self._step = [False] * len(channels)  # the streak began with a step (health.is_step)
         self._nis = [(0.0, 0.0)] * len(channels)  # windowed NIS/d mean and count
         self._pending: list[tuple[float, int, int, int, Array]] = []
         self._seq = 0
@@ -266,6 +268,7 @@ class Navigator:
                     self._lockout(ch.guard, i, row, t_epoch, d.statistic, q, W, R_guard)
                     continue
                 self._rejected_since[i] = math.nan
+                self._passed[i] = (t_epoch, d.statistic)
             if ch.gate is not None:
                 R_now = (
                     meas.R
@@ -354,8 +357,12 @@ class Navigator:
         since = self._rejected_since[i]
         if math.isnan(since):
             self._rejected_since[i] = t
+            period = self.channels[i].period
+            passed_t, passed_stat = self._passed[i]
+            self._step[i] = health.is_step(stat, passed_stat, t, passed_t, period)
             return
-        if not (guard.lockout_s > 0 and t - since >= guard.lockout_s):
+        wait = health.lockout_wait(guard.lockout_s, self._step[i])
+        if not (guard.lockout_s > 0 and t - since >= wait):
             return
         k = health.lockout_factor(
             stat, q, float(np.trace(W)), float(np.trace(R)), guard.lockout_max

@@ -908,3 +908,31 @@ def test_a_heading_in_degrees_in_a_radians_column_is_an_error(
     line = error_line(cli("run", mission, "--out", tmp_path / "run"))
     assert "heading.csv line 4, yaw_rad: 59 of its 61 values" in line  # the first 2 < 6.28
     assert "degrees in a radians column?" in line
+
+
+@pytest.mark.parametrize(
+    ("sensor", "column", "offset"),
+    [("depth", "depth_m", 1000.0), ("dvl", "vx_m_s", 3.0)],
+    ids=["depth+1000m", "dvl+3m/s"],
+)
+def test_a_sensor_fault_longer_than_the_lockout_does_not_take_the_filter_with_it(
+    mission: Path, tmp_path: Path, sensor: str, column: str, offset: float
+) -> None:
+    """A sensor that jumps and stays off longer than the guard's lockout (here 5 s, a fault
+    of 15 s): up to 0.4.5 the lockout scaled P by up to 100 a reading until the fault was
+    taken, and the state ran to NaN when the sensor came back (exit 2, 'broke down'). A
+    streak that begins with a step now waits four lockout times: the fault is rejected
+    throughout and the run scores as the clean one."""
+    toml = (mission / "mission.toml").read_text()
+    toml = toml.replace("[filter]\n", "[filter]\nguard_lockout_s = 5.0\n")
+    (mission / "mission.toml").write_text(toml)
+    clean = tmp_path / "clean"
+    assert cli("run", mission, "--out", clean).exit_code == 0
+    rmse = json.loads(cli("evaluate", clean, "--json").stdout)["rmse_m"]
+    table = badinput.read(mission, sensor)
+    table.loc[(table["t_s"] > 25.0) & (table["t_s"] < 40.0), column] += offset
+    badinput.write(mission, sensor, table)
+    out = tmp_path / "fault"
+    assert cli("run", mission, "--out", out).exit_code == 0
+    faulted = json.loads(cli("evaluate", out, "--json").stdout)["rmse_m"]
+    assert faulted < 1.2 * rmse

@@ -535,9 +535,10 @@ def test_batch_engine_equals_the_readable_engine(
     _compare(out, ref)
 
 
-# A guard wide open to rejections (p = 0.2) and a divergence guard with a short lockout and a
-# low NIS threshold, so that on 30 s every path fires: guard rejections, lockouts, NIS events.
-GUARD = Guard(0.2, headroom=1.0, lockout_s=0.4, lockout_max=9.0)
+# A guard wide open to rejections (p = 0.2) and a divergence guard with a short lockout (0.1 s;
+# 0.4 s after a step, health.is_step) and a low NIS threshold, so that on 30 s every path
+# fires: guard rejections, lockouts, NIS events.
+GUARD = Guard(0.2, headroom=1.0, lockout_s=0.1, lockout_max=9.0)
 DIVERGENCE = DivergenceGuard(nis_ratio=1.05, window=3, inflate_max=9.0)
 
 

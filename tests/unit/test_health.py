@@ -278,3 +278,17 @@ def test_matching_window_restarts_after_a_gap() -> None:
     res = paper.update(np.eye(15) * 1e-4, [_block(0.3, 0.01, paper)])
     assert res.R_used[0][0, 0] == pytest.approx(0.01)
     assert CovarianceMatching(window=3).predict(full, dt=4.0, period=1 / 3).count == 3
+
+
+def test_a_streak_that_begins_with_a_step_waits_longer() -> None:
+    """The first rejection of a streak is a step when its statistic is more than STEP_RATIO
+    times that of the reading the guard passed within STEP_PERIODS periods: a filter that
+    drifts crosses the threshold gradually, a sensor jumps. After a gap, or a statistic just
+    above the last passed one, it is not; a step's lockout waits STEP_PATIENCE lockout times."""
+    q, period = 23.9, 1.0
+    assert health.is_step(42.0, 6.2, t=10.0, last_passed=9.0, period=period)
+    assert not health.is_step(1.05 * q, 0.95 * q, t=10.0, last_passed=9.0, period=period)
+    assert not health.is_step(1e6 * q, 3.0, t=10.0, last_passed=5.0, period=period)  # a gap
+    assert not health.is_step(1e6 * q, math.nan, t=10.0, last_passed=math.nan, period=period)
+    assert health.lockout_wait(30.0, step=False) == 30.0
+    assert health.lockout_wait(30.0, step=True) == 30.0 * health.STEP_PATIENCE

@@ -75,7 +75,13 @@ from adaptnav.compiled.propagation import (
     jit_inline,
 )
 from adaptnav.core.earth import E2, A
-from adaptnav.estimation.health import EIG_FLOOR, MIN_LOCKOUT_FACTOR
+from adaptnav.estimation.health import (
+    EIG_FLOOR,
+    MIN_LOCKOUT_FACTOR,
+    STEP_PATIENCE,
+    STEP_PERIODS,
+    STEP_RATIO,
+)
 from adaptnav.estimation.noise.base import NoiseKind
 from adaptnav.estimation.noise.process import EVENT_STEP, GAP_PERIODS
 from adaptnav.models.errorstate import RESET_INVARIANT, RESET_OFF
@@ -133,7 +139,9 @@ N_SFLT = _F + 32
 X_LAST, X_ALPHA, X_BETA, X_MR = 0, 1, 4, 7
 X_NIS, X_NIS_N, X_REJ_SINCE = 16, 17, 18  # mean NIS/d over the window, its count; lockout start
 X_WC0, X_WC1, X_WPREV, X_WT, X_WN = 19, 20, 21, 24, 25  # whiteness: c0, c1, last ν̃, its t, pairs
-N_SSTATE = 26
+X_PASSED, X_STEP, X_PASSED_STAT = 26, 27, 28  # the guard: last passed reading's time, its
+# statistic; 1: the streak of rejections began with a step (health.is_step)
+N_SSTATE = 29
 # rings (sensors, 2, W_max, 3): [.., 0] squared innovations/residuals, [.., 1] diag(H P⁺ Hᵀ)
 
 GATE_NONE, GATE_COMPONENT, GATE_CHI2 = 0, 1, 2
@@ -1561,6 +1569,8 @@ def epoch(
                                     lg_int, lg_flt, n_ledger, idx)  # fmt: skip
                 continue
             s_state[i, X_REJ_SINCE] = math.nan
+            s_state[i, X_PASSED] = t_epoch
+            s_state[i, X_PASSED_STAT] = stat
         rule = s_int[i, S_GATE]
         if rule != GATE_NONE:
             nominal = kind == KIND_FIXED or s_int[i, S_GATE_REF] == GATE_REF_NOMINAL
@@ -1707,11 +1717,15 @@ def _lockout(
     rejection inflates P again, so a divergence larger than one step's cap is caught up at the
     sensor's rate, not one cap per ``F_LOCKOUT_S``. Returns the ledger length."""
     since = sx[X_REJ_SINCE]
-    if math.isnan(since):
+    if math.isnan(since):  # the streak's first rejection: a step? (twin: health.is_step)
         sx[X_REJ_SINCE] = t
+        passed = sx[X_PASSED]
+        recent = not math.isnan(passed) and t - passed <= STEP_PERIODS * sf[F_PERIOD]
+        sx[X_STEP] = 1.0 if recent and stat > STEP_RATIO * sx[X_PASSED_STAT] else 0.0
         return n_ledger
     lockout = sf[F_LOCKOUT_S]
-    if not (lockout > 0.0 and t - since >= lockout):
+    wait = lockout * (STEP_PATIENCE if sx[X_STEP] > 0.0 else 1.0)  # health.lockout_wait
+    if not (lockout > 0.0 and t - since >= wait):
         return n_ledger
     k = lockout_factor(stat, q, w_tr, r_tr, sf[F_LOCKOUT_MAX])
     _inflate(P, k)

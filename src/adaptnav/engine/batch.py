@@ -894,7 +894,7 @@ class Navigator:
             if qa is not None:
                 sf[uk.F_QA_GAIN], sf[uk.F_QA_TARGET] = qa.gain, qa.target
                 sf[uk.F_QA_MAX], sf[uk.F_QA_WINDOW] = qa.beta_max, qa.window
-            sx[uk.X_REJ_SINCE] = math.nan
+            sx[uk.X_REJ_SINCE] = sx[uk.X_PASSED] = math.nan
             sf[uk.F_RMIN], sf[uk.F_RMAX] = 0.0, math.inf
             if ch.gate is not None:
                 rule = uk.GATE_COMPONENT if ch.gate.rule == "component" else uk.GATE_CHI2
