@@ -8,9 +8,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -208,3 +210,54 @@ def test_reference_consistency_finds_a_velocity_that_is_not_the_rate_of_the_posi
     assert scale == pytest.approx(100.0 * (1.0 / 1.01 - 1.0), abs=0.01)
     with pytest.raises(ValueError, match=r"lacks columns \['lat_rad'\]"):
         dvl_fit.reference_consistency(mission.truth.drop(columns=["lat_rad"]))
+
+
+def test_a_reference_too_coarse_for_the_readings_is_refused(mission: Mission) -> None:
+    """The reference thinned to a row a minute gave the demo's DVL a pitch misalignment of
+    -5.6 ± 0.24° (true -0.3): velocity and attitude interpolated linearly across 60 s. Refused
+    above 2 s (median step around the readings); at A-KIT's 1 s step the fit stands, within
+    3σ of the truth."""
+    assert mission.truth is not None
+    sparse = mission.truth.iloc[::600].reset_index(drop=True)
+    with pytest.raises(ValueError, match=r"too coarse .* 60 s apart .* at most 2 s"):
+        fit_dvl(dataclasses.replace(mission, truth=sparse))
+    every_second = mission.truth.iloc[::10].reset_index(drop=True)
+    fit = fit_dvl(dataclasses.replace(mission, truth=every_second))
+    assert fit.in_gaps == 0
+    for k, true in TRUE.items():
+        assert abs(fit.estimate[k] - true) <= 3 * fit.sigma[k], k
+
+
+def test_readings_in_a_reference_gap_are_left_out_and_counted(mission: Mission) -> None:
+    """A 30-s hole in the reference: the DVL's readings inside it (3 Hz) are left out of the
+    fit and counted, not fitted to a velocity and attitude interpolated across the hole."""
+    assert mission.truth is not None
+    t = mission.truth["t_s"].to_numpy()
+    hole = (t > 800.0) & (t < 830.0)
+    full = fit_dvl(mission)
+    fit = fit_dvl(dataclasses.replace(mission, truth=mission.truth[~hole]))
+    dvl = mission.sensors["dvl"]
+    finite = np.all(np.isfinite(dvl.z), axis=1)  # a NaN reading is not counted at all
+    inside = (dvl.t > t[hole][0] - 0.1) & (dvl.t < t[hole][-1] + 0.1)
+    assert 85 <= int(inside.sum()) <= 95
+    assert fit.in_gaps == int(np.count_nonzero(inside & finite)) > 30
+    inside = int(np.count_nonzero(inside & finite))
+    assert fit.readings == full.readings - inside
+
+
+def test_cli_refuses_a_coarse_reference_and_reports_a_gap(folder: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "m"
+    shutil.copytree(folder, copy)
+    truth = pd.read_parquet(copy / "truth.parquet")
+    truth[(truth["t_s"] <= 800.0) | (truth["t_s"] >= 830.0)].to_parquet(
+        copy / "truth.parquet", index=False
+    )
+    res = runner.invoke(app, ["fit-dvl", str(copy), "--json", "-q"])
+    assert res.exit_code == 0, res.output
+    assert 30 < json.loads(res.stdout)["in_gaps"] <= 95
+    res = runner.invoke(app, ["fit-dvl", str(copy), "-q"])
+    assert res.exit_code == 0 and "more in reference gaps, left out" in res.stdout
+    truth.iloc[::600].to_parquet(copy / "truth.parquet", index=False)
+    res = runner.invoke(app, ["fit-dvl", str(copy), "-q"])
+    assert res.exit_code == 2 and "too coarse" in res.stderr
+    assert "Traceback" not in res.output

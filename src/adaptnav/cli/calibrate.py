@@ -62,6 +62,7 @@ def fit_dvl_cmd(
                     "sigma": fit.sigma,
                     "readings": fit.readings,
                     "used": fit.used,
+                    "in_gaps": fit.in_gaps,
                     "residual_rms_m_s": list(fit.residual_rms_m_s),
                     "rho": fit.rho,
                     "bandwidth": fit.bandwidth,
@@ -77,7 +78,9 @@ def fit_dvl_cmd(
         table.add_row(f"{fit.sensor}.{name}", f"{value:+.3f} ± {fit.sigma[name]:.3f} {unit}")
     console.print(table)
     rms = ", ".join(f"{v:.4f}" for v in fit.residual_rms_m_s)
+    # Readings without reference either side are said, not silently fewer.
+    gaps = f" ({fit.in_gaps} more in reference gaps, left out)" if fit.in_gaps else ""
     console.print(
-        f"{fit.used} of {fit.readings} readings used (the rest more than 5 σ off); residual RMS "
-        f"x, y, z {rms} m/s; lag-1 correlation {fit.rho:.2f}, allowed for in σ"
+        f"{fit.used} of {fit.readings} readings used{gaps} (the rest more than 5 σ off); "
+        f"residual RMS x, y, z {rms} m/s; lag-1 correlation {fit.rho:.2f}, allowed for in σ"
     )
