@@ -386,6 +386,7 @@ def _full_mission() -> tuple[dict[str, Any], dict[str, pd.DataFrame]]:
     }
     truth = tables["truth"]
     truth["lat_rad"] = 0.46 + 0.01 * truth["lat_rad"]  # a latitude (|lat| <= pi/2 is checked)
+    truth["pitch_rad"] *= 0.1  # a pitch (|pitch| <= pi/2 is checked)
     return d, tables
 
 

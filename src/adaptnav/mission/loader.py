@@ -20,6 +20,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.core.units import G0
+from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
     MissionConfig,
@@ -695,7 +696,8 @@ def _truth_columns(table: Table) -> list[str]:
 
 def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
     """The reference table with its SI columns as floats (degrees converted), extras kept:
-    position always, velocity and attitude where the table has them (all three or none)."""
+    position always, velocity and attitude where the table has them (all three or none).
+    Values that cannot be a reference are errors (:mod:`adaptnav.mission.truth`)."""
     if len(table) == 0:
         raise MissionError(f"{table.label} (truth): no data rows", file=table.label)
     columns = _truth_columns(table)
@@ -721,6 +723,8 @@ def _load_truth(table: Table, journal: Journal) -> pd.DataFrame:
         raise table.error(
             k + 1, TIME_COLUMN, f"repeated time t = {show(t[k])} s (also at {table.where(k)})"
         )
+    reference.check_values(table, columns, z, used)
+    reference.check_velocity(table, t, columns, z, used)
     out = table.df.copy()
     out[TIME_COLUMN] = t
     for i, c in enumerate(columns):
