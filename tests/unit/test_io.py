@@ -185,6 +185,8 @@ def _dvl(**extra: Any) -> dict[str, Any]:
          "between 1 Hz and the IMU's"),
         (lambda d: d.update(filter={"output_rate_hz": 1000.0}), "filter.output_rate_hz",
          "between 1 Hz and the IMU's"),
+        (lambda d: d.update(filter={"output_rate_hz": 40.0}), "filter.output_rate_hz",
+         "40 Hz is not the IMU's 100 Hz over a whole number of intervals"),
         (lambda d: (d["sensors"].update(g={"kind": "gnss", "file": "g.csv", "sigma": [3, "m"],
                                            "use": "init"}),
                     d["initial"].update(mode="state", rpy_deg=[0, 0, 0])),

@@ -792,6 +792,7 @@ class MissionConfig(_Model):
                 f"IMU's {self.imu.rate_hz:g} Hz (a row per IMU interval at most; fewer than one a "
                 "second leaves evaluate to score straight lines between them)"
             )
+        self._check_output_rate()
         if self.initial.mode == "state":
             init = [n for n, c in self.sensors.items() if c.use == "init"]
             if init:
@@ -835,6 +836,24 @@ class MissionConfig(_Model):
     def filter_settings(self) -> FilterSettings:
         """The engine's :class:`adaptnav.estimation.settings.FilterSettings` of ``[filter]``."""
         return self.filter.settings(self.gated_sensors())
+
+    def _check_output_rate(self) -> None:
+        """A rate set in ``[filter]`` must be the IMU's rate over a whole number of intervals,
+        to 1 %: rows come every ``output_every`` IMU intervals, so 40 Hz on a 100-Hz IMU gave
+        rows at 50 Hz, silently (up to 0.4.5). The default (10 Hz) is taken as the nearest."""
+        if "output_rate_hz" not in self.filter.model_fields_set:
+            return
+        asked, imu = self.filter.output_rate_hz, self.imu.rate_hz
+        got = imu / self.output_every()
+        if abs(got - asked) <= 0.01 * asked:
+            return
+        k = imu / asked
+        near = sorted({max(1, math.floor(k)), math.ceil(k)})
+        options = " or ".join(f"{imu / n:.6g} Hz (every {n})" for n in near)
+        raise ValueError(
+            f"filter.output_rate_hz: {asked:g} Hz is not the IMU's {imu:g} Hz over a whole number "
+            f"of intervals (rows come every whole number of IMU intervals): {options}"
+        )
 
     def output_every(self) -> int:
         """IMU intervals per output sample (``imu.rate_hz / filter.output_rate_hz``, >= 1)."""
