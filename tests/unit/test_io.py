@@ -193,6 +193,15 @@ def _dvl(**extra: Any) -> dict[str, Any]:
          "sensors.g.use", "'init' with initial.mode = 'state'"),
         (lambda d: d["initial"].update(mode="state", rpy_deg=[0, 0, 0], alignment_s=300.0),
          "initial.alignment_s", "with mode = 'state', which starts from the given state"),
+        (lambda d: d["sensors"].update(g={"kind": "gnss", "file": "g.csv", "sigma": [3, "m"],
+                                          "use": "init", "estimate": ["bias"]}),
+         "sensors.g.estimate", "on a sensor with use = 'init'"),
+        (lambda d: d["sensors"]["dvl"].update(
+            estimate=["misalignment"], calibration={"misalignment": {"sigma": [1000, "deg"]}}),
+         "sensors.dvl.calibration.misalignment.sigma", "the largest prior σ"),
+        (lambda d: d["sensors"]["dvl"].update(
+            estimate=["scale"], calibration={"scale": {"sigma": [-1, "%"]}}),
+         "sensors.dvl.calibration.scale.sigma", "negative"),
         (lambda d: d["sensors"]["dvl"].update(mounting_rpy_deg=[0, 0, 1e300]),
          "sensors.dvl.mounting_rpy_deg", "outside roll and yaw ±360°, pitch ±90°"),
         (lambda d: d["initial"].update(rpy_deg=[0, 100, 0]), "initial.rpy_deg",

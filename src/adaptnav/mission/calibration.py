@@ -10,6 +10,7 @@ nominal values start at zero (no error) with the configured prior σ.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
@@ -20,6 +21,8 @@ from adaptnav.mission.config import MissionConfig
 from adaptnav.models.errorstate import N_STATES, StateBlock, StateLayout
 from adaptnav.sensors.calibration import Quantity
 from adaptnav.sensors.registry import KINDS
+
+log = logging.getLogger(__name__)
 
 Array = NDArray[np.float64]
 
@@ -57,6 +60,9 @@ def calibration_states(cfg: MissionConfig) -> tuple[CalibrationState, ...]:
     first = N_STATES
     for name, scfg in cfg.sensors.items():
         if scfg.use != "aid":
+            if scfg.estimate:  # kept in mission.toml for when the sensor is on again
+                log.warning("sensor %r is off: its estimate = %s gives no calibration states",
+                            name, list(scfg.estimate))  # fmt: skip
             continue
         for quantity, (sigma, rw, tau) in scfg.calibration_si().items():
             q = KINDS[scfg.kind].calibration[quantity]

@@ -341,6 +341,20 @@ def _check_table_file(v: str) -> str:
     return v
 
 
+PRIOR_SIGMA_MAX = {
+    Kind.RATIO: 0.5,
+    Kind.ANGLE: math.radians(30.0),
+    Kind.LENGTH: 100.0,
+    Kind.SPEED: 1.0,
+    Kind.TIME: 1.0,
+}
+"""Largest prior σ of a calibration state, by its unit kind (SI): 50 % of scale, 30° of
+misalignment or tilt bias, 100 m of depth or GNSS bias, 1 m/s of DVL bias, 1 s of latency. The
+states' models are linear in small errors; a prior far beyond these lets the filter put a
+wrong rotation into three angles near 180° with tight σ (a misalignment prior of 1000° did,
+up to 0.4.5)."""
+
+
 class CalibrationConfig(_Model):
     """``[sensors.<name>.calibration.<quantity>]``: the prior σ and the random-walk density of
     an estimated calibration quantity, ``[value, "unit"]`` (docs/calibration.md); each left
@@ -547,6 +561,12 @@ class SensorConfig(_Model):
     def _check_calibration(self) -> None:
         known = KINDS[self.kind].calibration
         estimate = self.estimate or ()
+        if estimate and self.use == "init":  # "off" keeps them for when it is on again
+            raise ValueError(
+                f"estimate: {list(estimate)} on a sensor with use = 'init': only a sensor that "
+                "aids the filter has calibration states (up to 0.4.5 they were dropped without "
+                "a word); drop estimate, or use = 'aid'"
+            )
         for name in estimate:
             if name not in known:
                 can = ", ".join(known) or "nothing"
@@ -567,8 +587,14 @@ class SensorConfig(_Model):
                 raise ValueError(f"calibration.{name}.sigma: must be > 0")
             if not spec[2] > 0.0:
                 raise ValueError(f"calibration.{name}.tau: must be > 0 (inf: a random walk)")
-            unit = si_unit(KINDS[self.kind].calibration[name].sigma_kind)
-            check_sigma(f"calibration.{name}.sigma", spec[0], unit)
+            kind = KINDS[self.kind].calibration[name].sigma_kind
+            check_sigma(f"calibration.{name}.sigma", spec[0], si_unit(kind))
+            if spec[0] > PRIOR_SIGMA_MAX[kind]:
+                raise ValueError(
+                    f"calibration.{name}.sigma: {spec[0]:g} {si_unit(kind)} is above "
+                    f"{PRIOR_SIGMA_MAX[kind]:g} {si_unit(kind)}, the largest prior σ the state's "
+                    "small-error model takes (docs/calibration.md, 'The states')"
+                )
             # As a σ: beyond 1e7 SI a random walk is a wrong unit (up to 0.4.4 a scale's
             # 1e9 /√s was taken, and the run ended 1400 km off with exit 0).
             unit = si_unit(KINDS[self.kind].calibration[name].random_walk_kind)
@@ -582,7 +608,11 @@ class SensorConfig(_Model):
             q = KINDS[self.kind].calibration[name]
             given = (self.calibration or {}).get(name, CalibrationConfig())
             at = f"calibration.{name}"
-            sigma = q.sigma if given.sigma is None else _pair_si(given.sigma, q.sigma_kind, at)
+            sigma = (
+                q.sigma
+                if given.sigma is None
+                else _pair_si(given.sigma, q.sigma_kind, f"{at}.sigma")
+            )
             rw = (
                 q.random_walk
                 if given.random_walk is None
