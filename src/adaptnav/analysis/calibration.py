@@ -16,18 +16,30 @@ sensor's kind in the mission's configuration (:data:`TRUTH_KEYS`):
 * ``dvl.latency``, ``gnss.latency``, ``heading.latency`` = ``dvl_latency_s``,
   ``gps_latency_s``, ``heading_latency_s`` (not recorded before 0.4.3: no true value then).
 
+Each less what the mission's configuration already compensates (since 0.4.6; before, a known
+part was scored as an error of the estimate): a latency less the sensor's ``latency_s``, a
+depth bias less its ``surface_h_m``, the DVL misalignment relative to its ``mounting_rpy_deg``
+(:func:`relative_misalignment`), an inclinometer's biases less its mounting's roll and pitch
+(:func:`_true_si`). A ``simulation.json`` that is there but damaged is an error naming the file
+and the key (:class:`CalibrationTruthError`), not a truth with states missing or wrong.
+
 The error of an estimate is ``estimate - true``, and ``error / σ`` says whether the filter's
 σ covers it (within ±2 about 95 % of the time for a consistent filter).
 """
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from adaptnav.analysis.compare import simulation_info
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from adaptnav.analysis.compare import SIMULATION_FILE
+from adaptnav.core import attitude
 from adaptnav.mission import MissionError, load_config
 from adaptnav.mission.calibration import calibration_states
 from adaptnav.mission.loader import CONFIG_NAME
@@ -35,8 +47,22 @@ from adaptnav.mission.loader import CONFIG_NAME
 if TYPE_CHECKING:
     from adaptnav.api.results import Result
     from adaptnav.mission import MissionConfig
+    from adaptnav.mission.config import SensorConfig
 
-__all__ = ["TRUTH_KEYS", "calibration_errors", "mission_truth", "true_values", "units"]
+Array = NDArray[np.float64]
+
+__all__ = [
+    "TRUTH_KEYS",
+    "CalibrationTruthError",
+    "calibration_errors",
+    "comparison_truth",
+    "mission_truth",
+    "relative_misalignment",
+    "run_surfaces",
+    "simulation_truth",
+    "true_values",
+    "units",
+]
 
 TRUTH_KEYS: dict[tuple[str, str], tuple[str, int | None, float]] = {
     ("dvl", "scale"): ("dvl_scale_factor", None, 1.0),
@@ -51,7 +77,17 @@ TRUTH_KEYS: dict[tuple[str, str], tuple[str, int | None, float]] = {
     ("heading", "latency"): ("heading_latency_s", None, 0.0),
 }
 """(sensor kind, state) → (key of ``simulation.json``'s ``calibration``, index in its list or
-None for a number, offset): the true state (SI) is ``value[index] - offset``."""
+None for a number, offset): the simulated error (SI) is ``value[index] - offset``; the state's
+true value is that error less the part the mission's configuration already compensates
+(:func:`true_values`)."""
+_LENGTHS = {"dvl_misalignment_rad": 3, "inclinometer_bias_rad": 2}
+"""The recorded lists and their lengths (the simulator's ``Calibration.as_dict``)."""
+
+
+class CalibrationTruthError(ValueError):
+    """``simulation.json`` is there but its true calibration errors cannot be read (not JSON,
+    a value of the wrong type or length, not finite): the message names the file and the key.
+    Scoring against what could be read of it would be silently wrong."""
 
 
 def units(config: MissionConfig) -> dict[str, tuple[float, str]]:
@@ -64,45 +100,179 @@ def units(config: MissionConfig) -> dict[str, tuple[float, str]]:
     }
 
 
-def true_values(config: MissionConfig, simulation: Mapping[str, Any] | None) -> dict[str, float]:
-    """The true value, in its report unit, of each calibration state of the mission that the
-    simulator's record ``simulation`` (``simulation.json``) gives (module docstring); empty
-    without a record or its ``calibration`` section."""
-    section = (simulation or {}).get("calibration")
-    if not isinstance(section, Mapping):
+def run_surfaces(meta: Mapping[str, Any] | None) -> dict[str, float]:
+    """The water-surface heights a run measured for its depth meters with ``surface_h_m =
+    "auto"`` (``meta["surface_h_m"]``, api/runner.py ``resolve_surfaces``), by sensor; empty
+    when it measured none."""
+    found = (meta or {}).get("surface_h_m")
+    if not isinstance(found, Mapping):
         return {}
+    return {
+        str(k): float(v)
+        for k, v in found.items()
+        if isinstance(v, int | float) and not isinstance(v, bool)
+    }
+
+
+def true_values(
+    config: MissionConfig,
+    simulation: Mapping[str, Any] | None,
+    surfaces: Mapping[str, float] | None = None,
+) -> dict[str, float]:
+    """The true value, in its report unit, of each calibration state of the mission that the
+    simulator's record ``simulation`` (``simulation.json``) gives (module docstring), less what
+    the mission's configuration already compensates (:func:`_true_si`); ``surfaces``: a run's
+    measured ``"auto"`` water surfaces (:func:`run_surfaces`). Empty without a record or its
+    ``calibration`` section (null too); a key that is not recorded gives its states no truth
+    (a simulator before 0.4.3 recorded no latency). :class:`CalibrationTruthError` naming the
+    key for a section or a value that is there but not what the simulator writes."""
+    section = (simulation or {}).get("calibration")
+    if section is None:
+        return {}
+    if not isinstance(section, Mapping):
+        raise CalibrationTruthError(
+            f"calibration: {section!r} is not an object of true calibration errors"
+        )
     out: dict[str, float] = {}
     for st in calibration_states(config):
-        kind = config.sensors[st.sensor].kind
+        sensor = config.sensors[st.sensor]
+        surface = _surface(sensor, st.sensor, surfaces or {})
         for state, name in zip(st.quantity.states, st.names, strict=True):
-            value = _true_si(section, kind, state)
+            value = _true_si(section, sensor, state, surface)
             if value is not None:
                 out[name] = value * st.quantity.factor
     return out
 
 
-def mission_truth(folder: str | Path) -> dict[str, float]:
-    """:func:`true_values` of the mission folder ``folder`` (its ``mission.toml`` and
-    ``simulation.json``); empty when either is missing or unreadable (a real mission)."""
+def simulation_truth(
+    config: MissionConfig, root: str | Path, surfaces: Mapping[str, float] | None = None
+) -> dict[str, float]:
+    """:func:`true_values` of ``config`` against the mission folder ``root``'s
+    ``simulation.json``: empty without that file (a real mission), a
+    :class:`CalibrationTruthError` naming it and the key when it is there but unreadable."""
+    path = Path(root) / SIMULATION_FILE
+    if not path.is_file():
+        return {}
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CalibrationTruthError(f"{path}: not readable JSON ({exc})") from None
+    if not isinstance(info, dict):
+        raise CalibrationTruthError(f"{path}: not a JSON object")
+    try:
+        return true_values(config, info, surfaces)
+    except CalibrationTruthError as exc:
+        raise CalibrationTruthError(f"{path}: {exc}") from None
+
+
+def comparison_truth(
+    config: MissionConfig, root: str | Path, results: Mapping[str, Result]
+) -> dict[str, float]:
+    """:func:`simulation_truth` for runs of one mission from one start (a comparison; the
+    report's calibration figure), with the water surfaces they measured (:func:`run_surfaces`:
+    measured once, at the shared alignment, so the same in each)."""
+    surfaces: dict[str, float] = {}
+    for result in results.values():
+        surfaces = {**run_surfaces(result.meta), **surfaces}
+    return simulation_truth(config, root, surfaces)
+
+
+def mission_truth(
+    folder: str | Path, surfaces: Mapping[str, float] | None = None
+) -> dict[str, float]:
+    """:func:`simulation_truth` of the mission folder ``folder`` (its ``mission.toml`` and
+    ``simulation.json``); empty when either is missing or the configuration unreadable (not a
+    mission), a :class:`CalibrationTruthError` for a ``simulation.json`` that is there but
+    damaged (since 0.4.6; it gave no or part of the truth before)."""
     root = Path(folder)
     try:
         config = load_config(root / CONFIG_NAME)
     except MissionError:
         return {}
-    return true_values(config, simulation_info(root))
+    return simulation_truth(config, root, surfaces)
 
 
-def _true_si(section: Mapping[str, Any], kind: str, state: str) -> float | None:
-    """A state's true value (SI) from a ``calibration`` section; None when not recorded."""
-    if (kind, state) not in TRUTH_KEYS:
+def _surface(sensor: SensorConfig, name: str, surfaces: Mapping[str, float]) -> float | None:
+    """A depth meter's water-surface height as the run used it (m): its ``surface_h_m``, or for
+    ``"auto"`` the height the run measured, rounded to the mm as the runner sets it
+    (api/runner.py ``resolve_surfaces``); None for ``"auto"`` without that measurement."""
+    if sensor.surface_h_m != "auto":
+        return sensor.surface_h()
+    return round(surfaces[name], 3) if name in surfaces else None
+
+
+def _true_si(
+    section: Mapping[str, Any], sensor: SensorConfig, state: str, surface: float | None
+) -> float | None:
+    """A state's true value (SI): the simulated error less what the configuration compensates
+    (docs/metrics.md, 'Calibration'); None when not recorded, or for a depth bias whose
+    ``"auto"`` surface the run did not record.
+
+    * latency: the loader moves every reading by ``latency_s`` (mission/loader.py), so the
+      state sees the simulated lag less it, exactly;
+    * depth bias: the model reads ``h_s - h + b`` (sensors/depth.py) where the simulator reads
+      ``-h + b_sim``, so ``b = b_sim - h_s``;
+    * DVL misalignment: :func:`relative_misalignment`;
+    * inclinometer biases: the simulated sensor sits on the body axes, the model reads the
+      roll and pitch of ``C_nb C_bs`` (``C_bs = euler_to_dcm(mounting)``). Level, that is the
+      mounting's own roll and pitch (``Rz(ψ) C_bs``'s), so ``b = b_sim - (m_roll, m_pitch)``;
+      tilted, the mounting's pitch and yaw mix the vehicle's roll and pitch (by ~|m| × tilt),
+      which no constant bias follows: the level value is the truth scored (docs/metrics.md).
+    """
+    entry = TRUTH_KEYS.get((sensor.kind, state))
+    if entry is None:
         return None
-    key, index, offset = TRUTH_KEYS[(kind, state)]
-    value = section.get(key)
-    if index is not None:
-        value = value[index] if isinstance(value, list) and index < len(value) else None
-    if not isinstance(value, int | float) or isinstance(value, bool):
+    key, index, offset = entry
+    if key not in section:
+        twin = key.removesuffix("_rad") + "_deg"
+        if twin != key + "_deg" and twin in section:  # the simulator writes both or neither
+            raise CalibrationTruthError(f"calibration: {twin} without {key}")
         return None
-    return float(value) - offset
+    recorded = _recorded(section, key)
+    if index is not None and sensor.kind == "dvl":
+        return float(relative_misalignment(recorded, sensor.mounting_rpy_deg)[index])
+    value = float(recorded[0 if index is None else index]) - offset
+    if state == "latency":
+        return value - (sensor.latency_s or 0.0)
+    if sensor.kind == "depth":
+        return None if surface is None else value - surface
+    if index is not None and sensor.mounting_rpy_deg is not None:
+        return value - math.radians(sensor.mounting_rpy_deg[index])
+    return value
+
+
+def _recorded(section: Mapping[str, Any], key: str) -> Array:
+    """``section[key]`` as the simulator writes it, a finite number (returned as one element)
+    or a list of :data:`_LENGTHS` finite numbers; :class:`CalibrationTruthError` naming the key
+    otherwise."""
+    value = section[key]
+    n = _LENGTHS.get(key)
+    items = value if n is not None and isinstance(value, list) else [value]
+    numbers = all(isinstance(v, int | float) and not isinstance(v, bool) for v in items)
+    if (n is not None and len(items) != n) or not numbers:
+        wanted = "a number" if n is None else f"a list of {n} numbers"
+        raise CalibrationTruthError(f"calibration.{key}: {value!r} is not {wanted}")
+    out = np.asarray(items, dtype=float)
+    if not np.all(np.isfinite(out)):
+        raise CalibrationTruthError(f"calibration.{key}: {value!r} is not finite")
+    return out
+
+
+def relative_misalignment(simulated: ArrayLike, mounting_rpy_deg: Sequence[float] | None) -> Array:
+    """The DVL misalignment state's true value δ (rad, ZYX) for the simulated misalignment
+    ``simulated`` and the configured mounting: the simulated DVL reads ``M(δ_sim) v_b`` (its
+    nominal frame is the body's, sim/sensors.py), the model ``M(δ) C_sb v_b`` with ``C_sb =
+    euler_to_dcm(m)ᵀ`` and ``M(δ) = euler_to_dcm(δ)ᵀ`` (sensors/calibration.py), so
+    ``euler_to_dcm(δ) = euler_to_dcm(m)ᵀ euler_to_dcm(δ_sim)``, exactly: the rotation from the
+    configured frame to the true one. A difference of the Euler angles is right to first order
+    only: a mounting of (0.5°, -0.3°, 0) and a simulated (0.5°, -0.3°, 2°) give (0.011°,
+    0.017°, 2.000°), not (0, 0, 2°), beyond the 0.001° the table shows."""
+    d = np.asarray(simulated, dtype=float)
+    if mounting_rpy_deg is None or not any(mounting_rpy_deg):
+        return d  # exact, where the round trip through a DCM would round
+    m = np.radians(np.asarray(mounting_rpy_deg, dtype=float))
+    C = attitude.euler_to_dcm(*m).T @ attitude.euler_to_dcm(*d)
+    return np.asarray(attitude.dcm_to_euler(C), dtype=float)
 
 
 def calibration_errors(

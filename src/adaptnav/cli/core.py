@@ -260,13 +260,23 @@ def _calibration_errors(result: Result, mission: Path | None) -> dict[str, dict[
     """The run's calibration estimates against the simulator's true values
     (:func:`adaptnav.analysis.calibration.calibration_errors`), from ``--mission`` or else the
     mission folder the run records (``meta.mission_dir``); empty when the run has no
-    calibration states or that folder no true calibration errors."""
-    from adaptnav.analysis.calibration import calibration_errors, mission_truth
+    calibration states or that folder no true calibration errors; a failure naming the file
+    and key when its ``simulation.json`` is damaged."""
+    from adaptnav.analysis.calibration import (
+        CalibrationTruthError,
+        calibration_errors,
+        mission_truth,
+        run_surfaces,
+    )
 
     folder = mission if mission is not None else result.meta.get("mission_dir")
     if not result.meta.get("calibration") or folder is None:
         return {}
-    return calibration_errors(result, mission_truth(folder))
+    try:
+        truth = mission_truth(folder, run_surfaces(result.meta))
+    except CalibrationTruthError as exc:  # a truth read in part would score silently wrong
+        _fail(str(exc))
+    return calibration_errors(result, truth)
 
 
 def _calibration_errors_table(cal: dict[str, dict[str, Any]]) -> Table:

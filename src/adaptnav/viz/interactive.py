@@ -328,7 +328,6 @@ def comparison_figures(cmp: Comparison) -> dict[str, Any]:
     mission's ``simulation.json`` when it has them). The trajectory and the ledger counts stay
     static figures (:mod:`adaptnav.viz.plots`)."""
     from adaptnav.analysis import calibration as cal
-    from adaptnav.analysis.compare import simulation_info
 
     t0 = cmp.t0
     figs = {"position_error": position_error(cmp.results, cmp.truth, t0=t0)}
@@ -338,6 +337,6 @@ def comparison_figures(cmp: Comparison) -> dict[str, Any]:
         figs["nis"] = nis(cmp.results, t0=t0)
     if any(r.meta.get("calibration") for r in cmp.results.values()):
         units = cal.units(cmp.mission.config)
-        truth = cal.true_values(cmp.mission.config, simulation_info(cmp.mission.root))
+        truth = cal.comparison_truth(cmp.mission.config, cmp.mission.root, cmp.results)
         figs["calibration"] = calibration(cmp.results, units, truth, t0=t0)
     return figs

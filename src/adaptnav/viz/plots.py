@@ -581,7 +581,6 @@ def figure_makers(cmp: Comparison) -> dict[str, Callable[[], Figure]]:
     stem, so that a subset can be drawn (:mod:`adaptnav.viz.pngs` splits them between
     processes)."""
     from adaptnav.analysis import calibration as cal
-    from adaptnav.analysis.compare import simulation_info
 
     t0 = cmp.t0
     makers: dict[str, Callable[[], Figure]] = {
@@ -597,6 +596,6 @@ def figure_makers(cmp: Comparison) -> dict[str, Callable[[], Figure]]:
         makers["nis"] = partial(nis, cmp.results, t0=t0)
     if any(r.meta.get("calibration") for r in cmp.results.values()):
         units = cal.units(cmp.mission.config)
-        truth = cal.true_values(cmp.mission.config, simulation_info(cmp.mission.root))
+        truth = cal.comparison_truth(cmp.mission.config, cmp.mission.root, cmp.results)
         makers["calibration"] = partial(calibration, cmp.results, units, truth, t0=t0)
     return {stem: partial(_marked, make) for stem, make in makers.items()}

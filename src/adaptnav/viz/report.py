@@ -26,7 +26,7 @@ into one HTML file a person reads from top to bottom:
    run estimated calibration states (docs/calibration.md), their final estimates ± σ per filter
    from the run folders' ``calibration.json``, beside the true values of ``simulation.json``
    when known (``<table id="calibration-estimates">``,
-   :func:`adaptnav.analysis.calibration.true_values`; docs/metrics.md, 'Calibration');
+   :func:`adaptnav.analysis.calibration.simulation_truth`; docs/metrics.md, 'Calibration');
 5. every figure (the paper's Figs. 7-10, ledger counts, NIS, the calibration states) as a
    ``<figure>`` with a caption saying what to look at: the time series that ``comparison.json``
    lists under ``interactive`` (position error, each sensor's measurements and R̂, NIS,
@@ -58,7 +58,7 @@ from typing import Any
 import jinja2
 from markupsafe import Markup
 
-from adaptnav.analysis.calibration import true_values
+from adaptnav.analysis.calibration import CalibrationTruthError, run_surfaces, simulation_truth
 from adaptnav.analysis.compare import (
     COMPARISON_JSON,
     FILTER_LABELS,
@@ -867,11 +867,17 @@ def _plotly_js() -> Markup:
 
 
 def _calibration(
-    folder: Path, names: Sequence[Any], config: MissionConfig | None, sim: Mapping[str, Any] | None
+    folder: Path,
+    names: Sequence[Any],
+    config: MissionConfig | None,
+    mission_dir: Path | None,
+    summaries: Mapping[str, Mapping[str, Any] | None],
 ) -> Calibration | None:
     """The calibration states of the runs that estimated some (their ``calibration.json``),
     in the order the runs list them, with the true values the simulator recorded
-    (:func:`adaptnav.analysis.calibration.true_values`) when the mission is known."""
+    (:func:`adaptnav.analysis.calibration.simulation_truth`, with the water surfaces the runs
+    measured) when the mission is known; :class:`ReportError` naming ``simulation.json`` and
+    the key when it is damaged (a figure against a truth read in part would mislead)."""
     found: dict[str, dict[str, Any]] = {}
     for name in names:
         doc = _optional_json(folder / str(name) / CALIBRATION_FILE)
@@ -879,7 +885,15 @@ def _calibration(
             found[str(name)] = doc
     if not found:
         return None
-    truth = true_values(config, sim) if config is not None else {}
+    truth: dict[str, float] = {}
+    if config is not None and mission_dir is not None:
+        surfaces: dict[str, float] = {}
+        for summary in summaries.values():
+            surfaces = {**run_surfaces((summary or {}).get("meta")), **surfaces}
+        try:
+            truth = simulation_truth(config, mission_dir, surfaces)
+        except CalibrationTruthError as exc:
+            raise ReportError(str(exc)) from None
     rows = []
     for state in dict.fromkeys(s for doc in found.values() for s in doc):
         entries = [doc.get(state) for doc in found.values()]
@@ -1039,6 +1053,8 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
     title = f"adaptnav: filters compared on {mission}"
     if sim and sim.get("seed") is not None:
         title += f" (seed {sim['seed']})"
+    summaries = {n: _optional_json(folder / str(n) / "summary.json") for n in names}
+    calibration = _calibration(folder, names, config, mission_dir, summaries)
     shown = folder.resolve() if shown_as is None else Path(shown_as)
     if mission_dir is not None and shown_as is not None and mission_dir == folder / MISSION_SUBDIR:
         mission_dir = shown / MISSION_SUBDIR
@@ -1046,7 +1062,6 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
     specs = doc.get("interactive")
     specs = specs if isinstance(specs, dict) else {}
     figures = _figures(folder, doc.get("figures") or [], specs, sim is not None, smoothed)
-    summaries = {n: _optional_json(folder / str(n) / "summary.json") for n in names}
     return ReportData(
         title=title,
         filters=tuple(_label(n) for n in names),
@@ -1064,7 +1079,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
         nees_diagonal=tuple(
             _label(n) for n in scored if results.get(n, {}).get("nees_uses_correlations") is False
         ),
-        calibration=_calibration(folder, names, config, sim),
+        calibration=calibration,
         figures=figures,
         plotly_js=_plotly_js() if any(f.spec is not None for f in figures) else None,
         plotly_config=_script_json(PLOTLY_CONFIG),
