@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -299,6 +300,61 @@ def test_a_smoothed_run_keeps_its_forward_solution(tmp_path: Path) -> None:
     pd.testing.assert_frame_equal(back.solution, res.solution)
     save(Result.from_engine(out, "vb", "m1", {}), folder)
     assert not (folder / "forward.parquet").exists() and load(folder).forward is None
+
+
+def _smoothed_folder(folder: Path) -> Path:
+    """A smoothed run's folder (:func:`test_a_smoothed_run_keeps_its_forward_solution`)."""
+    from dataclasses import replace
+
+    from adaptnav.engine.batch import Smoothed
+
+    out = synthetic_output()
+    none = np.zeros((out.t.size, 0))
+    smoothed = Smoothed(
+        out.t, out.x + 1e-7, 0.5 * out.P_diag, 0.5 * out.P_cross, 9, 4, 0, 1234,
+        declared=none, declared_var=none,
+    )  # fmt: skip
+    return save(Result.from_engine(replace(out, smoothed=smoothed), "vb", "m1", {}), folder)
+
+
+def _plain_folder(folder: Path) -> Path:
+    return save(Result.from_engine(synthetic_output(), "vb", "m1", {}), folder)
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (
+            "delete",
+            "missing forward.parquet (summary.json's meta.smoother says the run was smoothed",
+        ),
+        ("one row", "forward.parquet: 1 rows, and solution.parquet has 5"),
+        ("shifted", "forward.parquet row 0, t_s: 1000.0, and solution.parquet's is 0.0"),
+        ("stray", "forward.parquet: a forward solution in a run that was not smoothed"),
+    ],
+)
+def test_a_forward_solution_at_odds_with_the_run_is_refused(
+    tmp_path: Path, damage: str, message: str
+) -> None:
+    """Before 0.4.6 `evaluate` took whatever forward.parquet it found: none (a smoothed run
+    scored as a plain one), one row (forward RMSE 3.99 m for 2.63 m), another run's, or one left
+    in a plain run's folder. The smoother writes its solution at the forward pass's output
+    times, so the two t_s columns are equal value for value."""
+    folder = (_plain_folder if damage == "stray" else _smoothed_folder)(tmp_path / "run")
+    path = folder / "forward.parquet"
+    if damage == "stray":
+        pd.read_parquet(folder / "solution.parquet").to_parquet(path, index=False)
+    elif damage == "delete":
+        path.unlink()
+    else:
+        forward = pd.read_parquet(path)
+        if damage == "one row":
+            forward = forward.iloc[:1]
+        else:
+            forward["t_s"] += 1000.0
+        forward.to_parquet(path, index=False)
+    with pytest.raises(RunFolderError, match=re.escape(message)):
+        load(folder)
 
 
 def test_dropped_ledger_is_the_table_of_ledger_rows() -> None:

@@ -546,11 +546,54 @@ def check_finite(solution: pd.DataFrame, columns: Sequence[str], label: str) -> 
             )
 
 
+def check_forward(
+    folder: Path, meta: Mapping[str, Any], tables: Mapping[str, pd.DataFrame]
+) -> None:
+    """A run folder's ``forward.parquet`` must be there exactly when ``summary.json``'s
+    ``meta.smoother`` says the run was smoothed (:meth:`Result.from_engine` writes both), and
+    its ``t_s`` must be the solution's, value for value: the smoother reports each output row
+    of the forward pass smoothed (engine/batch.py ``Navigator.smooth`` copies the output
+    times). Raises :class:`RunFolderError` naming the file otherwise (since 0.4.6): ``evaluate``
+    scored a smoothed run without it as a plain one, and one truncated, shifted or of another
+    run as that run's forward solution."""
+    path = folder / TABLE_FILES["forward"]
+    forward = tables.get("forward")
+    smoothed = meta.get("smoother") is not None
+    if forward is None:
+        if smoothed:
+            raise RunFolderError(
+                f"run folder {folder}: missing {path.name} ({SUMMARY_FILE}'s meta.smoother says "
+                "the run was smoothed, and its forward solution is kept beside the smoothed one)"
+            )
+        return
+    if not smoothed:
+        raise RunFolderError(
+            f"{path}: a forward solution in a run that was not smoothed ({SUMMARY_FILE} has no "
+            "meta.smoother): left from another run?"
+        )
+    t_fwd = forward["t_s"].to_numpy(dtype=float)
+    t_sol = tables["solution"]["t_s"].to_numpy(dtype=float)
+    if t_fwd.size != t_sol.size:
+        raise RunFolderError(
+            f"{path}: {t_fwd.size} rows, and {TABLE_FILES['solution']} has {t_sol.size} (the "
+            "smoother writes both at the same output times): truncated, or of another run?"
+        )
+    differ = np.flatnonzero(t_fwd != t_sol)
+    if differ.size:
+        k = int(differ[0])
+        raise RunFolderError(
+            f"{path} row {k}, t_s: {float(t_fwd[k])!r}, and {TABLE_FILES['solution']}'s is "
+            f"{float(t_sol[k])!r} (the smoother writes both at the same output times; "
+            f"{differ.size} row(s) differ): of another run?"
+        )
+
+
 def load(run_dir: str | Path) -> Result:
     """Read a run folder written by :func:`save`.
 
     Raises :class:`RunFolderError` (a ValueError) naming the folder or the file that is
-    missing, unreadable or lacks required content.
+    missing, unreadable or lacks required content, or a ``forward.parquet`` at odds with the
+    run (:func:`check_forward`).
     """
     folder = Path(run_dir)
     if not folder.exists():
@@ -598,6 +641,7 @@ def load(run_dir: str | Path) -> Result:
         if name in ("solution", "forward"):
             check_times(table, str(table_path))
         tables[name] = table
+    check_forward(folder, info["meta"], tables)
     return Result(
         filter=str(info["filter"]),
         mission=str(info["mission"]),
