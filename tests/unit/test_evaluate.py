@@ -4,6 +4,8 @@ answers."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -16,6 +18,7 @@ from adaptnav.analysis.evaluate import (
     Metrics,
     block_errors,
     evaluate,
+    forward_metrics,
     fraction_in_band,
     nees,
     nees_from,
@@ -36,6 +39,7 @@ from adaptnav.api.results import (
     Result,
     cov_column,
     ledger_frame,
+    load,
     noise_frame,
 )
 from adaptnav.core import attitude, earth
@@ -555,3 +559,43 @@ def test_attitude_errors_closed_form_match_scipy_rotations() -> None:
     np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-15)
     big = norm > 1e-3  # relative to the rotation angle, where rounding is no longer all
     assert np.all(np.linalg.norm(got - want, axis=1)[big] <= 1e-12 * norm[big])
+
+
+def _smoothed_run(folder: Path, forward_nan_row: int | None = None) -> Path:
+    """A smoothed run folder (3 m east smoothed, 5 m forward) with its truth.parquet; the
+    forward position's latitude NaN at ``forward_nan_row``."""
+    from adaptnav.api.results import save
+
+    truth = straight_north().iloc[:201]
+    forward = offset_solution(truth, np.array([0.0, 5.0, 0.0]))
+    if forward_nan_row is not None:
+        forward.loc[forward_nan_row, "lat_rad"] = math.nan
+    result = replace(
+        make_result(offset_solution(truth, np.array([0.0, 3.0, 0.0])), []),
+        forward=forward,
+        meta={"smoother": {"nodes": 201, "update_nodes": 0, "failed_nodes": 0, "store_bytes": 1}},
+    )
+    save(result, folder)
+    truth.to_parquet(folder / "truth.parquet", index=False)
+    return folder
+
+
+def test_a_damaged_forward_solution_is_named_as_such(tmp_path: Path) -> None:
+    """Before 0.4.6 a NaN in forward.parquet was reported as the smoothed solution's ("solution
+    row 100, lat_rad"), and any other problem of it against truth.parquet."""
+    from typer.testing import CliRunner
+
+    from adaptnav.cli import app
+
+    good = _smoothed_run(tmp_path / "good")
+    res = CliRunner().invoke(app, ["evaluate", str(good), "--json", "-q"])
+    assert res.exit_code == 0, res.output
+    assert '"forward_rmse_m": 5.0' in res.output
+    bad = _smoothed_run(tmp_path / "bad", forward_nan_row=100)
+    with pytest.raises(ValueError, match=r"^forward row 100, lat_rad: nan is not a finite"):
+        forward_metrics(load(bad), straight_north())
+    res = CliRunner().invoke(app, ["evaluate", str(bad), "-q"])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    assert f"{bad / 'forward.parquet'}: forward row 100, lat_rad: nan" in " ".join(
+        res.output.split()
+    )

@@ -605,18 +605,20 @@ class Metrics:
         return result
 
 
-def evaluate(result: Result, truth: pd.DataFrame) -> Metrics:
+def evaluate(result: Result, truth: pd.DataFrame, *, table: str = "solution") -> Metrics:
     """Metrics of ``result`` against the reference ``truth`` (see the module docstring).
 
     Raises ValueError if no truth sample lies within the solution's time span, or if a
     solution position is not finite (a damaged run folder: the RMSE would be NaN while the
-    NEES, which leaves such rows out, would not).
+    NEES, which leaves such rows out, would not). ``table`` names the solution in those
+    messages: :func:`forward_metrics` scores the forward solution through here, and its
+    problems are the forward table's, not the smoothed one's.
     """
-    check_finite(result.solution, ("lat_rad", "lon_rad", "h_m"), "solution")
+    check_finite(result.solution, ("lat_rad", "lon_rad", "h_m"), table)
     errors = position_errors(result.solution, truth)
     if errors.empty:
         raise ValueError(
-            f"no truth sample within the solution span of {result.filter!r} on {result.mission!r}"
+            f"no truth sample within the {table} span of {result.filter!r} on {result.mission!r}"
         )
     t_truth = _check_truth(truth)
     t_sol = _solution_time(result.solution)
@@ -694,10 +696,11 @@ def coverage_warning(metrics: Metrics) -> str | None:
 def forward_metrics(result: Result, truth: pd.DataFrame) -> Metrics | None:
     """The metrics of a smoothed run's forward solution, ``result.forward`` (its ``solution``
     is then the RTS-smoothed one, docs/smoothing.md), by :func:`evaluate` itself; None for a
-    run that was not smoothed."""
+    run that was not smoothed. Its ValueErrors name the table ``forward`` (a run folder's
+    ``forward.parquet``), so that they are not taken for the smoothed solution's."""
     if result.forward is None:
         return None
-    return evaluate(replace(result, solution=result.forward, forward=None), truth)
+    return evaluate(replace(result, solution=result.forward, forward=None), truth, table="forward")
 
 
 def forward_columns(forward: Metrics) -> dict[str, float]:

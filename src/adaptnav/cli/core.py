@@ -231,9 +231,14 @@ def evaluate_cmd(
         st.begin("scoring against the reference")
         try:
             metrics = evaluate.evaluate(result, truth)
-            forward = evaluate.forward_metrics(result, truth)
         except ValueError as exc:  # a reference without the columns or times it needs
             _fail(f"{run_dir if str(exc).startswith('solution ') else source}: {exc}")
+        try:
+            forward = evaluate.forward_metrics(result, truth)
+        except ValueError as exc:
+            # The reference passed with the smoothed solution, at the same times
+            # (results.check_forward): what fails now is forward.parquet's.
+            _fail(f"{run_dir / 'forward.parquet'}: {exc}")
         cal = _calibration_errors(result, mission)
     d = metrics.to_dict()
     coverage = evaluate.coverage_warning(metrics)
