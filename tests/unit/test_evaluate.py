@@ -599,3 +599,23 @@ def test_a_damaged_forward_solution_is_named_as_such(tmp_path: Path) -> None:
     assert f"{bad / 'forward.parquet'}: forward row 100, lat_rad: nan" in " ".join(
         res.output.split()
     )
+
+
+def test_no_percentage_of_a_distance_below_a_metre() -> None:
+    """A run that barely moves: 3.99 m of error over 6e-9 m travelled gave 66 billion % before
+    0.4.6 (only a zero distance gave NaN). Below evaluate.MIN_DISTANCE_M (1 m) it is NaN; from
+    1 m on the percentage is given."""
+    assert evaluate_module.MIN_DISTANCE_M == 1.0
+    assert math.isnan(relative_rmse_pct(3.99, 6e-9))
+    assert math.isnan(relative_rmse_pct(3.99, 0.999))
+    assert relative_rmse_pct(3.0, 1.0) == pytest.approx(300.0)
+    truth = straight_north().iloc[:3]  # 2 m
+    still = truth.copy()
+    still[["lat_rad", "lon_rad"]] = truth[["lat_rad", "lon_rad"]].iloc[0].to_numpy()
+    sol = offset_solution(still, np.array([0.0, 4.0, 0.0]))
+    m = evaluate(make_result(sol, []), still)
+    assert m.distance_m < 1e-6 and math.isnan(m.relative_rmse_pct)  # rounding: not 0
+    drift = outage_drift(sol, still, [(0.0, 2.0)])
+    assert math.isnan(drift["drift_pct"].iloc[0])
+    moving = outage_drift(offset_solution(truth, np.array([0.0, 4.0, 0.0])), truth, [(0.0, 2.0)])
+    assert moving["drift_pct"].iloc[0] == pytest.approx(200.0, rel=1e-6)  # 4 m over 2 m
