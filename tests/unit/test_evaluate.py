@@ -3,6 +3,7 @@ answers."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -619,3 +620,47 @@ def test_no_percentage_of_a_distance_below_a_metre() -> None:
     assert math.isnan(drift["drift_pct"].iloc[0])
     moving = outage_drift(offset_solution(truth, np.array([0.0, 4.0, 0.0])), truth, [(0.0, 2.0)])
     assert moving["drift_pct"].iloc[0] == pytest.approx(200.0, rel=1e-6)  # 4 m over 2 m
+
+
+def test_the_mean_nees_says_over_how_many_epochs_it_is() -> None:
+    """Epochs whose P block is not positive definite have no NEES; before 0.4.6 the mean left
+    them out without a word (a forward position NEES over 127 of 201 epochs, a smoothed one
+    over none: null with no reason). Now Metrics counts them and evaluate warns."""
+    truth = straight_north().iloc[:101]
+    sol = offset_solution(truth, np.array([0.0, 3.0, 0.0]))
+    full = evaluate(make_result(sol, []), truth)
+    assert full.nees_position_epochs == 101 and full.nees_velocity_epochs is None
+    assert evaluate_module.nees_warning(full) is None
+    sol.loc[:29, "sd_dr_N"] = 0.0  # singular: no NEES at these 30 epochs
+    part = evaluate(make_result(sol, []), truth)
+    assert part.nees_position_epochs == 71 and part.mean_nees_position == pytest.approx(9.0)
+    assert part.to_dict()["nees_position_epochs"] == 71
+    warning = evaluate_module.nees_warning(part)
+    assert warning is not None and "mean NEES of position over 71 of 101 epochs" in warning
+    sol["sd_dr_N"] = 0.0
+    none = evaluate(make_result(sol, []), truth)
+    assert none.nees_position_epochs == 0 and math.isnan(none.mean_nees_position)
+    warning = evaluate_module.nees_warning(none)
+    assert warning is not None and "position over none of the 101 epochs" in warning
+
+
+def test_evaluate_shows_and_warns_of_epochs_left_out_of_the_nees(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from adaptnav.api.results import save
+    from adaptnav.cli import app
+
+    truth = straight_north().iloc[:101]
+    sol = offset_solution(truth, np.array([0.0, 3.0, 0.0]))
+    sol.loc[:29, "sd_dr_N"] = 0.0
+    folder = save(make_result(sol, []), tmp_path / "run")
+    truth.to_parquet(folder / "truth.parquet", index=False)
+    res = CliRunner().invoke(app, ["evaluate", str(folder), "--json", "-q"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["nees_position_epochs"] == 71 and doc["nees_attitude_epochs"] is None
+    assert any("position over 71 of 101 epochs" in w for w in doc["warnings"])
+    res = CliRunner().invoke(app, ["evaluate", str(folder), "-q"])
+    text = " ".join(res.output.split())
+    assert "NEES position, epochs in the mean (of 101) │ 71" in text
+    assert "warning: mean NEES of position over 71 of 101 epochs" in text

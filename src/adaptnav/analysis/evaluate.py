@@ -485,23 +485,26 @@ def _nees_summary(
     truth: pd.DataFrame,
     block: NeesBlock,
     errors: pd.DataFrame | None = None,
-) -> tuple[float, float]:
-    """Mean NEES and its in-band fraction for ``block``, NaNs if the truth lacks the block,
-    the solution its σ's, or no epoch has a finite NEES. ``errors``: the block's errors
-    (:func:`block_errors`) when the caller has them already."""
+) -> tuple[float, float, int | None]:
+    """Mean NEES, its in-band fraction and the number of epochs they are over for ``block``:
+    NaNs and None if the truth lacks the block or the solution its σ's; NaNs and 0 if no
+    epoch has a finite NEES. An epoch whose P block is not finite or not positive definite
+    has no NEES (:func:`nees_from`) and is left out of the mean, so the count says over how
+    many of the scored epochs it is. ``errors``: the block's errors (:func:`block_errors`)
+    when the caller has them already."""
     group = {"position": TRUTH_POSITION, "velocity": TRUTH_VELOCITY, "attitude": TRUTH_ATTITUDE}
     sd = [f"sd_{n}" for n in NEES_STATES[block]]
     if not all(c in truth.columns for c in group[block]) or not all(
         c in solution.columns for c in sd
     ):
-        return math.nan, math.nan
+        return math.nan, math.nan, None
     if errors is None:
         errors = block_errors(solution, truth, block)
     v = _column(_nees_of(solution, errors, block), "nees")
     finite = v[np.isfinite(v)]
     if finite.size == 0:
-        return math.nan, math.nan
-    return float(finite.mean()), fraction_in_band(finite)
+        return math.nan, math.nan, 0
+    return float(finite.mean()), fraction_in_band(finite), int(finite.size)
 
 
 @dataclass(frozen=True)
@@ -574,8 +577,11 @@ class Metrics:
     only part of the run. ``mean_nees_<block>`` is the mean NEES of the position, velocity
     and attitude errors (expected 3 for a consistent filter; NaN when the truth lacks the block) and
     ``nees_<block>_in_95`` the fraction of epochs whose NEES lies in :data:`NEES_BAND`
-    (expected 0.95). ``nees_uses_correlations`` is False when the solution has no covariance
-    columns (an older run folder): the NEES then use P's diagonal only.
+    (expected 0.95). ``nees_<block>_epochs`` is how many of the ``samples`` epochs both are
+    over (since 0.4.6): an epoch whose P block is not finite or not positive definite has no
+    NEES and is left out (None when the block is not scored; :func:`nees_warning`).
+    ``nees_uses_correlations`` is False when the solution has no covariance columns (an older
+    run folder): the NEES then use P's diagonal only.
     """
 
     filter: str
@@ -602,6 +608,9 @@ class Metrics:
     counts: dict[str, dict[str, int]]
     mean_nis: dict[str, float]
     nis: dict[str, NisSummary]
+    nees_position_epochs: int | None = None
+    nees_velocity_epochs: int | None = None
+    nees_attitude_epochs: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly: plain types, NaN → None, NIS summaries as dicts (with
@@ -667,6 +676,9 @@ def evaluate(result: Result, truth: pd.DataFrame, *, table: str = "solution") ->
         counts=ledger_counts(result.ledger),
         mean_nis={k: v.mean for k, v in nis.items()},
         nis=nis,
+        nees_position_epochs=consistency["position"][2],
+        nees_velocity_epochs=consistency["velocity"][2],
+        nees_attitude_epochs=consistency["attitude"][2],
     )
 
 
@@ -697,6 +709,26 @@ def coverage_warning(metrics: Metrics) -> str | None:
         f"the reference covers {100.0 * metrics.reference_coverage:.1f} % of the run's "
         f"{metrics.run_duration_s:.1f} s (samples over {metrics.duration_s:.1f} s): the metrics "
         "score that part only"
+    )
+
+
+def nees_warning(metrics: Metrics) -> str | None:
+    """The warning ``evaluate`` gives when a mean NEES leaves out epochs (their P block not
+    finite or not positive definite, :func:`nees_from`), or None: a mean over part of the run
+    is not the run's, and one over no epoch is missing for that reason, not for want of a
+    reference (docs/metrics.md, 'Consistency: NEES')."""
+    parts = []
+    for block in NEES_BLOCKS:
+        used = getattr(metrics, f"nees_{block}_epochs")
+        if used is not None and used < metrics.samples:
+            over = f"{used} of" if used else "none of the"
+            parts.append(f"{block} over {over} {metrics.samples} epochs")
+    if not parts:
+        return None
+    return (
+        f"mean NEES of {', '.join(parts)}: at the epochs left out the covariance block was not "
+        f"finite or not positive definite (smallest eigenvalue at most {PD_RATIO:g} of the "
+        "largest)"
     )
 
 

@@ -241,15 +241,16 @@ def evaluate_cmd(
             _fail(f"{run_dir / 'forward.parquet'}: {exc}")
         cal = _calibration_errors(result, mission)
     d = metrics.to_dict()
-    coverage = evaluate.coverage_warning(metrics)
+    scored = _scoring_warnings(metrics, forward)
     if as_json:
         import json
 
         extra: dict[str, Any] = {} if forward is None else evaluate.forward_columns(forward)
+        if forward is not None:
+            extra["forward_nees_position_epochs"] = forward.nees_position_epochs
         if cal:
             extra["calibration"] = cal
-        extra["warnings"] = [w["message"] for w in result.meta.get("warnings", [])]
-        extra["warnings"] += [coverage] if coverage else []
+        extra["warnings"] = [w["message"] for w in result.meta.get("warnings", [])] + scored
         typer.echo(json.dumps({"filter": result.filter, **d, **jsonable(extra)}, default=str))
         return
     console.print(_metrics_table(result, metrics, d, forward))
@@ -257,8 +258,20 @@ def evaluate_cmd(
     if cal:
         console.print(_calibration_errors_table(cal))
     warn_sensors(result.meta)
-    if coverage:
-        warn(coverage)
+    for message in scored:
+        warn(message)
+
+
+def _scoring_warnings(metrics: Metrics, forward: Metrics | None) -> list[str]:
+    """What ``evaluate`` warns of the scoring itself (docs/metrics.md): a reference covering
+    part of the run, and mean NEES over part of the epochs (the forward solution's too)."""
+    from adaptnav.analysis import evaluate
+
+    out = [w for w in (evaluate.coverage_warning(metrics), evaluate.nees_warning(metrics)) if w]
+    ahead = evaluate.nees_warning(forward) if forward is not None else None
+    if ahead:
+        out.append(f"forward solution: {ahead}")
+    return out
 
 
 def _calibration_errors(result: Result, mission: Path | None) -> dict[str, dict[str, Any]]:
@@ -348,6 +361,7 @@ def _metrics_table(
     from adaptnav.analysis import evaluate
 
     lo, hi = evaluate.NEES_BAND
+    n = metrics.samples
     smoothed = "" if forward is None else "RTS-smoothed, "
     table = Table(title=f"{result.filter} on {result.mission} ({smoothed}against the reference)")
     table.add_column("metric")
@@ -372,6 +386,7 @@ def _metrics_table(
                     f"NEES {block}, share in [{lo:.3f}, {hi:.3f}] (0.95)",
                     "{:.3f}",
                 ),
+                (f"nees_{block}_epochs", f"NEES {block}, epochs in the mean (of {n})", "{}"),
             )
         ),
     ):
