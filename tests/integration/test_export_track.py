@@ -54,6 +54,20 @@ def test_the_csv_is_in_degrees_and_metres_with_the_claimed_sigma() -> None:
         track_table(_solution(3).drop(columns="sd_dr_N"))
 
 
+def test_longitudes_past_the_antimeridian_are_wrapped() -> None:
+    """A run that crosses the antimeridian eastwards has longitudes past 180° in its state
+    (180.0012° measured); track.csv and the KML write them in [-180°, 180°), as KML requires
+    (up to 0.4.5 written as they were)."""
+    sol = _solution(3)
+    sol["lon_rad"] = np.radians([179.999, 180.0012, 181.5])
+    table = track_table(sol)
+    np.testing.assert_allclose(table["lon_deg"], [179.999, -179.9988, -178.5], atol=1e-9)
+    root = ET.fromstring(track_kml("run", sol))
+    coords = [c.text for c in root.iter(f"{KML}coordinates")]
+    lons = [float(p.split(",")[0]) for text in coords for p in str(text).split()]
+    assert lons and all(-180.0 <= v < 180.0 for v in lons)
+
+
 def test_decimation_keeps_every_kth_row_and_the_last() -> None:
     """10 rows to at most 4: k = ceil(9 / 3) = 3; 11 rows: k = ceil(10 / 3) = 4, the last added."""
     assert decimate(10, 4).tolist() == [0, 3, 6, 9]
