@@ -265,3 +265,13 @@ def test_simulate_refuses_bad_calibration_values(
     assert len(lines) == 1 and lines[0].startswith(f"error: {flag}: "), res.output
     assert message in lines[0]
     assert not out.exists()
+
+
+def test_simulate_refuses_a_disturbance_both_on_and_off(tmp_path: Path) -> None:
+    """``--enable waves --disable waves`` ran with the last word winning, silently (up to
+    0.4.5); it is refused before anything is simulated, as --clean with --perfect is."""
+    out = tmp_path / "m"
+    args = ["simulate", "demo", "--out", str(out), "--enable", "waves", "--disable", "waves"]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 2 and "--enable waves and --disable waves" in res.output
+    assert not out.exists()

@@ -509,6 +509,9 @@ def simulate(
     if clean and perfect:
         _fail("--clean and --perfect exclude each other")
     d = Disturbances.clean() if clean else Disturbances.perfect() if perfect else Disturbances()
+    both = sorted(set(enable or []) & set(disable or []))
+    if both:
+        _fail(f"--enable {both[0]} and --disable {both[0]} exclude each other")
     known = {f.name for f in fields(Disturbances)}
     for names, value in ((enable or [], True), (disable or [], False)):
         for name in names:
