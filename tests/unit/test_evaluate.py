@@ -459,6 +459,31 @@ def test_evaluate_says_how_much_of_the_run_the_reference_covers() -> None:
     assert evaluate_module.reference_coverage(np.array([5.0]), np.array([5.0])) == 1.0
 
 
+def test_a_reference_on_another_clock_is_found_from_the_velocities() -> None:
+    """A vehicle weaving (velocity east a sum of sines of 37-s and 89-s periods, north 1 m/s)
+    and a reference stamped 18 s late (GPS time against UTC): reference_lag finds 18 s and
+    evaluate warns; the reference on the run's clock gives 0, and one without velocity
+    columns NaN. A vehicle at constant velocity shows no lag, and none is reported."""
+    t = np.arange(0.0, 600.0, 0.1)
+    w1, w2 = 2.0 * np.pi / 37.0, 2.0 * np.pi / 89.0
+    ve = 0.5 * np.sin(w1 * t) + 0.3 * np.sin(w2 * t)
+    east = 0.5 / w1 * (1.0 - np.cos(w1 * t)) + 0.3 / w2 * (1.0 - np.cos(w2 * t))
+    truth = truth_from_ned(t, np.stack([t, east, np.zeros_like(t)], axis=-1))
+    truth["vn_m_s"], truth["ve_m_s"], truth["vd_m_s"] = 1.0, ve, 0.0
+    v = ["vn_m_s", "ve_m_s", "vd_m_s"]
+    sol = offset_solution(truth.iloc[::10].reset_index(drop=True), np.zeros(3))
+    sol[v] = truth[v].iloc[::10].to_numpy()
+    assert evaluate_module.reference_lag(sol, truth) == 0.0
+    late = truth.assign(t_s=truth["t_s"] + 18.0)
+    assert evaluate_module.reference_lag(sol, late) == pytest.approx(18.0, abs=0.11)
+    warning = evaluate_module.lag_warning(evaluate(make_result(sol, []), late))
+    assert warning is not None and "stamps 18.0 s late" in warning
+    assert math.isnan(evaluate_module.reference_lag(sol, truth.drop(columns="ve_m_s")))
+    still = truth.assign(ve_m_s=0.0)
+    late_still = still.assign(t_s=still["t_s"] + 18.0)
+    assert evaluate_module.reference_lag(sol.assign(ve_m_s=0.0), late_still) == 0.0
+
+
 def test_outage_drift_scores_the_end_of_each_window() -> None:
     """A solution whose east error is ½ a (t - 100)² inside (100, 130] and zero elsewhere: the
     drift at the window's end is ½ a 30², its maximum the same, the distance 30 m (1 m/s)."""

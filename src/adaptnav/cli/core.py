@@ -267,7 +267,8 @@ def _scoring_warnings(metrics: Metrics, forward: Metrics | None) -> list[str]:
     part of the run, and mean NEES over part of the epochs (the forward solution's too)."""
     from adaptnav.analysis import evaluate
 
-    out = [w for w in (evaluate.coverage_warning(metrics), evaluate.nees_warning(metrics)) if w]
+    found = (evaluate.coverage_warning(metrics), evaluate.lag_warning(metrics))
+    out = [w for w in (*found, evaluate.nees_warning(metrics)) if w]
     ahead = evaluate.nees_warning(forward) if forward is not None else None
     if ahead:
         out.append(f"forward solution: {ahead}")
