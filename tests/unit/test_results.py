@@ -6,6 +6,7 @@ import json
 import math
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -278,17 +279,8 @@ def test_load_errors(tmp_path: Path) -> None:
 def test_a_smoothed_run_keeps_its_forward_solution(tmp_path: Path) -> None:
     """docs/smoothing.md: ``solution`` is the smoothed one, ``forward.parquet`` the filter's; a
     run saved later into the same folder without smoothing leaves no forward table behind."""
-    from dataclasses import replace
-
-    from adaptnav.engine.batch import Smoothed
-
     out = synthetic_output()
-    none = np.zeros((out.t.size, 0))
-    smoothed = Smoothed(
-        out.t, out.x + 1e-7, 0.5 * out.P_diag, 0.5 * out.P_cross, 9, 4, 0, 1234,
-        declared=none, declared_var=none,
-    )  # fmt: skip
-    res = Result.from_engine(replace(out, smoothed=smoothed), "vb", "m1", {})
+    res = _smoothed_result(out)
     assert res.forward is not None and res.meta["smoother"]["store_bytes"] == 1234
     np.testing.assert_array_equal(res.forward["lat_rad"], out.x[:, 0])
     np.testing.assert_array_equal(res.solution["lat_rad"], out.x[:, 0] + 1e-7)
@@ -302,19 +294,24 @@ def test_a_smoothed_run_keeps_its_forward_solution(tmp_path: Path) -> None:
     assert not (folder / "forward.parquet").exists() and load(folder).forward is None
 
 
-def _smoothed_folder(folder: Path) -> Path:
-    """A smoothed run's folder (:func:`test_a_smoothed_run_keeps_its_forward_solution`)."""
+def _smoothed_result(out: Any) -> Result:
+    """A smoothed run's Result of the engine output ``out``: its smoothed solution 1e-7 rad
+    off the forward one, half its variances."""
     from dataclasses import replace
 
     from adaptnav.engine.batch import Smoothed
 
-    out = synthetic_output()
     none = np.zeros((out.t.size, 0))
     smoothed = Smoothed(
         out.t, out.x + 1e-7, 0.5 * out.P_diag, 0.5 * out.P_cross, 9, 4, 0, 1234,
         declared=none, declared_var=none,
     )  # fmt: skip
-    return save(Result.from_engine(replace(out, smoothed=smoothed), "vb", "m1", {}), folder)
+    return Result.from_engine(replace(out, smoothed=smoothed), "vb", "m1", {})
+
+
+def _smoothed_folder(folder: Path) -> Path:
+    """A smoothed run's folder (:func:`test_a_smoothed_run_keeps_its_forward_solution`)."""
+    return save(_smoothed_result(synthetic_output()), folder)
 
 
 def _plain_folder(folder: Path) -> Path:
