@@ -748,10 +748,10 @@ def test_an_event_names_the_file_row_of_the_reading_that_triggered_it(
 ) -> None:
     """Events index the reading that triggered them by its data row in the file, as the ledger
     does (readings of the alignment window never reach the engine, so the engine's own index
-    is off by that many). A guard on 1 × the nominal R at p = 0.2 with a 0.5-s lockout fires
-    on this mission."""
+    is off by that many). A guard on 1 × the nominal R at p = 0.2 with a 0.25-s lockout (1 s
+    after a step, health.is_step) fires on this mission."""
     toml = (mission / "mission.toml").read_text()
-    extra = "guard_probability = 0.2\nguard_headroom = 1.0\nguard_lockout_s = 0.5\n"
+    extra = "guard_probability = 0.2\nguard_headroom = 1.0\nguard_lockout_s = 0.25\n"
     if "[filter]\n" in toml:
         toml = toml.replace("[filter]\n", "[filter]\n" + extra)
     else:
