@@ -415,3 +415,22 @@ def test_figures_of_a_mission_without_aiding_or_with_one_reading(
         fig = makers[stem]()
         lone = [ln for ax in fig.axes for ln in ax.get_lines() if np.size(ln.get_xdata()) == 1]
         assert lone and all(ln.get_marker() == "o" for ln in lone), stem
+
+
+def test_the_floor_on_a_dvl_with_one_reading_fails_first_and_says_why(
+    mission: Path, tmp_path: Path
+) -> None:
+    """A DVL with one reading after the navigation start gives the floor a one-point track:
+    up to 0.4.5 every filter ran first, then the comparison failed with 'no truth sample within
+    the solution span of floor'. The floor runs first now and says what is wrong."""
+    from helpers import badinput
+
+    dvl = badinput.read(mission, "dvl")
+    badinput.write(mission, "dvl", dvl[(dvl["t_s"] < 20.0) | (dvl.index == len(dvl) - 5)])
+    out = tmp_path / "cmp"
+    res = runner.invoke(app, ["compare", str(mission), "-f", "vb,floor", "--out", str(out)])
+    assert (
+        res.exit_code == 2
+        and "floor: the DVL has 1 reading after the navigation start" in res.output
+    )
+    assert "running VB-MAESKF" not in res.output and not out.exists()

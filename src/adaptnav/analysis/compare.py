@@ -504,9 +504,12 @@ def compare(
         start = (x0, P0, t0)
         initial = _initial_info(x0, P0, t0, info)
 
+    # The floor first: it is cheap, and a mission it cannot run fails before the filters run.
+    floor_run = _run_floor(m, None if start is None else start[2]) if "floor" in names else None
+
     def scored(n: str) -> tuple[Result, Metrics, Metrics | None]:
-        if n == "floor":
-            result = _run_floor(m, None if start is None else start[2])
+        if n == "floor" and floor_run is not None:
+            result = floor_run
         else:
             kind = cast("FilterKind", n)
             result = api.run(
@@ -554,4 +557,9 @@ def _run_floor(mission: Mission, t0: float | None) -> Result:
     kept = sol[sol["t_s"].to_numpy() >= t0].reset_index(drop=True)
     if kept.empty:
         return result
+    if len(kept) < 2:  # one point spans no time: nothing of the reference to score it on
+        raise ValueError(
+            f"floor: the DVL has {len(kept)} reading after the navigation start (t = {t0:.6g} s): "
+            "too few to dead-reckon a track from; leave floor out of --filters"
+        )
     return replace(result, solution=kept, meta={**result.meta, "scored_from_s": t0})
