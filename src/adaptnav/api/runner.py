@@ -39,7 +39,7 @@ from adaptnav.mission import (
     calibration,
     load_mission,
 )
-from adaptnav.mission.config import MAX_LAT_DEG, with_overrides
+from adaptnav.mission.config import with_overrides
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
@@ -405,11 +405,11 @@ def _alignment_position(
         )
     lat = float(np.mean(g.z[inside, 0]))
     lon = float(np.angle(np.mean(np.exp(1j * g.z[inside, 1]))))
-    if not abs(lat) <= math.radians(MAX_LAT_DEG):
+    if not abs(lat) <= earth.MAX_LAT_RAD:
         file = cfg.sensors[gnss].file
         raise MissionError(
             f"{file}: the fixes of sensor {gnss!r} in the alignment window are at latitude "
-            f"{math.degrees(lat):.6f}°, within {90.0 - MAX_LAT_DEG:g}° of a pole, where the "
+            f"{math.degrees(lat):.6f}°, within {90.0 - earth.MAX_LAT_DEG:g}° of a pole, where the "
             "latitude-longitude mechanization is singular (docs/conventions.md)",
             file=file,
             field="lat_rad",
@@ -440,9 +440,9 @@ def check_initial(
     if not (np.all(np.isfinite(P)) and np.all(np.diag(P) > 0.0)):
         raise ValueError("initial P0: every element finite and the diagonal > 0 needed")
     _check_covariance(P)
-    if not abs(x[0]) <= math.radians(MAX_LAT_DEG):
+    if not abs(x[0]) <= earth.MAX_LAT_RAD:
         raise ValueError(
-            f"initial x0: latitude {math.degrees(x[0]):.6f}° is not within ±{MAX_LAT_DEG:g}° "
+            f"initial x0: latitude {math.degrees(x[0]):.6f}° is not within ±{earth.MAX_LAT_DEG:g}° "
             "(the mechanization is singular at the poles)"
         )
     if not (math.isfinite(t) and t_from <= t <= t_to):
@@ -714,8 +714,7 @@ def _feed(
         before = (data.t <= t0) & ~early
         for mask, why in ((early, engine.BEFORE_IMU_REASON), (before, BEFORE_START_REASON)):
             extra.append(dropped_ledger(name, data.rows[mask], data.t[mask], why))
-        before |= early
-        keep = ~before
+        keep = data.t > t0
         if name in known:
             out = keep & known[name].outlier
             extra.append(dropped_ledger(name, data.rows[out], data.t[out], oracle.OUTLIER_REASON))

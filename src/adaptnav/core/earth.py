@@ -24,6 +24,13 @@ E2 = FLATTENING * (2.0 - FLATTENING)
 """First eccentricity squared."""
 B = A * (1.0 - FLATTENING)
 """Polar radius (m)."""
+MAX_LAT_DEG = 89.99
+"""Largest |latitude| navigated (deg): the latitude-longitude mechanization is singular at the
+poles (the longitude rate v_E / ((R_N + h) cos L) and the transport rate's v_E tan L; Groves
+2013 §5.4), and within about a kilometre of one its longitude and heading run away (at 90°: a
+yaw error of 178° in 30 s, exit 0, up to 0.4.5; 89.999° still behaved). A wander-azimuth frame
+would lift the limit; none is implemented (docs/conventions.md)."""
+MAX_LAT_RAD = float(np.radians(MAX_LAT_DEG))
 OMEGA_IE = 7.292115e-5
 """Earth rotation rate (rad/s)."""
 GM = 3.986004418e14

@@ -180,19 +180,11 @@ def _increments(dtheta: ArrayLike, dvel: ArrayLike, dt: ArrayLike) -> tuple[Arra
     return dth, dv, d
 
 
-MAX_LAT_RAD = math.radians(89.99)
-"""Largest |latitude| navigated: the latitude-longitude mechanization is singular at the poles
-(the longitude rate v_E / ((R_N + h) cos L) and the transport rate's v_E tan L; Groves 2013
-§5.4), and within about a kilometre of one its longitude and heading run away (at 90°: a yaw
-error of 178° in 30 s, exit 0, up to 0.4.5; 89.999° still behaved). A wander-azimuth frame
-would lift the limit; none is implemented (docs/conventions.md)."""
-
-
 def _check_lat(lat: float) -> float:
     lat = float(lat)
-    if not (math.isfinite(lat) and abs(lat) <= MAX_LAT_RAD):
+    if not (math.isfinite(lat) and abs(lat) <= earth.MAX_LAT_RAD):
         raise ValueError(
-            f"latitude {lat!r} rad is not within ±{math.degrees(MAX_LAT_RAD):g}° (the "
+            f"latitude {lat!r} rad is not within ±{earth.MAX_LAT_DEG:g}° (the "
             "latitude-longitude mechanization is singular at the poles)"
         )
     return lat

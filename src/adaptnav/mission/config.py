@@ -32,6 +32,7 @@ from pydantic import (
 )
 
 from adaptnav.core.attitude import euler_to_dcm
+from adaptnav.core.earth import MAX_LAT_DEG
 from adaptnav.core.units import DEG, SIGMA_RANGE_SI, Kind, UnitError, check_sigma, si_unit, to_si
 from adaptnav.estimation.settings import MAX_MATCHING_WINDOW, FilterSettings, SensorOverrides
 from adaptnav.models.imu_noise import NOISE_FIELDS, ImuNoise, check_value, pair_si
@@ -129,9 +130,6 @@ Sigma = Annotated[float, Field(ge=SIGMA_RANGE_SI[0], le=SIGMA_RANGE_SI[1], allow
 (core.units.SIGMA_RANGE_SI)."""
 SigmaDeg = Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)]
 """An attitude standard deviation in degrees: more than 180° says nothing."""
-MAX_LAT_DEG = 89.99
-"""Largest |initial.lat_deg|: the mechanization is singular at the poles
-(``adaptnav.engine.align.MAX_LAT_RAD``; docs/conventions.md)."""
 Latitude = Annotated[float, Field(ge=-MAX_LAT_DEG, le=MAX_LAT_DEG, allow_inf_nan=False)]
 H_RANGE_M = (-12_000.0, 100_000.0)
 """Initial heights accepted (m, above the ellipsoid): the deepest ocean to the edge of space."""
