@@ -220,7 +220,10 @@ def evaluate_cmd(
     docs/smoothing.md). A run with calibration states on a simulated mission whose
     simulation.json has the true calibration errors (--mission, else the mission folder the run
     records) has each state's true value, estimate, error and error/σ too (the calibration key
-    of --json; docs/metrics.md, 'Calibration').
+    of --json; docs/metrics.md, 'Calibration'). It warns (stderr, and the warnings of --json)
+    when the reference covers less than 95 % of the run, when its stamps look offset from the
+    run's (reference_lag_s, from the velocities), and when a mean NEES leaves epochs out
+    (docs/metrics.md, 'What is scored').
     """
     from adaptnav.analysis import evaluate
     from adaptnav.api.results import jsonable
