@@ -26,7 +26,7 @@ from adaptnav.api.diagnosis import with_warnings
 from adaptnav.api.results import Result, dropped_ledger, ledger_frame
 from adaptnav.core import attitude, earth
 from adaptnav.engine import batch as engine
-from adaptnav.engine.align import align
+from adaptnav.engine.align import align, level, window_specific_force
 from adaptnav.engine.channels import build_channels
 from adaptnav.estimation.long_run import variance_factor
 from adaptnav.estimation.settings import FilterKind, FilterSettings
@@ -52,6 +52,7 @@ from adaptnav.sensors.registry import KINDS
 __all__ = [
     "FilterError",
     "engine_config",
+    "heading_origin",
     "initial_state",
     "ledger_row",
     "run",
@@ -118,8 +119,7 @@ def start_state(
         x0, P0 = _configured_state(cfg, accel_sigma, gyro_sigma)
         return x0, P0, t_start, {"initial": "state"}
     position = _alignment_position(cfg, sensors, t_start, t_start + ini.alignment_s)
-    heading = math.radians(ini.rpy_deg[2]) if ini.rpy_deg is not None else None
-    heading_sigma = float(ini.sigma_attitude_rad()[2]) if heading is not None else None
+    heading, heading_sigma, given = _given_heading(cfg, imu, sensors, t_start)
     a = align(
         imu.t, imu.dt, imu.dtheta, imu.dvel, ini.alignment_s, position, noise,
         accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
@@ -132,6 +132,7 @@ def start_state(
         "initial": "alignment",
         "alignment_s": ini.alignment_s,
         "heading_source": a.heading_source,
+        **(given if a.heading_source == "heading" else {}),
         "coarse_rpy_deg": [math.degrees(v) for v in (a.roll, a.pitch, a.yaw)],
         "aligned_rpy_deg": list(np.degrees(attitude.quat_to_euler(a.x0[6:10]))),
         "sigma_attitude_deg": list(np.degrees(a.std[ATT])),
@@ -147,6 +148,88 @@ def _position_gnss(cfg: MissionConfig) -> str | None:
     if ini.lat_deg is not None and ini.lon_deg is not None:
         return None
     return next((n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"), None)
+
+
+def heading_origin(initial: Mapping[str, Any]) -> str:
+    """Where a run's start took its heading from, in words, from the ``initial`` of its
+    summary (:func:`start_state`'s info): gyrocompassing, the configured ``rpy_deg`` or a
+    heading sensor (docs/alignment.md, 'Heading source')."""
+    source = initial.get("heading_source")
+    if source == "gyrocompass":
+        return "gyrocompassing"
+    if source != "heading":
+        return str(initial.get("initial", "–"))
+    given = str(initial.get("heading_from", ""))
+    if given.startswith("sensors."):
+        n = initial.get("heading_readings", "?")
+        return f"heading sensor {given.removeprefix('sensors.')!r} (mean of {n} readings at rest)"
+    return "the configured heading (initial.rpy_deg, e.g. the quay's charted bearing)"
+
+
+def _heading_sensor(cfg: MissionConfig) -> str | None:
+    """The heading sensor whose readings a static alignment may take its heading from
+    (:func:`sensor_heading`): the first one not off, when ``[initial]`` gives no heading
+    (``rpy_deg``); None when it does, or there is none."""
+    if cfg.initial.rpy_deg is not None:
+        return None
+    return next((n for n, s in cfg.sensors.items() if s.kind == "heading" and s.use != "off"), None)
+
+
+def _given_heading(
+    cfg: MissionConfig, imu: ImuData, sensors: Mapping[str, SensorData], t_start: float
+) -> tuple[float | None, float | None, dict[str, Any]]:
+    """The heading (rad), its σ and how it was got, that the static alignment takes when
+    gyrocompassing is worse or unusable (docs/alignment.md, 'Heading source'): the configured
+    ``rpy_deg`` yaw, else the heading sensor's (:func:`sensor_heading`), else none."""
+    ini = cfg.initial
+    if ini.rpy_deg is not None:
+        sigma = float(ini.sigma_attitude_rad()[2])
+        return math.radians(ini.rpy_deg[2]), sigma, {"heading_from": "initial.rpy_deg"}
+    name = _heading_sensor(cfg)
+    if name is None:
+        return None, None, {}
+    return sensor_heading(cfg, imu, sensors, name, t_start)
+
+
+def sensor_heading(
+    cfg: MissionConfig,
+    imu: ImuData,
+    sensors: Mapping[str, SensorData],
+    name: str,
+    t_start: float,
+) -> tuple[float | None, float | None, dict[str, Any]]:
+    """The body's heading (rad) and σ from heading sensor ``name``'s readings at rest: the yaw
+    ψ at which the sensor's model predicts the circular mean of its readings in the static
+    window, at the roll and pitch of the levelled IMU (engine/align.py ``level``). A yaw turn δ
+    of the body about the down axis turns the sensor's yaw by δ whatever its mounting
+    (``C_ns = C_z(δ) C_nb C_sbᵀ``), so ``ψ = wrap(z̄ - h(roll, pitch, 0))`` exactly. σ is one
+    reading's: a compass's error is mostly slow (deviation, a mounting left out), not averaged
+    down over a window. None when the sensor has no finite reading in the window; a
+    :class:`MissionError` then if the sensor is there only for this (``use = "init"``)."""
+    sc, window = cfg.sensors[name], cfg.initial.alignment_s
+    d = sensors.get(name)
+    inside = np.zeros(0, dtype=bool)
+    if d is not None:
+        inside = (d.t > t_start) & (d.t <= t_start + window) & np.all(np.isfinite(d.z), axis=1)
+    if not np.any(inside):
+        if sc.use != "init":
+            return None, None, {}
+        raise MissionError(
+            f"{CONFIG_NAME}: sensors.{name} (use = 'init') gives the alignment its heading but "
+            f"has no reading in the static window ({t_start:.6g} s to "
+            f"{t_start + window:.6g} s) of {sc.file}",
+            file=CONFIG_NAME,
+            field=f"sensors.{name}",
+        )
+    assert d is not None
+    roll, pitch = level(window_specific_force(imu.t, imu.dt, imu.dvel, window))
+    x = np.zeros(NOM_SIZE)
+    x[NOM_ATT] = attitude.euler_to_quat(roll, pitch, 0.0)
+    model: Any = build_sensor_model(name, sc)
+    z = float(np.angle(np.mean(np.exp(1j * d.z[inside, 0]))))
+    yaw = float(attitude.wrap_angle(z - float(model.predict(x)[0])))
+    n = int(inside.sum())
+    return yaw, float(model.sigma), {"heading_from": f"sensors.{name}", "heading_readings": n}
 
 
 def _at_the_imu(cfg: MissionConfig, x0: np.ndarray) -> np.ndarray:

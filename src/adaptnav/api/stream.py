@@ -132,9 +132,9 @@ class Stream:
         self._lag = max([0.0, *self._latency.values()])
         """How far the IMU is held behind its newest stamp: the largest ``latency_s``."""
         self._rows = dict.fromkeys(cfg.sensors, 0)
-        gnss = [n for n, c in cfg.sensors.items() if c.kind == "gnss" and c.use != "off"]
-        self._fix_sensor = gnss[0] if gnss else None
-        self._fixes: list[Reading] = []
+        # What the alignment takes its position and heading from (runner.start_state).
+        firsts = (_first(cfg, kind) for kind in ("gnss", "heading"))
+        self._at_rest: dict[str, list[Reading]] = {n: [] for n in firsts if n is not None}
         self._early: list[tuple[str, Reading]] = []
         self._extra: list[dict[str, Any]] = []
         self._imu: deque[tuple[float, float, Array, Array]] = deque()
@@ -288,8 +288,8 @@ class Stream:
         self._extra += [runner.ledger_row(d.sensor, d.row, d.t, d.reason) for d in dropped]
         use = self.config.sensors[sensor].use
         for r in released:
-            if sensor == self._fix_sensor and self._nav is None:
-                self._fixes.append(r)
+            if sensor in self._at_rest and self._nav is None:
+                self._at_rest[sensor].append(r)
             if use != "aid" or sensor not in self._aiding:
                 why = runner.INIT_REASON if use == "init" else runner.OFF_REASON
                 self._extra.append(runner.ledger_row(sensor, r.row, r.t, why))
@@ -350,11 +350,14 @@ class Stream:
             stop = start + ini.alignment_s + 0.5 * float(np.median([s[1] for s in imu]))
             if imu[-1][0] <= stop or self._horizon() <= stop:  # as align._window_samples
                 return False
-        fixes: dict[str, SensorData] = {}
-        if self._fix_sensor is not None and self._fixes:
-            fixes[self._fix_sensor] = _sensor_data(self._fix_sensor, self._fixes)
+        held = {
+            n: _sensor_data(n, self.config.sensors[n].kind, r)
+            for n, r in self._at_rest.items()
+            if r
+        }
         t, dt, dth, dv = self._imu_arrays()
-        x0, P0, t0, self._info = runner.start_state(self.config, ImuData(t, dt, dth, dv), fixes)
+        x0, P0, t0, self._info = runner.start_state(self.config, ImuData(t, dt, dth, dv), held)
+        self._at_rest.clear()
         self._start(x0, P0, t0)
         while self._imu and self._imu[0][0] < t0 + START_EPS_S:
             self._imu.popleft()
@@ -450,10 +453,16 @@ def _configuration(
     return cfg, periods, root
 
 
-def _sensor_data(name: str, readings: list[Reading]) -> SensorData:
-    """Readings as the loader's SensorData (the alignment's GNSS fixes)."""
+def _first(cfg: MissionConfig, kind: str) -> str | None:
+    """The first sensor of ``kind`` not off: the one the alignment may take its position (a
+    GNSS) or heading (a heading sensor) from (runner.start_state)."""
+    return next((n for n, c in cfg.sensors.items() if c.kind == kind and c.use != "off"), None)
+
+
+def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:
+    """Readings as the loader's SensorData (the alignment's GNSS fixes and headings)."""
     return SensorData(
-        name, "gnss", np.array([r.t for r in readings]), np.array([r.z for r in readings]),
+        name, kind, np.array([r.t for r in readings]), np.array([r.z for r in readings]),
         np.array([r.row for r in readings], dtype=np.int64),
     )  # fmt: skip
 

@@ -55,6 +55,7 @@ def demo(
     RTS-smoothed and shown beside its forward solution (docs/smoothing.md).
     """
     from adaptnav.analysis.compare import compare
+    from adaptnav.api.runner import heading_origin
     from adaptnav.cli.compare import comparison_table
     from adaptnav.mission import load_mission
     from adaptnav.sim.scenarios import PRESETS
@@ -88,8 +89,7 @@ def demo(
     report = out / "report.html"
     console.print(comparison_table(cmp, f"{preset} (seed {seed})"))
     warn_compared(cmp.results)
-    source = {"gyrocompass": "gyrocompassing", "heading": "the mission's given heading"}
-    how = source.get(str(cmp.initial.get("heading_source")), str(cmp.initial.get("initial")))
+    how = heading_origin(cmp.initial)
     console.print(f"static alignment: heading from {how}; every filter starts from it")
     console.print(f"report: {report}")
 

@@ -306,8 +306,7 @@ def coarse_align(
     sigma_w_check = None if gyro_bias_sigma is None else sigma_w
     _check_static(dth, dv, d, f_mean, w_mean, g, sigma_f, sigma_w_check, arw, vrw, tolerances)
 
-    roll = math.atan2(-f_mean[1], -f_mean[2])
-    pitch = math.atan2(f_mean[0], math.hypot(f_mean[1], f_mean[2]))
+    roll, pitch = level(f_mean)
     w_l = attitude.euler_to_dcm(roll, pitch, 0.0) @ w_mean
     yaw_gc = math.atan2(-w_l[1], w_l[0])
 
@@ -330,6 +329,27 @@ def coarse_align(
         raise _no_heading(gyro_bias_sigma, sigma_gc, max_heading_sigma, horizontal_rate, lat)
     info = CoarseInfo(source, sigma_level, sigma_heading, sigma_gc, yaw_gc, T, g, f_mean, w_mean)
     return roll, pitch, yaw, info
+
+
+def level(f_mean: ArrayLike) -> tuple[float, float]:
+    """Roll and pitch (rad) of a body at rest from its mean specific force ``f`` (body FRD,
+    m/s²), the coarse levelling (module docstring): ``roll = atan2(-f_y, -f_z)``,
+    ``pitch = atan2(f_x, hypot(f_y, f_z))``."""
+    f = np.asarray(f_mean, dtype=float)
+    return math.atan2(-f[1], -f[2]), math.atan2(f[0], math.hypot(f[1], f[2]))
+
+
+def window_specific_force(
+    imu_t: ArrayLike, imu_dt: ArrayLike, dvel: ArrayLike, window: float
+) -> Array:
+    """The mean specific force (body, m/s²) over the static window of :func:`align`, the first
+    ``window`` seconds of the IMU data: what :func:`level` takes, before the alignment itself
+    (a heading sensor's reading is turned into the body's heading at this attitude:
+    api/runner.py ``sensor_heading``)."""
+    t = np.atleast_1d(np.asarray(imu_t, dtype=float))
+    d = np.broadcast_to(np.asarray(imu_dt, dtype=float), t.shape)
+    n = _window_samples(t, d, float(t[0] - d[0]), float(window))
+    return np.asarray(np.asarray(dvel, dtype=float)[:n].sum(axis=0) / d[:n].sum(), dtype=float)
 
 
 def _check_heading(heading: float, heading_sigma: float | None) -> tuple[float, float]:
@@ -366,8 +386,9 @@ def _no_heading(
         )
     )
     return AlignmentError(
-        f"no heading for the alignment: {why}; give a heading (rad) and its σ from a "
-        "heading sensor or the configuration"
+        f"no heading for the alignment: {why}; give one: a heading sensor (not off) with "
+        "readings in the static window, or a yaw in initial.rpy_deg with its σ in "
+        "initial.sigma_attitude_deg"
     )
 
 

@@ -54,8 +54,9 @@ FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
 """Initial accelerometer-bias σ (m/s², 1 mg) when neither the config nor the noise model does."""
 
 _NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_-]*$")
-INIT_KINDS = ("gnss",)
-"""Kinds a sensor with ``use = "init"`` may be: what the alignment takes its position from."""
+INIT_KINDS = ("gnss", "heading")
+"""Kinds a sensor with ``use = "init"`` may be: what the alignment takes its position (a GNSS)
+or its heading (a heading sensor) from (docs/alignment.md)."""
 
 
 def check_euler_deg(key: str, rpy: Sequence[float]) -> None:
@@ -551,8 +552,9 @@ class SensorConfig(_Model):
             check_euler_deg("mounting_rpy_deg", self.mounting_rpy_deg)
         if self.use == "init" and self.kind not in INIT_KINDS:
             raise ValueError(
-                f"use: 'init' is for a GNSS (the position the alignment takes), not a {self.kind}"
-                " ('aid' to use its readings, 'off' to leave it out)"
+                f"use: 'init' is for a GNSS (the position the alignment takes) or a heading "
+                f"sensor (its heading), not a {self.kind} ('aid' to use its readings, 'off' to "
+                "leave it out)"
             )
         return self
 
@@ -821,13 +823,7 @@ class MissionConfig(_Model):
                 "second leaves evaluate to score straight lines between them)"
             )
         self._check_output_rate()
-        if self.initial.mode == "state":
-            init = [n for n, c in self.sensors.items() if c.use == "init"]
-            if init:
-                raise ValueError(
-                    f"sensors.{init[0]}.use: 'init' with initial.mode = 'state', which starts "
-                    "from [initial] alone: nothing would use it ('aid' or 'off')"
-                )
+        self._check_init_sensors()
         seen: dict[tuple[str, str], str] = {}
         for name, sc in self.sensors.items():
             if sc.use == "off":
@@ -864,6 +860,30 @@ class MissionConfig(_Model):
     def filter_settings(self) -> FilterSettings:
         """The engine's :class:`adaptnav.estimation.settings.FilterSettings` of ``[filter]``."""
         return self.filter.settings(self.gated_sensors())
+
+    def _check_init_sensors(self) -> None:
+        """A sensor with ``use = "init"`` must be one the start takes something from: not with
+        ``initial.mode = "state"``; a heading sensor only as the first heading sensor not off
+        and without a configured heading (``rpy_deg``), which would be taken instead
+        (docs/alignment.md, 'Heading source')."""
+        init = [n for n, c in self.sensors.items() if c.use == "init"]
+        if init and self.initial.mode == "state":
+            raise ValueError(
+                f"sensors.{init[0]}.use: 'init' with initial.mode = 'state', which starts "
+                "from [initial] alone: nothing would use it ('aid' or 'off')"
+            )
+        headings = [n for n, c in self.sensors.items() if c.kind == "heading" and c.use != "off"]
+        for name in (n for n in init if self.sensors[n].kind == "heading"):
+            if self.initial.rpy_deg is not None:
+                raise ValueError(
+                    f"sensors.{name}.use: 'init' gives the alignment its heading, and so does "
+                    "initial.rpy_deg, which would be taken: drop one"
+                )
+            if name != headings[0]:
+                raise ValueError(
+                    f"sensors.{name}.use: 'init', but the alignment takes its heading from "
+                    f"sensors.{headings[0]}, the first heading sensor not off"
+                )
 
     def _check_output_rate(self) -> None:
         """A rate set in ``[filter]`` must be the IMU's rate over a whole number of intervals,

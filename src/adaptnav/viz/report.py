@@ -69,6 +69,7 @@ from adaptnav.analysis.compare import (
     SIMULATION_FILE,
 )
 from adaptnav.api.results import CALIBRATION_FILE
+from adaptnav.api.runner import heading_origin
 from adaptnav.core.formats import format_problem
 from adaptnav.mission import MissionConfig, MissionError, load_config
 from adaptnav.viz.series import MAX_POINTS
@@ -990,21 +991,13 @@ def _warnings(name: str, summary: Mapping[str, Any] | None) -> list[tuple[str, s
     ]
 
 
-_HEADING_SOURCES = {
-    "heading": "the mission's given heading (e.g. the quay's charted bearing)",
-    "gyrocompass": "gyrocompassing",
-}
-
-
 def _initial(ini: Mapping[str, Any]) -> Initial | None:
     if not ini:
         return None
     return Initial(
         how=str(ini.get("initial", "?")),
         alignment_s=_number(ini.get("alignment_s")),
-        heading_from=str(
-            _HEADING_SOURCES.get(str(ini.get("heading_source")), ini.get("heading_source", "–"))
-        ),
+        heading_from=heading_origin(ini),
         t0_s=_number(ini.get("t0_s")),
         lat_deg=_number(ini.get("lat_deg")),
         lon_deg=_number(ini.get("lon_deg")),
