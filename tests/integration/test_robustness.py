@@ -910,6 +910,24 @@ def test_a_heading_in_degrees_in_a_radians_column_is_an_error(
     assert "degrees in a radians column?" in line
 
 
+def test_a_depth_logged_as_a_height_is_an_error(mission: Path, tmp_path: Path) -> None:
+    """The tiny mission's meter at about 1.2 m logged with the wrong sign: every reading is
+    within [-100, 12000] m, and up to 0.4.6 the run pulled the height 2.4 m up with exit 0
+    (RMSE 5.2 m against 4.6 m horizontal). A meter above the surface most of the time is an
+    error naming the file, line and column; configured limits accept it."""
+    depth = badinput.read(mission, "depth")
+    depth["depth_m"] = -depth["depth_m"]
+    badinput.write(mission, "depth", depth)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert "depth.csv line" in line and "depth_m: the median reading is -1.2" in line
+    assert "depth is positive down" in line
+    toml = (mission / "mission.toml").read_text()
+    head = toml.index("[sensors.depth]")
+    toml = toml[:head] + toml[head:].replace("use = ", "limits = [-50.0, 100.0]\nuse = ", 1)
+    (mission / "mission.toml").write_text(toml)
+    assert cli("run", mission, "--out", tmp_path / "accepted").exit_code == 0
+
+
 @pytest.mark.parametrize(
     ("sensor", "column", "offset"),
     [("depth", "depth_m", 1000.0), ("dvl", "vx_m_s", 3.0)],

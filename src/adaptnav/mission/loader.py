@@ -435,6 +435,8 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                  cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
+    if cfg.kind == "depth" and cfg.limits is None:
+        _check_depth_sign(table, name, z[:, 0], used[1])
     keep = np.ones(t.size, dtype=bool)
     for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
         keep[r] = False
@@ -668,6 +670,36 @@ def _check_plausible(
             f"wrong, set [sensors.{name}] limits (docs/robustness.md)",
         )
     return outside
+
+
+ABOVE_SURFACE_M = -1.0
+"""A depth meter whose median reading is below this (m, more than 1 m above the water
+surface) is an error (:func:`_check_depth_sign`)."""
+
+
+def _check_depth_sign(table: Table, name: str, depth: Array, column: str) -> None:
+    """A depth column whose median finite reading is below :data:`ABOVE_SURFACE_M` is an error
+    naming the file, line and column: depth is positive down, and a pressure meter out of the
+    water reads about zero (1 hPa of weather is 1 cm), so a meter above the surface most of the
+    time is a height written as a depth, or a sign slip. Each reading alone is plausible
+    ([-100, 12000] m), and the guard took them: up to 0.4.6 a meter at 1.2 m logged as -1.2 m
+    pulled the height 2.4 m up, exit 0. Configured ``limits`` (the user's own range for the
+    meter) skip the check."""
+    finite = np.isfinite(depth)
+    if not np.any(finite):
+        return
+    median = float(np.median(depth[finite]))
+    if median >= ABOVE_SURFACE_M:
+        return
+    r = int(np.flatnonzero(finite & (depth < ABOVE_SURFACE_M))[0])
+    raise table.error(
+        r,
+        column,
+        f"the median reading is {median:.4g} m, {-median:.3g} m above the water surface most of "
+        f"the time (e.g. {show(table.df[column].iloc[r])} here): depth is positive down, a "
+        f"height or a sign slip? If the readings are right, set [sensors.{name}] limits "
+        "(docs/robustness.md)",
+    )
 
 
 TRUTH_OPTIONAL_GROUPS = (TRUTH_COLUMNS[3:6], TRUTH_COLUMNS[6:9])
