@@ -93,3 +93,18 @@ def test_ned_to_geodetic_takes_one_origin_per_point() -> None:
         [np.hstack(earth.ned_to_geodetic(r_n[k], lat[k], lon[k], h[k])) for k in range(5)]
     )
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+def test_wrap_longitude_is_the_half_open_interval_and_keeps_what_is_inside() -> None:
+    """Longitudes written to files lie in [-π, π) (docs/conventions.md, 'Frames'): 180° is
+    written -180°, one step below -π comes back near π, and a value already inside is returned
+    bit-for-bit (a simulated mission away from the antimeridian keeps its files' hashes)."""
+    inside = np.array([-math.pi, -3.0, -1e-300, 0.0, 0.97, np.nextafter(math.pi, 0.0)])
+    assert np.array_equal(earth.wrap_longitude(inside), inside)
+    values = np.array([math.pi, np.nextafter(-math.pi, -4.0), -math.pi - 1e-6, 7.0, -20.0])
+    got = earth.wrap_longitude(values)
+    assert got[0] == -math.pi and got[2] == pytest.approx(math.pi - 1e-6, abs=1e-15)
+    turns = (got - values) / (2.0 * math.pi)  # whole turns, to rounding
+    np.testing.assert_allclose(turns, np.round(turns), rtol=0, atol=1e-15)
+    assert np.all((got >= -math.pi) & (got < math.pi))
+    assert np.isnan(earth.wrap_longitude(np.array([np.nan]))[0])

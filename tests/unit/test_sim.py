@@ -465,3 +465,36 @@ def test_perfect_mission_is_exact(tmp_path: Path) -> None:
     assert g_sigma == pytest.approx(20.0 * DEG / 3600.0)
     with pytest.raises(ValueError, match="unknown preset"):
         scenarios.simulate("paper-3", 1, tmp_path, sensors.Disturbances())
+
+
+def _tiny(lat0: float, lon0: float, course0: float) -> scenarios.Scenario:
+    """The demo cut to 20 s alongside then 20 s at 1 m/s (a fraction of a second to simulate),
+    starting at (lat0, lon0) on the course ``course0`` (rad)."""
+    base = scenarios.demo()
+    spec = dataclasses.replace(
+        base.trajectory, lat0=lat0, lon0=lon0, course0=course0,
+        segments=(tr.Static(20.0), tr.Straight(20.0, 1.0)),
+        sea_state=(tr.SeaState(20.0, 1.0, 10.0),), max_accel=0.5, min_step=1.0,
+    )  # fmt: skip
+    return dataclasses.replace(base, name="tiny", trajectory=spec)
+
+
+@pytest.mark.parametrize("course_deg", [270.0, 90.0], ids=["westwards", "eastwards"])
+def test_longitudes_across_the_antimeridian_are_wrapped(tmp_path: Path, course_deg: float) -> None:
+    """A track crossing 180° writes its truth and GPS longitudes in [-π, π) (docs/simulation.md,
+    'What is written'): past -180° the loader drops the fixes as implausible and refuses the
+    truth (up to 0.4.6 the truth ran on to -180.00014°); the wrap moves a longitude by whole
+    turns only, after the GPS noise is added (a fix 2 m off the line, noise σ 2.9 m)."""
+    r = earth.transverse_radius(0.3) * math.cos(0.3)
+    lon0 = -math.pi + 2.0 / r if course_deg == 270.0 else math.pi - 2.0 / r
+    sc = _tiny(0.3, lon0, course_deg * DEG)
+    out = scenarios.simulate_scenario(sc, SEED, tmp_path / "m")
+    truth, gps = (pd.read_parquet(out / f"{n}.parquet") for n in ("truth", "gps"))
+    for name, lon in (("truth", truth.lon_rad), ("gps", gps.lon_rad)):
+        assert ((lon >= -math.pi) & (lon < math.pi)).all(), f"{name}: {lon.min()}, {lon.max()}"
+    track = tr.build(sc.trajectory).motion.position(truth.t_s.to_numpy())[:, 1]
+    assert np.any(np.abs(track) > math.pi)  # the track does cross
+    turns = (truth.lon_rad.to_numpy() - track) / (2.0 * math.pi)
+    np.testing.assert_allclose(turns, np.round(turns), rtol=0, atol=1e-12)
+    m = load_mission(out)
+    assert not m.dropped and m.sensors["gps"].t.size == len(gps)

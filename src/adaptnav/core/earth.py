@@ -42,6 +42,23 @@ K_SOMIGLIANA = 0.001931853
 _M_HEIGHT = OMEGA_IE**2 * A**2 * B / GM
 
 
+def wrap_longitude(lon: ArrayLike) -> Array:
+    """Longitudes (rad) wrapped into [-π, π), the interval of the longitudes adaptnav writes
+    (docs/conventions.md, 'Frames'; ``export track``'s [-180°, 180°)); values already inside
+    come back bit-for-bit unchanged, NaN stays NaN.
+
+    Not :func:`adaptnav.core.attitude.wrap_angle`, whose (-π, π] suits angle differences: a
+    longitude of exactly 180° is written -180° as GIS tools do. A track that crosses the
+    antimeridian runs on past ±180° in the navigation state and the trajectory, and comes back
+    here before a file is written: beyond -180° the mission loader drops the fix as implausible.
+    """
+    arr = np.asarray(lon, dtype=float)
+    wrapped = np.remainder(arr + np.pi, 2.0 * np.pi) - np.pi
+    # remainder of a tiny negative number rounds to 2π: the result π, outside the interval.
+    wrapped = np.where(wrapped >= np.pi, wrapped - 2.0 * np.pi, wrapped)
+    return np.asarray(np.where((arr >= -np.pi) & (arr < np.pi), arr, wrapped), dtype=float)
+
+
 def meridian_radius(lat: Num) -> Any:
     """R_M = a (1 - e²) / (1 - e² sin² L)^{3/2} (Groves 2.105, his R_N)."""
     s2 = np.sin(lat) ** 2

@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav.core import attitude
+from adaptnav.core import attitude, earth
 from adaptnav.core.units import DEG, G0, si_unit
 from adaptnav.mission import MissionConfig, parse_config, write_mission
 from adaptnav.sensors.registry import KINDS
@@ -570,7 +570,9 @@ def _truth_table(
     sc: Scenario, traj: tr.Trajectory, errs: ImuErrors, dist: Disturbances
 ) -> pd.DataFrame:
     """``truth.parquet`` at ``truth_rate_hz``, with the true biases of the IMU interval ending
-    there and the sea-state level (docs/data-format.md)."""
+    there and the sea-state level (docs/data-format.md); the longitude wrapped into [-π, π)
+    (:func:`adaptnav.core.earth.wrap_longitude`: the trajectory's runs on past ±180°, which the
+    loader refuses below -180°)."""
     rate = sc.imu_rate_hz
     n_imu = _imu_count(sc, traj)
     n_truth = math.floor(traj.duration * sc.truth_rate_hz + 1e-9)
@@ -582,7 +584,7 @@ def _truth_table(
         {
             "t_s": t_truth,
             "lat_rad": x[:, 0],
-            "lon_rad": x[:, 1],
+            "lon_rad": earth.wrap_longitude(x[:, 1]),
             "h_m": x[:, 2],
             "vn_m_s": x[:, 3],
             "ve_m_s": x[:, 4],

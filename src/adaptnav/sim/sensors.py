@@ -671,7 +671,9 @@ def gps(
 ) -> pd.DataFrame:
     """GPS table: the antenna's error-free fix plus white and Gauss-Markov errors in N, E
     metres (no height: the missions use the GPS horizontally); each fix stamped
-    ``calibration.gps_latency`` after its instant."""
+    ``calibration.gps_latency`` after its instant. The longitude is wrapped into [-π, π) after
+    the noise is added (:func:`adaptnav.core.earth.wrap_longitude`): near the antimeridian a
+    fix past -180° would be dropped by the loader as implausible (docs/simulation.md)."""
     n = truth.t.size
     clean = ideal("gnss", truth, spec.lever_arm)[:, :2]
     white = spec.sigma_white * rng.standard_normal((n, 2))
@@ -689,7 +691,7 @@ def gps(
     rm = earth.meridian_radius(lat) + h
     rn = earth.transverse_radius(lat) + h
     z_lat = clean[:, 0] + err[:, 0] / rm
-    z_lon = clean[:, 1] + err[:, 1] / (rn * np.cos(lat))
+    z_lon = earth.wrap_longitude(clean[:, 1] + err[:, 1] / (rn * np.cos(lat)))
     return pd.DataFrame(
         {
             "t_s": truth.t + calibration.gps_latency,
