@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -498,3 +499,40 @@ def test_longitudes_across_the_antimeridian_are_wrapped(tmp_path: Path, course_d
     np.testing.assert_allclose(turns, np.round(turns), rtol=0, atol=1e-12)
     m = load_mission(out)
     assert not m.dropped and m.sensors["gps"].t.size == len(gps)
+
+
+@pytest.mark.parametrize(
+    ("lat0_deg", "course_deg", "pole"),
+    [(earth.MAX_LAT_DEG, 0.0, "north"), (-earth.MAX_LAT_DEG, 180.0, "south"), (90.0, 0.0, "north")],
+    ids=["north", "south", "across"],
+)
+def test_a_trajectory_reaching_a_pole_is_refused_before_writing(
+    tmp_path: Path, lat0_deg: float, course_deg: float, pole: str
+) -> None:
+    """A track that comes within 0.01° of a pole (``earth.MAX_LAT_DEG``) or crosses one is a
+    ValueError naming the first instant and the latitude, and nothing is written: there the
+    latitude-longitude mechanization is singular (docs/conventions.md; up to 0.4.6 the mission
+    was written and only the run refused it). The start is 10 m short of the limit (5 m short
+    of the pole for ``across``), the track heads for it at 1 m/s; the same start heading away
+    is simulated."""
+    short = 10.0 if abs(lat0_deg) < 90.0 else 5.0
+    rm = float(earth.meridian_radius(math.radians(lat0_deg)))
+    lat0 = math.radians(lat0_deg) - math.copysign(short, lat0_deg) / rm
+    sc = _tiny(lat0, 0.5, course_deg * DEG)
+    motion = tr.build(sc.trajectory).motion
+    t = np.arange(0, 4001) / 100.0
+    t_first = t[np.flatnonzero(np.abs(motion.position(t)[:, 0]) > earth.MAX_LAT_RAD)[0]]
+    out = tmp_path / "m"
+    with pytest.raises(ValueError, match=rf"within 0\.01° of the {pole} pole") as info:
+        scenarios.simulate_scenario(sc, SEED, out)
+    got = re.search(r"at ([\d.]+) s its latitude reaches (-?[\d.]+)°", str(info.value))
+    assert got is not None, str(info.value)
+    t_got, lat_got = float(got[1]), float(got[2])
+    assert t_first <= t_got <= t_first + 0.1 + 1e-9  # checked every 0.1 s
+    there = math.degrees(motion.position(np.array([t_got]))[0, 0])
+    assert abs(lat_got) > earth.MAX_LAT_DEG and lat_got == pytest.approx(there, abs=1e-7)
+    assert ("crosses the pole" in str(info.value)) == (abs(lat0_deg) == 90.0)
+    assert not out.exists()
+    if abs(lat0_deg) < 90.0:
+        away = _tiny(lat0, 0.5, course_deg * DEG + math.pi)
+        scenarios.generate(away, SEED)  # 10 m inside the limit, heading away: simulated

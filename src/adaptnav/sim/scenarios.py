@@ -484,6 +484,7 @@ def generate(
     dist = disturbances if disturbances is not None else Disturbances()
     streams = _streams(seed)
     traj = tr.build(sc.trajectory, waves=dist.waves)
+    _check_poles(sc, traj)
     model = sc.imu if dist.imu_uncalibrated_turn_on else sc.calibrated_imu
     imu_df, errs = _imu_table(sc, traj, model, streams["imu"], dist)
     truth_df = _truth_table(sc, traj, errs, dist)
@@ -526,6 +527,47 @@ def generate(
         meta["calibration"] = calibration.as_dict()
     tables = {"imu": imu_df, **sensor_dfs, "truth": truth_df}
     return SimulatedMission(config, tables, errs, traj, meta)
+
+
+POLE_CHECK_RATE_HZ = 10.0
+"""Rate (Hz) of the instants, besides the truth's, at which :func:`_check_poles` evaluates the
+latitude: 0.1 s apart, under 1e-5° of latitude at 10 m/s against the limit's 0.01° (1.1 km)."""
+_POLE_CHUNK = 65536
+"""Instants whose latitude :func:`_check_poles` evaluates at once (bounds its memory)."""
+
+
+def _check_poles(sc: Scenario, traj: tr.Trajectory) -> None:
+    """ValueError naming the first instant (s) and the latitude if the trajectory comes within
+    0.01° of a pole or crosses one (``|lat| > earth.MAX_LAT_DEG``), and the farthest latitude
+    it reaches, before anything else is computed or written: the latitude-longitude
+    mechanization is singular there, and the alignment and the run refuse to start there
+    (docs/conventions.md). Checked at every truth instant and every 1 /
+    :data:`POLE_CHECK_RATE_HZ` s (the IMU's 100 Hz would cost a fifth of ``simulate paper-1``'s
+    time)."""
+
+    def grid(rate: float) -> Array:
+        return np.arange(0, math.floor(traj.duration * rate + 1e-9) + 1) / rate
+
+    t = np.union1d(grid(sc.truth_rate_hz), grid(POLE_CHECK_RATE_HZ))
+    lat = np.concatenate(
+        [traj.motion.position(t[a : a + _POLE_CHUNK])[:, 0] for a in range(0, t.size, _POLE_CHUNK)]
+    )
+    beyond = np.flatnonzero(~(np.abs(lat) <= earth.MAX_LAT_RAD))  # NaN too
+    if not beyond.size:
+        return
+    k = int(beyond[0])
+    limit = earth.MAX_LAT_DEG
+    if not math.isfinite(lat[k]):
+        raise ValueError(f"trajectory of {sc.name!r}: at {t[k]:.2f} s its latitude is not finite")
+    far = int(np.nanargmax(np.abs(lat)))
+    across = ", past 90°: it crosses the pole" if abs(lat[far]) > 0.5 * math.pi else ""
+    raise ValueError(
+        f"trajectory of {sc.name!r}: at {t[k]:.2f} s its latitude reaches "
+        f"{math.degrees(lat[k]):.7f}°, within {90.0 - limit:g}° of the "
+        f"{'north' if lat[k] > 0.0 else 'south'} pole (limit ±{limit:g}°; farthest "
+        f"{math.degrees(lat[far]):.6f}° at {t[far]:.2f} s{across}), where the "
+        "latitude-longitude mechanization is singular (docs/conventions.md)"
+    )
 
 
 def _imu_count(sc: Scenario, traj: tr.Trajectory) -> int:
