@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -332,17 +331,14 @@ class Comparison:
 
         from adaptnav.api import results as results_mod
 
-        truth_file: Path | None = None
+        truth: pd.DataFrame | Path = self.truth
         for name, result in self.results.items():
             if mission_dir is not None:
                 result = replace(result, meta={**result.meta, "mission_dir": str(mission_dir)})
-            run_dir = results_mod.save(result, out / name)
-            # Every run folder gets the same reference: encoded once, copied byte for byte.
-            if truth_file is None:
-                truth_file = run_dir / TRUTH_FILE
-                results_mod.write_parquet(self.truth, truth_file)
-            else:
-                shutil.copyfile(truth_file, run_dir / TRUTH_FILE)
+            # Every run folder gets the same reference, its digest in the run's summary.json:
+            # encoded once, then copied byte for byte.
+            run_dir = results_mod.save(result, out / name, truth=truth)
+            truth = run_dir / TRUTH_FILE
         self.table().to_csv(out / COMPARISON_CSV, index=False)
 
     def _save_runs_and_pngs(

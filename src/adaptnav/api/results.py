@@ -30,16 +30,21 @@ units in the column names:
   one, docs/smoothing.md), same columns; absent for a run that was not smoothed.
 
 A run folder holds ``solution.parquet``, ``ledger.parquet``, ``noise.parquet``,
-``repairs.parquet``, ``events.parquet``, ``forward.parquet`` for a smoothed run, and
-``summary.json`` (filter, mission, meta, ledger counts per sensor and fate, event counts);
-:func:`save` writes it and :func:`load` reads it back.
+``repairs.parquet``, ``events.parquet``, ``forward.parquet`` for a smoothed run,
+``truth.parquet`` when the mission has a reference, and ``summary.json`` (filter, mission,
+meta, ledger counts per sensor and fate, event counts, and ``files``: the SHA-256 and size of
+each table as written); :func:`save` writes it and :func:`load` reads it back, refusing a
+table that is not the one the run wrote (:func:`check_files`; :func:`load_truth` for the
+reference).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
-from collections.abc import Mapping, Sequence
+import shutil
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -100,6 +105,13 @@ TABLE_FILES: dict[str, str] = {
     "events": "events.parquet",
     "forward": "forward.parquet",
 }
+TRUTH_FILE = "truth.parquet"
+"""The mission's reference, kept beside the run when the mission has one (``run``, ``compare``)."""
+FILES_KEY = "files"
+"""``summary.json``'s record of the tables the run wrote: ``{file name: {"sha256": hex digest,
+"bytes": size}}`` (since 0.4.6; a summary without it, of an older run, is read unchecked)."""
+DIGEST_CHUNK_BYTES = 1 << 20
+"""Files are hashed 1 MiB at a time (a day-long run's solution is hundreds of MB)."""
 OPTIONAL_TABLES = ("events", "forward")
 """Tables a run folder written by an older version may lack (read as empty)."""
 _REQUIRED: dict[str, tuple[str, ...]] = {
@@ -464,9 +476,10 @@ def jsonable(value: Any, where: str = "value") -> Any:
 # --- the run folder ------------------------------------------------------------------------
 
 
-def summary(result: Result) -> dict[str, Any]:
-    """The ``summary.json`` content: format, filter, mission, meta, ledger counts."""
-    return {
+def summary(result: Result, files: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, Any]:
+    """The ``summary.json`` content: format, filter, mission, meta, ledger counts and, when
+    given, ``files`` (:data:`FILES_KEY`: each file written, its :func:`file_digest`)."""
+    doc = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
         "filter": result.filter,
@@ -475,10 +488,36 @@ def summary(result: Result) -> dict[str, Any]:
         "counts": ledger_counts(result.ledger),
         "events": event_counts(result.events),
     }
+    if files is not None:
+        doc[FILES_KEY] = {name: dict(entry) for name, entry in files.items()}
+    return doc
 
 
-def save(result: Result, run_dir: str | Path) -> Path:
+def file_digest(path: Path) -> dict[str, Any]:
+    """``{"sha256": hex digest, "bytes": size}`` of the file at ``path``, read
+    :data:`DIGEST_CHUNK_BYTES` at a time (a large table is never held whole)."""
+    digest = hashlib.sha256()
+    size = 0
+    buffer = bytearray(DIGEST_CHUNK_BYTES)
+    view = memoryview(buffer)
+    with path.open("rb", buffering=0) as f:
+        while n := f.readinto(buffer):
+            digest.update(view[:n])
+            size += n
+    return {"sha256": digest.hexdigest(), "bytes": size}
+
+
+def save(
+    result: Result, run_dir: str | Path, *, truth: pd.DataFrame | str | Path | None = None
+) -> Path:
     """Write the run folder (created if needed; files of the same names are replaced).
+
+    ``truth``: the mission's reference, written as ``truth.parquet`` (a table, or the path of
+    a ``truth.parquet`` already written, copied byte for byte). A table the run does not write
+    (``forward.parquet`` of a run that was not smoothed, ``truth.parquet`` without ``truth``)
+    is removed if the folder had one. ``summary.json`` is written last, with the SHA-256 of
+    every table as written (:data:`FILES_KEY`), which :func:`load` checks.
+
     RunFolderError for a mission folder (it would hold a run and a mission at once) or a path
     that is a file."""
     folder = Path(run_dir)
@@ -487,20 +526,37 @@ def save(result: Result, run_dir: str | Path) -> Path:
     if folder.exists() and not folder.is_dir():
         raise RunFolderError(f"{folder}: a file, not a folder")
     folder.mkdir(parents=True, exist_ok=True)
+    files: dict[str, dict[str, Any]] = {}
     for name, filename in TABLE_FILES.items():
         table: pd.DataFrame | None = getattr(result, name)
         if table is None:  # not smoothed: no forward table, and none left from before
             (folder / filename).unlink(missing_ok=True)
             continue
         write_parquet(table, folder / filename)
+        files[filename] = file_digest(folder / filename)
+    if _write_truth(truth, folder / TRUTH_FILE):
+        files[TRUTH_FILE] = file_digest(folder / TRUTH_FILE)
     calibration = folder / CALIBRATION_FILE
     calibration.unlink(missing_ok=True)
     if result.meta.get("calibration"):
         text = json.dumps(result.meta["calibration"], indent=2, allow_nan=False)
         calibration.write_text(text + "\n", encoding="utf-8")
-    text = json.dumps(summary(result), indent=2, allow_nan=False)
+    text = json.dumps(summary(result, files), indent=2, allow_nan=False)
     (folder / SUMMARY_FILE).write_text(text + "\n", encoding="utf-8")
     return folder
+
+
+def _write_truth(truth: pd.DataFrame | str | Path | None, path: Path) -> bool:
+    """Write the reference to ``path`` (a table, or a file copied as it is); with none, remove
+    one left from before. Whether it wrote one."""
+    if truth is None:
+        path.unlink(missing_ok=True)
+        return False
+    if isinstance(truth, pd.DataFrame):
+        write_parquet(truth, path)
+    else:
+        shutil.copyfile(truth, path)
+    return True
 
 
 def check_times(solution: pd.DataFrame, label: str) -> None:
@@ -588,13 +644,11 @@ def check_forward(
         )
 
 
-def load(run_dir: str | Path) -> Result:
-    """Read a run folder written by :func:`save`.
-
-    Raises :class:`RunFolderError` (a ValueError) naming the folder or the file that is
-    missing, unreadable or lacks required content, or a ``forward.parquet`` at odds with the
-    run (:func:`check_forward`).
-    """
+def read_summary(run_dir: str | Path) -> dict[str, Any]:
+    """A run folder's ``summary.json``, checked: a JSON object of this format, of a version
+    this adaptnav reads, with ``filter``, ``mission`` and a ``meta`` object. Raises
+    :class:`RunFolderError` naming the folder or the file otherwise (a missing folder, a
+    mission folder given for a run folder)."""
     folder = Path(run_dir)
     if not folder.exists():
         raise RunFolderError(f"run folder {folder} does not exist")
@@ -622,6 +676,69 @@ def load(run_dir: str | Path) -> Result:
         raise RunFolderError(f"{path}: missing keys {missing_keys}")
     if not isinstance(info["meta"], dict):
         raise RunFolderError(f"{path}: 'meta' must be a JSON object")
+    return info
+
+
+def recorded_files(run_dir: str | Path, info: Mapping[str, Any]) -> dict[str, str] | None:
+    """The SHA-256 (hex) of each file the run wrote, by file name, from its ``summary.json``
+    ``info`` (:data:`FILES_KEY`); None for a summary without them (an older run's). Raises
+    :class:`RunFolderError` naming ``summary.json`` when the record is not one."""
+    files = info.get(FILES_KEY)
+    if files is None:
+        return None
+    where = Path(run_dir) / SUMMARY_FILE
+    if not isinstance(files, dict):
+        raise RunFolderError(f"{where}: {FILES_KEY!r} must be a JSON object")
+    out = {}
+    for name, entry in files.items():
+        digest = entry.get("sha256") if isinstance(entry, dict) else None
+        if not (isinstance(digest, str) and len(digest) == 64):
+            raise RunFolderError(
+                f"{where}: {FILES_KEY}.{name} must be an object with a 64-digit 'sha256'"
+            )
+        out[str(name)] = digest.lower()
+    return out
+
+
+def check_files(run_dir: str | Path, info: Mapping[str, Any], names: Iterable[str]) -> None:
+    """Each file of ``names`` in the run folder must be the one the run wrote: its SHA-256
+    the one ``summary.json`` (``info``) records. Raises :class:`RunFolderError` naming the
+    file when it differs (changed after the run, or taken from another run: another run of the
+    same mission writes a table of the same shape at the same times, which no other check
+    tells apart), when the summary records no digest for a file there (added after the run),
+    or when a file it records is gone. A summary without the record (a run folder of an older
+    adaptnav) is not checked. Since 0.4.6; docs/robustness.md, 'Run folders'."""
+    folder = Path(run_dir)
+    recorded = recorded_files(folder, info)
+    if recorded is None:
+        return
+    for name in names:
+        path = folder / name
+        want = recorded.get(name)
+        if not path.is_file():
+            if want is not None:
+                raise RunFolderError(
+                    f"run folder {folder}: missing {name} (the run wrote it: {SUMMARY_FILE} "
+                    "records its digest)"
+                )
+            continue
+        if want is None:
+            raise RunFolderError(
+                f"{path}: not a file this run wrote ({SUMMARY_FILE} records no digest for it): "
+                "added after the run, or left from another run?"
+            )
+        got = file_digest(path)["sha256"]
+        if got != want:
+            raise RunFolderError(
+                f"{path}: not the file this run wrote (changed after the run, or taken from "
+                f"another run): its SHA-256 begins {got[:12]}, and {SUMMARY_FILE} records "
+                f"{want[:12]}"
+            )
+
+
+def _read_tables(folder: Path) -> dict[str, pd.DataFrame]:
+    """The run folder's tables by name (:data:`TABLE_FILES`), each readable, with its
+    required columns, and a solution's times in order (:func:`check_times`)."""
     tables: dict[str, pd.DataFrame] = {}
     for name, filename in TABLE_FILES.items():
         table_path = folder / filename
@@ -641,7 +758,23 @@ def load(run_dir: str | Path) -> Result:
         if name in ("solution", "forward"):
             check_times(table, str(table_path))
         tables[name] = table
+    return tables
+
+
+def load(run_dir: str | Path) -> Result:
+    """Read a run folder written by :func:`save`.
+
+    Raises :class:`RunFolderError` (a ValueError) naming the folder or the file that is
+    missing, unreadable or lacks required content, a ``forward.parquet`` at odds with the
+    run (:func:`check_forward`), or a table that is not the one the run wrote
+    (:func:`check_files`; checked last, so that a damaged table is named by what is wrong
+    with it).
+    """
+    folder = Path(run_dir)
+    info = read_summary(folder)
+    tables = _read_tables(folder)
     check_forward(folder, info["meta"], tables)
+    check_files(folder, info, TABLE_FILES.values())
     return Result(
         filter=str(info["filter"]),
         mission=str(info["mission"]),
@@ -653,3 +786,20 @@ def load(run_dir: str | Path) -> Result:
         events=tables["events"],
         forward=tables.get("forward"),
     )
+
+
+def load_truth(run_dir: str | Path) -> pd.DataFrame | None:
+    """A run folder's reference (``truth.parquet``, kept by ``run`` and ``compare`` for a
+    mission with one) as it is, or None when the folder has none. Raises
+    :class:`RunFolderError` naming the file when it is not a readable Parquet file or not the
+    one the run wrote (:func:`check_files`)."""
+    folder = Path(run_dir)
+    path = folder / TRUTH_FILE
+    if not path.is_file():
+        return None
+    try:
+        truth = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises several types for a corrupt file
+        raise RunFolderError(f"{path}: not a readable Parquet file ({exc})") from None
+    check_files(folder, read_summary(folder), [TRUTH_FILE])
+    return truth

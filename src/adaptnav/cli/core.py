@@ -145,9 +145,7 @@ def run_cmd(
             # ValueError also covers the oracle on a mission without the simulator's truth.
             _fail(str(exc))
         st.begin(f"writing {out}/")
-        results.save(result, tmp)
-        if mission.truth is not None:
-            mission.truth.to_parquet(tmp / "truth.parquet", index=False)
+        results.save(result, tmp, truth=mission.truth)
     _print_run(result, out)
 
 
@@ -324,12 +322,10 @@ def _run_and_reference(run_dir: Path, mission: Path | None) -> tuple[Result, pd.
     """(the run, its reference, where the reference came from) for ``evaluate``: the
     ``--mission``'s truth table, else the run folder's ``truth.parquet``; a clear error
     (:func:`_fail`) when either cannot be read or there is none."""
-    import pandas as pd
-
     from adaptnav.api import results
     from adaptnav.mission import MissionError, load_mission
 
-    source = mission if mission is not None else run_dir / "truth.parquet"
+    source = mission if mission is not None else run_dir / results.TRUTH_FILE
     try:
         result = results.load(run_dir)
         if mission is not None:
@@ -341,14 +337,8 @@ def _run_and_reference(run_dir: Path, mission: Path | None) -> tuple[Result, pd.
                     "(give the run's own mission folder)"
                 )
             truth = reference.truth
-        elif source.is_file():
-            try:
-                truth = pd.read_parquet(source)
-            except Exception as exc:  # pyarrow raises several types for a corrupt file
-                msg = f"{source}: not a readable Parquet file ({exc})"
-                raise results.RunFolderError(msg) from None
-        else:
-            truth = None
+        else:  # the run's own: checked against its summary.json (results.check_files)
+            truth = results.load_truth(run_dir)
     except (results.RunFolderError, MissionError) as exc:
         _fail(str(exc))
     if truth is None:

@@ -27,9 +27,7 @@ def export_track(
     The KML holds the solution's line, its start and end, and the run folder's reference
     (truth.parquet) when it has one; docs/export.md.
     """
-    import pandas as pd
-
-    from adaptnav.api.results import RunFolderError, load
+    from adaptnav.api.results import RunFolderError, load, load_truth
     from adaptnav.importers.track import write_track
 
     if max_points < 2:
@@ -41,8 +39,7 @@ def export_track(
             if forward and result.forward is None:
                 fail(f"{run}: --forward: not a --smooth run (no forward solution)")
             solution = result.forward if forward and result.forward is not None else result.solution
-            truth = run / "truth.parquet"
-            reference = pd.read_parquet(truth) if truth.is_file() else None
+            reference = load_truth(run)
             info = write_track(solution, tmp, run.resolve().name, reference, max_points)
         except (RunFolderError, ValueError, OSError) as exc:
             fail(str(exc).splitlines()[0] if str(exc) else type(exc).__name__)

@@ -68,7 +68,7 @@ from adaptnav.analysis.compare import (
     PAPER_TABLE3,
     SIMULATION_FILE,
 )
-from adaptnav.api.results import CALIBRATION_FILE
+from adaptnav.api.results import CALIBRATION_FILE, TABLE_FILES, RunFolderError, check_files
 from adaptnav.api.runner import heading_origin
 from adaptnav.core.formats import format_problem
 from adaptnav.mission import MissionConfig, MissionError, load_config
@@ -943,17 +943,25 @@ def _ledger(names: Sequence[Any], results: Mapping[str, Mapping[str, Any]]) -> l
     return rows
 
 
-def _events(folder: Path, name: str) -> EventRow:
-    """A filter's divergence guard events (estimation/health.py): counts, then the first ones."""
+def _events(folder: Path, name: str, summary: Mapping[str, Any] | None) -> EventRow:
+    """A filter's divergence guard events (estimation/health.py): counts, then the first ones.
+    ``summary``: the run folder's ``summary.json``, whose digest of ``events.parquet`` the table
+    must match (:func:`adaptnav.api.results.check_files`; a ReportError naming it otherwise)."""
     import pandas as pd
 
-    path = folder / str(name) / "events.parquet"
+    run_dir = folder / str(name)
+    path = run_dir / TABLE_FILES["events"]
     try:
         ev = pd.read_parquet(path) if path.is_file() else None
     except Exception:  # an unreadable table is shown as such, the report still written
         ev = None
     if ev is None:
         return EventRow(_label(name), None, None, (), 0)
+    if summary is not None:
+        try:
+            check_files(run_dir, summary, [path.name])
+        except RunFolderError as exc:
+            raise ReportError(str(exc)) from None
     lockout, nis, covariance = (
         int((ev["event"] == k).sum()) for k in ("lockout", "nis", "covariance")
     )
@@ -1030,7 +1038,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
     the page's data; ``shown_as`` as in :func:`write_report`.
 
     Raises :class:`ReportError` naming the file when ``comparison.json`` or a figure it lists
-    is missing or unreadable.
+    is missing or unreadable, or a run's ``events.parquet`` is not the one the run wrote.
     """
     from adaptnav import __version__
 
@@ -1078,7 +1086,7 @@ def report_data(compare_dir: str | Path, *, shown_as: str | Path | None = None) 
         plotly_config=_script_json(PLOTLY_CONFIG),
         max_points=MAX_POINTS,
         ledger=tuple(_ledger(scored, results)),
-        events=tuple(_events(folder, n) for n in names),
+        events=tuple(_events(folder, n, summaries[n]) for n in names),
         warnings=tuple(w for n in names for w in _warnings(n, summaries[n])),
         initial=_initial(doc.get("initial") or {}),
         version=__version__,
@@ -1131,7 +1139,8 @@ def write_report(
     page instead of ``compare_dir`` (a temporary folder renamed there afterwards).
 
     Raises :class:`ReportError` (a ValueError) naming the file when ``comparison.json`` or a
-    figure it lists is missing or unreadable.
+    figure it lists is missing or unreadable, or a run's ``events.parquet`` is not the one the
+    run wrote.
     """
     data = report_data(compare_dir, shown_as=shown_as)
     page = _environment().get_template(TEMPLATE).render(report=data)
