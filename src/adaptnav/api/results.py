@@ -679,6 +679,9 @@ def read_summary(run_dir: str | Path) -> dict[str, Any]:
     return info
 
 
+_HEX = frozenset("0123456789abcdef")
+
+
 def recorded_files(run_dir: str | Path, info: Mapping[str, Any]) -> dict[str, str] | None:
     """The SHA-256 (hex) of each file the run wrote, by file name, from its ``summary.json``
     ``info`` (:data:`FILES_KEY`); None for a summary without them (an older run's). Raises
@@ -692,11 +695,12 @@ def recorded_files(run_dir: str | Path, info: Mapping[str, Any]) -> dict[str, st
     out = {}
     for name, entry in files.items():
         digest = entry.get("sha256") if isinstance(entry, dict) else None
-        if not (isinstance(digest, str) and len(digest) == 64):
+        if not (isinstance(digest, str) and len(digest) == 64 and _HEX.issuperset(digest)):
             raise RunFolderError(
-                f"{where}: {FILES_KEY}.{name} must be an object with a 64-digit 'sha256'"
+                f"{where}: {FILES_KEY!r} entry {name!r} must be an object with a 'sha256' of 64 "
+                "hexadecimal digits"
             )
-        out[str(name)] = digest.lower()
+        out[str(name)] = digest
     return out
 
 
