@@ -9,7 +9,9 @@
   not;
 * :mod:`helpers.engine_reference`: the readable engine the compiled one is held to;
 * :mod:`helpers.golden`: the golden run (also a script: ``python tests/helpers/golden.py``);
-* :mod:`helpers.script_loader`: a file of ``scripts/`` loaded as a module.
+* :mod:`helpers.script_loader`: a file of ``scripts/`` loaded as a module;
+* :mod:`helpers.run_folders`: a run folder's table changed on purpose, its digest recorded
+  again (:func:`~helpers.run_folders.reseal`), or a run folder of an older adaptnav.
 
 The paths below locate the test data from any test folder.
 """

@@ -24,7 +24,7 @@ SEED = 7
 
 
 @cache
-def _generated() -> scenarios.SimulatedMission:
+def _generated(seed: int = SEED) -> scenarios.SimulatedMission:
     base = scenarios.demo()
     spec = replace(
         base.trajectory,
@@ -39,12 +39,13 @@ def _generated() -> scenarios.SimulatedMission:
         max_yaw_accel=2 * DEG,
         min_step=1.0,
     )
-    return scenarios.generate(replace(base, name="tiny", trajectory=spec), SEED)
+    return scenarios.generate(replace(base, name="tiny", trajectory=spec), seed)
 
 
-def tiny_mission(root: Path, fmt: str = "csv") -> Path:
-    """Write the tiny mission to ``root`` (tables as ``fmt``: csv or parquet); returns it."""
-    sim = _generated()
+def tiny_mission(root: Path, fmt: str = "csv", seed: int = SEED) -> Path:
+    """Write the tiny mission to ``root`` (tables as ``fmt``: csv or parquet; ``seed``: the
+    simulator's, another one giving the same mission with other noise); returns it."""
+    sim = _generated(seed)
     tables = {k: v.copy() for k, v in sim.tables.items()}
     write_mission(root, sim.config, tables, fmt=fmt)  # type: ignore[arg-type]
     return root

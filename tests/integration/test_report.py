@@ -27,7 +27,7 @@ from typer.testing import CliRunner
 
 from adaptnav.analysis import compare as compare_mod
 from adaptnav.analysis.compare import COMPARISON_JSON, Comparison, compare
-from adaptnav.api.results import CALIBRATION_FILE
+from adaptnav.api.results import CALIBRATION_FILE, events_frame, write_parquet
 from adaptnav.cli import app
 from adaptnav.experiments import figures as sweep_figures
 from adaptnav.sim.scenarios import simulate
@@ -384,6 +384,24 @@ def test_a_sensor_warning_heads_the_report_and_none_leaves_no_section(
     assert "<strong>VB-MAESKF</strong>: dvl: at odds &lt;b&gt;x&lt;/b&gt;" in section
     assert text.index('id="warnings"') < text.index('id="scenario"')
     assert '<a href="#warnings">' in text
+
+
+def test_an_events_table_not_the_runs_own_is_refused(
+    report: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The report reads each run's events.parquet: one that is not the table the run wrote
+    (its digest in the run's summary.json) is an error naming it, not shown as the run's."""
+    folder, _ = report
+    copy = tmp_path / "cmp"
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("mission"))
+    path = copy / "vb" / "events.parquet"
+    row = {"t": 1.0, "sensor": "dvl", "row": 3, "event": "lockout", "statistic": 50.0,
+           "threshold": 9.0, "factor": 1.0, "detail": "not this run's"}  # fmt: skip
+    write_parquet(events_frame([row]), path)
+    with pytest.raises(ReportError, match=r"vb/events\.parquet: not the file this run wrote"):
+        write_report(copy, tmp_path / "r.html")
+    res = runner.invoke(app, ["report", str(copy), "--out", str(tmp_path / "p.html")])
+    assert res.exit_code == 2 and "events.parquet: not the file this run wrote" in res.output
 
 
 def test_a_folder_without_interactive_figures_gets_its_pngs_and_no_script(

@@ -7,9 +7,11 @@ tests/integration/test_fuzz_input.py.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +22,7 @@ from typer.testing import CliRunner
 
 from adaptnav.cli import app
 from helpers import badinput
+from helpers.run_folders import reseal, without_digests
 
 runner = CliRunner()
 
@@ -667,6 +670,7 @@ def test_evaluate_with_a_bad_reference_is_a_clear_error(mission: Path, tmp_path:
     line = error_line(cli("evaluate", out))
     assert "truth.parquet: not a readable Parquet file" in line
     pd.DataFrame({"t_s": [1.0, 2.0]}).to_parquet(out / "truth.parquet")
+    reseal(out, "truth.parquet")  # what evaluate checks after the digest
     line = error_line(cli("evaluate", out, "--json"))
     assert "truth.parquet: truth lacks columns" in line
 
@@ -685,12 +689,101 @@ def test_evaluate_warns_when_the_reference_covers_part_of_the_run(
     truth = pd.read_parquet(out / "truth.parquet")
     t_run = pd.read_parquet(out / "solution.parquet")["t_s"].to_numpy()
     truth[truth["t_s"] <= t_run[0] + (t_run[-1] - t_run[0]) / 3].to_parquet(out / "truth.parquet")
+    reseal(out, "truth.parquet")  # a reference cut short as the run wrote it
     part = json.loads(cli("evaluate", out, "--json").stdout)
     assert 0.25 < part["reference_coverage"] < 0.4
     assert part["run_duration_s"] == pytest.approx(whole["run_duration_s"])
     assert any("reference covers" in w for w in part["warnings"])
     res = cli("evaluate", out)
     assert res.exit_code == 0 and "warning: the reference covers" in res.stderr
+
+
+# --- run folders: every table the run's own ---------------------------------------------------
+
+
+def _smoothed_runs(mission: Path, tmp_path: Path) -> tuple[Path, Path]:
+    """Smoothed runs of the mission by VB-MAESKF and by MESKF: tables of the same shape at the
+    same times, which the checks of shape and time cannot tell apart."""
+    runs = []
+    for name in ("vb", "meskf"):
+        out = tmp_path / name
+        assert cli("run", mission, "-f", name, "--smooth", "--out", out, "-q").exit_code == 0
+        runs.append(out)
+    vb, meskf = runs
+    for table in ("solution.parquet", "forward.parquet"):
+        t = [pd.read_parquet(r / table)["t_s"].to_numpy() for r in runs]
+        np.testing.assert_array_equal(t[0], t[1])
+    return vb, meskf
+
+
+@pytest.mark.parametrize("table", ["forward.parquet", "solution.parquet"])
+def test_a_table_of_another_run_of_the_mission_is_refused(
+    mission: Path, tmp_path: Path, table: str
+) -> None:
+    """Another filter's run of the same mission copied in: up to 0.4.5 evaluate scored it as
+    this run's (exit 0). Now summary.json's digest of each table tells (exit 2, naming it and
+    both digests)."""
+    vb, meskf = _smoothed_runs(mission, tmp_path)
+    recorded = json.loads((vb / "summary.json").read_text())["files"][table]["sha256"]
+    shutil.copyfile(meskf / table, vb / table)
+    line = error_line(cli("evaluate", vb))
+    theirs = hashlib.sha256((meskf / table).read_bytes()).hexdigest()
+    assert f"{vb / table}: not the file this run wrote (changed after the run, or taken" in line
+    assert f"its SHA-256 begins {theirs[:12]}, and summary.json records {recorded[:12]}" in line
+    line = error_line(cli("export", "track", vb, "--out", tmp_path / "track", "-q"))
+    assert f"{vb / table}: not the file this run wrote" in line
+
+
+def test_a_reference_of_another_seed_of_the_mission_is_refused(
+    mission: Path, tmp_path: Path
+) -> None:
+    """The mission simulated with another seed: a truth.parquet of the same mission at the
+    same times, the same track, other true IMU biases. Up to 0.4.5 evaluate scored the run
+    against it (exit 0)."""
+    run, other = tmp_path / "run", tmp_path / "other"
+    assert cli("run", mission, "--out", run, "-q").exit_code == 0
+    seed = badinput.tiny_mission(tmp_path / "seed", seed=badinput.SEED + 1)
+    assert cli("run", seed, "--out", other, "-q").exit_code == 0
+    ours, theirs = (pd.read_parquet(r / "truth.parquet") for r in (run, other))
+    np.testing.assert_array_equal(ours["t_s"], theirs["t_s"])
+    np.testing.assert_array_equal(ours["lat_rad"], theirs["lat_rad"])
+    assert not np.array_equal(ours["bg_z_rad_s"], theirs["bg_z_rad_s"])
+    shutil.copyfile(other / "truth.parquet", run / "truth.parquet")
+    line = error_line(cli("evaluate", run, "--json"))
+    assert f"{run / 'truth.parquet'}: not the file this run wrote" in line
+    line = error_line(cli("export", "track", run, "--out", tmp_path / "track", "-q"))
+    assert f"{run / 'truth.parquet'}: not the file this run wrote" in line
+    # the reference given from the mission folder: the run folder's is not read
+    assert cli("evaluate", run, "--mission", mission, "--json").exit_code == 0
+
+
+def test_an_untouched_run_folder_records_and_passes_every_digest(
+    mission: Path, tmp_path: Path
+) -> None:
+    """summary.json records the SHA-256 and size of every table the run wrote, the reference
+    included, and the untouched folder evaluates and exports."""
+    run = tmp_path / "run"
+    assert cli("run", mission, "--smooth", "--out", run, "-q").exit_code == 0
+    files = json.loads((run / "summary.json").read_text())["files"]
+    tables = sorted(p.name for p in run.glob("*.parquet"))
+    assert sorted(files) == tables and {"forward.parquet", "truth.parquet"} <= set(tables)
+    for name in tables:
+        data = (run / name).read_bytes()
+        assert files[name] == {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
+    assert cli("evaluate", run, "--json").exit_code == 0
+    assert cli("export", "track", run, "--out", tmp_path / "track", "-q").exit_code == 0
+
+
+def test_a_run_folder_without_digests_is_read_as_before(mission: Path, tmp_path: Path) -> None:
+    """A summary.json without 'files' (a run folder written before 0.4.6) is read as before,
+    unchecked: another run's table in it is not told (nothing to tell it by)."""
+    vb, meskf = _smoothed_runs(mission, tmp_path)
+    without_digests(vb)
+    before = json.loads(cli("evaluate", vb, "--json").stdout)
+    shutil.copyfile(meskf / "forward.parquet", vb / "forward.parquet")
+    after = json.loads(cli("evaluate", vb, "--json").stdout)
+    assert after["rmse_m"] == before["rmse_m"]
+    assert after["forward_rmse_m"] != before["forward_rmse_m"]
 
 
 def test_a_sensor_much_of_which_lies_outside_the_imus_time_is_warned_of(

@@ -601,8 +601,7 @@ def _smoothed_run(folder: Path, forward_nan_row: int | None = None) -> Path:
         forward=forward,
         meta={"smoother": {"nodes": 201, "update_nodes": 0, "failed_nodes": 0, "store_bytes": 1}},
     )
-    save(result, folder)
-    truth.to_parquet(folder / "truth.parquet", index=False)
+    save(result, folder, truth=truth)
     return folder
 
 
@@ -678,8 +677,7 @@ def test_evaluate_shows_and_warns_of_epochs_left_out_of_the_nees(tmp_path: Path)
     truth = straight_north().iloc[:101]
     sol = offset_solution(truth, np.array([0.0, 3.0, 0.0]))
     sol.loc[:29, "sd_dr_N"] = 0.0
-    folder = save(make_result(sol, []), tmp_path / "run")
-    truth.to_parquet(folder / "truth.parquet", index=False)
+    folder = save(make_result(sol, []), tmp_path / "run", truth=truth)
     res = CliRunner().invoke(app, ["evaluate", str(folder), "--json", "-q"])
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)

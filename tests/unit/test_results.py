@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -16,6 +17,7 @@ from adaptnav.api.results import (
     COV_COLUMNS,
     REQUIRED_SOLUTION_COLUMNS,
     SOLUTION_COLUMNS,
+    STATE_COLUMNS,
     Result,
     RunFolderError,
     covariance_block,
@@ -31,6 +33,7 @@ from adaptnav.api.results import (
 from adaptnav.core import attitude
 from adaptnav.engine.batch import LEDGER_KEYS, EngineOutput, LedgerRows
 from adaptnav.models.errorstate import STATE_NAMES
+from helpers.run_folders import without_digests
 
 EULER = np.array(
     [[0.1, -0.2, 0.3], [0.0, 0.0, 3.1], [-0.3, 0.4, -3.0], [0.05, 1.2, 1.0], [1.0, -0.7, -1.5]]
@@ -226,6 +229,7 @@ def test_old_run_folder_without_covariances_loads(tmp_path: Path) -> None:
     """A run folder written before the cov_ columns existed: loaded as it is, without them;
     the blocks of P are then its diagonal."""
     folder = save(make_result(), tmp_path / "old")
+    without_digests(folder)  # an older adaptnav's summary.json: no digests either
     solution = pd.read_parquet(folder / "solution.parquet")
     solution[list(REQUIRED_SOLUTION_COLUMNS)].to_parquet(folder / "solution.parquet")
     back = load(folder)
@@ -352,6 +356,111 @@ def test_a_forward_solution_at_odds_with_the_run_is_refused(
         forward.to_parquet(path, index=False)
     with pytest.raises(RunFolderError, match=re.escape(message)):
         load(folder)
+
+
+def _truth(result: Result) -> pd.DataFrame:
+    """A reference at the run's times (the solution's position 1 m north)."""
+    truth = result.solution[["t_s", *STATE_COLUMNS[:9]]].copy()
+    truth["lat_rad"] += 1.0 / 6.4e6
+    return truth
+
+
+def test_summary_records_the_digest_of_every_table_as_written(tmp_path: Path) -> None:
+    """summary.json's ``files``: each table's SHA-256 and size, the reference's included (given
+    as a table, or as a truth.parquet already written, copied as it is)."""
+    from adaptnav.api.results import load_truth
+
+    res = _smoothed_result(synthetic_output())
+    folder = save(res, tmp_path / "run", truth=_truth(res))
+    files = json.loads((folder / "summary.json").read_text())["files"]
+    written = sorted(p.name for p in folder.glob("*.parquet"))
+    assert sorted(files) == written and {"forward.parquet", "truth.parquet"} <= set(written)
+    for name in written:
+        data = (folder / name).read_bytes()
+        assert files[name] == {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
+    load(folder)
+    pd.testing.assert_frame_equal(load_truth(folder), _truth(res))
+    copy = save(res, tmp_path / "copy", truth=folder / "truth.parquet")
+    assert (copy / "truth.parquet").read_bytes() == (folder / "truth.parquet").read_bytes()
+    assert json.loads((copy / "summary.json").read_text())["files"] == files
+    # saved again without a reference: none is left from before
+    save(res, copy)
+    assert not (copy / "truth.parquet").exists() and load_truth(copy) is None
+
+
+def test_file_digest_reads_in_chunks(tmp_path: Path) -> None:
+    from adaptnav.api.results import DIGEST_CHUNK_BYTES, file_digest
+
+    data = np.random.default_rng(8).bytes(2 * DIGEST_CHUNK_BYTES + 12345)
+    path = tmp_path / "big.bin"
+    path.write_bytes(data)
+    assert file_digest(path) == {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
+    path.write_bytes(b"")
+    assert file_digest(path) == {"sha256": hashlib.sha256(b"").hexdigest(), "bytes": 0}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "solution.parquet", "ledger.parquet", "noise.parquet", "repairs.parquet",
+        "events.parquet", "forward.parquet", "truth.parquet",
+    ],
+)  # fmt: skip
+def test_a_table_not_as_the_run_wrote_it_is_refused(tmp_path: Path, name: str) -> None:
+    """A table written again (here the same rows, gzip-compressed: other bytes) or another
+    run's in its place is refused naming the file and both digests' first 12 digits; the
+    shape, column and time checks cannot tell a table of another run of the same mission."""
+    from adaptnav.api.results import load_truth
+
+    res = _smoothed_result(synthetic_output())
+    folder = save(res, tmp_path / "run", truth=_truth(res))
+    path = folder / name
+    recorded = json.loads((folder / "summary.json").read_text())["files"][name]["sha256"]
+    pd.read_parquet(path).to_parquet(path, index=False, compression="gzip")
+    now = hashlib.sha256(path.read_bytes()).hexdigest()
+    assert now != recorded
+    message = (
+        f"{path}: not the file this run wrote (changed after the run, or taken from another "
+        f"run): its SHA-256 begins {now[:12]}, and summary.json records {recorded[:12]}"
+    )
+    with pytest.raises(RunFolderError, match=re.escape(message)):
+        load_truth(folder) if name == "truth.parquet" else load(folder)
+
+
+def test_a_table_the_run_did_not_write_or_one_gone_is_refused(tmp_path: Path) -> None:
+    """A reference added to a run folder that had none, and a table summary.json lists that
+    is gone (events.parquet: an older run folder may lack it, a new one lists it)."""
+    from adaptnav.api.results import load_truth
+
+    res = make_result()
+    folder = save(res, tmp_path / "run")
+    _truth(res).to_parquet(folder / "truth.parquet", index=False)
+    with pytest.raises(RunFolderError, match=r"truth\.parquet: not a file this run wrote"):
+        load_truth(folder)
+    (folder / "events.parquet").unlink()
+    with pytest.raises(RunFolderError, match=r"missing events\.parquet \(the run wrote it"):
+        load(folder)
+
+
+def test_a_summary_without_digests_is_read_unchecked(tmp_path: Path) -> None:
+    """summary.json of a run folder written before the digests: read as before, a table
+    written again included (nothing to check it by); a record that is not one is refused."""
+    from adaptnav.api.results import load_truth
+
+    res = _smoothed_result(synthetic_output())
+    folder = save(res, tmp_path / "run", truth=_truth(res))
+    without_digests(folder)
+    for name in ("forward.parquet", "truth.parquet"):
+        path = folder / name
+        pd.read_parquet(path).to_parquet(path, index=False, compression="gzip")
+    pd.testing.assert_frame_equal(load(folder).forward, res.forward)
+    pd.testing.assert_frame_equal(load_truth(folder), _truth(res))
+    path = folder / "summary.json"
+    info = json.loads(path.read_text())
+    for bad in ([], {"solution.parquet": "abc"}, {"solution.parquet": {"sha256": "ab"}}):
+        path.write_text(json.dumps({**info, "files": bad}))
+        with pytest.raises(RunFolderError, match=r"summary\.json: 'files'"):
+            load(folder)
 
 
 def test_dropped_ledger_is_the_table_of_ledger_rows() -> None:
