@@ -32,5 +32,5 @@ def without_digests(folder: Path) -> None:
     """Make ``folder``'s summary.json one written before the digests were (no ``files``)."""
     path = folder / SUMMARY
     info = json.loads(path.read_text(encoding="utf-8"))
-    del info[FILES]
+    info.pop(FILES, None)
     path.write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")

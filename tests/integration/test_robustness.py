@@ -724,9 +724,9 @@ def test_a_table_of_another_run_of_the_mission_is_refused(
     this run's (exit 0). Now summary.json's digest of each table tells (exit 2, naming it and
     both digests)."""
     vb, meskf = _smoothed_runs(mission, tmp_path)
-    recorded = json.loads((vb / "summary.json").read_text())["files"][table]["sha256"]
     shutil.copyfile(meskf / table, vb / table)
     line = error_line(cli("evaluate", vb))
+    recorded = json.loads((vb / "summary.json").read_text())["files"][table]["sha256"]
     theirs = hashlib.sha256((meskf / table).read_bytes()).hexdigest()
     assert f"{vb / table}: not the file this run wrote (changed after the run, or taken" in line
     assert f"its SHA-256 begins {theirs[:12]}, and summary.json records {recorded[:12]}" in line
@@ -778,6 +778,7 @@ def test_a_run_folder_without_digests_is_read_as_before(mission: Path, tmp_path:
     """A summary.json without 'files' (a run folder written before 0.4.6) is read as before,
     unchecked: another run's table in it is not told (nothing to tell it by)."""
     vb, meskf = _smoothed_runs(mission, tmp_path)
+    assert "files" in json.loads((vb / "summary.json").read_text())  # as a run writes it now
     without_digests(vb)
     before = json.loads(cli("evaluate", vb, "--json").stdout)
     shutil.copyfile(meskf / "forward.parquet", vb / "forward.parquet")
