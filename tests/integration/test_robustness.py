@@ -775,7 +775,7 @@ def test_an_untouched_run_folder_records_and_passes_every_digest(
 
 
 def test_a_run_folder_without_digests_is_read_as_before(mission: Path, tmp_path: Path) -> None:
-    """A summary.json without 'files' (a run folder written before 0.4.6) is read as before,
+    """A summary.json without 'files' (a run folder written before 0.4.7) is read as before,
     unchecked: another run's table in it is not told (nothing to tell it by)."""
     vb, meskf = _smoothed_runs(mission, tmp_path)
     assert "files" in json.loads((vb / "summary.json").read_text())  # as a run writes it now

@@ -109,7 +109,7 @@ TRUTH_FILE = "truth.parquet"
 """The mission's reference, kept beside the run when the mission has one (``run``, ``compare``)."""
 FILES_KEY = "files"
 """``summary.json``'s record of the tables the run wrote: ``{file name: {"sha256": hex digest,
-"bytes": size}}`` (since 0.4.6; a summary without it, of an older run, is read unchecked)."""
+"bytes": size}}`` (since 0.4.7; a summary without it, of an older run, is read unchecked)."""
 DIGEST_CHUNK_BYTES = 1 << 20
 """Files are hashed 1 MiB at a time (a day-long run's solution is hundreds of MB)."""
 OPTIONAL_TABLES = ("events", "forward")
@@ -711,7 +711,7 @@ def check_files(run_dir: str | Path, info: Mapping[str, Any], names: Iterable[st
     same mission writes a table of the same shape at the same times, which no other check
     tells apart), when the summary records no digest for a file there (added after the run),
     or when a file it records is gone. A summary without the record (a run folder of an older
-    adaptnav) is not checked. Since 0.4.6; docs/robustness.md, 'Run folders'."""
+    adaptnav) is not checked. Since 0.4.7; docs/robustness.md, 'Run folders'."""
     folder = Path(run_dir)
     recorded = recorded_files(folder, info)
     if recorded is None:
