@@ -698,6 +698,31 @@ def test_evaluate_warns_when_the_reference_covers_part_of_the_run(
     assert res.exit_code == 0 and "warning: the reference covers" in res.stderr
 
 
+def test_a_run_sparser_than_its_reference_is_scored_at_its_own_rows(
+    mission: Path, tmp_path: Path
+) -> None:
+    """The same filter with 1-Hz rows against the simulator's 10-Hz truth: up to 0.4.6 its
+    attitude was scored between rows 1 s apart, across the waves' roll, and the mean attitude
+    NEES ran to several times the 10-Hz run's (exit 0, no warning). Scored at its own rows,
+    which are rows of the 10-Hz run too (the same filter, the same numbers there), it scores
+    as that run does."""
+    dense = tmp_path / "dense"
+    assert cli("run", mission, "-f", "meskf", "--out", dense, "-q").exit_code == 0
+    toml = (mission / "mission.toml").read_text()
+    (mission / "mission.toml").write_text(
+        toml.replace("[filter]\n", "[filter]\noutput_rate_hz = 1.0\n")
+    )
+    sparse = tmp_path / "sparse"
+    assert cli("run", mission, "-f", "meskf", "--out", sparse, "-q").exit_code == 0
+    a = json.loads(cli("evaluate", dense, "--json").stdout)
+    b = json.loads(cli("evaluate", sparse, "--json").stdout)
+    for block in ("attitude", "velocity", "position"):
+        assert b[f"mean_nees_{block}"] == pytest.approx(a[f"mean_nees_{block}"], rel=0.3), block
+    assert b["rmse_m"] == pytest.approx(a["rmse_m"], rel=0.05)
+    assert (a["scored_at"], b["scored_at"]) == ("reference", "solution")
+    assert b["samples"] == len(pd.read_parquet(sparse / "solution.parquet"))
+
+
 # --- run folders: every table the run's own ---------------------------------------------------
 
 
@@ -720,7 +745,7 @@ def _smoothed_runs(mission: Path, tmp_path: Path) -> tuple[Path, Path]:
 def test_a_table_of_another_run_of_the_mission_is_refused(
     mission: Path, tmp_path: Path, table: str
 ) -> None:
-    """Another filter's run of the same mission copied in: up to 0.4.5 evaluate scored it as
+    """Another filter's run of the same mission copied in: up to 0.4.6 evaluate scored it as
     this run's (exit 0). Now summary.json's digest of each table tells (exit 2, naming it and
     both digests)."""
     vb, meskf = _smoothed_runs(mission, tmp_path)

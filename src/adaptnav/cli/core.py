@@ -386,8 +386,13 @@ def _metrics_table(
     ):
         values = [c.get(key) for c in columns]
         table.add_row(label, *("n/a" if v is None else fmt.format(v) for v in values))
+    notes = []
+    if metrics.scored_at == "solution":
+        notes.append("scored at the solution's rows, the reference (denser) interpolated to them")
     if not metrics.nees_uses_correlations:
-        table.caption = "NEES from P's diagonal only: the run folder has no cov_ columns"
+        notes.append("NEES from P's diagonal only: the run folder has no cov_ columns")
+    if notes:
+        table.caption = "; ".join(notes)
     return table
 
 
