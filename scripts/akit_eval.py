@@ -506,8 +506,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "",
         _case_table(df, "faulted"),
         "",
-        "DVL readings used / rejected by the gate / dropped (the oracle drops the injected "
-        "outliers; ungated VB-MAESKF de-weights them):",
+        "DVL readings used / rejected (by the guard every filter runs, or a gate) / dropped "
+        "(the oracle drops the injected outliers; VB-MAESKF, without a gate of its own, "
+        "de-weights them and its rejections are the guard's):",
         "",
         _counts_table(df),
         "",

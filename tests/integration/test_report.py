@@ -365,6 +365,24 @@ def test_user_strings_are_escaped(report: tuple[Path, Path], tmp_path: Path) -> 
     assert shown["layout"]["title"]["text"] == spec["layout"]["title"]["text"]
 
 
+def test_the_start_is_written_with_its_hemispheres_and_the_guards_rejections_named(
+    report: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """Up to 0.4.6 the report wrote a start at 33.9° S, 70° W as '-33.900035° N,
+    -69.999992° E', and said VB-MAESKF rejects none while its bars showed the guard's
+    rejections (found by an output audit)."""
+    folder, _ = report
+    copy = tmp_path / "cmp"
+    shutil.copytree(folder, copy, ignore=shutil.ignore_patterns("mission"))
+    doc = json.loads((copy / COMPARISON_JSON).read_text())
+    doc["initial"]["lat_deg"], doc["initial"]["lon_deg"] = -33.900035, -69.999992
+    (copy / COMPARISON_JSON).write_text(json.dumps(doc))
+    text = write_report(copy, tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "33.900035° S, 69.999992° W" in text and "° N" not in text
+    assert "rejects none" not in text and "by the guard" in text
+    assert "σ attitude (about N, E, D)" in text
+
+
 def test_a_sensor_warning_heads_the_report_and_none_leaves_no_section(
     report: tuple[Path, Path], tmp_path: Path
 ) -> None:

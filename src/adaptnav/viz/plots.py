@@ -7,7 +7,7 @@
 * :func:`noise_variance`: one aiding sensor's measurements and, on a log scale, the noise
   variance R̂ each adaptive filter used at each reading (``Result.noise``), beside the nominal R
   and, for a simulated mission, the true σ² (Fig. 10);
-* :func:`ledger_counts`: readings used, rejected by the gate and dropped per sensor and filter;
+* :func:`ledger_counts`: readings used, rejected (guard or gate) and dropped per sensor and filter;
 * :func:`nis`: a running mean of the normalised innovation squared per reading dimension
   (about 1 for a consistent filter; docs/metrics.md, 'NIS');
 * :func:`calibration`: each calibration state's estimate ± 2σ over time per filter, beside its
@@ -447,7 +447,7 @@ def ledger_counts(
     for ax, fate, title in zip(
         axes,
         ("used", "rejected", "dropped"),
-        ("used", "rejected by the gate", "dropped while navigating"),
+        ("used", "rejected (guard or gate)", "dropped while navigating"),
         strict=True,
     ):
         top = 0

@@ -734,10 +734,12 @@ _CAPTIONS: dict[str, str] = {
     ),
     "ledger_counts": (
         "Fate of the aiding readings after the navigation start, per sensor and filter: fused "
-        "(used), refused by the outlier gate (rejected; only MESKF and MAESKF gate, and only "
-        "the DVL by default) and dropped as invalid (e.g. DVL dropouts). Look at how many good "
-        "readings a gate throws away beside the outliers it catches: VB-MAESKF rejects none "
-        "and de-weights instead."
+        "(used); rejected, by the guard (the χ² test on the nominal R that every filter runs "
+        "on every sensor) or, for MESKF and MAESKF, also by the paper's per-component gate on "
+        "the DVL; and dropped as invalid (e.g. DVL dropouts). The ledger's reason says which "
+        "test rejected each reading. Look at how many good readings a gate throws away beside "
+        "the outliers it catches: VB-MAESKF has no gate of its own and de-weights instead; "
+        "what it rejects is the guard's."
     ),
     "nis": (
         "Running mean of the normalised innovation squared per component (NIS divided by the "
@@ -1106,6 +1108,14 @@ def _num(value: Num, fmt: str = "{:.2f}", missing: str = "–") -> str:
     return fmt.format(value) if math.isfinite(value) else missing
 
 
+def _geodetic(value: Num, letters: str) -> str:
+    """Jinja filter ``geodetic``: a latitude or longitude (deg) as ``33.900035° S``, the
+    hemisphere from its sign (``letters``: ``"NS"`` or ``"EW"``); ``–`` when absent."""
+    if value is None or isinstance(value, str) or not math.isfinite(value):
+        return _num(value)
+    return f"{abs(value):.6f}° {letters[0] if value >= 0.0 else letters[1]}"
+
+
 def _quantity(value: Quantity) -> str:
     """Jinja filter ``quantity``: ``[value, "unit"]`` as text (``0.01, 0.02 m/s``)."""
     v, unit = value
@@ -1124,6 +1134,7 @@ def _environment() -> jinja2.Environment:
         keep_trailing_newline=True,
     )
     env.filters["num"] = _num
+    env.filters["geodetic"] = _geodetic
     env.filters["quantity"] = _quantity
     return env
 
