@@ -790,8 +790,9 @@ def _caption(stem: str, sim: bool, smoothed: bool = False) -> str:
         text = (
             f"{sensor}: its measurements (top: grey; the simulator's true value in black and "
             "injected outliers as red crosses where known) and the noise variance R̂ that "
-            "MAESKF and VB-MAESKF used at each reading (bottom, log scale), as the paper's "
-            "Fig. 10. Grey dashes: the nominal R that MESKF uses throughout"
+            "each adaptive filter (MAESKF, VB-MAESKF, robust) used at each reading (bottom, "
+            "log scale), as the paper's Fig. 10. Grey dashes: the nominal R that MESKF uses "
+            "throughout"
         )
         if sim:
             text += (
@@ -801,7 +802,7 @@ def _caption(stem: str, sim: bool, smoothed: bool = False) -> str:
         text += (
             ". Look for R̂ rising where the measurements jump and falling back afterwards: "
             "MAESKF follows the innovations of its window, VB-MAESKF rises at once and "
-            "forgets at the rate of ρ."
+            "forgets at the rate of ρ, and robust does as VB-MAESKF within its bounds on R̂."
         )
         if sensor == "inclinometer":
             text += (
