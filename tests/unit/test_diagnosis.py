@@ -15,6 +15,7 @@ from adaptnav.api.results import LEDGER_COLUMNS, typed_ledger
 from adaptnav.engine.batch import SensorChannel
 from adaptnav.estimation.noise.fixed import FixedNoise
 from adaptnav.sensors.dvl import DVL
+from adaptnav.sensors.inclinometer import PendulumInclinometer
 from adaptnav.sensors.nhc import NonHolonomic
 
 R_DVL = np.array([0.048**2] * 3)
@@ -148,6 +149,16 @@ def test_white_innovations_give_no_correlation_warning() -> None:
         assert dg.correlated(white, [channel]) == []
 
 
+def test_the_advice_on_correlated_innovations_is_the_sensor_kinds() -> None:
+    """A drifting inclinometer leaves correlated innovations: its warning says to estimate its
+    biases (up to 0.4.6 it gave a GNSS's and a DVL's advice, nothing for an inclinometer)."""
+    drift = np.cumsum(np.random.default_rng(8).standard_normal((3000, 2)), axis=0)
+    channel = SensorChannel(PendulumInclinometer(0.002), 0.2, FixedNoise())
+    (w,) = dg.correlated(_innovations("inclinometer", drift), [channel])
+    assert 'estimate its biases (estimate = ["bias"]' in w.message
+    assert "min_interval_s" not in w.message and "misalignment" not in w.message
+
+
 def test_correlated_innovations_are_flagged_with_their_factor() -> None:
     """An AR(1) series with ρ = 0.6 on the y axis: long-run variance factor (1 + ρ)/(1 - ρ) = 4
     (worked by hand), the component named; ρ = 0.2 (factor 1.5) is not flagged; a motion
@@ -159,7 +170,8 @@ def test_correlated_innovations_are_flagged_with_their_factor() -> None:
     (w,) = dg.correlated(_innovations("dvl", nu), [channel])
     assert (w.sensor, w.component, w.readings, w.kind) == ("dvl", "dvl_y", 3000, "correlated")
     assert w.factor == pytest.approx(4.0, rel=0.25)
-    assert "dvl_y: long-run variance" in w.message and "min_interval_s" in w.message
+    assert "dvl_y: long-run variance" in w.message and '["scale", "misalignment"]' in w.message
+    assert "min_interval_s" not in w.message  # the GNSS's advice, not the DVL's
     nu[:, 1] = _ar1(0.2, 3000, 1, 5)[:, 0]
     assert dg.correlated(_innovations("dvl", nu), [channel]) == []
     nhc = SensorChannel(NonHolonomic(0.1), 0.1, FixedNoise())

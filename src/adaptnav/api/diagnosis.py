@@ -65,6 +65,11 @@ from adaptnav.engine.batch import AFTER_IMU_REASON, BEFORE_IMU_REASON, SensorCha
 from adaptnav.estimation.long_run import variance_factor
 from adaptnav.estimation.noise.matching import CovarianceMatching
 from adaptnav.estimation.noise.vb import VariationalBayes
+from adaptnav.sensors.depth import Depth
+from adaptnav.sensors.dvl import DVL
+from adaptnav.sensors.gnss import GNSS
+from adaptnav.sensors.heading import Heading
+from adaptnav.sensors.inclinometer import Inclinometer, PendulumInclinometer
 
 Array = NDArray[np.float64]
 
@@ -105,6 +110,20 @@ CORRELATED_HINT = (
     "misalignment "
     '(estimate = ["scale", "misalignment"]); docs/robustness.md, "Correlated readings"'
 )
+CORRELATED_HINTS: dict[type, str] = {
+    GNSS: 'give its errors a bias state with their correlation time (estimate = ["bias"], '
+    "calibration.bias.tau) or thin its fixes (min_interval_s)",
+    DVL: 'estimate its scale and misalignment (estimate = ["scale", "misalignment"])',
+    Inclinometer: 'a slow drift or tilt error: estimate its biases (estimate = ["bias"], with '
+    "a random walk, calibration.bias.random_walk)",
+    PendulumInclinometer: 'a slow drift or tilt error: estimate its biases (estimate = ["bias"],'
+    " with a random walk, calibration.bias.random_walk)",
+    Depth: 'an offset that drifts: estimate its bias (estimate = ["bias"], with a random walk)',
+    Heading: "a compass's deviation, which changes with the heading: a larger sigma, or a "
+    "heading sensor that is not magnetic",
+}
+"""What to do about a sensor kind's correlated innovations (:func:`correlated`); a kind not
+listed gets :data:`CORRELATED_HINT`."""
 HINT = (
     "either the sensor's configuration is wrong (its units, sign, mounting_rpy_deg, lever "
     "arm or sigma) or the filter's model is ([imu.noise], or an adaptive R that ran away: "
@@ -217,6 +236,18 @@ class CorrelationWarning(_Warning):
     kind: str = "correlated"
 
 
+def _correlation_hint(model: object) -> str:
+    """:data:`CORRELATED_HINT`, or the sensor kind's own advice (:data:`CORRELATED_HINTS`)
+    after its first clause."""
+    own = CORRELATED_HINTS.get(type(model))
+    if own is None:
+        return CORRELATED_HINT
+    return (
+        "the filter takes their errors as independent, so its σ is too small; "
+        f'{own}; docs/robustness.md, "Correlated readings"'
+    )
+
+
 def innovation_factors(ledger: pd.DataFrame, sensor: str, d: int) -> tuple[int, Array]:
     """The number of ``sensor``'s used readings and, per component of its d, the long-run
     variance factor of its innovations in time order (NaN for fewer than
@@ -252,7 +283,7 @@ def correlated(ledger: pd.DataFrame, channels: Sequence[SensorChannel]) -> list[
         message = (
             f"{c.name}: its innovations are correlated from reading to reading ({component}: "
             f"long-run variance {f:.1f} × their variance over {n} readings, 1 when white): "
-            f"{CORRELATED_HINT}"
+            f"{_correlation_hint(c.model)}"
         )
         out.append(CorrelationWarning(c.name, n, component, f, message))
     return out
