@@ -65,6 +65,7 @@ def test_a_heading_sensor_gives_the_alignment_its_heading(
     out = tmp_path / "run"
     res = cli("run", mission, "--filter", "meskf", "--out", out)
     assert res.exit_code == 0, res.output
+    assert "heading from heading sensor 'heading'" in " ".join(res.output.split())
     meta = json.loads((out / "summary.json").read_text())["meta"]
     assert meta["heading_source"] == "heading"
     assert meta["heading_from"] == "sensors.heading"

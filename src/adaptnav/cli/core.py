@@ -163,6 +163,10 @@ def _print_run(result: Result, out: Path) -> None:
     console.print(table)
     if result.meta.get("calibration"):
         console.print(_calibration_table(result.meta["calibration"], result.forward is not None))
+    if result.meta.get("initial") == "alignment":
+        from adaptnav.api.runner import heading_origin
+
+        console.print(f"static alignment: heading from {heading_origin(result.meta)}")
     rate = result.meta.get("imu_samples_per_s", float("nan"))
     console.print(f"{result.meta['imu_samples']} IMU samples, {rate:,.0f} samples/s; run in {out}/")
     sm = result.meta.get("smoother")
