@@ -57,6 +57,7 @@ __all__ = [
     "ledger_row",
     "run",
     "sensor_channels",
+    "sensor_heading",
     "start_state",
 ]
 
