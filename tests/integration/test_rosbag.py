@@ -217,6 +217,8 @@ def test_frames_units_and_covariances_on_known_motion(tmp_path: Path) -> None:
     assert cfg.sensors["gnss"].sigma == ([2.0, 1.0, 3.0], "m")  # N, E, D from ENU (1, 4, 9)
     assert cfg.sensors["dvl"].sigma == ([0.01, 0.01, 0.01], "m/s")
     assert cfg.sensors["heading"].sigma[0] == pytest.approx([0.01])
+    # An orientation is an attitude output: up to 0.4.6 it was modelled as a pendulum.
+    assert cfg.sensors["inclinometer"].model == "attitude"
     arw = cfg.imu.noise.arw
     assert arw[1] == "rad/sqrt(s)" and arw[0] == pytest.approx(1e-3 * math.sqrt(0.01))
     assert cfg.imu.rate_hz == pytest.approx(100.0)

@@ -516,6 +516,11 @@ def sensor_section(
             sec["rate_hz"] = rate
         if role == "gnss":
             sec["use_height"] = use_height
+        if role == "inclinometer":
+            # An orientation (an AHRS's or another navigator's) is an attitude output, not a
+            # pendulum's reading (docs/inclinometer.md; the pendulum model, the kind's default,
+            # took it for one: attitude NEES 51 against 2.2 on the simulated demo).
+            sec["model"] = "attitude"
         source = "messages"
     sec["file"] = f"{name}.parquet"
     record = {
