@@ -6,9 +6,11 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from adaptnav.viz.pages import git_revision, markdown_table
+from helpers.script_loader import load_script
 
 
 def test_markdown_table() -> None:
@@ -38,3 +40,23 @@ def test_git_revision_marks_uncommitted_changes(tmp_path: Path) -> None:
     assert git_revision(tmp_path) == head
     (tmp_path / "f.txt").write_text("two\n")
     assert git_revision(tmp_path) == f"{head} with uncommitted changes"
+
+
+def test_the_estimator_models_table_keeps_the_variants_to_their_own_missions() -> None:
+    """`make reproduce`'s 'Estimator models' table: a variant's rows average its runs on the
+    missions with every disturbance only; the defaults' config tag is also that of the runs on
+    the nominal-R missions of the last rows, which up to 0.4.6 the defaults rows averaged in
+    (10 runs where the text says 5 seeds; found by an audit of the pages against their CSV)."""
+    models = load_script("reproduce")._models
+    rows = [
+        {"preset": "paper-1", "config": "", "filter": "meskf", "disturbances": dist,
+         "seed": seed, "relative_rmse_pct": rel, "rmse_m": 10.0 * rel, "error": None,
+         "mean_nees_position": 3.0, "mean_nees_velocity": 3.0, "mean_nees_attitude": 3.0}
+        for dist, rel in (("default", 1.0), ("nominal_r", 0.5))
+        for seed in range(1, 6)
+    ]  # fmt: skip
+    text = "\n".join(models(pd.DataFrame(rows), ["paper-1"]))
+    defaults = next(line for line in text.splitlines() if line.startswith("| defaults: F"))
+    assert "| 5 | 1.000 | 10.0 |" in defaults
+    nominal = next(line for line in text.splitlines() if "nominal R true" in line)
+    assert "| 5 | 0.500 | 5.0 |" in nominal
