@@ -375,8 +375,8 @@ def _verdict(ok: bool) -> str:
 def _targets_table(summary: pd.DataFrame) -> str:
     header = ["aiding", "preset", "filter", "relative RMSE % forward → smoothed",
               "ratio of the means (mean / worst per seed)", f"≤ {RMSE_RATIO_TARGET:g}",
-              "RMS ratio: RMSE / the filter's σ", "position NEES forward → smoothed",
-              "same band"]  # fmt: skip
+              "RMS ratio smoothed / forward: of the RMSE / of the σ",
+              "position NEES forward → smoothed", "same band"]  # fmt: skip
     rows = []
     for r in summary[summary["filter"].isin(TARGET_FILTERS)].itertuples():
         rows.append([
