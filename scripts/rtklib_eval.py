@@ -496,7 +496,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{noise_info['published']['gyro_white_deg_s_rthz']:.4f} °/s/√Hz.",
         "",
         "## Summary: mean drift over the five outages, drift as % of the distance travelled in "
-        "them, and the median horizontal error while aided",
+        "them (the drifts' sum over the distances' sum), and the median horizontal error while "
+        "aided",
         "",
         _summary_table(df),
         "",
