@@ -475,9 +475,10 @@ def akit_latency_section(rows: list[dict[str, Any]], plain: list[dict[str, Any]]
             body,
         ),
         "",
-        f"Means over the segments, and the χ² of each estimate's spread on {dof} degrees of "
-        "freedom, beside the same filter with scale and misalignment only (the first A-KIT "
-        f"table); with the latency's σ allowing for correlated readings its χ² is "
+        "Means over the segments (of the estimates: weighted by their inverse variances, the "
+        "mean the χ² is taken about; of the relative RMSE: plain), and the χ² of each "
+        f"estimate's spread on {dof} degrees of freedom, beside the same filter with scale and "
+        "misalignment only (the first A-KIT table); with the latency's σ allowing for correlated readings its χ² is "
         f"{long_run:.1f}:",
         "",
         markdown_table(
