@@ -478,8 +478,8 @@ def akit_latency_section(rows: list[dict[str, Any]], plain: list[dict[str, Any]]
         "Means over the segments (of the estimates: weighted by their inverse variances, the "
         "mean the χ² is taken about; of the relative RMSE: plain), and the χ² of each "
         f"estimate's spread on {dof} degrees of freedom, beside the same filter with scale and "
-        "misalignment only (the first A-KIT table); with the latency's σ allowing for correlated readings its χ² is "
-        f"{long_run:.1f}:",
+        "misalignment only (the first A-KIT table); with the latency's σ allowing for "
+        f"correlated readings its χ² is {long_run:.1f}:",
         "",
         markdown_table(
             ["DVL states", "latency: mean (ms), χ²", "roll: mean (°), χ²", "yaw: mean (°), χ²",
