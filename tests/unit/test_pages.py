@@ -60,3 +60,13 @@ def test_the_estimator_models_table_keeps_the_variants_to_their_own_missions() -
     assert "| 5 | 1.000 | 10.0 |" in defaults
     nominal = next(line for line in text.splitlines() if "nominal R true" in line)
     assert "| 5 | 0.500 | 5.0 |" in nominal
+
+
+def test_a_target_ratio_is_printed_on_the_side_of_its_verdict() -> None:
+    """`make akit`'s targets: 1.00022 judged "no" against ≤ 1.00 was printed 1.000, which reads
+    as a pass (found by an audit of the pages); it takes a fourth digit now, and a ratio whose
+    three digits already sit on its verdict's side keeps three."""
+    ratio = load_script("akit_eval")._ratio_text
+    assert ratio(1.00022, 1.0, False) == "1.0002"
+    assert ratio(1.0871, 1.10, True) == "1.087"
+    assert ratio(0.9996, 1.0, True) == "1.000"
