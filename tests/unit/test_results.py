@@ -389,9 +389,9 @@ def test_summary_records_the_digest_of_every_table_as_written(tmp_path: Path) ->
 
 
 def test_file_digest_reads_in_chunks(tmp_path: Path) -> None:
-    from adaptnav.api.results import DIGEST_CHUNK_BYTES, file_digest
+    from adaptnav.api.results import file_digest
 
-    data = np.random.default_rng(8).bytes(2 * DIGEST_CHUNK_BYTES + 12345)
+    data = np.random.default_rng(8).bytes(2 * (1 << 20) + 12345)  # several reads of any chunk
     path = tmp_path / "big.bin"
     path.write_bytes(data)
     assert file_digest(path) == {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}

@@ -29,7 +29,6 @@ The error of an estimate is ``estimate - true``, and ``error / σ`` says whether
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -40,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.analysis.compare import SIMULATION_FILE
 from adaptnav.core import attitude
+from adaptnav.core.formats import read_json_object
 from adaptnav.mission import MissionError, load_config
 from adaptnav.mission.calibration import calibration_states
 from adaptnav.mission.loader import CONFIG_NAME
@@ -153,12 +153,7 @@ def simulation_truth(
     path = Path(root) / SIMULATION_FILE
     if not path.is_file():
         return {}
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CalibrationTruthError(f"{path}: not readable JSON ({exc})") from None
-    if not isinstance(info, dict):
-        raise CalibrationTruthError(f"{path}: not a JSON object")
+    info = read_json_object(path, CalibrationTruthError)
     try:
         return true_values(config, info, surfaces)
     except CalibrationTruthError as exc:

@@ -53,7 +53,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav.core.formats import format_problem
+from adaptnav.core.formats import format_problem, read_json_object
 from adaptnav.engine.batch import EVENT_KEYS, MAX_DIM, P_CROSS_PAIRS, EngineOutput, LedgerRows
 from adaptnav.mission.tables import write_parquet as write_parquet  # the one Parquet writer
 from adaptnav.models.errorstate import N_STATES, STATE_NAMES
@@ -110,8 +110,6 @@ TRUTH_FILE = "truth.parquet"
 FILES_KEY = "files"
 """``summary.json``'s record of the tables the run wrote: ``{file name: {"sha256": hex digest,
 "bytes": size}}`` (since 0.4.7; a summary without it, of an older run, is read unchecked)."""
-DIGEST_CHUNK_BYTES = 1 << 20
-"""Files are hashed 1 MiB at a time (a day-long run's solution is hundreds of MB)."""
 OPTIONAL_TABLES = ("events", "forward")
 """Tables a run folder written by an older version may lack (read as empty)."""
 _REQUIRED: dict[str, tuple[str, ...]] = {
@@ -494,16 +492,12 @@ def summary(result: Result, files: Mapping[str, Mapping[str, Any]] | None = None
 
 
 def file_digest(path: Path) -> dict[str, Any]:
-    """``{"sha256": hex digest, "bytes": size}`` of the file at ``path``, read
-    :data:`DIGEST_CHUNK_BYTES` at a time (a large table is never held whole)."""
-    digest = hashlib.sha256()
-    size = 0
-    buffer = bytearray(DIGEST_CHUNK_BYTES)
-    view = memoryview(buffer)
-    with path.open("rb", buffering=0) as f:
-        while n := f.readinto(buffer):
-            digest.update(view[:n])
-            size += n
+    """``{"sha256": hex digest, "bytes": size}`` of the file at ``path``, read in chunks by
+    :func:`hashlib.file_digest` (a day-long run's solution is hundreds of MB, never held
+    whole)."""
+    with path.open("rb") as f:
+        digest = hashlib.file_digest(f, "sha256")
+        size = f.tell()
     return {"sha256": digest.hexdigest(), "bytes": size}
 
 
@@ -662,12 +656,7 @@ def read_summary(run_dir: str | Path) -> dict[str, Any]:
                 f"(adaptnav run {folder} --out RUN) and give RUN"
             )
         raise RunFolderError(f"run folder {folder}: missing {SUMMARY_FILE}")
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise RunFolderError(f"{path}: not readable JSON ({exc})") from exc
-    if not isinstance(info, dict):
-        raise RunFolderError(f"{path}: expected a JSON object")
+    info = read_json_object(path, RunFolderError)
     problem = format_problem({"format": FORMAT_NAME, **info}, FORMAT_NAME, FORMAT_VERSION)
     if problem:
         raise RunFolderError(f"{path}: {problem}")

@@ -6,7 +6,9 @@ reading fields whose meaning it does not know (docs/robustness.md, 'Run folders'
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import json
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 
@@ -25,3 +27,15 @@ def format_problem(doc: Mapping[str, Any], name: str, newest: int) -> str | None
             f"versions up to {newest}: upgrade adaptnav to read it"
         )
     return None
+
+
+def read_json_object(path: Path, error: Callable[[str], Exception]) -> dict[str, Any]:
+    """The JSON object in the file at ``path``; ``error(message)`` raised, the message naming
+    the file, when it cannot be read as JSON or holds something else than an object."""
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise error(f"{path}: not readable JSON ({exc})") from None
+    if not isinstance(doc, dict):
+        raise error(f"{path}: not a JSON object")
+    return doc
