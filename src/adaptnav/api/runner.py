@@ -148,7 +148,7 @@ def _position_gnss(cfg: MissionConfig) -> str | None:
     ini = cfg.initial
     if ini.lat_deg is not None and ini.lon_deg is not None:
         return None
-    return next((n for n, s in cfg.sensors.items() if s.kind == "gnss" and s.use != "off"), None)
+    return cfg.first_sensor("gnss")
 
 
 def heading_origin(initial: Mapping[str, Any]) -> str:
@@ -167,15 +167,6 @@ def heading_origin(initial: Mapping[str, Any]) -> str:
     return "the configured heading (initial.rpy_deg, e.g. the quay's charted bearing)"
 
 
-def _heading_sensor(cfg: MissionConfig) -> str | None:
-    """The heading sensor whose readings a static alignment may take its heading from
-    (:func:`sensor_heading`): the first one not off, when ``[initial]`` gives no heading
-    (``rpy_deg``); None when it does, or there is none."""
-    if cfg.initial.rpy_deg is not None:
-        return None
-    return next((n for n, s in cfg.sensors.items() if s.kind == "heading" and s.use != "off"), None)
-
-
 def _given_heading(
     cfg: MissionConfig, imu: ImuData, sensors: Mapping[str, SensorData], t_start: float
 ) -> tuple[float | None, float | None, dict[str, Any]]:
@@ -186,7 +177,7 @@ def _given_heading(
     if ini.rpy_deg is not None:
         sigma = float(ini.sigma_attitude_rad()[2])
         return math.radians(ini.rpy_deg[2]), sigma, {"heading_from": "initial.rpy_deg"}
-    name = _heading_sensor(cfg)
+    name = cfg.first_sensor("heading")
     if name is None:
         return None, None, {}
     return sensor_heading(cfg, imu, sensors, name, t_start)

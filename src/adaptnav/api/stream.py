@@ -133,7 +133,7 @@ class Stream:
         """How far the IMU is held behind its newest stamp: the largest ``latency_s``."""
         self._rows = dict.fromkeys(cfg.sensors, 0)
         # What the alignment takes its position and heading from (runner.start_state).
-        firsts = (_first(cfg, kind) for kind in ("gnss", "heading"))
+        firsts = (cfg.first_sensor(kind) for kind in ("gnss", "heading"))
         self._at_rest: dict[str, list[Reading]] = {n: [] for n in firsts if n is not None}
         self._early: list[tuple[str, Reading]] = []
         self._extra: list[dict[str, Any]] = []
@@ -451,12 +451,6 @@ def _configuration(
             )
         periods[n] = 1.0 / c.rate_hz
     return cfg, periods, root
-
-
-def _first(cfg: MissionConfig, kind: str) -> str | None:
-    """The first sensor of ``kind`` not off: the one the alignment may take its position (a
-    GNSS) or heading (a heading sensor) from (runner.start_state)."""
-    return next((n for n, c in cfg.sensors.items() if c.kind == kind and c.use != "off"), None)
 
 
 def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:

@@ -857,6 +857,11 @@ class MissionConfig(_Model):
             return self.filter.gate_sensors
         return tuple(n for n, s in self.sensors.items() if s.kind == "dvl")
 
+    def first_sensor(self, kind: str) -> str | None:
+        """The first sensor of ``kind`` not off, or None: the one a static alignment takes its
+        position (a GNSS) or heading (a heading sensor) from (docs/alignment.md)."""
+        return next((n for n, s in self.sensors.items() if s.kind == kind and s.use != "off"), None)
+
     def filter_settings(self) -> FilterSettings:
         """The engine's :class:`adaptnav.estimation.settings.FilterSettings` of ``[filter]``."""
         return self.filter.settings(self.gated_sensors())
@@ -872,17 +877,17 @@ class MissionConfig(_Model):
                 f"sensors.{init[0]}.use: 'init' with initial.mode = 'state', which starts "
                 "from [initial] alone: nothing would use it ('aid' or 'off')"
             )
-        headings = [n for n, c in self.sensors.items() if c.kind == "heading" and c.use != "off"]
+        first = self.first_sensor("heading")
         for name in (n for n in init if self.sensors[n].kind == "heading"):
             if self.initial.rpy_deg is not None:
                 raise ValueError(
                     f"sensors.{name}.use: 'init' gives the alignment its heading, and so does "
                     "initial.rpy_deg, which would be taken: drop one"
                 )
-            if name != headings[0]:
+            if name != first:
                 raise ValueError(
                     f"sensors.{name}.use: 'init', but the alignment takes its heading from "
-                    f"sensors.{headings[0]}, the first heading sensor not off"
+                    f"sensors.{first}, the first heading sensor not off"
                 )
 
     def _check_output_rate(self) -> None:
