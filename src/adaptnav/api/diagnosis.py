@@ -103,27 +103,38 @@ filters' sensors on the simulated trials, 2.9-3.8 for ten minutes of simulated G
 given as white, 3.0-6.0 for the A-KIT DVL's x axis)."""
 CORRELATED_READINGS = 100
 """Fewer used readings than this are not judged for correlation."""
-CORRELATED_HINT = (
-    "the filter takes their errors as independent, so its σ is too small; a GNSS's correlated "
-    'errors: give them a bias state with their correlation time (estimate = ["bias"], '
-    "calibration.bias.tau) or thin its fixes (min_interval_s); a DVL's: estimate its scale and "
-    "misalignment "
-    '(estimate = ["scale", "misalignment"]); docs/robustness.md, "Correlated readings"'
+_INDEPENDENT = "the filter takes their errors as independent, so its σ is too small"
+_SEE_CORRELATED = 'docs/robustness.md, "Correlated readings"'
+CORRELATED_HINTS: tuple[tuple[tuple[type, ...], str], ...] = (
+    (
+        (GNSS,),
+        'give its errors a bias state with their correlation time (estimate = ["bias"], '
+        "calibration.bias.tau) or thin its fixes (min_interval_s)",
+    ),
+    ((DVL,), 'estimate its scale and misalignment (estimate = ["scale", "misalignment"])'),
+    (
+        (Inclinometer, PendulumInclinometer),
+        'a slow drift or tilt error: estimate its biases (estimate = ["bias"], with a random '
+        "walk, calibration.bias.random_walk)",
+    ),
+    (
+        (Depth,),
+        'an offset that drifts: estimate its bias (estimate = ["bias"], with a random walk)',
+    ),
+    (
+        (Heading,),
+        "a compass's deviation, which changes with the heading: a larger sigma, or a heading "
+        "sensor that is not magnetic",
+    ),
 )
-CORRELATED_HINTS: dict[type, str] = {
-    GNSS: 'give its errors a bias state with their correlation time (estimate = ["bias"], '
-    "calibration.bias.tau) or thin its fixes (min_interval_s)",
-    DVL: 'estimate its scale and misalignment (estimate = ["scale", "misalignment"])',
-    Inclinometer: 'a slow drift or tilt error: estimate its biases (estimate = ["bias"], with '
-    "a random walk, calibration.bias.random_walk)",
-    PendulumInclinometer: 'a slow drift or tilt error: estimate its biases (estimate = ["bias"],'
-    " with a random walk, calibration.bias.random_walk)",
-    Depth: 'an offset that drifts: estimate its bias (estimate = ["bias"], with a random walk)',
-    Heading: "a compass's deviation, which changes with the heading: a larger sigma, or a "
-    "heading sensor that is not magnetic",
-}
 """What to do about a sensor kind's correlated innovations (:func:`correlated`); a kind not
 listed gets :data:`CORRELATED_HINT`."""
+CORRELATED_HINT = (
+    f"{_INDEPENDENT}; a GNSS's correlated "
+    'errors: give them a bias state with their correlation time (estimate = ["bias"], '
+    "calibration.bias.tau) or thin its fixes (min_interval_s); a DVL's: estimate its scale and "
+    f'misalignment (estimate = ["scale", "misalignment"]); {_SEE_CORRELATED}'
+)
 HINT = (
     "either the sensor's configuration is wrong (its units, sign, mounting_rpy_deg, lever "
     "arm or sigma) or the filter's model is ([imu.noise], or an adaptive R that ran away: "
@@ -237,15 +248,12 @@ class CorrelationWarning(_Warning):
 
 
 def _correlation_hint(model: object) -> str:
-    """:data:`CORRELATED_HINT`, or the sensor kind's own advice (:data:`CORRELATED_HINTS`)
-    after its first clause."""
-    own = CORRELATED_HINTS.get(type(model))
-    if own is None:
-        return CORRELATED_HINT
-    return (
-        "the filter takes their errors as independent, so its σ is too small; "
-        f'{own}; docs/robustness.md, "Correlated readings"'
-    )
+    """The sensor kind's advice on correlated innovations (:data:`CORRELATED_HINTS`), else
+    :data:`CORRELATED_HINT`."""
+    for kinds, own in CORRELATED_HINTS:
+        if isinstance(model, kinds):
+            return f"{_INDEPENDENT}; {own}; {_SEE_CORRELATED}"
+    return CORRELATED_HINT
 
 
 def innovation_factors(ledger: pd.DataFrame, sensor: str, d: int) -> tuple[int, Array]:
