@@ -29,6 +29,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.api.results import check_finite
+from adaptnav.core import earth
 
 Array = NDArray[np.float64]
 
@@ -70,7 +71,9 @@ def track_table(solution: pd.DataFrame) -> pd.DataFrame:
         {name: solution[src].to_numpy(dtype=float) * k for name, (src, k) in _COLUMNS.items()}
     )
     out["yaw_deg"] = np.mod(out["yaw_deg"].to_numpy(), 360.0)
-    out["lon_deg"] = wrap_lon_deg(out["lon_deg"].to_numpy())
+    # Into [-180°, 180°), as KML and most GIS take them: the state's longitude runs on across
+    # the antimeridian (180.0012° after crossing it; up to 0.4.5 written as it was).
+    out["lon_deg"] = np.degrees(earth.wrap_longitude(solution["lon_rad"].to_numpy(dtype=float)))
     out["sd_horizontal_m"] = np.hypot(out["sd_north_m"], out["sd_east_m"])
     return out
 
@@ -86,16 +89,9 @@ def decimate(n: int, max_points: int) -> NDArray[np.int64]:
     return idx if idx[-1] == n - 1 else np.append(idx, n - 1)
 
 
-def wrap_lon_deg(lon_deg: Array) -> Array:
-    """Longitudes into [-180°, 180°), as KML and most GIS take them: the navigation state's
-    longitude runs on across the antimeridian (180.0012° after crossing it), which a KML file
-    does not accept (up to 0.4.5 written as it was)."""
-    return np.asarray(np.mod(np.asarray(lon_deg, dtype=float) + 180.0, 360.0) - 180.0)
-
-
 def _coordinates(lat_rad: Array, lon_rad: Array, max_points: int) -> str:
     ok = np.isfinite(lat_rad) & np.isfinite(lon_rad)
-    lat, lon = np.degrees(lat_rad[ok]), wrap_lon_deg(np.degrees(lon_rad[ok]))
+    lat, lon = np.degrees(lat_rad[ok]), np.degrees(earth.wrap_longitude(lon_rad[ok]))
     idx = decimate(lat.size, max_points)
     return " ".join(f"{lon[i]:.8f},{lat[i]:.8f}" for i in idx.tolist())
 
@@ -112,7 +108,7 @@ def _line(name: str, style: str, lat: Array, lon: Array, max_points: int) -> str
 def _point(name: str, lat: float, lon: float) -> str:
     return (
         f"<Placemark><name>{escape(name)}</name><Point>"
-        f"<coordinates>{float(wrap_lon_deg(np.array([math.degrees(lon)]))[0]):.8f},"
+        f"<coordinates>{math.degrees(float(earth.wrap_longitude(lon))):.8f},"
         f"{math.degrees(lat):.8f}</coordinates>"
         "</Point></Placemark>"
     )
