@@ -212,7 +212,8 @@ def evaluate_cmd(
     """RMSE, relative RMSE, distance, NEES and reading counts of a run against the reference.
 
     RMSE is the root mean square of the 3-D position error over the reference samples, as in
-    the paper. The distance is the horizontal length of the reference track (its N, E steps),
+    the paper (over the run's own rows when the reference is denser than they are: scored_at
+    in --json). The distance is the horizontal length of the reference track (its N, E steps),
     so heave does not lengthen it; relative RMSE = 100 RMSE / distance. NEES (normalised
     estimation error squared) of position, velocity and attitude, with the full 3x3
     covariance blocks: its mean is 3 for a filter whose covariance matches its errors, and
