@@ -563,7 +563,8 @@ def test_a_reading_that_would_break_the_filter_is_rejected_or_a_clear_error(
 def test_a_diverged_state_is_an_error_not_a_solution_of_nan(mission: Path, tmp_path: Path) -> None:
     """An initial velocity of 1e12 m/s (state mode): the nominal state overflows within
     seconds. The run stops with exit 2 naming the time (up to 0.4.4 it ran on, with a finite P,
-    and wrote a solution mostly NaN, exit 0; compare then crashed in matplotlib)."""
+    and wrote a solution mostly NaN, exit 0; compare then crashed in matplotlib). Since 0.4.8
+    it stops earlier, at a latitude past 90° ('out of range'), not at the pole's message."""
     toml = (mission / "mission.toml").read_text().replace('use = "init"', 'use = "off"')
     toml = toml.replace('mode = "alignment"', 'mode = "state"\nlat_deg = 26.8\nlon_deg = 56.0')
     toml = toml.replace("alignment_s = 20.0\n", "")  # no alignment in state mode
@@ -573,8 +574,37 @@ def test_a_diverged_state_is_an_error_not_a_solution_of_nan(mission: Path, tmp_p
     for command in ("run", "compare"):
         res = cli(command, mission, "--out", tmp_path / command)
         line = error_line(res)
-        assert "broke down: the navigation state is not finite at t = " in line, line
+        assert "broke down: the navigation state is " in line, line
+        assert " at t = " in line and "the filter diverged" in line, line
         assert not (tmp_path / command).exists()
+
+
+def test_a_navigation_that_reaches_a_pole_stops_there(mission: Path, tmp_path: Path) -> None:
+    """A start at 89.985° N at 30 m/s north (state mode): 556 m from the 0.01° limit, reached
+    after about 18.5 s (the mechanization keeps v_N). The run stops there with exit 2 naming
+    the latitude and the time (up to 0.4.7 it ran on through the pole, exit 0, its longitude
+    swinging by radians); the stream says the same."""
+    from adaptnav.api.stream import Stream, replay
+    from adaptnav.mission import load_mission
+
+    toml = (mission / "mission.toml").read_text().replace('use = "init"', 'use = "off"')
+    toml = toml.replace('mode = "alignment"', 'mode = "state"\nlat_deg = 89.985\nlon_deg = 56.0')
+    toml = toml.replace("alignment_s = 20.0\n", "")
+    (mission / "mission.toml").write_text(
+        toml.replace("v_ned_m_s = [0.0, 0.0, 0.0]", "v_ned_m_s = [30.0, 0.0, 0.0]")
+    )
+    for command in ("run", "compare"):
+        line = error_line(cli(command, mission, "--out", tmp_path / command))
+        assert "stopped: the navigation reached latitude 89.99" in line, line
+        assert "of the north pole" in line and "mission.toml" in line
+        t = float(line.split(" at t = ")[1].split(" s")[0])
+        assert 17.0 < t < 20.0, line
+        assert not (tmp_path / command).exists()
+    loaded = load_mission(mission)
+    stopped = r"stopped: the navigation reached latitude 89\.99"
+    with pytest.raises(ValueError, match=stopped), Stream(loaded, "robust") as stream:
+        for item in replay(loaded):
+            stream.push_item(item)
 
 
 def test_a_float32_time_column_that_rounds_is_refused(mission: Path, tmp_path: Path) -> None:

@@ -836,8 +836,9 @@ def _run_engine(
     nav_from: int,
     progress: engine.Progress | None,
 ) -> engine.EngineOutput:
-    """The engine over the IMU samples after the start; a numerical breakdown is a
-    :class:`FilterError` naming the mission, not a traceback (docs/robustness.md)."""
+    """The engine over the IMU samples after the start; a numerical breakdown, or a navigation
+    that reached a pole, is a :class:`FilterError` naming the mission, not a traceback
+    (docs/robustness.md)."""
     x0, P0, t0 = start
     imu = m.imu
     try:
@@ -845,6 +846,9 @@ def _run_engine(
             config, feed.channels, x0, P0, t0, imu.t[nav_from:], imu.dt[nav_from:],
             imu.dtheta[nav_from:], imu.dvel[nav_from:], feed.readings, progress,
         )  # fmt: skip
+    except engine.PoleError as exc:
+        raise FilterError(f"{m.root / CONFIG_NAME}: the {kind} filter stopped: {exc}",
+                          file=CONFIG_NAME) from None  # fmt: skip
     except np.linalg.LinAlgError as exc:
         raise FilterError(
             f"{m.root / CONFIG_NAME}: the {kind} filter broke down: {exc}. A reading far from "

@@ -329,7 +329,12 @@ class Stream:
             t, dt, dth, dv = imu.popleft()
             try:
                 nav.feed_imu_sample(t, dt, dth, dv)
-            except np.linalg.LinAlgError as exc:  # as the batch run says it (runner._run_engine)
+            except engine.PoleError as exc:  # as the batch run says it (runner._run_engine)
+                raise runner.FilterError(
+                    f"{CONFIG_NAME}: the {self.settings.kind} filter stopped: {exc}",
+                    file=CONFIG_NAME,
+                ) from None
+            except np.linalg.LinAlgError as exc:
                 raise runner.FilterError(
                     f"{CONFIG_NAME}: the {self.settings.kind} filter broke down: {exc}",
                     file=CONFIG_NAME,

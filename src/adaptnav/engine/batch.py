@@ -391,7 +391,14 @@ interval, output rows, output decimation, first queued reading, end of the epoch
 ledger rows."""
 N_ICUR = 9
 _ADVANCE_DONE, _ADVANCE_LATE, _ADVANCE_EPOCH = 0, 1, 2
-NAV_DONE, NAV_PYTHON, NAV_SINGULAR, NAV_NOT_FINITE = 0, 1, 2, 3
+NAV_DONE, NAV_PYTHON, NAV_SINGULAR, NAV_NOT_FINITE, NAV_POLE = 0, 1, 2, 3, 4
+_MAX_LAT = earth.MAX_LAT_RAD  # a compile-time constant of the loop
+
+
+class PoleError(ArithmeticError):
+    """The navigation reached within ``90 - earth.MAX_LAT_DEG`` degrees of a pole, where the
+    latitude-longitude mechanization is singular (core/earth.py ``MAX_LAT_DEG``): the engine
+    stops there rather than write a longitude and heading that run away."""
 
 
 @jit_inline
@@ -719,10 +726,11 @@ def _navigate(
     the readings of its epoch (stamped <= the epoch, + SAME_EPOCH_S under ``exact``) and update
     with them (:func:`adaptnav.compiled.update.epoch`); until the chunk is used up (NAV_DONE).
     Returns early with NAV_PYTHON when the epoch's group ``icur[I_HEAD]..icur[I_END]`` has a
-    reading to linearise in Python, NAV_SINGULAR if P was not finite (no repair possible), or
+    reading to linearise in Python, NAV_SINGULAR if P was not finite (no repair possible),
     NAV_NOT_FINITE if the state x was not (a filter that diverged: a NaN or an infinity in the
     nominal state, checked after each stretch of propagation; up to 0.4.4 it ran on and wrote
-    a solution of NaN).
+    a solution of NaN), or NAV_POLE if its latitude was beyond ±``earth.MAX_LAT_DEG`` (up to
+    0.4.7 it ran on there, its longitude swinging by radians, exit 0).
 
     ``sm``: the smoother's store, or None without smoothing; Numba prunes the ``sm is not None``
     branches here and in the functions it is passed to at compile time when its type is None, so
@@ -739,6 +747,8 @@ def _navigate(
         )  # fmt: skip
         if not _finite(x):
             return NAV_NOT_FINITE
+        if not abs(x[0]) <= _MAX_LAT:
+            return NAV_POLE
         if status == _ADVANCE_DONE:
             return NAV_DONE
         n = icur[I_N_LEDGER]
@@ -769,11 +779,35 @@ def _navigate(
             smk.node(sm, cur[uk.C_T], x, P, ws[uk.WS_DX], ws[uk.WS_PRIOR])
 
 
+def _pole_message(t: float, lat: float) -> str:
+    side = "north" if lat > 0.0 else "south"
+    return (
+        f"the navigation reached latitude {math.degrees(lat):.5f}° at t = {t:.6g} s, within "
+        f"{90.0 - earth.MAX_LAT_DEG:g}° of the {side} pole, where the latitude-longitude "
+        "mechanization is singular and adaptnav does not navigate (docs/conventions.md); if the "
+        "vehicle was not there, the filter drifted there (an initial position, velocity or "
+        "heading far from the data's?)"
+    )
+
+
 def _not_finite_message(t: float) -> str:
     return (
         f"the navigation state is not finite at t = {t:.6g} s: the filter diverged (an "
         "initial state, a mounting or a noise setting far from the data's?)"
     )
+
+
+def _off_the_earth(t: float, lat: float) -> Exception:
+    """The error for a latitude beyond the limit: past ±90° it is no latitude but a filter
+    that diverged (a state overflowing within one stretch: 1e12 m/s ran to 46510° in 0.3 s), a
+    LinAlgError as a state not finite is; up to ±90° the pole, a :class:`PoleError`."""
+    if abs(lat) > 0.5 * math.pi:
+        return np.linalg.LinAlgError(
+            f"the navigation state is out of range at t = {t:.6g} s (latitude "
+            f"{math.degrees(lat):.6g}°): the filter diverged (an initial state, a mounting or a "
+            "noise setting far from the data's?)"
+        )
+    return PoleError(_pole_message(t, lat))
 
 
 class Navigator:
@@ -1093,6 +1127,8 @@ class Navigator:
                 )
             if status == NAV_NOT_FINITE:
                 raise np.linalg.LinAlgError(_not_finite_message(self.t))
+            if status == NAV_POLE:
+                raise _off_the_earth(self.t, float(self.x[0]))
             self._epoch_python()
 
     def _epoch_args(self) -> tuple[Any, ...]:
@@ -1161,6 +1197,8 @@ class Navigator:
         self._icur[I_N_LEDGER] = n
         if not _finite(self.x):  # as the compiled loop checks it
             raise np.linalg.LinAlgError(_not_finite_message(self.t))
+        if not abs(self.x[0]) <= _MAX_LAT:
+            raise _off_the_earth(self.t, float(self.x[0]))
         if self._sm is not None:
             smk.node(self._sm, self.t, self.x, self._P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
 
