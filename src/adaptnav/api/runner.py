@@ -254,6 +254,10 @@ predicts by max(AT_REST_FLOOR_RAD, AT_REST_SIGMAS σ), σ² = H P0 Hᵀ + R per 
 (:func:`check_angles_at_rest`)."""
 
 
+AT_REST_HINTS = {"heading": ", or, a magnetic compass, its declination_deg"}
+"""A kind's own cause, added to :func:`check_angles_at_rest`'s list."""
+
+
 def check_angles_at_rest(
     cfg: MissionConfig,
     sensors: Mapping[str, SensorData],
@@ -296,7 +300,7 @@ def check_angles_at_rest(
                 f"readings from data row {row}) sensor {name!r} reads {mean[j]:.4g} rad on average "
                 f"where the aligned IMU gives {pred[j]:.4g} rad, {math.degrees(diff[j]):+.3g}° "
                 f"off (more than {math.degrees(tol[j]):.3g}°): degrees read as radians, a sign, "
-                "or a mounting_rpy_deg to set?",
+                f"or a mounting_rpy_deg to set{AT_REST_HINTS.get(sc.kind, '')}?",
                 file=sc.file,
                 field=column,
             )

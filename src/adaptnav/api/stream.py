@@ -47,7 +47,7 @@ from adaptnav.mission import (
     load_config,
 )
 from adaptnav.mission.live import LiveScreen, Reading
-from adaptnav.mission.loader import CONFIG_NAME, MAX_ACCEL_M_S2, MAX_GYRO_RAD_S
+from adaptnav.mission.loader import CONFIG_NAME, MAX_ACCEL_M_S2, MAX_GYRO_RAD_S, true_north
 from adaptnav.mission.tables import DroppedRow
 from adaptnav.models.errorstate import N_STATES
 from adaptnav.models.strapdown import NOM_SIZE
@@ -235,6 +235,8 @@ class Stream:
         r = row if row is not None else self._rows[sensor]
         self._rows[sensor] = r + 1
         at = float(t) - self._latency[sensor]  # the reading's own time (latency_s)
+        if cfg.declination_rad():  # a magnetic compass's heading, as the loader turns it
+            zz = true_north(zz, cfg.declination_rad())
         self._route(sensor, *self._screens[sensor].push(Reading(at, zz, int(r)), lock))
         self._hold = min(s.held_from for s in self._screens.values())
         return self._advance()
@@ -471,13 +473,16 @@ def replay(mission: Mission) -> Iterator[Item]:
     reading the loader kept (of every configured sensor, off ones included), in time order; at
     one stamp, readings before the IMU sample (the batch engine's order: a reading stamped at the
     end of an interval is used in it). A sensor's readings carry their stamps as recorded: the
-    loader's times plus its ``latency_s``."""
+    loader's times plus its ``latency_s``; a magnetic compass's its magnetic headings (the
+    loader's less its ``declination_deg``)."""
     imu = mission.imu
     z = np.hstack([imu.dtheta, imu.dvel])
     streams = [_keyed(IMU, 1, imu.t, z, np.arange(imu.t.size), imu.dt)]
     for name, d in {**mission.sensors, **mission.off}.items():
-        stamps = d.t + (mission.config.sensors[name].latency_s or 0.0)
-        streams.append(_keyed(name, 0, stamps, d.z, d.rows, np.full(d.t.size, math.nan)))
+        cfg = mission.config.sensors[name]
+        stamps = d.t + (cfg.latency_s or 0.0)
+        z = true_north(d.z, -cfg.declination_rad()) if cfg.declination_rad() else d.z
+        streams.append(_keyed(name, 0, stamps, z, d.rows, np.full(d.t.size, math.nan)))
     for _, _, item in heapq.merge(*streams, key=lambda e: (e[0], e[1])):
         yield item
 

@@ -419,6 +419,12 @@ class SensorConfig(_Model):
     :func:`adaptnav.mission.screening.after_gap_mask`), and drop a spike at load: after a
     long gap the filter's own velocity is too uncertain to tell it from the drift
     (docs/robustness.md, 'After a gap'). None: 10 s (``DVL_AFTER_GAP_S``); 0: off."""
+    declination_deg: Annotated[float, Field(ge=-90.0, le=90.0, allow_inf_nan=False)] | None = None
+    """Heading sensor only: the magnetic declination (deg, east positive: magnetic north lies
+    east of true north) of a magnetic compass, whose readings are then magnetic headings; each
+    is turned into true north at load (and by a stream) as ``ψ = wrap(ψ_mag + D)``, exact at
+    any tilt (a turn of the navigation frame about its down axis changes the yaw alone). None
+    or 0: the readings are true headings. docs/data-format.md, 'Magnetic headings'."""
     limits: tuple[float, float] | dict[str, tuple[float, float]] | None = None
     """Plausible range of a reading, in the SI unit of its column: ``[min, max]`` for every
     component, or ``{ column = [min, max] }`` per column; the rest from
@@ -621,6 +627,10 @@ class SensorConfig(_Model):
             tau = math.inf if given.tau is None else _pair_si(given.tau, Kind.TIME, f"{at}.tau")
             out[name] = (float(sigma), float(rw), float(tau))
         return out
+
+    def declination_rad(self) -> float:
+        """``declination_deg`` in radians (0 when not given)."""
+        return math.radians(self.declination_deg or 0.0)
 
     def surface_h(self) -> float:
         """The depth meter's water-surface height (m): 0 when not given; an error while it is

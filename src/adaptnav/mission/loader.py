@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from adaptnav.core import attitude
 from adaptnav.core.units import G0
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
@@ -435,6 +436,10 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                  cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
+    if cfg.declination_rad():
+        z = true_north(z, cfg.declination_rad())
+        log.info("sensor %r: magnetic headings turned to true north by %+g° (declination_deg)",
+                 name, cfg.declination_deg)  # fmt: skip
     if cfg.kind == "depth" and cfg.limits is None:
         _check_depth_sign(table, name, z[:, 0], used[1])
     keep = np.ones(t.size, dtype=bool)
@@ -463,6 +468,13 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     else:
         period = math.nan
     return SensorData(name, cfg.kind, tk, z[rows], rows, period)
+
+
+def true_north(z: Array, declination: float) -> Array:
+    """Headings ``z`` (rad) of a magnetic compass as true ones, ``wrap(z + D)`` in (-π, π]
+    for the declination D (rad, east positive; ``declination_deg``, docs/data-format.md); NaN
+    stays NaN. ``-D`` turns true headings back into the compass's."""
+    return np.asarray(attitude.wrap_angle(np.asarray(z, dtype=float) + declination), dtype=float)
 
 
 def _drop_lost_lock(

@@ -204,6 +204,7 @@ KIND = SensorKind(
     limits={"yaw_rad": (-2.0 * math.pi, 2.0 * math.pi)},
     stuck=StuckDefault(SLOW_STUCK_S, {"yaw_rad": ANGLE_RESOLUTION_RAD}),
     mounting=True,
+    options=frozenset({"declination_deg"}),
     linearised=(Heading,),
     calibration={"latency": LATENCY},
     ideal_reading=ideal,
