@@ -278,6 +278,54 @@ def test_no_covariance_and_no_config_is_an_error(tmp_path: Path) -> None:
         import_bag(bag, tmp_path / "m", topics={"gnss": "/fix", "heading": "/q"})
 
 
+def test_imu_messages_without_an_orientation_are_left_out(tmp_path: Path) -> None:
+    """An AHRS whose filter has not converged marks its orientation not provided
+    (orientation_covariance[0] = -1) and sends the identity quaternion: those messages are
+    left out, recorded, and the rest read. Up to 0.4.7 only the first message was checked:
+    with it valid, 199 identity quaternions came in as a heading of 90° and a roll of 0 (the
+    vehicle heading 30°, rolled 5°); with it not valid, the topic was refused whole."""
+    q = rw.ros_quat(math.radians(5.0), 0.0, math.radians(30.0))
+    identity = rw.T["geometry_msgs/msg/Quaternion"](0.0, 0.0, 0.0, 1.0)
+    imu = []
+    for k in range(1, 501):
+        valid = k > 200  # the first message is set below
+        m = _level_imu(0.01 * k)
+        m.orientation, m.orientation_covariance = (
+            (q, rw.diag(3, [1e-4] * 3)) if valid else (identity, rw.NOT_PROVIDED)
+        )
+        imu.append((0.01 * k, m))
+    status = rw.T["sensor_msgs/msg/NavSatStatus"](0, 1)
+    fix = rw.T["sensor_msgs/msg/NavSatFix"]
+    fixes = [
+        (t, fix(rw.header(t, "gps"), status, 26.8, 56.0, 0.0, rw.diag(3, [1.0] * 3), 2))
+        for t in np.arange(1, 50) / 10.0
+    ]
+    topics = {"gnss": "/fix", "heading": "/imu", "inclinometer": "/imu"}
+    for first_valid in (True, False):
+        imu[0][1].orientation, imu[0][1].orientation_covariance = (
+            (q, rw.diag(3, [1e-4] * 3)) if first_valid else (identity, rw.NOT_PROVIDED)
+        )
+        bag = rw.write_bag(
+            tmp_path / f"bag{first_valid}",
+            {"/imu": ("sensor_msgs/msg/Imu", imu), "/fix": ("sensor_msgs/msg/NavSatFix", fixes)},
+        )
+        out = import_bag(bag, tmp_path / f"m{first_valid}", topics=topics)
+        heading = pd.read_parquet(out / "heading.parquet")
+        incl = pd.read_parquet(out / "inclinometer.parquet")
+        assert len(heading) == len(incl) == 300 + first_valid
+        np.testing.assert_allclose(heading["yaw_rad"], math.radians(30.0), atol=1e-12)
+        np.testing.assert_allclose(incl["roll_rad"], math.radians(5.0), atol=1e-12)
+        repairs = json.loads((out / "import.json").read_text())["repairs"]
+        left = [r for r in repairs if r["field"] == "orientation_covariance"]
+        assert [r["action"] for r in left] == ["not provided (covariance[0] = -1): left out"] * 2
+        assert left[0]["detail"].startswith(f"{200 - first_valid} messages")
+    for _, m in imu:
+        m.orientation_covariance = rw.NOT_PROVIDED
+    bag = rw.write_bag(tmp_path / "none", {"/imu": ("sensor_msgs/msg/Imu", imu)})
+    with pytest.raises(RosbagError, match=r"carry no orientation"):
+        import_bag(bag, tmp_path / "none-m", topics={"heading": "/imu"})
+
+
 def _level_imu(stamp_s: float, yaw_rate: float = 0.0) -> Any:
     """A level IMU's message at ``stamp_s`` (s after STAMP0): turning at ``yaw_rate`` (rad/s,
     ROS +z), gravity on +z, no orientation."""

@@ -252,24 +252,39 @@ def _convert(role: str, msgtype: str, msgs: Sequence[Any], depth: DepthParameter
     return rosmsg.navsatfix(msgs)
 
 
+def _imu_fields(role: str) -> tuple[str, ...]:
+    """The covariances of an Imu message whose quantities ``role`` reads."""
+    if role == "imu":
+        return ("angular_velocity_covariance", "linear_acceleration_covariance")
+    return ("orientation_covariance",)
+
+
 def _check_present(bag: Bag, role: str, topic: str, msgs: Sequence[Any]) -> None:
-    """An Imu topic must carry what its role reads: -1 in the first element of a covariance
-    is sensor_msgs' mark of a quantity not provided."""
+    """An Imu topic must carry what its role reads in some message: -1 in the first element
+    of a covariance is sensor_msgs' mark of a quantity not provided. The messages without it
+    are left out (:func:`_no_reading`); up to 0.4.7 only the first message was looked at,
+    and later ones without it were read (an AHRS's identity quaternion as heading 90°)."""
     if bag.topics[topic].msgtype != IMU:
         return
-    fields = (
-        ("angular_velocity_covariance", "linear_acceleration_covariance")
-        if role == "imu"
-        else ("orientation_covariance",)
-    )
-    for name in fields:
-        if getattr(msgs[0], name)[0] == -1.0:
+    for name in _imu_fields(role):
+        if not rosmsg.provided(np.array([getattr(m, name) for m in msgs])).any():
             raise RosbagError(
                 f"{bag.path}: topic {topic} (--{role}): its Imu messages carry no "
                 f"{name.removesuffix('_covariance')} ({name}[0] = -1)",
                 file=str(bag.path),
                 field=topic,
             )
+
+
+def _no_reading(topic: str, role: str, msgtype: str, keep: NDArray[np.bool_]) -> Repair:
+    """The repair that records the messages without a reading (``keep`` False): a fix with no
+    fix, an Imu message that marks what its role reads not provided."""
+    n, first = int((~keep).sum()), int(np.flatnonzero(~keep)[0])
+    detail = f"{n} messages, the first at message {first} (--{role})"
+    if msgtype == IMU:
+        fld = " / ".join(_imu_fields(role))
+        return Repair(topic, None, fld, "not provided (covariance[0] = -1): left out", detail)
+    return Repair(topic, None, "status.status", "no fix: left out", detail)
 
 
 def _stamps(
@@ -418,9 +433,7 @@ def build_stream(
     repairs += more
     order = order[data.keep[order]]
     if not data.keep.all():
-        n = int((~data.keep).sum())
-        detail = f"{n} messages, the first at message {int(np.flatnonzero(~data.keep)[0])}"
-        repairs.append(Repair(topic, None, "status.status", "no fix: left out", detail))
+        repairs.append(_no_reading(topic, role, msgtype, data.keep))
     for r in repairs:
         log.warning("%s: %s (%s)", r.file, r.action, r.detail)
     frames = tuple(sorted({m.header.frame_id for m in msgs}))

@@ -40,6 +40,7 @@ __all__ = [
     "navsatfix",
     "pose_depth",
     "pressure_depth",
+    "provided",
     "ros_to_nav_attitude",
     "stamps_ns",
     "twist_velocity",
@@ -94,6 +95,17 @@ def stamps_ns(msgs: Sequence[Any]) -> NDArray[np.int64]:
     )
 
 
+NOT_PROVIDED = -1.0
+"""sensor_msgs/msg/Imu's mark, in a covariance's first element, of a quantity the message does
+not carry (its values are then placeholders, typically zero or the identity)."""
+
+
+def provided(covariances: Array) -> NDArray[np.bool_]:
+    """Per message (n,): False where the covariance's first element is :data:`NOT_PROVIDED`."""
+    first = np.asarray(covariances, dtype=float).reshape(len(covariances), -1)[:, 0]
+    return np.asarray(first != NOT_PROVIDED)
+
+
 def _diagonal(covariances: Array, indices: Sequence[int]) -> Array:
     """The elements ``indices`` (n, k) of flattened covariances (n, m), NaN in the rows that
     mark the covariance unknown (all zero, or the first element -1)."""
@@ -110,7 +122,8 @@ class Converted:
 
     ``z`` (n, k): the table's columns; ``var`` (n, j): each message's variance of each σ
     component (the kind's σ order, e.g. N, E, D for a GNSS fix), NaN where it has none;
-    ``keep`` (n,): False for messages that carry no reading (a fix with no fix)."""
+    ``keep`` (n,): False for messages that carry no reading (a fix with no fix, an Imu whose
+    covariance marks the quantity read not provided)."""
 
     z: Array
     var: Array
@@ -127,35 +140,37 @@ def _all(n: int) -> NDArray[np.bool_]:
 
 def imu_rates(msgs: Sequence[Any]) -> Converted:
     """``sensor_msgs/msg/Imu`` → gyro (rad/s) and specific force (m/s²) in FRD (n, 6), with
-    the variances of the three gyro then the three accelerometer axes."""
+    the variances of the three gyro then the three accelerometer axes; ``keep`` False where
+    either covariance marks its quantity not provided (:func:`provided`)."""
     gyro = flu_to_frd(_vectors([m.angular_velocity for m in msgs]))
     accel = flu_to_frd(_vectors([m.linear_acceleration for m in msgs]))
-    var = np.hstack(
-        [
-            _diagonal(np.array([m.angular_velocity_covariance for m in msgs]), (0, 4, 8)),
-            _diagonal(np.array([m.linear_acceleration_covariance for m in msgs]), (0, 4, 8)),
-        ]
-    )
-    return Converted(np.hstack([gyro, accel]), var, _all(len(msgs)))
+    gyro_cov = np.array([m.angular_velocity_covariance for m in msgs]).reshape(-1, 9)
+    accel_cov = np.array([m.linear_acceleration_covariance for m in msgs]).reshape(-1, 9)
+    var = np.hstack([_diagonal(gyro_cov, (0, 4, 8)), _diagonal(accel_cov, (0, 4, 8))])
+    return Converted(np.hstack([gyro, accel]), var, provided(gyro_cov) & provided(accel_cov))
 
 
 def attitude(msgs: Sequence[Any], msgtype: str) -> Converted:
     """``sensor_msgs/msg/Imu`` orientation or ``geometry_msgs/msg/QuaternionStamped`` → roll,
     pitch, yaw (rad, n × 3) of ``C_nb`` (:func:`ros_to_nav_attitude`), with the Imu's
-    orientation variances (about x, y, z: roll, pitch, yaw); a QuaternionStamped has none."""
+    orientation variances (about x, y, z: roll, pitch, yaw); a QuaternionStamped has none.
+    ``keep`` is False for an Imu message whose orientation covariance marks it not provided
+    (:func:`provided`): an AHRS before its filter converged sends the identity quaternion, a
+    level vehicle heading east, which read as a heading of 90° (up to 0.4.7)."""
     if msgtype == "sensor_msgs/msg/Imu":
         q = np.array(
             [(m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w) for m in msgs],
             dtype=float,
         )
-        var = _diagonal(np.array([m.orientation_covariance for m in msgs]), (0, 4, 8))
+        cov = np.array([m.orientation_covariance for m in msgs]).reshape(-1, 9)
+        var, keep = _diagonal(cov, (0, 4, 8)), provided(cov)
     else:
         q = np.array(
             [(m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w) for m in msgs],
             dtype=float,
         )
-        var = np.full((len(msgs), 3), np.nan)
-    return Converted(ros_to_nav_attitude(q), var, _all(len(msgs)))
+        var, keep = np.full((len(msgs), 3), np.nan), _all(len(msgs))
+    return Converted(ros_to_nav_attitude(q), var, keep)
 
 
 def twist_velocity(msgs: Sequence[Any]) -> Converted:
