@@ -311,6 +311,40 @@ def test_a_heading_after_a_fix_with_a_bad_field_takes_that_fixs_time(tmp_path: P
     np.testing.assert_allclose(nmea.gnss["utc_s"] - t0, [10.0, 11.0, 13.0], atol=1e-6)
 
 
+def test_two_talkers_interleaved_are_two_sources(tmp_path: Path) -> None:
+    """A multiplexed log: receiver A ($GPGGA at whole seconds) and receiver B ($GNGGA half a
+    second later, its antenna 20 m east), a gyro ($HEHDT, 30°) and a GNSS compass ($GPHDT,
+    31°) after each GGA. Up to 0.4.7 both receivers' fixes made one track at 2 Hz jumping
+    20 m back and forth, and the headings the first after each GGA, exit 0. The import is
+    refused, naming the talkers and the option; with it, one source, the others repairs.
+    A receiver that switches talker (GP, then GN) is one source."""
+    lines = [sentence("GPZDA,000000.00,10,03,2024,00,00")]
+    for k in range(1, 9):
+        for talker, frac, east, hdt in (("GP", "00", 0.0, "HEHDT,30.0,T"),
+                                        ("GN", "50", 20.0, "GPHDT,31.0,T")):  # fmt: skip
+            lon = 56.0 + east / (6378137.0 * math.cos(math.radians(26.8))) * 180.0 / math.pi
+            pos = f"{ddmm(26.8, 2, 'NS')},{ddmm(lon, 3, 'EW')}"
+            lines += [sentence(f"{talker}GGA,0000{k:02d}.{frac},{pos},1,09,1.0,5.0,M,20.0,M,,"),
+                      sentence(hdt)]  # fmt: skip
+    log = tmp_path / "mux.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    with pytest.raises(NmeaError, match=r"GGA sentences of 2 talkers interleave.*--gnss-talker"):
+        read_nmea([log])
+    with pytest.raises(NmeaError, match=r"HDT sentences of 2 talkers interleave.*--heading-talker"):
+        read_nmea([log], talkers={"GGA": "GN"})
+    nmea = read_nmea([log], talkers={"GGA": "gn", "HDT": "HE"})
+    assert len(nmea.gnss) == 8 and nmea.gnss["nmea_line"].tolist() == list(range(4, 34, 4))
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), 30.0)
+    assert {r.action for r in nmea.repairs} == {"another talker"} and len(nmea.repairs) == 16
+    switched = [line for line in lines if "GN" not in line[:3] and "GPHDT" not in line]
+    switched = switched[:9] + [line.replace("$GPGGA", "$GNGGA") for line in switched[9:]]
+    log.write_text("\n".join(sentence(s[1:].partition("*")[0]) for s in switched) + "\n")
+    assert len(read_nmea([log]).gnss) == 8
+    code = runner.invoke(app, ["import", "nmea", str(log), "--out", str(tmp_path / "o"),
+                               "--gnss-talker", "XX"]).exit_code  # fmt: skip
+    assert code == 2 and not (tmp_path / "o").exists()
+
+
 @pytest.mark.parametrize(
     ("kind", "index", "text", "field", "detail"),
     [

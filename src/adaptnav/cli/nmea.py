@@ -104,6 +104,14 @@ def nmea(
             "docs/nmea.md) (default: the mission's, else all)"
         ),
     ] = None,
+    gnss_talker: Annotated[
+        str | None,
+        typer.Option(help="take the GGA of this talker only (GP, GN ...): two receivers in a log"),
+    ] = None,
+    heading_talker: Annotated[
+        str | None,
+        typer.Option(help="take the HDT of this talker only (HE, GP ...): two headings in a log"),
+    ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
     quiet: Quiet = False,
@@ -130,9 +138,10 @@ def nmea(
                 heading_sigma_deg, (lever[0], lever[1], lever[2]) if lever else None,
                 use_height, "csv" if csv else "parquet", min_interval_s,
             )  # fmt: skip
+            talkers = {k: v for k, v in (("GGA", gnss_talker), ("HDT", heading_talker)) if v}
             import_nmea(logs, tmp, mission=mission, t0_utc=t0, date=day,
                         uere_m=UERE_M if uere_m is None else uere_m,
-                        options=opts)  # fmt: skip
+                        options=opts, talkers=talkers)  # fmt: skip
         except (MissionError, ValueError, OSError) as exc:  # NmeaError is a MissionError
             fail(_first_line(exc))
     _report(out, mission is not None)

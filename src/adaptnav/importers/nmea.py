@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
+import itertools
 import json
 import logging
 import math
@@ -36,7 +37,7 @@ import re
 import shutil
 from collections import Counter
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -128,7 +129,7 @@ class _LineError(Exception):
 class _Record:
     """What one sentence says: its type, where it is, its UTC time of day (None: untimed),
     its date (RMC, ZDA) and values; ``unused`` is why a timed sentence gives no reading (its
-    time still counts, e.g. a GGA of fix quality 0)."""
+    time still counts, e.g. a GGA of fix quality 0); ``talker`` its talker (GP, HE ...)."""
 
     kind: str
     file: int
@@ -137,6 +138,7 @@ class _Record:
     date: dt.date | None = None
     values: Mapping[str, float] = field(default_factory=dict)
     unused: tuple[str, str, str] | None = None
+    talker: str = ""
 
 
 # --- fields -------------------------------------------------------------------------------------
@@ -357,14 +359,73 @@ def _record(text: str, where: tuple[int, int], ignored: Counter[str]) -> _Record
     if msg.talker not in TALKERS:
         raise _LineError("(talker)", "unknown talker", f"{msg.talker}{msg.sentence_type}")
     try:
-        return _READERS[msg.sentence_type](msg, where)
+        return replace(_READERS[msg.sentence_type](msg, where), talker=msg.talker)
     except _LineError as bad:
         if msg.sentence_type not in TIMED or bad.field in ("timestamp", "status"):
             raise
         # A field other than the time is bad: the sentence gives no reading, but its time
         # still counts, for the HDT and VTG after it (up to 0.4.4 they took an older one).
         unused = (bad.field, bad.action, bad.detail)
-        return _Record(msg.sentence_type, *where, _time_of_day(msg), unused=unused)
+        tod = _time_of_day(msg)
+        return _Record(msg.sentence_type, *where, tod, unused=unused, talker=msg.talker)
+
+
+TALKER_OPTIONS = {"GGA": "--gnss-talker", "HDT": "--heading-talker"}
+"""The sentences whose readings aid the filter, each from one source, and the option that
+chooses its talker."""
+
+
+def _checked_talkers(talkers: Mapping[str, str]) -> dict[str, str]:
+    """``talkers`` upper-cased; a sentence not in :data:`TALKER_OPTIONS` or a talker not in
+    :data:`TALKERS` is an :class:`NmeaError`."""
+    out = {k.upper(): v.upper() for k, v in talkers.items()}
+    for kind, talker in out.items():
+        if kind not in TALKER_OPTIONS or talker not in TALKERS:
+            option = TALKER_OPTIONS.get(kind, f"talkers[{kind!r}]")
+            raise NmeaError(f"{option} {talker!r}: one of {', '.join(sorted(TALKERS))}",
+                            field=option.removeprefix("--"))  # fmt: skip
+    return out
+
+
+def _talker_spans(records: Sequence[_Record], kind: str) -> dict[str, tuple[int, int]]:
+    """Per talker, the positions in the stream of its first and last sentence ``kind``."""
+    spans: dict[str, tuple[int, int]] = {}
+    for i, r in enumerate(records):
+        if r.kind == kind:
+            spans[r.talker] = (spans.get(r.talker, (i, i))[0], i)
+    return spans
+
+
+def _one_source(
+    records: Sequence[_Record], talkers: Mapping[str, str], names: Sequence[str]
+) -> list[_Record]:
+    """The records with the GGA and HDT of talkers other than the one ``talkers`` chooses for
+    them (e.g. ``{"GGA": "GP"}``) marked unused, "another talker" (their time still counts).
+    Without a choice, talkers whose sentences of one kind interleave in the stream are two
+    sources (two receivers, a GNSS compass beside a gyro) whose readings would alternate in
+    one table (up to 0.4.7: fixes of two antennas 20 m apart, 0.5 s apart, read as one
+    track): an :class:`NmeaError` naming them. A talker that follows another (a receiver
+    that switched from GP to GN) is one source."""
+    for kind, option in TALKER_OPTIONS.items():
+        spans = sorted(_talker_spans(records, kind).items(), key=lambda kv: kv[1])
+        # sorted by their first sentences, two spans overlap only if two neighbours do
+        overlap = any(b[1][0] < a[1][1] for a, b in itertools.pairwise(spans))
+        if kind not in talkers and overlap:
+            said = ", ".join(f"{t or '?'} {kind} from line {records[i].line} of "
+                             f"{names[records[i].file]}" for t, (i, _) in spans)  # fmt: skip
+            raise NmeaError(
+                f"{kind} sentences of {len(spans)} talkers interleave ({said}): two sources in "
+                f"one log, whose readings would alternate; choose one with {option}",
+                file=names[records[spans[0][1][0]].file],
+            )
+    out = []
+    for r in records:
+        chosen = talkers.get(r.kind)
+        if chosen is not None and r.talker != chosen:
+            why = f"{r.talker}{r.kind}, not the {TALKER_OPTIONS[r.kind]} {chosen}"
+            r = replace(r, unused=("(talker)", "another talker", why))
+        out.append(r)
+    return out
 
 
 # --- files --------------------------------------------------------------------------------------
@@ -606,7 +667,11 @@ class NmeaLog:
 
 
 def read_nmea(
-    paths: Sequence[str | Path], *, date: dt.date | None = None, uere_m: float = UERE_M
+    paths: Sequence[str | Path],
+    *,
+    date: dt.date | None = None,
+    uere_m: float = UERE_M,
+    talkers: Mapping[str, str] | None = None,
 ) -> NmeaLog:
     """Read NMEA 0183 logs, in the order given, as one stream (docs/nmea.md).
 
@@ -614,6 +679,8 @@ def read_nmea(
         paths: the log files; each must hold at least one usable sentence.
         date: the UTC date of the first timed sentence, for logs without RMC/ZDA dates.
         uere_m: σ of the user-equivalent range error of a standalone fix (:func:`fix_sigma`).
+        talkers: the talker whose GGA, whose HDT, give the readings (``{"GGA": "GP"}``);
+            needed when two talkers' sentences of one kind interleave (:func:`_one_source`).
 
     Raises :class:`NmeaError` for a file without a usable sentence, no date, or a log with
     neither a GNSS fix nor a heading; every other problem is a repair (:attr:`NmeaLog.repairs`,
@@ -626,6 +693,7 @@ def read_nmea(
     names = [n if short.count(n) == 1 else str(p) for n, p in zip(short, files, strict=True)]
     journal, ignored = Journal(), Counter[str]()
     records = [r for i, p in enumerate(files) for r in _read_file(i, p, journal, ignored)]
+    records = _one_source(records, _checked_talkers(talkers or {}), names)
     timed, rollovers = _days(records, names, journal)
     utc, source = _utc(timed, date, names, journal)
     stamped = [(r, t) for (r, _, _), t in zip(timed, utc, strict=True)]
@@ -907,6 +975,7 @@ def import_nmea(
     date: dt.date | None = None,
     uere_m: float = UERE_M,
     options: Options = Options(),
+    talkers: Mapping[str, str] | None = None,
 ) -> Path:
     """Import NMEA logs (docs/nmea.md) into ``out_dir``.
 
@@ -916,13 +985,14 @@ def import_nmea(
     (missions carry no epoch) and the result is loaded to check it. Without: the tables and
     ``sensors.toml``, the sections to paste into a ``mission.toml``; ``t0_utc`` defaults to
     the first reading's time. Both write ``<gnss>_velocity`` (speed and course over ground,
-    not read by the filter) and ``import.json`` (:func:`_record_of`). Returns ``out_dir``.
+    not read by the filter) and ``import.json`` (:func:`_record_of`). ``talkers``: as
+    :func:`read_nmea`'s. Returns ``out_dir``.
     """
     if mission is not None and t0_utc is None:
         raise NmeaError("--t0-utc is required with --mission: a mission's t_s has no epoch; "
                         "give the UTC time of its t_s = 0", field="t0_utc")  # fmt: skip
     config = load_config(Path(mission) / CONFIG_NAME) if mission is not None else None
-    nmea = read_nmea(paths, date=date, uere_m=uere_m)
+    nmea = read_nmea(paths, date=date, uere_m=uere_m, talkers=talkers)
     first = min(float(df["utc_s"].min()) for df in (nmea.gnss, nmea.heading) if not df.empty)
     t0 = t0_utc.timestamp() if t0_utc is not None else first
     sections, sources = _sections(nmea, config, options)
