@@ -15,6 +15,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,7 @@ from typer.testing import CliRunner
 from adaptnav import api
 from adaptnav.analysis import evaluate
 from adaptnav.cli import app
-from adaptnav.importers.nmea import NmeaError, fix_sigma, read_nmea
+from adaptnav.importers.nmea import NmeaError, fix_sigma, import_nmea, read_nmea
 from adaptnav.mission import load_config, load_mission, write_config
 from helpers import badinput
 
@@ -221,6 +222,25 @@ def test_imported_mission_keeps_the_replaced_sections(original: Path, imported: 
     assert after.sensors["gps"].sigma == ([2.915, 2.915], "m")  # N, E: no height
     assert after.sensors.keys() == before.sensors.keys()
     assert (imported / "gps_velocity.parquet").is_file()
+
+
+def test_a_t0_without_a_zone_is_utc_in_the_api(
+    logs: list[Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``import_nmea(t0_utc=datetime(...))`` without a zone: UTC, as the CLI takes
+    ``--t0-utc``. Up to 0.4.7 ``.timestamp()`` read it in the machine's zone: on a laptop in
+    Tehran (UTC+3:30) every fix 12600 s off, exit 0 without --mission."""
+    monkeypatch.setenv("TZ", "Asia/Tehran")
+    time.tzset()
+    try:
+        out = import_nmea(logs, tmp_path / "o", t0_utc=T0.replace(tzinfo=None))
+    finally:
+        monkeypatch.delenv("TZ")
+        time.tzset()
+    info = json.loads((out / "import.json").read_text(encoding="utf-8"))
+    assert info["time"]["t0_utc"] == T0.isoformat()
+    gnss = pd.read_parquet(out / "gnss.parquet")
+    np.testing.assert_allclose(gnss["t_s"], gnss["utc_s"] - T0.timestamp())
 
 
 def test_min_interval_s_goes_into_the_gnss_section(

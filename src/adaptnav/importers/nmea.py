@@ -982,11 +982,12 @@ def import_nmea(
     With ``mission``: a copy of that mission (``mission.toml`` and the tables it names) with
     the GNSS and heading sections added or replaced (``options.gnss_name``,
     ``heading_name``); ``t0_utc``, the UTC time of the mission's ``t_s = 0``, is required
-    (missions carry no epoch) and the result is loaded to check it. Without: the tables and
-    ``sensors.toml``, the sections to paste into a ``mission.toml``; ``t0_utc`` defaults to
-    the first reading's time. Both write ``<gnss>_velocity`` (speed and course over ground,
-    not read by the filter) and ``import.json`` (:func:`_record_of`). ``talkers``: as
-    :func:`read_nmea`'s. Returns ``out_dir``.
+    (missions carry no epoch; without a zone it is UTC) and the result is loaded to check
+    it. Without: the tables and ``sensors.toml``, the sections to paste into a
+    ``mission.toml``; ``t0_utc`` defaults to the first reading's time. Both write
+    ``<gnss>_velocity`` (speed and course over ground, not read by the filter) and
+    ``import.json`` (:func:`_record_of`). ``talkers``: as :func:`read_nmea`'s. Returns
+    ``out_dir``.
     """
     if mission is not None and t0_utc is None:
         raise NmeaError("--t0-utc is required with --mission: a mission's t_s has no epoch; "
@@ -994,6 +995,8 @@ def import_nmea(
     config = load_config(Path(mission) / CONFIG_NAME) if mission is not None else None
     nmea = read_nmea(paths, date=date, uere_m=uere_m, talkers=talkers)
     first = min(float(df["utc_s"].min()) for df in (nmea.gnss, nmea.heading) if not df.empty)
+    if t0_utc is not None and t0_utc.tzinfo is None:  # as the CLI's: a naive time is UTC, not
+        t0_utc = t0_utc.replace(tzinfo=dt.UTC)  # the machine's zone (.timestamp()'s, to 0.4.7)
     t0 = t0_utc.timestamp() if t0_utc is not None else first
     sections, sources = _sections(nmea, config, options)
     for name, doc in sections.items():  # before anything is written (docs/nmea.md, 'Usage')
