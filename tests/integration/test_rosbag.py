@@ -326,6 +326,28 @@ def test_imu_messages_without_an_orientation_are_left_out(tmp_path: Path) -> Non
         import_bag(bag, tmp_path / "none-m", topics={"heading": "/imu"})
 
 
+def test_fixes_without_altitude_do_not_aid_the_height(tmp_path: Path) -> None:
+    """NavSatFix's altitude is NaN where the receiver gives none: without a depth topic and
+    --config, the GNSS section's use_height is false and its σ (N, E). Up to 0.4.7 it was
+    true, and every fix was dropped at the run as non-finite ("no valid fix ... to align
+    at")."""
+    status = rw.T["sensor_msgs/msg/NavSatStatus"](0, 1)
+    fix = rw.T["sensor_msgs/msg/NavSatFix"]
+    fixes = [
+        (t, fix(rw.header(t, "gps"), status, 26.8, 56.0, math.nan, rw.diag(3, [1.0, 4.0, 9.0]), 2))
+        for t in np.arange(1, 50) / 10.0
+    ]
+    imu = [(0.01 * k, _level_imu(0.01 * k)) for k in range(1, 501)]
+    bag = rw.write_bag(
+        tmp_path / "bag",
+        {"/imu": ("sensor_msgs/msg/Imu", imu), "/fix": ("sensor_msgs/msg/NavSatFix", fixes)},
+    )
+    m = load_mission(import_bag(bag, tmp_path / "m", topics={"gnss": "/fix"}))
+    assert m.config.sensors["gnss"].use_height is False
+    assert m.config.sensors["gnss"].sigma == ([2.0, 1.0], "m")
+    assert m.sensors["gnss"].z.shape == (49, 2) and np.isfinite(m.sensors["gnss"].z).all()
+
+
 def _level_imu(stamp_s: float, yaw_rate: float = 0.0) -> Any:
     """A level IMU's message at ``stamp_s`` (s after STAMP0): turning at ``yaw_rate`` (rad/s,
     ROS +z), gravity on +z, no orientation."""

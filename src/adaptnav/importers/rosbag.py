@@ -621,7 +621,12 @@ def build_config(
     sensors: dict[str, Any] = {}
     records: dict[str, Any] = {"imu": imu_record}
     names: dict[str, str] = {}
-    use_height = "depth" not in streams
+    # NavSatFix's altitude is NaN where the receiver gives none (its definition): aiding with
+    # such heights would make every fix non-finite, dropped (up to 0.4.7 the run then found
+    # no fix to align at, "none finite and plausible")
+    gnss = streams.get("gnss")
+    has_heights = gnss is None or bool(np.isfinite(gnss.data.z[:, 2]).any())
+    use_height = "depth" not in streams and has_heights
     for role, stream in streams.items():
         if role == "imu":
             continue
