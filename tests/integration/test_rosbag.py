@@ -348,6 +348,27 @@ def test_fixes_without_altitude_do_not_aid_the_height(tmp_path: Path) -> None:
     assert m.sensors["gnss"].z.shape == (49, 2) and np.isfinite(m.sensors["gnss"].z).all()
 
 
+def test_zero_variances_give_no_sigma(tmp_path: Path) -> None:
+    """Fixes whose covariance (type 2, diagonal known) is all zero, half of them, the rest
+    with ENU variances (1, 4, 9) m²: σ (N, E, D) = (2, 1, 3) m from the others. Up to 0.4.7
+    the zeros were σ = 0: the median gave (1, 0.5, 1.5) m, exit 0; with more than half of
+    them, σ = 0 and a refusal that named no covariance."""
+    status = rw.T["sensor_msgs/msg/NavSatStatus"](0, 1)
+    fix = rw.T["sensor_msgs/msg/NavSatFix"]
+    fixes = [
+        (t, fix(rw.header(t, "gps"), status, 26.8, 56.0, 3.0,
+                rw.diag(3, [0.0] * 3 if k % 2 else [1.0, 4.0, 9.0]), 2))
+        for k, t in enumerate(np.arange(1, 49) / 10.0)
+    ]  # fmt: skip
+    imu = [(0.01 * k, _level_imu(0.01 * k)) for k in range(1, 501)]
+    bag = rw.write_bag(
+        tmp_path / "bag",
+        {"/imu": ("sensor_msgs/msg/Imu", imu), "/fix": ("sensor_msgs/msg/NavSatFix", fixes)},
+    )
+    m = load_mission(import_bag(bag, tmp_path / "m", topics={"gnss": "/fix"}))
+    assert m.config.sensors["gnss"].sigma == ([2.0, 1.0, 3.0], "m")
+
+
 def _level_imu(stamp_s: float, yaw_rate: float = 0.0) -> Any:
     """A level IMU's message at ``stamp_s`` (s after STAMP0): turning at ``yaw_rate`` (rad/s,
     ROS +z), gravity on +z, no orientation."""

@@ -464,12 +464,15 @@ def sigma_components(role: str, use_height: bool) -> tuple[int, ...]:
 
 def message_sigma(var: Array, components: Sequence[int]) -> dict[str, list[float]] | None:
     """Median, least and largest σ of each component over the messages whose covariance
-    gives them all (None: no message does)."""
+    gives them all (None: no message does). A variance not > 0 gives none: no sensor reads
+    without error, and a driver that fills a covariance with zeros until it has one (or
+    fills only the angular block) does not know it. Up to 0.4.7 such zeros were σ = 0 and
+    pulled the median down: half the fixes with zeros gave half the fixes' σ."""
     v = var[:, list(components)]
-    v = v[np.isfinite(v).all(axis=1)]
+    v = v[np.isfinite(v).all(axis=1) & (v > 0.0).all(axis=1)]
     if v.shape[0] == 0:
         return None
-    s = np.sqrt(np.maximum(v, 0.0))
+    s = np.sqrt(v)
     return {
         k: [float(x) for x in f(s, axis=0)]
         for k, f in (("median", np.median), ("min", np.min), ("max", np.max))
