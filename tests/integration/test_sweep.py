@@ -386,3 +386,26 @@ def test_config_overrides_are_part_of_the_spec_and_applied() -> None:
         with_overrides(cfg, [("nowhere.x", 1)])
     with pytest.raises(MissionError):
         with_overrides(cfg, [("filter.vb_rho", 2.0)])  # validated again: rho <= 1
+
+
+def test_an_out_folder_holding_the_cache_is_refused_before_any_work(
+    serial: tuple[Path, SweepOutcome], tmp_path: Path
+) -> None:
+    """The sweep writes its runs into the cache while --out waits in a temporary folder: with
+    the cache inside --out, --force replaced --out whole and the cache with it (up to 0.4.7:
+    exit 0, every cached run and mission gone), and without it the sweep ran to the end and
+    failed there (exit 2, the output left in a hidden temporary)."""
+    out = tmp_path / "results"
+    cache = _copy_missions(serial[0], out / "cache")
+    args = ["sweep", "seeds", "demo", "--seeds", "1", "--filters", "meskf", "--jobs", "1",
+            "--no-progress", "--quiet"]  # fmt: skip
+    for where in (cache, out):  # the cache inside --out, and --out the cache itself
+        res = runner.invoke(app, [*args, "--cache", str(cache), "--out", str(where), "--force"])
+        assert res.exit_code == 2, res.output
+        assert "is or holds the cache" in res.output
+        assert (cache / "missions" / "demo-s1" / "mission.toml").is_file()
+        assert not (cache / "runs").exists()  # refused before any run
+    fresh = tmp_path / "fresh"
+    res = runner.invoke(app, [*args, "--cache", str(fresh / "c"), "--out", str(fresh)])
+    assert res.exit_code == 2 and "is or holds the cache" in res.output
+    assert not fresh.exists() and not list(tmp_path.glob(".*tmp*"))

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -121,6 +122,25 @@ def _common(
     if not names:
         fail("--filters: no filter to run")
     return seed_list, names
+
+
+def _out_folder(out: Path | None, cache: Path, kind: str) -> Path:
+    """The sweep's output folder: ``--out``, else ``CACHE/<kind>``. An ``--out`` that is the
+    cache or holds it is refused before any work: the runs and missions are written into the
+    cache while the output waits in a temporary folder, so at the end the output could not be
+    renamed onto a folder that now had the cache in it (up to 0.4.7: exit 2 after the whole
+    sweep, the output left in a hidden temporary), and with ``--force`` it replaced that folder
+    whole, the cache with it (exit 0, every cached run and mission deleted)."""
+    folder = out if out is not None else cache / kind
+    target, held = Path(os.path.abspath(folder)), Path(os.path.abspath(cache))
+    for a, b in ((target, held), (target.resolve(), held.resolve())):
+        if a == b or a in b.parents:
+            fail(
+                f"--out {folder}: is or holds the cache {cache} (--cache), which the sweep "
+                "writes into and replacing --out would delete: choose an --out outside the "
+                "cache (the default is CACHE/<sweep kind>) or a --cache outside --out"
+            )
+    return folder
 
 
 def _execute(
@@ -273,7 +293,7 @@ def q_cmd(
     seed_list, names = _common(presets, seeds, filters, jobs)
     q_values = _floats(q, "--q", geometric=False)
     specs = q_sweep_specs(presets, seed_list, q_values, names)
-    folder = out or cache / "q"
+    folder = _out_folder(out, cache, "q")
     with output(folder, force) as tmp:
         outcome = _execute(specs, cache, jobs, scheduler, progress and not quiet, keep_missions)
         figure = plot_q_sweep(outcome.table, tmp / "q_sweep.png").name
@@ -321,7 +341,7 @@ def process_noise_cmd(
     seed_list, names = _common(presets, seeds, filters, jobs)
     scale_values = _floats(scales, "--scales", geometric=True)
     specs = process_noise_specs(presets, seed_list, scale_values, names)
-    folder = out or cache / "process-noise"
+    folder = _out_folder(out, cache, "process-noise")
     with output(folder, force) as tmp:
         outcome = _execute(specs, cache, jobs, scheduler, progress and not quiet, keep_missions)
         figure = plot_process_noise(outcome.table, tmp / "process_noise.png").name
@@ -367,7 +387,7 @@ def seeds_cmd(
 
     seed_list, names = _common(presets, seeds, filters, jobs)
     specs = monte_carlo_specs(presets, seed_list, names)
-    folder = out or cache / "seeds"
+    folder = _out_folder(out, cache, "seeds")
     with output(folder, force) as tmp:
         outcome = _execute(specs, cache, jobs, scheduler, progress and not quiet, keep_missions)
         figure = plot_monte_carlo(outcome.table, tmp / "monte_carlo.png").name
