@@ -244,3 +244,26 @@ def test_latency_takes_late_stamped_readings_at_their_own_time(
     pushed = pd.DataFrame(rows).to_numpy()
     np.testing.assert_array_equal(pushed, got[: len(pushed)])
     assert 0.2 - 0.1 <= got[-1, 0] - pushed[-1, 0] <= 0.2 + 0.1
+
+
+def test_readings_before_the_first_imu_sample_have_the_batch_runs_reason(
+    mission: Mission, tmp_path: Path
+) -> None:
+    """A DVL whose clock runs 30 s early: its first readings come before the IMU's first
+    sample. The batch run drops them as "before the first IMU sample" and warns of a sensor
+    stamped outside the IMU's time; the stream gave them "before navigation start (alignment)"
+    and no warning (up to 0.4.7), though its ledger is documented to be the batch run's."""
+    early = load_mission(_late_dvl(mission.root, tmp_path / "early", -30.0, None))
+    batch = api.run(early, "meskf")
+    with Stream(early, "meskf") as stream:
+        for item in replay(early):
+            stream.push_item(item)
+    assert stream.result is not None
+    la, lb = _sorted(stream.result.ledger), _sorted(batch.ledger)
+    before = lb["reason"] == "before the first IMU sample"
+    assert before.sum() > 50 and (lb.loc[before, "sensor"] == "dvl").all()
+    assert la["reason"].tolist() == lb["reason"].tolist()
+    assert la["fate"].tolist() == lb["fate"].tolist()
+    kinds = [w["kind"] for w in batch.meta["warnings"]]
+    assert "outside_imu" in kinds
+    assert [w["kind"] for w in stream.result.meta["warnings"]] == kinds

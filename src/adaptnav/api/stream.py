@@ -139,6 +139,8 @@ class Stream:
         self._extra: list[dict[str, Any]] = []
         self._imu: deque[tuple[float, float, Array, Array]] = deque()
         self._t_imu = -math.inf
+        self._imu_start = math.nan
+        """The start of the first IMU interval pushed (the batch run's ``ImuData.start``)."""
         self._nav: engine.Navigator | None = None
         self._t0 = math.nan
         self._info: dict[str, Any] = {}
@@ -189,6 +191,8 @@ class Stream:
             raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
         self._check_imu(tt, step, dth, dv)
         self._t_imu = tt
+        if math.isnan(self._imu_start):
+            self._imu_start = tt - step
         if self._nav is not None and tt < self._t0 + START_EPS_S:
             return []  # before a given start: not integrated, as the batch run's nav_from
         self._imu.append((tt, step, dth, dv))
@@ -411,7 +415,8 @@ class Stream:
     def _result(self, out: engine.EngineOutput) -> Result:
         """The run's Result, as :func:`adaptnav.api.run` builds it (the ledger's rows are the
         pushed readings' rows; the readings that never reached the engine appended)."""
-        out = replace(out, ledger=[*out.ledger, *self._extra])
+        extra = [_outside_imu(rec, self._imu_start) for rec in self._extra]
+        out = replace(out, ledger=[*out.ledger, *extra])
         meta: dict[str, Any] = {
             "mission_dir": self._root,
             "adaptnav_version": __version__,
@@ -428,6 +433,18 @@ class Stream:
         cfg = self.config
         result = Result.from_engine(out, self.settings.kind, cfg.mission.name, meta, [], kinds)
         return with_warnings(result, self._channels)
+
+
+def _outside_imu(rec: dict[str, Any], imu_start: float) -> dict[str, Any]:
+    """A ledger row dropped as before the start, given the batch run's reason when its reading
+    is stamped before the first IMU interval (``t < imu.start``, api.runner._feed): "before the
+    first IMU sample", which the run's warnings count (api/diagnosis.py, ``outside_imu``). A
+    stream learns the IMU's start only from its first sample, which may come after such
+    readings, so the reason is settled at the end (up to 0.4.7 every such reading was "before
+    navigation start (alignment)", and a sensor on another clock went without the warning)."""
+    if rec["reason"] == runner.BEFORE_START_REASON and rec["t"] < imu_start:
+        return {**rec, "reason": engine.BEFORE_IMU_REASON}
+    return rec
 
 
 def _configuration(
