@@ -409,3 +409,26 @@ def test_an_out_folder_holding_the_cache_is_refused_before_any_work(
     res = runner.invoke(app, [*args, "--cache", str(fresh / "c"), "--out", str(fresh)])
     assert res.exit_code == 2 and "is or holds the cache" in res.output
     assert not fresh.exists() and not list(tmp_path.glob(".*tmp*"))
+
+
+def test_a_mission_aligned_by_another_version_is_made_again(
+    serial: tuple[Path, SweepOutcome], tmp_path: Path
+) -> None:
+    """The runs' keys hold the package version, the missions and their alignments did not: a
+    cache left by another version gave this version's runs its simulated mission and its
+    alignment (up to 0.4.7), filed as this version's. Here an alignment without a version (as
+    every earlier one was written), its start moved 60 m north, stands for another version's."""
+    from adaptnav.experiments.cache import mission_ready
+
+    cache = _copy_missions(serial[0], tmp_path / "cache")
+    path = cache / "missions" / "demo-s1.alignment.npz"
+    assert mission_ready(cache, "demo-s1")
+    with np.load(path) as z:
+        x0, P0, t0 = np.array(z["x0"]), np.array(z["P0"]), np.array(z["t0"])
+    x0[0] += 60.0 / 6.4e6
+    np.savez(path, x0=x0, P0=P0, t0=t0)
+    assert not mission_ready(cache, "demo-s1")
+    spec = SPECS[3]  # VB-MAESKF at its defaults
+    again = run_sweep([spec], cache, jobs=1, progress=False)
+    assert mission_ready(cache, "demo-s1")
+    pd.testing.assert_frame_equal(_metrics(again.table), _metrics(serial[1].rows([spec])))

@@ -3,19 +3,23 @@
 Cache layout (``cache`` folder)::
 
     missions/<preset>-s<seed>/            the simulated mission (adaptnav.sim.scenarios.simulate)
-    missions/<preset>-s<seed>.alignment.npz   its static alignment (x0, P0, t0), computed once
+    missions/<preset>-s<seed>.alignment.npz   its static alignment (x0, P0, t0), computed once,
+                                          and the package version that simulated and aligned it
     runs/<key>.json                       one finished run: spec, version, metrics
 
 A mission is simulated once per (preset, seed[, disturbances]) and its alignment
 (:func:`adaptnav.api.initial_state`) computed once and shared by every filter and parameter
 on it, as the paper's comparison does. ``key`` is a SHA-256 of the spec and the package
 version (:meth:`adaptnav.experiments.spec.RunSpec.key`); a finished run is never rerun, so an
-interrupted sweep resumes. Files and folders are written atomically: to a temporary sibling
-``.<name>.tmp-<random>``, unique across the processes and machines of a cluster sharing the
-cache, then ``os.replace``; a failed write removes its temporary, only a killed worker leaves
-one behind (hidden, never read; safe to delete when no sweep runs; docs/scale-out.md). The
-cache does not notice code changes within one package version: use a fresh cache folder after
-changing the code.
+interrupted sweep resumes. A mission and its alignment are the version's too: one left by
+another version (or before the alignment recorded it) is simulated and aligned again, since
+the simulator and the alignment change between versions and the runs filed under this
+version's keys must not start from another's. Files and folders are written atomically: to
+a temporary sibling ``.<name>.tmp-<random>``, unique across the processes and machines of a
+cluster sharing the cache, then ``os.replace``; a failed write removes its temporary, only a
+killed worker leaves one behind (hidden, never read; safe to delete when no sweep runs;
+docs/scale-out.md). The cache does not notice code changes within one package version: use a
+fresh cache folder after changing the code.
 """
 
 from __future__ import annotations
@@ -85,11 +89,21 @@ def _run_path(cache: Path, key: str) -> Path:
     return cache / "runs" / f"{key}.json"
 
 
+def _aligned_by(cache: Path, name: str) -> str | None:
+    """The package version that wrote mission ``name``'s alignment; None when there is none,
+    it is unreadable, or it predates the record."""
+    try:
+        with np.load(_alignment_path(cache, name)) as z:
+            return str(z["version"]) if "version" in z.files else None
+    except (OSError, ValueError):
+        return None
+
+
 def mission_ready(cache: Path, name: str) -> bool:
-    """Whether mission ``name`` and its alignment are both in the cache."""
-    return (mission_dir(cache, name) / "mission.toml").is_file() and _alignment_path(
+    """Whether mission ``name`` and its alignment are both in the cache, of this version."""
+    return (mission_dir(cache, name) / "mission.toml").is_file() and _aligned_by(
         cache, name
-    ).is_file()
+    ) == __version__
 
 
 def cached_record(cache: Path, key: str) -> dict[str, Any] | None:
@@ -129,14 +143,19 @@ def prepare_mission(cache: Path, spec: RunSpec) -> Path:
     name = spec.mission_name
     folder = mission_dir(cache, name)
     folder.parent.mkdir(parents=True, exist_ok=True)
+    align_path = _alignment_path(cache, name)
+    if _aligned_by(cache, name) != __version__:
+        # Another version's (or an interrupted preparation's): its mission cannot be told
+        # from this version's, so both are made again.
+        align_path.unlink(missing_ok=True)
+        shutil.rmtree(folder, ignore_errors=True)
     if not (folder / "mission.toml").is_file():
         shutil.rmtree(folder, ignore_errors=True)
         _simulate_into(folder, spec)
-    align_path = _alignment_path(cache, name)
     if not align_path.is_file():
         x0, P0, t0, _ = api.initial_state(load_mission(folder))
         with _atomic(align_path) as tmp, tmp.open("wb") as fh:
-            np.savez(fh, x0=x0, P0=P0, t0=np.array(t0))
+            np.savez(fh, x0=x0, P0=P0, t0=np.array(t0), version=np.array(__version__))
     return folder
 
 
