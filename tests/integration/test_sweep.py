@@ -399,7 +399,8 @@ def test_an_out_folder_holding_the_cache_is_refused_before_any_work(
     cache = _copy_missions(serial[0], out / "cache")
     args = ["sweep", "seeds", "demo", "--seeds", "1", "--filters", "meskf", "--jobs", "1",
             "--no-progress", "--quiet"]  # fmt: skip
-    for where in (cache, out):  # the cache inside --out, and --out the cache itself
+    # the cache inside --out, --out the cache itself, --out its folder of runs
+    for where in (cache, out, cache / "runs", cache / "missions" / "x"):
         res = runner.invoke(app, [*args, "--cache", str(cache), "--out", str(where), "--force"])
         assert res.exit_code == 2, res.output
         assert "is or holds the cache" in res.output

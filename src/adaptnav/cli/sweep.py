@@ -124,21 +124,28 @@ def _common(
     return seed_list, names
 
 
+def _within(path: Path, folder: Path) -> bool:
+    """Whether ``path`` is ``folder`` or inside it."""
+    return path == folder or folder in path.parents
+
+
 def _out_folder(out: Path | None, cache: Path, kind: str) -> Path:
     """The sweep's output folder: ``--out``, else ``CACHE/<kind>``. An ``--out`` that is the
-    cache or holds it is refused before any work: the runs and missions are written into the
-    cache while the output waits in a temporary folder, so at the end the output could not be
-    renamed onto a folder that now had the cache in it (up to 0.4.7: exit 2 after the whole
-    sweep, the output left in a hidden temporary), and with ``--force`` it replaced that folder
-    whole, the cache with it (exit 0, every cached run and mission deleted)."""
+    cache, holds it, or is (inside) its ``runs`` or ``missions`` folder is refused before any
+    work: the runs and missions are written there while the output waits in a temporary
+    folder, so at the end the output could not be renamed onto a folder that now had them in
+    it (up to 0.4.7: exit 2 after the whole sweep, the output left in a hidden temporary), and
+    with ``--force`` it replaced that folder whole, the cache with it (exit 0, every cached
+    run and mission deleted)."""
     folder = out if out is not None else cache / kind
     target, held = Path(os.path.abspath(folder)), Path(os.path.abspath(cache))
     for a, b in ((target, held), (target.resolve(), held.resolve())):
-        if a == b or a in b.parents:
+        if _within(b, a) or _within(a, b / "runs") or _within(a, b / "missions"):
             fail(
-                f"--out {folder}: is or holds the cache {cache} (--cache), which the sweep "
-                "writes into and replacing --out would delete: choose an --out outside the "
-                "cache (the default is CACHE/<sweep kind>) or a --cache outside --out"
+                f"--out {folder}: is or holds the cache {cache} (--cache) or its runs or "
+                "missions, which the sweep writes into and replacing --out would delete: "
+                "choose an --out outside the cache (the default is CACHE/<sweep kind>) or a "
+                "--cache outside --out"
             )
     return folder
 
