@@ -91,6 +91,8 @@ def test_late_and_out_of_order_readings_are_in_the_ledger(mission: Mission) -> N
 def test_bad_input_is_refused_and_the_stream_goes_on(mission: Mission) -> None:
     with pytest.raises(ValueError, match="oracle"):
         Stream(mission, "oracle")
+    with pytest.raises(ValueError, match=r"^filter 'vbx': not one of meskf, maeskf, vb, robust"):
+        Stream(mission, "vbx")  # type: ignore[arg-type]
     start = api.initial_state(mission)[:3]
     stream = Stream(mission, "meskf", initial=start)
     t = start[2] + 0.01
@@ -103,6 +105,9 @@ def test_bad_input_is_refused_and_the_stream_goes_on(mission: Mission) -> None:
         stream.push("sonar", t, [1.0])
     with pytest.raises(ValueError, match="3 value"):
         stream.push("dvl", t + 0.1, [1.0, 2.0])
+    for row in (-1, 2.7, True):
+        with pytest.raises(ValueError, match=r"dvl: row .* is not a row number"):
+            stream.push("dvl", t + 0.1, [1.0, 2.0, 0.0], row=row)  # type: ignore[arg-type]
     assert len(stream.push_imu(t + 0.01, np.zeros(3), [0.0, 0.0, -0.098])) == 0
     assert stream.t == pytest.approx(t + 0.01)
 

@@ -224,7 +224,8 @@ class Stream:
         ``status_column`` is configured. Screened as the loader screens a table, then queued
         for the filter; returns the solution rows it determined (a reading the screen had held
         back may let the IMU go on). KeyError for a sensor not configured, ValueError for a
-        reading of the wrong size."""
+        reading of the wrong size or a ``row`` that is not an integer >= 0 (to 0.4.7 -1 and 2.7
+        were taken, the latter as 2)."""
         self._check_open()
         if sensor not in self._screens:
             raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._screens)}")
@@ -236,6 +237,9 @@ class Stream:
         zz = np.atleast_1d(np.asarray(z, dtype=float))
         if zz.shape != (cfg.dim,):
             raise ValueError(f"{sensor}: a reading has {cfg.dim} value(s) {cfg.columns}, got {zz}")
+        if row is not None and (isinstance(row, bool) or not isinstance(row, int | np.integer)
+                                or row < 0):  # fmt: skip
+            raise ValueError(f"{sensor}: row {row!r} is not a row number (an integer >= 0)")
         r = row if row is not None else self._rows[sensor]
         self._rows[sensor] = r + 1
         at = float(t) - self._latency[sensor]  # the reading's own time (latency_s)

@@ -221,6 +221,10 @@ class FilterSettings(BaseModel):
         return None if v is False else v
 
     def with_kind(self, kind: FilterKind) -> FilterSettings:
+        """These settings for filter ``kind``; a ValueError of one line naming the kinds for
+        anything else (a Python caller's typo got pydantic's four-line report, to 0.4.7)."""
+        if kind not in FILTER_KINDS:
+            raise ValueError(f"filter {kind!r}: not one of {', '.join(FILTER_KINDS)}")
         return self.updated(kind=kind)
 
     def updated(self, **changes: Any) -> FilterSettings:
