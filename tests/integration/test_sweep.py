@@ -388,6 +388,22 @@ def test_config_overrides_are_part_of_the_spec_and_applied() -> None:
         with_overrides(cfg, [("filter.vb_rho", 2.0)])  # validated again: rho <= 1
 
 
+def test_a_dvls_own_gate_q_is_reported_and_not_swept_over(
+    serial: tuple[Path, SweepOutcome],
+) -> None:
+    """The DVL's own ``gate_q`` wins over the filter's q (FilterSettings.gate): a run with it
+    reports that q, and a swept q beside it is refused (up to 0.4.7 the run gated at the DVL's
+    900 while its row said the swept 200)."""
+    from adaptnav.experiments.cache import load_prepared
+
+    mission, initial = load_prepared(serial[0], "demo-s1")
+    own = (("sensors.dvl.gate_q", 900.0),)
+    row = sweep_runner.run_one(mission, initial, RunSpec("demo", 1, "meskf", config=own))
+    assert row["gate_q"] == 900.0
+    with pytest.raises(ValueError, match=r"q = 200: the mission's sensors\.dvl\.gate_q = 900"):
+        sweep_runner.run_one(mission, initial, RunSpec("demo", 1, "meskf", q=200.0, config=own))
+
+
 def test_an_out_folder_holding_the_cache_is_refused_before_any_work(
     serial: tuple[Path, SweepOutcome], tmp_path: Path
 ) -> None:

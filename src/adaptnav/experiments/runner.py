@@ -74,7 +74,9 @@ def _loaded(cache: Path, name: str) -> tuple[Mission, Alignment]:
 def run_one(mission: Mission, initial: Alignment, spec: RunSpec) -> dict[str, float]:
     """Run ``spec``'s filter on a loaded ``mission`` from the shared ``initial`` state and
     evaluate it against the mission's truth (docs/metrics.md): the
-    :data:`~adaptnav.experiments.stats.METRICS`."""
+    :data:`~adaptnav.experiments.stats.METRICS`, ``gate_q`` the q the first DVL's gate used. A
+    swept ``q`` on a mission whose DVL has its own ``gate_q`` is a ValueError: that q would win
+    (up to 0.4.7 the run used it while its row said the swept one)."""
     from adaptnav import api
     from adaptnav.analysis import evaluate
 
@@ -86,14 +88,19 @@ def run_one(mission: Mission, initial: Alignment, spec: RunSpec) -> dict[str, fl
     cfg = mission.config
     kind = cast(FilterKind, spec.filter)
     settings = cfg.filter_settings().with_kind(kind)
+    dvl = [n for n, s in cfg.sensors.items() if s.kind == "dvl"]
+    own = {n: q for n in dvl if (q := cfg.sensors[n].gate_q) is not None}
     if spec.q is not None:
+        if own:  # the DVL's own q wins over the filter's (FilterSettings.gate)
+            n = next(iter(own))
+            raise ValueError(f"q = {spec.q:g}: the mission's sensors.{n}.gate_q = {own[n]:g} "
+                             "overrides it for that DVL; remove it to sweep q")  # fmt: skip
         settings = settings.updated(gate_q={**settings.gate_q, kind: spec.q})
     noise = None
     if spec.q_scale is not None:
         noise = scale_gyro_bias_q(cfg.imu.noise.to_imu_noise(), spec.q_scale)
     result = api.run(mission, settings=settings, initial=initial, imu_noise=noise)
     m = evaluate.evaluate(result, mission.truth)
-    dvl = [n for n, s in cfg.sensors.items() if s.kind == "dvl"]
     counts = {f: sum(m.counts.get(n, {}).get(f, 0) for n in dvl) for f in ("used", "rejected")}
     dropped = sum(m.counts.get(n, {}).get("dropped", 0) for n in dvl)
     gated = kind in settings.gate_q and any(settings.gated(n, is_dvl=True) for n in dvl)
@@ -108,7 +115,7 @@ def run_one(mission: Mission, initial: Alignment, spec: RunSpec) -> dict[str, fl
         "dvl_used": float(counts["used"]),
         "dvl_rejected": float(counts["rejected"]),
         "dvl_dropped": float(dropped),
-        "gate_q": float(settings.gate_q[kind]) if gated else math.nan,
+        "gate_q": float(own.get(dvl[0], settings.gate_q[kind])) if gated else math.nan,
         "elapsed_s": time.perf_counter() - started,
     }
 
