@@ -365,6 +365,86 @@ def test_two_talkers_interleaved_are_two_sources(tmp_path: Path) -> None:
     assert code == 2 and not (tmp_path / "o").exists()
 
 
+def _with_headings(headings: list[list[str]]) -> list[str]:
+    """The RMC and GGA of :func:`_good_epochs` (10 s on, file lines 1, 2 of each epoch), each
+    epoch followed by its heading sentences (bodies, checksums added here)."""
+    lines = [line for line in _good_epochs(len(headings)) if line[3:6] in ("RMC", "GGA")]
+    out = []
+    for k, bodies in enumerate(headings):
+        out += [*lines[2 * k : 2 * k + 2], *map(sentence, bodies)]
+    return out
+
+
+def _placed(nmea, lines: list[str]) -> None:
+    """Every line is in a table, in the repair log, or counted among the ignored sentences."""
+    placed = {r.line for r in nmea.repairs}
+    for table in (nmea.gnss, nmea.heading, nmea.velocity):
+        placed |= set(table["nmea_line"].tolist())
+    assert len(placed) + sum(nmea.ignored.values()) == len(lines)
+
+
+def test_ths_gives_the_heading_table_of_its_mode_a_sentences(tmp_path: Path) -> None:
+    """THS (IEC 61162-1 true heading and status), which pynmea2 does not know: mode A is a
+    heading at the time of the GGA before it; E (dead reckoning), M, S are not measurements,
+    V is void, a mode not in the standard is a bad field (up to 0.4.8 every THS was an
+    "unknown sentence type": a gyro sending THS alone gave no heading)."""
+    assert sentence("HETHS,316.70,E") == "$HETHS,316.70,E*1A"  # a published example
+    modes = [("10.50", "A"), ("359.99", "A"), ("", "V"), ("20.0", "E"), ("30.0", "M"),
+             ("40.0", "S"), ("0.00", "A"), ("50.0", "X"), ("400.0", "A")]  # fmt: skip
+    lines = _with_headings([[f"HETHS,{h},{m}"] for h, m in modes])
+    log = tmp_path / "ths.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), [10.5, 359.99, 0.0])
+    np.testing.assert_allclose(nmea.heading["utc_s"] - T0.timestamp(), [10.0, 11.0, 16.0])
+    assert nmea.heading["nmea_line"].tolist() == [3, 6, 21]
+    assert [(r.line, r.field, r.action) for r in nmea.repairs] == [
+        (9, "mode", "void"), (12, "mode", "not a measurement"),
+        (15, "mode", "not a measurement"), (18, "mode", "not a measurement"),
+        (24, "mode", "bad field"), (27, "heading", "bad field"),
+    ]  # fmt: skip
+    assert "THS mode E (estimated (dead reckoning))" in nmea.repairs[1].detail
+    assert nmea.sentences["THS"] == 7
+    _placed(nmea, lines)
+    result = runner.invoke(app, ["import", "nmea", str(log), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    assert len(pd.read_parquet(tmp_path / "o" / "heading.parquet")) == 3
+
+
+def test_a_talker_sending_hdt_and_ths_gives_its_ths(tmp_path: Path) -> None:
+    """A gyro that sends HDT (for older listeners) and THS at each epoch is one source: the
+    THS are read, with their mode, and the HDT counted as ignored. The HDT beside a THS of
+    mode V is not taken in its place (the device says the heading is not valid). HDT here
+    read 99° to tell them apart; up to 0.4.8 the HDT were read and THS unknown."""
+    ths = [("12.0", "A"), ("13.0", "A"), ("", "V"), ("15.0", "A")]
+    lines = _with_headings([["HEHDT,99.0,T", f"HETHS,{h},{m}"] for h, m in ths])
+    log = tmp_path / "both.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), [12.0, 13.0, 15.0])
+    np.testing.assert_allclose(nmea.heading["utc_s"] - T0.timestamp(), [10.0, 11.0, 13.0])
+    assert [(r.line, r.action) for r in nmea.repairs] == [(12, "void")]
+    assert nmea.ignored == {"HDT (its talker's THS is read)": 4}
+    _placed(nmea, lines)
+
+
+def test_hdt_and_ths_of_two_talkers_interleaved_are_two_sources(tmp_path: Path) -> None:
+    """A GNSS compass's $GPHDT beside a gyro's $HETHS: two headings, refused naming both; with
+    --heading-talker one is read, the other's sentences "another talker"."""
+    lines = _with_headings([["GPHDT,31.0,T", "HETHS,30.0,A"]] * 3)
+    log = tmp_path / "two.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    said = r"HDT/THS sentences of 2 talkers interleave \(GP HDT from line 3 of two.nmea, HE THS"
+    with pytest.raises(NmeaError, match=said + r" from line 4.*--heading-talker"):
+        read_nmea([log])
+    for talker, heading, other in (("HE", 30.0, 3), ("GP", 31.0, 4)):
+        nmea = read_nmea([log], talkers={"HDT": talker})
+        np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), heading)
+        assert [(r.line, r.action) for r in nmea.repairs] == [
+            (other + 4 * k, "another talker") for k in range(3)
+        ]
+
+
 @pytest.mark.parametrize(
     ("kind", "index", "text", "field", "detail"),
     [

@@ -110,13 +110,16 @@ def nmea(
     ] = None,
     heading_talker: Annotated[
         str | None,
-        typer.Option(help="take the HDT of this talker only (HE, GP ...): two headings in a log"),
+        typer.Option(
+            help="take the headings (HDT, THS) of this talker only (HE, GP ...): two headings "
+            "in a log"
+        ),
     ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
     quiet: Quiet = False,
 ) -> None:
-    """Import NMEA 0183 GGA/HDT (and RMC/VTG/ZDA) logs as GNSS and heading tables.
+    """Import NMEA 0183 GGA/HDT/THS (and RMC/VTG/ZDA) logs as GNSS and heading tables.
 
     With --mission: a copy of that mission with the sensors added or replaced (--t0-utc
     required). Without: the tables and sensors.toml, the sections for a mission.toml. Every
@@ -175,7 +178,7 @@ def _summary(info: dict[str, Any]) -> Table:
     table.add_row("GNSS fixes", f"{g['fixes']} ({quality})" if g["fixes"] else "0")
     for name, s in info["sections"].items():
         table.add_row(f"σ of sensors.{name}", f"{s['sigma'][0]} {s['sigma'][1]}")
-    table.add_row("HDT headings", str(info["heading"]["readings"]))
+    table.add_row("headings", str(info["heading"]["readings"]))
     v = info["velocity"]
     if v["rows"]:
         median = v["sog_m_s_p10_p50_p90"][1]

@@ -1,4 +1,4 @@
-"""Importer of NMEA 0183 logs: GGA fixes and HDT headings as GNSS and heading tables
+"""Importer of NMEA 0183 logs: GGA fixes and HDT/THS headings as GNSS and heading tables
 (docs/nmea.md).
 
 A log is text, one sentence a line (``$GPGGA,...*47``). Each line is framed and its checksum
@@ -7,8 +7,11 @@ that a bad field is a repair naming the file, line and field, never an exception
 
 * **GGA** (UTC time of day, position, fix quality, satellites, HDOP, altitude above the geoid
   and the geoid separation): the GNSS fixes, ``h = altitude + separation`` (ellipsoidal);
-* **HDT** (true heading): the heading readings. HDT carries no time: it takes the time of the
-  last timed sentence (GGA, RMC or ZDA) before it in the same file;
+* **HDT** (true heading) and **THS** (true heading and mode, IEC 61162-1; pynmea2 does not know
+  it, so its fields are split here after pynmea2's checksum check): the heading readings,
+  THS of mode A only (E, dead reckoning, M, S are not measurements, V is void). A talker
+  that sends both gives its THS (its HDT are counted as ignored). These carry no time: they
+  take the time of the last timed sentence (GGA, RMC or ZDA) before them in the same file;
 * **RMC** (time, status, speed and course over ground, date) and **ZDA** (time and date): the
   UTC date, and with **VTG** (course and speed, no time: as HDT) the speed and course over
   ground. The project's GNSS kind measures position only, so these go to an extra table
@@ -92,7 +95,7 @@ assumed."""
 ASSUMED_HDOP = 2.0
 """HDOP taken for a fix whose HDOP field is empty or not positive (recorded as a repair)."""
 HEADING_SIGMA_DEG = 0.5
-"""Default σ of an HDT heading (deg) when neither the options nor the mission give one; an
+"""Default σ of a heading (deg) when neither the options nor the mission give one; an
 assumption: use the device's datasheet."""
 QUALITY_NAMES = {
     1: "GPS (SPS)", 2: "DGPS", 3: "PPS", 4: "RTK fixed", 5: "RTK float", 6: "dead reckoning",
@@ -104,7 +107,15 @@ NOT_MEASURED = frozenset({6, 7, 8})
 TALKERS = frozenset({"GP", "GL", "GA", "GB", "BD", "GQ", "GI", "GN", "HE", "IN", "II"})
 """Talkers accepted for the sentences used: GNSS constellations and combined (GN), north-seeking
 gyro (HE), integrated navigation (IN) and instrumentation (II)."""
-USED = ("GGA", "RMC", "VTG", "HDT", "ZDA")
+TRUE_HEADING = ("HDT", "THS")
+"""Sentences of a heading against true north: HDT, and THS, its IEC 61162-1 successor with a
+mode (gyrocompasses and GNSS compasses since about 2010 send it, often beside HDT)."""
+HEADING_KINDS = TRUE_HEADING
+"""The sentences that give the heading table."""
+THS_MODES = {"A": "autonomous", "E": "estimated (dead reckoning)", "M": "manual input",
+             "S": "simulator", "V": "data not valid"}  # fmt: skip
+"""THS mode indicator (IEC 61162-1). Only A is a measurement (docs/nmea.md, 'THS')."""
+USED = ("GGA", "RMC", "VTG", "HDT", "THS", "ZDA")
 TIMED = frozenset({"GGA", "RMC", "ZDA"})
 HALF_DAY_S = 43200.0
 DAY_S = 86400.0
@@ -300,6 +311,24 @@ def _hdt(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     return _Record("HDT", *where, None, values={"heading_deg": heading})
 
 
+def _ths(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """A THS true heading (IEC 61162-1 ``$--THS,x.x,a``) of mode A (autonomous). E (estimated:
+    a GNSS compass that lost its baseline coasting on its backup gyro, a gyro settling) is an
+    extrapolation, as GGA's dead reckoning, whose error grows while the filter's own gyros
+    already propagate the yaw: not a measurement, as M (typed in) and S (simulated); V is
+    void. Those keep their record, unused: the talker sends THS, so its HDT are copies
+    (:func:`_heading_sentences`), and an HDT must not stand in for a THS that says V."""
+    mode = _required(msg, "mode").upper()
+    if mode not in THS_MODES:
+        raise _LineError("mode", "bad field", f"THS mode {mode!r} is not one of A, E, M, S, V")
+    if mode != "A":
+        action = "void" if mode == "V" else "not a measurement"
+        why = ("mode", action, f"THS mode {mode} ({THS_MODES[mode]})")
+        return _Record("THS", *where, None, unused=why)
+    heading = _number(msg, "heading", low=0.0, high=360.0)
+    return _Record("THS", *where, None, values={"heading_deg": heading})
+
+
 def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     """A ZDA: UTC time and date."""
     tod = _time_of_day(msg)
@@ -312,7 +341,34 @@ def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     return _Record("ZDA", *where, tod, date)
 
 
-_READERS = {"GGA": _gga, "RMC": _rmc, "VTG": _vtg, "HDT": _hdt, "ZDA": _zda}
+_READERS = {"GGA": _gga, "RMC": _rmc, "VTG": _vtg, "HDT": _hdt, "THS": _ths, "ZDA": _zda}
+OWN_FIELDS = {"THS": ("heading", "mode")}
+"""Sentences pynmea2 (1.19) does not know, and their fields: framed and checksum-checked by
+``pynmea2.parse``, then split here (:class:`_Own`)."""
+
+
+@dataclass(frozen=True)
+class _Own:
+    """A talker sentence of :data:`OWN_FIELDS`, with the attributes of a
+    ``pynmea2.TalkerSentence`` that :func:`_field` reads (``data``, ``name_to_idx``)."""
+
+    talker: str
+    sentence_type: str
+    data: list[str]
+
+    @property
+    def name_to_idx(self) -> dict[str, int]:
+        return {name: i for i, name in enumerate(OWN_FIELDS[self.sentence_type])}
+
+
+def _own(text: str) -> _Own | None:
+    """``text`` (its checksum already checked) as an :class:`_Own` sentence, None if it is not
+    of :data:`OWN_FIELDS`. Split as pynmea2 splits: the fields between the address and ``*``."""
+    address, *data = text[1:].partition("*")[0].split(",")
+    address = address.upper()  # pynmea2 takes lower-case addresses too
+    if len(address) != 5 or address[2:] not in OWN_FIELDS:
+        return None
+    return _Own(address[:2], address[2:], data)
 
 
 def _message(exc: ValueError) -> str:
@@ -321,7 +377,7 @@ def _message(exc: ValueError) -> str:
     return str(first[0] if isinstance(first, tuple) and first else first)
 
 
-def _sentence(text: str) -> pynmea2.NMEASentence | str:
+def _sentence(text: str) -> pynmea2.NMEASentence | _Own | str:
     """The framed, checksum-checked sentence, or the name of an ignored kind of line."""
     if text.startswith("!"):
         return "encapsulated (!)"
@@ -338,11 +394,18 @@ def _sentence(text: str) -> pynmea2.NMEASentence | str:
             "(checksum)", "checksum mismatch", f"*{given} given, *{computed} computed"
         ) from None
     except pynmea2.SentenceTypeError:
-        raise _LineError("(type)", "unknown sentence type", text.split(",", 1)[0][:12]) from None
+        # raised after the checksum check: a sentence pynmea2 does not know may be ours
+        own = _own(text)
+        if own is None:
+            address = text.split(",", 1)[0][:12]
+            raise _LineError("(type)", "unknown sentence type", address) from None
+        return own
     except (pynmea2.ParseError, ValueError) as exc:
         raise _LineError("(line)", "not an NMEA sentence", _message(exc)[:60]) from None
     if not isinstance(msg, pynmea2.TalkerSentence):
         return "proprietary" if isinstance(msg, pynmea2.ProprietarySentence) else "query"
+    if msg.sentence_type in OWN_FIELDS:  # a later pynmea2 that knows it: our field names still
+        return _Own(msg.talker, msg.sentence_type, [str(d) for d in msg.data])
     return msg
 
 
@@ -371,8 +434,15 @@ def _record(text: str, where: tuple[int, int], ignored: Counter[str]) -> _Record
 
 
 TALKER_OPTIONS = {"GGA": "--gnss-talker", "HDT": "--heading-talker"}
-"""The sentences whose readings aid the filter, each from one source, and the option that
-chooses its talker."""
+"""The sources whose readings aid the filter, each from one talker, and the option that chooses
+it; ``"HDT"`` stands for every heading sentence (:data:`SOURCE_KINDS`)."""
+SOURCE_KINDS = {"GGA": ("GGA",), "HDT": HEADING_KINDS}
+"""The sentences of each source of :data:`TALKER_OPTIONS`."""
+
+
+def _source(kind: str) -> str | None:
+    """The key of :data:`TALKER_OPTIONS` whose source sentence ``kind`` is; None: no source."""
+    return next((k for k, kinds in SOURCE_KINDS.items() if kind in kinds), None)
 
 
 def _checked_talkers(talkers: Mapping[str, str]) -> dict[str, str]:
@@ -387,42 +457,73 @@ def _checked_talkers(talkers: Mapping[str, str]) -> dict[str, str]:
     return out
 
 
-def _talker_spans(records: Sequence[_Record], kind: str) -> dict[str, tuple[int, int]]:
-    """Per talker, the positions in the stream of its first and last sentence ``kind``."""
+def _heading_sentences(
+    records: Sequence[_Record], chosen: str | None, ignored: Counter[str]
+) -> list[_Record]:
+    """The records without the heading sentences that repeat another: an HDT of a talker that
+    also sends THS (a gyro sends both, HDT for older listeners) is counted in ``ignored``,
+    since its THS gives the same heading and a mode that says whether it is valid (an HDT
+    beside a THS of mode V is not a heading). ``chosen``: the ``--heading-talker``, whose
+    sentences decide (None: all talkers')."""
+    ths = {r.talker for r in records if r.kind == "THS" and chosen in (None, r.talker)}
+    out = []
+    for r in records:
+        if r.kind == "HDT" and r.talker in ths:
+            ignored["HDT (its talker's THS is read)"] += 1
+        else:
+            out.append(r)
+    return out
+
+
+def _talker_spans(records: Sequence[_Record], kinds: Sequence[str]) -> dict[str, tuple[int, int]]:
+    """Per talker, the positions in the stream of its first and last sentence of ``kinds``."""
     spans: dict[str, tuple[int, int]] = {}
     for i, r in enumerate(records):
-        if r.kind == kind:
+        if r.kind in kinds:
             spans[r.talker] = (spans.get(r.talker, (i, i))[0], i)
     return spans
 
 
-def _one_source(
-    records: Sequence[_Record], talkers: Mapping[str, str], names: Sequence[str]
-) -> list[_Record]:
-    """The records with the GGA and HDT of talkers other than the one ``talkers`` chooses for
-    them (e.g. ``{"GGA": "GP"}``) marked unused, "another talker" (their time still counts).
-    Without a choice, talkers whose sentences of one kind interleave in the stream are two
-    sources (two receivers, a GNSS compass beside a gyro) whose readings would alternate in
-    one table (up to 0.4.7: fixes of two antennas 20 m apart, 0.5 s apart, read as one
-    track): an :class:`NmeaError` naming them. A talker that follows another (a receiver
+def _interleaved(records: Sequence[_Record], key: str, names: Sequence[str]) -> None:
+    """An :class:`NmeaError` if the sentences of source ``key`` (:data:`SOURCE_KINDS`) of two
+    talkers interleave in the stream: two sources (two receivers, a GNSS compass beside a
+    gyro) whose readings would alternate in one table (up to 0.4.7: fixes of two antennas
+    20 m apart, 0.5 s apart, read as one track). A talker that follows another (a receiver
     that switched from GP to GN) is one source."""
-    for kind, option in TALKER_OPTIONS.items():
-        spans = sorted(_talker_spans(records, kind).items(), key=lambda kv: kv[1])
-        # sorted by their first sentences, two spans overlap only if two neighbours do
-        overlap = any(b[1][0] < a[1][1] for a, b in itertools.pairwise(spans))
-        if kind not in talkers and overlap:
-            said = ", ".join(f"{t or '?'} {kind} from line {records[i].line} of "
-                             f"{names[records[i].file]}" for t, (i, _) in spans)  # fmt: skip
-            raise NmeaError(
-                f"{kind} sentences of {len(spans)} talkers interleave ({said}): two sources in "
-                f"one log, whose readings would alternate; choose one with {option}",
-                file=names[records[spans[0][1][0]].file],
-            )
+    spans = sorted(_talker_spans(records, SOURCE_KINDS[key]).items(), key=lambda kv: kv[1])
+    # sorted by their first sentences, two spans overlap only if two neighbours do
+    if any(b[1][0] < a[1][1] for a, b in itertools.pairwise(spans)):
+        said = ", ".join(f"{t or '?'} {records[i].kind} from line {records[i].line} of "
+                         f"{names[records[i].file]}" for t, (i, _) in spans)  # fmt: skip
+        kinds = "/".join(k for k in SOURCE_KINDS[key] if any(r.kind == k for r in records))
+        raise NmeaError(
+            f"{kinds} sentences of {len(spans)} talkers interleave ({said}): two sources in "
+            f"one log, whose readings would alternate; choose one with {TALKER_OPTIONS[key]}",
+            file=names[records[spans[0][1][0]].file],
+        )
+
+
+def _one_source(
+    records: Sequence[_Record],
+    talkers: Mapping[str, str],
+    names: Sequence[str],
+    ignored: Counter[str],
+) -> list[_Record]:
+    """The records of one source per table: the heading sentences that repeat another left
+    out (:func:`_heading_sentences`), and the sentences of a source of talkers other than the
+    one ``talkers`` chooses (e.g. ``{"GGA": "GP"}``) marked unused, "another talker" (their
+    time still counts). Without a choice, talkers whose sentences interleave are an
+    :class:`NmeaError` (:func:`_interleaved`)."""
+    kept = _heading_sentences(records, talkers.get("HDT"), ignored)
+    for key in TALKER_OPTIONS:
+        if key not in talkers:
+            _interleaved(kept, key, names)
     out = []
-    for r in records:
-        chosen = talkers.get(r.kind)
-        if chosen is not None and r.talker != chosen:
-            why = f"{r.talker}{r.kind}, not the {TALKER_OPTIONS[r.kind]} {chosen}"
+    for r in kept:
+        source = _source(r.kind)
+        chosen = talkers.get(source) if source is not None else None
+        if source is not None and chosen is not None and r.talker != chosen:
+            why = f"{r.talker}{r.kind}, not the {TALKER_OPTIONS[source]} {chosen}"
             r = replace(r, unused=("(talker)", "another talker", why))
         out.append(r)
     return out
@@ -481,7 +582,7 @@ def _days(
     records: Sequence[_Record], names: Sequence[str], journal: Journal
 ) -> tuple[list[tuple[_Record, int, float]], int]:
     """(record, day index, UTC time of day) of each record with a time, and the number of
-    midnight roll-overs. An untimed sentence (VTG, HDT) takes the last timed sentence's time in
+    midnight roll-overs. An untimed sentence (VTG, HDT, THS) takes the last timed sentence's time in
     its file, none before the first (repair). The time of day going back by more than 12 h
     is a new day (forward by more than 12 h: the day before)."""
     out: list[tuple[_Record, int, float]] = []
@@ -629,7 +730,7 @@ VELOCITY_COLUMNS = ("utc_s", "sog_m_s", "cog_rad", "sentence", "nmea_file", "nme
 
 
 def _table(rows: Sequence[tuple[_Record, float]], columns: Sequence[str]) -> pd.DataFrame:
-    """The heading or velocity table of stamped HDT, or RMC and VTG, records."""
+    """The heading or velocity table of stamped heading, or RMC and VTG, records."""
     out = []
     for r, t in rows:
         v = r.values
@@ -679,7 +780,8 @@ def read_nmea(
         paths: the log files; each must hold at least one usable sentence.
         date: the UTC date of the first timed sentence, for logs without RMC/ZDA dates.
         uere_m: σ of the user-equivalent range error of a standalone fix (:func:`fix_sigma`).
-        talkers: the talker whose GGA, whose HDT, give the readings (``{"GGA": "GP"}``);
+        talkers: the talker whose GGA, whose headings (key ``"HDT"``: HDT or THS), give the
+            readings (``{"GGA": "GP"}``);
             needed when two talkers' sentences of one kind interleave (:func:`_one_source`).
 
     Raises :class:`NmeaError` for a file without a usable sentence, no date, or a log with
@@ -693,7 +795,7 @@ def read_nmea(
     names = [n if short.count(n) == 1 else str(p) for n, p in zip(short, files, strict=True)]
     journal, ignored = Journal(), Counter[str]()
     records = [r for i, p in enumerate(files) for r in _read_file(i, p, journal, ignored)]
-    records = _one_source(records, _checked_talkers(talkers or {}), names)
+    records = _one_source(records, _checked_talkers(talkers or {}), names, ignored)
     timed, rollovers = _days(records, names, journal)
     utc, source = _utc(timed, date, names, journal)
     stamped = [(r, t) for (r, _, _), t in zip(timed, utc, strict=True)]
@@ -709,14 +811,15 @@ def read_nmea(
                       VELOCITY_COLUMNS)  # fmt: skip
     log_ = NmeaLog(
         files, _gnss_rows(select("GGA"), uere_m, names, journal),
-        _table(select("HDT"), HEADING_COLUMNS), velocity,
+        _table(select(*HEADING_KINDS), HEADING_COLUMNS), velocity,
         tuple(sorted(journal.repairs, key=lambda r: (names.index(r.file), r.line or 0))),
         dict(Counter(r.kind for r in records)), dict(ignored), source, rollovers, uere_m,
     )  # fmt: skip
     journal.summarise()
     if log_.gnss.empty and log_.heading.empty:
         raise NmeaError(
-            f"{', '.join(names)}: no GNSS fix (GGA of a measured quality) and no HDT heading "
+            f"{', '.join(names)}: no GNSS fix (GGA of a measured quality) and no heading "
+            f"(HDT, THS) "
             f"({len(journal.repairs)} line(s) in the repair log)",
             file=names[0],
         )
@@ -891,7 +994,7 @@ def _record_of(
             "t0_utc": dt.datetime.fromtimestamp(t0, dt.UTC).isoformat(),
             "t0_source": t0_source, "date_source": nmea.date_source,
             "midnight_rollovers": nmea.rollovers,
-            "rule": "t_s = UTC - t0_utc; HDT and VTG take the time of the last timed sentence",
+            "rule": "t_s = UTC - t0_utc; HDT, THS and VTG take the time of the last timed sentence",
         },
         "gnss": {
             "fixes": len(g),
