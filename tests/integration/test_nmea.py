@@ -15,6 +15,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+import shutil
 import time
 from pathlib import Path
 
@@ -253,6 +254,27 @@ def test_min_interval_s_goes_into_the_gnss_section(
     assert m.config.sensors["gps"].min_interval_s == 30.0
     assert np.diff(m.sensors["gps"].t).min() >= 30.0
     assert any(d.reason.startswith("thinned: ") for d in m.dropped)
+
+
+def test_a_replaced_compass_loses_its_declination(
+    original: Path, logs: list[Path], tmp_path: Path
+) -> None:
+    """The mission's heading sensor was a magnetic compass (``declination_deg = 7``): the HDT
+    headings that replace it are true, so the section keeps its other keys but not the
+    declination, which the loader would add to them (up to 0.4.8 kept: every heading 7° off)."""
+    mission = tmp_path / "compass"
+    shutil.copytree(original, mission)
+    config = load_config(mission / "mission.toml")
+    sensors = dict(config.sensors)
+    sensors["heading"] = sensors["heading"].model_copy(update={"declination_deg": 7.0})
+    write_config(config.model_copy(update={"sensors": sensors}), mission / "mission.toml")
+    assert load_config(mission / "mission.toml").sensors["heading"].declination_deg == 7.0
+    m = load_mission(_import(mission, logs, tmp_path / "m"))
+    assert m.config.sensors["heading"].declination_deg is None
+    assert m.config.sensors["heading"].sigma == config.sensors["heading"].sigma
+    got = m.sensors["heading"].z[:, 0]
+    want = pd.read_parquet(original / "heading.parquet")["yaw_rad"].to_numpy()
+    np.testing.assert_allclose(np.angle(np.exp(1j * (got - want))), 0.0, atol=1e-4)
 
 
 def test_run_on_the_imported_mission_matches_the_original(original: Path, imported: Path) -> None:

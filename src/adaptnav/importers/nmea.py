@@ -915,11 +915,15 @@ def _gnss_section(
 
 
 def _heading_section(old: dict[str, Any] | None, opts: Options) -> tuple[dict[str, Any], str]:
-    """``[sensors.<heading>]``: the replaced one's keys, or a new ``use = "aid"`` section, with
-    the new file and σ (``opts.heading_sigma_deg``, the replaced σ, else
-    :data:`HEADING_SIGMA_DEG`); and σ's source."""
+    """``[sensors.<heading>]``: the replaced one's keys but its ``declination_deg`` (the
+    headings are true), or a new ``use = "aid"`` section, with the new file and σ
+    (``opts.heading_sigma_deg``, the replaced σ, else :data:`HEADING_SIGMA_DEG`); and σ's
+    source."""
     doc: dict[str, Any] = dict(old) if old is not None else {"kind": "heading", "use": "aid"}
     doc["file"] = f"{opts.heading_name}.{opts.fmt}"
+    # the replaced sensor may have been a magnetic compass: its declination would turn these
+    # true headings once more at load (up to 0.4.8 kept)
+    doc.pop("declination_deg", None)
     if opts.heading_sigma_deg is not None:
         doc["sigma"], source = [opts.heading_sigma_deg, "deg"], "--heading-sigma-deg"
     elif old is not None:
