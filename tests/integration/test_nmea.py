@@ -467,6 +467,82 @@ def test_hdt_and_ths_of_two_talkers_interleaved_are_two_sources(tmp_path: Path) 
         ]
 
 
+def test_hdg_is_turned_to_true_north_by_its_deviation_and_variation(tmp_path: Path) -> None:
+    """HDG (magnetic compass): true = sensor heading + deviation + variation, each E positive
+    and W negative, wrapped to [0, 360); an empty deviation is 0. An HDG without variation
+    among others with one is a repair, as a direction letter not E or W (up to 0.4.8 every
+    HDG was ignored: a compass gave no heading)."""
+    assert sentence("HCHDG,101.1,,,7.1,W") == "$HCHDG,101.1,,,7.1,W*3C"  # published example
+    fields = ["100.0,1.0,E,3.2,W", "100.0,1.0,W,3.2,E", "359.0,,,2.5,E", "1.0,2.0,W,0.5,W",
+              "101.1,,,7.1,W", "50.0,1.0,E,,", "50.0,1.0,X,3.0,E", "50.0,1.0,E,3.0,",
+              "50.0,1.0,E,-3.0,W"]  # fmt: skip
+    lines = _with_headings([[f"HCHDG,{f}"] for f in fields])
+    log = tmp_path / "hdg.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    want = [100.0 + 1.0 - 3.2, 100.0 - 1.0 + 3.2, 1.5, 358.5, 94.0]
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), want, atol=1e-9)
+    np.testing.assert_allclose(nmea.heading["utc_s"] - T0.timestamp(), 10.0 + np.arange(5))
+    assert [(r.line, r.field, r.action) for r in nmea.repairs] == [
+        (18, "variation", "no variation"), (21, "dev_dir", "bad field"),
+        (24, "var_dir", "bad field"), (27, "variation", "bad field"),
+    ]  # fmt: skip
+    assert nmea.declination_deg is None
+    _placed(nmea, lines)
+
+
+def test_hdg_without_variation_needs_the_declination(tmp_path: Path, original: Path) -> None:
+    """A compass that gives no variation: no true heading can be formed, so the import is
+    refused, naming --declination-deg. With it the table keeps the magnetic headings
+    (sensor + deviation) and the heading section gets ``declination_deg``, which the loader
+    adds (docs/data-format.md, 'Magnetic headings'). The option beside true headings (HDT)
+    is refused: they would be turned twice."""
+    lines = _with_headings([[f"HCHDG,{10.0 * k:.1f},1.0,W,,"] for k in range(6)])
+    log = tmp_path / "compass.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    with pytest.raises(NmeaError, match=r"HDG headings \(6, from line 3\) give no variation"):
+        read_nmea([log])
+    args = ["import", "nmea", str(log), "--mission", str(original), "--t0-utc", T0.isoformat(),
+            "--gnss-name", "gps"]  # fmt: skip
+    result = runner.invoke(app, [*args, "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "--declination-deg D" in " ".join(result.output.split())
+    result = runner.invoke(app, [*args, "--declination-deg", "-4.5", "--out", str(tmp_path / "m")])
+    assert result.exit_code == 0, result.output
+    table = pd.read_parquet(tmp_path / "m" / "heading.parquet")
+    magnetic = (10.0 * np.arange(6) - 1.0) % 360.0
+    np.testing.assert_allclose(np.degrees(table["yaw_rad"]), magnetic)
+    m = load_mission(tmp_path / "m")
+    assert m.config.sensors["heading"].declination_deg == -4.5
+    true = np.radians(magnetic - 4.5)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (m.sensors["heading"].z[:, 0] - true))), 0.0,
+                               atol=1e-12)  # fmt: skip
+    info = json.loads((tmp_path / "m" / "import.json").read_text())
+    assert info["heading"]["north"] == "magnetic north, declination_deg -4.5 in the section"
+    hdt = tmp_path / "hdt.nmea"
+    hdt.write_text("\n".join(_good_epochs(3)) + "\n", encoding="ascii")
+    with pytest.raises(NmeaError, match="--declination-deg 3: no HDG heading read"):
+        read_nmea([hdt], declination_deg=3.0)
+    with pytest.raises(NmeaError, match=r"--declination-deg 95.0: must be within \[-90, 90\]"):
+        read_nmea([log], declination_deg=95.0)
+
+
+def test_a_true_heading_beside_hdg_is_read_as_up_to_0_4_8(tmp_path: Path) -> None:
+    """A gyro ($HEHDT) beside a magnetic compass ($HCHDG): the true heading is read as before
+    and the HDG counted as ignored, not two interleaved sources. --heading-talker HC chooses
+    the compass: its HDG, true by its variation, and the HDT "another talker"."""
+    lines = _with_headings([["HEHDT,30.0,T", "HCHDG,33.0,0.5,E,2.0,W"]] * 3)
+    log = tmp_path / "gyro-compass.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), 30.0)
+    assert nmea.repairs == () and nmea.ignored == {"HDG (a true heading, HDT or THS, is read)": 3}
+    nmea = read_nmea([log], talkers={"HDT": "HC"})
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), 31.5)
+    assert [(r.line, r.action) for r in nmea.repairs] == [(3, "another talker"),
+                                                          (7, "another talker"),
+                                                          (11, "another talker")]  # fmt: skip
+
+
 @pytest.mark.parametrize(
     ("kind", "index", "text", "field", "detail"),
     [
@@ -604,6 +680,14 @@ def test_refused_input_exits_2(
 # --- fuzz ----------------------------------------------------------------------------------------
 
 CLEAN = _good_epochs(8)
+CLEAN_LOGS = {
+    "HDT": CLEAN,
+    "HDT+THS": [x for line in CLEAN for x in ([line, sentence(f"HETHS,{line[7:12]},A")]
+                                              if line[3:6] == "HDT" else [line])],
+    "HDG": [sentence(f"HCHDG,{line[7:12]},0.5,E,2.0,W") if line[3:6] == "HDT" else line
+            for line in CLEAN],
+}  # fmt: skip
+"""Clean logs whose heading is HDT, a gyro's HDT and THS, a compass's HDG."""
 
 
 def _refield(line: bytes, pos: int, data: bytes) -> bytes:
@@ -650,10 +734,13 @@ EDITS = st.lists(
 @settings(
     max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
+@pytest.mark.parametrize("heading", sorted(CLEAN_LOGS))
 @given(edits=EDITS)
-def test_corrupted_logs_never_traceback_nor_drop_silently(tmp_path: Path, edits: list) -> None:
+def test_corrupted_logs_never_traceback_nor_drop_silently(
+    tmp_path: Path, heading: str, edits: list
+) -> None:
     log = tmp_path / "fuzz.nmea"
-    data = _corrupt(CLEAN, edits)
+    data = _corrupt(CLEAN_LOGS[heading], edits)
     log.write_bytes(data)
     try:
         nmea = read_nmea([log], date=dt.date(2024, 3, 10))

@@ -111,15 +111,22 @@ def nmea(
     heading_talker: Annotated[
         str | None,
         typer.Option(
-            help="take the headings (HDT, THS) of this talker only (HE, GP ...): two headings "
-            "in a log"
+            help="take the headings (HDT, THS, HDG) of this talker only (HE, GP, HC ...): two "
+            "headings in a log"
+        ),
+    ] = None,
+    declination_deg: Annotated[
+        float | None,
+        typer.Option(
+            help="declination (deg, east positive) for HDG compass headings without variation: "
+            "the table keeps them magnetic and the heading section gets declination_deg"
         ),
     ] = None,
     csv: Annotated[bool, typer.Option("--csv", help="write CSV tables (default Parquet)")] = False,
     force: Force = False,
     quiet: Quiet = False,
 ) -> None:
-    """Import NMEA 0183 GGA/HDT/THS (and RMC/VTG/ZDA) logs as GNSS and heading tables.
+    """Import NMEA 0183 GGA/HDT/THS/HDG (and RMC/VTG/ZDA) logs as GNSS and heading tables.
 
     With --mission: a copy of that mission with the sensors added or replaced (--t0-utc
     required). Without: the tables and sensors.toml, the sections for a mission.toml. Every
@@ -144,7 +151,8 @@ def nmea(
             talkers = {k: v for k, v in (("GGA", gnss_talker), ("HDT", heading_talker)) if v}
             import_nmea(logs, tmp, mission=mission, t0_utc=t0, date=day,
                         uere_m=UERE_M if uere_m is None else uere_m,
-                        options=opts, talkers=talkers)  # fmt: skip
+                        options=opts, talkers=talkers,
+                        declination_deg=declination_deg)  # fmt: skip
         except (MissionError, ValueError, OSError) as exc:  # NmeaError is a MissionError
             fail(_first_line(exc))
     _report(out, mission is not None)
@@ -178,7 +186,9 @@ def _summary(info: dict[str, Any]) -> Table:
     table.add_row("GNSS fixes", f"{g['fixes']} ({quality})" if g["fixes"] else "0")
     for name, s in info["sections"].items():
         table.add_row(f"σ of sensors.{name}", f"{s['sigma'][0]} {s['sigma'][1]}")
-    table.add_row("headings", str(info["heading"]["readings"]))
+    heading = info["heading"]
+    table.add_row("headings", f"{heading['readings']} ({heading['north']})"
+                  if heading["readings"] else "0")  # fmt: skip
     v = info["velocity"]
     if v["rows"]:
         median = v["sog_m_s_p10_p50_p90"][1]

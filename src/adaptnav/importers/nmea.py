@@ -1,4 +1,4 @@
-"""Importer of NMEA 0183 logs: GGA fixes and HDT/THS headings as GNSS and heading tables
+"""Importer of NMEA 0183 logs: GGA fixes and HDT/THS/HDG headings as GNSS and heading tables
 (docs/nmea.md).
 
 A log is text, one sentence a line (``$GPGGA,...*47``). Each line is framed and its checksum
@@ -10,8 +10,14 @@ that a bad field is a repair naming the file, line and field, never an exception
 * **HDT** (true heading) and **THS** (true heading and mode, IEC 61162-1; pynmea2 does not know
   it, so its fields are split here after pynmea2's checksum check): the heading readings,
   THS of mode A only (E, dead reckoning, M, S are not measurements, V is void). A talker
-  that sends both gives its THS (its HDT are counted as ignored). These carry no time: they
-  take the time of the last timed sentence (GGA, RMC or ZDA) before them in the same file;
+  that sends both gives its THS (its HDT are counted as ignored);
+* **HDG** (a magnetic compass's sensor heading, deviation and variation, E positive): the
+  heading readings only when the heading source sends no HDT or THS; true = sensor +
+  deviation + variation. Without variation the true heading cannot be formed: refused, unless
+  ``declination_deg`` (``--declination-deg``) is given, and then the table keeps the magnetic
+  headings and the heading section gets ``declination_deg`` (docs/data-format.md, 'Magnetic
+  headings'), which turns them at load. Headings carry no time: they take the time of the
+  last timed sentence (GGA, RMC or ZDA) before them in the same file;
 * **RMC** (time, status, speed and course over ground, date) and **ZDA** (time and date): the
   UTC date, and with **VTG** (course and speed, no time: as HDT) the speed and course over
   ground. The project's GNSS kind measures position only, so these go to an extra table
@@ -104,18 +110,19 @@ QUALITY_NAMES = {
 """GGA fix quality indicator (NMEA 0183 v4.x; 9 as u-blox and others output SBAS)."""
 NOT_MEASURED = frozenset({6, 7, 8})
 """Qualities that are not measurements (an extrapolation, a typed-in or simulated position)."""
-TALKERS = frozenset({"GP", "GL", "GA", "GB", "BD", "GQ", "GI", "GN", "HE", "IN", "II"})
+TALKERS = frozenset({"GP", "GL", "GA", "GB", "BD", "GQ", "GI", "GN", "HE", "HC", "IN", "II"})
 """Talkers accepted for the sentences used: GNSS constellations and combined (GN), north-seeking
-gyro (HE), integrated navigation (IN) and instrumentation (II)."""
+gyro (HE), magnetic compass (HC), integrated navigation (IN) and instrumentation (II)."""
 TRUE_HEADING = ("HDT", "THS")
 """Sentences of a heading against true north: HDT, and THS, its IEC 61162-1 successor with a
 mode (gyrocompasses and GNSS compasses since about 2010 send it, often beside HDT)."""
-HEADING_KINDS = TRUE_HEADING
-"""The sentences that give the heading table."""
+HEADING_KINDS = (*TRUE_HEADING, "HDG")
+"""The sentences that give the heading table: HDG (a magnetic compass) only when the heading
+source sends no true heading (:func:`_heading_sentences`)."""
 THS_MODES = {"A": "autonomous", "E": "estimated (dead reckoning)", "M": "manual input",
              "S": "simulator", "V": "data not valid"}  # fmt: skip
 """THS mode indicator (IEC 61162-1). Only A is a measurement (docs/nmea.md, 'THS')."""
-USED = ("GGA", "RMC", "VTG", "HDT", "THS", "ZDA")
+USED = ("GGA", "RMC", "VTG", "HDT", "THS", "HDG", "ZDA")
 TIMED = frozenset({"GGA", "RMC", "ZDA"})
 HALF_DAY_S = 43200.0
 DAY_S = 86400.0
@@ -329,6 +336,33 @@ def _ths(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     return _Record("THS", *where, None, values={"heading_deg": heading})
 
 
+def _signed(msg: pynmea2.TalkerSentence, name: str, side: str) -> float:
+    """An HDG deviation or variation: degrees in [0, 180] with ``E`` (+) or ``W`` (-) in field
+    ``side``; empty: NaN."""
+    value = _number(msg, name, optional=True, low=0.0, high=180.0)
+    if math.isnan(value):
+        return value
+    letter = _field(msg, side).upper()
+    if letter not in ("E", "W"):
+        raise _LineError(side, "bad field", f"{name} {value:g} with {side} {letter!r}, not E or W")
+    return value if letter == "E" else -value
+
+
+def _hdg(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """An HDG (``$--HDG,heading,dev,E/W,var,E/W``): a magnetic compass's sensor heading, its
+    deviation and the variation (declination), each E positive. Sensor heading + deviation is
+    the magnetic heading, + variation the true one (NMEA 0183; docs/nmea.md, 'HDG'). Gives
+    the magnetic heading in [0, 360) and the variation (NaN when empty: :func:`_true_north`
+    decides); an empty deviation is 0 (none given: a compass compensated, or not told its
+    deviation table)."""
+    sensor = _number(msg, "heading", low=0.0, high=360.0)
+    deviation = _signed(msg, "deviation", "dev_dir")
+    variation = _signed(msg, "variation", "var_dir")
+    magnetic = (sensor + (0.0 if math.isnan(deviation) else deviation)) % 360.0
+    return _Record("HDG", *where, None,
+                   values={"heading_deg": magnetic, "variation_deg": variation})  # fmt: skip
+
+
 def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     """A ZDA: UTC time and date."""
     tod = _time_of_day(msg)
@@ -341,7 +375,8 @@ def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     return _Record("ZDA", *where, tod, date)
 
 
-_READERS = {"GGA": _gga, "RMC": _rmc, "VTG": _vtg, "HDT": _hdt, "THS": _ths, "ZDA": _zda}
+_READERS = {"GGA": _gga, "RMC": _rmc, "VTG": _vtg, "HDT": _hdt, "THS": _ths, "HDG": _hdg,
+            "ZDA": _zda}  # fmt: skip
 OWN_FIELDS = {"THS": ("heading", "mode")}
 """Sentences pynmea2 (1.19) does not know, and their fields: framed and checksum-checked by
 ``pynmea2.parse``, then split here (:class:`_Own`)."""
@@ -460,15 +495,21 @@ def _checked_talkers(talkers: Mapping[str, str]) -> dict[str, str]:
 def _heading_sentences(
     records: Sequence[_Record], chosen: str | None, ignored: Counter[str]
 ) -> list[_Record]:
-    """The records without the heading sentences that repeat another: an HDT of a talker that
-    also sends THS (a gyro sends both, HDT for older listeners) is counted in ``ignored``,
-    since its THS gives the same heading and a mode that says whether it is valid (an HDT
-    beside a THS of mode V is not a heading). ``chosen``: the ``--heading-talker``, whose
-    sentences decide (None: all talkers')."""
-    ths = {r.talker for r in records if r.kind == "THS" and chosen in (None, r.talker)}
+    """The records without the heading sentences that another stands for, counted in
+    ``ignored``: HDG when the heading source sends a true heading (HDT, THS: a gyro beside a
+    magnetic compass, or a gyro's own HDG; the true heading is read, as up to 0.4.8), and an
+    HDT of a talker that also sends THS (a gyro sends both, HDT for older listeners): its
+    THS gives the same heading and a mode that says whether it is valid (an HDT beside a THS
+    of mode V is not a heading). ``chosen``: the ``--heading-talker``, whose sentences decide
+    (None: all talkers')."""
+    mine = [r for r in records if r.kind in HEADING_KINDS and chosen in (None, r.talker)]
+    true = any(r.kind in TRUE_HEADING for r in mine)
+    ths = {r.talker for r in mine if r.kind == "THS"}
     out = []
     for r in records:
-        if r.kind == "HDT" and r.talker in ths:
+        if r.kind == "HDG" and true:
+            ignored["HDG (a true heading, HDT or THS, is read)"] += 1
+        elif r.kind == "HDT" and r.talker in ths:
             ignored["HDT (its talker's THS is read)"] += 1
         else:
             out.append(r)
@@ -743,6 +784,56 @@ def _table(rows: Sequence[tuple[_Record, float]], columns: Sequence[str]) -> pd.
     return pd.DataFrame(out, columns=list(columns))
 
 
+VARIATION_TOLERANCE_DEG = 1.0
+"""HDG variations that differ from ``--declination-deg`` by more than this are warned of."""
+
+
+def _true_north(
+    rows: Sequence[tuple[_Record, float]],
+    declination_deg: float | None,
+    names: Sequence[str],
+    journal: Journal,
+) -> list[tuple[_Record, float]]:
+    """The heading rows with the HDG ones turned to true north by their variation (E +).
+
+    An HDG without variation (a compass not told its place) is a repair, "no variation", and
+    when none has one an :class:`NmeaError` naming ``--declination-deg``: a heading off by the
+    declination would aid the yaw off by it. With ``declination_deg`` every HDG stays
+    magnetic (sensor heading + deviation), their variations unused (one declination for the
+    sensor, as the mission format has: docs/data-format.md, 'Magnetic headings'), and the
+    section's ``declination_deg`` turns them at load; with HDT or THS headings (true already)
+    or none, that option is an :class:`NmeaError`.
+    """
+    hdg = [r for r, _ in rows if r.kind == "HDG"]
+    if declination_deg is not None:
+        if not hdg or len(hdg) != len(rows):
+            raise NmeaError(f"--declination-deg {declination_deg:g}: no HDG heading read (HDT "
+                            "and THS are true already; it is for an HDG compass without "
+                            "variation)", field="declination_deg")  # fmt: skip
+        given = [v for r in hdg if math.isfinite(v := r.values["variation_deg"])]
+        if given and max(abs(v - declination_deg) for v in given) > VARIATION_TOLERANCE_DEG:
+            log.warning("HDG variations %.1f..%.1f° in the log, --declination-deg %g° used",
+                        min(given), max(given), declination_deg)  # fmt: skip
+        return list(rows)
+    if hdg and all(math.isnan(r.values["variation_deg"]) for r in hdg):
+        raise NmeaError(
+            f"{names[hdg[0].file]}: the HDG headings ({len(hdg)}, from line {hdg[0].line}) give "
+            "no variation, so no true heading: give the compass's declination with "
+            "--declination-deg D (east positive; the table keeps the magnetic headings and the "
+            "heading section gets declination_deg = D)", file=names[hdg[0].file],
+        )  # fmt: skip
+    out = []
+    for r, t in rows:
+        variation = r.values.get("variation_deg", 0.0)  # HDT, THS: none, true already
+        if math.isnan(variation):
+            journal.repair(names[r.file], r.line, "variation", "no variation",
+                           "HDG without variation: no true heading")  # fmt: skip
+            continue
+        true = (r.values["heading_deg"] + variation) % 360.0 if r.kind == "HDG" else None
+        out.append((r if true is None else replace(r, values={"heading_deg": true}), t))
+    return out
+
+
 # --- reading a log ------------------------------------------------------------------------------
 
 
@@ -765,6 +856,9 @@ class NmeaLog:
     date_source: str
     rollovers: int
     uere_m: float
+    declination_deg: float | None = None
+    """None: ``heading`` is against true north; else it holds an HDG compass's magnetic
+    headings, and this is the declination the section turns them by (:func:`_true_north`)."""
 
 
 def read_nmea(
@@ -773,6 +867,7 @@ def read_nmea(
     date: dt.date | None = None,
     uere_m: float = UERE_M,
     talkers: Mapping[str, str] | None = None,
+    declination_deg: float | None = None,
 ) -> NmeaLog:
     """Read NMEA 0183 logs, in the order given, as one stream (docs/nmea.md).
 
@@ -780,16 +875,22 @@ def read_nmea(
         paths: the log files; each must hold at least one usable sentence.
         date: the UTC date of the first timed sentence, for logs without RMC/ZDA dates.
         uere_m: σ of the user-equivalent range error of a standalone fix (:func:`fix_sigma`).
-        talkers: the talker whose GGA, whose headings (key ``"HDT"``: HDT or THS), give the
-            readings (``{"GGA": "GP"}``);
-            needed when two talkers' sentences of one kind interleave (:func:`_one_source`).
+        talkers: the talker whose GGA, whose headings (key ``"HDT"``: HDT, THS or HDG), give
+            the readings (``{"GGA": "GP"}``); needed when two talkers' sentences of one kind
+            interleave (:func:`_one_source`).
+        declination_deg: the declination (deg, east positive) of an HDG compass's place: the
+            heading table then holds its magnetic headings, to be turned at load by the
+            section's ``declination_deg`` (:func:`_true_north`).
 
-    Raises :class:`NmeaError` for a file without a usable sentence, no date, or a log with
-    neither a GNSS fix nor a heading; every other problem is a repair (:attr:`NmeaLog.repairs`,
-    logged).
+    Raises :class:`NmeaError` for a file without a usable sentence, no date, a log with
+    neither a GNSS fix nor a heading, HDG headings that cannot be made true; every other
+    problem is a repair (:attr:`NmeaLog.repairs`, logged).
     """
     if not (math.isfinite(uere_m) and uere_m > 0.0):
         raise NmeaError(f"--uere-m: {uere_m} must be finite and > 0", field="uere_m")
+    if declination_deg is not None and not -90.0 <= declination_deg <= 90.0:  # NaN too
+        raise NmeaError(f"--declination-deg {declination_deg}: must be within [-90, 90] "
+                        "(east positive)", field="declination_deg")  # fmt: skip
     files = tuple(Path(p) for p in paths)
     short = [p.name for p in files]
     names = [n if short.count(n) == 1 else str(p) for n, p in zip(short, files, strict=True)]
@@ -804,23 +905,26 @@ def read_nmea(
             journal.repair(names[r.file], r.line, *r.unused)
 
     def select(*kinds: str) -> list[tuple[_Record, float]]:
-        rows = [(r, t) for r, t in stamped if r.kind in kinds and r.unused is None]
+        return [(r, t) for r, t in stamped if r.kind in kinds and r.unused is None]
+
+    def increasing(rows: Sequence[tuple[_Record, float]]) -> list[tuple[_Record, float]]:
         return _increasing(rows, names, journal)
 
-    velocity = _table(sorted(select("RMC") + select("VTG"), key=lambda rt: rt[1]),
-                      VELOCITY_COLUMNS)  # fmt: skip
+    headings = _true_north(select(*HEADING_KINDS), declination_deg, names, journal)
+    velocity = _table(sorted(increasing(select("RMC")) + increasing(select("VTG")),
+                             key=lambda rt: rt[1]), VELOCITY_COLUMNS)  # fmt: skip
     log_ = NmeaLog(
-        files, _gnss_rows(select("GGA"), uere_m, names, journal),
-        _table(select(*HEADING_KINDS), HEADING_COLUMNS), velocity,
+        files, _gnss_rows(increasing(select("GGA")), uere_m, names, journal),
+        _table(increasing(headings), HEADING_COLUMNS), velocity,
         tuple(sorted(journal.repairs, key=lambda r: (names.index(r.file), r.line or 0))),
         dict(Counter(r.kind for r in records)), dict(ignored), source, rollovers, uere_m,
+        declination_deg,
     )  # fmt: skip
     journal.summarise()
     if log_.gnss.empty and log_.heading.empty:
         raise NmeaError(
             f"{', '.join(names)}: no GNSS fix (GGA of a measured quality) and no heading "
-            f"(HDT, THS) "
-            f"({len(journal.repairs)} line(s) in the repair log)",
+            f"(HDT, THS, HDG) ({len(journal.repairs)} line(s) in the repair log)",
             file=names[0],
         )
     return log_
@@ -914,16 +1018,20 @@ def _gnss_section(
     return doc, source
 
 
-def _heading_section(old: dict[str, Any] | None, opts: Options) -> tuple[dict[str, Any], str]:
-    """``[sensors.<heading>]``: the replaced one's keys but its ``declination_deg`` (the
-    headings are true), or a new ``use = "aid"`` section, with the new file and σ
-    (``opts.heading_sigma_deg``, the replaced σ, else :data:`HEADING_SIGMA_DEG`); and σ's
-    source."""
+def _heading_section(
+    old: dict[str, Any] | None, opts: Options, declination_deg: float | None
+) -> tuple[dict[str, Any], str]:
+    """``[sensors.<heading>]``: the replaced one's keys, or a new ``use = "aid"`` section, with
+    the new file, σ (``opts.heading_sigma_deg``, the replaced σ, else
+    :data:`HEADING_SIGMA_DEG`) and ``declination_deg`` (:attr:`NmeaLog.declination_deg`: none
+    for true headings); and σ's source."""
     doc: dict[str, Any] = dict(old) if old is not None else {"kind": "heading", "use": "aid"}
     doc["file"] = f"{opts.heading_name}.{opts.fmt}"
     # the replaced sensor may have been a magnetic compass: its declination would turn these
     # true headings once more at load (up to 0.4.8 kept)
     doc.pop("declination_deg", None)
+    if declination_deg is not None:  # an HDG compass's magnetic headings (_true_north)
+        doc["declination_deg"] = declination_deg
     if opts.heading_sigma_deg is not None:
         doc["sigma"], source = [opts.heading_sigma_deg, "deg"], "--heading-sigma-deg"
     elif old is not None:
@@ -998,7 +1106,8 @@ def _record_of(
             "t0_utc": dt.datetime.fromtimestamp(t0, dt.UTC).isoformat(),
             "t0_source": t0_source, "date_source": nmea.date_source,
             "midnight_rollovers": nmea.rollovers,
-            "rule": "t_s = UTC - t0_utc; HDT, THS and VTG take the time of the last timed sentence",
+            "rule": "t_s = UTC - t0_utc; HDT, THS, HDG and VTG take the time of the last "
+                    "timed sentence",
         },
         "gnss": {
             "fixes": len(g),
@@ -1012,7 +1121,9 @@ def _record_of(
             "per_fix_sigma_d_m_p10_p50_p90": _quantiles(g["sigma_d_m"]),
             "sigma_source": sources.get("gnss"),
         },
-        "heading": {"readings": len(nmea.heading), "sigma_source": sources.get("heading")},
+        "heading": {"readings": len(nmea.heading), "sigma_source": sources.get("heading"),
+                    "north": "true north" if nmea.declination_deg is None else
+                    f"magnetic north, declination_deg {nmea.declination_deg:g} in the section"},
         "velocity": {
             "rows": len(v), "by_sentence": {str(k): int(n) for k, n in
                                             v["sentence"].value_counts().items()},
@@ -1048,7 +1159,8 @@ def _sections(
         sections[opts.gnss_name], sources["gnss"] = _gnss_section(old, nmea.gnss, opts)
     if not nmea.heading.empty:
         old = _old_section(config, opts.heading_name, "heading")
-        sections[opts.heading_name], sources["heading"] = _heading_section(old, opts)
+        doc, sources["heading"] = _heading_section(old, opts, nmea.declination_deg)
+        sections[opts.heading_name] = doc
     return sections, sources
 
 
@@ -1083,6 +1195,7 @@ def import_nmea(
     uere_m: float = UERE_M,
     options: Options = Options(),
     talkers: Mapping[str, str] | None = None,
+    declination_deg: float | None = None,
 ) -> Path:
     """Import NMEA logs (docs/nmea.md) into ``out_dir``.
 
@@ -1093,14 +1206,15 @@ def import_nmea(
     it. Without: the tables and ``sensors.toml``, the sections to paste into a
     ``mission.toml``; ``t0_utc`` defaults to the first reading's time. Both write
     ``<gnss>_velocity`` (speed and course over ground, not read by the filter) and
-    ``import.json`` (:func:`_record_of`). ``talkers``: as :func:`read_nmea`'s. Returns
-    ``out_dir``.
+    ``import.json`` (:func:`_record_of`). ``talkers``, ``declination_deg``: as
+    :func:`read_nmea`'s. Returns ``out_dir``.
     """
     if mission is not None and t0_utc is None:
         raise NmeaError("--t0-utc is required with --mission: a mission's t_s has no epoch; "
                         "give the UTC time of its t_s = 0", field="t0_utc")  # fmt: skip
     config = load_config(Path(mission) / CONFIG_NAME) if mission is not None else None
-    nmea = read_nmea(paths, date=date, uere_m=uere_m, talkers=talkers)
+    nmea = read_nmea(paths, date=date, uere_m=uere_m, talkers=talkers,
+                     declination_deg=declination_deg)  # fmt: skip
     first = min(float(df["utc_s"].min()) for df in (nmea.gnss, nmea.heading) if not df.empty)
     if t0_utc is not None and t0_utc.tzinfo is None:  # as the CLI's: a naive time is UTC, not
         t0_utc = t0_utc.replace(tzinfo=dt.UTC)  # the machine's zone (.timestamp()'s, to 0.4.7)
