@@ -17,6 +17,7 @@ import json
 import math
 import shutil
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -487,8 +488,12 @@ def test_hdg_is_turned_to_true_north_by_its_deviation_and_variation(tmp_path: Pa
         (18, "variation", "no variation"), (21, "dev_dir", "bad field"),
         (24, "var_dir", "bad field"), (27, "variation", "bad field"),
     ]  # fmt: skip
-    assert nmea.declination_deg is None
+    assert nmea.declination_deg is None and nmea.heading_sentences == ("HDG",)
     _placed(nmea, lines)
+    result = runner.invoke(app, ["import", "nmea", str(log), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    section = tomllib.loads((tmp_path / "o" / "sensors.toml").read_text())["sensors"]["heading"]
+    assert section["sigma"] == [2.0, "deg"] and "declination_deg" not in section
 
 
 def test_hdg_without_variation_needs_the_declination(tmp_path: Path, original: Path) -> None:

@@ -85,7 +85,8 @@ def nmea(
         typer.Option(help="GNSS σ (m), one or N,E,D (default: median of the per-fix model)"),
     ] = None,
     heading_sigma_deg: Annotated[
-        float | None, typer.Option(help="heading σ (deg) (default: the mission's, else 0.5)")
+        float | None,
+        typer.Option(help="heading σ (deg) (default: the mission's, else 0.5; HDG compass 2)"),
     ] = None,
     lever_arm_m: Annotated[
         str | None,

@@ -101,8 +101,13 @@ assumed."""
 ASSUMED_HDOP = 2.0
 """HDOP taken for a fix whose HDOP field is empty or not positive (recorded as a repair)."""
 HEADING_SIGMA_DEG = 0.5
-"""Default σ of a heading (deg) when neither the options nor the mission give one; an
-assumption: use the device's datasheet."""
+"""Default σ of a true heading (HDT, THS) (deg) when neither the options nor the mission give
+one; an assumption (a gyrocompass, a GNSS compass): use the device's datasheet."""
+COMPASS_SIGMA_DEG = 2.0
+"""Default σ of an HDG heading (deg), as :data:`HEADING_SIGMA_DEG`: a magnetic compass is good to
+1-2° once calibrated, and its deviation, which changes with the heading and the ship's
+magnetism, is not modelled (a gyro's 0.5° would make the filter trust it too much); an
+assumption: use the datasheet."""
 QUALITY_NAMES = {
     1: "GPS (SPS)", 2: "DGPS", 3: "PPS", 4: "RTK fixed", 5: "RTK float", 6: "dead reckoning",
     7: "manual input", 8: "simulator", 9: "SBAS",
@@ -859,6 +864,8 @@ class NmeaLog:
     declination_deg: float | None = None
     """None: ``heading`` is against true north; else it holds an HDG compass's magnetic
     headings, and this is the declination the section turns them by (:func:`_true_north`)."""
+    heading_sentences: tuple[str, ...] = ()
+    """The sentences the ``heading`` table comes from (HDT, THS or HDG)."""
 
 
 def read_nmea(
@@ -918,7 +925,7 @@ def read_nmea(
         _table(increasing(headings), HEADING_COLUMNS), velocity,
         tuple(sorted(journal.repairs, key=lambda r: (names.index(r.file), r.line or 0))),
         dict(Counter(r.kind for r in records)), dict(ignored), source, rollovers, uere_m,
-        declination_deg,
+        declination_deg, tuple(sorted({r.kind for r, _ in headings})),
     )  # fmt: skip
     journal.summarise()
     if log_.gnss.empty and log_.heading.empty:
@@ -1019,25 +1026,27 @@ def _gnss_section(
 
 
 def _heading_section(
-    old: dict[str, Any] | None, opts: Options, declination_deg: float | None
+    old: dict[str, Any] | None, opts: Options, nmea: NmeaLog
 ) -> tuple[dict[str, Any], str]:
     """``[sensors.<heading>]``: the replaced one's keys, or a new ``use = "aid"`` section, with
     the new file, σ (``opts.heading_sigma_deg``, the replaced σ, else
-    :data:`HEADING_SIGMA_DEG`) and ``declination_deg`` (:attr:`NmeaLog.declination_deg`: none
-    for true headings); and σ's source."""
+    :data:`HEADING_SIGMA_DEG`, :data:`COMPASS_SIGMA_DEG` for HDG) and ``declination_deg``
+    (:attr:`NmeaLog.declination_deg`: none for true headings); and σ's source."""
     doc: dict[str, Any] = dict(old) if old is not None else {"kind": "heading", "use": "aid"}
     doc["file"] = f"{opts.heading_name}.{opts.fmt}"
     # the replaced sensor may have been a magnetic compass: its declination would turn these
     # true headings once more at load (up to 0.4.8 kept)
     doc.pop("declination_deg", None)
-    if declination_deg is not None:  # an HDG compass's magnetic headings (_true_north)
-        doc["declination_deg"] = declination_deg
+    if nmea.declination_deg is not None:  # an HDG compass's magnetic headings (_true_north)
+        doc["declination_deg"] = nmea.declination_deg
     if opts.heading_sigma_deg is not None:
         doc["sigma"], source = [opts.heading_sigma_deg, "deg"], "--heading-sigma-deg"
     elif old is not None:
         source = "the mission's"
     else:
-        doc["sigma"], source = [HEADING_SIGMA_DEG, "deg"], "default (assumed)"
+        compass = "HDG" in nmea.heading_sentences
+        doc["sigma"] = [COMPASS_SIGMA_DEG if compass else HEADING_SIGMA_DEG, "deg"]
+        source = "default for a magnetic compass (assumed)" if compass else "default (assumed)"
     return doc, source
 
 
@@ -1122,6 +1131,7 @@ def _record_of(
             "sigma_source": sources.get("gnss"),
         },
         "heading": {"readings": len(nmea.heading), "sigma_source": sources.get("heading"),
+                    "sentences": list(nmea.heading_sentences),
                     "north": "true north" if nmea.declination_deg is None else
                     f"magnetic north, declination_deg {nmea.declination_deg:g} in the section"},
         "velocity": {
@@ -1159,7 +1169,7 @@ def _sections(
         sections[opts.gnss_name], sources["gnss"] = _gnss_section(old, nmea.gnss, opts)
     if not nmea.heading.empty:
         old = _old_section(config, opts.heading_name, "heading")
-        doc, sources["heading"] = _heading_section(old, opts, nmea.declination_deg)
+        doc, sources["heading"] = _heading_section(old, opts, nmea)
         sections[opts.heading_name] = doc
     return sections, sources
 
