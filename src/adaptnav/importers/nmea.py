@@ -325,7 +325,7 @@ def _hdt(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
 
 def _ths(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     """A THS true heading (IEC 61162-1 ``$--THS,x.x,a``) of mode A (autonomous). E (estimated:
-    a GNSS compass that lost its baseline coasting on its backup gyro, a gyro settling) is an
+    e.g. a GNSS compass that lost its baseline, coasting on its backup gyro) is an
     extrapolation, as GGA's dead reckoning, whose error grows while the filter's own gyros
     already propagate the yaw: not a measurement, as M (typed in) and S (simulated); V is
     void. Those keep their record, unused: the talker sends THS, so its HDT are copies
