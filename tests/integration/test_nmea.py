@@ -262,7 +262,7 @@ def test_a_replaced_compass_loses_its_declination(
 ) -> None:
     """The mission's heading sensor was a magnetic compass (``declination_deg = 7``): the HDT
     headings that replace it are true, so the section keeps its other keys but not the
-    declination, which the loader would add to them (up to 0.4.8 kept: every heading 7° off)."""
+    declination, which the loader would add to them (kept, every heading would be 7° off)."""
     mission = tmp_path / "compass"
     shutil.copytree(original, mission)
     config = load_config(mission / "mission.toml")
@@ -409,7 +409,7 @@ def _placed(nmea, lines: list[str]) -> None:
 def test_ths_gives_the_heading_table_of_its_mode_a_sentences(tmp_path: Path) -> None:
     """THS (IEC 61162-1 true heading and status), which pynmea2 does not know: mode A is a
     heading at the time of the GGA before it; E (dead reckoning), M, S are not measurements,
-    V is void, a mode not in the standard is a bad field (up to 0.4.8 every THS was an
+    V is void, a mode not in the standard is a bad field (up to 0.4.7 every THS was an
     "unknown sentence type": a gyro sending THS alone gave no heading)."""
     assert sentence("HETHS,316.70,E") == "$HETHS,316.70,E*1A"  # a published example
     modes = [("10.50", "A"), ("359.99", "A"), ("", "V"), ("20.0", "E"), ("30.0", "M"),
@@ -438,7 +438,7 @@ def test_a_talker_sending_hdt_and_ths_gives_its_ths(tmp_path: Path) -> None:
     """A gyro that sends HDT (for older listeners) and THS at each epoch is one source: the
     THS are read, with their mode, and the HDT counted as ignored. The HDT beside a THS of
     mode V is not taken in its place (the device says the heading is not valid). HDT here
-    read 99° to tell them apart; up to 0.4.8 the HDT were read and THS unknown."""
+    read 99° to tell them apart; up to 0.4.7 the HDT were read and THS unknown."""
     ths = [("12.0", "A"), ("13.0", "A"), ("", "V"), ("15.0", "A")]
     lines = _with_headings([["HEHDT,99.0,T", f"HETHS,{h},{m}"] for h, m in ths])
     log = tmp_path / "both.nmea"
@@ -471,7 +471,7 @@ def test_hdt_and_ths_of_two_talkers_interleaved_are_two_sources(tmp_path: Path) 
 def test_hdg_is_turned_to_true_north_by_its_deviation_and_variation(tmp_path: Path) -> None:
     """HDG (magnetic compass): true = sensor heading + deviation + variation, each E positive
     and W negative, wrapped to [0, 360); an empty deviation is 0. An HDG without variation
-    among others with one is a repair, as a direction letter not E or W (up to 0.4.8 every
+    among others with one is a repair, as a direction letter not E or W (up to 0.4.7 every
     HDG was ignored: a compass gave no heading)."""
     assert sentence("HCHDG,101.1,,,7.1,W") == "$HCHDG,101.1,,,7.1,W*3C"  # published example
     fields = ["100.0,1.0,E,3.2,W", "100.0,1.0,W,3.2,E", "359.0,,,2.5,E", "1.0,2.0,W,0.5,W",

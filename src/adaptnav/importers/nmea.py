@@ -502,7 +502,7 @@ def _heading_sentences(
 ) -> list[_Record]:
     """The records without the heading sentences that another stands for, counted in
     ``ignored``: HDG when the heading source sends a true heading (HDT, THS: a gyro beside a
-    magnetic compass, or a gyro's own HDG; the true heading is read, as up to 0.4.8), and an
+    magnetic compass, or a gyro's own HDG; the true heading is read, as before 0.4.8), and an
     HDT of a talker that also sends THS (a gyro sends both, HDT for older listeners): its
     THS gives the same heading and a mode that says whether it is valid (an HDT beside a THS
     of mode V is not a heading). ``chosen``: the ``--heading-talker``, whose sentences decide
@@ -1035,7 +1035,7 @@ def _heading_section(
     doc: dict[str, Any] = dict(old) if old is not None else {"kind": "heading", "use": "aid"}
     doc["file"] = f"{opts.heading_name}.{opts.fmt}"
     # the replaced sensor may have been a magnetic compass: its declination would turn these
-    # true headings once more at load (up to 0.4.8 kept)
+    # true headings once more at load
     doc.pop("declination_deg", None)
     if nmea.declination_deg is not None:  # an HDG compass's magnetic headings (_true_north)
         doc["declination_deg"] = nmea.declination_deg
