@@ -650,3 +650,49 @@ def test_export_odometry_reads_back(trip: Trip, tmp_path: Path, storage: str) ->
         np.linalg.norm(sol[["vn_m_s", "ve_m_s", "vd_m_s"]].iloc[k]), rel=1e-9
     )
     assert speed > 0.1 and v.x > 0.9 * speed  # under way, mostly forward in FLU
+
+
+def _geodetic_axes(lat: float, lon: float) -> np.ndarray:
+    """East, north and up at (lat, lon) as ECEF unit vectors (rows), from the ellipsoid's
+    normal: up = (cos L cos λ, cos L sin λ, sin L)."""
+    sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
+    return np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+
+
+def test_far_from_the_datum_the_pose_is_in_the_map_frame() -> None:
+    """A level vehicle heading east along 60° N, 100 km east of the datum: its forward, left
+    and up axes are the local east, north and up, which in the map frame (the ENU tangent
+    plane at the datum, where the position is) are turned by the Earth's curvature. Up to
+    0.4.7 the orientation and the pose covariance were those of the local ENU: the
+    orientation said yaw 0°, pitch 0° where the body's axes in the map frame have yaw 1.56°
+    and pitch 0.90° (the track's own direction at that point)."""
+    from adaptnav.importers.rosbag import odometry_rows
+
+    n, lat = 3, math.radians(60.0)
+    lon = math.radians(10.0) + np.radians([0.0, 0.9, 1.8])
+    cols: dict[str, Any] = {
+        "t_s": np.arange(n, dtype=float), "lat_rad": np.full(n, lat), "lon_rad": lon,
+        "h_m": np.zeros(n), "vn_m_s": np.zeros(n), "ve_m_s": np.full(n, 2.0),
+        "vd_m_s": np.zeros(n), "roll_rad": np.zeros(n), "pitch_rad": np.zeros(n),
+        "yaw_rad": np.full(n, math.pi / 2),
+    }  # fmt: skip
+    for c in ("dr_N", "dr_E", "dr_D", "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D"):
+        cols[f"sd_{c}"] = np.full(n, 3.0 if c in ("dr_N", "phi_N") else 0.01)
+    rows = odometry_rows(pd.DataFrame(cols), 0)
+    datum_axes = _geodetic_axes(lat, float(lon[0]))
+    for k in range(n):
+        expect = datum_axes @ _geodetic_axes(lat, float(lon[k])).T  # map ← (east, north, up)
+        x, y, z, w = rows.q_xyzw[k]
+        R = np.array([
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ])  # fmt: skip
+        np.testing.assert_allclose(R, expect, atol=1e-12)  # forward east, left north, up up
+        north = expect[:, 1]  # the σ of 3 m (and 3 rad) lies along the local north
+        cov = rows.pose_cov[k].reshape(6, 6)
+        for block in (cov[:3, :3], cov[3:, 3:]):
+            np.testing.assert_allclose(block @ north, 9.0 * north, atol=1e-12)
+    assert math.degrees(math.atan2(R[1, 0], R[0, 0])) == pytest.approx(1.559, abs=1e-3)
+    v = rows.v_flu[-1]
+    np.testing.assert_allclose(v, [2.0, 0.0, 0.0], atol=1e-12)  # the twist is in the body

@@ -881,15 +881,29 @@ class OdometryRows:
     twist_cov: Array
 
 
+def map_from_ned(lat: Array, lon: Array, datum: tuple[float, float, float]) -> Array:
+    """Rotations (n, 3, 3) from each row's local NED frame into the map frame, the ENU tangent
+    plane at the datum: ``C_NED_ENU C_ne(datum) C_ne(row)ᵀ`` (NED at the row → ECEF → NED at
+    the datum → ENU). The two frames part by the angle the Earth's surface turns between them,
+    about 0.9° per 100 km, plus the meridians' convergence: 1.6° of heading 100 km east at
+    60° N."""
+    from adaptnav.core import earth
+
+    return rosmsg.C_NED_ENU @ earth.C_ne(datum[0], datum[1]) @ earth.C_ne(lat, lon).swapaxes(-1, -2)
+
+
 def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
     """Convert a run's solution table (docs/data-format.md, run folder) to ROS frames: the
-    datum is the first row's position; P's NED position and attitude blocks turned into ENU
-    (``C P Cᵀ`` with ``C = C_NED_ENU``: the attitude error φ is a world-frame rotation), the
-    velocity block into FLU (``C_FRD_FLU C_bn P_v C_nb C_FRD_FLU``); no position-attitude
-    correlation is kept in a solution table, so that block is zero."""
+    datum is the first row's position, the map frame the ENU tangent plane there. The position
+    is exact through ECEF; the attitude, and P's NED position and attitude blocks (``M P Mᵀ``:
+    the attitude error φ is a world-frame rotation), are turned from each row's local NED into
+    the map frame by ``M`` (:func:`map_from_ned`); up to 0.4.7 they stayed in each row's own
+    ENU, whose axes part from the map's with distance (1.6° of heading 100 km east of the datum
+    at 60° N). The velocity block into FLU (``C_FRD_FLU C_bn P_v C_nb C_FRD_FLU``); no
+    position-attitude correlation is kept in a solution table, so that block is zero."""
     from adaptnav.api.results import check_finite, covariance_block
     from adaptnav.core import earth
-    from adaptnav.core.attitude import euler_to_dcm
+    from adaptnav.core.attitude import dcm_to_quat, euler_to_dcm
 
     check_finite(solution, _exported_columns(solution), "solution")
     t_ns = origin_ns + np.round(solution["t_s"].to_numpy(dtype=float) * NS).astype(np.int64)
@@ -898,13 +912,15 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
     datum = (float(lat[0]), float(lon[0]), float(h[0]))
     r_enu = rosmsg.enu_to_ned(earth.geodetic_to_ned(lat, lon, h, *datum))
     rpy = solution[["roll_rad", "pitch_rad", "yaw_rad"]].to_numpy(dtype=float)
-    to_flu = np.array([rosmsg.C_FRD_FLU @ euler_to_dcm(*a).T for a in rpy]).reshape(-1, 3, 3)
+    C_nb = np.array([euler_to_dcm(*a) for a in rpy]).reshape(-1, 3, 3)
+    M = map_from_ned(lat, lon, datum)
+    q_wxyz = np.array([dcm_to_quat(C) for C in M @ C_nb @ rosmsg.C_FRD_FLU]).reshape(-1, 4)
+    to_flu = rosmsg.C_FRD_FLU @ C_nb.transpose(0, 2, 1)
     v_n = solution[["vn_m_s", "ve_m_s", "vd_m_s"]].to_numpy(dtype=float)
-    C = rosmsg.C_NED_ENU
     n = len(solution)
     pose = np.zeros((n, 6, 6))
-    pose[:, :3, :3] = C @ covariance_block(solution, POSITION) @ C.T
-    pose[:, 3:, 3:] = C @ covariance_block(solution, ATTITUDE) @ C.T
+    pose[:, :3, :3] = M @ covariance_block(solution, POSITION) @ M.transpose(0, 2, 1)
+    pose[:, 3:, 3:] = M @ covariance_block(solution, ATTITUDE) @ M.transpose(0, 2, 1)
     twist = np.zeros((n, 6, 6))
     twist[:, :3, :3] = to_flu @ covariance_block(solution, VELOCITY) @ to_flu.transpose(0, 2, 1)
     twist[:, [3, 4, 5], [3, 4, 5]] = UNKNOWN_VARIANCE
@@ -912,7 +928,7 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
         t_ns,
         datum,
         r_enu,
-        rosmsg.nav_to_ros_quaternions(rpy),
+        q_wxyz[:, [1, 2, 3, 0]],
         np.einsum("nij,nj->ni", to_flu, v_n),
         pose.reshape(n, 36),
         twist.reshape(n, 36),
