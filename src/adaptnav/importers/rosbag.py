@@ -855,10 +855,22 @@ a quantity not provided)."""
 def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     """The stamp of mission time 0 for a run (ns): the stamp origin of its mission's
     import.json when the mission came from a bag (:func:`import_bag`), else 0 (stamps are
-    mission seconds)."""
+    mission seconds). ValueError when the run records a mission folder (``meta.mission_dir``,
+    as given to ``run``: relative to the folder it was run from) that is not found: whether
+    its mission came from a bag cannot be told, and up to 0.4.7 the origin was then 0, silently
+    (a bag's run exported from another folder was stamped in 1970, not at the bag's time)."""
     folder = meta.get("mission_dir")
-    record = Path(folder) / "import.json" if isinstance(folder, str) else None
-    if record is None or not record.is_file():
+    if not isinstance(folder, str):
+        return 0
+    root = Path(folder)
+    if not root.is_dir():
+        raise ValueError(
+            f"the run's mission folder {folder} (summary.json, meta.mission_dir) is not found "
+            "from here, so whether its stamps had an origin (a mission imported from a bag) "
+            "is unknown: give --stamp-origin-ns (0: stamps are mission seconds)"
+        )
+    record = root / "import.json"
+    if not record.is_file():
         return 0
     info = json.loads(record.read_text(encoding="utf-8"))
     if info.get("importer") != "adaptnav.importers.rosbag":
