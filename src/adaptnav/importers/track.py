@@ -5,10 +5,12 @@ the forward pass's):
 
 * ``track.csv``: one row per solution row, in the units a chart or a spreadsheet wants:
   ``t_s, lat_deg, lon_deg, h_m, vn_m_s, ve_m_s, vd_m_s, roll_deg, pitch_deg, yaw_deg`` (yaw in
-  [0, 360)), then the σ the filter claims: ``sd_north_m, sd_east_m, sd_down_m`` (position),
-  ``sd_vn_m_s, sd_ve_m_s, sd_vd_m_s`` and ``sd_phi_n_deg, sd_phi_e_deg, sd_phi_d_deg`` (the
-  attitude error about the north, east and down axes; about down it is the heading's σ), and
-  ``sd_horizontal_m = sqrt(sd_north² + sd_east²)``. Numbers as Python writes them, no rounding.
+  [0, 360); ``h_m`` in the run's height frame: ellipsoidal with GNSS heights, else from the
+  water surface, docs/filters.md), then the σ the filter claims: ``sd_north_m, sd_east_m,
+  sd_down_m`` (position), ``sd_vn_m_s, sd_ve_m_s, sd_vd_m_s`` and ``sd_phi_n_deg,
+  sd_phi_e_deg, sd_phi_d_deg`` (the attitude error about the north, east and down axes; about
+  down it is the heading's σ), and ``sd_horizontal_m = sqrt(sd_north² + sd_east²)``. Numbers
+  as Python writes them, no rounding.
 * ``track.kml``: KML 2.2 (OGC 07-147r2) for Google Earth, QGIS and ArcGIS: the solution as
   one ``LineString`` of ``lon,lat`` (degrees, WGS84; no altitude, clamped to the ground: a depth
   would draw the track under the sea floor of the globe), placemarks at its first and last
