@@ -723,3 +723,18 @@ def test_a_run_whose_mission_folder_is_not_found_needs_the_origin(
         "--stamp-origin-ns", str(rw.STAMP0_NS),
     )  # fmt: skip
     assert code == 0, text
+
+
+def test_an_nmea_missions_stamps_start_at_its_t0_utc(tmp_path: Path) -> None:
+    """A mission imported from NMEA has its t_s = 0 at import.json's t0_utc (docs/nmea.md):
+    the export's stamps start there, in integer ns (2024-03-01T12:00:00.25 UTC is
+    1709294400.25 s). Up to 0.4.7 only a bag's origin was read: such stamps were from 1970."""
+    from adaptnav.importers.rosbag import run_stamp_origin
+
+    mission = tmp_path / "m"
+    mission.mkdir()
+    record = {"importer": "nmea", "time": {"t0_utc": "2024-03-01T12:00:00.250000+00:00"}}
+    (mission / "import.json").write_text(json.dumps(record), encoding="utf-8")
+    assert run_stamp_origin({"mission_dir": str(mission)}) == 1_709_294_400_250_000_000
+    (mission / "import.json").unlink()
+    assert run_stamp_origin({"mission_dir": str(mission)}) == 0  # simulated: mission seconds

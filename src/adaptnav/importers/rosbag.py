@@ -854,11 +854,12 @@ a quantity not provided)."""
 
 def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     """The stamp of mission time 0 for a run (ns): the stamp origin of its mission's
-    import.json when the mission came from a bag (:func:`import_bag`), else 0 (stamps are
-    mission seconds). ValueError when the run records a mission folder (``meta.mission_dir``,
-    as given to ``run``: relative to the folder it was run from) that is not found: whether
-    its mission came from a bag cannot be told, and up to 0.4.7 the origin was then 0, silently
-    (a bag's run exported from another folder was stamped in 1970, not at the bag's time)."""
+    import.json when the mission came from a bag (:func:`import_bag`), its ``t0_utc`` when it
+    came from an NMEA log (``adaptnav import nmea``), else 0 (stamps are mission seconds).
+    ValueError when the run records a mission folder (``meta.mission_dir``, as given to
+    ``run``: relative to the folder it was run from) that is not found: whether its mission
+    came from a bag cannot be told, and up to 0.4.7 the origin was then 0, silently (a bag's
+    run exported from another folder was stamped in 1970, not at the bag's time)."""
     folder = meta.get("mission_dir")
     if not isinstance(folder, str):
         return 0
@@ -866,22 +867,32 @@ def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     if not root.is_dir():
         raise ValueError(
             f"the run's mission folder {folder} (summary.json, meta.mission_dir) is not found "
-            "from here, so whether its stamps had an origin (a mission imported from a bag) "
-            "is unknown: give --stamp-origin-ns (0: stamps are mission seconds)"
+            "from here, so whether its stamps had an origin (a mission imported from a bag or "
+            "an NMEA log) is unknown: give --stamp-origin-ns (0: stamps are mission seconds)"
         )
     record = root / "import.json"
     if not record.is_file():
         return 0
     info = json.loads(record.read_text(encoding="utf-8"))
+    if info.get("importer") == "nmea":  # UTC of t_s = 0 (docs/nmea.md); up to 0.4.7 ignored
+        return _utc_ns(info["time"]["t0_utc"])
     if info.get("importer") != "adaptnav.importers.rosbag":
         return 0
     return int(info["stamp_origin_ns"])
 
 
+def _utc_ns(iso: str) -> int:
+    """Nanoseconds since 1970 (UTC, as ROS time) of an ISO 8601 time with a zone, in integers:
+    a float timestamp of 1.7e9 s holds only 0.2 µs."""
+    since = dt.datetime.fromisoformat(iso) - dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+    return (since.days * 86400 + since.seconds) * NS + since.microseconds * 1000
+
+
 @dataclass(frozen=True, eq=False)
 class OdometryRows:
-    """A solution in ROS terms (docs/rosbag.md, 'Export'): stamps (ns), position in the
-    local ENU frame at the datum (m), ``q_enu_flu`` ``[x, y, z, w]``, velocity in body FLU,
+    """A solution in ROS terms (docs/rosbag.md, 'Export'): stamps (ns), position in the map
+    frame, the ENU tangent plane at the datum (m), ``q_map_flu`` ``[x, y, z, w]`` (the body's
+    FLU axes in the map frame), velocity in body FLU,
     and the 6×6 pose and twist covariances (row-major, 36 numbers)."""
 
     t_ns: NDArray[np.int64]
