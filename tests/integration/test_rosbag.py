@@ -637,13 +637,21 @@ def test_export_odometry_reads_back(trip: Trip, tmp_path: Path, storage: str) ->
     )
     p = odo[k].pose.pose.position
     np.testing.assert_allclose([p.y, p.x, -p.z], ned, atol=1e-6)  # ENU
-    cov = odo[k].pose.covariance
-    np.testing.assert_allclose(cov[[0, 7, 14]], sol[["sd_dr_E", "sd_dr_N", "sd_dr_D"]].iloc[k] ** 2)
-    q = odo[k].pose.pose.orientation
-    expect = rw.ros_quat(*sol[["roll_rad", "pitch_rad", "yaw_rad"]].iloc[k])
-    assert (
-        abs(abs(np.dot([q.x, q.y, q.z, q.w], [expect.x, expect.y, expect.z, expect.w])) - 1) < 1e-12
+    # the map frame (ENU at the datum) ← the row's local ENU, through ECEF
+    M = _geodetic_axes(math.radians(datum.latitude), math.radians(datum.longitude)) @ (
+        _geodetic_axes(sol["lat_rad"].iloc[k], sol["lon_rad"].iloc[k]).T
     )
+    cov = odo[k].pose.covariance.reshape(6, 6)
+    sd = sol[["sd_dr_E", "sd_dr_N", "sd_dr_D"]].iloc[k].to_numpy()
+    P = np.diag(sd**2)
+    P[0, 1] = P[1, 0] = sol["cov_dr_N_dr_E"].iloc[k]
+    P[0, 2] = P[2, 0] = -sol["cov_dr_E_dr_D"].iloc[k]
+    P[1, 2] = P[2, 1] = -sol["cov_dr_N_dr_D"].iloc[k]  # (E, N, U) of the row
+    np.testing.assert_allclose(cov[:3, :3], M @ P @ M.T, rtol=1e-9, atol=1e-12)
+    q = odo[k].pose.pose.orientation
+    e = rw.ros_quat(*sol[["roll_rad", "pitch_rad", "yaw_rad"]].iloc[k])  # in the local ENU
+    expect = M @ _quat_matrix(e.x, e.y, e.z, e.w)
+    np.testing.assert_allclose(_quat_matrix(q.x, q.y, q.z, q.w), expect, atol=1e-12)
     speed = np.hypot(*sol[["vn_m_s", "ve_m_s", "vd_m_s"]].iloc[k].to_numpy()[:2])
     v = odo[k].twist.twist.linear
     assert math.hypot(v.x, v.y, v.z) == pytest.approx(
@@ -657,6 +665,15 @@ def _geodetic_axes(lat: float, lon: float) -> np.ndarray:
     normal: up = (cos L cos λ, cos L sin λ, sin L)."""
     sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
     return np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+
+
+def _quat_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
+    """The rotation matrix of a unit quaternion given [x, y, z, w] (ROS's order)."""
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])  # fmt: skip
 
 
 def test_far_from_the_datum_the_pose_is_in_the_map_frame() -> None:
@@ -682,12 +699,7 @@ def test_far_from_the_datum_the_pose_is_in_the_map_frame() -> None:
     datum_axes = _geodetic_axes(lat, float(lon[0]))
     for k in range(n):
         expect = datum_axes @ _geodetic_axes(lat, float(lon[k])).T  # map ← (east, north, up)
-        x, y, z, w = rows.q_xyzw[k]
-        R = np.array([
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ])  # fmt: skip
+        R = _quat_matrix(*rows.q_xyzw[k])
         np.testing.assert_allclose(R, expect, atol=1e-12)  # forward east, left north, up up
         north = expect[:, 1]  # the σ of 3 m (and 3 rad) lies along the local north
         cov = rows.pose_cov[k].reshape(6, 6)
