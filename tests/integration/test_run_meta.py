@@ -48,3 +48,22 @@ def test_a_stream_records_the_same(tmp_path: Path) -> None:
     assert stream.result.meta["engine"] == batch.meta["engine"]
     assert batch.meta["engine"]["covariance_block_s"] == 0.05
     assert stream.result.meta["adaptnav_version"] == adaptnav.__version__
+
+
+def test_the_mission_folder_is_recorded_absolute(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Given as a relative path, the mission folder is recorded absolute, batch and stream:
+    evaluate (calibration truth) and export rosbag (stamp origin) read it from wherever they
+    run (up to 0.4.7 it was recorded as typed, and from another folder found nothing, or a
+    folder of the same name there)."""
+    _mission(tmp_path / "m")
+    monkeypatch.chdir(tmp_path)
+    mission = load_mission(Path("m"))
+    batch = api.run(mission, "meskf")
+    assert batch.meta["mission_dir"] == str((tmp_path / "m").resolve())
+    with Stream(mission, "meskf") as stream:
+        for item in replay(mission):
+            stream.push_item(item)
+    assert stream.result is not None
+    assert stream.result.meta["mission_dir"] == batch.meta["mission_dir"]

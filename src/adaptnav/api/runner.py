@@ -621,7 +621,9 @@ def run(
     out, ledger = _with_file_rows(out, m, feed)
     imu_samples = int(m.imu.t.size - nav_from)
     meta: dict[str, Any] = {
-        "mission_dir": str(m.root),
+        # absolute: evaluate and export find the mission from any folder (as typed, a relative
+        # path found nothing, or a same-named folder, from another working folder: to 0.4.7)
+        "mission_dir": str(Path(m.root).resolve()),
         "adaptnav_version": __version__,
         "filter_settings": s.as_dict(),
         "epoch_policy": policy,
