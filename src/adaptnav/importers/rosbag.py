@@ -856,10 +856,11 @@ def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     """The stamp of mission time 0 for a run (ns): the stamp origin of its mission's
     import.json when the mission came from a bag (:func:`import_bag`), its ``t0_utc`` when it
     came from an NMEA log (``adaptnav import nmea``), else 0 (stamps are mission seconds).
-    ValueError when the run records a mission folder (``meta.mission_dir``, as given to
-    ``run``: relative to the folder it was run from) that is not found: whether its mission
-    came from a bag cannot be told, and up to 0.4.7 the origin was then 0, silently (a bag's
-    run exported from another folder was stamped in 1970, not at the bag's time)."""
+    ValueError when the run records a mission folder (``meta.mission_dir``: absolute since
+    0.4.8, as given to ``run`` before, relative to where it ran) that is not found: whether
+    its mission came from a bag cannot be told, and up to 0.4.7 the origin was then 0,
+    silently (a bag's run exported from another folder was stamped in 1970, not at the bag's
+    time)."""
     folder = meta.get("mission_dir")
     if not isinstance(folder, str):
         return 0
