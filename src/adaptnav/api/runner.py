@@ -497,6 +497,13 @@ def _alignment_position(
     return (lat, lon, h)
 
 
+def mission_folder(root: str | Path) -> str:
+    """The mission folder a run records (``meta.mission_dir``), absolute: evaluate and export
+    find the mission from any working folder (up to 0.4.7 it was recorded as typed, and a
+    relative one found nothing, or a folder of the same name, from another folder)."""
+    return str(Path(root).resolve())
+
+
 def check_initial(
     initial: Any, t_from: float = -math.inf, t_to: float = math.inf
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -621,9 +628,7 @@ def run(
     out, ledger = _with_file_rows(out, m, feed)
     imu_samples = int(m.imu.t.size - nav_from)
     meta: dict[str, Any] = {
-        # absolute: evaluate and export find the mission from any folder (as typed, a relative
-        # path found nothing, or a same-named folder, from another working folder: to 0.4.7)
-        "mission_dir": str(Path(m.root).resolve()),
+        "mission_dir": mission_folder(m.root),
         "adaptnav_version": __version__,
         "filter_settings": s.as_dict(),
         "epoch_policy": policy,

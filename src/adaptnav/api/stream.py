@@ -459,13 +459,13 @@ def _configuration(
     if isinstance(mission, Mission):
         cfg = mission.config
         periods = {n: d.period for n, d in mission.sensors.items() if cfg.sensors[n].use == "aid"}
-        return cfg, periods, str(Path(mission.root).resolve())
+        return cfg, periods, runner.mission_folder(mission.root)
     if isinstance(mission, MissionConfig):
         cfg, root = mission, ""
     else:
         path = Path(mission)
         path = path / CONFIG_NAME if path.is_dir() else path
-        cfg, root = load_config(path), str(path.parent.resolve())
+        cfg, root = load_config(path), runner.mission_folder(path.parent)
     periods = {}
     for n, c in cfg.sensors.items():
         if c.use != "aid":
