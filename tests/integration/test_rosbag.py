@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -713,22 +714,22 @@ def test_far_from_the_datum_the_pose_is_in_the_map_frame() -> None:
 def test_a_run_whose_mission_folder_is_not_found_needs_the_origin(
     trip: Trip, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A run records its mission folder as given (``run imported``: relative to where it ran).
-    Exported from that folder, the stamps are the bag's (origin 1.7e18 ns); from another
-    folder the mission is not found, and whether it came from a bag cannot be told: exit 2
-    asking for --stamp-origin-ns. Up to 0.4.7 the origin was then 0, exit 0: every stamp in
-    1970, 1.7e9 s before the bag's."""
-    monkeypatch.chdir(trip.root)
+    """A run records its mission folder absolute (since 0.4.8; as given before, relative to
+    where it ran): exported from another folder, the stamps are still the bag's (origin
+    1.7e18 ns). When the folder is not found (the mission moved), whether it came from a bag
+    cannot be told: exit 2 asking for --stamp-origin-ns. Up to 0.4.7 the origin was then 0,
+    exit 0: every stamp in 1970, 1.7e9 s before the bag's."""
+    shutil.copytree(trip.root / "imported", tmp_path / "m" / "imported")
+    monkeypatch.chdir(tmp_path / "m")
     run = tmp_path / "run"
     api.results.save(api.run(load_mission(Path("imported")), "meskf"), run)
+    monkeypatch.chdir(tmp_path)
     code, text = _cli("export", "rosbag", str(run), "--out", str(tmp_path / "here"), "-q")
     assert code == 0 and f"stamp origin {rw.STAMP0_NS} ns" in " ".join(text.split()), text
-    monkeypatch.chdir(tmp_path)
+    (tmp_path / "m" / "imported").rename(tmp_path / "m" / "moved")
     code, text = _cli("export", "rosbag", str(run), "--out", str(tmp_path / "there"), "-q")
     assert code == 2, text
-    assert "mission folder imported (summary.json, meta.mission_dir) is not found" in " ".join(
-        text.split()
-    )
+    assert "imported (summary.json, meta.mission_dir) is not found" in " ".join(text.split())
     assert not (tmp_path / "there").exists()
     code, text = _cli(
         "export", "rosbag", str(run), "--out", str(tmp_path / "given"), "-q",
