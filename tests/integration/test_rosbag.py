@@ -4,6 +4,7 @@ solution exported as Odometry reads back (adaptnav.importers.rosbag, docs/rosbag
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import math
 import shutil
@@ -751,3 +752,20 @@ def test_an_nmea_missions_stamps_start_at_its_t0_utc(tmp_path: Path) -> None:
     assert run_stamp_origin({"mission_dir": str(mission)}) == 1_709_294_400_250_000_000
     (mission / "import.json").unlink()
     assert run_stamp_origin({"mission_dir": str(mission)}) == 0  # simulated: mission seconds
+
+
+def test_an_rtklib_missions_stamps_are_its_gpst_origin_in_utc(tmp_path: Path) -> None:
+    """An RTKLIB drive's t_s = 0 is import.json's gpst_origin_s, GPST counted like UTC since
+    1970 (RTKLIB's gtime_t): the stamps are UTC, 18 s earlier since 2017 (IERS; 17 in 2016).
+    Up to 0.4.7 such a run was stamped from 1970."""
+    from adaptnav.importers.rosbag import run_stamp_origin
+
+    mission = tmp_path / "m"
+    mission.mkdir()
+    for gpst, leap in (("2021-07-08T12:00:00.5", 18), ("2016-03-01T00:00:10", 17)):
+        t = dt.datetime.fromisoformat(gpst).replace(tzinfo=dt.UTC)
+        record = {"importer": "adaptnav.importers.rtklib", "gpst_origin_s": t.timestamp()}
+        (mission / "import.json").write_text(json.dumps(record), encoding="utf-8")
+        utc = t - dt.timedelta(seconds=leap) - dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+        expected = (utc.days * 86400 + utc.seconds) * 10**9 + utc.microseconds * 1000
+        assert run_stamp_origin({"mission_dir": str(mission)}) == expected

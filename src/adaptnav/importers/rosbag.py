@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from adaptnav.importers import rosmsg
+from adaptnav.importers import rosmsg, timing
 from adaptnav.importers.rosmsg import Converted, DepthParameters
 from adaptnav.mission.config import MissionConfig, MissionError, load_config, parse_config
 from adaptnav.mission.loader import write_mission
@@ -855,7 +855,9 @@ a quantity not provided)."""
 def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     """The stamp of mission time 0 for a run (ns): the stamp origin of its mission's
     import.json when the mission came from a bag (:func:`import_bag`), its ``t0_utc`` when it
-    came from an NMEA log (``adaptnav import nmea``), else 0 (stamps are mission seconds).
+    came from an NMEA log (``adaptnav import nmea``), its ``gpst_origin_s`` as UTC when it came
+    from an RTKLIB drive (:func:`timing.gpst_to_utc_ns`; up to 0.4.7 0), else 0 (stamps are
+    mission seconds).
     ValueError when the run records a mission folder (``meta.mission_dir``: absolute since
     0.4.8, as given to ``run`` before, relative to where it ran) that is not found: whether
     its mission came from a bag cannot be told, and up to 0.4.7 the origin was then 0,
@@ -877,6 +879,8 @@ def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     info = json.loads(record.read_text(encoding="utf-8"))
     if info.get("importer") == "nmea":  # UTC of t_s = 0 (docs/nmea.md); up to 0.4.7 ignored
         return _utc_ns(info["time"]["t0_utc"])
+    if info.get("importer") == "adaptnav.importers.rtklib":  # GPST of t_s = 0; to 0.4.7 ignored
+        return timing.gpst_to_utc_ns(float(info["gpst_origin_s"]))
     if info.get("importer") != "adaptnav.importers.rosbag":
         return 0
     return int(info["stamp_origin_ns"])

@@ -8,6 +8,7 @@ of the grid step.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from collections.abc import Callable
 
@@ -71,3 +72,28 @@ def minimise_lag(
     if not abs(vertex - centre) <= half_width:
         return float(fine[int(np.argmin(np.where(ok, c, np.inf)))])
     return float(vertex)
+
+
+GPS_LEAP_SECONDS = (
+    (dt.datetime(1999, 1, 1, tzinfo=dt.UTC), 13),
+    (dt.datetime(2006, 1, 1, tzinfo=dt.UTC), 14),
+    (dt.datetime(2009, 1, 1, tzinfo=dt.UTC), 15),
+    (dt.datetime(2012, 7, 1, tzinfo=dt.UTC), 16),
+    (dt.datetime(2015, 7, 1, tzinfo=dt.UTC), 17),
+    (dt.datetime(2017, 1, 1, tzinfo=dt.UTC), 18),
+)
+"""GPST - UTC (s) from each UTC date on (IERS Bulletin C; GPS time has no leap seconds, UTC
+has had 18 more since 1980-01-06, none since 2017). Add a row when the IERS announces one."""
+
+
+def gpst_to_utc_ns(gpst_s: float) -> int:
+    """UTC nanoseconds since 1970 (as ROS time) of a GPST time given, as RTKLIB's ``gtime_t``
+    and the importers keep it, as the GPS calendar counted in seconds since 1970 like UTC:
+    ``UTC = GPST - ΔLS`` with ΔLS of :data:`GPS_LEAP_SECONDS` (18 s since 2017). ValueError
+    before 1999, which the table does not cover."""
+    t = dt.datetime.fromtimestamp(gpst_s, dt.UTC)
+    leaps = [n for since, n in GPS_LEAP_SECONDS if t - dt.timedelta(seconds=n) >= since]
+    if not leaps:
+        raise ValueError(f"GPST {t.isoformat()}: before 1999, no leap-second count here")
+    whole = math.floor(gpst_s)
+    return (whole - leaps[-1]) * 1_000_000_000 + round((gpst_s - whole) * 1e9)
