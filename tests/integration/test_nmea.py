@@ -531,6 +531,32 @@ def test_hdg_without_variation_needs_the_declination(tmp_path: Path, original: P
         read_nmea([log], declination_deg=95.0)
 
 
+def test_hdm_is_a_magnetic_heading_that_needs_the_declination(tmp_path: Path) -> None:
+    """HDM (an older compass sentence: the magnetic heading alone): no variation, so refused
+    without --declination-deg, kept magnetic with it (up to 0.4.7 HDM was ignored: a compass
+    that sends only HDM gave no heading). One not marked M is a bad field; beside an HDT it
+    is ignored, as an HDG is."""
+    lines = _with_headings([[f"HCHDM,{10.0 * k + 5.0:.1f},M"] for k in range(5)])
+    log = tmp_path / "hdm.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    with pytest.raises(NmeaError, match=r"HDM headings \(5, from line 3\) give no variation"):
+        read_nmea([log])
+    nmea = read_nmea([log], declination_deg=-4.5)
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), 10.0 * np.arange(5) + 5.0)
+    assert nmea.declination_deg == -4.5 and nmea.heading_sentences == ("HDM",)
+    bad = tmp_path / "bad.nmea"
+    bad.write_text("\n".join(_with_headings([["HCHDM,20.0,T"]] * 2)) + "\n", encoding="ascii")
+    nmea = read_nmea([bad])
+    assert nmea.heading.empty
+    assert [(r.field, r.action) for r in nmea.repairs] == [("magnetic", "bad field")] * 2
+    both = tmp_path / "both.nmea"
+    both.write_text("\n".join(_with_headings([["HEHDT,30.0,T", "HCHDM,33.0,M"]] * 3)) + "\n",
+                    encoding="ascii")  # fmt: skip
+    nmea = read_nmea([both])
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), 30.0)
+    assert nmea.ignored == {"HDM (a true heading, HDT or THS, is read)": 3}
+
+
 def test_a_true_heading_beside_hdg_is_read_as_up_to_0_4_8(tmp_path: Path) -> None:
     """A gyro ($HEHDT) beside a magnetic compass ($HCHDG): the true heading is read as before
     and the HDG counted as ignored, not two interleaved sources. --heading-talker HC chooses

@@ -127,7 +127,7 @@ def nmea(
     force: Force = False,
     quiet: Quiet = False,
 ) -> None:
-    """Import NMEA 0183 GGA/HDT/THS/HDG (and RMC/VTG/ZDA) logs as GNSS and heading tables.
+    """Import NMEA 0183 GGA/HDT/THS/HDG/HDM (and RMC/VTG/ZDA) logs as GNSS and heading tables.
 
     With --mission: a copy of that mission with the sensors added or replaced (--t0-utc
     required). Without: the tables and sensors.toml, the sections for a mission.toml. Every

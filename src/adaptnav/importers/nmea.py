@@ -1,4 +1,4 @@
-"""Importer of NMEA 0183 logs: GGA fixes and HDT/THS/HDG headings as GNSS and heading tables
+"""Importer of NMEA 0183 logs: GGA fixes and HDT/THS/HDG/HDM headings as GNSS and heading tables
 (docs/nmea.md).
 
 A log is text, one sentence a line (``$GPGGA,...*47``). Each line is framed and its checksum
@@ -16,8 +16,9 @@ that a bad field is a repair naming the file, line and field, never an exception
   deviation + variation. Without variation the true heading cannot be formed: refused, unless
   ``declination_deg`` (``--declination-deg``) is given, and then the table keeps the magnetic
   headings and the heading section gets ``declination_deg`` (docs/data-format.md, 'Magnetic
-  headings'), which turns them at load. Headings carry no time: they take the time of the
-  last timed sentence (GGA, RMC or ZDA) before them in the same file;
+  headings'), which turns them at load; **HDM** (the magnetic heading alone) as an HDG
+  without deviation and variation. Headings carry no time: they take the time of the last
+  timed sentence (GGA, RMC or ZDA) before them in the same file;
 * **RMC** (time, status, speed and course over ground, date) and **ZDA** (time and date): the
   UTC date, and with **VTG** (course and speed, no time: as HDT) the speed and course over
   ground. The project's GNSS kind measures position only, so these go to an extra table
@@ -121,13 +122,16 @@ gyro (HE), magnetic compass (HC), integrated navigation (IN) and instrumentation
 TRUE_HEADING = ("HDT", "THS")
 """Sentences of a heading against true north: HDT, and THS, its IEC 61162-1 successor with a
 mode (gyrocompasses and GNSS compasses since about 2010 send it, often beside HDT)."""
-HEADING_KINDS = (*TRUE_HEADING, "HDG")
-"""The sentences that give the heading table: HDG (a magnetic compass) only when the heading
-source sends no true heading (:func:`_heading_sentences`)."""
+MAGNETIC_HEADING = ("HDG", "HDM")
+"""Sentences of a magnetic compass: HDG (sensor heading, deviation, variation) and HDM (the
+magnetic heading alone, an older sentence; as an HDG without deviation and variation)."""
+HEADING_KINDS = (*TRUE_HEADING, *MAGNETIC_HEADING)
+"""The sentences that give the heading table: HDG and HDM (a magnetic compass) only when the
+heading source sends no true heading (:func:`_heading_sentences`)."""
 THS_MODES = {"A": "autonomous", "E": "estimated (dead reckoning)", "M": "manual input",
              "S": "simulator", "V": "data not valid"}  # fmt: skip
 """THS mode indicator (IEC 61162-1). Only A is a measurement (docs/nmea.md, 'THS')."""
-USED = ("GGA", "RMC", "VTG", "HDT", "THS", "HDG", "ZDA")
+USED = ("GGA", "RMC", "VTG", "HDT", "THS", "HDG", "HDM", "ZDA")
 TIMED = frozenset({"GGA", "RMC", "ZDA"})
 HALF_DAY_S = 43200.0
 DAY_S = 86400.0
@@ -368,6 +372,15 @@ def _hdg(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
                    values={"heading_deg": magnetic, "variation_deg": variation})  # fmt: skip
 
 
+def _hdm(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
+    """An HDM (``$--HDM,heading,M``): a magnetic heading in [0, 360) with no variation, so
+    true north needs ``--declination-deg`` (:func:`_true_north`); up to 0.4.7 ignored."""
+    if _field(msg, "magnetic").upper() != "M":
+        raise _LineError("magnetic", "bad field", "HDM heading not marked M (magnetic)")
+    heading = _number(msg, "heading", low=0.0, high=360.0) % 360.0
+    return _Record("HDM", *where, None, values={"heading_deg": heading, "variation_deg": math.nan})
+
+
 def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
     """A ZDA: UTC time and date."""
     tod = _time_of_day(msg)
@@ -381,7 +394,7 @@ def _zda(msg: pynmea2.TalkerSentence, where: tuple[int, int]) -> _Record:
 
 
 _READERS = {"GGA": _gga, "RMC": _rmc, "VTG": _vtg, "HDT": _hdt, "THS": _ths, "HDG": _hdg,
-            "ZDA": _zda}  # fmt: skip
+            "HDM": _hdm, "ZDA": _zda}  # fmt: skip
 OWN_FIELDS = {"THS": ("heading", "mode")}
 """Sentences pynmea2 (1.19) does not know, and their fields: framed and checksum-checked by
 ``pynmea2.parse``, then split here (:class:`_Own`)."""
@@ -512,8 +525,8 @@ def _heading_sentences(
     ths = {r.talker for r in mine if r.kind == "THS"}
     out = []
     for r in records:
-        if r.kind == "HDG" and true:
-            ignored["HDG (a true heading, HDT or THS, is read)"] += 1
+        if r.kind in MAGNETIC_HEADING and true:
+            ignored[f"{r.kind} (a true heading, HDT or THS, is read)"] += 1
         elif r.kind == "HDT" and r.talker in ths:
             ignored["HDT (its talker's THS is read)"] += 1
         else:
@@ -809,7 +822,7 @@ def _true_north(
     section's ``declination_deg`` turns them at load; with HDT or THS headings (true already)
     or none, that option is an :class:`NmeaError`.
     """
-    hdg = [r for r, _ in rows if r.kind == "HDG"]
+    hdg = [r for r, _ in rows if r.kind in MAGNETIC_HEADING]
     if declination_deg is not None:
         if not hdg or len(hdg) != len(rows):
             raise NmeaError(f"--declination-deg {declination_deg:g}: no HDG heading read (HDT "
@@ -822,8 +835,9 @@ def _true_north(
         return list(rows)
     if hdg and all(math.isnan(r.values["variation_deg"]) for r in hdg):
         raise NmeaError(
-            f"{names[hdg[0].file]}: the HDG headings ({len(hdg)}, from line {hdg[0].line}) give "
-            "no variation, so no true heading: give the compass's declination with "
+            f"{names[hdg[0].file]}: the {hdg[0].kind} headings ({len(hdg)}, from line "
+            f"{hdg[0].line}) give no variation, so no true heading: give the compass's "
+            "declination with "
             "--declination-deg D (east positive; the table keeps the magnetic headings and the "
             "heading section gets declination_deg = D)", file=names[hdg[0].file],
         )  # fmt: skip
@@ -832,9 +846,10 @@ def _true_north(
         variation = r.values.get("variation_deg", 0.0)  # HDT, THS: none, true already
         if math.isnan(variation):
             journal.repair(names[r.file], r.line, "variation", "no variation",
-                           "HDG without variation: no true heading")  # fmt: skip
+                           f"{r.kind} without variation: no true heading")  # fmt: skip
             continue
-        true = (r.values["heading_deg"] + variation) % 360.0 if r.kind == "HDG" else None
+        magnetic = r.kind in MAGNETIC_HEADING
+        true = (r.values["heading_deg"] + variation) % 360.0 if magnetic else None
         out.append((r if true is None else replace(r, values={"heading_deg": true}), t))
     return out
 
@@ -1044,7 +1059,7 @@ def _heading_section(
     elif old is not None:
         source = "the mission's"
     else:
-        compass = "HDG" in nmea.heading_sentences
+        compass = any(k in nmea.heading_sentences for k in MAGNETIC_HEADING)
         doc["sigma"] = [COMPASS_SIGMA_DEG if compass else HEADING_SIGMA_DEG, "deg"]
         source = "default for a magnetic compass (assumed)" if compass else "default (assumed)"
     return doc, source
