@@ -112,7 +112,7 @@ def nmea(
     heading_talker: Annotated[
         str | None,
         typer.Option(
-            help="take the headings (HDT, THS, HDG) of this talker only (HE, GP, HC ...): two "
+            help="take the headings (HDT, THS, HDG, HDM) of this talker only (HE, GP, HC ...): two "
             "headings in a log"
         ),
     ] = None,

@@ -897,7 +897,7 @@ def read_nmea(
         paths: the log files; each must hold at least one usable sentence.
         date: the UTC date of the first timed sentence, for logs without RMC/ZDA dates.
         uere_m: σ of the user-equivalent range error of a standalone fix (:func:`fix_sigma`).
-        talkers: the talker whose GGA, whose headings (key ``"HDT"``: HDT, THS or HDG), give
+        talkers: the talker whose GGA, whose headings (key ``"HDT"``: HDT, THS, HDG, HDM), give
             the readings (``{"GGA": "GP"}``); needed when two talkers' sentences of one kind
             interleave (:func:`_one_source`).
         declination_deg: the declination (deg, east positive) of an HDG compass's place: the
@@ -946,7 +946,7 @@ def read_nmea(
     if log_.gnss.empty and log_.heading.empty:
         raise NmeaError(
             f"{', '.join(names)}: no GNSS fix (GGA of a measured quality) and no heading "
-            f"(HDT, THS, HDG) ({len(journal.repairs)} line(s) in the repair log)",
+            f"(HDT, THS, HDG, HDM) ({len(journal.repairs)} line(s) in the repair log)",
             file=names[0],
         )
     return log_
