@@ -243,8 +243,8 @@ class Stream:
         r = row if row is not None else self._rows[sensor]
         self._rows[sensor] = r + 1
         at = float(t) - self._latency[sensor]  # the reading's own time (latency_s)
-        if cfg.declination_rad():  # a magnetic compass's heading, as the loader turns it
-            zz = true_north(zz, cfg.declination_rad())
+        if declination := cfg.declination_rad():  # a magnetic compass's, as the loader turns it
+            zz = true_north(zz, declination)
         self._route(sensor, *self._screens[sensor].push(Reading(at, zz, int(r)), lock))
         self._hold = min(s.held_from for s in self._screens.values())
         return self._advance()
@@ -502,7 +502,7 @@ def replay(mission: Mission) -> Iterator[Item]:
     for name, d in {**mission.sensors, **mission.off}.items():
         cfg = mission.config.sensors[name]
         stamps = d.t + (cfg.latency_s or 0.0)
-        z = true_north(d.z, -cfg.declination_rad()) if cfg.declination_rad() else d.z
+        z = true_north(d.z, -declination) if (declination := cfg.declination_rad()) else d.z
         streams.append(_keyed(name, 0, stamps, z, d.rows, np.full(d.t.size, math.nan)))
     for _, _, item in heapq.merge(*streams, key=lambda e: (e[0], e[1])):
         yield item

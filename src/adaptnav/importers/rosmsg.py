@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from adaptnav.core.attitude import dcm_to_euler, dcm_to_quat, euler_to_dcm, quat_to_dcm
+from adaptnav.core.attitude import dcm_to_euler, quat_to_dcm
 from adaptnav.core.units import DEG, G0
 
 Array = NDArray[np.float64]
@@ -36,7 +36,6 @@ __all__ = [
     "enu_to_ned",
     "flu_to_frd",
     "imu_rates",
-    "nav_to_ros_quaternions",
     "navsatfix",
     "pose_depth",
     "pressure_depth",
@@ -75,16 +74,6 @@ def ros_to_nav_attitude(q_xyzw: Array) -> Array:
         wxyz = q[:, [3, 0, 1, 2]] / np.linalg.norm(q, axis=1, keepdims=True)  # dropped at load
     rows = [dcm_to_euler(C_NED_ENU @ quat_to_dcm(w) @ C_FRD_FLU) for w in wxyz]
     return np.array(rows, dtype=float).reshape(-1, 3)
-
-
-def nav_to_ros_quaternions(rpy: Array) -> Array:
-    """ROS quaternions ``q_enu_flu`` (n, 4) ``[x, y, z, w]`` of ZYX attitudes (n, 3) of
-    ``C_nb`` (the inverse of :func:`ros_to_nav_attitude`)."""
-    out = [
-        dcm_to_quat(C_NED_ENU @ euler_to_dcm(r, p, y) @ C_FRD_FLU)
-        for r, p, y in np.asarray(rpy, dtype=float).reshape(-1, 3)
-    ]
-    return np.array(out, dtype=float).reshape(-1, 4)[:, [1, 2, 3, 0]]
 
 
 def stamps_ns(msgs: Sequence[Any]) -> NDArray[np.int64]:

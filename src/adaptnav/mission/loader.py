@@ -436,8 +436,8 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                  cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
-    if cfg.declination_rad():
-        z = true_north(z, cfg.declination_rad())
+    if declination := cfg.declination_rad():
+        z = true_north(z, declination)
         log.info("sensor %r: magnetic headings turned to true north by %+g° (declination_deg)",
                  name, cfg.declination_deg)  # fmt: skip
     if cfg.kind == "depth" and cfg.limits is None:
