@@ -712,6 +712,30 @@ def test_far_from_the_datum_the_pose_is_in_the_map_frame() -> None:
     np.testing.assert_allclose(v, [2.0, 0.0, 0.0], atol=1e-12)  # the twist is in the body
 
 
+def test_the_angular_twist_is_unknown_by_a_large_variance_not_minus_one() -> None:
+    """nav_msgs/Odometry has no "not provided" mark: the angular twist (the solution has no
+    rate) is 0 with variance 1e6 (rad/s)², so the twist covariance stays positive definite
+    and a consumer such as robot_localization gives it no weight. Up to 0.4.8 its variances
+    were -1 (sensor_msgs/Imu's mark), a negative variance to an Odometry consumer."""
+    from adaptnav.importers.rosbag import odometry_rows
+
+    n = 2
+    cols: dict[str, Any] = {
+        "t_s": np.arange(n, dtype=float), "lat_rad": np.full(n, 0.7), "lon_rad": np.full(n, 0.2),
+        "h_m": np.zeros(n), "vn_m_s": np.full(n, 1.5), "ve_m_s": np.zeros(n),
+        "vd_m_s": np.zeros(n), "roll_rad": np.zeros(n), "pitch_rad": np.zeros(n),
+        "yaw_rad": np.zeros(n),
+    }  # fmt: skip
+    for c in ("dr_N", "dr_E", "dr_D", "dv_N", "dv_E", "dv_D", "phi_N", "phi_E", "phi_D"):
+        cols[f"sd_{c}"] = np.full(n, 1e-3)
+    rows = odometry_rows(pd.DataFrame(cols), 0)
+    for cov in rows.twist_cov.reshape(n, 6, 6):
+        np.testing.assert_array_equal(np.diag(cov)[3:], [1e6, 1e6, 1e6])
+        assert not cov[3:, :3].any() and not cov[:3, 3:].any()
+        assert np.linalg.eigvalsh(cov).min() > 0.0  # positive definite
+    np.testing.assert_allclose(rows.v_flu[0], [1.5, 0.0, 0.0], atol=1e-12)
+
+
 def test_a_run_whose_mission_folder_is_not_found_needs_the_origin(
     trip: Trip, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

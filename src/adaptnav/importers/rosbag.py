@@ -847,9 +847,15 @@ def import_bag(
 POSITION = ("dr_N", "dr_E", "dr_D")
 VELOCITY = ("dv_N", "dv_E", "dv_D")
 ATTITUDE = ("phi_N", "phi_E", "phi_D")
-UNKNOWN_VARIANCE = -1.0
-"""The twist's angular-rate variances: the solution has no angular rate (sensor_msgs' mark of
-a quantity not provided)."""
+UNKNOWN_ANGULAR_VARIANCE = 1.0e6
+"""The twist's angular-rate variances ((rad/s)²; σ = 1000 rad/s, 160 turns a second, beyond any
+vehicle): the solution has no angular rate, so the angular twist is written as 0 with this
+variance, which any consumer takes as unknown (a fusing filter gives it no weight) and which
+keeps the 6×6 covariance positive definite. nav_msgs/Odometry defines no "not provided" mark;
+up to 0.4.8 these were -1, sensor_msgs/Imu's mark, which an Odometry consumer
+(robot_localization) may read as a negative variance (docs/rosbag.md, 'Export'). 1e6 and not
+1e12: beside the velocity's variances (1e-6 (m/s)² for a good DVL) it leaves the matrix a
+condition number of 1e12, well inside double precision."""
 
 
 def run_stamp_origin(meta: Mapping[str, Any]) -> int:
@@ -928,7 +934,8 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
     the map frame by ``M`` (:func:`map_from_ned`); up to 0.4.7 they stayed in each row's own
     ENU, whose axes part from the map's with distance (1.6° of heading 100 km east of the datum
     at 60° N). The velocity block into FLU (``C_FRD_FLU C_bn P_v C_nb C_FRD_FLU``); no
-    position-attitude correlation is kept in a solution table, so that block is zero."""
+    position-attitude correlation is kept in a solution table, so that block is zero. The
+    angular twist is zero with :data:`UNKNOWN_ANGULAR_VARIANCE` (the solution has no rate)."""
     from adaptnav.api.results import check_finite, covariance_block
     from adaptnav.core import earth
     from adaptnav.core.attitude import dcm_to_quat, euler_to_dcm
@@ -951,7 +958,7 @@ def odometry_rows(solution: pd.DataFrame, origin_ns: int) -> OdometryRows:
     pose[:, 3:, 3:] = M @ covariance_block(solution, ATTITUDE) @ M.transpose(0, 2, 1)
     twist = np.zeros((n, 6, 6))
     twist[:, :3, :3] = to_flu @ covariance_block(solution, VELOCITY) @ to_flu.transpose(0, 2, 1)
-    twist[:, [3, 4, 5], [3, 4, 5]] = UNKNOWN_VARIANCE
+    twist[:, [3, 4, 5], [3, 4, 5]] = UNKNOWN_ANGULAR_VARIANCE
     return OdometryRows(
         t_ns,
         datum,
