@@ -438,6 +438,8 @@ def test_import_segment_loads_and_runs(tmp_path: Path) -> None:
     L = info["reference_offset_s"]["used"]
     assert pytest.approx(offset(n)) == L and info["reference_offset_s"]["readme"] == 0.5
     assert info["dvl_offset_s"]["used"] == 1.0
+    # no absolute time: the README gives the day, not the time (the export warns, not 1970)
+    assert info["time"]["stamp_origin_ns"] is None and info["time"]["recorded_on"] == "2022-06-08"
     arm = np.array(info["imu_lever_arm_m"]["used"])
     # segment 5's reference: velocity and positions' rate within 0.1 % in scale (the table of
     # results-calibration.md: -0.012 %), their difference's 95th percentile a few cm/s

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import logging
 import math
 import shutil
 from collections.abc import Callable
@@ -776,6 +777,40 @@ def test_an_nmea_missions_stamps_start_at_its_t0_utc(tmp_path: Path) -> None:
     assert run_stamp_origin({"mission_dir": str(mission)}) == 1_709_294_400_250_000_000
     (mission / "import.json").unlink()
     assert run_stamp_origin({"mission_dir": str(mission)}) == 0  # simulated: mission seconds
+
+
+def test_a_mission_without_an_absolute_time_is_exported_with_a_warning(
+    mission: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A simulated mission (no import.json) has no absolute time: its export's stamps are
+    mission seconds from 1970, said by a warning naming --stamp-origin-ns; given, no warning.
+    An A-KIT segment's import.json says why it has none (recorded 2022-06-08, no time of
+    day), and the warning quotes it. Up to 0.4.8 both were stamped in 1970 without a word."""
+    run = tmp_path / "run"
+    api.results.save(api.run(load_mission(mission), "meskf"), run)
+    with caplog.at_level(logging.WARNING, logger="adaptnav.importers.rosbag"):
+        code, text = _cli("export", "rosbag", str(run), "--out", str(tmp_path / "o1"), "-q")
+    assert code == 0 and "stamp origin 0 ns" in " ".join(text.split()), text
+    said = " ".join(caplog.text.split())
+    assert "was not imported (simulated?) has no absolute time" in said
+    assert "mission seconds from 1970-01-01 00:00 UTC; give --stamp-origin-ns" in said
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="adaptnav.importers.rosbag"):
+        given = ("--stamp-origin-ns", str(rw.STAMP0_NS))
+        code, text = _cli("export", "rosbag", str(run), "--out", str(tmp_path / "o2"), *given)
+    assert code == 0 and caplog.text == "", text
+    record = {
+        "importer": "adaptnav.importers.akit",
+        "time": {"stamp_origin_ns": None, "note": "recorded on 2022-06-08 (data README)"},
+    }
+    (mission / "import.json").write_text(json.dumps(record), encoding="utf-8")
+    from adaptnav.importers.rosbag import export_stamp_origin
+
+    with caplog.at_level(logging.WARNING, logger="adaptnav.importers.rosbag"):
+        assert export_stamp_origin({"mission_dir": str(mission)}, None) == 0
+    assert "(adaptnav.importers.akit: recorded on 2022-06-08 (data README)) has no" in " ".join(
+        caplog.text.split()
+    )
 
 
 def test_an_rtklib_missions_stamps_are_its_gpst_origin_in_utc(tmp_path: Path) -> None:

@@ -162,7 +162,10 @@ def export_rosbag(
     child_frame_id: Annotated[str, typer.Option(help="body frame (FLU)")] = "base_link",
     stamp_origin_ns: Annotated[
         int | None,
-        typer.Option(help="stamp of mission time 0 (ns) (default: the imported bag's, else 0)"),
+        typer.Option(
+            help="stamp of mission time 0 (ns since 1970, UTC) (default: the mission's, from "
+            "its bag, NMEA log or RTKLIB drive; else 0, with a warning)"
+        ),
     ] = None,
     force: Force = False,
     quiet: Quiet = False,

@@ -98,6 +98,16 @@ README_REFERENCE_OFFSET_S: dict[int, float] = {
 """The data README's table of L (s) for segments 1-9 (a check; L is estimated from the data)."""
 README_DVL_OFFSET_S = 1.0
 """The data README's DVL time offset (s), "about 1.0 s, all trajectories" (correction 4)."""
+README_RECORDED_ON = "2022-06-08"
+"""The day of the recording (data README: "off Haifa on 2022-06-08"). The README gives no time of
+day and no segment's start, and the files' ``Time [s]`` columns are synthetic (0-400 s), so a
+segment has no absolute time: import.json's ``time`` says so (no ``stamp_origin_ns``), and an
+export to a ROS 2 bag warns that its stamps are mission seconds (docs/rosbag.md, 'Export')."""
+TIME_NOTE = (
+    f"recorded on {README_RECORDED_ON} (data README), no time of day or segment start given: "
+    "no absolute time"
+)
+"""import.json's ``time.note``, quoted by the ROS 2 export's warning."""
 DVL_LEVER_ARM_M: tuple[float, float, float] = (-1.84, -0.05, 0.10)
 """DVL position relative to the reference point, body FRD (m) (data README, item 5); the
 mission's lever arm is from the IMU, this minus the IMU's position (correction 6)."""
@@ -1217,7 +1227,8 @@ def build_import_record(
     written: MissionConfig,
     truth: pd.DataFrame,
 ) -> dict[str, Any]:
-    """import.json (docs/akit.md, "The mission written"): the source files' SHA-256, the seed,
+    """import.json (docs/akit.md, "The mission written"): the source files' SHA-256, the
+    recording's day and the lack of an absolute time (:data:`README_RECORDED_ON`), the seed,
     the offsets (:func:`_offsets_record`), the corrections, the navigation span and the IMU
     samples and DVL readings ``left_out``, the depth's origin, the repairs, the injected faults,
     the reference's consistency (:func:`reference_record`, of the ``truth`` table written) and
@@ -1231,6 +1242,7 @@ def build_import_record(
             f"{s}_trajectory{n}.csv": _sha256(seg.source / f"{s}_trajectory{n}.csv")
             for s in ("IMU", "DVL", "GT")
         },
+        "time": {"stamp_origin_ns": None, "recorded_on": README_RECORDED_ON, "note": TIME_NOTE},
         "seed": settings.seed,
         "faults": settings.faults,
         **_offsets_record(seg, offsets),

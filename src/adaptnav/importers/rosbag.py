@@ -859,11 +859,19 @@ condition number of 1e12, well inside double precision."""
 
 
 def run_stamp_origin(meta: Mapping[str, Any]) -> int:
-    """The stamp of mission time 0 for a run (ns): the stamp origin of its mission's
-    import.json when the mission came from a bag (:func:`import_bag`), its ``t0_utc`` when it
-    came from an NMEA log (``adaptnav import nmea``), its ``gpst_origin_s`` as UTC when it came
-    from an RTKLIB drive (:func:`timing.gpst_to_utc_ns`; up to 0.4.7 0), else 0 (stamps are
-    mission seconds).
+    """The stamp of mission time 0 for a run (ns): :func:`mission_stamp_origin`, 0 (stamps are
+    mission seconds) for a mission without one."""
+    origin, _ = mission_stamp_origin(meta)
+    return 0 if origin is None else origin
+
+
+def mission_stamp_origin(meta: Mapping[str, Any]) -> tuple[int | None, str]:
+    """The stamp of mission time 0 for a run (ns), and what the run's mission is: the stamp
+    origin of its mission's import.json when the mission came from a bag (:func:`import_bag`),
+    its ``t0_utc`` when it came from an NMEA log (``adaptnav import nmea``), its
+    ``gpst_origin_s`` as UTC when it came from an RTKLIB drive (:func:`timing.gpst_to_utc_ns`;
+    up to 0.4.7 0); None for a mission with no absolute time (simulated, an A-KIT segment:
+    its import.json's ``time.note`` says why, or a run that records no mission folder).
     ValueError when the run records a mission folder (``meta.mission_dir``: absolute since
     0.4.8, as given to ``run`` before, relative to where it ran) that is not found: whether
     its mission came from a bag cannot be told, and up to 0.4.7 the origin was then 0,
@@ -871,7 +879,7 @@ def run_stamp_origin(meta: Mapping[str, Any]) -> int:
     time)."""
     folder = meta.get("mission_dir")
     if not isinstance(folder, str):
-        return 0
+        return None, "the run records no mission folder (summary.json, meta.mission_dir)"
     root = Path(folder)
     if not root.is_dir():
         raise ValueError(
@@ -881,15 +889,35 @@ def run_stamp_origin(meta: Mapping[str, Any]) -> int:
         )
     record = root / "import.json"
     if not record.is_file():
-        return 0
+        return None, f"the mission {folder} was not imported (simulated?)"
     info = json.loads(record.read_text(encoding="utf-8"))
-    if info.get("importer") == "nmea":  # UTC of t_s = 0 (docs/nmea.md); up to 0.4.7 ignored
-        return _utc_ns(info["time"]["t0_utc"])
-    if info.get("importer") == "adaptnav.importers.rtklib":  # GPST of t_s = 0; to 0.4.7 ignored
-        return timing.gpst_to_utc_ns(float(info["gpst_origin_s"]))
-    if info.get("importer") != "adaptnav.importers.rosbag":
-        return 0
-    return int(info["stamp_origin_ns"])
+    importer = info.get("importer")
+    if importer == "nmea":  # UTC of t_s = 0 (docs/nmea.md); up to 0.4.7 ignored
+        return _utc_ns(info["time"]["t0_utc"]), "nmea"
+    if importer == "adaptnav.importers.rtklib":  # GPST of t_s = 0; to 0.4.7 ignored
+        return timing.gpst_to_utc_ns(float(info["gpst_origin_s"])), "rtklib"
+    if importer == "adaptnav.importers.rosbag":
+        return int(info["stamp_origin_ns"]), "rosbag"
+    note = info.get("time", {}).get("note") if isinstance(info.get("time"), dict) else None
+    return None, f"the mission {folder} ({importer}{': ' + note if note else ''})"
+
+
+def export_stamp_origin(meta: Mapping[str, Any], given_ns: int | None) -> int:
+    """The export's stamp origin (ns): ``given_ns`` (``--stamp-origin-ns``), else the mission's
+    (:func:`mission_stamp_origin`); a mission without one gives 0, the stamps mission seconds
+    from 1970-01-01, with a warning naming ``--stamp-origin-ns`` (up to 0.4.8 silent: an
+    A-KIT segment's or a simulated mission's Odometry was dated 1970 without a word)."""
+    if given_ns is not None:
+        return given_ns
+    origin, what = mission_stamp_origin(meta)
+    if origin is not None:
+        return origin
+    log.warning(
+        "%s has no absolute time: the stamps are mission seconds from 1970-01-01 00:00 UTC; "
+        "give --stamp-origin-ns (ns since 1970, UTC, of its t_s = 0) to date them",
+        what[0].upper() + what[1:],
+    )
+    return 0
 
 
 def _utc_ns(iso: str) -> int:
@@ -1121,12 +1149,13 @@ def export_run(
     (existing and empty, or new): ``nav_msgs/msg/Odometry`` on ``names.odometry`` (pose in
     ``names.frame_id``, a local ENU frame at the datum, twist in ``names.child_frame_id``,
     FLU) and the datum as one NavSatFix on ``names.datum``. Stamps are mission time plus
-    ``stamp_origin_ns`` (default :func:`run_stamp_origin`). Returns what was written."""
+    ``stamp_origin_ns`` (default the mission's, with a warning where it has none:
+    :func:`export_stamp_origin`). Returns what was written."""
     from adaptnav.api.results import load
 
     check_topics(names)
     result = load(run_dir)
-    origin = run_stamp_origin(result.meta) if stamp_origin_ns is None else stamp_origin_ns
+    origin = export_stamp_origin(result.meta, stamp_origin_ns)
     rows = odometry_rows(result.solution, origin)
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
