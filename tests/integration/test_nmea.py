@@ -447,7 +447,30 @@ def test_a_talker_sending_hdt_and_ths_gives_its_ths(tmp_path: Path) -> None:
     np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), [12.0, 13.0, 15.0])
     np.testing.assert_allclose(nmea.heading["utc_s"] - T0.timestamp(), [10.0, 11.0, 13.0])
     assert [(r.line, r.action) for r in nmea.repairs] == [(12, "void")]
-    assert nmea.ignored == {"HDT (its talker's THS is read)": 4}
+    assert nmea.ignored == {"HDT (its talker's THS at that time is read)": 4}
+    _placed(nmea, lines)
+
+
+def test_a_talker_sending_hdt_faster_than_ths_keeps_every_heading_once(tmp_path: Path) -> None:
+    """A gyro sending HDT at every epoch and THS at every other: each epoch's heading is read
+    once, the THS where both have the time (in either order; the HDT beside it ignored, also
+    where the THS says V) and the HDT at the other epochs. A second HDT at one time is a
+    repair, as any repeated time. Up to 0.4.8 every HDT of a talker sending THS was ignored:
+    the heading table held only the THS epochs, 10 and 12 here, the rest lost silently."""
+    epochs = [
+        ["HEHDT,99.0,T", "HETHS,10.0,A"], ["HEHDT,11.0,T"], ["HETHS,12.0,A", "HEHDT,99.0,T"],
+        ["HEHDT,13.0,T"], ["HEHDT,99.0,T", "HETHS,,V"], ["HEHDT,15.0,T", "HEHDT,15.5,T"],
+    ]  # fmt: skip
+    lines = _with_headings(epochs)
+    log = tmp_path / "fast-hdt.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    np.testing.assert_allclose(np.degrees(nmea.heading["yaw_rad"]), [10, 11, 12, 13, 15])
+    np.testing.assert_allclose(nmea.heading["utc_s"] - T0.timestamp(), [10, 11, 12, 13, 15])
+    assert nmea.heading["nmea_line"].tolist() == [4, 7, 10, 14, 21]
+    repairs = [(18, "void"), (22, "time does not increase")]
+    assert [(r.line, r.action) for r in nmea.repairs] == repairs
+    assert nmea.ignored == {"HDT (its talker's THS at that time is read)": 3}
     _placed(nmea, lines)
 
 

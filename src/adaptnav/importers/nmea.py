@@ -10,7 +10,8 @@ that a bad field is a repair naming the file, line and field, never an exception
 * **HDT** (true heading) and **THS** (true heading and mode, IEC 61162-1; pynmea2 does not know
   it, so its fields are split here after pynmea2's checksum check): the heading readings,
   THS of mode A only (E, dead reckoning, M, S are not measurements, V is void). A talker
-  that sends both gives its THS (its HDT are counted as ignored);
+  that sends both gives its THS where both have one time (those HDT are counted as ignored)
+  and its HDT at the other times;
 * **HDG** (a magnetic compass's sensor heading, deviation and variation, E positive): the
   heading readings only when the heading source sends no HDT or THS; true = sensor +
   deviation + variation. Without variation the true heading cannot be formed: refused, unless
@@ -513,24 +514,45 @@ def _checked_talkers(talkers: Mapping[str, str]) -> dict[str, str]:
 def _heading_sentences(
     records: Sequence[_Record], chosen: str | None, ignored: Counter[str]
 ) -> list[_Record]:
-    """The records without the heading sentences that another stands for, counted in
-    ``ignored``: HDG when the heading source sends a true heading (HDT, THS: a gyro beside a
-    magnetic compass, or a gyro's own HDG; the true heading is read, as before 0.4.8), and an
-    HDT of a talker that also sends THS (a gyro sends both, HDT for older listeners): its
-    THS gives the same heading and a mode that says whether it is valid (an HDT beside a THS
-    of mode V is not a heading). ``chosen``: the ``--heading-talker``, whose sentences decide
-    (None: all talkers')."""
+    """The records without the magnetic headings that a true one stands for, counted in
+    ``ignored``: HDG and HDM when the heading source sends a true heading (HDT, THS: a gyro
+    beside a magnetic compass, or a gyro's own HDG; the true heading is read, as before
+    0.4.8). ``chosen``: the ``--heading-talker``, whose sentences decide (None: all
+    talkers'). An HDT beside its talker's THS is left to :func:`_ths_preferred`, once the
+    sentences have their times."""
     mine = [r for r in records if r.kind in HEADING_KINDS and chosen in (None, r.talker)]
     true = any(r.kind in TRUE_HEADING for r in mine)
-    ths = {r.talker for r in mine if r.kind == "THS"}
     out = []
     for r in records:
         if r.kind in MAGNETIC_HEADING and true:
             ignored[f"{r.kind} (a true heading, HDT or THS, is read)"] += 1
-        elif r.kind == "HDT" and r.talker in ths:
-            ignored["HDT (its talker's THS is read)"] += 1
         else:
             out.append(r)
+    return out
+
+
+HDT_BESIDE_THS = "HDT (its talker's THS at that time is read)"
+"""The ``sentences_ignored`` key of an HDT that a THS of its talker at its time stands for."""
+
+
+def _ths_preferred(
+    stamped: Sequence[tuple[_Record, float]], ignored: Counter[str]
+) -> list[tuple[_Record, float]]:
+    """The stamped records without the HDT that a THS of the same talker at the same time
+    stands for (a gyro sends both, HDT for older listeners), counted in ``ignored``
+    (:data:`HDT_BESIDE_THS`): the THS gives the same heading and a mode that says whether it
+    is valid (an HDT beside a THS of mode V or E is not a measurement either). An HDT at a time
+    with no THS of its talker is kept: a talker sending HDT at a higher rate than THS gives
+    every heading once. Up to 0.4.8 every HDT of a talker that sent any THS was ignored, and
+    the headings between its THS were lost. An HDT of another talker than the
+    ``--heading-talker`` (unused) is left to the repair log."""
+    ths = {(r.talker, t) for r, t in stamped if r.kind == "THS"}
+    out = []
+    for r, t in stamped:
+        if r.kind == "HDT" and r.unused is None and (r.talker, t) in ths:
+            ignored[HDT_BESIDE_THS] += 1
+        else:
+            out.append((r, t))
     return out
 
 
@@ -921,7 +943,7 @@ def read_nmea(
     records = _one_source(records, _checked_talkers(talkers or {}), names, ignored)
     timed, rollovers = _days(records, names, journal)
     utc, source = _utc(timed, date, names, journal)
-    stamped = [(r, t) for (r, _, _), t in zip(timed, utc, strict=True)]
+    stamped = _ths_preferred([(r, t) for (r, _, _), t in zip(timed, utc, strict=True)], ignored)
     for r, _ in stamped:
         if r.unused is not None:
             journal.repair(names[r.file], r.line, *r.unused)
