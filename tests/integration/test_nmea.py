@@ -388,6 +388,34 @@ def test_two_talkers_interleaved_are_two_sources(tmp_path: Path) -> None:
     assert code == 2 and not (tmp_path / "o").exists()
 
 
+def test_rmc_and_vtg_of_two_talkers_interleaved_are_two_receivers(tmp_path: Path) -> None:
+    """Two receivers' RMC and VTG (GP at whole seconds, 2 kn to 045°; GN half a second later,
+    4 kn to 090°) beside one receiver's GGA: the velocity table would alternate between them,
+    so the import is refused naming the talkers and --gnss-talker, which chooses the receiver
+    of the GGA, RMC and VTG; the other's RMC and VTG are repairs ("another talker"), their
+    dates and times still counted. Up to 0.4.8 both were read: 16 rows of 2 and 4 kn."""
+    pos = f"{ddmm(26.8, 2, 'NS')},{ddmm(56.0, 3, 'EW')}"
+    lines = []
+    for k in range(1, 5):
+        lines += [sentence(f"GNGGA,0000{k:02d}.00,{pos},1,09,1.0,5.0,M,20.0,M,,")]
+        for talker, frac, kn, course in (("GP", "00", 2.0, 45.0), ("GN", "50", 4.0, 90.0)):
+            lines += [sentence(f"{talker}RMC,0000{k:02d}.{frac},A,{pos},{kn},{course},100324,,,A"),
+                      sentence(f"{talker}VTG,{course},T,,M,{kn},N,,K,A")]  # fmt: skip
+    log = tmp_path / "two-rx.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    said = r"RMC/VTG sentences of 2 talkers interleave \(GP RMC from line 2 of two-rx.nmea, GN RMC"
+    with pytest.raises(NmeaError, match=said + r" from line 4.*--gnss-talker"):
+        read_nmea([log])
+    nmea = read_nmea([log], talkers={"GGA": "GN"})
+    assert len(nmea.velocity) == 8 and len(nmea.gnss) == 4
+    np.testing.assert_allclose(nmea.velocity["sog_m_s"], 4.0 * KNOT)
+    np.testing.assert_allclose(nmea.velocity["cog_rad"], math.radians(90.0))
+    gp = sorted(5 * k + j for k in range(4) for j in (2, 3))  # GPRMC, GPVTG of each epoch
+    assert [(r.line, r.action) for r in nmea.repairs] == [(n, "another talker") for n in gp]
+    assert nmea.repairs[0].detail == "GPRMC, not the --gnss-talker GN"
+    assert nmea.date_source == "RMC (two-rx.nmea line 2)"  # GP's RMC still dates the log
+
+
 def _with_headings(headings: list[list[str]]) -> list[str]:
     """The RMC and GGA of :func:`_good_epochs` (10 s on, file lines 1, 2 of each epoch), each
     epoch followed by its heading sentences (bodies, checksums added here)."""

@@ -107,7 +107,10 @@ def nmea(
     ] = None,
     gnss_talker: Annotated[
         str | None,
-        typer.Option(help="take the GGA of this talker only (GP, GN ...): two receivers in a log"),
+        typer.Option(
+            help="take the GGA, RMC and VTG of this talker only (GP, GN ...): two receivers in "
+            "a log"
+        ),
     ] = None,
     heading_talker: Annotated[
         str | None,

@@ -22,8 +22,9 @@ that a bad field is a repair naming the file, line and field, never an exception
   timed sentence (GGA, RMC or ZDA) before them in the same file;
 * **RMC** (time, status, speed and course over ground, date) and **ZDA** (time and date): the
   UTC date, and with **VTG** (course and speed, no time: as HDT) the speed and course over
-  ground. The project's GNSS kind measures position only, so these go to an extra table
-  beside the mission that the filter does not read (``<gnss>_velocity``).
+  ground, of one receiver (the GGA's talker choice, :data:`CHOOSER`). The project's GNSS kind
+  measures position only, so these go to an extra table beside the mission that the filter
+  does not read (``<gnss>_velocity``).
 
 Time (docs/nmea.md, "Time"): UTC = date + time of day; the date comes from the RMC/ZDA
 sentences (or ``date=`` when the log has none); the time of day going back by more than 12 h
@@ -488,14 +489,19 @@ def _record(text: str, where: tuple[int, int], ignored: Counter[str]) -> _Record
 
 
 TALKER_OPTIONS = {"GGA": "--gnss-talker", "HDT": "--heading-talker"}
-"""The sources whose readings aid the filter, each from one talker, and the option that chooses
-it; ``"HDT"`` stands for every heading sentence (:data:`SOURCE_KINDS`)."""
-SOURCE_KINDS = {"GGA": ("GGA",), "HDT": HEADING_KINDS}
-"""The sentences of each source of :data:`TALKER_OPTIONS`."""
+"""The talker choices (keys of ``talkers``) and their options: ``"GGA"`` chooses the GNSS
+receiver (its GGA, RMC and VTG), ``"HDT"`` the heading source (every heading sentence)."""
+SOURCE_KINDS = {"GGA": ("GGA",), "HDT": HEADING_KINDS, "RMC": ("RMC", "VTG")}
+"""The sentences of each source, each of one talker: the fixes, the headings, the speed and
+course over ground (the velocity table)."""
+CHOOSER = {"GGA": "GGA", "HDT": "HDT", "RMC": "GGA"}
+"""The key of :data:`TALKER_OPTIONS` that chooses each source's talker: the velocity is the
+receiver's, chosen with its fixes by ``--gnss-talker`` (up to 0.4.8 the RMC and VTG of every
+talker were read, and two receivers' rows interleaved in the velocity table)."""
 
 
 def _source(kind: str) -> str | None:
-    """The key of :data:`TALKER_OPTIONS` whose source sentence ``kind`` is; None: no source."""
+    """The key of :data:`SOURCE_KINDS` whose source sentence ``kind`` is; None: no source."""
     return next((k for k, kinds in SOURCE_KINDS.items() if kind in kinds), None)
 
 
@@ -569,8 +575,9 @@ def _interleaved(records: Sequence[_Record], key: str, names: Sequence[str]) -> 
     """An :class:`NmeaError` if the sentences of source ``key`` (:data:`SOURCE_KINDS`) of two
     talkers interleave in the stream: two sources (two receivers, a GNSS compass beside a
     gyro) whose readings would alternate in one table (up to 0.4.7: fixes of two antennas
-    20 m apart, 0.5 s apart, read as one track). A talker that follows another (a receiver
-    that switched from GP to GN) is one source."""
+    20 m apart, 0.5 s apart, read as one track; up to 0.4.8 two receivers' speeds and courses
+    in the velocity table). A talker that follows another (a receiver that switched from GP
+    to GN) is one source."""
     spans = sorted(_talker_spans(records, SOURCE_KINDS[key]).items(), key=lambda kv: kv[1])
     # sorted by their first sentences, two spans overlap only if two neighbours do
     if any(b[1][0] < a[1][1] for a, b in itertools.pairwise(spans)):
@@ -579,7 +586,8 @@ def _interleaved(records: Sequence[_Record], key: str, names: Sequence[str]) -> 
         kinds = "/".join(k for k in SOURCE_KINDS[key] if any(r.kind == k for r in records))
         raise NmeaError(
             f"{kinds} sentences of {len(spans)} talkers interleave ({said}): two sources in "
-            f"one log, whose readings would alternate; choose one with {TALKER_OPTIONS[key]}",
+            f"one log, whose readings would alternate; choose one with "
+            f"{TALKER_OPTIONS[CHOOSER[key]]}",
             file=names[records[spans[0][1][0]].file],
         )
 
@@ -592,19 +600,21 @@ def _one_source(
 ) -> list[_Record]:
     """The records of one source per table: the heading sentences that repeat another left
     out (:func:`_heading_sentences`), and the sentences of a source of talkers other than the
-    one ``talkers`` chooses (e.g. ``{"GGA": "GP"}``) marked unused, "another talker" (their
-    time still counts). Without a choice, talkers whose sentences interleave are an
-    :class:`NmeaError` (:func:`_interleaved`)."""
+    one ``talkers`` chooses (e.g. ``{"GGA": "GP"}``: GP's GGA, RMC and VTG, :data:`CHOOSER`)
+    marked unused, "another talker" (their time and date still count). Without a choice,
+    talkers whose sentences of a source interleave are an :class:`NmeaError`
+    (:func:`_interleaved`)."""
     kept = _heading_sentences(records, talkers.get("HDT"), ignored)
-    for key in TALKER_OPTIONS:
-        if key not in talkers:
+    for key in SOURCE_KINDS:
+        if CHOOSER[key] not in talkers:
             _interleaved(kept, key, names)
     out = []
     for r in kept:
         source = _source(r.kind)
-        chosen = talkers.get(source) if source is not None else None
-        if source is not None and chosen is not None and r.talker != chosen:
-            why = f"{r.talker}{r.kind}, not the {TALKER_OPTIONS[source]} {chosen}"
+        option = CHOOSER[source] if source is not None else ""
+        chosen = talkers.get(option)
+        if chosen is not None and r.talker != chosen:
+            why = f"{r.talker}{r.kind}, not the {TALKER_OPTIONS[option]} {chosen}"
             r = replace(r, unused=("(talker)", "another talker", why))
         out.append(r)
     return out
@@ -919,9 +929,9 @@ def read_nmea(
         paths: the log files; each must hold at least one usable sentence.
         date: the UTC date of the first timed sentence, for logs without RMC/ZDA dates.
         uere_m: σ of the user-equivalent range error of a standalone fix (:func:`fix_sigma`).
-        talkers: the talker whose GGA, whose headings (key ``"HDT"``: HDT, THS, HDG, HDM), give
-            the readings (``{"GGA": "GP"}``); needed when two talkers' sentences of one kind
-            interleave (:func:`_one_source`).
+        talkers: the talker whose GGA (and RMC, VTG), whose headings (key ``"HDT"``: HDT,
+            THS, HDG, HDM), give the readings (``{"GGA": "GP"}``); needed when two talkers'
+            sentences of one source interleave (:func:`_one_source`).
         declination_deg: the declination (deg, east positive) of an HDG compass's place: the
             heading table then holds its magnetic headings, to be turned at load by the
             section's ``declination_deg`` (:func:`_true_north`).
