@@ -403,7 +403,7 @@ def test_rmc_and_vtg_of_two_talkers_interleaved_are_two_receivers(tmp_path: Path
                       sentence(f"{talker}VTG,{course},T,,M,{kn},N,,K,A")]  # fmt: skip
     log = tmp_path / "two-rx.nmea"
     log.write_text("\n".join(lines) + "\n", encoding="ascii")
-    said = r"RMC/VTG sentences of 2 talkers interleave \(GP RMC from line 2 of two-rx.nmea, GN RMC"
+    said = r"RMC sentences of 2 talkers interleave \(GP RMC from line 2 of two-rx.nmea, GN RMC"
     with pytest.raises(NmeaError, match=said + r" from line 4.*--gnss-talker"):
         read_nmea([log])
     nmea = read_nmea([log], talkers={"GGA": "GN"})
@@ -414,6 +414,25 @@ def test_rmc_and_vtg_of_two_talkers_interleaved_are_two_receivers(tmp_path: Path
     assert [(r.line, r.action) for r in nmea.repairs] == [(n, "another talker") for n in gp]
     assert nmea.repairs[0].detail == "GPRMC, not the --gnss-talker GN"
     assert nmea.date_source == "RMC (two-rx.nmea line 2)"  # GP's RMC still dates the log
+
+
+def test_one_receiver_sending_rmc_and_vtg_under_two_talkers_is_read(tmp_path: Path) -> None:
+    """One receiver sending ``GNGGA``, ``GNRMC`` and ``GPVTG`` each second (a multi-GNSS
+    receiver naming its VTG by GPS) is one source of speed and course: each sentence kind has
+    one talker, so nothing interleaves and both series are read (8 rows: 4 RMC, 4 VTG). The
+    first version of the RMC/VTG talker check took RMC and VTG as one source and refused it."""
+    pos = f"{ddmm(26.8, 2, 'NS')},{ddmm(56.0, 3, 'EW')}"
+    lines = []
+    for k in range(1, 5):
+        lines += [sentence(f"GNGGA,0000{k:02d}.00,{pos},1,09,1.0,5.0,M,20.0,M,,"),
+                  sentence(f"GNRMC,0000{k:02d}.00,A,{pos},2.0,45.0,100324,,,A"),
+                  sentence("GPVTG,45.0,T,,M,2.0,N,,K,A")]  # fmt: skip
+    log = tmp_path / "one-rx.nmea"
+    log.write_text("\n".join(lines) + "\n", encoding="ascii")
+    nmea = read_nmea([log])
+    assert sorted(nmea.velocity["sentence"]) == ["RMC"] * 4 + ["VTG"] * 4
+    np.testing.assert_allclose(nmea.velocity["sog_m_s"], 2.0 * KNOT)
+    assert nmea.repairs == ()
 
 
 def _with_headings(headings: list[list[str]]) -> list[str]:

@@ -491,10 +491,12 @@ def _record(text: str, where: tuple[int, int], ignored: Counter[str]) -> _Record
 TALKER_OPTIONS = {"GGA": "--gnss-talker", "HDT": "--heading-talker"}
 """The talker choices (keys of ``talkers``) and their options: ``"GGA"`` chooses the GNSS
 receiver (its GGA, RMC and VTG), ``"HDT"`` the heading source (every heading sentence)."""
-SOURCE_KINDS = {"GGA": ("GGA",), "HDT": HEADING_KINDS, "RMC": ("RMC", "VTG")}
-"""The sentences of each source, each of one talker: the fixes, the headings, the speed and
-course over ground (the velocity table)."""
-CHOOSER = {"GGA": "GGA", "HDT": "HDT", "RMC": "GGA"}
+SOURCE_KINDS = {"GGA": ("GGA",), "HDT": HEADING_KINDS, "RMC": ("RMC",), "VTG": ("VTG",)}
+"""The sentences of each source, each of one talker: the fixes, the headings, and the speed and
+course over ground of the RMC and of the VTG (the velocity table). The RMC and the VTG are two
+sources, each its own series in the table (its ``sentence`` column): one receiver may send them
+under two talkers (``GNRMC`` beside ``GPVTG``), which is not two receivers."""
+CHOOSER = {"GGA": "GGA", "HDT": "HDT", "RMC": "GGA", "VTG": "GGA"}
 """The key of :data:`TALKER_OPTIONS` that chooses each source's talker: the velocity is the
 receiver's, chosen with its fixes by ``--gnss-talker`` (up to 0.4.8 the RMC and VTG of every
 talker were read, and two receivers' rows interleaved in the velocity table)."""
