@@ -1040,6 +1040,27 @@ def test_a_start_at_a_pole_is_refused(mission: Path, tmp_path: Path) -> None:
     assert "gps.csv" in line and "within 0.01° of a pole" in line
 
 
+def test_a_configured_position_far_from_the_gnss_fixes_is_refused(
+    mission: Path, tmp_path: Path
+) -> None:
+    """A static alignment takes ``initial.lat_deg/lon_deg`` over the GNSS fixes. Up to 0.4.7 a
+    position 9000 km from the tiny mission's fixes (a template's, copied) ran with exit 0,
+    every row that far off, the GNSS's ledger saying it was used for the initialisation; and
+    a ``lat_deg`` without ``lon_deg`` was ignored for the fixes. Both are refused; a position
+    that agrees with the fixes is taken as before."""
+    toml = (mission / "mission.toml").read_text()
+    far = 'mode = "alignment"\nlat_deg = -45.0\nlon_deg = 100.0'
+    (mission / "mission.toml").write_text(toml.replace('mode = "alignment"', far))
+    line = error_line(cli("run", mission, "--out", tmp_path / "r1"))
+    assert "initial.lat_deg" in line and "'gps'" in line and "gps.csv" in line
+    half = 'mode = "alignment"\nlat_deg = 26.8'
+    (mission / "mission.toml").write_text(toml.replace('mode = "alignment"', half))
+    assert "initial.lon_deg: missing" in error_line(cli("run", mission, "--out", tmp_path / "r2"))
+    near = 'mode = "alignment"\nlat_deg = 26.8\nlon_deg = 56.0'  # the fixes' mean, within 10 m
+    (mission / "mission.toml").write_text(toml.replace('mode = "alignment"', near))
+    assert cli("run", mission, "--out", tmp_path / "r3").exit_code == 0
+
+
 def test_a_heading_in_degrees_in_a_radians_column_is_an_error(
     mission: Path, tmp_path: Path
 ) -> None:

@@ -450,10 +450,69 @@ def _configured_state(
     return x0, np.diag(sig**2)
 
 
+POSITION_SIGMAS = 10.0
+POSITION_FLOOR_M = 50.0
+"""A configured start position (``initial.lat_deg/lon_deg``) and the mean GNSS fix of the static
+window must agree horizontally within max(POSITION_FLOOR_M, POSITION_SIGMAS σ), σ² =
+``sigma_position_m``² + a fix's horizontal σ² (:func:`check_configured_position`)."""
+
+
+def _window_fixes(g: SensorData, t_from: float, window_end: float) -> tuple[np.ndarray, int]:
+    """The GNSS fixes ``g`` with finite values inside the static window ``[t_from,
+    window_end]`` (a mask) and how many rows lie there at all."""
+    window = (g.t >= t_from) & (g.t <= window_end)
+    return window & np.all(np.isfinite(g.z), axis=1), int(window.sum())
+
+
+def _mean_fix(g: SensorData, inside: np.ndarray) -> tuple[float, float]:
+    """Mean latitude and circular-mean longitude (rad) of the fixes ``inside``."""
+    lat = float(np.mean(g.z[inside, 0]))
+    return lat, float(np.angle(np.mean(np.exp(1j * g.z[inside, 1]))))
+
+
+def check_configured_position(
+    cfg: MissionConfig, sensors: Mapping[str, SensorData], t_from: float, window_end: float
+) -> None:
+    """A configured start position (``initial.lat_deg/lon_deg``, which a static alignment takes
+    instead of the GNSS fixes) more than max(POSITION_FLOOR_M, POSITION_SIGMAS σ) horizontally
+    from the mean fix of the first GNSS sensor not off in the window is a :class:`MissionError`
+    naming both: one of them is wrong, and up to 0.4.7 the configured one was taken without a
+    word (a template's position 8000 km from the fixes: every row that far off, exit 0)."""
+    ini, gnss = cfg.initial, cfg.first_sensor("gnss")
+    if ini.lat_deg is None or ini.lon_deg is None or gnss is None or gnss not in sensors:
+        return
+    g, gc = sensors[gnss], cfg.sensors[gnss]
+    inside, _ = _window_fixes(g, t_from, window_end)
+    if not np.any(inside):
+        return
+    lat, lon = _mean_fix(g, inside)
+    lat0, lon0 = math.radians(ini.lat_deg), math.radians(ini.lon_deg)
+    hav = (
+        math.sin((lat - lat0) / 2) ** 2
+        + math.cos(lat) * math.cos(lat0) * math.sin((lon - lon0) / 2) ** 2
+    )
+    dist = 2.0 * earth.A * math.asin(min(1.0, math.sqrt(hav)))
+    sd = math.hypot(ini.sigma_position_m, float(np.max(np.atleast_1d(gc.sigma_si())[:2])))
+    tol = max(POSITION_FLOOR_M, POSITION_SIGMAS * sd)
+    if dist > tol:
+        row = int(g.rows[np.flatnonzero(inside)[0]])
+        raise MissionError(
+            f"{CONFIG_NAME}: initial.lat_deg, lon_deg = {ini.lat_deg:.6f}, {ini.lon_deg:.6f} is "
+            f"{dist:.4g} m from the mean of the {int(inside.sum())} fixes of sensor {gnss!r} "
+            f"({gc.file}, from data row {row}) in the static alignment window, "
+            f"{math.degrees(lat):.6f}, {math.degrees(lon):.6f} (more than {tol:.3g} m): the "
+            "alignment takes the configured position, so one of the two is wrong. Correct it, "
+            "or drop initial.lat_deg/lon_deg to align at the fixes",
+            file=CONFIG_NAME,
+            field="initial.lat_deg",
+        )
+
+
 def _alignment_position(
     cfg: MissionConfig, sensors: Mapping[str, SensorData], t_from: float, window_end: float
 ) -> tuple[float, float, float]:
-    """Where to align: the configured position, else the mean of the first GNSS sensor's valid
+    """Where to align: the configured position (checked against the GNSS fixes in the window,
+    :func:`check_configured_position`), else the mean of the first GNSS sensor's valid
     fixes inside the static window ``[t_from, window_end]`` (docs/alignment.md); an error naming
     the file if neither. Fixes before the IMU's first interval are not the vehicle at rest (up
     to 0.4.5 they were averaged in: a vessel's approach 2 km away moved the start 1.4 km). The
@@ -462,6 +521,7 @@ def _alignment_position(
     (up to 0.4.5: 6240 km, exit 0)."""
     ini = cfg.initial
     if ini.lat_deg is not None and ini.lon_deg is not None:
+        check_configured_position(cfg, sensors, t_from, window_end)
         return (math.radians(ini.lat_deg), math.radians(ini.lon_deg), ini.h_m)
     gnss = _position_gnss(cfg)
     if gnss is None or gnss not in sensors:
@@ -471,19 +531,17 @@ def _alignment_position(
             file=CONFIG_NAME,
         )
     g = sensors[gnss]
-    window = (g.t >= t_from) & (g.t <= window_end)
-    inside = window & np.all(np.isfinite(g.z), axis=1)
+    inside, in_window = _window_fixes(g, t_from, window_end)
     if not np.any(inside):
         file = cfg.sensors[gnss].file
         raise MissionError(
             f"{file}: no valid fix of sensor {gnss!r} inside the static alignment window "
-            f"({t_from:.6g} s <= t <= {window_end:.6g} s; {int(window.sum())} row(s) there, none "
+            f"({t_from:.6g} s <= t <= {window_end:.6g} s; {in_window} row(s) there, none "
             "finite and plausible), and no initial.lat_deg/lon_deg to align at",
             file=file,
             field=gnss,
         )
-    lat = float(np.mean(g.z[inside, 0]))
-    lon = float(np.angle(np.mean(np.exp(1j * g.z[inside, 1]))))
+    lat, lon = _mean_fix(g, inside)
     if not abs(lat) <= earth.MAX_LAT_RAD:
         file = cfg.sensors[gnss].file
         raise MissionError(

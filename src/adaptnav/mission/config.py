@@ -859,7 +859,20 @@ class MissionConfig(_Model):
                     f"initial.{missing[0]}: required for alignment without a GNSS sensor, as the "
                     f"position to align at (missing {missing})"
                 )
+        self._check_half_position()
         return self
+
+    def _check_half_position(self) -> None:
+        """``initial.lat_deg`` without ``lon_deg`` (or the reverse) is no position: a static
+        alignment with a GNSS took the fixes' and ignored the one given, without a word (up to
+        0.4.7)."""
+        given = [k for k in ("lat_deg", "lon_deg") if getattr(self.initial, k) is not None]
+        if len(given) == 1:
+            other = "lon_deg" if given[0] == "lat_deg" else "lat_deg"
+            raise ValueError(
+                f"initial.{other}: missing beside initial.{given[0]}: a start position is both "
+                "(give both, or neither to align at the GNSS fixes)"
+            )
 
     def gated_sensors(self) -> tuple[str, ...]:
         """Names of the gated sensors (``filter.gate_sensors``, default: every dvl)."""
