@@ -1124,3 +1124,23 @@ def test_a_sensor_fault_longer_than_the_lockout_does_not_take_the_filter_with_it
     assert cli("run", mission, "--out", out).exit_code == 0
     faulted = json.loads(cli("evaluate", out, "--json").stdout)["rmse_m"]
     assert faulted < 1.2 * rmse
+
+
+def test_evaluate_refuses_a_simulation_made_again_after_the_run(tmp_path: Path) -> None:
+    """`evaluate` scores a run's calibration states against its mission's simulation.json.
+    Simulated again into the same folder after the run (`simulate --force`, a true DVL scale of
+    3 % for 1 %), up to 0.4.7 the new file's errors scored the old run's estimate, exit 0 (error
+    -1.7 % for +0.26 %). The run records the file's SHA-256 and a different file is refused."""
+    mission, run = tmp_path / "m", tmp_path / "r"
+    assert cli("simulate", "demo", "--out", mission, "--dvl-scale", "1.01", "-q").exit_code == 0
+    toml = (mission / "mission.toml").read_text()
+    toml = toml.replace("zero_is_lost = false\n", 'zero_is_lost = false\nestimate = ["scale"]\n', 1)
+    (mission / "mission.toml").write_text(toml)
+    assert cli("run", mission, "--out", run, "-q").exit_code == 0
+    own = json.loads(cli("evaluate", run, "--json", "-q").stdout)["calibration"]
+    assert own["dvl.scale"]["true"] == pytest.approx(1.0)
+    args = ("simulate", "demo", "--out", mission, "--dvl-scale", "1.03", "--force", "-q")
+    assert cli(*args).exit_code == 0
+    (mission / "mission.toml").write_text(toml)
+    line = error_line(cli("evaluate", run, "-q"))
+    assert "simulation.json: not the simulation the run was made from" in line

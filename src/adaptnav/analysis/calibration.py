@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.analysis.compare import SIMULATION_FILE
+from adaptnav.api.results import file_digest
 from adaptnav.core import attitude
 from adaptnav.core.formats import read_json_object
 from adaptnav.mission import MissionError, load_config
@@ -145,14 +146,29 @@ def true_values(
 
 
 def simulation_truth(
-    config: MissionConfig, root: str | Path, surfaces: Mapping[str, float] | None = None
+    config: MissionConfig,
+    root: str | Path,
+    surfaces: Mapping[str, float] | None = None,
+    sha256: str | None = None,
 ) -> dict[str, float]:
     """:func:`true_values` of ``config`` against the mission folder ``root``'s
     ``simulation.json``: empty without that file (a real mission), a
-    :class:`CalibrationTruthError` naming it and the key when it is there but unreadable."""
+    :class:`CalibrationTruthError` naming it and the key when it is there but unreadable, or,
+    given the digest the run recorded (``sha256``, ``meta.simulation_sha256``), when it is not
+    that file: a mission simulated again into the same folder, or another simulation of the same
+    name (up to 0.4.7 its true errors scored the run's estimates, silently wrong)."""
     path = Path(root) / SIMULATION_FILE
     if not path.is_file():
         return {}
+    if sha256 is not None:
+        now = str(file_digest(path)["sha256"])
+        if now != sha256:
+            raise CalibrationTruthError(
+                f"{path}: not the simulation the run was made from (simulated again after the "
+                f"run, or another mission's): its SHA-256 begins {now[:12]}, and the run's "
+                f"summary.json records {sha256[:12]} (meta.simulation_sha256); run the filter "
+                "again on this mission, or give the run's own mission folder"
+            )
     info = read_json_object(path, CalibrationTruthError)
     try:
         return true_values(config, info, surfaces)
@@ -173,18 +189,19 @@ def comparison_truth(
 
 
 def mission_truth(
-    folder: str | Path, surfaces: Mapping[str, float] | None = None
+    folder: str | Path, surfaces: Mapping[str, float] | None = None, sha256: str | None = None
 ) -> dict[str, float]:
     """:func:`simulation_truth` of the mission folder ``folder`` (its ``mission.toml`` and
-    ``simulation.json``); empty when either is missing or the configuration unreadable (not a
-    mission), a :class:`CalibrationTruthError` for a ``simulation.json`` that is there but
-    damaged (since 0.4.6; it gave no or part of the truth before)."""
+    ``simulation.json``, checked against the run's ``sha256`` when given); empty when either is
+    missing or the configuration unreadable (not a mission), a :class:`CalibrationTruthError`
+    for a ``simulation.json`` that is there but damaged (since 0.4.6; it gave no or part of the
+    truth before) or not the run's."""
     root = Path(folder)
     try:
         config = load_config(root / CONFIG_NAME)
     except MissionError:
         return {}
-    return simulation_truth(config, root, surfaces)
+    return simulation_truth(config, root, surfaces, sha256)
 
 
 def _surface(sensor: SensorConfig, name: str, surfaces: Mapping[str, float]) -> float | None:

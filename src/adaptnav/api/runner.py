@@ -23,7 +23,7 @@ import pandas as pd
 from adaptnav import __version__
 from adaptnav.api import oracle
 from adaptnav.api.diagnosis import with_warnings
-from adaptnav.api.results import Result, dropped_ledger, ledger_frame
+from adaptnav.api.results import Result, dropped_ledger, file_digest, ledger_frame
 from adaptnav.core import attitude, earth
 from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align, level, window_specific_force
@@ -562,6 +562,22 @@ def mission_folder(root: str | Path) -> str:
     return str(Path(root).resolve())
 
 
+SIMULATION_DIGEST_KEY = "simulation_sha256"
+"""``meta`` key of a run: the SHA-256 of its mission's ``simulation.json`` (the simulator's true
+errors, which ``evaluate`` and ``report`` score the calibration states against) when it has one."""
+
+
+def simulation_digest(root: str | Path) -> dict[str, str]:
+    """``{SIMULATION_DIGEST_KEY: hex}`` of the mission folder ``root``'s ``simulation.json``, or
+    empty without one (a real mission): a re-simulated mission (``simulate --force`` into the
+    same folder) or another simulation of the same name is then told from the run's own
+    (:func:`adaptnav.analysis.calibration.simulation_truth`)."""
+    path = Path(root) / "simulation.json"
+    if not path.is_file():
+        return {}
+    return {SIMULATION_DIGEST_KEY: str(file_digest(path)["sha256"])}
+
+
 def check_initial(
     initial: Any, t_from: float = -math.inf, t_to: float = math.inf
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -687,6 +703,7 @@ def run(
     imu_samples = int(m.imu.t.size - nav_from)
     meta: dict[str, Any] = {
         "mission_dir": mission_folder(m.root),
+        **simulation_digest(m.root),
         "adaptnav_version": __version__,
         "filter_settings": s.as_dict(),
         "epoch_policy": policy,

@@ -870,6 +870,17 @@ def _plotly_js() -> Markup:
     return Markup(get_plotlyjs().replace("</script", "<\\/script"))
 
 
+def _simulation_digest(summaries: Mapping[str, Mapping[str, Any] | None]) -> str | None:
+    """The SHA-256 of the mission's ``simulation.json`` that the runs recorded
+    (``meta.simulation_sha256``, since 0.4.8), or None (older runs, a real mission)."""
+    for summary in summaries.values():
+        meta = (summary or {}).get("meta")
+        digest = meta.get("simulation_sha256") if isinstance(meta, Mapping) else None
+        if isinstance(digest, str):
+            return digest
+    return None
+
+
 def _calibration(
     folder: Path,
     names: Sequence[Any],
@@ -895,7 +906,8 @@ def _calibration(
         for summary in summaries.values():
             surfaces = {**run_surfaces((summary or {}).get("meta")), **surfaces}
         try:
-            truth = simulation_truth(config, mission_dir, surfaces)
+            sha = _simulation_digest(summaries)
+            truth = simulation_truth(config, mission_dir, surfaces, sha)
         except CalibrationTruthError as exc:
             raise ReportError(str(exc)) from None
     rows = []
