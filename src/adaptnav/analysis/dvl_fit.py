@@ -147,6 +147,10 @@ class DvlFit:
     in_gaps: int = 0
     """Finite readings left out, not in :attr:`readings`, because the reference rows either side
     are more than :data:`MAX_REFERENCE_STEP_S` apart (module docstring)."""
+    outside: int = 0
+    """Finite readings left out, not in :attr:`readings`, because they lie outside the reference's
+    (or the IMU's) time span: a reference that ends before the DVL's last reading (up to 0.4.7
+    they were left out without being counted)."""
 
 
 def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "velocity") -> DvlFit:
@@ -157,7 +161,7 @@ def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "veloc
     (:data:`MAX_REFERENCE_STEP_S`), or readings that do not observe the scale and the
     three angles (a DVL that never moves)."""
     name = dvl_sensor(mission, sensor, "fit_dvl")
-    t, z, h, in_gaps = _predicted(mission, name, source)
+    t, z, h, in_gaps, outside = _predicted(mission, name, source)
     nominal = np.broadcast_to(mission.config.sensors[name].sigma_si(), (3,))
     if t.size < MIN_READINGS:
         gaps = (
@@ -187,6 +191,7 @@ def fit_dvl(mission: Mission, sensor: str | None = None, source: Source = "veloc
         fit.rho,
         fit.bandwidth,
         in_gaps,
+        outside,
     )
 
 
@@ -312,10 +317,10 @@ def _lag1(g: Array) -> float:
     return float(np.max(np.where(den > 0.0, num / np.where(den > 0.0, den, 1.0), 0.0)))
 
 
-def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Array, Array, int]:
-    """(t, z, h, in_gaps) of the finite readings of ``name`` inside the reference: the readings
-    z and the reference's error-free h, each (n, 3), and how many finite readings were left out
-    in the reference's gaps (:func:`_in_reference_gaps`)."""
+def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Array, Array, int, int]:
+    """(t, z, h, in_gaps, outside) of the finite readings of ``name`` inside the reference: the
+    readings z and the reference's error-free h, each (n, 3), how many finite readings were left
+    out in the reference's gaps (:func:`_in_reference_gaps`) and how many outside its span."""
     truth = mission.truth
     if truth is None:
         raise ValueError("fit_dvl: the mission has no reference (truth) table")
@@ -335,6 +340,7 @@ def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Arra
     )
     t, z, valid = dvl_readings(mission, name, t_ref, "fit_dvl")
     t, z = t[valid], z[valid]
+    outside = int(np.all(np.isfinite(mission.sensors[name].z), axis=1).sum()) - t.size
     gap = _in_reference_gaps(t_ref, t, name)
     t, z = t[~gap], z[~gap]
     rpy = truth[list(_ATTITUDE)].to_numpy(dtype=float)
@@ -349,7 +355,7 @@ def _predicted(mission: Mission, name: str, source: Source) -> tuple[Array, Arra
     h = dvl.ideal(
         IdealInput(x, omega, np.zeros_like(omega), model.lever_arm(), model.sensor_from_body())
     )
-    return t, z, np.asarray(h, dtype=float), int(gap.sum())
+    return t, z, np.asarray(h, dtype=float), int(gap.sum()), outside
 
 
 def _in_reference_gaps(t_ref: Array, t: Array, name: str) -> NDArray[np.bool_]:

@@ -63,6 +63,7 @@ def fit_dvl_cmd(
                     "readings": fit.readings,
                     "used": fit.used,
                     "in_gaps": fit.in_gaps,
+                    "outside_reference": fit.outside,
                     "residual_rms_m_s": list(fit.residual_rms_m_s),
                     "rho": fit.rho,
                     "bandwidth": fit.bandwidth,
@@ -80,6 +81,8 @@ def fit_dvl_cmd(
     rms = ", ".join(f"{v:.4f}" for v in fit.residual_rms_m_s)
     # Readings without reference either side are said, not silently fewer.
     gaps = f" ({fit.in_gaps} more in reference gaps, left out)" if fit.in_gaps else ""
+    if fit.outside:
+        gaps += f" ({fit.outside} more outside the time the reference and the IMU cover, left out)"
     console.print(
         f"{fit.used} of {fit.readings} readings used{gaps} (the rest more than 5 σ off); "
         f"residual RMS x, y, z {rms} m/s; lag-1 correlation {fit.rho:.2f}, allowed for in σ"
