@@ -886,3 +886,23 @@ def test_truncated_parquet_file(tmp_path: Path) -> None:
     data = (root / "imu.parquet").read_bytes()
     (root / "imu.parquet").write_bytes(data[: len(data) // 2])
     assert "imu.parquet: not a readable Parquet file" in load_error(root)
+
+
+@pytest.mark.parametrize(
+    ("rate_hz", "warned"), [(0.001, True), (3.0, False), (2.0, False), (9.0, True)]
+)
+def test_a_sensor_rate_far_from_its_table_is_warned(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture, rate_hz: float, warned: bool
+) -> None:
+    """A DVL pinging at 3 Hz (dvl_table) configured at 0.001 Hz or 9 Hz is warned about, naming
+    the file, the sensor and both intervals (the configured rate is the one the spike screen,
+    Q adaptation and the gap restart take); 2 Hz, within a factor of two of 3 Hz (a DVL's
+    rate follows its range), and 3 Hz are not. Up to 0.4.8 nothing was said."""
+    cfg = config_dict()
+    cfg["sensors"]["dvl"]["rate_hz"] = rate_hz
+    root = write_dir(tmp_path, cfg, {"imu.csv": imu_rates(), "dvl.csv": dvl_table(n=12)})
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
+        m = load_mission(root)
+    assert m.sensors["dvl"].period == pytest.approx(1.0 / rate_hz)
+    said = "dvl.csv: sensor 'dvl''s median interval 0.333333 s is not its rate_hz"
+    assert (said in caplog.text) is warned, caplog.text

@@ -71,6 +71,10 @@ MAX_ACCEL_M_S2 = 20.0 * G0
 """|accel| above this (m/s², 20 g) is taken as wrong units."""
 RATE_MISMATCH = 0.1
 """Relative difference between the median IMU interval and 1/rate_hz that is warned about."""
+SENSOR_RATE_FACTOR = 2.0
+"""A sensor's median interval more than this factor from its ``1/rate_hz`` (either way) is
+warned about: aiding sensors ping irregularly (a DVL's rate follows the range to the bottom),
+so the band is wider than the IMU's :data:`RATE_MISMATCH`."""
 CHECK_BLOCK = 1 << 20
 """IMU rows checked at a time for wrong units: temporaries of 48 MB, not of the whole table."""
 
@@ -463,11 +467,29 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     tk = t[rows]
     if cfg.rate_hz is not None:
         period = 1.0 / cfg.rate_hz
+        _check_rate(table, name, tk, period)
     elif tk.size >= 2:
         period = float(np.median(np.diff(tk)))
     else:
         period = math.nan
     return SensorData(name, cfg.kind, tk, z[rows], rows, period)
+
+
+def _check_rate(table: Table, name: str, t: Array, period: float) -> None:
+    """Warn when the median interval of a sensor's kept readings ``t`` is more than
+    :data:`SENSOR_RATE_FACTOR` from its configured period ``1/rate_hz``: the configured one is
+    what the spike screen's reach, Q adaptation's pairing of readings and MAESKF's restart
+    after a gap take (up to 0.4.8 a DVL at 3 Hz set to 0.001 Hz ran without a word)."""
+    if t.size < 3:
+        return
+    med = float(np.median(np.diff(t)))
+    if med > 0.0 and max(med / period, period / med) > SENSOR_RATE_FACTOR:
+        log.warning(
+            "%s: sensor %r's median interval %.6g s is not its rate_hz = %g (%.6g s): the "
+            "configured rate is the one used (spike screen, Q adaptation, gap restart); "
+            "remove rate_hz to take the table's",
+            table.label, name, med, 1.0 / period, period,
+        )  # fmt: skip
 
 
 def true_north(z: Array, declination: float) -> Array:
