@@ -303,7 +303,7 @@ def test_cli_refuses_a_coarse_reference_and_reports_a_gap(folder: Path, tmp_path
 
 def test_readings_after_the_reference_ends_are_counted(folder: Path, tmp_path: Path) -> None:
     """A reference that ends before the DVL's last reading: the readings after it are left out
-    of the fit and said, as those in its gaps are (up to 0.4.7 `fit-dvl` printed "1947 of
+    of the fit and said, as those in its gaps are (up to 0.4.8 `fit-dvl` printed "1947 of
     1949 readings used" of a DVL with 2700 finite ones, the other 751 left out without a
     word)."""
     copy = tmp_path / "m"

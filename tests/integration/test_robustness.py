@@ -1043,7 +1043,7 @@ def test_a_start_at_a_pole_is_refused(mission: Path, tmp_path: Path) -> None:
 def test_a_configured_position_far_from_the_gnss_fixes_is_refused(
     mission: Path, tmp_path: Path
 ) -> None:
-    """A static alignment takes ``initial.lat_deg/lon_deg`` over the GNSS fixes. Up to 0.4.7 a
+    """A static alignment takes ``initial.lat_deg/lon_deg`` over the GNSS fixes. Up to 0.4.8 a
     position 9000 km from the tiny mission's fixes (a template's, copied) ran with exit 0,
     every row that far off, the GNSS's ledger saying it was used for the initialisation; and
     a ``lat_deg`` without ``lon_deg`` was ignored for the fixes. Both are refused; a position
@@ -1129,7 +1129,7 @@ def test_a_sensor_fault_longer_than_the_lockout_does_not_take_the_filter_with_it
 def test_evaluate_refuses_a_simulation_made_again_after_the_run(tmp_path: Path) -> None:
     """`evaluate` scores a run's calibration states against its mission's simulation.json.
     Simulated again into the same folder after the run (`simulate --force`, a true DVL scale of
-    3 % for 1 %), up to 0.4.7 the new file's errors scored the old run's estimate, exit 0 (error
+    3 % for 1 %), up to 0.4.8 the new file's errors scored the old run's estimate, exit 0 (error
     -1.7 % for +0.26 %). The run records the file's SHA-256 and a different file is refused."""
     mission, run = tmp_path / "m", tmp_path / "r"
     assert cli("simulate", "demo", "--out", mission, "--dvl-scale", "1.01", "-q").exit_code == 0

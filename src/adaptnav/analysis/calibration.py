@@ -156,7 +156,7 @@ def simulation_truth(
     :class:`CalibrationTruthError` naming it and the key when it is there but unreadable, or,
     given the digest the run recorded (``sha256``, ``meta.simulation_sha256``), when it is not
     that file: a mission simulated again into the same folder, or another simulation of the same
-    name (up to 0.4.7 its true errors scored the run's estimates, silently wrong)."""
+    name (up to 0.4.8 its true errors scored the run's estimates, silently wrong)."""
     path = Path(root) / SIMULATION_FILE
     if not path.is_file():
         return {}

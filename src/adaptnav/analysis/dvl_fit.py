@@ -149,7 +149,7 @@ class DvlFit:
     are more than :data:`MAX_REFERENCE_STEP_S` apart (module docstring)."""
     outside: int = 0
     """Finite readings left out, not in :attr:`readings`, because they lie outside the reference's
-    (or the IMU's) time span: a reference that ends before the DVL's last reading (up to 0.4.7
+    (or the IMU's) time span: a reference that ends before the DVL's last reading (up to 0.4.8
     they were left out without being counted)."""
 
 

@@ -476,7 +476,7 @@ def check_configured_position(
     """A configured start position (``initial.lat_deg/lon_deg``, which a static alignment takes
     instead of the GNSS fixes) more than max(POSITION_FLOOR_M, POSITION_SIGMAS σ) horizontally
     from the mean fix of the first GNSS sensor not off in the window is a :class:`MissionError`
-    naming both: one of them is wrong, and up to 0.4.7 the configured one was taken without a
+    naming both: one of them is wrong, and up to 0.4.8 the configured one was taken without a
     word (a template's position 8000 km from the fixes: every row that far off, exit 0)."""
     ini, gnss = cfg.initial, cfg.first_sensor("gnss")
     if ini.lat_deg is None or ini.lon_deg is None or gnss is None or gnss not in sensors:

@@ -298,7 +298,7 @@ def _calibration_errors(result: Result, mission: Path | None) -> dict[str, dict[
     if not result.meta.get("calibration") or folder is None:
         return {}
     try:
-        digest = result.meta.get("simulation_sha256")  # since 0.4.8: the run's simulation
+        digest = result.meta.get("simulation_sha256")  # since 0.4.9: the run's simulation
         sha = digest if isinstance(digest, str) else None
         truth = mission_truth(folder, run_surfaces(result.meta), sha)
     except CalibrationTruthError as exc:  # a truth read in part would score silently wrong

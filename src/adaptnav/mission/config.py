@@ -865,7 +865,7 @@ class MissionConfig(_Model):
     def _check_half_position(self) -> None:
         """``initial.lat_deg`` without ``lon_deg`` (or the reverse) is no position: a static
         alignment with a GNSS took the fixes' and ignored the one given, without a word (up to
-        0.4.7)."""
+        0.4.8)."""
         given = [k for k in ("lat_deg", "lon_deg") if getattr(self.initial, k) is not None]
         if len(given) == 1:
             other = "lon_deg" if given[0] == "lat_deg" else "lat_deg"

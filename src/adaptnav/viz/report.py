@@ -872,7 +872,7 @@ def _plotly_js() -> Markup:
 
 def _simulation_digest(summaries: Mapping[str, Mapping[str, Any] | None]) -> str | None:
     """The SHA-256 of the mission's ``simulation.json`` that the runs recorded
-    (``meta.simulation_sha256``, since 0.4.8), or None (older runs, a real mission)."""
+    (``meta.simulation_sha256``, since 0.4.9), or None (older runs, a real mission)."""
     for summary in summaries.values():
         meta = (summary or {}).get("meta")
         digest = meta.get("simulation_sha256") if isinstance(meta, Mapping) else None
