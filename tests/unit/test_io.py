@@ -80,6 +80,25 @@ def test_gate_reference_reaches_every_gate() -> None:
     assert gate is not None and gate.q == 2600.0 and gate.reference == "nominal"
 
 
+def test_a_partial_gate_q_keeps_the_other_kinds_defaults() -> None:
+    """``gate_q = {meskf = 300}`` sets MESKF's q and leaves MAESKF its default 1800, as a
+    partial ``r_bounds`` does (up to 0.4.8 the table replaced the defaults and MAESKF ran
+    ungated); ``maeskf = 0`` is how a kind runs ungated; vb has no default gate."""
+    d = config_dict()
+    d["filter"] = {"gate_q": {"meskf": 300.0}}
+    settings = parse_config(d).filter_settings()
+
+    def q(kind: str) -> float | None:
+        gate = settings.with_kind(kind).gate("dvl", is_dvl=True)  # type: ignore[arg-type]
+        return None if gate is None else gate.q
+
+    assert (q("meskf"), q("maeskf"), q("vb")) == (300.0, 1800.0, None)
+    d["filter"] = {"gate_q": {"maeskf": 0.0}}
+    settings = parse_config(d).filter_settings()
+    assert (q("meskf"), q("maeskf")) == (600.0, None)
+    assert settings.with_kind("maeskf").updated(vb_rho=0.9).kind_gate_q() is None  # stays off
+
+
 def test_docs_example_is_valid() -> None:
     text = (REPO / "docs" / "data-format.md").read_text()
     block = text.split("```toml\n", 1)[1].split("```", 1)[0]

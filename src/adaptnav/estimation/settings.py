@@ -143,8 +143,10 @@ class FilterSettings(BaseModel):
 
     kind: FilterKind = "robust"
     gate_rule: GateRule = "component"
-    gate_q: dict[FilterKind, Positive] = Field(default_factory=lambda: dict(DEFAULT_GATE_Q))
-    """q per filter kind; a kind absent here runs without a gate."""
+    gate_q: dict[FilterKind, NonNegative] = Field(default_factory=lambda: dict(DEFAULT_GATE_Q))
+    """q per filter kind, over :data:`DEFAULT_GATE_Q` (a kind left out keeps its default, as in
+    ``r_bounds``); 0, or a kind without a default left out: no gate (:meth:`kind_gate_q`). Up
+    to 0.4.8 the dict replaced the defaults, so ``{meskf = 300}`` ran MAESKF ungated."""
     gate_reference: GateReference = "adapted"
     """R in the gate's S: ``adapted``, the strategy's current R (the paper), or ``nominal``
     (estimation/gate.py)."""
@@ -205,6 +207,11 @@ class FilterSettings(BaseModel):
                     f"{k}: [floor, ceiling] = {[floor, ceiling]} must have floor < ceiling"
                 )
         return {**DEFAULT_R_BOUNDS, **v}
+
+    @field_validator("gate_q", mode="after")
+    @classmethod
+    def _merge_gate_q(cls, v: dict[FilterKind, float]) -> dict[FilterKind, float]:
+        return {**DEFAULT_GATE_Q, **v}
 
     @field_validator("divergence", mode="after")
     @classmethod
@@ -286,7 +293,17 @@ class FilterSettings(BaseModel):
         self, sensor: str, overrides: SensorOverrides = SensorOverrides(), *, is_dvl: bool
     ) -> Gate | None:
         """The outlier gate for ``sensor`` (a DVL or not) under this filter kind, or None."""
-        if self.kind not in self.gate_q or not self.gated(sensor, is_dvl=is_dvl):
+        q = self.kind_gate_q()
+        if q is None or not self.gated(sensor, is_dvl=is_dvl):
             return None
-        q = overrides.gate_q if overrides.gate_q is not None else self.gate_q[self.kind]
-        return Gate(q, self.gate_rule, self.gate_reference)
+        return Gate(
+            overrides.gate_q if overrides.gate_q is not None else q,
+            self.gate_rule,
+            self.gate_reference,
+        )
+
+    def kind_gate_q(self) -> float | None:
+        """The gate's q of this filter kind (:attr:`gate_q`), None when the kind runs without
+        a gate (left out of ``gate_q`` without a default, or 0)."""
+        q = self.gate_q.get(self.kind, 0.0)
+        return q if q > 0.0 else None

@@ -103,7 +103,8 @@ def run_one(mission: Mission, initial: Alignment, spec: RunSpec) -> dict[str, fl
     m = evaluate.evaluate(result, mission.truth)
     counts = {f: sum(m.counts.get(n, {}).get(f, 0) for n in dvl) for f in ("used", "rejected")}
     dropped = sum(m.counts.get(n, {}).get("dropped", 0) for n in dvl)
-    gated = kind in settings.gate_q and any(settings.gated(n, is_dvl=True) for n in dvl)
+    kind_q = settings.kind_gate_q()
+    gated = kind_q is not None and any(settings.gated(n, is_dvl=True) for n in dvl)
     return {
         "rmse_m": m.rmse_m,
         "relative_rmse_pct": m.relative_rmse_pct,
@@ -115,7 +116,7 @@ def run_one(mission: Mission, initial: Alignment, spec: RunSpec) -> dict[str, fl
         "dvl_used": float(counts["used"]),
         "dvl_rejected": float(counts["rejected"]),
         "dvl_dropped": float(dropped),
-        "gate_q": float(own.get(dvl[0], settings.gate_q[kind])) if gated else math.nan,
+        "gate_q": float(own.get(dvl[0], kind_q)) if gated and kind_q is not None else math.nan,
         "elapsed_s": time.perf_counter() - started,
     }
 

@@ -611,7 +611,7 @@ def _filter_row(name: str, summary: Mapping[str, Any] | None) -> FilterRow:
     dg = (fs.get("divergence") or {}).get(kind)
     settings = FilterSettingsRow(
         kind=kind,
-        gate_q=(fs.get("gate_q") or {}).get(kind),
+        gate_q=(fs.get("gate_q") or {}).get(kind) or None,  # 0: no gate (since 0.4.9)
         gate_rule=str(fs.get("gate_rule")),
         gate_reference=str(fs.get("gate_reference", "adapted")),
         gate_sensors=tuple(fs.get("gate_sensors", [])),
