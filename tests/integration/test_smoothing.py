@@ -15,6 +15,7 @@ import pytest
 from adaptnav.engine import batch as engine
 from adaptnav.engine import prefault
 from adaptnav.estimation import smoother
+from adaptnav.estimation.health import OFF, DivergenceGuard
 from adaptnav.estimation.noise import FixedNoise, VariationalBayes
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import CORE, N_STATES, StateBlock, StateLayout
@@ -30,7 +31,11 @@ DEPTH_BIAS_GM = StateLayout((StateBlock("depth.bias", ("depth.bias",), (2 * 0.3*
 
 
 def _run(
-    seed: int, smooth: bool, vb: bool = False, layout: StateLayout = CORE
+    seed: int,
+    smooth: bool,
+    vb: bool = False,
+    layout: StateLayout = CORE,
+    divergence: DivergenceGuard = OFF,
 ) -> tuple[engine.Navigator, synthetic.Dataset]:
     ds = synthetic.make(seed, duration=120.0, sensors=NAMES)
     periods = synthetic.periods()
@@ -48,8 +53,8 @@ def _run(
         for n in NAMES
     ]
     nav = engine.Navigator(
-        engine.EngineConfig(synthetic.NOISE, smooth=smooth, layout=layout), channels, x0, P0,
-        ds.t0,
+        engine.EngineConfig(synthetic.NOISE, smooth=smooth, layout=layout, divergence=divergence),
+        channels, x0, P0, ds.t0,
     )  # fmt: skip
     for n in NAMES:
         nav.feed_measurements(n, *ds.readings[n])
@@ -171,6 +176,38 @@ def test_monte_carlo_smoothed_is_better_where_observable_and_as_consistent() -> 
         ("position", "velocity", "attitude"), np.mean(nees, axis=0), strict=True
     ):
         assert 1.0 <= value <= 4.5, f"{block}: {detail}"
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_an_inflation_after_an_update_is_process_noise_not_the_filtered_covariance(
+    seed: int,
+) -> None:
+    """The windowed NIS test inflates P after an update (P ← k P). The node stores the P the
+    update left, so the inflation reaches the backward pass as process noise of the next
+    interval: no smoothed variance above the forward one, the store's P at each update node
+    no larger than its P⁻ (an update only removes uncertainty), and the compiled pass equal
+    to the readable one. Up to 0.4.7 the node held k P: the pass took the inflation for
+    uncertainty at the node itself and carried it backwards, smoothed σ up to 3.4 × the
+    forward σ (demo, robust, nis_ratio 3; docs/smoothing.md, 'Inflations of P')."""
+    dg = DivergenceGuard(nis_ratio=1.3, window=10)  # fires on a consistent filter, k ~ 1.3-2
+    nav, _ = _run(seed, True, divergence=dg)
+    nodes = nav.smoother_nodes()
+    out = nav.output()
+    sm = out.smoothed
+    assert sm is not None and sm.failed == 0
+    assert sum(e["event"] == "nis" for e in out.events) >= 4
+    for k in np.flatnonzero(np.any(nodes.dx, axis=1)):  # P⁺ = G⁻¹ P G⁻ᵀ before the reset
+        Gi = smoother.reset_inverse(nodes.dx[k], N_STATES, nodes.reset)
+        d = np.sqrt(np.diag(nodes.P_prior[k]))
+        removed = (nodes.P_prior[k] - Gi @ nodes.P[k] @ Gi.T) / np.outer(d, d)
+        assert np.linalg.eigvalsh(removed).min() > -1e-9, f"node {k} at t = {nodes.t[k]}"
+    ratio = sm.P_diag / out.P_diag
+    assert ratio.max() <= 1.0 + 1e-9, f"smoothed variance {ratio.max():.3g} × the forward one"
+    x_s, P_s, _ = smoother.rts(nodes)
+    assert nodes.rows is not None
+    diag = np.diagonal(P_s[nodes.rows], axis1=1, axis2=2)[:, :N_STATES]
+    np.testing.assert_allclose(sm.P_diag, diag, rtol=1e-9)
+    np.testing.assert_allclose(sm.x, x_s[nodes.rows, :NOM_SIZE], rtol=0, atol=1e-9)
 
 
 def test_smoothing_needs_its_store_from_the_start() -> None:

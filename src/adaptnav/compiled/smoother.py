@@ -5,10 +5,11 @@ The equations: docs/smoothing.md; readable twin :mod:`adaptnav.estimation.smooth
 
 The forward pass (:mod:`adaptnav.engine.batch`) keeps a :data:`Store` when smoothing is on:
 per *node* (each output row and each measurement epoch) its time, the nominal state after the
-node, P after the node and the core transition Φ from the previous node, and for an update node
-the fed-back correction dx and P before the update (P packed, upper triangle by rows:
-:func:`pack`). Φ is
-accumulated step by step (:func:`accumulate`, ``Φ_acc ← Φ_step Φ_acc``); declared states are
+node, P after the node (at an update node the P the update left, before the windowed NIS test
+could inflate it: update.node_P) and the core transition Φ from the previous node, and for an
+update node the fed-back correction dx and P before the update (P packed, upper triangle by
+rows: :func:`pack`). Φ is accumulated step by step (:func:`accumulate`,
+``Φ_acc ← Φ_step Φ_acc``); declared states are
 uncoupled in Φ (errorstate.StateLayout), each a random walk or a Gauss-Markov process, so their
 part of Φ is diagonal: ``exp(-Δt/τ)`` over the Δt since the node before, from the node times and
 the store's 1/τ (1 for a random walk). The store is sized by the engine before each IMU chunk

@@ -806,6 +806,11 @@ call of the engine's loop to the next (docs/filters.md, 'Covariance blocks')."""
 WS_XMID, WS_Y0 = 25, 26
 """``ws[WS_XMID]``: the nominal state at the midpoint of an update's step; ``ws[WS_Y0]``: the
 residuals at the prior while the readings are linearised there (:func:`_midpoint`)."""
+WS_NODE_P = 27
+"""``ws[WS_NODE_P]``: for the smoother, P after the epoch's update (its reset and any repair)
+and before the windowed NIS test could inflate it (n×n; 0×0 when smoothing is off): the P of
+the epoch's node, the inflation after it left to the next interval as process noise
+(:func:`node_P`; docs/smoothing.md, 'Inflations of P')."""
 V_ALPHA, V_BETA_PRIOR, V_BETA, V_R_HAT, V_HPH, V_GY, V_EPS, V_HPH_POST, V_LAM, V_B = range(10)
 V_LO, V_HI = 10, 11  # bounds on R̂ per component (variances)
 N_VEC = 12
@@ -816,8 +821,8 @@ def workspace(n_sensors: int, n_states: int = N_STATES, smooth: bool = False) ->
     """Scratch arrays for epochs of up to ``n_sensors`` stacked sensors (D ≤ 3 n_sensors):
     stacked H, y, nominal R blocks, ``H P``, Kᵀ, Eᵀ (D×15), W, S, L, Gᵀ, R used (D×D), VB and
     matching vectors (N_VEC×D), dx, P⁺, and small scratch; allocated once, reused every epoch.
-    ``smooth``: also the P before each update (:data:`WS_PRIOR`); then the propagation's
-    (:data:`WS_PROP`, :data:`WS_NOISE`)."""
+    ``smooth``: also the P before each update (:data:`WS_PRIOR`) and the one the update left
+    (:data:`WS_NODE_P`); then the propagation's (:data:`WS_PROP`, :data:`WS_NOISE`)."""
     n = max(n_sensors, 1)
     Dm = MAX_DIM * n
     ns = n_states
@@ -833,6 +838,7 @@ def workspace(n_sensors: int, n_states: int = N_STATES, smooth: bool = False) ->
         np.zeros(N_NOISE_ACC),
         np.zeros(ns + 1),
         np.zeros(Dm),
+        np.zeros((ns, ns) if smooth else (0, 0)),
     )
 
 
@@ -1633,6 +1639,11 @@ def epoch(
         _event(lg_int, lg_flt, n_ledger, blk[1, 0], EVENT_SINGULAR, t_epoch, math.nan,
                math.nan, 1.0)  # fmt: skip
         n_ledger += 1
+    if smooth:  # the node's P: before the windowed NIS test's inflation, if any (node_P)
+        node = ws[WS_NODE_P]
+        for i in range(P.shape[0]):
+            for j in range(P.shape[0]):
+                node[i, j] = P[i, j]
     for r in range(D):  # S with the prior P and the R used, for the NIS
         for c in range(D):
             W[r, c] += 0.5 * (R_used[r, c] + R_used[c, r])
@@ -1650,6 +1661,20 @@ def epoch(
             n_ledger = _whiteness(rates, s_flt[i], s_state[i], t_epoch, W, y, o, d, lg_int,
                                   lg_flt, n_ledger, blk[1, b])  # fmt: skip
     return n_ledger
+
+
+@jit
+def node_P(P: Array, ws: Workspace) -> Array:
+    """The P the smoother stores at an epoch's node (docs/smoothing.md, 'Inflations of P'):
+    after an update, the P it left (:data:`WS_NODE_P`), so that an inflation by the windowed
+    NIS test after it reaches the backward pass as process noise of the next interval,
+    ``P⁻_{j+1} = Φ (k P_j) Φᵀ + Q``, not as the filtered covariance at the node (RTS, Särkkä
+    2013 eq. 8.6, holds only for the P its update left); else (no update) the current P, with
+    a lockout's inflation in it, which the interval before carries the same way."""
+    prior = ws[WS_PRIOR]
+    if prior.shape[0] > 0 and not math.isnan(prior[0, 0]):
+        return ws[WS_NODE_P]
+    return P
 
 
 # --- the divergence guard (twins in adaptnav.estimation.health)

@@ -776,7 +776,7 @@ def _navigate(
             return NAV_SINGULAR
         icur[I_N_LEDGER] = n
         if sm is not None:
-            smk.node(sm, cur[uk.C_T], x, P, ws[uk.WS_DX], ws[uk.WS_PRIOR])
+            smk.node(sm, cur[uk.C_T], x, uk.node_P(P, ws), ws[uk.WS_DX], ws[uk.WS_PRIOR])
 
 
 def _pole_message(t: float, lat: float) -> str:
@@ -1200,7 +1200,8 @@ class Navigator:
         if not abs(self.x[0]) <= _MAX_LAT:
             raise _off_the_earth(self.t, float(self.x[0]))
         if self._sm is not None:
-            smk.node(self._sm, self.t, self.x, self._P, self._ws[uk.WS_DX], self._ws[uk.WS_PRIOR])
+            ws, P = self._ws, self._P
+            smk.node(self._sm, self.t, self.x, uk.node_P(P, ws), ws[uk.WS_DX], ws[uk.WS_PRIOR])
 
     def _evaluate_in_python(self, head: int, g: int) -> None:
         """Linearise the group's readings of sensors without a compiled linearisation by their

@@ -21,7 +21,9 @@ error back to the coordinates before node j+1's feedback: G is the reset Jacobia
 ``-[dx_vel×]`` in the velocity-attitude block) when the filter resets P, the identity
 otherwise. Nothing else of the update is needed: RTS uses only the prediction ``P⁻_{j+1} = Φ
 P_j Φᵀ + Q`` (with any inflation of P before the update counted as process noise), so gating,
-adaptive R and Joseph form leave the backward pass as it is.
+adaptive R and Joseph form leave the backward pass as it is. ``P_j`` must be what node j's
+update left: an inflation after it (the windowed NIS test) is the next interval's process
+noise, in ``P⁻_{j+1}`` only (docs/smoothing.md, 'Inflations of P').
 
 ``P⁻_{j+1}`` is factored after scaling by its diagonal (positions in m² beside gyro biases in
 rad²/s²: condition numbers of 1e20 otherwise). The compiled twin is
