@@ -210,6 +210,27 @@ def test_an_inflation_after_an_update_is_process_noise_not_the_filtered_covarian
     np.testing.assert_allclose(sm.x, x_s[nodes.rows, :NOM_SIZE], rtol=0, atol=1e-9)
 
 
+def test_a_run_without_any_update_smooths_to_the_forward_solution() -> None:
+    """No reading at all after the start: no update node, nothing to smooth towards. The
+    smoothed solution is the forward one, and the store reads as nodes (up to 0.4.7
+    ``smoother_nodes`` raised IndexError on an empty set of update nodes)."""
+    ds = synthetic.make(5, duration=20.0, sensors=NAMES)
+    channels = [
+        engine.SensorChannel(ds.models[n], synthetic.periods()[n], FixedNoise())  # type: ignore[arg-type]
+        for n in NAMES
+    ]
+    config = engine.EngineConfig(synthetic.NOISE, smooth=True)
+    nav = engine.Navigator(config, channels, ds.x0_hat, ds.P0, ds.t0)
+    nav.feed_imu(ds.imu_t, ds.dt, ds.dtheta, ds.dvel)
+    nav.flush()
+    nodes = nav.smoother_nodes()
+    assert not np.any(nodes.dx) and np.array_equal(nodes.P_prior, nodes.P)
+    out = nav.output()
+    assert out.smoothed is not None and out.smoothed.update_nodes == 0
+    np.testing.assert_array_equal(out.smoothed.x, out.x)
+    np.testing.assert_array_equal(out.smoothed.P_diag, out.P_diag)
+
+
 def test_smoothing_needs_its_store_from_the_start() -> None:
     nav, _ = _run(3, False)
     with pytest.raises(RuntimeError, match="smooth=True"):

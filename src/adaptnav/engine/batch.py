@@ -1424,7 +1424,8 @@ class Navigator:
         P = _unpacked(sm[smk.SM_P][:N], n)
         prior_idx = sm[smk.SM_PRIOR][:N]
         Pm = _unpacked(sm[smk.SM_PM][: int(counts[smk.K_PRIORS])], n)
-        P_prior = np.where((prior_idx >= 0)[:, None, None], Pm[np.maximum(prior_idx, 0)], P)
+        P_prior = P.copy()  # P⁻ = P at a node without an update (there may be none with one)
+        P_prior[prior_idx >= 0] = Pm[prior_idx[prior_idx >= 0]]
         dx = np.zeros((N, n))
         dx[prior_idx >= 0] = sm[smk.SM_DX][prior_idx[prior_idx >= 0]]
         Phi = np.tile(np.eye(n), (N, 1, 1))
