@@ -186,7 +186,7 @@ def test_an_inflation_after_an_update_is_process_noise_not_the_filtered_covarian
     update left, so the inflation reaches the backward pass as process noise of the next
     interval: no smoothed variance above the forward one, the store's P at each update node
     no larger than its P⁻ (an update only removes uncertainty), and the compiled pass equal
-    to the readable one. Up to 0.4.7 the node held k P: the pass took the inflation for
+    to the readable one. Up to 0.4.8 the node held k P: the pass took the inflation for
     uncertainty at the node itself and carried it backwards, smoothed σ up to 3.4 × the
     forward σ (demo, robust, nis_ratio 3; docs/smoothing.md, 'Inflations of P')."""
     dg = DivergenceGuard(nis_ratio=1.3, window=10)  # fires on a consistent filter, k ~ 1.3-2
@@ -212,7 +212,7 @@ def test_an_inflation_after_an_update_is_process_noise_not_the_filtered_covarian
 
 def test_a_run_without_any_update_smooths_to_the_forward_solution() -> None:
     """No reading at all after the start: no update node, nothing to smooth towards. The
-    smoothed solution is the forward one, and the store reads as nodes (up to 0.4.7
+    smoothed solution is the forward one, and the store reads as nodes (up to 0.4.8
     ``smoother_nodes`` raised IndexError on an empty set of update nodes)."""
     ds = synthetic.make(5, duration=20.0, sensors=NAMES)
     channels = [
