@@ -77,9 +77,12 @@ def test_the_long_run_sigma_grows_with_the_correlation_of_the_readings(
     """docs/calibration.md, 'Correlated readings': on the simulator's white reading noise every
     state's long-run factor is near 1; with an AR(1) error added to the DVL (σ 5 cm/s, lag-1
     correlation 0.95 at 3 Hz: a 7-s correlation time), the factors of the DVL's scale, pitch
-    and yaw exceed 2.5 while the depth meter's and the inclinometer's stay as they were."""
+    and yaw exceed 2.5 while the depth meter's and the inclinometer's stay as they were; the
+    correlated run, not the white one, warns of the DVL (diagnosis.calibration_correlated)."""
     est = missions[1]
-    white = api.run(load_mission(est), "robust").meta["calibration"]
+    white_run = api.run(load_mission(est), "robust")
+    white = white_run.meta["calibration"]
+    assert not [w for w in white_run.meta["warnings"] if w["kind"] == "calibration_correlated"]
     for name, c in white.items():
         assert 0.7 < c["long_run_factor"] < 1.5, (name, c)
         want = c["sigma"] * math.sqrt(max(1.0, c["long_run_factor"]))
@@ -96,7 +99,13 @@ def test_the_long_run_sigma_grows_with_the_correlation_of_the_readings(
     columns = ["vx_m_s", "vy_m_s", "vz_m_s"]
     table[columns] = table[columns].to_numpy() + x
     table.to_parquet(cor / "dvl.parquet")
-    found = api.run(load_mission(cor), "robust").meta["calibration"]
+    run = api.run(load_mission(cor), "robust")
+    found = run.meta["calibration"]
+    # since 0.4.9 the run says so: one warning, for the DVL, naming its largest factor
+    (w,) = [w for w in run.meta["warnings"] if w["kind"] == "calibration_correlated"]
+    worst = max((c["long_run_factor"], n) for n, c in found.items() if n.startswith("dvl."))
+    assert (w["sensor"], w["state"], w["factor"]) == ("dvl", worst[1], worst[0])
+    assert "slow error" in w["message"] and 'estimate = ["bias"]' in w["message"]
     for name in ("dvl.scale", "dvl.misalignment_pitch", "dvl.misalignment_yaw"):
         assert found[name]["long_run_factor"] > 2.5, (name, found[name])
         assert found[name]["sigma_long_run"] > 1.5 * found[name]["sigma"], name

@@ -178,3 +178,24 @@ def test_correlated_innovations_are_flagged_with_their_factor() -> None:
     assert dg.correlated(_innovations("nhc", _ar1(0.9, 3000, 2, 6)), [nhc]) == []
     short = _innovations("dvl", _ar1(0.9, dg.CORRELATED_READINGS - 1, 3, 7))
     assert dg.correlated(short, [channel]) == []
+
+
+def test_calibration_scores_are_flagged_per_sensor_at_the_factor() -> None:
+    """One warning per sensor with a state's factor ≥ CALIBRATION_FACTOR (2.0, from the white
+    and slow-error runs of docs/calibration.md), naming its largest; below it, or unknown
+    (None), nothing."""
+    factors = [
+        ("dvl", "dvl.scale", 5.3),
+        ("dvl", "dvl.misalignment_yaw", 7.4),
+        ("dvl", "dvl.misalignment_roll", None),
+        ("depth", "depth.bias", 1.99),
+        ("inclinometer", "inclinometer.bias_roll", dg.CALIBRATION_FACTOR),
+    ]
+    found = dg.calibration_correlated(factors)
+    assert [(w.sensor, w.state, w.factor) for w in found] == [
+        ("dvl", "dvl.misalignment_yaw", 7.4),
+        ("inclinometer", "inclinometer.bias_roll", 2.0),
+    ]
+    assert found[0].as_dict()["kind"] == "calibration_correlated"
+    assert found[0].message.startswith("dvl: the readings that estimate its calibration are")
+    assert dg.calibration_correlated([("dvl", "dvl.scale", 1.3)]) == []

@@ -37,6 +37,12 @@ flagged when some F ≥ :data:`CORRELATED_FACTOR` over at least :data:`CORRELATE
 readings: the filter then counts the readings as more independent than they are and its σ is
 too small, by up to √F.
 
+The same test on the scores of a sensor's calibration states (``long_run_factor`` of
+``calibration.json``, adaptnav.api.runner) flags the sensor when some factor is at least
+:data:`CALIBRATION_FACTOR` (:func:`calibration_correlated`): a slow error of the sensor that the
+filter does not model, which biases a calibration estimate beyond its σ (docs/calibration.md,
+'A slow DVL error').
+
 A third warning is about time, not disagreement: a sensor with more than
 :data:`OUTSIDE_SHARE` of its readings (and at least :data:`OUTSIDE_READINGS`) stamped before the
 IMU's first sample or after its last. Each such reading has its ledger row, but half a DVL lost
@@ -111,7 +117,12 @@ CORRELATED_HINTS: tuple[tuple[tuple[type, ...], str], ...] = (
         'give its errors a bias state with their correlation time (estimate = ["bias"], '
         "calibration.bias.tau) or thin its fixes (min_interval_s)",
     ),
-    ((DVL,), 'estimate its scale and misalignment (estimate = ["scale", "misalignment"])'),
+    (
+        (DVL,),
+        'estimate its scale and misalignment (estimate = ["scale", "misalignment"]); where it '
+        "does, a slow error: a Gauss-Markov bias with that error's σ and correlation time "
+        '(estimate = ["bias"], calibration.bias = {sigma, tau})',
+    ),
     (
         (Inclinometer, PendulumInclinometer),
         'a slow drift or tilt error: estimate its biases (estimate = ["bias"], with a random '
@@ -295,6 +306,59 @@ def correlated(ledger: pd.DataFrame, channels: Sequence[SensorChannel]) -> list[
         )
         out.append(CorrelationWarning(c.name, n, component, f, message))
     return out
+
+
+CALIBRATION_FACTOR = 2.0
+"""Long-run variance factor of a calibration state's scores (``long_run_factor`` in
+``calibration.json``) at or above which its sensor is flagged (:func:`calibration_correlated`).
+Paper-1, robust, DVL scale and misalignment estimated (docs/calibration.md, 'A slow DVL
+error'): with white DVL readings every state's factor was 0.9-1.3 over 30 seeds; with a slow
+AR(1) error of 2.5 cm/s under them the scale's, pitch's and yaw's were 2.1-5.4 (10 seeds), of
+5 cm/s 4.3-13.2 (30 seeds); with a Gauss-Markov bias state modelling that error, 1.0-1.4."""
+CALIBRATION_HINT = (
+    "a slow error of the sensor that the filter does not model, under which a calibration "
+    "estimate can be off by many σ and even sigma_long_run is a lower bound (paper-1, a DVL "
+    "error of 5 cm/s correlated over 6.5-33 s: the scale +1.7 to +2.2 % for a true 1 %, σ "
+    "0.15 %); model it (a Gauss-Markov bias with the error's σ and correlation time: "
+    'estimate = ["bias"], calibration.bias = {sigma, tau}) and compare missions; '
+    "docs/calibration.md, 'A slow DVL error'"
+)
+
+
+@dataclass(frozen=True)
+class CalibrationWarning(_Warning):
+    """A sensor whose calibration states' scores are correlated (:func:`calibration_correlated`)."""
+
+    sensor: str
+    state: str
+    """Its calibration state with the largest factor."""
+    factor: float
+    """That state's long-run variance factor."""
+    message: str
+    kind: str = "calibration_correlated"
+
+
+def calibration_correlated(
+    factors: Sequence[tuple[str, str, float | None]],
+) -> list[CalibrationWarning]:
+    """Per sensor of ``factors`` ``(sensor, state, long-run factor or None)``, in their order, a
+    warning when one of its calibration states has a factor of at least
+    :data:`CALIBRATION_FACTOR`, naming the state with the largest. The factor is the run's own
+    test of what the state's σ assumes, that the readings which move it are independent
+    (adaptnav.api.runner, '_long_run_factor'); when they are not, its σ is too small, and a
+    slow error also biases the estimate, which no factor of σ covers."""
+    worst: dict[str, tuple[str, float]] = {}
+    for sensor, state, f in factors:
+        if f is not None and f >= CALIBRATION_FACTOR and f > worst.get(sensor, ("", 0.0))[1]:
+            worst[sensor] = (state, float(f))
+    return [
+        CalibrationWarning(
+            sensor, state, f,
+            f"{sensor}: the readings that estimate its calibration are correlated ({state}: "
+            f"long-run variance factor {f:.1f}, 1 when independent): {CALIBRATION_HINT}",
+        )
+        for sensor, (state, f) in worst.items()
+    ]  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ import pandas as pd
 
 from adaptnav import __version__
 from adaptnav.api import oracle
-from adaptnav.api.diagnosis import with_warnings
+from adaptnav.api.diagnosis import calibration_correlated, with_warnings
 from adaptnav.api.results import Result, dropped_ledger, file_digest, ledger_frame
 from adaptnav.core import attitude, earth
 from adaptnav.engine import batch as engine
@@ -723,13 +723,27 @@ def run(
     repairs = [r.__dict__ for r in m.repairs]
     result = Result.from_engine(out, s.kind, cfg.mission.name, meta, repairs, kinds, ledger=ledger)
     result = with_warnings(result, feed.channels)
-    if not states:
-        return result
+    return _with_calibration(result, states, m.sensors) if states else result
+
+
+def _with_calibration(
+    result: Result,
+    states: tuple[calibration.CalibrationState, ...],
+    sensors: Mapping[str, SensorData],
+) -> Result:
+    """``result`` with ``meta.calibration`` (:func:`_calibration`) and, in ``meta.warnings``,
+    the sensors whose calibration scores are correlated (diagnosis.calibration_correlated)."""
+    found = _calibration(states, result.solution, result.ledger, sensors)
+    factors = [
+        (st.sensor, name, found[name]["long_run_factor"]) for st in states for name in st.names
+    ]
+    flagged = [w.as_dict() for w in calibration_correlated(factors)]
     return replace(
         result,
         meta={
             **result.meta,
-            "calibration": _calibration(states, result.solution, result.ledger, m.sensors),
+            "calibration": found,
+            "warnings": [*result.meta.get("warnings", []), *flagged],
         },
     )
 
