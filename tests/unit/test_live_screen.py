@@ -1,7 +1,7 @@
 """Screening one reading at a time (mission/live.py) against the loader screening the table.
 
 A DVL table with every defect the loader screens (a repeated stamp, all-zero readings with
-``zero_is_lost``, an implausible value, a NaN, a stuck run and a quiet run too short to be
+``zero_is_lost``, an implausible value, a NaN, ±inf, a stuck run and a quiet run too short to be
 stuck) is loaded; pushed row by row, :class:`LiveScreen` must release exactly the readings the
 loader kept and drop exactly its rows with its reasons: the loader is the reference.
 """
@@ -30,6 +30,8 @@ def _dvl(seed: int) -> pd.DataFrame:
     z[30] = z[31] = 0.0  # lost bottom lock
     z[40, 0] = 50.0  # implausible speed
     z[50, 1] = math.nan
+    z[60, 2] = math.inf  # ±inf are kept by the loader (the engine's), not implausible
+    z[70, 0] = -math.inf
     z[100:250] = z[100]  # stuck for 74.5 s (the DVL's stuck_s: 10 s): 101..249 dropped
     z[300:316] = z[300] + 1e-6  # quiet for 7.5 s: too short, kept
     z[250] = z[100] + 1e-6  # within the resolution of the stuck run's first: one more

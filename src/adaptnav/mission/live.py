@@ -162,7 +162,9 @@ class LiveScreen:
             return lost_status_reason(cfg.status_column)
         if cfg.zero_is_lost and bool(np.all(r.z == 0.0)):
             return LOST_LOCK_REASON
-        outside = (r.z < self._limits[:, 0]) | (r.z > self._limits[:, 1])
+        # NaN and ±inf are not the limits' business (the loader's _check_plausible): the
+        # engine drops them as non-finite, in a stream as in a batch run.
+        outside = np.isfinite(r.z) & ((r.z < self._limits[:, 0]) | (r.z > self._limits[:, 1]))
         if outside.any():
             c = int(np.flatnonzero(outside)[0])
             return implausible_reason(cfg, c, float(r.z[c]), self._limits)
