@@ -255,6 +255,26 @@ def test_a_number_cut_short_on_the_last_line_is_dropped_not_read(
     assert fate.fate == "dropped" and "truncated" in fate.reason
 
 
+def test_a_cut_last_line_of_a_late_stamped_sensor_is_in_the_ledger_at_its_reading_time(
+    mission: Path,
+) -> None:
+    """With ``latency_s`` every ledger time is ``t_s - latency_s``: the cut line's too (up to
+    0.4.8 it kept its stamp, 0.25 s after where its neighbours' times put it)."""
+    from adaptnav.mission import load_mission
+
+    text = (mission / "mission.toml").read_text()
+    text = text.replace('file = "dvl.csv"', 'file = "dvl.csv"\nlatency_s = 0.25')
+    (mission / "mission.toml").write_text(text)
+    dvl = badinput.read(mission, "dvl")
+    t_last = float(dvl["t_s"].iloc[-1])
+    (mission / "dvl.csv").write_text(dvl.to_csv(index=False).rstrip("\n")[:-3])
+    m = load_mission(mission)
+    (cut,) = [d for d in m.dropped if d.sensor == "dvl"]
+    assert cut.row == len(dvl) - 1 and "truncated" in cut.reason
+    assert cut.t == pytest.approx(t_last - 0.25, abs=1e-12)
+    assert m.sensors["dvl"].t[-1] == pytest.approx(float(dvl["t_s"].iloc[-2]) - 0.25, abs=1e-12)
+
+
 def test_a_last_line_without_line_break_but_complete_is_kept(mission: Path, tmp_path: Path) -> None:
     """A fixed-width file whose last line is whole: no line break at the end is not enough."""
     depth = badinput.read(mission, "depth")

@@ -419,7 +419,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
         journal.drop(
             table.label,
             f"{table.label} line {line}",
-            DroppedRow(name, len(table), t_cut, TRUNCATED_REASON),
+            DroppedRow(name, len(table), t_cut - (cfg.latency_s or 0.0), TRUNCATED_REASON),
             logged=False,
         )
     if len(table) == 0:
