@@ -679,6 +679,29 @@ def test_every_reading_read_has_one_fate(mission: Path, tmp_path: Path) -> None:
     assert set(heading["reason"]) == {"sensor off"}
 
 
+def test_an_off_sensor_whose_table_cannot_be_read_is_a_repair(
+    mission: Path, tmp_path: Path
+) -> None:
+    """The heading is off and its table goes back in time (an error for a sensor in use): the
+    run goes on without it, and since its readings get no ledger row, repairs.parquet names
+    the table and the line (up to 0.4.8 nothing in the run's output said so: 61 readings
+    gone, exit 0, one INFO log line)."""
+    heading = badinput.read(mission, "heading")
+    heading.loc[[10, 11]] = heading.loc[[11, 10]].to_numpy()
+    badinput.write(mission, "heading", heading)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output
+    assert "heading" not in set(_ledger(tmp_path / "run")["sensor"])
+    repairs = pd.read_parquet(tmp_path / "run" / "repairs.parquet")
+    (r,) = repairs[repairs["file"] == "heading.csv"].itertuples()
+    assert (r.line, r.field, r.action) == (13, "t_s", "off sensor's table not read")
+    assert "'heading' (use = 'off'): its readings are in no ledger" in r.detail
+    assert "time goes backwards" in r.detail
+    (mission / "heading.csv").unlink()  # no table at all: nothing to account for
+    assert cli("run", mission, "--out", tmp_path / "run2", "-q").exit_code == 0
+    assert pd.read_parquet(tmp_path / "run2" / "repairs.parquet").empty
+
+
 def test_an_off_sensor_with_a_bad_table_does_not_stop_the_run(
     mission: Path, tmp_path: Path
 ) -> None:

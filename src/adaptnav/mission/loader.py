@@ -65,6 +65,8 @@ Array = NDArray[np.float64]
 CONFIG_NAME = "mission.toml"
 LOST_LOCK_REASON = "all-zero DVL reading: bottom lock lost (zero_is_lost)"
 TRUNCATED_REASON = "truncated last line of the file (cut short), not read"
+OFF_UNREAD = "off sensor's table not read"
+"""Repair action of a sensor with ``use = "off"`` whose table is there but cannot be read."""
 MAX_GYRO_RAD_S = 20.0
 """|gyro| above this (rad/s, ≈ 1150 °/s) is taken as wrong units (deg/s given as rad/s)."""
 MAX_ACCEL_M_S2 = 20.0 * G0
@@ -168,7 +170,7 @@ def load_mission(path: str | Path) -> Mission:
     off: dict[str, SensorData] = {}
     for name, cfg in config.sensors.items():
         if cfg.use == "off":
-            data = _load_off_sensor(table, name, cfg, journal)
+            data = _load_off_sensor(table, name, cfg, journal, root)
             if data is not None:
                 off[name] = data
             continue
@@ -224,15 +226,21 @@ def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
 
 
 def _load_off_sensor(
-    table: Callable[[str], Table], name: str, cfg: SensorConfig, journal: Journal
+    table: Callable[[str], Table], name: str, cfg: SensorConfig, journal: Journal, root: Path
 ) -> SensorData | None:
     """A sensor with ``use = "off"``: its readings are read only to give each its fate in the
-    ledger ("sensor off"); a table that is missing or bad is skipped (logged), not an error."""
+    ledger ("sensor off"); a table that is missing or bad is skipped, not an error. A missing
+    one is logged; a bad one is a repair (:data:`OFF_UNREAD`), since its readings get no ledger
+    row (up to 0.4.8 only an INFO line said so: the run's output had no trace of them)."""
     scratch = Journal()
     try:
         data = _load_sensor(table(cfg.file), name, cfg, scratch)
     except MissionError as exc:
-        log.info("sensor %r: use = 'off', its table not read (%s)", name, exc)
+        if not (root / cfg.file).exists():
+            log.info("sensor %r: use = 'off', its table not read (%s)", name, exc)
+        else:
+            why = f"sensor {name!r} (use = 'off'): its readings are in no ledger: {exc}"
+            journal.repair(exc.file or cfg.file, exc.line, exc.field or "", OFF_UNREAD, why)
         return None
     journal.repairs.extend(scratch.repairs)
     journal.dropped.extend(scratch.dropped)
