@@ -19,6 +19,7 @@ import pandas as pd
 import pytest
 
 from adaptnav import api
+from adaptnav.api import runner
 from adaptnav.api.results import SOLUTION_COLUMNS
 from adaptnav.api.stream import Stream, replay
 from adaptnav.mission import Mission, MissionError, load_mission
@@ -126,6 +127,17 @@ def test_a_given_start_skips_the_imu_before_it_as_the_batch_run(mission: Mission
     assert a.shape == b.shape
     scale = np.maximum(np.nanmax(np.abs(b), axis=0), 1e-300)
     assert np.all(np.abs(a - b) <= 1e-9 * scale)
+    # no alignment ran, and nothing used the GPS (use = "init"): the ledgers say so, alike
+    # (up to 0.4.8 both gave the alignment's reasons)
+    for ledger in (batch.ledger, stream.result.ledger):
+        by = ledger.groupby("sensor")["reason"].agg(set)
+        assert by["gps"] == {runner.GIVEN_INIT_REASON}, by["gps"]
+        assert (
+            runner.GIVEN_START_REASON in by["dvl"] and runner.BEFORE_START_REASON not in by["dvl"]
+        )
+    pd.testing.assert_series_equal(
+        _sorted(stream.result.ledger)["reason"], _sorted(batch.ledger)["reason"]
+    )
 
 
 @pytest.mark.parametrize(

@@ -68,6 +68,19 @@ BEFORE_START_REASON = "before navigation start (alignment)"
 """Ledger reason of the readings inside the static alignment window (docs/alignment.md)."""
 INIT_REASON = "sensor used only for initialisation"
 """Ledger reason of every reading of a sensor with ``use = "init"``."""
+GIVEN_START_REASON = "before navigation start (the given start state)"
+GIVEN_INIT_REASON = 'sensor use = "init", not used: the start state was given'
+"""The two reasons above when the run starts from a state it is given (``initial=`` of
+:func:`run` or a Stream, or ``initial.mode = "state"``): no alignment ran, and nothing used the
+sensor (up to 0.4.8 these readings had the alignment's reasons)."""
+
+
+def start_reasons(aligned: bool) -> tuple[str, str]:
+    """The ledger reasons of a ``use = "init"`` sensor's readings and of a reading at or before
+    the navigation start: the alignment's when the run ``aligned``, else the given start's."""
+    if aligned:
+        return INIT_REASON, BEFORE_START_REASON
+    return GIVEN_INIT_REASON, GIVEN_START_REASON
 
 
 class FilterError(MissionError):
@@ -694,7 +707,7 @@ def run(
         m, init_info = replace(m, config=cfg), {**init_info, "surface_h_m": surfaces}
     states = calibration.calibration_states(cfg)
     x0, P0 = calibration.extend(x0[:NOM_SIZE], P0[:N_STATES, :N_STATES], states)
-    feed = _feed(m, s, t0, states)
+    feed = _feed(m, s, t0, states, initial is None and cfg.initial.mode != "state")
     nav_from = int(np.searchsorted(m.imu.t, t0 + 1e-9, side="left"))
     config = engine_config(cfg, s, policy, noise, states, smooth)
     out = _run_engine(m, s.kind, config, feed, (x0, P0, t0), nav_from, progress)
@@ -862,12 +875,18 @@ class _Feed:
 
 
 def _feed(
-    m: Mission, s: FilterSettings, t0: float, states: tuple[calibration.CalibrationState, ...]
+    m: Mission,
+    s: FilterSettings,
+    t0: float,
+    states: tuple[calibration.CalibrationState, ...],
+    aligned: bool,
 ) -> _Feed:
     """The channels and readings of the aiding sensors after the navigation start ``t0``;
     every other reading (dropped at load, of a sensor off or used only to initialise, inside
-    the alignment, or a known outlier for the oracle) gets its ledger row with the reason."""
+    the alignment or before a given start (``aligned`` False: :func:`start_reasons`), or a
+    known outlier for the oracle) gets its ledger row with the reason."""
     cfg = m.config
+    init_reason, before_reason = start_reasons(aligned)
     d = m.dropped
     extra = [
         dropped_ledger([r.sensor for r in d], [r.row for r in d], [r.t for r in d],
@@ -882,12 +901,12 @@ def _feed(
     for name, data in m.sensors.items():
         scfg = cfg.sensors[name]
         if scfg.use != "aid":
-            why = INIT_REASON if scfg.use == "init" else OFF_REASON
+            why = init_reason if scfg.use == "init" else OFF_REASON
             extra.append(dropped_ledger(name, data.rows, data.t, why))
             continue
         early = data.t < m.imu.start
         before = (data.t <= t0) & ~early
-        for mask, why in ((early, engine.BEFORE_IMU_REASON), (before, BEFORE_START_REASON)):
+        for mask, why in ((early, engine.BEFORE_IMU_REASON), (before, before_reason)):
             extra.append(dropped_ledger(name, data.rows[mask], data.t[mask], why))
         keep = data.t > t0
         if name in known:

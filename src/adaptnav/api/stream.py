@@ -150,6 +150,11 @@ class Stream:
         self._hold = math.inf
         """The oldest stamp a screen holds back (inf: none): the IMU must not pass it."""
         self.result: Result | None = None
+        self._reasons = runner.start_reasons(
+            initial is None and self.config.initial.mode != "state"
+        )
+        """The ledger reasons of a use = "init" sensor's readings and of a reading before the
+        start (runner.start_reasons)."""
         if initial is not None:
             self._start(*runner.check_initial(initial))
             self._info = {"initial": "given"}
@@ -301,7 +306,7 @@ class Stream:
             if sensor in self._at_rest and self._nav is None:
                 self._at_rest[sensor].append(r)
             if use != "aid" or sensor not in self._aiding:
-                why = runner.INIT_REASON if use == "init" else runner.OFF_REASON
+                why = self._reasons[0] if use == "init" else runner.OFF_REASON
                 self._extra.append(runner.ledger_row(sensor, r.row, r.t, why))
             elif self._nav is None:
                 self._early.append((sensor, r))
@@ -310,7 +315,7 @@ class Stream:
 
     def _queue(self, sensor: str, r: Reading) -> None:
         if r.t <= self._t0:
-            self._extra.append(runner.ledger_row(sensor, r.row, r.t, runner.BEFORE_START_REASON))
+            self._extra.append(runner.ledger_row(sensor, r.row, r.t, self._reasons[1]))
         else:
             assert self._nav is not None
             self._nav.feed_measurement(sensor, r.t, r.z, row=r.row)
@@ -446,7 +451,8 @@ def _outside_imu(rec: dict[str, Any], imu_start: float) -> dict[str, Any]:
     stream learns the IMU's start only from its first sample, which may come after such
     readings, so the reason is settled at the end (up to 0.4.7 every such reading was "before
     navigation start (alignment)", and a sensor on another clock went without the warning)."""
-    if rec["reason"] == runner.BEFORE_START_REASON and rec["t"] < imu_start:
+    before = (runner.BEFORE_START_REASON, runner.GIVEN_START_REASON)
+    if rec["reason"] in before and rec["t"] < imu_start:
         return {**rec, "reason": engine.BEFORE_IMU_REASON}
     return rec
 
