@@ -521,6 +521,57 @@ def test_increment_row_with_nan_is_dropped_and_next_interval_stretched(tmp_path:
     assert r.action == "dropped row with non-finite value"
 
 
+def _noisy_increments(n: int = 80, seed: int = 7) -> pd.DataFrame:
+    inc = _increments(n)
+    rng = np.random.default_rng(seed)
+    cols = [c for c in inc.columns if c != "t_s"]
+    inc[cols] = inc[cols].to_numpy() + rng.normal(0.0, 1e-4 * T, (n, len(cols)))
+    return inc
+
+
+def test_increments_after_lost_samples_are_stretched(tmp_path: Path) -> None:
+    # Two samples lost (rows 40, 41): row 42's increments cover its own T, not the 3 T since
+    # row 39. Up to 0.4.8 they were taken over 3 T (gravity integrated over 3 T against a
+    # specific force of one: 0.2 m/s down), since 0.4.9 scaled by 3, as after a NaN row.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _noisy_increments()
+    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[40, 41]), "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert len(m.imu) == 78
+    assert m.imu.dt[40] == pytest.approx(3 * T)
+    np.testing.assert_allclose(m.imu.dvel[40], 3 * inc.iloc[42, 4:].to_numpy(), rtol=1e-12)
+    np.testing.assert_allclose(m.imu.dtheta[40], 3 * inc.iloc[42, 1:4].to_numpy(), rtol=1e-12)
+    (r,) = m.repairs
+    assert (r.file, r.line, r.field) == ("imu.csv", 42, "t_s")
+    assert r.action == "stretched increments over lost samples"
+    assert "about 2 sample(s) lost" in r.detail
+
+
+def test_increments_that_span_a_longer_interval_are_kept(tmp_path: Path) -> None:
+    # An IMU that accumulates until read: rows missing, but row 42 holds the 3 T since row 39.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _noisy_increments()
+    cols = list(inc.columns[1:])
+    inc.loc[42, cols] = inc.loc[40:42, cols].sum().to_numpy()
+    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[40, 41]), "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert m.imu.dt[40] == pytest.approx(3 * T)
+    np.testing.assert_allclose(m.imu.dvel[40], inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
+    assert not m.repairs
+
+
+def test_jittered_increment_stamps_are_not_lost_samples(tmp_path: Path) -> None:
+    # Stamps jittered by up to 0.3 T around a regular clock: intervals up to 1.6 T, none lost.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _noisy_increments(400)
+    inc["t_s"] += np.random.default_rng(3).uniform(-0.3 * T, 0.3 * T, len(inc))
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    assert not load_mission(root).repairs
+
+
 # --- structure of the files ---------------------------------------------------------------------
 
 

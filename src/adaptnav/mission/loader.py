@@ -77,6 +77,11 @@ SENSOR_RATE_FACTOR = 2.0
 """A sensor's median interval more than this factor from its ``1/rate_hz`` (either way) is
 warned about: aiding sensors ping irregularly (a DVL's rate follows the range to the bottom),
 so the band is wider than the IMU's :data:`RATE_MISMATCH`."""
+LOST_SAMPLE_FACTOR = 1.5
+"""An increments row whose interval exceeds this many local IMU periods is a candidate for
+lost samples before it (:func:`_lost_samples`)."""
+LOST_SAMPLE_WINDOW = 25
+"""Rows either side whose median interval and specific force are the IMU's local ones."""
 CHECK_BLOCK = 1 << 20
 """IMU rows checked at a time for wrong units: temporaries of 48 MB, not of the whole table."""
 
@@ -277,6 +282,8 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     rows = np.flatnonzero(_drop_duplicate_rows(table, t, v, journal))
     # Increments: each row's own interval, before rows with NaN are removed (see below).
     own_dt = np.diff(t[rows], prepend=t[rows[0]] - 1.0 / cfg.rate_hz)
+    if not rates:
+        _lost_samples(table, v, rows, own_dt, journal)
     finite = _finite_rows(table, v, rows, used, journal)
     rows, own_dt = rows[finite], own_dt[finite]
     need = 2 if rates else 1
@@ -338,6 +345,49 @@ def _drop_duplicate_rows(table: Table, t: Array, v: Array, journal: Journal) -> 
                 "values",
             )
     return keep
+
+
+def _lost_samples(
+    table: Table, v: Array, rows: NDArray[np.int64], own_dt: Array, journal: Journal
+) -> None:
+    """Increments after lost samples: a row whose interval is more than
+    :data:`LOST_SAMPLE_FACTOR` times the IMU's local one (the median over its
+    :data:`LOST_SAMPLE_WINDOW` neighbours either side) and whose velocity increment is the local
+    specific force's over that local interval, not over its own (the nearer of the two, by
+    ratio: ``|dv| < f sqrt(p T)``), holds the last period's increments only, the samples before
+    it being lost. Its ``own_dt`` is set to the local period in place, so that its increments
+    are scaled over the hole as a row after a dropped NaN row's (docs/data-format.md); each is
+    a repair. A longer interval whose increments do span it (an IMU that accumulates until it
+    is read) is left as it is, and so are one beside a short interval and one that is not
+    within a quarter period of a whole number of periods (jittered stamps, not lost samples)."""
+    n = own_dt.size
+    before = np.concatenate([own_dt[1:2], own_dt[:-1]]) if n > 1 else own_dt
+    after = np.concatenate([own_dt[1:], own_dt[-1:]])
+    cand = np.flatnonzero(own_dt > LOST_SAMPLE_FACTOR * np.minimum(before, after))
+    if not cand.size:
+        return
+    near = np.clip(cand[:, None] + np.arange(-LOST_SAMPLE_WINDOW, LOST_SAMPLE_WINDOW + 1), 0, n - 1)
+    period = np.median(own_dt[near], axis=1)
+    force = np.linalg.norm(v[rows[near], 3:], axis=2) / own_dt[near]
+    dv = np.linalg.norm(v[rows[cand], 3:], axis=1)
+    gap = own_dt[cand]
+    ratio = gap / period
+    whole = np.abs(ratio - np.round(ratio)) < 0.25
+    regular = np.minimum(before, after)[cand] > 0.75 * period
+    lost = (ratio > LOST_SAMPLE_FACTOR) & whole & regular
+    lost &= dv < np.nanmedian(force, axis=1) * np.sqrt(period * gap)
+    for k, p in zip(cand[lost].tolist(), period[lost].tolist(), strict=True):
+        r = int(rows[k])
+        journal.repair(
+            table.label,
+            int(table.lines[r]),
+            TIME_COLUMN,
+            "stretched increments over lost samples",
+            f"{own_dt[k]:.6g} s since the previous row where the IMU's interval is {p:.6g} s, and "
+            f"increments of {p:.6g} s: about {round(own_dt[k] / p) - 1} sample(s) lost, the "
+            f"row's increments scaled by {own_dt[k] / p:.4g} (constant rate over the hole)",
+        )
+        own_dt[k] = p
 
 
 def _finite_rows(
