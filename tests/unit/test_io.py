@@ -572,6 +572,33 @@ def test_jittered_increment_stamps_are_not_lost_samples(tmp_path: Path) -> None:
     assert not load_mission(root).repairs
 
 
+def test_frozen_imu_is_an_error(tmp_path: Path) -> None:
+    # Every value of rows 100-220 repeats row 99's: an IMU frozen for 1.21 s (up to 0.4.8 taken
+    # as it was: the demo frozen for 10 s under way ran 696 km off with exit 0).
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _noisy_increments(300)
+    cols = list(inc.columns[1:])
+    inc.loc[100:220, cols] = inc.loc[99, cols].to_numpy()
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    msg = load_error(root)
+    assert msg.startswith("imu.csv line 102, dtheta_x_rad, ")
+    assert "every IMU value unchanged for 1.21 s, from imu.csv line 101 (t = 10.99 s)" in msg
+    assert "set imu.stuck_s above 1.21 s (0: not checked)" in msg
+    d["imu"]["stuck_s"] = 0.0
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == 300
+    d["imu"]["stuck_s"] = 2.0
+    d["imu"]["format"] = "rates"
+    rates = imu_rates(300)
+    rates.loc[100:220, rates.columns[1:]] = rates.loc[99, rates.columns[1:]].to_numpy()
+    root = write_dir(tmp_path, d, {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == 299
+    del d["imu"]["stuck_s"]
+    root = write_dir(tmp_path, d, {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert "every IMU value unchanged for 1.21 s" in load_error(root)
+
+
 # --- structure of the files ---------------------------------------------------------------------
 
 

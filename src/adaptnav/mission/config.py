@@ -48,6 +48,9 @@ RESERVED_NAMES = ("imu", "truth")
 """Stream names taken by the IMU and the reference; a sensor may not use them."""
 DEFAULT_GAP_PERIODS = 5.0
 """Default ``imu.max_gap_s``: this many nominal IMU periods (0.05 s at 100 Hz)."""
+DEFAULT_IMU_STUCK_S = 1.0
+"""Default ``imu.stuck_s``: a real IMU's six values never all repeat for a second
+(docs/robustness.md, 'A frozen IMU')."""
 FALLBACK_GYRO_BIAS_SIGMA = 10.0 * DEG / 3600.0
 """Initial gyro-bias σ (rad/s, 10 °/h) when neither the config nor the noise model gives one."""
 FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
@@ -303,6 +306,9 @@ class ImuConfig(_Model):
     rate_hz: Positive = 100.0
     max_gap_s: Positive | None = None
     """Largest accepted interval between IMU samples; None → 5 nominal periods."""
+    stuck_s: NonNegative | None = None
+    """Longest time every IMU value may stay unchanged before the IMU is taken as frozen (an
+    error); None → :data:`DEFAULT_IMU_STUCK_S`; 0: not checked."""
     initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
     initial_bias: InitialBias = InitialBias()
 
@@ -310,6 +316,11 @@ class ImuConfig(_Model):
     @classmethod
     def _check_file(cls, v: str) -> str:
         return _check_table_file(v)
+
+    @property
+    def stuck_limit_s(self) -> float:
+        """``stuck_s`` or, if not given, :data:`DEFAULT_IMU_STUCK_S` (0: off)."""
+        return self.stuck_s if self.stuck_s is not None else DEFAULT_IMU_STUCK_S
 
     @property
     def gap_limit_s(self) -> float:

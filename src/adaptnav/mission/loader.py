@@ -297,6 +297,7 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     tk = t[rows]
     gaps = np.diff(tk)
     _check_gaps(table, tk, gaps, rows, cfg.gap_limit_s)
+    _check_frozen(table, tk, v, rows, used, cfg.stuck_limit_s)
     med = float(np.median(gaps)) if gaps.size else 1.0 / cfg.rate_hz
     if abs(med * cfg.rate_hz - 1.0) > RATE_MISMATCH:
         log.warning(
@@ -467,6 +468,37 @@ def _check_gaps(
         file=table.label,
         line=int(table.lines[r1]),
         field=TIME_COLUMN,
+    )
+
+
+def _check_frozen(
+    table: Table, tk: Array, v: Array, rows: NDArray[np.int64], used: list[str], limit: float
+) -> None:
+    """A MissionError if every IMU value stays unchanged for ``limit`` seconds or longer (a
+    frozen IMU, or a driver repeating its last sample): a real IMU's noise moves some value at
+    every sample (docs/robustness.md, 'A frozen IMU'). ``limit`` 0: not checked."""
+    if limit <= 0.0 or len(v) < 2:
+        return
+    same = np.empty(len(v), dtype=bool)
+    same[0] = False
+    for start in range(1, len(v), CHECK_BLOCK):
+        block = slice(start, start + CHECK_BLOCK)
+        prev = slice(start - 1, start - 1 + CHECK_BLOCK)
+        same[block] = np.all(v[block] == v[prev][: len(same[block])], axis=1)
+    edge = np.diff(same.view(np.int8), append=np.int8(0))  # repeats are rare: few edges
+    first = np.flatnonzero(edge == 1)  # the row before each run of repeated rows
+    last = np.flatnonzero(edge == -1)  # each run's last repeat
+    long = np.flatnonzero(tk[last] - tk[first] >= limit)
+    if not long.size:
+        return
+    a, b = int(first[long[0]]), int(last[long[0]])
+    raise table.error(
+        int(rows[a + 1]),
+        ", ".join(used[1:]),
+        f"every IMU value unchanged for {tk[b] - tk[a]:.6g} s, from {table.where(int(rows[a]))} "
+        f"(t = {show(tk[a])} s) to {table.where(int(rows[b]))} (t = {show(tk[b])} s): a frozen "
+        "IMU or driver repeating its last sample? Remove those rows (a gap, imu.max_gap_s) or, "
+        f"if they are right, set imu.stuck_s above {tk[b] - tk[a]:.6g} s (0: not checked)",
     )
 
 
