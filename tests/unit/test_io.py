@@ -599,6 +599,30 @@ def test_frozen_imu_is_an_error(tmp_path: Path) -> None:
     assert "every IMU value unchanged for 1.21 s" in load_error(root)
 
 
+def test_saturated_imu_column_is_an_error(tmp_path: Path) -> None:
+    # gyro_z clipped at 0.3 rad/s on 12 rows of a seeded noisy rate table (up to 0.4.8 taken
+    # as it was: the demo's gyros clipped at 0.05 rad/s gave an attitude NEES of 636, exit 0).
+    d = config_dict()
+    rates = imu_rates(300)
+    rng = np.random.default_rng(11)
+    cols = list(rates.columns[1:])
+    rates[cols] = rates[cols].to_numpy() + rng.normal(0.0, 1e-3, (300, 6))
+    rates.loc[150:161, "gyro_z_rad_s"] = 0.3
+    root = write_dir(tmp_path, d, {"imu.csv": rates, "dvl.csv": dvl_table()})
+    msg = load_error(root)
+    assert msg.startswith("imu.csv line 152, gyro_z_rad_s: 12 rows, the first here (t = 11.5 s)")
+    assert "hold the column's largest value, 0.3: clipped at the IMU's range (saturated)?" in msg
+    assert "set imu.saturation_rows above 12 (0: not checked)" in msg
+    rates.loc[150:152, "gyro_z_rad_s"] = -0.3
+    rates.loc[153:161, "gyro_z_rad_s"] = rng.normal(0.0, 1e-3, 9)
+    root = write_dir(tmp_path, d, {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == 299  # an extreme on 3 rows is a peak
+    d["imu"]["saturation_rows"] = 0
+    rates.loc[150:170, "gyro_z_rad_s"] = 0.3
+    root = write_dir(tmp_path, d, {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == 299
+
+
 # --- structure of the files ---------------------------------------------------------------------
 
 

@@ -51,6 +51,9 @@ DEFAULT_GAP_PERIODS = 5.0
 DEFAULT_IMU_STUCK_S = 1.0
 """Default ``imu.stuck_s``: a real IMU's six values never all repeat for a second
 (docs/robustness.md, 'A frozen IMU')."""
+DEFAULT_SATURATION_ROWS = 10
+"""Default ``imu.saturation_rows``: a real IMU column reaches its extreme value once or twice
+(docs/robustness.md, 'A saturated IMU')."""
 FALLBACK_GYRO_BIAS_SIGMA = 10.0 * DEG / 3600.0
 """Initial gyro-bias σ (rad/s, 10 °/h) when neither the config nor the noise model gives one."""
 FALLBACK_ACCEL_BIAS_SIGMA = 1e-3 * 9.80665
@@ -309,6 +312,9 @@ class ImuConfig(_Model):
     stuck_s: NonNegative | None = None
     """Longest time every IMU value may stay unchanged before the IMU is taken as frozen (an
     error); None → :data:`DEFAULT_IMU_STUCK_S`; 0: not checked."""
+    saturation_rows: Annotated[int, Field(ge=0)] | None = None
+    """Rows at a column's largest or smallest value that make it saturated (an error); None →
+    :data:`DEFAULT_SATURATION_ROWS`; 0: not checked."""
     initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
     initial_bias: InitialBias = InitialBias()
 
@@ -321,6 +327,11 @@ class ImuConfig(_Model):
     def stuck_limit_s(self) -> float:
         """``stuck_s`` or, if not given, :data:`DEFAULT_IMU_STUCK_S` (0: off)."""
         return self.stuck_s if self.stuck_s is not None else DEFAULT_IMU_STUCK_S
+
+    @property
+    def saturation_limit(self) -> int:
+        """``saturation_rows`` or, if not given, :data:`DEFAULT_SATURATION_ROWS` (0: off)."""
+        return self.saturation_rows if self.saturation_rows is not None else DEFAULT_SATURATION_ROWS
 
     @property
     def gap_limit_s(self) -> float:

@@ -298,6 +298,7 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     gaps = np.diff(tk)
     _check_gaps(table, tk, gaps, rows, cfg.gap_limit_s)
     _check_frozen(table, tk, v, rows, used, cfg.stuck_limit_s)
+    _check_saturated(table, tk, v, rows, used, cfg.saturation_limit)
     med = float(np.median(gaps)) if gaps.size else 1.0 / cfg.rate_hz
     if abs(med * cfg.rate_hz - 1.0) > RATE_MISMATCH:
         log.warning(
@@ -500,6 +501,36 @@ def _check_frozen(
         "IMU or driver repeating its last sample? Remove those rows (a gap, imu.max_gap_s) or, "
         f"if they are right, set imu.stuck_s above {tk[b] - tk[a]:.6g} s (0: not checked)",
     )
+
+
+def _check_saturated(
+    table: Table, tk: Array, v: Array, rows: NDArray[np.int64], used: list[str], limit: int
+) -> None:
+    """A MissionError if some IMU column holds its largest or smallest value (not 0) on
+    ``limit`` rows or more: clipped at the IMU's range, the motion beyond it lost
+    (docs/robustness.md, 'A saturated IMU'). ``limit`` 0: not checked."""
+    if limit <= 0:
+        return
+    for c in range(v.shape[1]):
+        col = v[:, c]
+        for value in (float(col.max()), float(col.min())):
+            at = col == value
+            n = int(np.count_nonzero(at))
+            if value == 0.0 or n < limit or n == col.size:
+                continue
+            where = np.flatnonzero(at)
+            a, b = int(where[0]), int(where[-1])
+            side = "largest" if value == float(col.max()) else "smallest"
+            raise table.error(
+                int(rows[a]),
+                used[1 + c],
+                f"{n} rows, the first here (t = {show(tk[a])} s) and the last at "
+                f"{table.where(int(rows[b]))} (t = {show(tk[b])} s), hold the column's {side} "
+                f"value, {show(value)}: clipped "
+                "at the IMU's range (saturated)? The motion beyond it is lost and the navigation "
+                "through it wrong; if the values are right, set imu.saturation_rows above "
+                f"{n} (0: not checked)",
+            )
 
 
 def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -> SensorData | None:
