@@ -623,6 +623,18 @@ def test_saturated_imu_column_is_an_error(tmp_path: Path) -> None:
     assert len(load_mission(root).imu) == 299
 
 
+def test_a_quantized_imu_at_rest_is_not_saturated(tmp_path: Path) -> None:
+    """An IMU quantized at 0.01 m/s² whose accel_x sits at rest within ±2 steps: its extremes
+    repeat (15 rows each) but fewer times than the steps next to them (300), a tail, not a
+    pile-up; the check's first version refused it ("clipped at the IMU's range")."""
+    n = 2630
+    rates = imu_rates(n)
+    levels = np.repeat([-0.02, -0.01, 0.0, 0.01, 0.02], [15, 300, 2000, 300, 15])
+    rates["accel_x_m_s2"] = np.random.default_rng(3).permutation(levels)
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == n - 1
+
+
 # --- structure of the files ---------------------------------------------------------------------
 
 

@@ -82,6 +82,9 @@ LOST_SAMPLE_FACTOR = 1.5
 lost samples before it (:func:`_lost_samples`)."""
 LOST_SAMPLE_WINDOW = 25
 """Rows either side whose median interval and specific force are the IMU's local ones."""
+SATURATION_PILEUP = 2
+"""An IMU column's extreme value held on at least this many times as many rows as the next value
+inward is a pile-up, the mark of clipping (:func:`_check_saturated`)."""
 CHECK_BLOCK = 1 << 20
 """IMU rows checked at a time for wrong units: temporaries of 48 MB, not of the whole table."""
 
@@ -507,8 +510,11 @@ def _check_saturated(
     table: Table, tk: Array, v: Array, rows: NDArray[np.int64], used: list[str], limit: int
 ) -> None:
     """A MissionError if some IMU column holds its largest or smallest value (not 0) on
-    ``limit`` rows or more: clipped at the IMU's range, the motion beyond it lost
-    (docs/robustness.md, 'A saturated IMU'). ``limit`` 0: not checked."""
+    ``limit`` rows or more, piled up there: at least :data:`SATURATION_PILEUP` times as many
+    rows as hold the next value inward. Clipped at the IMU's range, the motion beyond it lost
+    (docs/robustness.md, 'A saturated IMU'). A quantized IMU at rest also repeats its extreme
+    values, but fewer times than the values next to them (a tail: since 0.4.9 not refused, as
+    the check's first version did). ``limit`` 0: not checked."""
     if limit <= 0:
         return
     for c in range(v.shape[1]):
@@ -517,6 +523,10 @@ def _check_saturated(
             at = col == value
             n = int(np.count_nonzero(at))
             if value == 0.0 or n < limit or n == col.size:
+                continue
+            inner = col[col < value] if value == float(col.max()) else col[col > value]
+            nxt = float(inner.max() if value == float(col.max()) else inner.min())
+            if n < SATURATION_PILEUP * int(np.count_nonzero(inner == nxt)):
                 continue
             where = np.flatnonzero(at)
             a, b = int(where[0]), int(where[-1])
