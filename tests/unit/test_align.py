@@ -421,6 +421,20 @@ def test_non_static_means_are_refused() -> None:
         align.coarse_align(dth, dv + shake, dt, LAT, **kw)
 
 
+def test_a_window_in_g_or_in_deg_per_s_names_the_units() -> None:
+    """Accelerations logged in g read |f̄| ≈ 1 at rest, rates logged in deg/s 57.3 × the earth
+    rate and bias: each refusal says which unit it looks like (up to 0.4.8 only "not
+    static"); a window moving in m/s² says nothing of units."""
+    _, dt, dth, dv, _, _, _ = _static_imu(None, duration=60.0)
+    kw: dict[str, Any] = {"gyro_bias_sigma": SIGMA_BG0, "accel_bias_sigma": SIGMA_BA0}
+    with pytest.raises(align.NotStaticError, match=r"logged in g, not m/s²\?"):
+        align.coarse_align(dth, dv / G0, dt, LAT, **kw)
+    with pytest.raises(align.NotStaticError, match=r"logged in deg/s, not rad/s\?"):
+        align.coarse_align(dth * (180.0 / math.pi), dv, dt, LAT, **kw)
+    with pytest.raises(align.NotStaticError, match=r"m/s²$"):
+        align.coarse_align(dth, dv + np.array([0.0, 0.0, -1.0]) * dt, dt, LAT, **kw)
+
+
 # --- a known engine limitation, recorded -------------------------------------------------------
 
 

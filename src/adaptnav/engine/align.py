@@ -75,6 +75,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from adaptnav.core import attitude, earth
+from adaptnav.core.units import G0
 from adaptnav.engine.batch import EngineConfig, EngineOutput, SensorChannel, run_batch
 from adaptnav.estimation.noise.fixed import FixedNoise
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
@@ -208,17 +209,24 @@ def _check_static(
     df = abs(float(np.linalg.norm(f_mean)) - g)
     lim_f = tol.specific_force + 5.0 * sigma_ba
     if df > lim_f:
+        f_norm = float(np.linalg.norm(f_mean))
+        in_g = abs(f_norm * G0 - g) <= lim_f  # what accelerations logged in g read at rest
         raise NotStaticError(
-            f"the alignment window is not static: mean |f| = {np.linalg.norm(f_mean):.4f} m/s² "
+            f"the alignment window is not static: mean |f| = {f_norm:.4f} m/s² "
             f"differs from g = {g:.4f} m/s² by {df:.4f} > {lim_f:.4f} m/s²"
+            + (": that is gravity in g, the accelerations logged in g, not m/s²?" if in_g else "")
         )
     dw = abs(float(np.linalg.norm(w_mean)) - earth.OMEGA_IE)
     lim_w = math.inf if sigma_w is None else tol.mean_rate + 5.0 * sigma_w
     if dw > lim_w:
+        w_norm = float(np.linalg.norm(w_mean))
+        in_deg = abs(math.radians(w_norm) - earth.OMEGA_IE) <= lim_w  # deg/s read as rad/s
         raise NotStaticError(
-            f"the alignment window is not static: mean |ω| = {np.linalg.norm(w_mean):.3e} rad/s "
+            f"the alignment window is not static: mean |ω| = {w_norm:.3e} rad/s "
             f"differs from the earth rate {earth.OMEGA_IE:.3e} rad/s by {dw:.3e} > {lim_w:.3e}"
-        )
+            + (": as deg/s it would be at rest, the rates logged in deg/s, not rad/s?"
+               if in_deg else "")
+        )  # fmt: skip
     n = dth.shape[0]
     per = max(1, round(tol.block_length / float(np.median(d))))
     nb = n // per
