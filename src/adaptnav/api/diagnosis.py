@@ -149,7 +149,9 @@ CORRELATED_HINT = (
 HINT = (
     "either the sensor's configuration is wrong (its units, sign, mounting_rpy_deg, lever "
     "arm or sigma) or the filter's model is ([imu.noise], or an adaptive R that ran away: "
-    "try --filter robust); docs/robustness.md, 'Sensors at odds with the rest'"
+    "try --filter robust), or the IMU's axes are (a sign flipped or two axes swapped in its "
+    "table: every aiding sensor then disagrees); docs/robustness.md, 'Sensors at odds with "
+    "the rest'"
 )
 
 
