@@ -82,6 +82,8 @@ LOST_SAMPLE_FACTOR = 1.5
 lost samples before it (:func:`_lost_samples`)."""
 LOST_SAMPLE_WINDOW = 25
 """Rows either side whose median interval and specific force are the IMU's local ones."""
+LOST_SAMPLE_BLOCK = 1 << 16
+"""Candidate rows judged at a time by :func:`_lost_samples` (temporaries of ~40 MB)."""
 SATURATION_PILEUP = 2
 """An IMU column's extreme value held on at least this many times as many rows as the next value
 inward is a pile-up, the mark of clipping (:func:`_check_saturated`)."""
@@ -367,21 +369,27 @@ def _lost_samples(
     within a quarter period of a whole number of periods (jittered stamps, not lost samples)."""
     n = own_dt.size
     before = np.concatenate([own_dt[1:2], own_dt[:-1]]) if n > 1 else own_dt
-    after = np.concatenate([own_dt[1:], own_dt[-1:]])
-    cand = np.flatnonzero(own_dt > LOST_SAMPLE_FACTOR * np.minimum(before, after))
-    if not cand.size:
-        return
-    near = np.clip(cand[:, None] + np.arange(-LOST_SAMPLE_WINDOW, LOST_SAMPLE_WINDOW + 1), 0, n - 1)
-    period = np.median(own_dt[near], axis=1)
-    force = np.linalg.norm(v[rows[near], 3:], axis=2) / own_dt[near]
-    dv = np.linalg.norm(v[rows[cand], 3:], axis=1)
-    gap = own_dt[cand]
-    ratio = gap / period
-    whole = np.abs(ratio - np.round(ratio)) < 0.25
-    regular = np.minimum(before, after)[cand] > 0.75 * period
-    lost = (ratio > LOST_SAMPLE_FACTOR) & whole & regular
-    lost &= dv < np.nanmedian(force, axis=1) * np.sqrt(period * gap)
-    for k, p in zip(cand[lost].tolist(), period[lost].tolist(), strict=True):
+    shortest = np.minimum(before, np.concatenate([own_dt[1:], own_dt[-1:]]))
+    cand = np.flatnonzero(own_dt > LOST_SAMPLE_FACTOR * shortest)
+    found: list[tuple[int, float]] = []
+    # In blocks: each candidate takes 2 W + 1 rows of temporaries, and bursty stamps can make
+    # every other row a candidate (a day at 100 Hz would otherwise need gigabytes).
+    for c in np.array_split(cand, max(1, cand.size // LOST_SAMPLE_BLOCK + 1)):
+        if not c.size:
+            continue
+        reach = np.arange(-LOST_SAMPLE_WINDOW, LOST_SAMPLE_WINDOW + 1)
+        near = np.clip(c[:, None] + reach, 0, n - 1)
+        period = np.median(own_dt[near], axis=1)
+        force = np.linalg.norm(v[rows[near], 3:], axis=2) / own_dt[near]
+        gap = own_dt[c]
+        ratio = gap / period
+        lost = (ratio > LOST_SAMPLE_FACTOR) & (np.abs(ratio - np.round(ratio)) < 0.25)
+        lost &= shortest[c] > 0.75 * period  # regular either side
+        lost &= np.linalg.norm(v[rows[c], 3:], axis=1) < np.nanmedian(force, axis=1) * np.sqrt(
+            period * gap
+        )
+        found += zip(c[lost].tolist(), period[lost].tolist(), strict=True)
+    for k, p in found:
         r = int(rows[k])
         journal.repair(
             table.label,
