@@ -374,14 +374,16 @@ def test_zero_variances_give_no_sigma(tmp_path: Path) -> None:
 
 def _level_imu(stamp_s: float, yaw_rate: float = 0.0) -> Any:
     """A level IMU's message at ``stamp_s`` (s after STAMP0): turning at ``yaw_rate`` (rad/s,
-    ROS +z), gravity on +z, no orientation."""
+    ROS +z), gravity on +z, no orientation; its z acceleration moves by a µm/s² from message to
+    message, as a real IMU's noise does (since 0.4.9 six values unchanged for a second are a
+    frozen IMU: imu.stuck_s)."""
     return rw.T["sensor_msgs/msg/Imu"](
         rw.header(stamp_s, "b"),
         rw.quat_zyx(0, 0, 0),
         rw.NOT_PROVIDED,
         rw.vec(0, 0, yaw_rate),
         rw.diag(3, [1e-6] * 3),
-        rw.vec(0, 0, 9.8),
+        rw.vec(0, 0, 9.8 + 1e-6 * math.sin(1e3 * stamp_s)),
         rw.diag(3, [1e-4] * 3),
     )
 
