@@ -572,6 +572,82 @@ def test_jittered_increment_stamps_are_not_lost_samples(tmp_path: Path) -> None:
     assert not load_mission(root).repairs
 
 
+def _jittered(amplitude: float, n: int = 400, seed: int = 5) -> tuple[pd.DataFrame, np.ndarray]:
+    """Noisy increments of one period each, stamped ``amplitude`` periods either side of their
+    grid; and the grid."""
+    inc = _noisy_increments(n)
+    grid = inc["t_s"].to_numpy().copy()
+    inc["t_s"] += np.random.default_rng(seed).uniform(-amplitude * T, amplitude * T, n)
+    return inc, grid
+
+
+def test_jittered_increment_stamps_are_restamped(tmp_path: Path) -> None:
+    # Stamps jittered by up to 0.2 T, the increments one period each: up to 0.4.8 each row's
+    # increments were taken over its stamped interval (gravity over T + e_k - e_{k-1}: a down
+    # velocity error g e_k); since 0.4.9 the rows are re-stamped on the fitted grid.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc, grid = _jittered(0.2)
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    (r,) = m.repairs
+    assert (r.file, r.field, r.action) == ("imu.csv", "t_s", "re-stamped on the fitted grid")
+    assert "the increments are one period each" in r.detail
+    assert np.max(np.abs(m.imu.t - grid)) < 0.05 * T  # the stamps were up to 0.2 T off
+    np.testing.assert_allclose(m.imu.dt, T, rtol=0.02)
+    np.testing.assert_allclose(m.imu.dvel, inc.iloc[:, 4:].to_numpy(), rtol=0.02)
+
+
+def test_jittered_increment_stamps_kept_when_asked_or_uncertain(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # imu.restamp = false: a warning, the stamps as they are; jittered by up to 0.3 T, some
+    # intervals are near 1.5 T and the count of periods is uncertain: a warning too.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    for amplitude, restamp, why in ((0.2, False, "imu.restamp = false"), (0.3, True, "uncertain")):
+        d["imu"]["restamp"] = restamp
+        inc, _ = _jittered(amplitude)
+        root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
+            m = load_mission(root)
+        assert "re-stamped on the fitted grid" not in [r.action for r in m.repairs]
+        np.testing.assert_array_equal(m.imu.t, inc["t_s"].to_numpy())
+        assert "not re-stamped" in caplog.text and why in caplog.text
+        assert "'Jittered IMU stamps'" in caplog.text
+
+
+def test_irregular_stamps_whose_increments_follow_them_are_kept(tmp_path: Path) -> None:
+    # Irregular sampling whose increments do cover each stamped interval: nothing to repair.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc, _ = _jittered(0.2)
+    own = np.diff(inc["t_s"].to_numpy(), prepend=inc["t_s"].iloc[0] - T)
+    inc[inc.columns[1:]] = inc[inc.columns[1:]].to_numpy() * (own / T)[:, None]
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert not m.repairs
+    np.testing.assert_array_equal(m.imu.t, inc["t_s"].to_numpy())
+
+
+def test_jittered_stamps_with_lost_samples(tmp_path: Path) -> None:
+    # Jittered by up to 0.2 T and rows 200, 201 lost: re-stamped, then row 202 stretched over
+    # the 3 T of the grid (up to 0.4.8: the stamps as they were, and no stretch).
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc, grid = _jittered(0.2)
+    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[200, 201]), "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert [r.action for r in m.repairs] == [
+        "re-stamped on the fitted grid",
+        "stretched increments over lost samples",
+    ]
+    assert m.imu.dt[200] == pytest.approx(3 * T, rel=0.02)
+    np.testing.assert_allclose(m.imu.dvel[200], 3 * inc.iloc[202, 4:].to_numpy(), rtol=0.02)
+    assert np.max(np.abs(m.imu.t - np.delete(grid, [200, 201]))) < 0.05 * T
+
+
 def test_frozen_imu_is_an_error(tmp_path: Path) -> None:
     # Every value of rows 100-220 repeats row 99's: an IMU frozen for 1.21 s (up to 0.4.8 taken
     # as it was: the demo frozen for 10 s under way ran 696 km off with exit 0).

@@ -315,6 +315,9 @@ class ImuConfig(_Model):
     saturation_rows: Annotated[int, Field(ge=0)] | None = None
     """Rows at a column's largest or smallest value that make it saturated (an error); None →
     :data:`DEFAULT_SATURATION_ROWS`; 0: not checked."""
+    restamp: bool = True
+    """Increments whose stamps jitter about a grid, the increments one period each: re-stamp the
+    rows on the fitted grid (a repair; since 0.4.9) or, false, only warn."""
     initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
     initial_bias: InitialBias = InitialBias()
 

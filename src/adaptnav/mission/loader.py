@@ -30,6 +30,7 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
+from adaptnav.mission.imu_stamps import fit_stamp_grid
 from adaptnav.mission.screening import (
     AFTER_GAP_MADS,
     after_gap_mask,
@@ -285,6 +286,8 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     )
     check_order(table, t)
     rows = np.flatnonzero(_drop_duplicate_rows(table, t, v, journal))
+    if not rates:
+        t = _jittered_stamps(table, t, v, rows, cfg.restamp, journal)
     # Increments: each row's own interval, before rows with NaN are removed (see below).
     own_dt = np.diff(t[rows], prepend=t[rows[0]] - 1.0 / cfg.rate_hz)
     if not rates:
@@ -322,6 +325,54 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     dt = np.concatenate([own_dt[:1], gaps])
     scale = (dt / own_dt)[:, None]
     return ImuData(tk.copy(), dt, v[:, :3] * scale, v[:, 3:] * scale)
+
+
+def _jittered_stamps(
+    table: Table, t: Array, v: Array, rows: NDArray[np.int64], restamp: bool, journal: Journal
+) -> Array:
+    """``t`` with the kept ``rows`` re-stamped on the grid their stamps scatter about, when the
+    increments are one period each whatever the stamps say (:mod:`adaptnav.mission.imu_stamps`):
+    a repair, "re-stamped on the fitted grid", unless ``imu.restamp = false`` or a row's count
+    of periods is uncertain, when it is a warning (docs/robustness.md, 'Jittered IMU stamps').
+    Up to 0.4.8 the stamps were taken as they were. ``t`` itself when nothing is done."""
+    fit = fit_stamp_grid(t[rows], v[rows, 3:])
+    if fit is None or not fit.jitter:
+        return t
+    first = int(table.lines[rows[0]])
+    what = (
+        f"stamps scattered by σ = {fit.sigma * 1e3:.3g} ms (up to {fit.worst * 1e3:.3g} ms) about "
+        f"a grid of {fit.period:.6g} s while the increments are one period each (|Δv| does not "
+        f"follow the stamped interval: slope {fit.follow:.2f}, 1 if it did)"
+    )
+    error = G0 * fit.sigma
+    if restamp and fit.certain:
+        journal.repair(
+            table.label,
+            first,
+            TIME_COLUMN,
+            "re-stamped on the fitted grid",
+            f"{what}; taken as they were, gravity would be integrated over the stamped intervals:"
+            f" a vertical velocity error of about {error:.2g} m/s (g σ) at every row",
+        )
+        out = t.copy()
+        out[rows] = fit.stamps
+        return out
+    why = (
+        "imu.restamp = false"
+        if not restamp
+        else "some intervals lie near a half-way point between whole periods, so the count of "
+        "periods per row is uncertain"
+    )
+    log.warning(
+        "%s: %s; not re-stamped (%s): the engine integrates gravity over the stamped intervals, "
+        "a vertical velocity error of about %.2g m/s (g σ) at every row that its σ does not hold; "
+        "docs/robustness.md, 'Jittered IMU stamps'",
+        table.label,
+        what,
+        why,
+        error,
+    )
+    return t
 
 
 def _kept(v: Array, rows: NDArray[np.int64]) -> Array:
