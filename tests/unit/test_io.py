@@ -569,6 +569,10 @@ def test_jittered_increment_stamps_are_not_lost_samples(tmp_path: Path) -> None:
     inc = _noisy_increments(400)
     inc["t_s"] += np.random.default_rng(3).uniform(-0.3 * T, 0.3 * T, len(inc))
     root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    # since 0.4.9 re-stamped on their grid (below), and still no lost sample
+    assert [r.action for r in load_mission(root).repairs] == ["re-stamped on the fitted grid"]
+    d["imu"]["restamp"] = False
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
     assert not load_mission(root).repairs
 
 
@@ -601,11 +605,11 @@ def test_jittered_increment_stamps_are_restamped(tmp_path: Path) -> None:
 def test_jittered_increment_stamps_kept_when_asked_or_uncertain(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
-    # imu.restamp = false: a warning, the stamps as they are; jittered by up to 0.3 T, some
-    # intervals are near 1.5 T and the count of periods is uncertain: a warning too.
+    # imu.restamp = false: a warning, the stamps as they are; jittered by up to 0.4 T, the
+    # count of periods of some rows is uncertain: a warning too.
     d = config_dict()
     d["imu"]["format"] = "increments"
-    for amplitude, restamp, why in ((0.2, False, "imu.restamp = false"), (0.3, True, "uncertain")):
+    for amplitude, restamp, why in ((0.2, False, "imu.restamp = false"), (0.4, True, "uncertain")):
         d["imu"]["restamp"] = restamp
         inc, _ = _jittered(amplitude)
         root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
@@ -616,6 +620,21 @@ def test_jittered_increment_stamps_kept_when_asked_or_uncertain(
         np.testing.assert_array_equal(m.imu.t, inc["t_s"].to_numpy())
         assert "not re-stamped" in caplog.text and why in caplog.text
         assert "'Jittered IMU stamps'" in caplog.text
+
+
+def test_jittered_stamps_with_counts_resolved_by_the_grid(tmp_path: Path) -> None:
+    # Jittered by up to 0.3 T: some rows are stamped 1.5-1.6 T after the one before, nearer two
+    # periods than one; the offsets from the grid either side of them tell that they are one
+    # period late, not two, so every interval is re-stamped to about T.
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc, grid = _jittered(0.3, seed=6)
+    assert np.max(np.diff(inc["t_s"].to_numpy())) > 1.5 * T
+    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert [r.action for r in m.repairs] == ["re-stamped on the fitted grid"]
+    np.testing.assert_allclose(m.imu.dt, T, rtol=0.05)
+    assert np.max(np.abs(m.imu.t - grid)) < 0.1 * T
 
 
 def test_irregular_stamps_whose_increments_follow_them_are_kept(tmp_path: Path) -> None:

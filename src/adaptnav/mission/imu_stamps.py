@@ -11,6 +11,7 @@ increments follow the stamps (true irregular intervals) or not (jitter).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -29,10 +30,12 @@ this fraction of the specific force (1: increments over each stamped interval; 0
 period each, whatever the stamps say)."""
 SMOOTH_ROWS = 101
 """Rows of the running median that gives the grid's local offset (it follows clock drift)."""
-HALF_BAND = 0.1
-"""An interval within this many periods of a half-way point (1.5, 2.5, ... periods) makes the
-count of periods of the rows uncertain: the stamps jitter by a quarter period or more, and a
-row stamped 1.6 periods after the one before may be one period late or two early."""
+STEP_ROWS = 25
+"""Rows either side of an interval whose median offsets from the grid must agree: the IMU's
+clock is continuous, so a count of periods that is wrong (a row stamped 1.6 periods after the one
+before, one period late or two early?) shows as a step of a whole period there."""
+MAX_PASSES = 8
+"""Passes of :func:`_resolve_counts`; a table still with steps after them is left uncertain."""
 MAD_SIGMA = 1.4826
 
 
@@ -40,9 +43,10 @@ MAD_SIGMA = 1.4826
 class StampFit:
     """The grid fitted to jittered stamps: ``stamps`` (the grid's times of the rows), the
     ``period`` (s), the robust σ and the largest |stamp - grid| (s), and ``follow``, the slope
-    of ``|Δv|`` against the stamped interval in units of the specific force; ``certain``: no
-    interval is near a half-way point (:data:`HALF_BAND`), so every row's count of periods is
-    the nearest whole number and the grid may replace the stamps."""
+    of ``|Δv|`` against the stamped interval in units of the specific force; ``certain``: the
+    offsets from the grid agree within half a period either side of every interval
+    (:func:`_resolve_counts`), so every row's count of periods is known and the grid may replace
+    the stamps."""
 
     stamps: Array
     period: float
@@ -62,11 +66,12 @@ def fit_stamp_grid(t: Array, dvel: Array) -> StampFit | None:
     (robust σ below :data:`JITTER_FRACTION` of the median interval) or the table is shorter
     than :data:`SMOOTH_ROWS`. ``dvel`` (N, 3): the rows' velocity increments (NaN allowed).
 
-    Each interval counts ``max(1, round(dt / T))`` periods (``T`` the median interval), the
-    period is the slope of the line through ``t`` against the count ``c``; the offsets are
-    smoothed by a running median (which follows clock drift and keeps the step of lost samples),
-    then by a running mean of what is left (the median of a uniform jitter is a poor
-    estimate); the grid is that offset plus ``T c``."""
+    Each interval counts ``max(1, round(dt / T))`` periods (``T`` the median interval), those
+    that break the grid's continuity corrected (:func:`_resolve_counts`); the period is the
+    slope of the line through ``t`` against the cumulative count ``c``; the offsets
+    ``t - T c`` are smoothed by a running median (which follows clock drift and keeps the step
+    of lost samples), then by a running mean of what is left (the median of a uniform jitter is
+    a poor estimate); the grid is that offset plus ``T c``."""
     if t.size <= SMOOTH_ROWS:
         return None
     dt = np.diff(t)
@@ -74,7 +79,7 @@ def fit_stamp_grid(t: Array, dvel: Array) -> StampFit | None:
     scatter = MAD_SIGMA * float(np.median(np.abs(dt - period))) / math.sqrt(2.0)
     if not period > 0.0 or scatter < JITTER_FRACTION * period:
         return None
-    count = np.maximum(1.0, np.rint(dt / period))
+    count, certain = _resolve_counts(t, dt, period)
     c = np.concatenate([[0.0], np.cumsum(count)])
     period = float(np.polyfit(c, t, 1)[0])  # the median interval is only within the jitter
     offset = t - period * c
@@ -83,9 +88,39 @@ def fit_stamp_grid(t: Array, dvel: Array) -> StampFit | None:
     res = t - grid
     sigma = MAD_SIGMA * float(np.median(np.abs(res - np.median(res))))
     follow = _follow(np.linalg.norm(dvel, axis=1), dt, count, period)
-    ratio = dt / period
-    certain = not np.any((ratio > 1.0) & (np.abs(ratio - np.floor(ratio) - 0.5) < HALF_BAND))
     return StampFit(grid, period, sigma, float(np.max(np.abs(res))), follow, certain)
+
+
+def _resolve_counts(t: Array, dt: Array, period: float) -> tuple[Array, bool]:
+    """Periods per interval, and whether they are certain. From ``round(dt / T)`` (at least 1),
+    each pass finds the runs of intervals where the median offset ``t - T c`` of the
+    :data:`STEP_ROWS` rows after differs from that of the rows before by half a period or more (a
+    wrong count makes such a run about :data:`STEP_ROWS` wide) and changes, in each run, the
+    count of the interval most in keeping with the step (the one whose ``dt / T`` lies farthest
+    from its count in the step's direction, its count staying at least 1). Certain when no step
+    of half a period is left after :data:`MAX_PASSES` passes."""
+    ratio = dt / period
+    count = np.maximum(1.0, np.rint(ratio))
+    for _ in range(MAX_PASSES):
+        off = t - period * np.concatenate([[0.0], np.cumsum(count)])
+        half = STEP_ROWS // 2
+        ahead = median_filter(off, size=STEP_ROWS, origin=-half, mode="mirror")
+        behind = median_filter(off, size=STEP_ROWS, origin=half, mode="mirror")
+        step = (ahead[1:] - behind[:-1]) / period
+        jump = np.rint(step)
+        if not np.any(jump):
+            return count, True
+        edges = np.flatnonzero(np.diff(np.concatenate([[0.0], jump, [0.0]])))
+        for a, b in itertools.pairwise(edges.tolist()):
+            if jump[a] == 0.0:
+                continue
+            sign = float(np.sign(jump[a]))  # one period per run and pass
+            lean = (ratio[a:b] - count[a:b]) * sign
+            lean[count[a:b] + sign < 1.0] = -np.inf  # no interval of under one period
+            k = a + int(np.argmax(lean))
+            if np.isfinite(lean[k - a]):
+                count[k] += sign
+    return count, False
 
 
 def _follow(dv: Array, dt: Array, count: Array, period: float) -> float:

@@ -360,8 +360,9 @@ def _jittered_stamps(
     why = (
         "imu.restamp = false"
         if not restamp
-        else "some intervals lie near a half-way point between whole periods, so the count of "
-        "periods per row is uncertain"
+        else "the count of periods per row is uncertain: the stamps' offset from the grid steps by "
+        "half a period or more where no row's count explains it (jitter near half a period, or "
+        "a clock that jumps)"
     )
     log.warning(
         "%s: %s; not re-stamped (%s): the engine integrates gravity over the stamped intervals, "
