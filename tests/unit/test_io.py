@@ -52,6 +52,9 @@ def test_example_config_round_trips() -> None:
     assert cfg.imu.noise.to_imu_noise().arw == pytest.approx(0.0667 * DEG / 60.0)
     again = parse_config(tomllib.loads(cfg.dump_toml()))
     assert again == cfg
+    # imu.restamp (since 0.4.9) is on unless set, and not written: 0.4.8 reads the file
+    assert cfg.imu.restamp is None and cfg.imu.restamp_jitter
+    assert "restamp" not in cfg.dump_toml()
     settings = cfg.filter_settings()
     assert settings.gate_sensors == ("dvl",) and settings.gate_q["maeskf"] == 1800.0
     assert cfg.output_every() == 10

@@ -315,9 +315,10 @@ class ImuConfig(_Model):
     saturation_rows: Annotated[int, Field(ge=0)] | None = None
     """Rows at a column's largest or smallest value that make it saturated (an error); None →
     :data:`DEFAULT_SATURATION_ROWS`; 0: not checked."""
-    restamp: bool = True
+    restamp: bool | None = None
     """Increments whose stamps jitter about a grid, the increments one period each: re-stamp the
-    rows on the fitted grid (a repair; since 0.4.9) or, false, only warn."""
+    rows on the fitted grid (a repair; since 0.4.9) or, false, only warn; None → true (not
+    written, so a mission folder stays readable by 0.4.8)."""
     initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
     initial_bias: InitialBias = InitialBias()
 
@@ -335,6 +336,11 @@ class ImuConfig(_Model):
     def saturation_limit(self) -> int:
         """``saturation_rows`` or, if not given, :data:`DEFAULT_SATURATION_ROWS` (0: off)."""
         return self.saturation_rows if self.saturation_rows is not None else DEFAULT_SATURATION_ROWS
+
+    @property
+    def restamp_jitter(self) -> bool:
+        """``restamp`` or, if not given, true."""
+        return self.restamp is not False
 
     @property
     def gap_limit_s(self) -> float:

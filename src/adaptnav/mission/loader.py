@@ -287,7 +287,7 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     check_order(table, t)
     rows = np.flatnonzero(_drop_duplicate_rows(table, t, v, journal))
     if not rates:
-        t = _jittered_stamps(table, t, v, rows, cfg.restamp, journal)
+        t = _jittered_stamps(table, t, v, rows, cfg.restamp_jitter, journal)
     # Increments: each row's own interval, before rows with NaN are removed (see below).
     own_dt = np.diff(t[rows], prepend=t[rows[0]] - 1.0 / cfg.rate_hz)
     if not rates:
