@@ -733,6 +733,35 @@ def test_a_quantized_imu_at_rest_is_not_saturated(tmp_path: Path) -> None:
     assert len(load_mission(root).imu) == n - 1
 
 
+@pytest.mark.parametrize(
+    ("scale", "gravity", "refused"),
+    [(1.0 / G0, 1.0, True), (1.0, 0.0, True), (1.0e3, 1.0, True), (1.0, 1.0, False)],
+)
+def test_accelerations_far_from_gravity_name_their_units(
+    tmp_path: Path, scale: float, gravity: float, refused: bool
+) -> None:
+    """The median |specific force| of an IMU table must be near g: in g (÷ 9.80665) or with
+    gravity taken out (an AHRS's free acceleration) it is refused, naming the accelerometer
+    columns and both causes; in mm/s² the 20-g limit per component refuses it first; in m/s²
+    it loads. Up to 0.4.8 the first two were integrated (in g: "not static" at the
+    alignment, or a diverged state start)."""
+    rates = imu_rates(200)
+    acc = ["accel_x_m_s2", "accel_y_m_s2", "accel_z_m_s2"]
+    rates["accel_z_m_s2"] = -G0 * gravity
+    rates[acc] = rates[acc].to_numpy() * scale
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": rates, "dvl.csv": dvl_table()})
+    if not refused:
+        assert len(load_mission(root).imu) == 199
+        return
+    msg = load_error(root)
+    assert msg.startswith("imu.csv"), msg
+    if scale < 1e3:
+        assert "the median |specific force| over the table is" in msg
+        assert "in g: × 9.80665" in msg and "gravity taken out" in msg
+    else:
+        assert "wrong units?" in msg
+
+
 # --- structure of the files ---------------------------------------------------------------------
 
 

@@ -482,9 +482,11 @@ def _check_magnitudes(
     used: list[str],
     rates: bool,
 ) -> None:
-    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units."""
+    """|gyro| <= 20 rad/s and |accel| <= 20 g per component, else (probably) wrong units; and
+    the specific force's median near gravity (:func:`_check_gravity`)."""
     found = _first_over(v, own_dt, rates)
     if found is None:
+        _check_gravity(table, v, own_dt, rates, used)
         return
     j, c = found
     w = v[j, c] if rates else v[j, c] / own_dt[j]
@@ -499,6 +501,36 @@ def _check_magnitudes(
         else f"value {show(v[j, c])} over dt = {own_dt[j]:.6g} s is a rate of {w:.6g}"
     )
     raise table.error(r, col, f"{what} exceeds {limit}: wrong units? ({hint})")
+
+
+GRAVITY_BAND = (0.5, 1.5)
+"""The median |specific force| over an IMU table must lie within these multiples of g
+(:func:`_check_gravity`)."""
+GRAVITY_SAMPLES = 1 << 20
+"""Rows, evenly spread, whose |specific force| give the median (:func:`_check_gravity`)."""
+
+
+def _check_gravity(table: Table, v: Array, own_dt: Array, rates: bool, used: list[str]) -> None:
+    """A MissionError when the median |specific force| of the IMU's rows is outside
+    :data:`GRAVITY_BAND` × g: a vehicle that floats, drives or flies spends its time near
+    1 g, so the table's accelerations are in another unit (g: a median of 1.0 "m/s²"; mg) or
+    have gravity taken out (an AHRS's "free" or "linear" acceleration, which an INS cannot
+    use: it needs the specific force). Up to 0.4.8 such tables were integrated: in g, the
+    alignment said only "not static", and a state start diverged minutes later."""
+    step = max(1, len(v) // GRAVITY_SAMPLES)
+    w = v[::step, 3:] if rates else v[::step, 3:] / own_dt[::step, None]
+    med = float(np.median(np.linalg.norm(w, axis=1)))
+    lo, hi = GRAVITY_BAND
+    if lo * G0 <= med <= hi * G0:
+        return
+    raise MissionError(
+        f"{table.label}, {', '.join(used[4:7])}: the median |specific force| over the table is "
+        f"{med:.4g} m/s², where a vehicle's is near gravity ({G0:.4g} m/s²): the accelerations "
+        f"not in m/s² (in g: × {G0}), or gravity taken out (a 'free' or 'linear' acceleration: "
+        "the INS needs the specific force, gravity included)?",
+        file=table.label,
+        field=used[4],
+    )
 
 
 def _first_over(v: Array, own_dt: Array, rates: bool) -> tuple[int, int] | None:
