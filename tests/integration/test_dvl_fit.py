@@ -320,3 +320,17 @@ def test_readings_after_the_reference_ends_are_counted(folder: Path, tmp_path: P
     assert doc["outside_reference"] == after and doc["in_gaps"] == 0
     res = runner.invoke(app, ["fit-dvl", str(copy), "-q"])
     assert f"{after} more outside the time the reference and the IMU cover" in res.stdout
+
+
+def test_a_reference_that_misses_the_imu_says_so(folder: Path, tmp_path: Path) -> None:
+    """A reference stamped 5000 s later than the IMU (another clock): exit 2 saying the two do
+    not overlap, with both spans (up to 0.4.8 "no finite reading inside [5000.0, 906.4] s",
+    an interval ending before it begins)."""
+    copy = tmp_path / "m"
+    shutil.copytree(folder, copy)
+    truth = pd.read_parquet(copy / "truth.parquet")
+    truth["t_s"] += 5000.0
+    truth.to_parquet(copy / "truth.parquet", index=False)
+    res = runner.invoke(app, ["fit-dvl", str(copy), "-q"])
+    assert res.exit_code == 2, res.output
+    assert "do not overlap" in res.output and "the IMU (" in res.output, res.output

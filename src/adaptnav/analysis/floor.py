@@ -185,7 +185,14 @@ def dvl_readings(
     t, z = data.t[inside], data.z[inside]
     valid = np.all(np.isfinite(z), axis=1)
     if not valid.any():
-        raise ValueError(f"{who}: sensor {name!r} has no finite reading inside [{lo}, {hi}] s")
+        span = (
+            f"inside [{lo:.6g}, {hi:.6g}] s, where the IMU and the reference overlap"
+            if lo <= hi
+            else f"to score: the reference ({float(t_ref[0]):.6g} to {float(t_ref[-1]):.6g} s) "
+            f"and the IMU ({float(imu.t[0] - imu.dt[0]):.6g} to {float(imu.t[-1]):.6g} s) "
+            "do not overlap"
+        )
+        raise ValueError(f"{who}: sensor {name!r} has no finite reading {span}")
     first = int(np.argmax(valid))
     return t[first:], z[first:], valid[first:]
 
