@@ -139,6 +139,8 @@ def _config_error(mutate: Any) -> MissionError:
         (lambda d: d.update(extra={"a": 1}), "extra", "unknown key"),
         (lambda d: d["imu"].update(rate_hz=0.0), "imu.rate_hz", "greater than 0 (got 0.0)"),
         (lambda d: d["imu"].update(rate_hz=math.nan), "imu.rate_hz", "finite"),
+        (lambda d: d["imu"].update(rate_hz=1e300), "imu.rate_hz", "less than or equal to 100000"),
+        (lambda d: d["sensors"]["dvl"].update(rate_hz=1e6), "sensors.dvl.rate_hz", "100000"),
         (lambda d: d["sensors"]["dvl"].update(sigma=[-0.02, "m/s"]), "sensors.dvl.sigma", "-0.02"),
         (lambda d: d["sensors"]["dvl"].update(sigma=[math.nan, "m/s"]), "sensors.dvl.sigma", "nan"),
         (lambda d: d["sensors"]["dvl"].update(kind="usbl"), "sensors.dvl.kind", "'usbl'"),

@@ -131,6 +131,11 @@ class MissionUnitError(MissionError, UnitError):
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+MAX_RATE_HZ = 100_000.0
+"""Highest sampling rate a table may be declared at: no IMU or aiding sensor samples faster
+(up to 0.4.8 ``imu.rate_hz = 1e300`` passed, and the loader's arithmetic overflowed into a
+misleading "wrong units?")."""
+Rate = Annotated[float, Field(gt=0, le=MAX_RATE_HZ, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Sigma = Annotated[float, Field(ge=SIGMA_RANGE_SI[0], le=SIGMA_RANGE_SI[1], allow_inf_nan=False)]
 """A standard deviation in SI units, within what any sensor or prior could mean
@@ -306,7 +311,7 @@ class ImuConfig(_Model):
     file: str
     noise: ImuNoiseConfig
     format: Literal["rates", "increments"] = "rates"
-    rate_hz: Positive = 100.0
+    rate_hz: Rate = 100.0
     max_gap_s: Positive | None = None
     """Largest accepted interval between IMU samples; None → 5 nominal periods."""
     stuck_s: NonNegative | None = None
@@ -404,7 +409,7 @@ class SensorConfig(_Model):
     """The sensor kind (adaptnav.sensors.registry), e.g. ``dvl``."""
     file: str
     sigma: VecPair
-    rate_hz: Positive | None = None
+    rate_hz: Rate | None = None
     """Nominal rate; None → from the median interval of the table."""
     lever_arm_m: Vec3 | None = None
     mounting_rpy_deg: Vec3 | None = None
