@@ -553,6 +553,25 @@ def test_increments_after_lost_samples_are_stretched(tmp_path: Path) -> None:
     assert "about 2 sample(s) lost" in r.detail
 
 
+def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> None:
+    # Row 40 lost, row 41's increments added to row 42 (an IMU that accumulates until read,
+    # after a lost sample): row 42 holds 2 T of increments over the 3 T since row 39. Since
+    # 0.4.9 (second version) taken as 2 T and scaled by 3/2; the first version knew only 1 T
+    # or the whole interval and kept 3 T (a 0.1-m/s down-velocity step on the demo).
+    d = config_dict()
+    d["imu"]["format"] = "increments"
+    inc = _noisy_increments()
+    cols = list(inc.columns[1:])
+    inc.loc[42, cols] = inc.loc[41:42, cols].sum().to_numpy()
+    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[40, 41]), "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    assert m.imu.dt[40] == pytest.approx(3 * T)
+    np.testing.assert_allclose(m.imu.dvel[40], 1.5 * inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
+    (r,) = m.repairs
+    assert r.action == "stretched increments over lost samples"
+    assert "about 1 sample(s) lost" in r.detail and "scaled by 1.5" in r.detail
+
+
 def test_increments_that_span_a_longer_interval_are_kept(tmp_path: Path) -> None:
     # An IMU that accumulates until read: rows missing, but row 42 holds the 3 T since row 39.
     d = config_dict()

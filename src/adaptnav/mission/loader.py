@@ -410,20 +410,22 @@ def _lost_samples(
     table: Table, v: Array, rows: NDArray[np.int64], own_dt: Array, journal: Journal
 ) -> None:
     """Increments after lost samples: a row whose interval is more than
-    :data:`LOST_SAMPLE_FACTOR` times the IMU's local one (the median over its
-    :data:`LOST_SAMPLE_WINDOW` neighbours either side) and whose velocity increment is the local
-    specific force's over that local interval, not over its own (the nearer of the two, by
-    ratio: ``|dv| < f sqrt(p T)``), holds the last period's increments only, the samples before
-    it being lost. Its ``own_dt`` is set to the local period in place, so that its increments
-    are scaled over the hole as a row after a dropped NaN row's (docs/data-format.md); each is
-    a repair. A longer interval whose increments do span it (an IMU that accumulates until it
-    is read) is left as it is, and so are one beside a short interval and one that is not
-    within a quarter period of a whole number of periods (jittered stamps, not lost samples)."""
+    :data:`LOST_SAMPLE_FACTOR` times the IMU's local period p (the median over its
+    :data:`LOST_SAMPLE_WINDOW` neighbours either side), a whole number m of them, holds the
+    increments of ``k = round(|dv| / (f p))`` periods (f the local specific force, the median of
+    ``|dv| / dt`` over the same rows), between 1 and m; when ``k < m`` the samples before were
+    lost. Its ``own_dt`` is set to ``k p`` in place, so that its increments are scaled over the
+    hole as a row after a dropped NaN row's (docs/data-format.md); each is a repair. A longer
+    interval whose increments span it (k = m: an IMU that accumulates until it is read) is left
+    as it is, and so are one beside a short interval and one that is not within a quarter
+    period of a whole number of periods (jittered stamps, not lost samples). Up to 0.4.8 no
+    such row was repaired; the first 0.4.9 version knew only k = 1 or k = m, and a row of two
+    periods' increments over three was taken as three (a 0.1-m/s down-velocity step)."""
     n = own_dt.size
     before = np.concatenate([own_dt[1:2], own_dt[:-1]]) if n > 1 else own_dt
     shortest = np.minimum(before, np.concatenate([own_dt[1:], own_dt[-1:]]))
     cand = np.flatnonzero(own_dt > LOST_SAMPLE_FACTOR * shortest)
-    found: list[tuple[int, float]] = []
+    found: list[tuple[int, float, float]] = []
     # In blocks: each candidate takes 2 W + 1 rows of temporaries, and bursty stamps can make
     # every other row a candidate (a day at 100 Hz would otherwise need gigabytes).
     for c in np.array_split(cand, max(1, cand.size // LOST_SAMPLE_BLOCK + 1)):
@@ -437,20 +439,23 @@ def _lost_samples(
         ratio = gap / period
         lost = (ratio > LOST_SAMPLE_FACTOR) & (np.abs(ratio - np.round(ratio)) < 0.25)
         lost &= shortest[c] > 0.75 * period  # regular either side
-        lost &= np.linalg.norm(v[rows[c], 3:], axis=1) < np.nanmedian(force, axis=1) * np.sqrt(
-            period * gap
+        # the periods the increments cover: |Δv| against the local specific force's per period
+        covered = np.linalg.norm(v[rows[c], 3:], axis=1) / (np.nanmedian(force, axis=1) * period)
+        held = np.clip(np.rint(covered), 1.0, np.rint(ratio))
+        lost &= held < np.rint(ratio)
+        found += zip(
+            c[lost].tolist(), (held * period)[lost].tolist(), period[lost].tolist(), strict=True
         )
-        found += zip(c[lost].tolist(), period[lost].tolist(), strict=True)
-    for k, p in found:
+    for k, p, local in found:
         r = int(rows[k])
         journal.repair(
             table.label,
             int(table.lines[r]),
             TIME_COLUMN,
             "stretched increments over lost samples",
-            f"{own_dt[k]:.6g} s since the previous row where the IMU's interval is {p:.6g} s, and "
-            f"increments of {p:.6g} s: about {round(own_dt[k] / p) - 1} sample(s) lost, the "
-            f"row's increments scaled by {own_dt[k] / p:.4g} (constant rate over the hole)",
+            f"{own_dt[k]:.6g} s since the previous row, and increments of {p:.6g} s: about "
+            f"{round((own_dt[k] - p) / local):d} sample(s) lost, the row's increments scaled "
+            f"by {own_dt[k] / p:.4g} (constant rate over the hole)",
         )
         own_dt[k] = p
 
