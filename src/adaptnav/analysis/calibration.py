@@ -37,10 +37,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from adaptnav.analysis.compare import SIMULATION_FILE
 from adaptnav.api.results import file_digest
 from adaptnav.core import attitude
-from adaptnav.core.formats import read_json_object
+from adaptnav.core.formats import SIMULATION_FILE, read_json_object
 from adaptnav.mission import MissionError, load_config
 from adaptnav.mission.calibration import calibration_states
 from adaptnav.mission.loader import CONFIG_NAME

@@ -57,6 +57,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
+from adaptnav.core.formats import SIMULATION_FILE
+
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
@@ -136,7 +138,6 @@ COMPARISON_CSV = "comparison.csv"
 COMPARISON_JSON = "comparison.json"
 FIGURES_DIR = "figures"
 TRUTH_FILE = "truth.parquet"
-SIMULATION_FILE = "simulation.json"
 FIGURE_DPI = 110
 INTERACTIVE_SUFFIX = ".plotly.json"
 """File ending of an interactive figure's specification (Plotly's JSON) in ``figures/``."""

@@ -26,6 +26,7 @@ from adaptnav.api import oracle
 from adaptnav.api.diagnosis import calibration_correlated, with_warnings
 from adaptnav.api.results import Result, dropped_ledger, file_digest, ledger_frame
 from adaptnav.core import attitude, earth
+from adaptnav.core.formats import SIMULATION_FILE
 from adaptnav.engine import batch as engine
 from adaptnav.engine.align import align, level, window_specific_force
 from adaptnav.engine.channels import build_channels
@@ -633,7 +634,7 @@ def simulation_digest(root: str | Path) -> dict[str, str]:
     empty without one (a real mission): a re-simulated mission (``simulate --force`` into the
     same folder) or another simulation of the same name is then told from the run's own
     (:func:`adaptnav.analysis.calibration.simulation_truth`)."""
-    path = Path(root) / "simulation.json"
+    path = Path(root) / SIMULATION_FILE
     if not path.is_file():
         return {}
     return {SIMULATION_DIGEST_KEY: str(file_digest(path)["sha256"])}

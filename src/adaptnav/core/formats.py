@@ -11,6 +11,11 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+SIMULATION_FILE = "simulation.json"
+"""A simulated mission's true errors, written beside its ``mission.toml`` by the simulator
+(adaptnav.sim.scenarios) and read by the run's digest (adaptnav.api.runner) and the scoring
+(adaptnav.analysis.calibration, adaptnav.viz.report)."""
+
 
 def format_problem(doc: Mapping[str, Any], name: str, newest: int) -> str | None:
     """What is wrong with ``doc``'s ``format`` / ``version`` for a reader of format ``name``

@@ -320,7 +320,7 @@ class ImuConfig(_Model):
     saturation_rows: Annotated[int, Field(ge=0)] | None = None
     """Rows at a column's largest or smallest value that make it saturated (an error); None →
     :data:`DEFAULT_SATURATION_ROWS`; 0: not checked."""
-    restamp: bool | None = None
+    restamp: StrictBool | None = None
     """Increments whose stamps jitter about a grid, the increments one period each: re-stamp the
     rows on the fitted grid (a repair; since 0.4.9) or, false, only warn; None → true (not
     written, so a mission folder stays readable by 0.4.8)."""

@@ -426,23 +426,23 @@ def _lost_samples(
     shortest = np.minimum(before, np.concatenate([own_dt[1:], own_dt[-1:]]))
     cand = np.flatnonzero(own_dt > LOST_SAMPLE_FACTOR * shortest)
     found: list[tuple[int, float, float]] = []
+    reach = np.arange(-LOST_SAMPLE_WINDOW, LOST_SAMPLE_WINDOW + 1)
     # In blocks: each candidate takes 2 W + 1 rows of temporaries, and bursty stamps can make
     # every other row a candidate (a day at 100 Hz would otherwise need gigabytes).
     for c in np.array_split(cand, max(1, cand.size // LOST_SAMPLE_BLOCK + 1)):
         if not c.size:
             continue
-        reach = np.arange(-LOST_SAMPLE_WINDOW, LOST_SAMPLE_WINDOW + 1)
         near = np.clip(c[:, None] + reach, 0, n - 1)
         period = np.median(own_dt[near], axis=1)
         force = np.linalg.norm(v[rows[near], 3:], axis=2) / own_dt[near]
-        gap = own_dt[c]
-        ratio = gap / period
-        lost = (ratio > LOST_SAMPLE_FACTOR) & (np.abs(ratio - np.round(ratio)) < 0.25)
+        ratio = own_dt[c] / period
+        m = np.rint(ratio)  # the whole periods of the interval
+        lost = (ratio > LOST_SAMPLE_FACTOR) & (np.abs(ratio - m) < 0.25)
         lost &= shortest[c] > 0.75 * period  # regular either side
         # the periods the increments cover: |Δv| against the local specific force's per period
         covered = np.linalg.norm(v[rows[c], 3:], axis=1) / (np.nanmedian(force, axis=1) * period)
-        held = np.clip(np.rint(covered), 1.0, np.rint(ratio))
-        lost &= held < np.rint(ratio)
+        held = np.clip(np.rint(covered), 1.0, m)
+        lost &= held < m
         found += zip(
             c[lost].tolist(), (held * period)[lost].tolist(), period[lost].tolist(), strict=True
         )
@@ -616,18 +616,19 @@ def _check_saturated(
         return
     for c in range(v.shape[1]):
         col = v[:, c]
-        for value in (float(col.max()), float(col.min())):
+        for side, value in (("largest", float(col.max())), ("smallest", float(col.min()))):
             at = col == value
             n = int(np.count_nonzero(at))
             if value == 0.0 or n < limit or n == col.size:
                 continue
-            inner = col[col < value] if value == float(col.max()) else col[col > value]
-            nxt = float(inner.max() if value == float(col.max()) else inner.min())
-            if n < SATURATION_PILEUP * int(np.count_nonzero(inner == nxt)):
+            if side == "largest":  # the next value inward, without a copy of the column
+                nxt = float(np.max(col, where=col < value, initial=-np.inf))
+            else:
+                nxt = float(np.min(col, where=col > value, initial=np.inf))
+            if n < SATURATION_PILEUP * int(np.count_nonzero(col == nxt)):
                 continue
             where = np.flatnonzero(at)
             a, b = int(where[0]), int(where[-1])
-            side = "largest" if value == float(col.max()) else "smallest"
             raise table.error(
                 int(rows[a]),
                 used[1 + c],

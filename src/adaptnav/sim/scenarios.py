@@ -49,6 +49,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from adaptnav.core import attitude, earth
+from adaptnav.core.formats import SIMULATION_FILE
 from adaptnav.core.units import DEG, G0, si_unit
 from adaptnav.mission import MissionConfig, parse_config, write_mission
 from adaptnav.sensors.registry import KINDS
@@ -666,7 +667,7 @@ def simulate_scenario(
     sim = generate(scenario, seed, disturbances, calibration)
     root = Path(out)
     write_mission(root, sim.config, sim.tables, fmt="parquet")
-    (root / "simulation.json").write_text(
+    (root / SIMULATION_FILE).write_text(
         json.dumps(sim.meta, indent=2, sort_keys=True) + "\n", encoding="utf-8"
     )
     return root

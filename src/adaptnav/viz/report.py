@@ -66,11 +66,10 @@ from adaptnav.analysis.compare import (
     FORMAT_VERSION,
     NEES_BAND_TEXT,
     PAPER_TABLE3,
-    SIMULATION_FILE,
 )
 from adaptnav.api.results import CALIBRATION_FILE, TABLE_FILES, RunFolderError, check_files
 from adaptnav.api.runner import heading_origin
-from adaptnav.core.formats import format_problem
+from adaptnav.core.formats import SIMULATION_FILE, format_problem
 from adaptnav.mission import MissionConfig, MissionError, load_config
 from adaptnav.viz.series import MAX_POINTS
 
