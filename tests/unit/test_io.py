@@ -534,14 +534,20 @@ def _noisy_increments(n: int = 80, seed: int = 7) -> pd.DataFrame:
     return inc
 
 
+def _increments_mission(tmp_path: Path, inc: pd.DataFrame, **imu: Any) -> Path:
+    """A mission of the increments table ``inc`` beside :func:`dvl_table`, with ``imu`` keys
+    added to its ``[imu]``."""
+    d = config_dict()
+    d["imu"].update(format="increments", **imu)
+    return write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+
+
 def test_increments_after_lost_samples_are_stretched(tmp_path: Path) -> None:
     # Two samples lost (rows 40, 41): row 42's increments cover its own T, not the 3 T since
     # row 39. Up to 0.4.8 they were taken over 3 T (gravity integrated over 3 T against a
     # specific force of one: 0.2 m/s down), since 0.4.9 scaled by 3, as after a NaN row.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc = _noisy_increments()
-    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[40, 41]), "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc.drop(index=[40, 41]))
     m = load_mission(root)
     assert len(m.imu) == 78
     assert m.imu.dt[40] == pytest.approx(3 * T)
@@ -558,12 +564,10 @@ def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> N
     # after a lost sample): row 42 holds 2 T of increments over the 3 T since row 39. Since
     # 0.4.9 (second version) taken as 2 T and scaled by 3/2; the first version knew only 1 T
     # or the whole interval and kept 3 T (a 0.1-m/s down-velocity step on the demo).
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc = _noisy_increments()
     cols = list(inc.columns[1:])
     inc.loc[42, cols] = inc.loc[41:42, cols].sum().to_numpy()
-    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[40, 41]), "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc.drop(index=[40, 41]))
     m = load_mission(root)
     assert m.imu.dt[40] == pytest.approx(3 * T)
     np.testing.assert_allclose(m.imu.dvel[40], 1.5 * inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
@@ -574,12 +578,10 @@ def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> N
 
 def test_increments_that_span_a_longer_interval_are_kept(tmp_path: Path) -> None:
     # An IMU that accumulates until read: rows missing, but row 42 holds the 3 T since row 39.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc = _noisy_increments()
     cols = list(inc.columns[1:])
     inc.loc[42, cols] = inc.loc[40:42, cols].sum().to_numpy()
-    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[40, 41]), "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc.drop(index=[40, 41]))
     m = load_mission(root)
     assert m.imu.dt[40] == pytest.approx(3 * T)
     np.testing.assert_allclose(m.imu.dvel[40], inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
@@ -588,15 +590,12 @@ def test_increments_that_span_a_longer_interval_are_kept(tmp_path: Path) -> None
 
 def test_jittered_increment_stamps_are_not_lost_samples(tmp_path: Path) -> None:
     # Stamps jittered by up to 0.3 T around a regular clock: intervals up to 1.6 T, none lost.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc = _noisy_increments(400)
     inc["t_s"] += np.random.default_rng(3).uniform(-0.3 * T, 0.3 * T, len(inc))
-    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc)
     # since 0.4.9 re-stamped on their grid (below), and still no lost sample
     assert [r.action for r in load_mission(root).repairs] == ["re-stamped on the fitted grid"]
-    d["imu"]["restamp"] = False
-    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc, restamp=False)
     assert not load_mission(root).repairs
 
 
@@ -613,10 +612,8 @@ def test_jittered_increment_stamps_are_restamped(tmp_path: Path) -> None:
     # Stamps jittered by up to 0.2 T, the increments one period each: up to 0.4.8 each row's
     # increments were taken over its stamped interval (gravity over T + e_k - e_{k-1}: a down
     # velocity error g e_k); since 0.4.9 the rows are re-stamped on the fitted grid.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc, grid = _jittered(0.2)
-    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc)
     m = load_mission(root)
     (r,) = m.repairs
     assert (r.file, r.field, r.action) == ("imu.csv", "t_s", "re-stamped on the fitted grid")
@@ -631,12 +628,9 @@ def test_jittered_increment_stamps_kept_when_asked_or_uncertain(
 ) -> None:
     # imu.restamp = false: a warning, the stamps as they are; jittered by up to 0.4 T, the
     # count of periods of some rows is uncertain: a warning too.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     for amplitude, restamp, why in ((0.2, False, "imu.restamp = false"), (0.4, True, "uncertain")):
-        d["imu"]["restamp"] = restamp
         inc, _ = _jittered(amplitude)
-        root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+        root = _increments_mission(tmp_path, inc, restamp=restamp)
         caplog.clear()
         with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
             m = load_mission(root)
@@ -650,11 +644,9 @@ def test_jittered_stamps_with_counts_resolved_by_the_grid(tmp_path: Path) -> Non
     # Jittered by up to 0.3 T: some rows are stamped 1.5-1.6 T after the one before, nearer two
     # periods than one; the offsets from the grid either side of them tell that they are one
     # period late, not two, so every interval is re-stamped to about T.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc, grid = _jittered(0.3, seed=6)
     assert np.max(np.diff(inc["t_s"].to_numpy())) > 1.5 * T
-    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc)
     m = load_mission(root)
     assert [r.action for r in m.repairs] == ["re-stamped on the fitted grid"]
     np.testing.assert_allclose(m.imu.dt, T, rtol=0.05)
@@ -663,12 +655,10 @@ def test_jittered_stamps_with_counts_resolved_by_the_grid(tmp_path: Path) -> Non
 
 def test_irregular_stamps_whose_increments_follow_them_are_kept(tmp_path: Path) -> None:
     # Irregular sampling whose increments do cover each stamped interval: nothing to repair.
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc, _ = _jittered(0.2)
     own = np.diff(inc["t_s"].to_numpy(), prepend=inc["t_s"].iloc[0] - T)
     inc[inc.columns[1:]] = inc[inc.columns[1:]].to_numpy() * (own / T)[:, None]
-    root = write_dir(tmp_path, d, {"imu.csv": inc, "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc)
     m = load_mission(root)
     assert not m.repairs
     np.testing.assert_array_equal(m.imu.t, inc["t_s"].to_numpy())
@@ -677,10 +667,8 @@ def test_irregular_stamps_whose_increments_follow_them_are_kept(tmp_path: Path) 
 def test_jittered_stamps_with_lost_samples(tmp_path: Path) -> None:
     # Jittered by up to 0.2 T and rows 200, 201 lost: re-stamped, then row 202 stretched over
     # the 3 T of the grid (up to 0.4.8: the stamps as they were, and no stretch).
-    d = config_dict()
-    d["imu"]["format"] = "increments"
     inc, grid = _jittered(0.2)
-    root = write_dir(tmp_path, d, {"imu.csv": inc.drop(index=[200, 201]), "dvl.csv": dvl_table()})
+    root = _increments_mission(tmp_path, inc.drop(index=[200, 201]))
     m = load_mission(root)
     assert [r.action for r in m.repairs] == [
         "re-stamped on the fitted grid",
