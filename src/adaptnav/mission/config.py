@@ -324,6 +324,10 @@ class ImuConfig(_Model):
     """Increments whose stamps jitter about a grid, the increments one period each: re-stamp the
     rows on the fitted grid (a repair; since 0.4.9) or, false, only warn; None → true (not
     written, so a mission folder stays readable by 0.4.8)."""
+    axis_check: StrictBool | None = None
+    """Compare the gyro's axes with the aiding sensors that see rotation and refuse an axis that
+    does not follow them (a flipped sign, swapped axes, deg/s; since 0.4.10) or, false, do not;
+    None → true (docs/robustness.md, 'IMU axes')."""
     initial_bias_sigma: InitialBiasSigma = InitialBiasSigma()
     initial_bias: InitialBias = InitialBias()
 
@@ -331,6 +335,11 @@ class ImuConfig(_Model):
     @classmethod
     def _check_file(cls, v: str) -> str:
         return _check_table_file(v)
+
+    @property
+    def check_axes(self) -> bool:
+        """``axis_check`` or, if not given, true."""
+        return self.axis_check is not False
 
     @property
     def stuck_limit_s(self) -> float:

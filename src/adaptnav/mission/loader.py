@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from adaptnav.core import attitude
 from adaptnav.core.units import G0
+from adaptnav.mission import axes
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
@@ -191,6 +192,8 @@ def load_mission(path: str | Path) -> Mission:
         if data is not None:
             _check_time_span(imu, data, cfg)
             sensors[name] = data
+    if config.imu.check_axes:
+        _check_axes(config, imu, sensors)
     truth = None
     if config.truth.file is not None:
         tb = table(config.truth.file)
@@ -233,6 +236,62 @@ def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
         "(Unix time beside mission time?)",
         file=cfg.file,
         imu_span=(imu.start, float(imu.t[-1])),
+    )
+
+
+def _axis_references(config: MissionConfig, sensors: dict[str, SensorData]) -> list[axes.Reference]:
+    """The angles of the aiding sensors that see rotation (mission/axes.py): a heading sensor's
+    yaw, an inclinometer's roll and pitch, a GNSS receiver's course."""
+    refs: list[axes.Reference] = []
+    for name, data in sensors.items():
+        cfg = config.sensors[name]
+        c_sb = cfg.sensor_from_body() if KINDS[cfg.kind].mounting else None
+        if data.kind == "heading":
+            refs.append(axes.Reference(name, "yaw", 2, data.t, data.z[:, 0], c_sb))
+        elif data.kind == "inclinometer":
+            refs.append(axes.Reference(name, "roll", 0, data.t, data.z[:, 0], c_sb, tilt=0))
+            refs.append(axes.Reference(name, "pitch", 1, data.t, data.z[:, 1], c_sb, tilt=1))
+        elif data.kind == "gnss":
+            sigma = float(np.atleast_1d(cfg.sigma_si())[0])
+            t, chi = axes.course(data.t, data.z[:, 0], data.z[:, 1], sigma)
+            refs.append(axes.Reference(name, "course", 2, t, chi))
+    return refs
+
+
+def _check_axes(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorData]) -> None:
+    """A MissionError naming the IMU file and column (or the aiding sensor's, when the gyro and
+    the accelerometers agree against it) if a gyro axis, or the accelerometers' levelling, does
+    not turn with an aiding sensor's angle (mission/axes.py; docs/robustness.md, 'IMU axes')."""
+    refs = _axis_references(config, sensors)
+    if not refs:
+        return
+    noise = config.imu.noise.to_imu_noise()
+    found = next(
+        axes.check_axes(imu.t, imu.dt, imu.dtheta, imu.dvel, refs, (noise.arw, noise.vrw)), None
+    )
+    if found is None:
+        return
+    columns = IMU_RATE_COLUMNS if config.imu.format == "rates" else IMU_INCREMENT_COLUMNS
+    s, sensor = found.at_zero, config.sensors[found.reference]
+    if found.instrument == "reference":
+        file, column = sensor.file, KINDS[sensor.kind].columns[found.axis]
+        what = f"the {found.angle} of sensor {found.reference!r} ({column})"
+        against = "the gyro's and the accelerometers' over the same intervals"
+    else:
+        gyro = found.instrument == "gyro"
+        file = config.imu.file
+        column = columns[found.axis] if gyro else columns[4 if found.angle == "roll" else 3]
+        what = "the gyro's " + "xyz"[found.axis] if gyro else f"the accelerometers' {found.angle}"
+        what += f" axis ({column})" if gyro else f" ({column})"
+        against = f"the {found.angle} of sensor {found.reference!r} ({sensor.file})"
+    raise MissionError(
+        f"{file}: {what} against {against} from t = {found.t_from:.1f} to {found.t_to:.1f} s: "
+        f"{s.k:.3g} ± {s.se:.2g} rad of the sensor's per rad of the IMU's (1 expected; below "
+        f"{axes.MIN_SLOPE:g} even {axes.CONFIDENCE:g} σ up, with the sensor taken up to "
+        f"{axes.MAX_LAG_S:g} s late or early): {found.cause()} Fix the table, or, if it is "
+        "right, set imu.axis_check = false (docs/robustness.md, 'IMU axes')",
+        file=file,
+        field=column,
     )
 
 

@@ -1,0 +1,364 @@
+"""Cross-checks of the gyro's axes against the aiding sensors that see rotation.
+
+An IMU logged with one axis's sign flipped, two axes swapped, or rates in deg/s where rad/s are
+declared passes every check on its own table: the values are plausible, only wrong. The filter
+then runs to a state far off without a word (the demo with its gyro z negated: 308 m off, exit
+0, up to 0.4.9). The sensors that measure an angle see it: between two readings a heading sensor
+shows the yaw change Δψ, an inclinometer the roll and pitch changes, a GNSS receiver's track the
+change of course; the gyro's matching axis integrates about the same angle over the same
+interval (docs/robustness.md, 'IMU axes').
+
+For each pair (reference angle, gyro axis) :func:`axis_slope` fits, over the intervals between
+consecutive reference readings (for GNSS: between consecutive chords of the track),
+
+    a_i = k b_i + c Δt_i,        b_i = ∫ ω_j dt over the interval,
+
+where a_i is the reference's angle change (wrapped to (-π, π]), ω_j the gyro's axis j turned
+into the sensor's frame (ω_s = C_sb ω_b, the sensor's mounting rotation), and c absorbs a
+constant gyro bias. The fit is robust: intervals whose residual lies beyond 5 σ (σ from the
+median absolute deviation) are left out, three times over, so that spikes and wrapped angles
+do not decide. Its standard error is ``se = sqrt(Σ r² / (n - 2) / Σ (b - b̄_Δt)²)``.
+
+A right axis gives k ≈ 1: the reference angles' rates are the gyro's for small roll and pitch
+(Euler rates, Groves eq. 2.58: ψ̇ = (ω_y sin φ + ω_z cos φ) / cos θ, φ̇ ≈ ω_x, θ̇ ≈ ω_y), and a
+magnetic compass's deviation or a GNSS track's drift angle change it by a few per cent. A
+flipped sign gives k ≈ -1, a swapped axis k ≈ 0, rates in deg/s read as rad/s k ≈ 1/57.3.
+The rule: an axis is refused when ``k + 4 se < 0.5`` at every lag τ in
+[-:data:`MAX_LAG_S`, +:data:`MAX_LAG_S`] tried between the reference's stamps and the IMU's:
+with 4-σ confidence the axis shows less than half of the reference's rotation, none, or the
+opposite, even allowing the reference an unmodelled latency of up to a second (a latency of a
+quarter of a wave period would otherwise turn an oscillation's k to 0). Where the vehicle does
+not turn enough for the fit to decide (se large) nothing is said.
+
+Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls :func:`check_axes` and
+turns a finding into a MissionError naming the IMU file and column.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+MIN_SLOPE = 0.5
+"""The fewest of the reference's radians a gyro axis may show per radian (module docstring)."""
+CONFIDENCE = 4.0
+"""Standard errors the slope's interval spans above its estimate before it is judged."""
+MAX_LAG_S = 1.0
+"""Largest unmodelled latency of a reference the rule allows for (s)."""
+LAG_STEP_S = 0.1
+"""Step of the lags tried (s)."""
+MIN_INTERVALS = 20
+"""Fewest intervals a fit needs."""
+SIGNAL_FACTOR = 10.0
+"""How many times the variance of its own noise the spread of an IMU angle's changes must be
+for a fit to decide (:func:`axis_slope`)."""
+OUTLIER_SIGMAS = 5.0
+"""Residuals beyond this many robust σ are left out of the fit."""
+CHORD_SIGMAS = 20.0
+"""A GNSS chord is long enough for its course when it spans this many position σ: the course
+then has a σ of about sqrt(2) / 20 rad (4°)."""
+MAX_CHORD_S = 60.0
+"""Longest time a GNSS chord may span (s)."""
+TILT_BLOCK_S = 0.1
+"""Length of the blocks the accelerometers are averaged over for their tilt (s)."""
+TILT_GRAVITY = 9.8
+"""Gravity the accelerometers' noise is scaled by into an angle (m/s²)."""
+EARTH_RADIUS_M = 6_371_000.0
+"""Radius of the sphere a GNSS track is flattened on for its course (m): a course's scale
+error from it is below 1 %."""
+
+
+@dataclass(frozen=True)
+class Slope:
+    """The fitted slope ``k`` of a reference's angle changes on a gyro axis's, its standard error
+    ``se``, the intervals kept ``n`` and the lag ``lag_s`` it was taken at."""
+
+    k: float
+    se: float
+    n: int
+    lag_s: float
+
+    @property
+    def upper(self) -> float:
+        """``k + CONFIDENCE se``: the most of the reference's rotation the axis may show."""
+        return self.k + CONFIDENCE * self.se
+
+
+Instrument = Literal["gyro", "accelerometer", "reference"]
+"""Which side a finding blames: the IMU's gyro or accelerometer axis, or the aiding sensor."""
+
+
+@dataclass(frozen=True)
+class AxisFinding:
+    """An ``instrument`` whose angle does not follow the other's: the IMU's ``axis`` (0, 1, 2:
+    x, y, z of the body) against ``reference``'s ``angle`` (yaw, roll, pitch or course), the
+    :class:`Slope` at the lag that suits the IMU best (what the rule judges), over
+    ``t_from``-``t_to``. ``instrument`` "reference": the gyro and the
+    accelerometers agree with each other and both disagree with the sensor."""
+
+    instrument: Instrument
+    axis: int
+    reference: str
+    angle: str
+    slope: Slope
+    at_zero: Slope
+    """The slope with the reference's stamps as they are (lag 0)."""
+    t_from: float
+    t_to: float
+
+    def cause(self) -> str:
+        """What the slope points to, in words."""
+        k, se = self.at_zero.k, self.at_zero.se
+        if self.instrument == "reference":
+            if k < -MIN_SLOPE:
+                return (
+                    f"the gyro and the accelerometers agree, the sensor's {self.angle} turns the "
+                    "opposite way: is its sign flipped, or its mounting_rpy_deg not set?"
+                )
+            return (
+                f"the gyro and the accelerometers agree, the sensor's {self.angle} does not "
+                "follow them: are its roll and pitch swapped, or in the wrong unit?"
+            )
+        other = " (or the reference's sense)" if self.angle in ("yaw", "course") else ""
+        if k < -MIN_SLOPE:
+            return f"it turns the opposite way: is the axis's sign flipped{other}?"
+        in_deg = k * 180.0 / math.pi
+        if (
+            self.instrument == "gyro"
+            and abs(in_deg - 1.0) + CONFIDENCE * se * 180.0 / math.pi < 0.5
+        ):
+            return (
+                f"it turns {1.0 / k:.3g} times as far as the reference: rates in deg/s "
+                "where rad/s are read?"
+            )
+        return "it does not turn with the reference: are two axes swapped?"
+
+
+def axis_slope(
+    a: Array, b: Array, dt: Array, lag_s: float = 0.0, noise_var: Array | None = None
+) -> Slope | None:
+    """The robust fit ``a = k b + c dt`` of the module's docstring (None: too few intervals, or
+    the IMU's angle changes ``b`` not above their own noise: with ``noise_var`` (n,) the
+    variance of each ``b_i``'s noise, their spread must be :data:`SIGNAL_FACTOR` times the
+    noise's, else a still vehicle's noise against the reference's would look like a swapped
+    axis)."""
+    ok = np.isfinite(a) & np.isfinite(b) & np.isfinite(dt)
+    nv = np.zeros(int(ok.sum())) if noise_var is None else np.asarray(noise_var, float)[ok]
+    a, design = a[ok], np.column_stack([b[ok], dt[ok]])
+    keep = np.ones(a.size, dtype=bool)
+    for _ in range(3):
+        if np.count_nonzero(keep) < MIN_INTERVALS:
+            return None
+        coef = np.linalg.lstsq(design[keep], a[keep], rcond=None)[0]
+        r = a - design @ coef
+        s = 1.4826 * float(np.median(np.abs(r[keep] - np.median(r[keep]))))
+        keep = np.abs(r) <= OUTLIER_SIGMAS * s + 1e-15
+    n = int(np.count_nonzero(keep))
+    if n < MIN_INTERVALS:
+        return None
+    coef = np.linalg.lstsq(design[keep], a[keep], rcond=None)[0]
+    bb, tt = design[keep, 0], design[keep, 1]
+    # The spread of b left once the bias term has taken its share (b's component along dt).
+    spread = float(bb @ bb - (bb @ tt) ** 2 / (tt @ tt))
+    if spread <= SIGNAL_FACTOR * float(nv[keep].sum()) or spread <= 0.0:
+        return None
+    res = a[keep] - design[keep] @ coef
+    se = math.sqrt(float(res @ res) / max(n - 2, 1) / spread)
+    return Slope(float(coef[0]), se, n, lag_s)
+
+
+def wrap(angle: Array) -> Array:
+    """Angles wrapped to [-π, π)."""
+    return np.asarray((angle + math.pi) % (2.0 * math.pi) - math.pi, dtype=float)
+
+
+@dataclass(frozen=True)
+class Gyro:
+    """The gyro's integral ``theta`` (N + 1, 3), rad, at times ``t`` (N + 1,): the IMU's
+    increments summed from the first interval's start, turned by ``C_sb``."""
+
+    t: Array
+    theta: Array
+    arw: float = 0.0
+    """The gyro's angle random walk (rad/√s): the noise of an angle change over Δt is
+    ``arw √Δt``."""
+
+    @classmethod
+    def of(
+        cls, t: Array, dt: Array, dtheta: Array, c_sb: Array | None = None, arw: float = 0.0
+    ) -> Gyro:
+        """From the IMU's intervals ``(t - dt, t]`` and increments (ImuData's arrays)."""
+        level = c_sb is None or np.array_equal(c_sb, np.eye(3))
+        d = dtheta if level else dtheta @ np.asarray(c_sb, dtype=float).T
+        theta = np.vstack([np.zeros(3), np.cumsum(d, axis=0)])
+        return cls(np.concatenate([[t[0] - dt[0]], t]), theta, arw)
+
+    def noise_var(self, dt: Array) -> Array:
+        """Variance of the noise of the angle changes over intervals ``dt``: ``arw² Δt``."""
+        return np.asarray(self.arw**2 * dt, dtype=float)
+
+    def change(self, t0: Array, t1: Array, axis: int) -> Array:
+        """∫ ω_axis dt over each (t0, t1] (NaN where outside the IMU's span)."""
+        inside = (t0 >= self.t[0]) & (t1 <= self.t[-1])
+        col = self.theta[:, axis]
+        out = np.interp(t1, self.t, col) - np.interp(t0, self.t, col)
+        return np.where(inside, out, math.nan)
+
+
+def _lags() -> Array:
+    """The lags tried (s), from -MAX_LAG_S to +MAX_LAG_S by LAG_STEP_S."""
+    n = round(MAX_LAG_S / LAG_STEP_S)
+    return np.asarray(np.arange(-n, n + 1) * LAG_STEP_S, dtype=float)
+
+
+def best_slope(
+    imu: Gyro | AccelTilt, axis: int, t: Array, angle: Array
+) -> tuple[Slope, Slope] | None:
+    """The slope with the largest :attr:`Slope.upper` over the lags tried, and the slope at lag
+    0, of the angle changes between consecutive readings ``angle`` at ``t`` on the IMU's
+    ``axis`` (None: undecided at some lag, so nothing is said)."""
+    ok = np.isfinite(t) & np.isfinite(angle)
+    t, angle = t[ok], angle[ok]
+    if t.size <= MIN_INTERVALS:
+        return None
+    a, dt = wrap(np.diff(angle)), np.diff(t)
+    noise = imu.noise_var(dt)
+    found: list[Slope] = []
+    # Lag 0 first: a right axis passes there, and the others need not be tried.
+    for lag in sorted(_lags(), key=abs):
+        s = axis_slope(a, imu.change(t[:-1] - lag, t[1:] - lag, axis), dt, float(lag), noise)
+        if s is None:
+            return None
+        found.append(s)
+        if s.upper >= MIN_SLOPE:
+            break
+    return max(found, key=lambda x: x.upper), found[0]
+
+
+def course(t: Array, lat: Array, lon: Array, sigma_m: float) -> tuple[Array, Array]:
+    """A GNSS track's course (rad from north) over consecutive chords at their middle times.
+
+    Each chord spans readings i to i + m, m the fewest that cover :data:`CHORD_SIGMAS` σ at the
+    track's median speed (at most :data:`MAX_CHORD_S`); a chord shorter than that (a stop) has
+    a NaN course. The track is flattened on a sphere about its first fix."""
+    ok = np.isfinite(t) & np.isfinite(lat) & np.isfinite(lon)
+    t, lat, lon = t[ok], lat[ok], lon[ok]
+    if t.size < 3:
+        return np.empty(0), np.empty(0)
+    north = (lat - lat[0]) * EARTH_RADIUS_M
+    east = (lon - lon[0]) * EARTH_RADIUS_M * math.cos(float(lat[0]))
+    step = np.hypot(np.diff(north), np.diff(east))
+    speed = float(np.median(step / np.maximum(np.diff(t), 1e-9)))
+    period = float(np.median(np.diff(t)))
+    need = CHORD_SIGMAS * max(sigma_m, 1e-3)
+    span = min(need / speed, MAX_CHORD_S) if speed > 0.0 else MAX_CHORD_S
+    m = max(1, round(span / period))
+    i = np.arange(0, t.size - m, m)
+    j = i + m
+    dn, de = north[j] - north[i], east[j] - east[i]
+    chi = np.where(np.hypot(dn, de) >= need, np.arctan2(de, dn), math.nan)
+    return 0.5 * (t[i] + t[j]), chi
+
+
+@dataclass(frozen=True)
+class Reference:
+    """An aiding sensor's angle: ``name`` (the sensor), ``angle`` (its word), the body axis it
+    turns about, its readings (times, radians) and its mounting ``c_sb`` (None: the body's).
+    ``tilt``: the angle is an inclinometer's roll (0) or pitch (1), which the accelerometers
+    level too (:class:`AccelTilt`); None for a yaw or course."""
+
+    name: str
+    angle: str
+    axis: int
+    t: Array
+    value: Array
+    c_sb: Array | None = None
+    tilt: int | None = None
+
+
+def check_axes(
+    imu_t: Array,
+    imu_dt: Array,
+    dtheta: Array,
+    dvel: Array,
+    references: list[Reference],
+    noise: tuple[float, float] = (0.0, 0.0),
+) -> Iterator[AxisFinding]:
+    """Every reference whose angle the gyro's matching axis, or for a tilt the accelerometers'
+    levelling, does not follow (the rule of the module's docstring), in the order given. A
+    tilt that neither follows blames the reference (:class:`AxisFinding`). ``noise``: the
+    IMU's (ARW rad/√s, VRW m/s/√s), below which its angle changes decide nothing."""
+    gyros: dict[bytes, Gyro] = {}
+    tilts: dict[bytes, AccelTilt] = {}
+    for ref in references:
+        key = b"" if ref.c_sb is None else np.asarray(ref.c_sb, dtype=float).tobytes()
+        if key not in gyros:
+            gyros[key] = Gyro.of(imu_t, imu_dt, dtheta, ref.c_sb, noise[0])
+        found: list[tuple[Instrument, tuple[Slope, Slope]]] = []
+        s = best_slope(gyros[key], ref.axis, ref.t, ref.value)
+        if s is not None and s[0].upper < MIN_SLOPE:
+            found.append(("gyro", s))
+        if ref.tilt is not None:
+            if key not in tilts:
+                tilts[key] = AccelTilt.of(imu_t, imu_dt, dvel, ref.c_sb, noise[1])
+            a = best_slope(tilts[key], ref.tilt, ref.t, ref.value)
+            if a is not None and a[0].upper < MIN_SLOPE:
+                found.append(("accelerometer", a))
+        if not found:
+            continue
+        inst: Instrument = "reference" if len(found) == 2 else found[0][0]
+        best, zero = found[0][1]
+        yield AxisFinding(
+            inst, ref.axis, ref.name, ref.angle, best, zero, float(ref.t[0]), float(ref.t[-1])
+        )
+
+
+@dataclass(frozen=True)
+class AccelTilt:
+    """Roll and pitch ``angles`` (m, 2), rad, levelled from the accelerometers' means over
+    blocks of about :data:`TILT_BLOCK_S` (times ``t`` their middles), the specific force turned
+    by ``C_sb``: ``φ = atan2(-f_y, -f_z)``, ``θ = atan2(f_x, sqrt(f_y² + f_z²))`` (the coarse
+    levelling of engine/align.py, what a pendulum inclinometer reads)."""
+
+    t: Array
+    angles: Array
+    block_sigma: float = 0.0
+    """σ of one block's levelled angle from the accelerometers' white noise (rad):
+    ``VRW / (g √T_block)``."""
+
+    @classmethod
+    def of(
+        cls, t: Array, dt: Array, dvel: Array, c_sb: Array | None = None, vrw: float = 0.0
+    ) -> AccelTilt:
+        """From the IMU's intervals ``(t - dt, t]`` and velocity increments; ``vrw`` the
+        accelerometers' velocity random walk (m/s/√s)."""
+        per = max(1, round(TILT_BLOCK_S / float(np.median(dt))))
+        nb = t.size // per
+        cut = nb * per
+        span = dt[:cut].reshape(nb, per).sum(axis=1)
+        f = dvel[:cut].reshape(nb, per, 3).sum(axis=1) / span[:, None]
+        if c_sb is not None:
+            f = f @ np.asarray(c_sb, dtype=float).T
+        mid = t[:cut].reshape(nb, per)[:, -1] - 0.5 * span
+        roll = np.arctan2(-f[:, 1], -f[:, 2])
+        pitch = np.arctan2(f[:, 0], np.hypot(f[:, 1], f[:, 2]))
+        sigma = vrw / (TILT_GRAVITY * math.sqrt(float(np.median(span))))
+        return cls(mid, np.column_stack([np.unwrap(roll), pitch]), sigma)
+
+    def noise_var(self, dt: Array) -> Array:
+        """Variance of the noise of the angle changes, two blocks' each: ``2 σ_block²``."""
+        return np.full(dt.shape, 2.0 * self.block_sigma**2)
+
+    def change(self, t0: Array, t1: Array, axis: int) -> Array:
+        """The levelled angle ``axis`` (0 roll, 1 pitch) at t1 less that at t0 (NaN outside)."""
+        inside = (t0 >= self.t[0]) & (t1 <= self.t[-1])
+        col = self.angles[:, axis]
+        out = np.interp(t1, self.t, col) - np.interp(t0, self.t, col)
+        return np.where(inside, out, math.nan)
