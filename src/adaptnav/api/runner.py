@@ -28,7 +28,13 @@ from adaptnav.api.results import Result, dropped_ledger, file_digest, ledger_fra
 from adaptnav.core import attitude, earth
 from adaptnav.core.formats import SIMULATION_FILE
 from adaptnav.engine import batch as engine
-from adaptnav.engine.align import align, level, window_specific_force
+from adaptnav.engine.align import (
+    CoarseInfo,
+    align,
+    axes_at_rest,
+    level,
+    window_specific_force,
+)
 from adaptnav.engine.channels import build_channels
 from adaptnav.estimation.long_run import variance_factor
 from adaptnav.estimation.settings import FilterKind, FilterSettings
@@ -43,6 +49,7 @@ from adaptnav.mission import (
 )
 from adaptnav.mission.config import with_overrides
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
+from adaptnav.mission.tables import IMU_INCREMENT_COLUMNS, IMU_RATE_COLUMNS
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
@@ -143,6 +150,8 @@ def start_state(
         accel_sigma, gyro_sigma, heading=heading, heading_sigma=heading_sigma,
         position_sigma=ini.sigma_position_m, velocity_sigma=ini.sigma_velocity_m_s,
     )  # fmt: skip
+    if cfg.imu.check_axes:
+        check_axes_at_rest(cfg, a.coarse, position[0], heading, heading_sigma, given)
     check_angles_at_rest(cfg, sensors, a.x0, a.P0, a.coarse.mean_specific_force, t_start, a.t_end)
     check_depth_at_rest(cfg, sensors, a.x0, t_start, a.t_end)
     check_motion_at_rest(cfg, sensors, t_start, a.t_end)
@@ -274,6 +283,38 @@ predicts by max(AT_REST_FLOOR_RAD, AT_REST_SIGMAS σ), σ² = H P0 Hᵀ + R per 
 
 AT_REST_HINTS = {"heading": ", or, a magnetic compass, its declination_deg"}
 """A kind's own cause, added to :func:`check_angles_at_rest`'s list."""
+
+
+def check_axes_at_rest(
+    cfg: MissionConfig,
+    coarse: CoarseInfo,
+    lat: float,
+    heading: float | None,
+    heading_sigma: float | None,
+    given: Mapping[str, Any],
+) -> None:
+    """A :class:`MissionError` naming the IMU file when the earth rate the gyros measured over
+    the static window is not the one expected at its latitude and heading (engine/align.py
+    :func:`~adaptnav.engine.align.axes_at_rest`; docs/robustness.md, 'IMU axes'): a flipped or
+    swapped gyro axis, which no check on the IMU table alone sees. ``given``: where the heading
+    came from (:func:`_given_heading`)."""
+    found = axes_at_rest(coarse, lat, heading, heading_sigma)
+    if found is None:
+        return
+    columns = IMU_RATE_COLUMNS if cfg.imu.format == "rates" else IMU_INCREMENT_COLUMNS
+    source = given.get("heading_from", "?")
+    origin = f" The heading is from {source}." if found[0] == "horizontal" else ""
+    field = {
+        "accel": columns[5],
+        "vertical": columns[2],
+        "horizontal": f"{columns[0]}, {columns[1]}",
+    }[found[0]]
+    raise MissionError(
+        f"{cfg.imu.file}: {found[1]}{origin} Fix the IMU table, or, if it is right, set "
+        "imu.axis_check = false (docs/robustness.md, 'IMU axes')",
+        file=cfg.imu.file,
+        field=field,
+    )
 
 
 def check_angles_at_rest(

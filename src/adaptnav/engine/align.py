@@ -151,6 +151,8 @@ class CoarseInfo:
         gravity: normal gravity g(L, h) used (m/s²).
         mean_specific_force: f̄_b (m/s², body).
         mean_angular_rate: ω̄_b (rad/s, body).
+        sigma_rate: σ of each component of ω̄_b, ``sqrt(σ_bg² + ARW²/T)`` (rad/s); NaN if the
+            gyro bias σ is unknown.
     """
 
     heading_source: HeadingSource
@@ -162,6 +164,7 @@ class CoarseInfo:
     gravity: float
     mean_specific_force: Array
     mean_angular_rate: Array
+    sigma_rate: float = math.nan
 
 
 def _increments(dtheta: ArrayLike, dvel: ArrayLike, dt: ArrayLike) -> tuple[Array, Array, Array]:
@@ -335,8 +338,82 @@ def coarse_align(
         yaw, sigma_heading = float(attitude.wrap_angle(heading)), heading_sigma
     else:
         raise _no_heading(gyro_bias_sigma, sigma_gc, max_heading_sigma, horizontal_rate, lat)
-    info = CoarseInfo(source, sigma_level, sigma_heading, sigma_gc, yaw_gc, T, g, f_mean, w_mean)
+    info = CoarseInfo(
+        source, sigma_level, sigma_heading, sigma_gc, yaw_gc, T, g, f_mean, w_mean,
+        sigma_w if gyro_bias_sigma is not None else math.nan,
+    )  # fmt: skip
     return roll, pitch, yaw, info
+
+
+EARTH_RATE_SIGMAS = 5.0
+"""σ of the window-mean rate beyond which the earth rate it measured is not the expected one."""
+FLIPPED_BAND = 0.25
+"""How near the vertical earth rate of a flipped z axis (as a fraction of it, plus 3 σ) the
+measured one must be to be taken as flipped rather than as a vehicle turning at rest."""
+
+
+def axes_at_rest(
+    info: CoarseInfo, lat: float, heading: float | None, heading_sigma: float | None
+) -> tuple[Literal["accel", "vertical", "horizontal"], str] | None:
+    """What the earth rate measured at rest says of the gyro's axes: which of them is wrong and
+    why, in words (None: nothing wrong, or the gyro too poor to tell). ``info`` is
+    :func:`coarse_align`'s; ``heading``, ``heading_sigma`` (rad) a heading given to it, if any
+    (docs/robustness.md, 'IMU axes').
+
+    * **accelerometers**: at rest the specific force points up, ``f_z < 0`` (FRD): levelled to
+      a roll beyond ±90°, the vehicle would be upside down. The z axis's sign is flipped (or
+      the IMU mounted upside down and its table not turned). Checked first: the gyro checks
+      below take the levelled frame from the accelerometers.
+
+    In the levelled frame the earth rate is ``ω_l = Ω [cψ cos L, -sψ cos L, -sin L]`` (module
+    docstring), its vertical component free of the heading. With ``σ_ω`` the window mean's σ:
+
+    * **vertical**: ``ω_l,D`` more than 5 σ_ω from ``-Ω sin L`` and within
+      ``3 σ_ω + 0.25 Ω |sin L|`` of ``+Ω sin L``: the vertical axis turns the wrong way (a z
+      axis's sign flipped, or the latitude's sign). A vehicle turning at rest moves ``ω_l,D``
+      anywhere; only a value this near the mirror image is taken for a flip;
+    * **horizontal**, with a heading given: the gyrocompass yaw more than
+      ``5 sqrt(σ_gc² + σ_h²)`` from it, when that bound is under 90°: an x or y axis flipped,
+      the two swapped, or the given heading wrong (a turning vehicle does not move the
+      horizontal components).
+    """
+    roll, pitch = level(info.mean_specific_force)
+    if abs(roll) > 0.5 * math.pi:
+        f = info.mean_specific_force
+        return "accel", (
+            f"at rest the accelerometers' mean specific force [{f[0]:.3g}, {f[1]:.3g}, "
+            f"{f[2]:.3g}] m/s² points down in the body (z down: it should point up, f_z < 0), "
+            f"a roll of {math.degrees(roll):.1f}°: the vehicle upside down? Is the sign of the "
+            "accelerometer's z axis flipped, or the IMU mounted upside down?"
+        )
+    w_l = attitude.euler_to_dcm(roll, pitch, 0.0) @ info.mean_angular_rate
+    sigma = info.sigma_rate
+    if not math.isfinite(sigma):
+        return None
+    expected = -earth.OMEGA_IE * math.sin(lat)
+    off = abs(float(w_l[2]) - expected)
+    if off > EARTH_RATE_SIGMAS * sigma and abs(float(w_l[2]) + expected) <= (
+        3.0 * sigma + FLIPPED_BAND * abs(expected)
+    ):
+        return "vertical", (
+            f"at rest the gyros measure a vertical (down) earth rate of {float(w_l[2]):.3e} "
+            f"rad/s where {expected:.3e} is expected at latitude {math.degrees(lat):.4g}° "
+            f"(σ {sigma:.2g}): its mirror image. Is the sign of the gyro's vertical (z) axis "
+            "flipped, or the latitude's?"
+        )
+    if heading is None or heading_sigma is None:
+        return None
+    bound = EARTH_RATE_SIGMAS * math.hypot(info.sigma_gyrocompass, heading_sigma)
+    miss = abs(float(attitude.wrap_angle(info.yaw_gyrocompass - heading)))
+    if bound < 0.5 * math.pi and miss > bound:
+        return "horizontal", (
+            f"at rest the gyros' earth rate points to a heading of "
+            f"{math.degrees(info.yaw_gyrocompass):.1f}° where {math.degrees(heading):.1f}° is "
+            f"given, {math.degrees(miss):.1f}° off (more than {math.degrees(bound):.1f}°, 5 σ of "
+            "both). Is an x or y gyro axis's sign flipped, or are the two swapped? Or is the "
+            "given heading wrong (or its σ too small)?"
+        )
+    return None
 
 
 def level(f_mean: ArrayLike) -> tuple[float, float]:
