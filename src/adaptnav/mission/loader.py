@@ -588,12 +588,20 @@ def _check_gravity(table: Table, v: Array, own_dt: Array, rates: bool, used: lis
     if lo * G0 <= med <= hi * G0:
         return
     raise MissionError(
-        f"{table.label}, {', '.join(used[4:7])}: the median |specific force| over the table is "
-        f"{med:.4g} m/s², where a vehicle's is near gravity ({G0:.4g} m/s²): the accelerations "
-        f"not in m/s² (in g: × {G0}), or gravity taken out (a 'free' or 'linear' acceleration: "
-        "the INS needs the specific force, gravity included)?",
+        f"{table.label}, {', '.join(used[4:7])}: {specific_force_words(med, 'the table')}",
         file=table.label,
         field=used[4],
+    )
+
+
+def specific_force_words(median: float, over: str) -> str:
+    """What a median |specific force| (m/s²) ``over`` some IMU samples outside
+    :data:`GRAVITY_BAND` says (the loader's error, and a stream's: mission/live_imu.py)."""
+    return (
+        f"the median |specific force| over {over} is {median:.4g} m/s², where a vehicle's is "
+        f"near gravity ({G0:.4g} m/s²): the accelerations not in m/s² (in g: × {G0}), or "
+        "gravity taken out (a 'free' or 'linear' acceleration: the INS needs the specific "
+        "force, gravity included)?"
     )
 
 
