@@ -284,3 +284,109 @@ def test_readings_before_the_first_imu_sample_have_the_batch_runs_reason(
     kinds = [w["kind"] for w in batch.meta["warnings"]]
     assert "outside_imu" in kinds
     assert [w["kind"] for w in stream.result.meta["warnings"]] == kinds
+
+
+def _with_imu(mission: Mission, **imu: object) -> Mission:
+    """The mission with ``[imu]`` settings changed (stuck_s, saturation_rows)."""
+    from dataclasses import replace
+
+    cfg = mission.config
+    return replace(mission, config=cfg.model_copy(update={"imu": cfg.imu.model_copy(update=imu)}))
+
+
+def test_a_frozen_imu_is_refused_once_it_has_lasted_stuck_s(mission: Mission) -> None:
+    """Every value of the golden IMU's sample at 100 s repeated with fresh stamps: the samples
+    up to imu.stuck_s (1 s) after it are taken (the stream cannot know yet), the first one at 1 s
+    is refused naming the span and the setting, the stream unchanged, and so is every repeat
+    after it; a changed sample goes on. Up to 0.4.9 a stream took them all (a loaded table
+    with the same rows is refused, loader._check_frozen)."""
+    start = api.initial_state(mission)[:3]
+    imu = mission.imu
+    stream = Stream(mission, "meskf", initial=start)
+    k0 = int(np.searchsorted(imu.t, start[2] + 1e-9))
+    a = int(np.searchsorted(imu.t, 100.0))
+    for k in range(k0, a + 1):
+        stream.push_imu(imu.t[k], imu.dtheta[k], imu.dvel[k], dt=imu.dt[k])
+    k = a + 1
+    while imu.t[k] - imu.t[a] < 1.0:
+        stream.push_imu(imu.t[k], imu.dtheta[a], imu.dvel[a], dt=imu.dt[k])
+        k += 1
+    now = stream.t
+    for j, span in ((k, "1"), (k + 1, "1.01")):
+        with pytest.raises(ValueError, match=f"every IMU value unchanged for {span} s") as err:
+            stream.push_imu(imu.t[j], imu.dtheta[a], imu.dvel[a], dt=imu.dt[j])
+        words = f"since the sample at t = {float(imu.t[a])!r} s: a frozen IMU or driver"
+        assert words in str(err.value)
+        assert f"set imu.stuck_s above {span} s (0: not checked)" in str(err.value)
+        assert stream.t == now
+    stream.push_imu(imu.t[k], imu.dtheta[k], imu.dvel[k], dt=imu.dt[k])
+    assert stream.t == imu.t[k]
+    off = Stream(_with_imu(mission, stuck_s=0.0), "meskf", initial=start)
+    for j in range(k0, k + 100):
+        off.push_imu(imu.t[j], imu.dtheta[min(j, a)], imu.dvel[min(j, a)], dt=imu.dt[j])
+
+
+def test_a_clipped_gyro_is_refused_as_saturated(mission: Mission) -> None:
+    """The golden IMU's dtheta_z clipped at half its largest value (the 3°/s turn's): the
+    sample at which 10 samples hold the column's largest value so far, twice as many as the
+    next value inward, is refused, naming the column, the value and the setting (up to 0.4.9
+    a stream took them all; loader._check_saturated refuses the table). With
+    imu.saturation_rows = 0 the stream takes them."""
+    start = api.initial_state(mission)[:3]
+    imu = mission.imu
+    top = 0.5 * float(imu.dtheta[:, 2].max())
+    dth = imu.dtheta.copy()
+    dth[:, 2] = np.minimum(dth[:, 2], top)
+    k0 = int(np.searchsorted(imu.t, start[2] + 1e-9))
+    clipped = np.flatnonzero(dth[:, 2] == top)
+    tenth = int(clipped[9])
+    stream = Stream(mission, "meskf", initial=start)
+    for k in range(k0, tenth):
+        stream.push_imu(imu.t[k], dth[k], imu.dvel[k], dt=imu.dt[k])
+    with pytest.raises(ValueError, match="dtheta_z_rad: 10 samples") as err:
+        stream.push_imu(imu.t[tenth], dth[tenth], imu.dvel[tenth], dt=imu.dt[tenth])
+    msg = str(err.value)
+    assert f"the first at t = {float(imu.t[clipped[0]])!r} s and the last this one" in msg
+    assert f"hold the column's largest value so far, {top!r}" in msg
+    assert "clipped at the IMU's range (saturated)?" in msg
+    assert "set imu.saturation_rows above 10 (0: not checked)" in msg
+    assert stream.t == imu.t[tenth - 1]
+    off = Stream(_with_imu(mission, saturation_rows=0), "meskf", initial=start)
+    for k in range(k0, tenth + 100):
+        off.push_imu(imu.t[k], dth[k], imu.dvel[k], dt=imu.dt[k])
+
+
+def test_a_quantized_imu_at_rest_is_not_saturated_on_a_stream(mission: Mission) -> None:
+    """The loader's quantized IMU at rest (tests/unit/test_io.py): dvel_x within ±2 steps of
+    0.01 m/s² for 26 s, 15 samples at each end, 300 at the steps next to them: a tail, not a
+    pile-up, in every prefix of the stream too."""
+    levels = np.repeat([-0.02, -0.01, 0.0, 0.01, 0.02], [15, 300, 2000, 300, 15])
+    dv = mission.imu.dvel[: levels.size].copy()
+    dv[:, 0] = np.random.default_rng(3).permutation(levels) * 0.01
+    stream = Stream(mission, "meskf")
+    imu = mission.imu
+    for k in range(levels.size):
+        stream.push_imu(imu.t[k], imu.dtheta[k], dv[k], dt=imu.dt[k])
+
+
+@pytest.mark.parametrize(("scale", "gravity"), [(1.0 / 9.80665, 1.0), (1.0, 0.0)])
+def test_accelerations_in_g_or_without_gravity_are_refused(
+    mission: Mission, scale: float, gravity: float
+) -> None:
+    """The golden IMU's first second with its Δv in g, or with gravity taken out (at rest,
+    level: Δv_z + g dt): the sample that ends the first second is refused with the loader's
+    words (loader._check_gravity), and every one after it (up to 0.4.9 a stream took them:
+    "not static" at the alignment, or a state start that diverged)."""
+    imu = mission.imu
+    dv = imu.dvel[:200] * scale
+    dv[:, 2] += (1.0 - gravity) * 9.80665 * imu.dt[:200]
+    stream = Stream(mission, "robust")
+    for k in range(99):
+        stream.push_imu(imu.t[k], imu.dtheta[k], dv[k], dt=imu.dt[k])
+    for k in (99, 100):
+        with pytest.raises(ValueError, match="the median") as err:
+            stream.push_imu(imu.t[k], imu.dtheta[k], dv[k], dt=imu.dt[k])
+        msg = str(err.value)
+        assert "the median |specific force| over the 100 IMU samples of the first 1 s is" in msg
+        assert "in g: × 9.80665" in msg and "gravity taken out" in msg
+        assert msg.startswith(f"IMU sample t = {float(imu.t[k])!r} s, dvel_x_m_s")
