@@ -197,6 +197,12 @@ class Stream:
         if not math.isfinite(float(dth.sum() + dv.sum())):  # a NaN or inf anywhere: NaN or inf
             raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
         self._check_imu(tt, step, dth, dv)
+        if step * (1.0 + 1e-9) < tt - self._t_imu < math.inf:
+            # A hole before the interval: samples lost. Stretched over it at a constant rate,
+            # as the loader stretches a row after lost or dropped ones; the engine would jump
+            # the hole, the motion in it lost (up to 0.4.9).
+            r = (tt - self._t_imu) / step
+            dth, dv, step = dth * r, dv * r, tt - self._t_imu
         self._t_imu = tt
         if math.isnan(self._imu_start):
             self._imu_start = tt - step
