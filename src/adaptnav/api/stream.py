@@ -180,8 +180,12 @@ class Stream:
         non-positive ``dt``, a non-finite value, or what the loader refuses in a table: an
         interval longer than ``imu.max_gap_s`` or overlapping the previous one (``dt`` longer
         than the time since it), a rate beyond 20 rad/s or 20 g (up to 0.4.4 these were
-        integrated, to a state far off or a LinAlgError later). A sample stamped at or before a
-        given ``initial``'s t0 is skipped (docs/streaming.md)."""
+        integrated, to a state far off or a LinAlgError later); since 0.4.10 also a frozen IMU,
+        a saturated column and a specific force far from g over the first second, at the sample
+        where the loader would refuse the samples so far (:class:`ImuWatch`). A ``dt`` shorter
+        than the time since the previous sample is stretched over the hole, as the loader
+        stretches a row after lost ones (docs/streaming.md, 'IMU checks'). A sample stamped at
+        or before a given ``initial``'s t0 is skipped (docs/streaming.md)."""
         self._check_open()
         tt = float(t)
         step = float(dt) if dt is not None else tt - self._t_imu
