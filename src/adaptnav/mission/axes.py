@@ -128,6 +128,11 @@ class AxisFinding:
             )
         other = " (or the reference's sense)" if self.angle in ("yaw", "course") else ""
         if k < -MIN_SLOPE:
+            if self.instrument == "accelerometer":
+                return (
+                    "it turns the opposite way: is an axis's sign flipped (y or z for the roll, "
+                    "x for the pitch), or are y and z swapped?"
+                )
             return f"it turns the opposite way: is the axis's sign flipped{other}?"
         in_deg = k * 180.0 / math.pi
         if (

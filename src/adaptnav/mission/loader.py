@@ -280,7 +280,9 @@ def _check_axes(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorDa
     else:
         gyro = found.instrument == "gyro"
         file = config.imu.file
-        column = columns[found.axis] if gyro else columns[4 if found.angle == "roll" else 3]
+        # The levelled roll, atan2(-f_y, -f_z), turns the other way with y's sign or z's.
+        tilt = f"{columns[4]}, {columns[5]}" if found.angle == "roll" else columns[3]
+        column = columns[found.axis] if gyro else tilt
         what = "the gyro's " + "xyz"[found.axis] if gyro else f"the accelerometers' {found.angle}"
         what += f" axis ({column})" if gyro else f" ({column})"
         against = f"the {found.angle} of sensor {found.reference!r} ({sensor.file})"

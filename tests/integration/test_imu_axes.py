@@ -1,0 +1,88 @@
+"""An IMU table with an axis flipped or swapped, on the simulated demo: a load or alignment error
+naming the column, never a run far off with exit 0 (docs/robustness.md, 'IMU axes')."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from adaptnav.cli import app
+
+runner = CliRunner()
+
+
+def cli(*args: Any) -> Any:
+    res = runner.invoke(app, [str(a) for a in args])
+    assert "Traceback" not in res.output, res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    return res
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("axes") / "demo"
+    assert cli("simulate", "demo", "--out", out, "-q").exit_code == 0
+    return out
+
+
+def _changed(demo: Path, tmp_path: Path, table: str, column: str, factor: float) -> Path:
+    root = tmp_path / "mission"
+    shutil.copytree(demo, root)
+    df = pd.read_parquet(root / table)
+    df[column] = df[column] * factor
+    df.to_parquet(root / table)
+    return root
+
+
+def _error(res: Any) -> str:
+    assert res.exit_code == 2, res.output
+    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, res.output
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    ("column", "expect"),
+    [
+        ("dtheta_x_rad", "the gyro's x axis (dtheta_x_rad) against the roll"),
+        ("dtheta_y_rad", "the gyro's y axis (dtheta_y_rad) against the pitch"),
+        ("dtheta_z_rad", "vertical (down) earth rate"),
+        ("dvel_x_m_s", "the accelerometers' pitch (dvel_x_m_s)"),
+        ("dvel_y_m_s", "the accelerometers' roll (dvel_y_m_s, dvel_z_m_s)"),
+    ],
+)
+def test_a_negated_imu_axis_is_an_error_naming_it(
+    demo: Path, tmp_path: Path, column: str, expect: str
+) -> None:
+    root = _changed(demo, tmp_path, "imu.parquet", column, -1.0)
+    line = _error(cli("run", root, "--out", tmp_path / "run"))
+    assert expect in line and "imu.axis_check = false" in line, line
+    assert not (tmp_path / "run").exists()
+
+
+def test_gyros_in_deg_per_s_are_named_as_such(demo: Path, tmp_path: Path) -> None:
+    root = _changed(demo, tmp_path, "imu.parquet", "dtheta_x_rad", 57.29578)
+    assert "rates in deg/s where rad/s are read" in _error(
+        cli("run", root, "--out", tmp_path / "r")
+    )
+
+
+def test_an_inclinometer_whose_roll_is_negated_is_blamed_not_the_imu(
+    demo: Path, tmp_path: Path
+) -> None:
+    root = _changed(demo, tmp_path, "inclinometer.parquet", "roll_rad", -1.0)
+    line = _error(cli("run", root, "--out", tmp_path / "run"))
+    assert line.startswith("error: inclinometer.parquet: the roll of sensor 'inclinometer'"), line
+    assert "the gyro and the accelerometers agree" in line
+
+
+def test_axis_check_false_runs_the_table_as_it_is(demo: Path, tmp_path: Path) -> None:
+    root = _changed(demo, tmp_path, "imu.parquet", "dtheta_z_rad", -1.0)
+    toml = root / "mission.toml"
+    toml.write_text(toml.read_text().replace("[imu]\n", "[imu]\naxis_check = false\n", 1))
+    assert cli("run", root, "--out", tmp_path / "run", "-q").exit_code == 0
