@@ -1187,3 +1187,31 @@ def test_evaluate_refuses_a_simulation_made_again_after_the_run(tmp_path: Path) 
     (mission / "mission.toml").write_text(toml)
     line = error_line(cli("evaluate", run, "-q"))
     assert "simulation.json: not the simulation the run was made from" in line
+
+
+@pytest.mark.parametrize("factor", [1000.0, 100.0])
+def test_a_dvl_in_mm_or_cm_per_second_is_an_error(
+    mission: Path, tmp_path: Path, factor: float
+) -> None:
+    """A DVL logged in mm/s (a PD0 record's unit) or cm/s: its readings under way are far
+    outside ±20 m/s, those at rest are not, so no column is outside as a whole. Up to 0.4.9
+    the readings under way were dropped as implausible and the rest used, exit 0 (the demo:
+    21.5 m RMSE against 2.6 m)."""
+    dvl = badinput.read(mission, "dvl")
+    dvl[["vx_m_s", "vy_m_s", "vz_m_s"]] *= factor
+    badinput.write(mission, "dvl", dvl)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: dvl.csv line ") and ", vx_m_s: " in line, line
+    assert "mm/s or cm/s in a m/s column" in line
+
+
+def test_a_dvl_fill_value_over_most_readings_is_not_a_unit_error(
+    mission: Path, tmp_path: Path
+) -> None:
+    """A driver's fill value (-32.768 m/s) on most readings is a lost bottom: each is dropped
+    as implausible, the run goes on."""
+    dvl = badinput.read(mission, "dvl")
+    dvl.loc[: int(0.6 * len(dvl)), ["vx_m_s", "vy_m_s", "vz_m_s"]] = -32.768
+    badinput.write(mission, "dvl", dvl)
+    res = cli("run", mission, "--out", tmp_path / "run")
+    assert res.exit_code == 0, res.output

@@ -742,8 +742,8 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
         z = true_north(z, declination)
         log.info("sensor %r: magnetic headings turned to true north by %+g° (declination_deg)",
                  name, cfg.declination_deg)  # fmt: skip
-    if cfg.kind == "depth" and cfg.limits is None:
-        _check_depth_sign(table, name, z[:, 0], used[1])
+    if cfg.limits is None:
+        _check_kind_units(table, name, cfg, z, outside, used[1:])
     keep = np.ones(t.size, dtype=bool)
     for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
         keep[r] = False
@@ -1032,6 +1032,60 @@ def _check_depth_sign(table: Table, name: str, depth: Array, column: str) -> Non
         f"height or a sign slip? If the readings are right, set [sensors.{name}] limits "
         "(docs/robustness.md)",
     )
+
+
+def _check_kind_units(
+    table: Table,
+    name: str,
+    cfg: SensorConfig,
+    z: Array,
+    outside: NDArray[np.bool_],
+    used: list[str],
+) -> None:
+    """The checks of one kind's readings for a unit or sign slip (a sensor without configured
+    ``limits``): a depth's sign, a DVL's mm/s."""
+    if cfg.kind == "depth":
+        _check_depth_sign(table, name, z[:, 0], used[0])
+    elif cfg.kind == "dvl":
+        _check_speed_units(table, name, z, outside, used)
+
+
+SPEED_UNITS_SHARE = 0.2
+SPEED_UNITS_VALUES = 10
+"""A DVL column with more than this share of its finite values outside its limits, taking at
+least this many distinct values there, is an error (:func:`_check_speed_units`)."""
+
+
+def _check_speed_units(
+    table: Table, name: str, z: Array, outside: NDArray[np.bool_], columns: list[str]
+) -> None:
+    """A DVL velocity column more than :data:`SPEED_UNITS_SHARE` of whose finite values lie
+    outside its limits (±20 m/s), at least :data:`SPEED_UNITS_VALUES` distinct values among
+    them, is an error naming the file, the first such line and the column: mm/s or cm/s in a
+    m/s column (a Teledyne PD0 record's velocities are mm/s). The readings at rest stay small
+    in any unit and pass, so the every-value rule of :func:`_check_plausible` does not fire:
+    up to 0.4.9 the demo's DVL in mm/s had its 1800 readings under way dropped as implausible,
+    the 37 at rest or slow reached the filter, 21.5 m RMSE against 2.6 m, exit 0. A driver's
+    fill value (one value, -32.768 m/s) over most of a dive is a lost bottom, not a unit, and
+    stays a ledger matter. Configured ``limits`` skip the check."""
+    finite = np.isfinite(z)
+    for c in range(z.shape[1]):
+        out = z[outside[:, c], c]
+        if out.size <= SPEED_UNITS_SHARE * int(finite[:, c].sum()):
+            continue
+        if np.unique(out).size < SPEED_UNITS_VALUES:
+            continue
+        r = int(np.flatnonzero(outside[:, c])[0])
+        col = columns[c]
+        raise table.error(
+            r,
+            col,
+            f"{out.size} of its {int(finite[:, c].sum())} values are outside the plausible "
+            f"range of a DVL (e.g. {show(table.df[col].iloc[r])} here; median "
+            f"|value| {float(np.median(np.abs(out))):.4g}): mm/s or cm/s in a m/s column (a "
+            f"PD0 record's velocities are mm/s)? If the range is wrong, set [sensors.{name}] "
+            "limits (docs/robustness.md)",
+        )
 
 
 TRUTH_OPTIONAL_GROUPS = (TRUTH_COLUMNS[3:6], TRUTH_COLUMNS[6:9])
