@@ -1232,3 +1232,15 @@ def test_a_sensor_in_milliseconds_from_the_same_origin_is_an_error(
     line = error_line(cli("run", mission, "--out", tmp_path / "run"))
     assert line.startswith("error: dvl.csv: only 1 of "), line
     assert "another time unit (ms, µs?)" in line
+
+
+def test_gnss_radians_in_degree_columns_are_an_error(mission: Path, tmp_path: Path) -> None:
+    """lat_deg and lon_deg holding radians: every fix lies within ±1.571° and ±3.142°, in the
+    open sea off 0° N 0° E. Up to 0.4.9 they were taken as degrees, exit 0 (the demo with GNSS
+    aiding: 6 270 km RMSE)."""
+    gps = badinput.read(mission, "gps")
+    gps = gps.rename(columns={"lat_rad": "lat_deg", "lon_rad": "lon_deg"})
+    badinput.write(mission, "gps", gps)
+    line = error_line(cli("run", mission, "--out", tmp_path / "run"))
+    assert line.startswith("error: gps.csv line 2, lat_deg: every fix lies within"), line
+    assert "radians in a degrees column?" in line

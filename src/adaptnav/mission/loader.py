@@ -1064,6 +1064,33 @@ def _check_kind_units(
         _check_depth_sign(table, name, z[:, 0], used[0])
     elif cfg.kind == "dvl":
         _check_speed_units(table, name, z, outside, used)
+    elif cfg.kind == "gnss" and used[0].endswith("_deg") and used[1].endswith("_deg"):
+        _check_radians_as_degrees(table, name, z, used)
+
+
+def _check_radians_as_degrees(table: Table, name: str, z: Array, columns: list[str]) -> None:
+    """A GNSS whose degree columns (``lat_deg``, ``lon_deg``) hold only values a radian could
+    hold, every latitude within ±π/2 = ±1.571 and every longitude within ±π = ±3.142, is an
+    error naming the file and the first line: radians in a degrees column. Such a track lies
+    in the open Gulf of Guinea, within 175 km of the equator and 350 km of Greenwich, where no
+    coast is (since 0.4.10; up to 0.4.9 the demo with GNSS aiding ran 6 270 km RMS off, exit
+    0, robust with an 'at odds' warning, MESKF with a 'correlated' one). A mission that is
+    there sets ``limits`` (the check is then skipped)."""
+    finite = np.all(np.isfinite(z[:, :2]), axis=1)
+    if not np.any(finite):
+        return
+    lat, lon = np.degrees(z[finite, 0]), np.degrees(z[finite, 1])
+    if np.max(np.abs(lat)) > math.pi / 2 or np.max(np.abs(lon)) > math.pi:
+        return
+    r = int(np.flatnonzero(finite)[0])
+    raise table.error(
+        r,
+        columns[0],
+        f"every fix lies within ±{math.pi / 2:.4g}° latitude and ±{math.pi:.4g}° longitude "
+        f"(e.g. {show(table.df[columns[0]].iloc[r])}, {show(table.df[columns[1]].iloc[r])} "
+        "here), the ranges of radians: radians in a degrees column? If the mission is in the "
+        f"Gulf of Guinea near 0° N 0° E, set [sensors.{name}] limits (docs/robustness.md)",
+    )
 
 
 SPEED_UNITS_SHARE = 0.2
