@@ -86,3 +86,16 @@ def test_axis_check_false_runs_the_table_as_it_is(demo: Path, tmp_path: Path) ->
     toml = root / "mission.toml"
     toml.write_text(toml.read_text().replace("[imu]\n", "[imu]\naxis_check = false\n", 1))
     assert cli("run", root, "--out", tmp_path / "run", "-q").exit_code == 0
+
+
+def test_an_inclinometer_in_radians_under_degree_columns_is_named(
+    demo: Path, tmp_path: Path
+) -> None:
+    root = tmp_path / "mission"
+    shutil.copytree(demo, root)
+    df = pd.read_parquet(root / "inclinometer.parquet")
+    df.rename(columns={"roll_rad": "roll_deg", "pitch_rad": "pitch_deg"}).to_parquet(
+        root / "inclinometer.parquet"
+    )
+    line = _error(cli("run", root, "--out", tmp_path / "run"))
+    assert line.startswith("error: inclinometer.parquet:") and "radians where degrees" in line

@@ -116,11 +116,17 @@ class AxisFinding:
     def cause(self) -> str:
         """What the slope points to, in words."""
         k, se = self.at_zero.k, self.at_zero.se
+        deg = 180.0 / math.pi  # a unit slip of degrees and radians: k = 1 / 57.3
         if self.instrument == "reference":
             if k < -MIN_SLOPE:
                 return (
                     f"the gyro and the accelerometers agree, the sensor's {self.angle} turns the "
                     "opposite way: is its sign flipped, or its mounting_rpy_deg not set?"
+                )
+            if abs(k * deg - 1.0) + CONFIDENCE * se * deg < 0.5:
+                return (
+                    f"the gyro and the accelerometers agree, the sensor's {self.angle} turns "
+                    f"{1.0 / k:.3g} times less: radians where degrees are read (_deg columns)?"
                 )
             return (
                 f"the gyro and the accelerometers agree, the sensor's {self.angle} does not "
@@ -143,7 +149,10 @@ class AxisFinding:
                 f"it turns {1.0 / k:.3g} times as far as the reference: rates in deg/s "
                 "where rad/s are read?"
             )
-        return "it does not turn with the reference: are two axes swapped?"
+        return (
+            "it does not turn with the reference: are two axes swapped, or the sensor's stamps "
+            "off by more than a second (latency_s)?"
+        )
 
 
 def axis_slope(
