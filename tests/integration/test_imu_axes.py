@@ -99,3 +99,16 @@ def test_an_inclinometer_in_radians_under_degree_columns_is_named(
     )
     line = _error(cli("run", root, "--out", tmp_path / "run"))
     assert line.startswith("error: inclinometer.parquet:") and "radians where degrees" in line
+
+
+def test_a_stream_aligning_with_a_flipped_gyro_z_is_refused_at_its_alignment(
+    demo: Path, tmp_path: Path
+) -> None:
+    from adaptnav.api.stream import Stream, replay
+    from adaptnav.mission import MissionError, load_mission
+
+    mission = load_mission(_changed(demo, tmp_path, "imu.parquet", "dtheta_z_rad", -1.0))
+    stream = Stream(mission)
+    with pytest.raises(MissionError, match="vertical \\(down\\) earth rate"):
+        for item in replay(mission):
+            stream.push_item(item)
