@@ -1,4 +1,4 @@
-"""Cross-checks of the gyro's axes against the aiding sensors that see rotation.
+"""Cross-checks of the IMU's axes against the aiding sensors that see rotation.
 
 An IMU logged with one axis's sign flipped, two axes swapped, or rates in deg/s where rad/s are
 declared passes every check on its own table: the values are plausible, only wrong. The filter
@@ -13,7 +13,7 @@ consecutive reference readings (for GNSS: between consecutive chords of the trac
 
     a_i = k b_i + c Δt_i,        b_i = ∫ ω_j dt over the interval,
 
-where a_i is the reference's angle change (wrapped to (-π, π]), ω_j the gyro's axis j turned
+where a_i is the reference's angle change (wrapped to [-π, π)), ω_j the gyro's axis j turned
 into the sensor's frame (ω_s = C_sb ω_b, the sensor's mounting rotation), and c absorbs a
 constant gyro bias. The fit is robust: intervals whose residual lies beyond 5 σ (σ from the
 median absolute deviation) are left out, three times over, so that spikes and wrapped angles
@@ -28,7 +28,15 @@ The rule: an axis is refused when ``k + 4 se < 0.5`` at every lag τ in
 with 4-σ confidence the axis shows less than half of the reference's rotation, none, or the
 opposite, even allowing the reference an unmodelled latency of up to a second (a latency of a
 quarter of a wave period would otherwise turn an oscillation's k to 0). Where the vehicle does
-not turn enough for the fit to decide (se large) nothing is said.
+not turn enough for the fit to decide (se large) nothing is said, and a fit decides only when
+the spread of the IMU's changes is :data:`SIGNAL_FACTOR` times the variance of their own noise
+(the gyro's ARW): a still vehicle's gyro noise against a sensor's noise gives k ≈ 0 with a small
+se over many intervals, which would read as a swapped axis.
+
+An inclinometer's roll and pitch are fitted the same way on the accelerometers' levelled roll
+and pitch as well (:class:`AccelTilt`, 0.1-s means, their noise from the VRW): an accelerometer
+axis flipped or swapped shows there. When the gyro and the accelerometers both fail against
+one inclinometer angle, the inclinometer is blamed (its sign, unit, or roll and pitch swapped).
 
 Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls :func:`check_axes` and
 turns a finding into a MissionError naming the IMU file and column.
@@ -77,7 +85,7 @@ error from it is below 1 %."""
 
 @dataclass(frozen=True)
 class Slope:
-    """The fitted slope ``k`` of a reference's angle changes on a gyro axis's, its standard error
+    """The fitted slope ``k`` of a reference's angle changes on the IMU's, its standard error
     ``se``, the intervals kept ``n`` and the lag ``lag_s`` it was taken at."""
 
     k: float
@@ -140,11 +148,7 @@ class AxisFinding:
                     "x for the pitch), or are y and z swapped?"
                 )
             return f"it turns the opposite way: is the axis's sign flipped{other}?"
-        in_deg = k * 180.0 / math.pi
-        if (
-            self.instrument == "gyro"
-            and abs(in_deg - 1.0) + CONFIDENCE * se * 180.0 / math.pi < 0.5
-        ):
+        if self.instrument == "gyro" and abs(k * deg - 1.0) + CONFIDENCE * se * deg < 0.5:
             return (
                 f"it turns {1.0 / k:.3g} times as far as the reference: rates in deg/s "
                 "where rad/s are read?"
