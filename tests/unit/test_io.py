@@ -653,6 +653,27 @@ def test_jittered_stamps_with_counts_resolved_by_the_grid(tmp_path: Path) -> Non
     assert np.max(np.abs(m.imu.t - grid)) < 0.1 * T
 
 
+@pytest.mark.parametrize("rows", [[0, 1], [-2, -1]], ids=["first", "last"])
+def test_jittered_stamps_with_an_end_interval_past_one_and_a_half_periods(
+    tmp_path: Path, rows: list[int]
+) -> None:
+    # Jittered by up to 0.3 T, the first (or last) interval stamped 1.56 T: one period late, as
+    # within the table. Up to 0.4.9 the median offsets past the end were the rows before it
+    # mirrored, so the count stayed 2: the last row re-stamped a period late (a period's
+    # increments over two: a 0.1-m/s down-velocity step), or the first a period early and the
+    # second row "stretched over lost samples" (its increments doubled).
+    inc, grid = _jittered(0.3)
+    t = inc["t_s"].to_numpy().copy()
+    t[rows] = grid[rows] + np.array([-0.28, 0.28]) * T
+    inc["t_s"] = t
+    root = _increments_mission(tmp_path, inc)
+    m = load_mission(root)
+    assert [r.action for r in m.repairs] == ["re-stamped on the fitted grid"]
+    np.testing.assert_allclose(m.imu.dt, T, rtol=0.05)
+    assert np.max(np.abs(m.imu.t - grid)) < 0.1 * T
+    np.testing.assert_array_equal(m.imu.dvel, inc.iloc[:, 4:].to_numpy())
+
+
 def test_irregular_stamps_whose_increments_follow_them_are_kept(tmp_path: Path) -> None:
     # Irregular sampling whose increments do cover each stamped interval: nothing to repair.
     inc, _ = _jittered(0.2)

@@ -98,14 +98,20 @@ def _resolve_counts(t: Array, dt: Array, period: float) -> tuple[Array, bool]:
     wrong count makes such a run about :data:`STEP_ROWS` wide) and changes, in each run, the
     count of the interval most in keeping with the step (the one whose ``dt / T`` lies farthest
     from its count in the step's direction, its count staying at least 1). Certain when no step
-    of half a period is left after :data:`MAX_PASSES` passes."""
+    of half a period is left after :data:`MAX_PASSES` passes. Past either end of the table a
+    window takes the end row's offset (since 0.4.10; up to 0.4.9 the rows before it, mirrored,
+    so that a first or last interval jittered past 1.5 periods kept a count of 2: the last row
+    re-stamped a period late, a period's increments over two, or the first a period early and
+    the second row taken for one after a lost sample)."""
     ratio = dt / period
     count = np.maximum(1.0, np.rint(ratio))
     for _ in range(MAX_PASSES):
         off = t - period * np.concatenate([[0.0], np.cumsum(count)])
         half = STEP_ROWS // 2
-        ahead = median_filter(off, size=STEP_ROWS, origin=-half, mode="mirror")
-        behind = median_filter(off, size=STEP_ROWS, origin=half, mode="mirror")
+        # "nearest": a window past the table's end holds the end row's offset, not the rows
+        # before it mirrored (which hid a wrong count of the first or last interval)
+        ahead = median_filter(off, size=STEP_ROWS, origin=-half, mode="nearest")
+        behind = median_filter(off, size=STEP_ROWS, origin=half, mode="nearest")
         step = (ahead[1:] - behind[:-1]) / period
         jump = np.rint(step)
         if not np.any(jump):
