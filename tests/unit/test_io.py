@@ -559,6 +559,22 @@ def test_increments_after_lost_samples_are_stretched(tmp_path: Path) -> None:
     assert "about 2 sample(s) lost" in r.detail
 
 
+@pytest.mark.parametrize("jitter", [0.0, 0.2])
+def test_increments_after_a_sample_lost_before_the_last_row(tmp_path: Path, jitter: float) -> None:
+    # Row 78 (or 398, jittered by up to 0.2 T) lost: the last row holds one period's increments
+    # over two. Since 0.4.10 stretched as any other; up to 0.4.9 the last row was never a
+    # candidate (its own interval stood for the next one): gravity over 2 T against one
+    # period's specific force, a 0.1-m/s down-velocity step at the end.
+    inc, _ = _jittered(jitter, n=80 if jitter == 0.0 else 400)
+    root = _increments_mission(tmp_path, inc.drop(index=[len(inc) - 2]))
+    m = load_mission(root)
+    r = m.repairs[-1]
+    assert (r.line, r.action) == (len(inc), "stretched increments over lost samples")  # CSV line
+    assert "about 1 sample(s) lost" in r.detail
+    assert m.imu.dt[-1] == pytest.approx(2 * T, rel=0.02)
+    np.testing.assert_allclose(m.imu.dvel[-1], 2 * inc.iloc[-1, 4:].to_numpy(), rtol=0.02)
+
+
 def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> None:
     # Row 40 lost, row 41's increments added to row 42 (an IMU that accumulates until read,
     # after a lost sample): row 42 holds 2 T of increments over the 3 T since row 39. Since

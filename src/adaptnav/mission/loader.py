@@ -497,19 +497,26 @@ def _lost_samples(
     as it is, and so are one beside a short interval and one that is not within a quarter
     period of a whole number of periods (jittered stamps, not lost samples). Up to 0.4.8 no
     such row was repaired; the first 0.4.9 version knew only k = 1 or k = m, and a row of two
-    periods' increments over three was taken as three (a 0.1-m/s down-velocity step)."""
+    periods' increments over three was taken as three (a 0.1-m/s down-velocity step). Up to
+    0.4.9 the last row was never a candidate (its own interval stood for the one after it) and
+    the window near an end repeated the end row; since 0.4.10 an end row's neighbour is the one
+    it has, and the window slides inside the table."""
     n = own_dt.size
+    # an end row's missing neighbour is its other one (the last row's, the one before it)
     before = np.concatenate([own_dt[1:2], own_dt[:-1]]) if n > 1 else own_dt
-    shortest = np.minimum(before, np.concatenate([own_dt[1:], own_dt[-1:]]))
+    after = np.concatenate([own_dt[1:], own_dt[-2:-1]]) if n > 1 else own_dt
+    shortest = np.minimum(before, after)
     cand = np.flatnonzero(own_dt > LOST_SAMPLE_FACTOR * shortest)
     found: list[tuple[int, float, float]] = []
-    reach = np.arange(-LOST_SAMPLE_WINDOW, LOST_SAMPLE_WINDOW + 1)
+    reach = np.arange(2 * LOST_SAMPLE_WINDOW + 1)
     # In blocks: each candidate takes 2 W + 1 rows of temporaries, and bursty stamps can make
     # every other row a candidate (a day at 100 Hz would otherwise need gigabytes).
     for c in np.array_split(cand, max(1, cand.size // LOST_SAMPLE_BLOCK + 1)):
         if not c.size:
             continue
-        near = np.clip(c[:, None] + reach, 0, n - 1)
+        # near an end the window slides inside the table (not the end row repeated)
+        start = np.clip(c - LOST_SAMPLE_WINDOW, 0, max(n - reach.size, 0))
+        near = np.minimum(start[:, None] + reach, n - 1)
         period = np.median(own_dt[near], axis=1)
         force = np.linalg.norm(v[rows[near], 3:], axis=2) / own_dt[near]
         ratio = own_dt[c] / period
