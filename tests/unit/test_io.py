@@ -468,18 +468,45 @@ def test_truth_velocity_and_attitude_are_optional_groups(tmp_path: Path) -> None
     assert "truth.parquet (truth)" in err and "['vd_m_s']" in err and "or none" in err
 
 
-def test_rates_are_integrated_by_the_trapezoid_rule(tmp_path: Path) -> None:
+def test_rates_are_integrated_by_the_cubic_through_four_samples(tmp_path: Path) -> None:
+    # Since 0.4.10 each interval is the integral of the cubic through the samples about it
+    # (the quadratic through three at the ends); up to 0.4.9 the trapezoid, off by -(h³/12) ω̈.
     imu = imu_rates(n=11)
-    imu.loc[5:, "t_s"] += 0.004  # one longer interval: the trapezoid uses each interval's dt
+    imu.loc[5:, "t_s"] += 0.004  # one interval of 1.4 periods: the weights of an irregular grid
+    t = imu["t_s"].to_numpy()
+    s = t - t[0]
+    imu["gyro_x_rad_s"] = 0.1 + 2.0 * s - 30.0 * s**2  # every interval exact, the ends' too
+    imu["gyro_y_rad_s"] = 5e3 * s**3  # exact but at the ends
     root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
     m = load_mission(root)
-    t = imu["t_s"].to_numpy()
     assert len(m.imu) == 10 and m.imu.start == t[0]
     np.testing.assert_allclose(m.imu.dt, np.diff(t), rtol=0, atol=0)
-    w = imu["gyro_x_rad_s"].to_numpy()
-    np.testing.assert_allclose(m.imu.dtheta[:, 0], (w[1:] + w[:-1]) / 2 * np.diff(t))
+    quadratic = np.diff(0.1 * s + s**2 - 10.0 * s**3)
+    np.testing.assert_allclose(m.imu.dtheta[:, 0], quadratic, rtol=1e-12)
+    cubic = np.diff(1.25e3 * s**4)
+    np.testing.assert_allclose(m.imu.dtheta[1:-1, 1], cubic[1:-1], rtol=1e-11)
+    assert abs(m.imu.dtheta[0, 1] / cubic[0] - 1.0) > 1e-3  # the ends' quadratic
     np.testing.assert_allclose(m.imu.dtheta[:, 2], 2e-3 * np.diff(t))
     np.testing.assert_allclose(m.imu.dvel[:, 2], -G0 * np.diff(t))
+
+
+@pytest.mark.parametrize("lost", [[6], [6, 7]])
+def test_rates_across_a_hole(tmp_path: Path, lost: list[int]) -> None:
+    # One or two samples lost (an interval of 2 or 3 periods, over NEIGHBOUR_RATIO times its
+    # neighbours'): no sample across the hole enters an integral, the hole itself by the
+    # trapezoid (-(h³/12) ω̈ off, as up to 0.4.9), its neighbours by the quadratic (exact here).
+    imu = imu_rates(n=12).drop(index=lost).reset_index(drop=True)
+    t = imu["t_s"].to_numpy()
+    s = t - t[0]
+    imu["gyro_x_rad_s"] = 0.1 + 2.0 * s - 30.0 * s**2
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": imu, "dvl.csv": dvl_table()})
+    m = load_mission(root)
+    w = imu["gyro_x_rad_s"].to_numpy()
+    exact = np.diff(0.1 * s + s**2 - 10.0 * s**3)
+    h = t[6] - t[5]
+    assert m.imu.dtheta[5, 0] == pytest.approx((w[5] + w[6]) / 2 * h, rel=1e-12)
+    assert m.imu.dtheta[5, 0] == pytest.approx(exact[5] - 60.0 * h**3 / 12, rel=1e-12)
+    np.testing.assert_allclose(np.delete(m.imu.dtheta[:, 0], 5), np.delete(exact, 5), rtol=1e-12)
 
 
 def _increments(n: int = 8, t0: float = 10.0) -> pd.DataFrame:

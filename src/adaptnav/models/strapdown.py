@@ -100,15 +100,83 @@ class NavState:
         return attitude.quat_to_euler(self.q_nb)
 
 
-def rates_to_increments(gyro: ArrayLike, accel: ArrayLike, dt: ArrayLike) -> tuple[Array, Array]:
-    """Increments over (t_{k-1}, t_k] from rates sampled at t_k, by the trapezoid rule.
+NEIGHBOUR_RATIO = 1.5
+"""A sample beside an interval enters its integral (:func:`rates_to_increments`) when the
+interval it closes off is within this factor of the interval's own length. Across a hole (a
+sample lost: 2 periods) the cubic would carry the curvature of samples a period apart over a
+stretch it does not describe, and weigh the samples beside it by 1.22 and -0.22 periods (the
+noise variance of the hole's increment up by half; the demo in rates with 1 % of its samples
+lost, seed 1: RMSE 2.69 m with the trapezoid everywhere, 2.72 m with the cubic across holes,
+2.68 m as here): the hole keeps the trapezoid, its neighbours the quadratic."""
 
-    ``dθ_k = (ω_{k-1} + ω_k) dt_k / 2`` (second-order accurate). Returns N-1 increments for N
-    samples; ``dt`` has N-1 entries (or is a scalar).
+
+def rates_to_increments(gyro: ArrayLike, accel: ArrayLike, dt: ArrayLike) -> tuple[Array, Array]:
+    """Increments over (t_{k-1}, t_k] from rates sampled at t_k (docs/mechanization.md, 'IMU
+    increments'). Returns N-1 increments for N samples; ``dt`` has N-1 entries (or is a scalar).
+
+    Since 0.4.10 each interval is the integral of the cubic through the four samples about it,
+    ``t_{k-2} .. t_{k+1}``; on a regular grid of step h::
+
+        dθ_k = h (-ω_{k-2} + 13 ω_{k-1} + 13 ω_k - ω_{k+1}) / 24
+
+    (likewise dv; error ``(11/720) h⁵ ω⁗``), with the weights of :func:`cubic_weights` for an
+    irregular one. At the ends, and beside an interval more than :data:`NEIGHBOUR_RATIO` times
+    longer or shorter (a lost sample), the sample across it is left out: the quadratic through three
+    samples, ``h (5 ω_{k-1} + 8 ω_k - ω_{k+1}) / 12`` and its mirror, or, with neither
+    neighbour, the trapezoid ``(ω_{k-1} + ω_k) h / 2``. Up to 0.4.9 the trapezoid everywhere:
+    its error ``-(h³/12) ω̈`` is a loss of ``(Ωh)²/12`` of a signal turning at Ω, which the
+    engine's coning and sculling cannot restore (a body rolling at 10 rad/s at 100 Hz: gravity,
+    turning in the body, integrated 1/1200 short, 14.7 m of height in 60 s). The increments
+    being the integrals, the engine's two-sample coning and sculling (module docstring) are
+    then those of the sampled motion, as for an IMU that outputs increments.
     """
     w, f = np.asarray(gyro, float), np.asarray(accel, float)
-    d = np.broadcast_to(np.asarray(dt, float), (w.shape[0] - 1,))[:, None]
-    return 0.5 * (w[:-1] + w[1:]) * d, 0.5 * (f[:-1] + f[1:]) * d
+    h = np.broadcast_to(np.asarray(dt, float), (w.shape[0] - 1,))
+    wts = cubic_weights(h)
+
+    def integral(x: Array) -> Array:
+        # interval i = (t_i, t_{i+1}]: samples i-1 .. i+2 are pad[i .. i+3]; the end pads weigh 0
+        pad = np.concatenate([x[:1], x, x[-1:]])
+        out = wts[:, :1] * pad[: h.size]
+        for j in range(1, 4):
+            out += wts[:, j : j + 1] * pad[j : j + h.size]
+        return np.asarray(out, dtype=float)
+
+    return integral(w), integral(f)
+
+
+def cubic_weights(h: ArrayLike) -> Array:
+    """(N, 4) weights of the samples ``t_{k-2} .. t_{k+1}`` in the integral over interval
+    ``k = (t_{k-1}, t_k]`` of the cubic through them, for the N intervals ``h`` (s) between
+    N + 1 samples (:func:`rates_to_increments`). With ``a = t_{k-1} - t_{k-2}`` and
+    ``c = t_{k+1} - t_k`` the outer weights are the integrals of their Lagrange polynomials::
+
+        w₀ = -h³ (h + 2c) / (12 a (a + h)(a + h + c))
+        w₃ = -h³ (h + 2a) / (12 c (c + h)(a + h + c))
+
+    and the inner two make the rule exact for 1 and t: ``w₂ = h/2 + (a w₀ - (h + c) w₃) / h``,
+    ``w₁ = h - w₀ - w₂ - w₃``. A neighbour left out (``a`` or ``c`` infinite: the ends, or an
+    interval beyond :data:`NEIGHBOUR_RATIO`) takes the limit: its weight 0 and the other's
+    ``-h³ / (6 c (c + h))`` (the quadratic); both out, the trapezoid (0, h/2, h/2, 0)."""
+    h = np.asarray(h, float)
+    inf = np.array([np.inf])
+    a, c = np.concatenate([inf, h[:-1]]), np.concatenate([h[1:], inf])
+    a[(a > NEIGHBOUR_RATIO * h) | (a * NEIGHBOUR_RATIO < h)] = np.inf
+    c[(c > NEIGHBOUR_RATIO * h) | (c * NEIGHBOUR_RATIO < h)] = np.inf
+    has_a, has_c = np.isfinite(a), np.isfinite(c)
+    aa, cc = np.where(has_a, a, 0.0), np.where(has_c, c, 0.0)
+    h3 = h**3 / 12.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w0 = np.where(
+            has_c, -h3 * (h + 2 * cc) / (aa * (aa + h) * (aa + h + cc)), -2 * h3 / (aa * (aa + h))
+        )
+        w3 = np.where(
+            has_a, -h3 * (h + 2 * aa) / (cc * (cc + h) * (aa + h + cc)), -2 * h3 / (cc * (cc + h))
+        )
+    w0 = np.where(has_a, w0, 0.0)
+    w3 = np.where(has_c, w3, 0.0)
+    w2 = 0.5 * h + (aa * w0 - (h + cc) * w3) / h
+    return np.stack([w0, h - w0 - w2 - w3, w2, w3], axis=1)
 
 
 def _rotation_compensation(alpha: Array, dv: Array) -> Array:
