@@ -260,6 +260,13 @@ def best_slope(
     return max(found, key=lambda x: x.upper), found[0]
 
 
+def flatten(lat: Array, lon: Array) -> tuple[Array, Array]:
+    """North and east (m) of fixes (rad) from the first, on a sphere about it."""
+    north = (lat - lat[0]) * EARTH_RADIUS_M
+    east = (lon - lon[0]) * EARTH_RADIUS_M * math.cos(float(lat[0]))
+    return np.asarray(north, dtype=float), np.asarray(east, dtype=float)
+
+
 def course(t: Array, lat: Array, lon: Array, sigma_m: float) -> tuple[Array, Array]:
     """A GNSS track's course (rad from north) over consecutive chords at their middle times.
 
@@ -270,8 +277,7 @@ def course(t: Array, lat: Array, lon: Array, sigma_m: float) -> tuple[Array, Arr
     t, lat, lon = t[ok], lat[ok], lon[ok]
     if t.size < 3:
         return np.empty(0), np.empty(0)
-    north = (lat - lat[0]) * EARTH_RADIUS_M
-    east = (lon - lon[0]) * EARTH_RADIUS_M * math.cos(float(lat[0]))
+    north, east = flatten(lat, lon)
     step = np.hypot(np.diff(north), np.diff(east))
     speed = float(np.median(step / np.maximum(np.diff(t), 1e-9)))
     period = float(np.median(np.diff(t)))

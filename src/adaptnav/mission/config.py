@@ -464,6 +464,12 @@ class SensorConfig(_Model):
     :func:`adaptnav.mission.screening.after_gap_mask`), and drop a spike at load: after a
     long gap the filter's own velocity is too uncertain to tell it from the drift
     (docs/robustness.md, 'After a gap'). None: 10 s (``DVL_AFTER_GAP_S``); 0: off."""
+    scale_check: StrictBool | None = None
+    """DVL and depth meter only: compare the readings' scale with the other sensors' at load
+    (a depth's changes with the DVL's vertical velocity on a vehicle that dives, a DVL's speed
+    and direction with a GNSS track and a heading sensor) and refuse one clearly off (knots,
+    feet, kPa, an axis negated or swapped; since 0.4.10) or, false, do not; None → true
+    (docs/robustness.md, 'DVL and depth scales')."""
     declination_deg: Annotated[float, Field(ge=-90.0, le=90.0, allow_inf_nan=False)] | None = None
     """Heading sensor only: the magnetic declination (deg, east positive: magnetic north lies
     east of true north) of a magnetic compass, whose readings are then magnetic headings; each
@@ -741,6 +747,11 @@ class SensorConfig(_Model):
     def lever_arm(self) -> Array:
         """l_b, body FRD (m); zero if not given."""
         return np.array(self.lever_arm_m if self.lever_arm_m is not None else (0.0, 0.0, 0.0))
+
+    @property
+    def check_scale(self) -> bool:
+        """``scale_check`` or, if not given, true."""
+        return self.scale_check is not False
 
     def sensor_from_body(self) -> Array:
         """C_sb = C_bsᵀ with ``C_bs = euler_to_dcm(mounting_rpy_deg)`` (identity if not given)."""

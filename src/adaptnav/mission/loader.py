@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from adaptnav.core import attitude
 from adaptnav.core.units import G0
-from adaptnav.mission import axes
+from adaptnav.mission import axes, scales
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
@@ -194,6 +194,7 @@ def load_mission(path: str | Path) -> Mission:
             sensors[name] = data
     if config.imu.check_axes:
         _check_axes(config, imu, sensors)
+    _check_scales(config, imu, sensors)
     truth = None
     if config.truth.file is not None:
         tb = table(config.truth.file)
@@ -311,6 +312,106 @@ def _check_axes(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorDa
         file=file,
         field=column,
     )
+
+
+def _check_scales(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorData]) -> None:
+    """A MissionError naming the file and column if a DVL's speed or direction does not follow
+    a GNSS track's, or a depth's changes the DVL's vertical velocity (mission/scales.py;
+    docs/robustness.md, 'DVL and depth scales'). ``scale_check = false`` on a sensor skips it."""
+    names = [n for n, d in sensors.items() if d.kind == "dvl" and config.sensors[n].check_scale]
+    if not names:
+        return
+    noise = config.imu.noise.to_imu_noise()
+    tilt = axes.AccelTilt.of(imu.t, imu.dt, imu.dvel, None, noise.vrw)
+    gyro = axes.Gyro.of(imu.t, imu.dt, imu.dtheta, None, noise.arw)
+    for name in names:
+        cfg, d = config.sensors[name], sensors[name]
+        period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
+        sigma = float(np.atleast_1d(cfg.sigma_si())[0])
+        dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
+        _check_dvl_track(config, sensors, name, dvl, (tilt, gyro))
+        _check_depth_scale(config, sensors, name, dvl, tilt)
+
+
+SCALE_FIX = "Fix the table, or, if it is right, set [sensors.{}] scale_check = false"
+SCALE_DOC = "(docs/robustness.md, 'DVL and depth scales')"
+
+
+def _check_dvl_track(
+    config: MissionConfig,
+    sensors: dict[str, SensorData],
+    name: str,
+    dvl: scales.Dvl,
+    imu: tuple[axes.AccelTilt, axes.Gyro],
+) -> None:
+    """The DVL ``name`` against each GNSS track (its speed) and, with a heading sensor, the
+    track's course (its direction): :func:`scales.dvl_track`."""
+    file = config.sensors[name].file
+    headings = [d for d in sensors.values() if d.kind == "heading"]
+    heading = (headings[0].t, headings[0].z[:, 0]) if headings else None
+    for gname, g in sensors.items():
+        if g.kind != "gnss":
+            continue
+        gcfg = config.sensors[gname]
+        sigma = float(np.atleast_1d(gcfg.sigma_si())[0])
+        track = scales.Track.of(g.t, g.z[:, 0], g.z[:, 1], sigma)
+        speed, turn = scales.dvl_track(track, dvl, *imu, heading)
+        against = f"the track of sensor {gname!r} ({gcfg.file})"
+        if speed is not None and speed.outside(scales.SPEED_BAND):
+            lo, hi = scales.SPEED_BAND
+            raise MissionError(
+                f"{file}: the speed of DVL {name!r} (vx_m_s, vy_m_s) against {against} from "
+                f"t = {speed.t_from:.1f} to {speed.t_to:.1f} s: {speed.k:.3g} ± {speed.se:.2g} m "
+                f"of the DVL's per m of the track's over {speed.n} chords of "
+                f"{scales.SPEED_CHORD_S:g} s (1 expected; outside {lo:g}-{hi:g} even "
+                f"{scales.CONFIDENCE:g} σ in): {scales.speed_cause(speed)} "
+                f"{SCALE_FIX.format(name)} {SCALE_DOC}",
+                file=file,
+                field="vx_m_s",
+            )
+        if turn is not None and turn.turned():
+            raise MissionError(
+                f"{file}: the direction of DVL {name!r} (vx_m_s, vy_m_s), turned by the heading "
+                f"of sensor {headings[0].name!r}, against the course of {against} from t = "
+                f"{turn.t_from:.1f} to {turn.t_to:.1f} s: {turn.angle_deg:+.1f}° ± "
+                f"{turn.angle_se_deg:.2g}° off over {turn.n} chords (0 expected; beyond "
+                f"{scales.MAX_TURN_DEG:g}° even {scales.CONFIDENCE:g} σ in): "
+                f"{scales.turn_cause(turn)} {SCALE_FIX.format(name)} {SCALE_DOC}",
+                file=file,
+                field="vx_m_s",
+            )
+
+
+def _check_depth_scale(
+    config: MissionConfig,
+    sensors: dict[str, SensorData],
+    name: str,
+    dvl: scales.Dvl,
+    tilt: axes.AccelTilt,
+) -> None:
+    """Each depth meter against the DVL ``name``'s vertical velocity: :func:`scales.depth_scale`."""
+    dcfg = config.sensors[name]
+    for dname, d in sensors.items():
+        cfg = config.sensors[dname]
+        if d.kind != "depth" or not cfg.check_scale:
+            continue
+        fit = scales.depth_scale(d.t, d.z[:, 0], dvl, tilt, cfg.lever_arm() - dcfg.lever_arm())
+        if fit is None or not fit.outside(scales.DEPTH_BAND):
+            continue
+        cause = scales.depth_cause(fit)
+        on_dvl = fit.k < 0.0 or cause.startswith("the DVL in")
+        file, column, fix = (dcfg.file, "vx_m_s", name) if on_dvl else (cfg.file, "depth_m", dname)
+        lo, hi = scales.DEPTH_BAND
+        raise MissionError(
+            f"{file}: the depth of sensor {dname!r} ({cfg.file}, depth_m) against the vertical "
+            f"velocity of DVL {name!r} ({dcfg.file}) from t = {fit.t_from:.1f} to "
+            f"{fit.t_to:.1f} s: {fit.k:.3g} ± {fit.se:.2g} m of depth per m the DVL moves down "
+            f"over {fit.n} intervals of {scales.DEPTH_INTERVAL_S:g} s (1 expected; outside "
+            f"{lo:g}-{hi:g} even {scales.CONFIDENCE:g} σ in): {cause} "
+            f"{SCALE_FIX.format(fix)} {SCALE_DOC}",
+            file=file,
+            field=column,
+        )
 
 
 def _load_off_sensor(

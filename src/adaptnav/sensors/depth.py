@@ -152,7 +152,7 @@ KIND = SensorKind(
     stuck=StuckDefault(SLOW_STUCK_S, {"depth_m": DEPTH_RESOLUTION_M}),
     lever_arm=True,
     linearised=(Depth,),
-    options=frozenset({"surface_h_m"}),
+    options=frozenset({"surface_h_m", "scale_check"}),
     calibration={"bias": DEPTH_BIAS},
     ideal_reading=ideal,
 )

@@ -355,7 +355,9 @@ KIND = SensorKind(
     stuck=StuckDefault(DVL_STUCK_S, {c: SPEED_RESOLUTION_M_S for c in COLUMNS}),
     lever_arm=True,
     mounting=True,
-    options=frozenset({"zero_is_lost", "status_column", "spike_mads", "after_gap_s"}),
+    options=frozenset(
+        {"zero_is_lost", "status_column", "spike_mads", "after_gap_s", "scale_check"}
+    ),
     linearised=(DVL,),
     calibration={q.name: q for q in (SCALE, MISALIGNMENT, DVL_BIAS, LATENCY)},
     ideal_reading=ideal,

@@ -1,0 +1,365 @@
+"""Cross-checks of a DVL's and a depth meter's scale, and the DVL's direction, at load.
+
+A DVL logged in knots, a depth in feet or as a pressure in kPa, or a DVL whose x axis is
+negated passes every check of its own table: each reading is plausible, only wrong. The filter
+then runs to a state far off without a word (paper-1 with its DVL in knots: 6 km RMSE, exit 0,
+up to 0.4.9). The other sensors see it (docs/robustness.md, 'DVL and depth scales'):
+
+* **The depth against the DVL's vertical velocity.** Over intervals of about
+  :data:`DEPTH_INTERVAL_S` between depth readings, the depth's change a_i is fitted on the
+  integral b_i of the DVL's velocity turned down, ``v_D = -sθ v_x + sφ cθ v_y + cφ cθ v_z``
+  (body FRD, the DVL's mounting applied; roll φ and pitch θ levelled from the accelerometers,
+  :class:`adaptnav.mission.axes.AccelTilt`), as ``a_i = k b_i + c Δt_i`` by the robust fit of
+  :func:`adaptnav.mission.axes.axis_slope` (c takes a DVL's vertical bias or a pitch
+  misalignment at a steady speed). The depth's change is taken at the DVL's point: the lever
+  arms' vertical difference, turned by the tilt, is taken off. A right pair gives k ≈ 1 (a
+  depth meter's density and gravity, a DVL's sound speed: a few per cent); feet 3.28, psi 1.45,
+  kPa 9.9, bar 0.099, a DVL in knots 0.51, a DVL's x negated (on a vehicle that flies
+  pitched) -1. The rule: refused when the slope's interval ``k ± 4 se`` lies wholly outside
+  :data:`DEPTH_BAND` (0.8, 1.25): psi is the nearest unit slip above, knots below. A fit
+  decides only when the depth's changes correlate with the DVL's vertical displacements by
+  :data:`MIN_CORRELATION` (0.9) or more, the bias term's share taken out, and the latter
+  spread by ten times their own noise: the noise in the DVL's side then cannot pull a right
+  pair's slope below 0.81. A surface vessel's depth barely moves (paper-1: correlation 0.38),
+  and nothing is said there.
+* **The DVL's speed against a GNSS track.** Over chords of the track spanning
+  :data:`SPEED_CHORD_S` (a chord shorter than :data:`SPEED_CHORD_SIGMAS` position σ, a stop,
+  is left out), the chord's length is fitted on the length of the DVL's displacement over the
+  same time, its levelled horizontal velocity turned by the gyro's yaw since the chord's start
+  (so that a turn shortens both alike): ``|G_i| = q |D_i|`` through the origin, robustly (as
+  above; :func:`through_origin`), and k = 1 / q, the DVL's metres per metre of the track, is
+  judged. A right DVL gives k ≈ 1 over ground (a bottom track; a water track differs by the
+  current, which a round trip averages out); knots give 1.94, ft/s 3.28, km/h 3.6. Refused when
+  ``k ± 4 se`` lies wholly outside :data:`SPEED_BAND` (0.7, 1.4).
+* **The DVL's direction against the GNSS course and a heading sensor.** With a heading sensor,
+  each DVL displacement is turned by the heading at the chord's start and the complex ratio
+  ``w = G / (e^{iψ} D)`` fitted over the chords (robust complex least squares). A right DVL
+  gives arg w ≈ 0 (a compass's deviation, a drift angle: a few degrees); its x negated 180°,
+  x and y swapped ±90°, an undeclared yaw mounting its angle. Refused when ``|arg w|`` exceeds
+  :data:`MAX_TURN_DEG` even 4 σ down.
+
+Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls :func:`depth_scale` and
+:func:`dvl_track` and turns a finding into a MissionError naming the file and column.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptnav.mission import axes
+
+Array = NDArray[np.float64]
+
+DEPTH_BAND = (0.8, 1.25)
+"""The depth's metres per metre of the DVL's vertical displacement a right pair may show."""
+SPEED_BAND = (0.7, 1.4)
+"""The GNSS track's metres per metre of the DVL's displacement a right pair may show."""
+MAX_TURN_DEG = 30.0
+"""Largest angle between the DVL's direction (turned by the heading) and the GNSS course."""
+CONFIDENCE = axes.CONFIDENCE
+"""Standard errors a fit's interval spans each way before it is judged."""
+DEPTH_INTERVAL_S = 10.0
+"""Span of the intervals between depth readings (s)."""
+MIN_CORRELATION = 0.9
+"""Fewest of the depth's changes' correlation with the DVL's vertical displacements (the bias
+term's share taken out) for a fit to decide: the noise in the DVL's side then takes at most
+1 - 0.9² = 19 % of its spread, so that it cannot pull a right pair's slope below 0.81. A
+surface vessel's heave correlates at about 0.4 (paper-1)."""
+SPEED_CHORD_S = 20.0
+"""Span of the GNSS chords (s)."""
+SPEED_CHORD_SIGMAS = 10.0
+"""A chord shorter than this many position σ is left out (s)."""
+MIN_CHORDS = 12
+"""Fewest chords a speed fit needs."""
+COVER_SHARE = 0.5
+"""An interval with fewer DVL readings than this share of its span's nominal count (a gap)
+is left out."""
+UNITS_DEPTH = {
+    "feet": 1.0 / 0.3048,
+    "psi (gauge pressure)": 1.458,
+    "kPa (gauge pressure)": 10.05,
+    "bar (gauge pressure)": 0.1005,
+    "inches": 1.0 / 0.0254,
+    "cm": 100.0,
+    "mm": 1000.0,
+    "the DVL in knots": 1.0 / 1.943844,
+    "the DVL in ft/s": 0.3048,
+    "the DVL in km/h": 1.0 / 3.6,
+}
+"""Slopes of the depth on the DVL's vertical displacement for the likely unit slips (seawater:
+1 m ≈ 10.05 kPa)."""
+UNITS_SPEED = {"knots": 1.943844, "ft/s": 1.0 / 0.3048, "km/h": 3.6}
+"""Ratios of the DVL's speed to the GNSS track's for the likely unit slips."""
+UNIT_TOLERANCE = 0.15
+"""A slope within this relative distance (log) of a unit's is named as that unit."""
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A fitted ratio ``k`` (for the direction: ``angle_deg`` too), its standard error ``se``,
+    the intervals kept ``n``, over ``t_from``-``t_to``."""
+
+    k: float
+    se: float
+    n: int
+    t_from: float
+    t_to: float
+    angle_deg: float = 0.0
+    angle_se_deg: float = 0.0
+
+    def outside(self, band: tuple[float, float]) -> bool:
+        """``k ± CONFIDENCE se`` lies wholly outside ``band``."""
+        return self.k - CONFIDENCE * self.se > band[1] or self.k + CONFIDENCE * self.se < band[0]
+
+    def turned(self) -> bool:
+        """``|angle|`` beyond :data:`MAX_TURN_DEG` even ``CONFIDENCE`` σ down."""
+        return abs(self.angle_deg) - CONFIDENCE * self.angle_se_deg > MAX_TURN_DEG
+
+
+def likely_unit(k: float, units: dict[str, float]) -> str | None:
+    """The unit whose slope lies within :data:`UNIT_TOLERANCE` of ``k`` (None: none)."""
+    if k <= 0.0:
+        return None
+    name, ratio = min(units.items(), key=lambda u: abs(math.log(k / u[1])))
+    return name if abs(math.log(k / ratio)) <= UNIT_TOLERANCE else None
+
+
+@dataclass(frozen=True)
+class Dvl:
+    """A DVL's readings at times ``t`` (n,) as body velocities ``v_b`` (n, 3) (its mounting
+    applied: ``v_b = C_bs v_s``), its nominal ``period`` (s) and σ (m/s)."""
+
+    t: Array
+    v_b: Array
+    period: float
+    sigma: float
+
+    @classmethod
+    def of(cls, t: Array, v_s: Array, c_sb: Array | None, period: float, sigma: float) -> Dvl:
+        """From the sensor-frame readings ``v_s`` (n, 3) and ``C_sb``."""
+        v = np.asarray(v_s, dtype=float)
+        v_b = v if c_sb is None else v @ np.asarray(c_sb, dtype=float)
+        ok = np.isfinite(t) & np.all(np.isfinite(v_b), axis=1)
+        return cls(np.asarray(t, dtype=float)[ok], v_b[ok], period, sigma)
+
+    def covered(self, t0: Array, t1: Array) -> NDArray[np.bool_]:
+        """Intervals (t0, t1] holding at least :data:`COVER_SHARE` of their nominal readings."""
+        count = np.searchsorted(self.t, t1, side="right") - np.searchsorted(self.t, t0)
+        return np.asarray(count >= COVER_SHARE * (t1 - t0) / self.period, dtype=bool)
+
+
+def tilt_at(tilt: axes.AccelTilt, t: Array) -> tuple[Array, Array]:
+    """Roll and pitch (rad) levelled from the accelerometers at times ``t``."""
+    return np.interp(t, tilt.t, tilt.angles[:, 0]), np.interp(t, tilt.t, tilt.angles[:, 1])
+
+
+def down(v_b: Array, roll: Array, pitch: Array) -> Array:
+    """The down component of body vectors ``v_b`` (n, 3) at the tilt given (NED, FRD)."""
+    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    return np.asarray(-sp * v_b[:, 0] + sr * cp * v_b[:, 1] + cr * cp * v_b[:, 2], dtype=float)
+
+
+def integral(t: Array, v: Array) -> Array:
+    """The trapezoidal integral of ``v`` from ``t[0]`` at each ``t`` (``v`` (n,) or (n, k))."""
+    steps = 0.5 * (v[1:] + v[:-1]) * np.diff(t).reshape((-1,) + (1,) * (v.ndim - 1))
+    return np.concatenate([np.zeros((1, *v.shape[1:]), dtype=v.dtype), np.cumsum(steps, axis=0)])
+
+
+def spans(t: Array, span_s: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Consecutive non-overlapping intervals (i, j) of readings at ``t`` of about ``span_s``
+    each; one spanning more than 1.5 × it (a gap) is left out."""
+    if t.size < 2:
+        return np.empty(0, dtype=np.intp), np.empty(0, dtype=np.intp)
+    m = max(1, round(span_s / float(np.median(np.diff(t)))))
+    i = np.arange(0, t.size - m, m)
+    j = i + m
+    keep = t[j] - t[i] <= 1.5 * span_s
+    return i[keep], j[keep]
+
+
+def depth_scale(
+    t: Array,
+    depth: Array,
+    dvl: Dvl,
+    tilt: axes.AccelTilt,
+    lever_m: Array,
+) -> Fit | None:
+    """The slope k of the depth's changes on the DVL's vertical displacements (module
+    docstring; None: undecided). ``lever_m``: the depth meter's lever arm less the DVL's
+    (body, m)."""
+    ok = np.isfinite(t) & np.isfinite(depth)
+    t, depth = t[ok], depth[ok]
+    if dvl.t.size < 2 or t.size <= axes.MIN_INTERVALS:
+        return None
+    roll, pitch = tilt_at(tilt, dvl.t)
+    w = integral(dvl.t, down(dvl.v_b, roll, pitch))
+    r_d, p_d = tilt_at(tilt, t)
+    arm = down(np.broadcast_to(np.asarray(lever_m, dtype=float), (t.size, 3)), r_d, p_d)
+    i, j = spans(t, DEPTH_INTERVAL_S)
+    t0, t1 = t[i], t[j]
+    inside = (t0 >= dvl.t[0]) & (t1 <= dvl.t[-1]) & dvl.covered(t0, t1)
+    a = (depth[j] - arm[j]) - (depth[i] - arm[i])
+    b = np.where(inside, np.interp(t1, dvl.t, w) - np.interp(t0, dvl.t, w), math.nan)
+    dt = t1 - t0
+    good = np.isfinite(b)
+    if np.count_nonzero(good) < axes.MIN_INTERVALS:
+        return None
+    bb, tt = b[good], dt[good]
+    spread = float(bb @ bb - (bb @ tt) ** 2 / (tt @ tt))
+    aa = a[good] - tt * float(a[good] @ tt) / float(tt @ tt)
+    bd = bb - tt * float(bb @ tt) / float(tt @ tt)
+    if spread <= 0.0 or abs(float(aa @ bd)) < MIN_CORRELATION * math.sqrt(float(aa @ aa) * spread):
+        return None
+    s = axes.axis_slope(a, b, dt, noise_var=dvl.sigma**2 * dvl.period * dt)
+    if s is None:
+        return None
+    return Fit(s.k, s.se, s.n, float(t0[good][0]), float(t1[good][-1]))
+
+
+def through_origin(a: Array, b: Array) -> tuple[complex, float, int] | None:
+    """The robust fit ``a = k b`` of real or complex ``a``, ``b``: k, its standard error, the
+    points kept (residuals beyond :data:`axes.OUTLIER_SIGMAS` robust σ left out, three times;
+    None: fewer than :data:`MIN_CHORDS` kept). Complex: each component's σ, from the median
+    |residual| of a circular normal (1.1774 σ)."""
+    cplx = bool(np.iscomplexobj(a) or np.iscomplexobj(b))
+    a, b = np.asarray(a, dtype=complex), np.asarray(b, dtype=complex)
+    keep = np.ones(a.size, dtype=bool)
+    for _ in range(3):
+        if np.count_nonzero(keep) < MIN_CHORDS:
+            return None
+        k = complex(np.vdot(b[keep], a[keep]) / np.vdot(b[keep], b[keep]).real)
+        r = np.abs(a - k * b)
+        s = float(np.median(r[keep])) / (1.1774 if cplx else 0.6745)
+        keep = r <= axes.OUTLIER_SIGMAS * s + 1e-15
+    n = int(np.count_nonzero(keep))
+    if n < MIN_CHORDS:
+        return None
+    k = complex(np.vdot(b[keep], a[keep]) / np.vdot(b[keep], b[keep]).real)
+    rk = np.abs(a[keep] - k * b[keep])
+    dof = 2 * n - 2 if cplx else n - 1
+    se = math.sqrt(float(rk @ rk) / dof / float(np.vdot(b[keep], b[keep]).real))
+    return k, se, n
+
+
+@dataclass(frozen=True)
+class Track:
+    """A GNSS track's chords: start and end times ``t0``, ``t1`` (n,) and displacements ``g``
+    (n,) north + i east (m); chords shorter than :data:`SPEED_CHORD_SIGMAS` σ are NaN."""
+
+    t0: Array
+    t1: Array
+    g: Array
+
+    @classmethod
+    def of(cls, t: Array, lat: Array, lon: Array, sigma_m: float) -> Track:
+        """From fixes (rad) with a horizontal σ ``sigma_m``."""
+        ok = np.isfinite(t) & np.isfinite(lat) & np.isfinite(lon)
+        t, lat, lon = t[ok], lat[ok], lon[ok]
+        if t.size < 3:
+            empty = np.empty(0)
+            return cls(empty, empty, empty.astype(complex))
+        north, east = axes.flatten(lat, lon)
+        i, j = spans(t, SPEED_CHORD_S)
+        g = (north[j] - north[i]) + 1j * (east[j] - east[i])
+        short = np.abs(g) < SPEED_CHORD_SIGMAS * max(sigma_m, 1e-3)
+        return cls(t[i], t[j], np.where(short, complex(math.nan, math.nan), g))
+
+
+def dvl_chords(
+    track: Track, dvl: Dvl, tilt: axes.AccelTilt, gyro: axes.Gyro
+) -> tuple[Array, Array]:
+    """The DVL's displacement over each chord (north + i east in a frame whose yaw is the
+    gyro's integral from its start) and the gyro's yaw at each chord's start (rad)."""
+    roll, pitch = tilt_at(tilt, dvl.t)
+    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    v = dvl.v_b
+    level = (cp * v[:, 0] + sp * sr * v[:, 1] + sp * cr * v[:, 2]) + 1j * (
+        cr * v[:, 1] - sr * v[:, 2]
+    )
+    yaw = gyro.change(np.full(dvl.t.size, gyro.t[0]), dvl.t, 2)
+    u = integral(dvl.t, level * np.exp(1j * np.nan_to_num(yaw)))
+    t0, t1 = track.t0, track.t1
+    inside = (t0 >= max(dvl.t[0], gyro.t[0])) & (t1 <= min(dvl.t[-1], gyro.t[-1]))
+    inside &= dvl.covered(t0, t1)
+    d = np.interp(t1, dvl.t, u.real) - np.interp(t0, dvl.t, u.real)
+    d = d + 1j * (np.interp(t1, dvl.t, u.imag) - np.interp(t0, dvl.t, u.imag))
+    yaw0 = gyro.change(np.full(t0.size, gyro.t[0]), t0, 2)
+    return np.where(inside, d, complex(math.nan, math.nan)), yaw0
+
+
+def dvl_track(
+    track: Track,
+    dvl: Dvl,
+    tilt: axes.AccelTilt,
+    gyro: axes.Gyro,
+    heading: tuple[Array, Array] | None = None,
+) -> tuple[Fit | None, Fit | None]:
+    """The DVL's speed ratio (the GNSS track's chord lengths on the DVL's) and, with a
+    ``heading`` sensor's (times, yaw rad), the direction fit (module docstring); None:
+    undecided."""
+    d, yaw0 = dvl_chords(track, dvl, tilt, gyro)
+    ok = np.isfinite(track.g) & np.isfinite(d)
+    if np.count_nonzero(ok) < MIN_CHORDS:
+        return None, None
+    g, d, t0, t1 = track.g[ok], d[ok], track.t0[ok], track.t1[ok]
+    speed = through_origin(np.abs(g), np.abs(d))
+    ratio = None
+    if speed is not None and speed[0].real > 0.0:  # the DVL's per the track's: 1 / k
+        k = float(speed[0].real)
+        ratio = Fit(1.0 / k, speed[1] / k**2, speed[2], float(t0[0]), float(t1[-1]))
+    if heading is None or heading[0].size < 2:
+        return ratio, None
+    psi = np.interp(t0, heading[0], np.unwrap(heading[1]), left=math.nan, right=math.nan)
+    h = np.exp(1j * (psi - yaw0[ok])) * d
+    fin = np.isfinite(h)
+    w = through_origin(g[fin], h[fin])
+    if w is None or abs(w[0]) == 0.0:
+        return ratio, None
+    ang = math.degrees(math.atan2(w[0].imag, w[0].real))
+    se_deg = math.degrees(min(w[1] / abs(w[0]), math.pi))
+    k = abs(w[0])
+    turn = Fit(1.0 / k, w[1] / k**2, w[2], float(t0[0]), float(t1[-1]), ang, se_deg)
+    return ratio, turn
+
+
+def depth_cause(fit: Fit) -> str:
+    """What a depth slope outside :data:`DEPTH_BAND` points to, in words."""
+    if fit.k < 0.0:
+        return (
+            "the depth grows as the DVL rises: is the DVL's x axis negated (a vehicle that flies "
+            "pitched climbs along it), or its mounting_rpy_deg not set?"
+        )
+    unit = likely_unit(fit.k, UNITS_DEPTH)
+    if unit is not None and unit.startswith("the DVL"):
+        return f"{unit} where m/s are read (the depth right)?"
+    if unit is not None:
+        return f"the depth in {unit} where metres are read?"
+    return "the depth's unit, or the DVL's, is not the one read?"
+
+
+def speed_cause(fit: Fit) -> str:
+    """What a DVL speed ratio outside :data:`SPEED_BAND` points to, in words."""
+    unit = likely_unit(fit.k, UNITS_SPEED)
+    if unit is not None:
+        return f"the DVL's readings in {unit} where m/s are read?"
+    return (
+        "the DVL's readings in another unit, or a water-track DVL in a strong current "
+        "(the model takes a bottom track)?"
+    )
+
+
+def turn_cause(fit: Fit) -> str:
+    """What the DVL's direction off the GNSS course points to, in words."""
+    a = abs(fit.angle_deg)
+    if a > 135.0:
+        return (
+            "the DVL's x axis negated (or x and y both: the DVL turned 180°), or its "
+            "mounting_rpy_deg not set?"
+        )
+    if a > 45.0:
+        return "the DVL's x and y swapped, or its mounting_rpy_deg not set (a yaw of ±90°)?"
+    return "the DVL's mounting_rpy_deg (its yaw) not set, or the heading sensor's north off?"

@@ -1,0 +1,131 @@
+"""The DVL's and the depth meter's scale, and the DVL's direction, against the other sensors
+(mission/scales.py; docs/robustness.md, 'DVL and depth scales').
+
+Synthetic motion with a known answer (helpers/diving.py): a vehicle at 1.5 m/s pitching ±15°
+(a yo-yo) and turning, with a DVL, a depth meter, a GNSS track and a heading sensor that read
+it with white noise. Right tables must pass; a unit slip or an axis negated or swapped must be
+found and named."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.mission import axes, scales
+from helpers import diving
+
+V = ["vx_m_s", "vy_m_s", "vz_m_s"]
+
+
+def _fits(
+    tabs: dict[str, pd.DataFrame], heading: bool = True
+) -> tuple[scales.Fit | None, scales.Fit | None, scales.Fit | None]:
+    """(depth slope, DVL speed ratio, DVL direction) of the tables."""
+    imu = tabs["imu"]
+    t = imu["t_s"].to_numpy()[1:]
+    dt = np.diff(imu["t_s"].to_numpy())
+    rates = imu[["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"]].to_numpy()[1:]
+    accel = imu[["accel_x_m_s2", "accel_y_m_s2", "accel_z_m_s2"]].to_numpy()[1:]
+    tilt = axes.AccelTilt.of(t, dt, accel * dt[:, None], None, 1e-3 / math.sqrt(diving.RATE_HZ))
+    gyro = axes.Gyro.of(t, dt, rates * dt[:, None], None, 1e-4 / math.sqrt(diving.RATE_HZ))
+    d = tabs["dvl"]
+    dvl = scales.Dvl.of(d["t_s"].to_numpy(), d[V].to_numpy(), None, 0.5, 0.02)
+    dep = tabs["depth"]
+    depth = scales.depth_scale(
+        dep["t_s"].to_numpy(), dep["depth_m"].to_numpy(), dvl, tilt, np.zeros(3)
+    )
+    g = tabs["gps"]
+    track = scales.Track.of(
+        g["t_s"].to_numpy(),
+        np.radians(g["lat_deg"].to_numpy()),
+        np.radians(g["lon_deg"].to_numpy()),
+        2.0,
+    )
+    h = tabs["heading"]
+    psi = (h["t_s"].to_numpy(), np.radians(h["yaw_deg"].to_numpy())) if heading else None
+    speed, turn = scales.dvl_track(track, dvl, tilt, gyro, psi)
+    return depth, speed, turn
+
+
+def test_right_tables_give_one_and_no_turn() -> None:
+    depth, speed, turn = _fits(diving.tables())
+    assert depth is not None and speed is not None and turn is not None
+    assert abs(depth.k - 1.0) < 0.03 and not depth.outside(scales.DEPTH_BAND), depth
+    assert abs(speed.k - 1.0) < 0.03 and not speed.outside(scales.SPEED_BAND), speed
+    assert abs(turn.angle_deg) < 2.0 and not turn.turned(), turn
+
+
+@pytest.mark.parametrize(
+    ("factor", "k", "unit"),
+    [(1 / 0.3048, 3.28, "feet"), (10.05, 10.05, "kPa"), (0.1005, 0.1, "bar"), (1.458, 1.46, "psi")],
+)
+def test_a_depth_in_another_unit_is_named(factor: float, k: float, unit: str) -> None:
+    tabs = diving.tables()
+    tabs["depth"] = tabs["depth"].assign(depth_m=tabs["depth"]["depth_m"] * factor)
+    depth = _fits(tabs)[0]
+    assert depth is not None and depth.outside(scales.DEPTH_BAND), depth
+    assert abs(depth.k / k - 1.0) < 0.05 and unit in scales.depth_cause(depth)
+
+
+def test_a_dvl_in_knots_is_named_by_the_track_and_by_the_depth() -> None:
+    tabs = diving.tables()
+    tabs["dvl"] = tabs["dvl"].assign(**{c: tabs["dvl"][c] * 1.943844 for c in V})
+    depth, speed, turn = _fits(tabs)
+    assert speed is not None and speed.outside(scales.SPEED_BAND) and abs(speed.k - 1.944) < 0.05
+    assert "knots" in scales.speed_cause(speed)
+    assert depth is not None and depth.outside(scales.DEPTH_BAND)
+    assert "the DVL in knots" in scales.depth_cause(depth)
+    assert turn is not None and not turn.turned()
+
+
+def test_a_dvl_x_negated_turns_the_direction_and_the_depth_over() -> None:
+    tabs = diving.tables()
+    tabs["dvl"] = tabs["dvl"].assign(vx_m_s=-tabs["dvl"]["vx_m_s"])
+    depth, speed, turn = _fits(tabs)
+    assert depth is not None and depth.k < -0.8 and depth.outside(scales.DEPTH_BAND)
+    assert "x axis negated" in scales.depth_cause(depth)
+    assert speed is not None and not speed.outside(scales.SPEED_BAND)  # the speed is right
+    assert turn is not None and turn.turned() and abs(turn.angle_deg) > 170.0
+    assert "x axis negated" in scales.turn_cause(turn)
+
+
+def test_a_dvl_x_and_y_swapped_turns_the_direction_by_a_right_angle() -> None:
+    tabs = diving.tables()
+    tabs["dvl"] = tabs["dvl"].assign(vx_m_s=tabs["dvl"]["vy_m_s"], vy_m_s=tabs["dvl"]["vx_m_s"])
+    depth, _, turn = _fits(tabs)
+    assert depth is None or not depth.outside(scales.DEPTH_BAND)  # the x axis is gone: no climb
+    assert turn is not None and turn.turned() and abs(abs(turn.angle_deg) - 90.0) < 5.0
+    assert "swapped" in scales.turn_cause(turn)
+    assert _fits(tabs, heading=False)[2] is None  # without a heading nothing is said
+
+
+def test_a_surface_vessel_says_nothing_of_its_depth() -> None:
+    """Its depth barely moves, the DVL's vertical displacements are noise: a slope near 0
+    with a small σ would read as a depth in bar. The correlation gate keeps it undecided, even
+    with the depth in feet."""
+    tabs = diving.tables(pitch_deg=0.0)
+    assert _fits(tabs)[0] is None
+    tabs["depth"] = tabs["depth"].assign(depth_m=tabs["depth"]["depth_m"] / 0.3048)
+    assert _fits(tabs)[0] is None
+
+
+def test_the_through_origin_fit_leaves_outliers_out() -> None:
+    rng = np.random.default_rng(3)
+    b = rng.uniform(20.0, 60.0, 200)
+    a = 1.5 * b + rng.normal(0.0, 1.0, b.size)
+    a[::20] += 100.0
+    fit = scales.through_origin(a, b)
+    assert fit is not None and abs(fit[0] - 1.5) < 0.01 and fit[2] <= 190
+    w = scales.through_origin(b * np.exp(1j * 0.5), b.astype(complex))
+    assert w is not None and abs(np.angle(w[0]) - 0.5) < 1e-9
+    assert scales.through_origin(a[:5], b[:5]) is None
+
+
+def test_likely_unit_names_only_a_near_slope() -> None:
+    assert scales.likely_unit(3.3, scales.UNITS_DEPTH) == "feet"
+    assert scales.likely_unit(2.0, scales.UNITS_DEPTH) is None
+    assert scales.likely_unit(-1.0, scales.UNITS_DEPTH) is None
+    assert scales.likely_unit(3.6, scales.UNITS_SPEED) == "km/h"
