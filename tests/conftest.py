@@ -1,7 +1,8 @@
 """Fixtures shared across the test folders (unit/, kernels/, integration/).
 
 The tiny mission of the bad-input tests (tests/integration/test_robustness.py,
-tests/unit/test_screening.py), from :mod:`helpers.badinput`. Helpers that are not fixtures live
+tests/unit/test_screening.py), from :mod:`helpers.badinput`; the simulated demo of the
+cross-check tests (test_imu_axes.py, test_dvl_depth_scales.py). Helpers that are not fixtures live
 in the :mod:`helpers` package (tests/helpers/), imported as ``from helpers import ...``.
 """
 
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from helpers import badinput
+from helpers.cli import cli
 
 
 @pytest.fixture(scope="module")
@@ -24,3 +26,11 @@ def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def mission(source: Path, tmp_path: Path) -> Path:
     """A fresh copy of the tiny mission for one test to corrupt."""
     return badinput.copy_mission(source, tmp_path / "mission")
+
+
+@pytest.fixture(scope="session")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``adaptnav simulate demo`` (seed 1), written once; tests copy it before changing it."""
+    out = tmp_path_factory.mktemp("demo") / "demo"
+    assert cli("simulate", "demo", "--out", out, "-q").exit_code == 0
+    return out

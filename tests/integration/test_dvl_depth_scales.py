@@ -6,39 +6,15 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
-from adaptnav.cli import app
 from adaptnav.mission import MissionError, load_mission
 from helpers import diving
+from helpers.cli import cli, error_line
 
-runner = CliRunner()
 V = ["vx_m_s", "vy_m_s", "vz_m_s"]
-
-
-def cli(*args: Any) -> Any:
-    res = runner.invoke(app, [str(a) for a in args])
-    assert "Traceback" not in res.output, res.output
-    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
-    return res
-
-
-@pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("scales") / "demo"
-    assert cli("simulate", "demo", "--out", out, "-q").exit_code == 0
-    return out
-
-
-def _error(res: Any) -> str:
-    assert res.exit_code == 2, res.output
-    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
-    assert len(lines) == 1, res.output
-    return lines[0]
 
 
 def _copy(demo: Path, tmp_path: Path, heading_aid: bool = False) -> Path:
@@ -59,7 +35,7 @@ def test_a_dvl_in_knots_is_an_error_against_the_gnss_track(demo: Path, tmp_path:
     df = pd.read_parquet(root / "dvl.parquet")
     df[V] = df[V] * 1.943844
     df.to_parquet(root / "dvl.parquet")
-    line = _error(cli("run", root, "--out", tmp_path / "out", "-q"))
+    line = error_line(cli("run", root, "--out", tmp_path / "out", "-q"))
     assert "dvl.parquet: the speed of DVL 'dvl'" in line and "in knots" in line, line
     assert "[sensors.dvl] scale_check = false" in line, line
 
@@ -77,7 +53,7 @@ def test_a_dvl_axis_negated_or_swapped_is_an_error_with_a_heading_sensor(
     else:
         df[["vx_m_s", "vy_m_s"]] = df[["vy_m_s", "vx_m_s"]].to_numpy()
     df.to_parquet(root / "dvl.parquet")
-    line = _error(cli("run", root, "--out", tmp_path / "out", "-q"))
+    line = error_line(cli("run", root, "--out", tmp_path / "out", "-q"))
     assert "the direction of DVL 'dvl'" in line and expect in line, line
 
 
@@ -96,7 +72,7 @@ def test_scale_check_false_loads_the_dvl_as_it_is(demo: Path, tmp_path: Path) ->
 @pytest.mark.parametrize(
     ("factor", "unit"), [(1 / 0.3048, "feet"), (10.05, "kPa"), (0.1005, "bar")]
 )
-def test_a_depth_in_another_unit_on_a_diving_vehicle_is_an_error(
+def test_a_depth_in_another_unit_on_a_diving_vehicle_is_anerror_line(
     tmp_path: Path, factor: float, unit: str
 ) -> None:
     tabs = diving.tables()

@@ -5,29 +5,11 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
-from adaptnav.cli import app
-
-runner = CliRunner()
-
-
-def cli(*args: Any) -> Any:
-    res = runner.invoke(app, [str(a) for a in args])
-    assert "Traceback" not in res.output, res.output
-    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
-    return res
-
-
-@pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("axes") / "demo"
-    assert cli("simulate", "demo", "--out", out, "-q").exit_code == 0
-    return out
+from helpers.cli import cli, error_line
 
 
 def _changed(demo: Path, tmp_path: Path, table: str, column: str, factor: float) -> Path:
@@ -37,13 +19,6 @@ def _changed(demo: Path, tmp_path: Path, table: str, column: str, factor: float)
     df[column] = df[column] * factor
     df.to_parquet(root / table)
     return root
-
-
-def _error(res: Any) -> str:
-    assert res.exit_code == 2, res.output
-    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
-    assert len(lines) == 1, res.output
-    return lines[0]
 
 
 @pytest.mark.parametrize(
@@ -60,14 +35,14 @@ def test_a_negated_imu_axis_is_an_error_naming_it(
     demo: Path, tmp_path: Path, column: str, expect: str
 ) -> None:
     root = _changed(demo, tmp_path, "imu.parquet", column, -1.0)
-    line = _error(cli("run", root, "--out", tmp_path / "run"))
+    line = error_line(cli("run", root, "--out", tmp_path / "run"))
     assert expect in line and "imu.axis_check = false" in line, line
     assert not (tmp_path / "run").exists()
 
 
 def test_gyros_in_deg_per_s_are_named_as_such(demo: Path, tmp_path: Path) -> None:
     root = _changed(demo, tmp_path, "imu.parquet", "dtheta_x_rad", 57.29578)
-    assert "rates in deg/s where rad/s are read" in _error(
+    assert "rates in deg/s where rad/s are read" in error_line(
         cli("run", root, "--out", tmp_path / "r")
     )
 
@@ -76,7 +51,7 @@ def test_an_inclinometer_whose_roll_is_negated_is_blamed_not_the_imu(
     demo: Path, tmp_path: Path
 ) -> None:
     root = _changed(demo, tmp_path, "inclinometer.parquet", "roll_rad", -1.0)
-    line = _error(cli("run", root, "--out", tmp_path / "run"))
+    line = error_line(cli("run", root, "--out", tmp_path / "run"))
     assert line.startswith("error: inclinometer.parquet: the roll of sensor 'inclinometer'"), line
     assert "the gyro and the accelerometers agree" in line
 
@@ -97,7 +72,7 @@ def test_an_inclinometer_in_radians_under_degree_columns_is_named(
     df.rename(columns={"roll_rad": "roll_deg", "pitch_rad": "pitch_deg"}).to_parquet(
         root / "inclinometer.parquet"
     )
-    line = _error(cli("run", root, "--out", tmp_path / "run"))
+    line = error_line(cli("run", root, "--out", tmp_path / "run"))
     assert line.startswith("error: inclinometer.parquet:") and "radians where degrees" in line
 
 

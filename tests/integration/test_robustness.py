@@ -18,29 +18,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pytest
-from typer.testing import CliRunner
 
-from adaptnav.cli import app
 from helpers import badinput
+from helpers.cli import cli, error_line
 from helpers.run_folders import reseal, without_digests
-
-runner = CliRunner()
-
-
-def cli(*args: Any) -> Any:
-    res = runner.invoke(app, [str(a) for a in args])
-    assert "Traceback" not in res.output, res.output
-    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
-    return res
-
-
-def error_line(res: Any) -> str:
-    """The one error line of a failed command (exit 2)."""
-    assert res.exit_code == 2, res.output
-    lines = [line for line in res.output.splitlines() if line.startswith("error:")]
-    assert len(lines) == 1, res.output
-    return str(lines[0])
-
 
 # --- output folders -------------------------------------------------------------------------
 
