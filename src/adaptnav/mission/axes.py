@@ -215,7 +215,9 @@ class Gyro:
         """From the IMU's intervals ``(t - dt, t]`` and increments (ImuData's arrays)."""
         level = c_sb is None or np.array_equal(c_sb, np.eye(3))
         d = dtheta if level else dtheta @ np.asarray(c_sb, dtype=float).T
-        theta = np.vstack([np.zeros(3), np.cumsum(d, axis=0)])
+        theta = np.empty((d.shape[0] + 1, 3))  # one array for a day of samples, not two
+        theta[0] = 0.0
+        np.cumsum(d, axis=0, out=theta[1:])
         return cls(np.concatenate([[t[0] - dt[0]], t]), theta, arw)
 
     def noise_var(self, dt: Array) -> Array:
