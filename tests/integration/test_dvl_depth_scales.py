@@ -57,6 +57,33 @@ def test_a_dvl_axis_negated_or_swapped_is_an_error_with_a_heading_sensor(
     assert "the direction of DVL 'dvl'" in line and expect in line, line
 
 
+@pytest.mark.parametrize(
+    ("change", "expect"),
+    [("negate", "x axis negated"), ("swap", "x and y swapped"), ("both", "x axis negated")],
+)
+def test_a_dvl_axis_negated_or_swapped_is_an_error_by_the_start_s_heading(
+    demo: Path, tmp_path: Path, change: str, expect: str
+) -> None:
+    """The demo as simulated: its heading sensor off, initial.rpy_deg's yaw carried by the gyro
+    (since 0.4.10). Up to 0.4.9 it loaded and ran 297-392 m RMS off, exit 0."""
+    root = _copy(demo, tmp_path)
+    load_mission(root)  # the right DVL passes (0.6°)
+    df = pd.read_parquet(root / "dvl.parquet")
+    if change == "negate":
+        df["vx_m_s"] = -df["vx_m_s"]
+    elif change == "swap":
+        df[["vx_m_s", "vy_m_s"]] = df[["vy_m_s", "vx_m_s"]].to_numpy()
+    else:
+        df[["vx_m_s", "vy_m_s"]] = -df[["vx_m_s", "vy_m_s"]]
+    df.to_parquet(root / "dvl.parquet")
+    with pytest.raises(MissionError) as err:
+        load_mission(root)
+    text = str(err.value)
+    assert text.startswith("dvl.parquet: the direction of DVL 'dvl'") and expect in text, text
+    assert "the start's heading (initial.rpy_deg's yaw" in text and "carried by the gyro" in text
+    assert err.value.field == "vx_m_s" and "initial.rpy_deg's yaw wrong" in text, text
+
+
 def test_scale_check_false_loads_the_dvl_as_it_is(demo: Path, tmp_path: Path) -> None:
     root = _copy(demo, tmp_path)
     df = pd.read_parquet(root / "dvl.parquet")

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from adaptnav.core import attitude
 from adaptnav.mission import axes, scales
 from helpers import diving
 
@@ -129,3 +130,97 @@ def test_likely_unit_names_only_a_near_slope() -> None:
     assert scales.likely_unit(2.0, scales.UNITS_DEPTH) is None
     assert scales.likely_unit(-1.0, scales.UNITS_DEPTH) is None
     assert scales.likely_unit(3.6, scales.UNITS_SPEED) == "km/h"
+
+
+def _rest_imu(lat: float, rate: float, hours: float = 3.0) -> tuple[axes.Gyro, axes.AccelTilt]:
+    """A body rolled 5° and pitched -3° at latitude ``lat`` (rad), turning about the vertical
+    at ``rate`` (rad/s) from a yaw of 40°: its gyro reads the earth rate and the turn, exactly
+    (``ω_b = C_bn (ω_ie + rate·down)``), at 10 Hz; its accelerometers read ``-g`` turned."""
+    t = np.arange(0.1, hours * 3600.0 + 1e-9, 0.1)
+    w_n = np.array([scales.EARTH_RATE * math.cos(lat), 0.0, -scales.EARTH_RATE * math.sin(lat)])
+    roll, pitch = math.radians(5.0), math.radians(-3.0)
+    c_nb0 = attitude.euler_to_dcm(roll, pitch, 0.0)
+    yaw = math.radians(40.0) + rate * (t - 0.05)  # at each interval's middle
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    # C_bn = C_nb0ᵀ Rz(ψ)ᵀ: each row turned by -ψ about down, then by the fixed tilt.
+    w_z = np.column_stack([cy * w_n[0] + sy * w_n[1], -sy * w_n[0] + cy * w_n[1]])
+    w_turned = np.column_stack([w_z, np.full(t.size, w_n[2] + rate)])
+    w_b = w_turned @ c_nb0
+    f_b = np.tile(c_nb0.T @ np.array([0.0, 0.0, -9.81]), (t.size, 1))
+    dt = np.full(t.size, 0.1)
+    return axes.Gyro.of(t, dt, w_b * 0.1), axes.AccelTilt.of(t, dt, f_b * 0.1)
+
+
+@pytest.mark.parametrize("lat_deg", [26.8, -45.0, 70.0])
+@pytest.mark.parametrize("rate_deg_s", [0.0, 0.5])
+def test_the_carried_yaw_follows_the_body_at_any_latitude(
+    lat_deg: float, rate_deg_s: float
+) -> None:
+    """The earth's rate taken off with the right sign: a body fixed to the earth keeps its yaw
+    over 3 h (the wrong sign: 2 Ω sin L T, 40° at 26.8° N), one turning turns by its rate."""
+    lat, rate = math.radians(lat_deg), math.radians(rate_deg_s)
+    gyro, tilt = _rest_imu(lat, rate)
+    start = scales.StartYaw(math.radians(40.0), math.radians(1.0), 0.0, 0.0)
+    h = scales.carried_yaw(gyro, tilt, lat, start)
+    truth = math.radians(40.0) + rate * (h.t - h.t[0])
+    err = np.degrees(np.abs(axes.wrap(h.yaw - truth)))
+    assert float(err.max()) < 0.01, float(err.max())
+    assert h.sigma is not None and np.allclose(h.sigma, math.radians(1.0))
+
+
+def test_the_carried_yaw_sigma_grows_with_the_bias_and_the_arw() -> None:
+    start = scales.StartYaw(math.radians(1.0), math.radians(1.0), math.radians(1.0) / 3600, 0.0)
+    assert math.degrees(float(start.sigma_after(np.array([3 * 3600.0]))[0])) == pytest.approx(
+        math.sqrt(10.0)
+    )
+    arw = scales.StartYaw(0.0, 0.0, 0.0, math.radians(0.1) / 60.0)  # 0.1 deg/sqrt(h)
+    assert math.degrees(float(arw.sigma_after(np.array([4 * 3600.0]))[0])) == pytest.approx(0.2)
+
+
+def _carried_turn(tabs: dict[str, pd.DataFrame], bias_deg_h: float = 1.0) -> scales.Fit | None:
+    """The direction fit with the start's yaw (the true 0°, σ 1°) carried by the gyro; the
+    helper's gyro has no earth rate, so the latitude given is 0."""
+    imu = tabs["imu"]
+    t = imu["t_s"].to_numpy()[1:]
+    dt = np.diff(imu["t_s"].to_numpy())
+    rates = imu[["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"]].to_numpy()[1:]
+    accel = imu[["accel_x_m_s2", "accel_y_m_s2", "accel_z_m_s2"]].to_numpy()[1:]
+    tilt = axes.AccelTilt.of(t, dt, accel * dt[:, None])
+    gyro = axes.Gyro.of(t, dt, rates * dt[:, None])
+    d = tabs["dvl"]
+    dvl = scales.Dvl.of(d["t_s"].to_numpy(), d[V].to_numpy(), None, 0.5, 0.02)
+    g = tabs["gps"]
+    lat, lon = np.radians(g["lat_deg"].to_numpy()), np.radians(g["lon_deg"].to_numpy())
+    track = scales.Track.of(g["t_s"].to_numpy(), lat, lon, 2.0)
+    start = scales.StartYaw(0.0, math.radians(1.0), math.radians(bias_deg_h) / 3600.0, 0.0)
+    return scales.dvl_track(track, dvl, tilt, gyro, scales.carried_yaw(gyro, tilt, 0.0, start))[1]
+
+
+@pytest.mark.parametrize(
+    ("change", "angle", "words"),
+    [("none", 0.0, ""), ("negate", 180.0, "x axis negated"), ("swap", 90.0, "x and y swapped")],
+)
+def test_without_a_heading_sensor_the_start_s_yaw_carried_tells_the_direction(
+    change: str, angle: float, words: str
+) -> None:
+    tabs = diving.tables()
+    dvl = tabs["dvl"]
+    if change == "negate":
+        tabs["dvl"] = dvl.assign(vx_m_s=-dvl["vx_m_s"])
+    elif change == "swap":
+        tabs["dvl"] = dvl.assign(vx_m_s=dvl["vy_m_s"], vy_m_s=dvl["vx_m_s"])
+    turn = _carried_turn(tabs)
+    assert turn is not None and abs(abs(turn.angle_deg) - angle) < 5.0, turn
+    assert turn.turned() == (change != "none"), turn
+    assert 1.0 <= turn.angle_se_deg < 2.0  # the start's σ (1°) joins the fit's
+    assert words in scales.turn_cause(turn, carried=True)
+    assert "initial.rpy_deg" in scales.turn_cause(turn, carried=True)
+
+
+def test_chords_whose_carried_yaw_is_too_uncertain_do_not_count() -> None:
+    """A gyro whose bias σ carries the yaw beyond 10° within a minute leaves too few chords."""
+    tabs = diving.tables()
+    tabs["dvl"] = tabs["dvl"].assign(vx_m_s=-tabs["dvl"]["vx_m_s"])
+    assert _carried_turn(tabs, bias_deg_h=600.0) is None
+    turn = _carried_turn(tabs, bias_deg_h=60.0)  # 10° at 9.9 min: all but the last chords
+    assert turn is not None and turn.turned() and turn.t_to < 600.0

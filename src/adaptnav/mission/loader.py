@@ -344,14 +344,16 @@ def _check_dvl_track(
     dvl: scales.Dvl,
     imu: tuple[axes.AccelTilt, axes.Gyro],
 ) -> None:
-    """The DVL ``name`` against each GNSS track (its speed) and, with a heading sensor, the
-    track's course (its direction): :func:`scales.dvl_track`."""
+    """The DVL ``name`` against each GNSS track (its speed) and, with a heading (a heading
+    sensor's, or the start's carried by the gyro: :func:`_dvl_heading`), the track's course
+    (its direction): :func:`scales.dvl_track`."""
     file = config.sensors[name].file
-    headings = [d for d in sensors.values() if d.kind == "heading"]
-    heading = (headings[0].t, headings[0].z[:, 0]) if headings else None
+    heading: tuple[Array, Array] | scales.Heading | None = None
     for gname, g in sensors.items():
         if g.kind != "gnss":
             continue
+        if heading is None:
+            heading, by = _dvl_heading(config, sensors, imu, float(np.nanmedian(g.z[:, 0])))
         gcfg = config.sensors[gname]
         sigma = float(np.atleast_1d(gcfg.sigma_si())[0])
         track = scales.Track.of(g.t, g.z[:, 0], g.z[:, 1], sigma)
@@ -370,16 +372,47 @@ def _check_dvl_track(
                 field="vx_m_s",
             )
         if turn is not None and turn.turned():
+            carried = isinstance(heading, scales.Heading)
             raise MissionError(
-                f"{file}: the direction of DVL {name!r} (vx_m_s, vy_m_s), turned by the heading "
-                f"of sensor {headings[0].name!r}, against the course of {against} from t = "
+                f"{file}: the direction of DVL {name!r} (vx_m_s, vy_m_s), turned by {by}, "
+                f"against the course of {against} from t = "
                 f"{turn.t_from:.1f} to {turn.t_to:.1f} s: {turn.angle_deg:+.1f}° ± "
                 f"{turn.angle_se_deg:.2g}° off over {turn.n} chords (0 expected; beyond "
                 f"{scales.MAX_TURN_DEG:g}° even {scales.CONFIDENCE:g} σ in): "
-                f"{scales.turn_cause(turn)} {SCALE_FIX.format(name)} {SCALE_DOC}",
+                f"{scales.turn_cause(turn, carried)} {SCALE_FIX.format(name)} {SCALE_DOC}",
                 file=file,
                 field="vx_m_s",
             )
+
+
+def _dvl_heading(
+    config: MissionConfig,
+    sensors: dict[str, SensorData],
+    imu: tuple[axes.AccelTilt, axes.Gyro],
+    lat: float,
+) -> tuple[tuple[Array, Array] | scales.Heading | None, str]:
+    """The heading the DVL's direction is judged by, and its words: the first heading sensor's
+    readings (``use`` aid or init); else ``initial.rpy_deg``'s yaw with its σ
+    (``sigma_attitude_deg``) carried from the IMU's start by the gyro at latitude ``lat``
+    (rad), drifting by the gyro's bias σ (``imu.initial_bias_sigma``) and ARW
+    (:func:`scales.carried_yaw`; since 0.4.10); else none (a gyrocompass's heading is not
+    known at load): nothing is said."""
+    sensor = next((d for d in sensors.values() if d.kind == "heading"), None)
+    if sensor is not None:
+        return (sensor.t, sensor.z[:, 0]), f"the heading of sensor {sensor.name!r}"
+    rpy = config.initial.rpy_deg
+    if rpy is None or not math.isfinite(lat):
+        return None, ""
+    noise = config.imu.noise.to_imu_noise()
+    sigma = float(config.initial.sigma_attitude_rad()[2])
+    start = scales.StartYaw(
+        math.radians(rpy[2]), sigma, config.imu.initial_bias_sigma.si(noise)[0], noise.arw
+    )
+    words = (
+        f"the start's heading (initial.rpy_deg's yaw {rpy[2]:.1f}° ± {math.degrees(sigma):.2g}°) "
+        "carried by the gyro"
+    )
+    return scales.carried_yaw(imu[1], imu[0], lat, start), words
 
 
 def _check_depth_scale(

@@ -37,6 +37,14 @@ up to 0.4.9). The other sensors see it (docs/robustness.md, 'DVL and depth scale
   gives arg w ≈ 0 (a compass's deviation, a drift angle: a few degrees); its x negated 180°,
   x and y swapped ±90°, an undeclared yaw mounting its angle. Refused when ``|arg w|`` exceeds
   :data:`MAX_TURN_DEG` even 4 σ down.
+* **The same without a heading sensor** (since 0.4.10): the heading the mission's start gives
+  (``initial.rpy_deg``'s yaw with its σ, :class:`StartYaw`) carried forward by the gyro,
+  :func:`carried_yaw`: ``ψ(t) = ψ0 + ∫ (ω_D + Ω sin L) dt``, ω_D the gyro's rate about the
+  local vertical (levelled by the accelerometers: :func:`down`), ``-Ω sin L`` the earth rate's
+  down component (a body fixed to the earth reads it and its yaw does not change); the
+  transport rate (``v_E tan L / R``: 0.007°/h at 2 m/s) is left out. Its σ grows as
+  ``sqrt(σ0² + (σ_b T)² + ARW² T)``; only chords within :data:`MAX_YAW_SIGMA_DEG` count, and
+  the σ of the last one is added to the fit's (in quadrature) before the rule is applied.
 
 Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls :func:`depth_scale` and
 :func:`dvl_track` and turns a finding into a MissionError naming the file and column.
@@ -60,6 +68,10 @@ SPEED_BAND = (0.7, 1.4)
 """The GNSS track's metres per metre of the DVL's displacement a right pair may show."""
 MAX_TURN_DEG = 30.0
 """Largest angle between the DVL's direction (turned by the heading) and the GNSS course."""
+MAX_YAW_SIGMA_DEG = 10.0
+"""Largest σ of a yaw carried by the gyro from the start's heading for a chord to count (°)."""
+EARTH_RATE = 7.292115e-5
+"""The earth's rotation rate Ω (rad/s, WGS 84)."""
 CONFIDENCE = axes.CONFIDENCE
 """Standard errors a fit's interval spans each way before it is judged."""
 DEPTH_INTERVAL_S = 10.0
@@ -291,16 +303,73 @@ def dvl_chords(
     return np.where(inside, d, complex(math.nan, math.nan)), yaw0
 
 
+@dataclass(frozen=True)
+class Heading:
+    """A heading to turn the DVL's displacements by: the body's yaw (rad) at times ``t`` and
+    its σ (rad) there (None: a heading sensor's, whose slow errors the rule's margin holds)."""
+
+    t: Array
+    yaw: Array
+    sigma: Array | None = None
+
+
+@dataclass(frozen=True)
+class StartYaw:
+    """The heading the mission's start gives at the IMU's first instant: ``yaw`` and its σ
+    ``sigma`` (rad), and the gyro's bias σ ``bias_sigma`` (rad/s) and ARW ``arw`` (rad/√s)
+    that a yaw carried from it drifts by."""
+
+    yaw: float
+    sigma: float
+    bias_sigma: float
+    arw: float
+
+    def sigma_after(self, dt: Array) -> Array:
+        """σ of the yaw carried for ``dt`` (s): ``sqrt(σ0² + (σ_b Δt)² + ARW² Δt)``."""
+        dt = np.maximum(dt, 0.0)
+        return np.asarray(
+            np.sqrt(self.sigma**2 + (self.bias_sigma * dt) ** 2 + self.arw**2 * dt), dtype=float
+        )
+
+
+def carried_yaw(gyro: axes.Gyro, tilt: axes.AccelTilt, lat: float, start: StartYaw) -> Heading:
+    """The start's yaw carried forward by the gyro (module docstring) at the IMU's start and
+    the accelerometers' block times, with its σ. ``lat``: the latitude (rad) the earth rate's
+    down component ``-Ω sin L`` is taken at. Each step's rate about the vertical is the gyro's
+    increment between block times turned down at the blocks' mean roll and pitch."""
+    inside = (tilt.t > gyro.t[0]) & (tilt.t <= gyro.t[-1])
+    ang = tilt.angles[inside]
+    if ang.shape[0] < 2:
+        return Heading(np.empty(0), np.empty(0), np.empty(0))
+    t = np.concatenate([[gyro.t[0]], tilt.t[inside]])
+    theta = np.column_stack([np.interp(t, gyro.t, gyro.theta[:, k]) for k in range(3)])
+    roll = np.concatenate([ang[:1, 0], 0.5 * (ang[1:, 0] + ang[:-1, 0])])
+    pitch = np.concatenate([ang[:1, 1], 0.5 * (ang[1:, 1] + ang[:-1, 1])])
+    turn = integral_steps(down(np.diff(theta, axis=0), roll, pitch))
+    since = t - t[0]
+    # The gyro reads the earth rate's down component -Ω sin L on a body fixed to the earth.
+    yaw = start.yaw + turn + EARTH_RATE * math.sin(lat) * since
+    return Heading(t, np.asarray(yaw, dtype=float), start.sigma_after(since))
+
+
+def integral_steps(steps: Array) -> Array:
+    """The running sum of ``steps`` (n,) from 0: (n + 1,)."""
+    out = np.empty(steps.size + 1)
+    out[0] = 0.0
+    np.cumsum(steps, out=out[1:])
+    return out
+
+
 def dvl_track(
     track: Track,
     dvl: Dvl,
     tilt: axes.AccelTilt,
     gyro: axes.Gyro,
-    heading: tuple[Array, Array] | None = None,
+    heading: tuple[Array, Array] | Heading | None = None,
 ) -> tuple[Fit | None, Fit | None]:
     """The DVL's speed ratio (the GNSS track's chord lengths on the DVL's) and, with a
-    ``heading`` sensor's (times, yaw rad), the direction fit (module docstring); None:
-    undecided."""
+    ``heading`` (a heading sensor's (times, yaw rad), or a :class:`Heading` such as the start's
+    carried by the gyro), the direction fit (module docstring); None: undecided."""
     d, yaw0 = dvl_chords(track, dvl, tilt, gyro)
     ok = np.isfinite(track.g) & np.isfinite(d)
     if np.count_nonzero(ok) < MIN_CHORDS:
@@ -311,19 +380,38 @@ def dvl_track(
     if speed is not None and speed[0].real > 0.0:  # the DVL's per the track's: 1 / k
         k = float(speed[0].real)
         ratio = Fit(1.0 / k, speed[1] / k**2, speed[2], float(t0[0]), float(t1[-1]))
-    if heading is None or heading[0].size < 2:
+    if heading is None:
         return ratio, None
-    psi = np.interp(t0, heading[0], np.unwrap(heading[1]), left=math.nan, right=math.nan)
-    h = np.exp(1j * (psi - yaw0[ok])) * d
+    if not isinstance(heading, Heading):
+        heading = Heading(heading[0], heading[1])
+    return ratio, direction(g, d, (t0, t1), yaw0[ok], heading)
+
+
+def direction(
+    g: Array, d: Array, times: tuple[Array, Array], yaw0: Array, heading: Heading
+) -> Fit | None:
+    """The fit of ``w = G / (e^{i(ψ - ψ_g)} D)`` over the chords (start and end times
+    ``times``): ψ the ``heading`` at each chord's start, ψ_g the gyro's yaw ``yaw0`` there (the
+    frame of :func:`dvl_chords`). With the heading's σ, only chords whose σ at their end is
+    within :data:`MAX_YAW_SIGMA_DEG` count, and the largest σ among them joins the fit's."""
+    if heading.t.size < 2:
+        return None
+    t0, t1 = times
+    psi = np.interp(t0, heading.t, np.unwrap(heading.yaw), left=math.nan, right=math.nan)
+    sig = np.zeros(t0.size)
+    if heading.sigma is not None:
+        sig = np.interp(t1, heading.t, heading.sigma, left=math.inf, right=math.inf)
+        psi = np.where(sig <= math.radians(MAX_YAW_SIGMA_DEG), psi, math.nan)
+    h = np.exp(1j * (psi - yaw0)) * d
     fin = np.isfinite(h)
     w = through_origin(g[fin], h[fin])
     if w is None or abs(w[0]) == 0.0:
-        return ratio, None
+        return None
     ang = math.degrees(math.atan2(w[0].imag, w[0].real))
-    se_deg = math.degrees(min(w[1] / abs(w[0]), math.pi))
+    se = math.hypot(min(w[1] / abs(w[0]), math.pi), float(np.max(sig[fin])))
     k = abs(w[0])
-    turn = Fit(1.0 / k, w[1] / k**2, w[2], float(t0[0]), float(t1[-1]), ang, se_deg)
-    return ratio, turn
+    t_from, t_to = float(t0[fin][0]), float(t1[fin][-1])
+    return Fit(1.0 / k, w[1] / k**2, w[2], t_from, t_to, ang, math.degrees(se))
 
 
 def depth_cause(fit: Fit) -> str:
@@ -352,14 +440,18 @@ def speed_cause(fit: Fit) -> str:
     )
 
 
-def turn_cause(fit: Fit) -> str:
-    """What the DVL's direction off the GNSS course points to, in words."""
+def turn_cause(fit: Fit, carried: bool = False) -> str:
+    """What the DVL's direction off the GNSS course points to, in words; ``carried``: the
+    heading was the start's carried by the gyro (then the start's yaw may be the one wrong)."""
     a = abs(fit.angle_deg)
+    other = " (or initial.rpy_deg's yaw wrong by as much)" if carried else ""
     if a > 135.0:
         return (
             "the DVL's x axis negated (or x and y both: the DVL turned 180°), or its "
-            "mounting_rpy_deg not set?"
+            f"mounting_rpy_deg not set{other}?"
         )
     if a > 45.0:
-        return "the DVL's x and y swapped, or its mounting_rpy_deg not set (a yaw of ±90°)?"
+        return f"the DVL's x and y swapped, or its mounting_rpy_deg not set (a yaw of ±90°){other}?"
+    if carried:
+        return "the DVL's mounting_rpy_deg (its yaw) not set, or initial.rpy_deg's yaw off?"
     return "the DVL's mounting_rpy_deg (its yaw) not set, or the heading sensor's north off?"
