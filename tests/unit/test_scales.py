@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from adaptnav.core import attitude
+from adaptnav.core.earth import OMEGA_IE
 from adaptnav.mission import axes, scales
 from helpers import diving
 
@@ -137,7 +138,7 @@ def _rest_imu(lat: float, rate: float, hours: float = 3.0) -> tuple[axes.Gyro, a
     at ``rate`` (rad/s) from a yaw of 40°: its gyro reads the earth rate and the turn, exactly
     (``ω_b = C_bn (ω_ie + rate·down)``), at 10 Hz; its accelerometers read ``-g`` turned."""
     t = np.arange(0.1, hours * 3600.0 + 1e-9, 0.1)
-    w_n = np.array([scales.EARTH_RATE * math.cos(lat), 0.0, -scales.EARTH_RATE * math.sin(lat)])
+    w_n = np.array([OMEGA_IE * math.cos(lat), 0.0, -OMEGA_IE * math.sin(lat)])
     roll, pitch = math.radians(5.0), math.radians(-3.0)
     c_nb0 = attitude.euler_to_dcm(roll, pitch, 0.0)
     yaw = math.radians(40.0) + rate * (t - 0.05)  # at each interval's middle

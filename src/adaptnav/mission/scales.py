@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptnav.core.earth import OMEGA_IE
 from adaptnav.mission import axes
 
 Array = NDArray[np.float64]
@@ -70,8 +71,6 @@ MAX_TURN_DEG = 30.0
 """Largest angle between the DVL's direction (turned by the heading) and the GNSS course."""
 MAX_YAW_SIGMA_DEG = 10.0
 """Largest σ of a yaw carried by the gyro from the start's heading for a chord to count (°)."""
-EARTH_RATE = 7.292115e-5
-"""The earth's rotation rate Ω (rad/s, WGS 84)."""
 CONFIDENCE = axes.CONFIDENCE
 """Standard errors a fit's interval spans each way before it is judged."""
 DEPTH_INTERVAL_S = 10.0
@@ -348,7 +347,7 @@ def carried_yaw(gyro: axes.Gyro, tilt: axes.AccelTilt, lat: float, start: StartY
     turn = integral_steps(down(np.diff(theta, axis=0), roll, pitch))
     since = t - t[0]
     # The gyro reads the earth rate's down component -Ω sin L on a body fixed to the earth.
-    yaw = start.yaw + turn + EARTH_RATE * math.sin(lat) * since
+    yaw = start.yaw + turn + OMEGA_IE * math.sin(lat) * since
     return Heading(t, np.asarray(yaw, dtype=float), start.sigma_after(since))
 
 
