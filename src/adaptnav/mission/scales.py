@@ -83,7 +83,7 @@ surface vessel's heave correlates at about 0.4 (paper-1)."""
 SPEED_CHORD_S = 20.0
 """Span of the GNSS chords (s)."""
 SPEED_CHORD_SIGMAS = 10.0
-"""A chord shorter than this many position σ is left out (s)."""
+"""A chord shorter than this many position σ is left out."""
 MIN_CHORDS = 12
 """Fewest chords a speed fit needs."""
 COVER_SHARE = 0.5
