@@ -235,14 +235,23 @@ def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
     mission time), and every reading would go to the ledger as outside the IMU's span while
     the run went on without the sensor. So is one with fewer than :data:`SPAN_UNIT_SHARE` of its
     readings within, the first of them, whose stamps span more than :data:`SPAN_UNIT_RATIO` ×
-    the IMU's: ms from the same origin keep the readings of the first second within (since
-    0.4.10; up to 0.4.9 the demo's DVL in ms kept 2 readings, 141 m RMSE, exit 0, a warning)."""
+    the IMU's and lie more than :data:`SPAN_UNIT_RATIO` × its period (``rate_hz``) apart: ms
+    from the same origin keep the readings of the first second within (since 0.4.10; up to
+    0.4.9 the demo's DVL in ms kept 2 readings, 141 m RMSE, exit 0, a warning). A sensor
+    without ``rate_hz`` takes its median interval as its period and is not judged so."""
     if data.t.size == 0:
         return
     within = int(np.count_nonzero((data.t >= imu.start) & (data.t <= imu.t[-1])))
     ratio = float(data.t[-1] - data.t[0]) / max(float(imu.t[-1] - imu.start), 1e-9)
     late = data.t[0] >= imu.start  # from the IMU's origin, not a longer log around it
-    if within and (within >= SPAN_UNIT_SHARE * data.t.size or ratio <= SPAN_UNIT_RATIO or not late):
+    # In ms the readings' spacing is a thousand of their periods too; a log that only runs on
+    # past a short IMU (at its own rate) is not refused.
+    spacing = float(np.median(np.diff(data.t))) if data.t.size > 1 else 0.0
+    stretched = spacing >= SPAN_UNIT_RATIO * data.period
+    if within and (
+        within >= SPAN_UNIT_SHARE * data.t.size or ratio <= SPAN_UNIT_RATIO or not late
+        or not stretched
+    ):  # fmt: skip
         return
     which = f"only {within}" if within else "none"
     verb = "lie" if within > 1 else "lies"
