@@ -70,7 +70,11 @@ NOISE = (1e-6 * math.sqrt(RATE_HZ), 1e-5 * math.sqrt(RATE_HZ))
 def _found(
     m: dict[str, np.ndarray], refs: list[axes.Reference] | None = None
 ) -> list[axes.AxisFinding]:
-    return list(axes.check_axes(m["t"], m["dt"], m["dtheta"], m["dvel"], refs or _refs(m), NOISE))
+    return list(
+        axes.check_axes(
+            axes.ImuViews(m["t"], m["dt"], m["dtheta"], m["dvel"], NOISE), refs or _refs(m)
+        )
+    )
 
 
 def test_a_right_imu_follows_every_reference_with_a_slope_of_one() -> None:
@@ -151,7 +155,8 @@ def test_a_still_imu_against_a_still_reference_says_nothing() -> None:
     arw = 1e-4 * math.sqrt(RATE_HZ)  # a MEMS gyro's noise, 0.34 deg/sqrt(h) per axis
     still = rng.normal(0.0, 1e-4, m["dtheta"].shape)
     flat = [axes.Reference("incl", "roll", 0, m["ts"], rng.normal(0.0, 1e-4, m["ts"].size))]
-    assert list(axes.check_axes(m["t"], m["dt"], still, m["dvel"], flat, (arw, 0.0))) == []
+    views = axes.ImuViews(m["t"], m["dt"], still, m["dvel"], (arw, 0.0))
+    assert list(axes.check_axes(views, flat)) == []
     undeclared = axes.Gyro.of(m["t"], m["dt"], still)  # no noise declared: it decides
     s = axes.best_slope(undeclared, 0, flat[0].t, flat[0].value)
     assert s is not None and s[0].upper < axes.MIN_SLOPE

@@ -16,6 +16,7 @@ from adaptnav import api
 from adaptnav.core.attitude import euler_to_dcm
 from adaptnav.core.units import DEG, G0, UnitError
 from adaptnav.mission import (
+    Mission,
     MissionConfig,
     MissionError,
     build_sensor_model,
@@ -602,16 +603,23 @@ def test_increments_after_a_sample_lost_before_the_last_row(tmp_path: Path, jitt
     np.testing.assert_allclose(m.imu.dvel[-1], 2 * inc.iloc[-1, 4:].to_numpy(), rtol=0.02)
 
 
+def _rows_40_41_lost(
+    tmp_path: Path, accumulated_from: int
+) -> tuple[pd.DataFrame, list[str], Mission]:
+    """Noisy increments with rows 40 and 41 missing and row 42 holding the increments of rows
+    ``accumulated_from``..42 (an IMU that accumulates until read), loaded."""
+    inc = _noisy_increments()
+    cols = list(inc.columns[1:])
+    inc.loc[42, cols] = inc.loc[accumulated_from:42, cols].sum().to_numpy()
+    return inc, cols, load_mission(_increments_mission(tmp_path, inc.drop(index=[40, 41])))
+
+
 def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> None:
     # Row 40 lost, row 41's increments added to row 42 (an IMU that accumulates until read,
     # after a lost sample): row 42 holds 2 T of increments over the 3 T since row 39. Since
     # 0.4.9 (second version) taken as 2 T and scaled by 3/2; the first version knew only 1 T
     # or the whole interval and kept 3 T (a 0.1-m/s down-velocity step on the demo).
-    inc = _noisy_increments()
-    cols = list(inc.columns[1:])
-    inc.loc[42, cols] = inc.loc[41:42, cols].sum().to_numpy()
-    root = _increments_mission(tmp_path, inc.drop(index=[40, 41]))
-    m = load_mission(root)
+    inc, cols, m = _rows_40_41_lost(tmp_path, accumulated_from=41)
     assert m.imu.dt[40] == pytest.approx(3 * T)
     np.testing.assert_allclose(m.imu.dvel[40], 1.5 * inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
     (r,) = m.repairs
@@ -621,11 +629,7 @@ def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> N
 
 def test_increments_that_span_a_longer_interval_are_kept(tmp_path: Path) -> None:
     # An IMU that accumulates until read: rows missing, but row 42 holds the 3 T since row 39.
-    inc = _noisy_increments()
-    cols = list(inc.columns[1:])
-    inc.loc[42, cols] = inc.loc[40:42, cols].sum().to_numpy()
-    root = _increments_mission(tmp_path, inc.drop(index=[40, 41]))
-    m = load_mission(root)
+    inc, cols, m = _rows_40_41_lost(tmp_path, accumulated_from=40)
     assert m.imu.dt[40] == pytest.approx(3 * T)
     np.testing.assert_allclose(m.imu.dvel[40], inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
     assert not m.repairs

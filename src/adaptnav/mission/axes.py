@@ -309,32 +309,58 @@ class Reference:
     tilt: int | None = None
 
 
-def check_axes(
-    imu_t: Array,
-    imu_dt: Array,
-    dtheta: Array,
-    dvel: Array,
-    references: list[Reference],
-    noise: tuple[float, float] = (0.0, 0.0),
-) -> Iterator[AxisFinding]:
+class ImuViews:
+    """The IMU's gyro integral (:class:`Gyro`) and levelled accelerometers (:class:`AccelTilt`)
+    in a sensor's frame, each built on first use and kept: the checks at load (this module's
+    and mission/scales.py's) share them, so a day of samples is integrated once. ``noise``:
+    the IMU's (ARW rad/√s, VRW m/s/√s), below which its angle changes decide nothing."""
+
+    def __init__(
+        self,
+        t: Array,
+        dt: Array,
+        dtheta: Array,
+        dvel: Array,
+        noise: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
+        self._imu = (t, dt, dtheta, dvel)
+        self._noise = noise
+        self._gyros: dict[bytes, Gyro] = {}
+        self._tilts: dict[bytes, AccelTilt] = {}
+
+    @staticmethod
+    def _key(c_sb: Array | None) -> bytes:
+        level = c_sb is None or np.array_equal(c_sb, np.eye(3))
+        return b"" if level else np.asarray(c_sb, dtype=float).tobytes()
+
+    def gyro(self, c_sb: Array | None = None) -> Gyro:
+        """The gyro's integral turned by ``C_sb`` (None: the body's axes)."""
+        key = self._key(c_sb)
+        if key not in self._gyros:
+            t, dt, dtheta, _ = self._imu
+            self._gyros[key] = Gyro.of(t, dt, dtheta, c_sb, self._noise[0])
+        return self._gyros[key]
+
+    def tilt(self, c_sb: Array | None = None) -> AccelTilt:
+        """The accelerometers' levelled roll and pitch, the specific force turned by ``C_sb``."""
+        key = self._key(c_sb)
+        if key not in self._tilts:
+            t, dt, _, dvel = self._imu
+            self._tilts[key] = AccelTilt.of(t, dt, dvel, c_sb, self._noise[1])
+        return self._tilts[key]
+
+
+def check_axes(views: ImuViews, references: list[Reference]) -> Iterator[AxisFinding]:
     """Every reference whose angle the gyro's matching axis, or for a tilt the accelerometers'
     levelling, does not follow (the rule of the module's docstring), in the order given. A
-    tilt that neither follows blames the reference (:class:`AxisFinding`). ``noise``: the
-    IMU's (ARW rad/√s, VRW m/s/√s), below which its angle changes decide nothing."""
-    gyros: dict[bytes, Gyro] = {}
-    tilts: dict[bytes, AccelTilt] = {}
+    tilt that neither follows blames the reference (:class:`AxisFinding`)."""
     for ref in references:
-        key = b"" if ref.c_sb is None else np.asarray(ref.c_sb, dtype=float).tobytes()
-        if key not in gyros:
-            gyros[key] = Gyro.of(imu_t, imu_dt, dtheta, ref.c_sb, noise[0])
         found: list[tuple[Instrument, tuple[Slope, Slope]]] = []
-        s = best_slope(gyros[key], ref.axis, ref.t, ref.value)
+        s = best_slope(views.gyro(ref.c_sb), ref.axis, ref.t, ref.value)
         if s is not None and s[0].upper < MIN_SLOPE:
             found.append(("gyro", s))
         if ref.tilt is not None:
-            if key not in tilts:
-                tilts[key] = AccelTilt.of(imu_t, imu_dt, dvel, ref.c_sb, noise[1])
-            a = best_slope(tilts[key], ref.tilt, ref.t, ref.value)
+            a = best_slope(views.tilt(ref.c_sb), ref.tilt, ref.t, ref.value)
             if a is not None and a[0].upper < MIN_SLOPE:
                 found.append(("accelerometer", a))
         if not found:

@@ -192,9 +192,11 @@ def load_mission(path: str | Path) -> Mission:
         if data is not None:
             _check_time_span(imu, data, cfg)
             sensors[name] = data
+    noise = config.imu.noise.to_imu_noise()
+    views = axes.ImuViews(imu.t, imu.dt, imu.dtheta, imu.dvel, (noise.arw, noise.vrw))
     if config.imu.check_axes:
-        _check_axes(config, imu, sensors)
-    _check_scales(config, imu, sensors)
+        _check_axes(config, views, sensors)
+    _check_scales(config, views, sensors)
     truth = None
     if config.truth.file is not None:
         tb = table(config.truth.file)
@@ -284,17 +286,16 @@ def _axis_references(config: MissionConfig, sensors: dict[str, SensorData]) -> l
     return refs
 
 
-def _check_axes(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorData]) -> None:
+def _check_axes(
+    config: MissionConfig, views: axes.ImuViews, sensors: dict[str, SensorData]
+) -> None:
     """A MissionError naming the IMU file and column (or the aiding sensor's, when the gyro and
     the accelerometers agree against it) if a gyro axis, or the accelerometers' levelling, does
     not turn with an aiding sensor's angle (mission/axes.py; docs/robustness.md, 'IMU axes')."""
     refs = _axis_references(config, sensors)
     if not refs:
         return
-    noise = config.imu.noise.to_imu_noise()
-    found = next(
-        axes.check_axes(imu.t, imu.dt, imu.dtheta, imu.dvel, refs, (noise.arw, noise.vrw)), None
-    )
+    found = next(axes.check_axes(views, refs), None)
     if found is None:
         return
     columns = IMU_RATE_COLUMNS if config.imu.format == "rates" else IMU_INCREMENT_COLUMNS
@@ -323,23 +324,22 @@ def _check_axes(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorDa
     )
 
 
-def _check_scales(config: MissionConfig, imu: ImuData, sensors: dict[str, SensorData]) -> None:
+def _check_scales(
+    config: MissionConfig, views: axes.ImuViews, sensors: dict[str, SensorData]
+) -> None:
     """A MissionError naming the file and column if a DVL's speed or direction does not follow
     a GNSS track's, or a depth's changes the DVL's vertical velocity (mission/scales.py;
     docs/robustness.md, 'DVL and depth scales'). ``scale_check = false`` on a sensor skips it."""
     names = [n for n, d in sensors.items() if d.kind == "dvl" and config.sensors[n].check_scale]
     if not names:
         return
-    noise = config.imu.noise.to_imu_noise()
-    tilt = axes.AccelTilt.of(imu.t, imu.dt, imu.dvel, None, noise.vrw)
-    gyro = axes.Gyro.of(imu.t, imu.dt, imu.dtheta, None, noise.arw)
     for name in names:
         cfg, d = config.sensors[name], sensors[name]
         period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
         sigma = float(np.atleast_1d(cfg.sigma_si())[0])
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
-        _check_dvl_track(config, sensors, name, dvl, (tilt, gyro))
-        _check_depth_scale(config, sensors, name, dvl, tilt)
+        _check_dvl_track(config, sensors, name, dvl, views)
+        _check_depth_scale(config, sensors, name, dvl, views)
 
 
 SCALE_FIX = "Fix the table, or, if it is right, set [sensors.{}] scale_check = false"
@@ -351,7 +351,7 @@ def _check_dvl_track(
     sensors: dict[str, SensorData],
     name: str,
     dvl: scales.Dvl,
-    imu: tuple[axes.AccelTilt, axes.Gyro],
+    views: axes.ImuViews,
 ) -> None:
     """The DVL ``name`` against each GNSS track (its speed) and, with a heading (a heading
     sensor's, or the start's carried by the gyro: :func:`_dvl_heading`), the track's course
@@ -362,11 +362,11 @@ def _check_dvl_track(
         if g.kind != "gnss":
             continue
         if heading is None:
-            heading, by = _dvl_heading(config, sensors, imu, float(np.nanmedian(g.z[:, 0])))
+            heading, by = _dvl_heading(config, sensors, views, float(np.nanmedian(g.z[:, 0])))
         gcfg = config.sensors[gname]
         sigma = float(np.atleast_1d(gcfg.sigma_si())[0])
         track = scales.Track.of(g.t, g.z[:, 0], g.z[:, 1], sigma)
-        speed, turn = scales.dvl_track(track, dvl, *imu, heading)
+        speed, turn = scales.dvl_track(track, dvl, views.tilt(), views.gyro(), heading)
         against = f"the track of sensor {gname!r} ({gcfg.file})"
         if speed is not None and speed.outside(scales.SPEED_BAND):
             lo, hi = scales.SPEED_BAND
@@ -397,7 +397,7 @@ def _check_dvl_track(
 def _dvl_heading(
     config: MissionConfig,
     sensors: dict[str, SensorData],
-    imu: tuple[axes.AccelTilt, axes.Gyro],
+    views: axes.ImuViews,
     lat: float,
 ) -> tuple[tuple[Array, Array] | scales.Heading | None, str]:
     """The heading the DVL's direction is judged by, and its words: the first heading sensor's
@@ -421,7 +421,7 @@ def _dvl_heading(
         f"the start's heading (initial.rpy_deg's yaw {rpy[2]:.1f}° ± {math.degrees(sigma):.2g}°) "
         "carried by the gyro"
     )
-    return scales.carried_yaw(imu[1], imu[0], lat, start), words
+    return scales.carried_yaw(views.gyro(), views.tilt(), lat, start), words
 
 
 def _check_depth_scale(
@@ -429,7 +429,7 @@ def _check_depth_scale(
     sensors: dict[str, SensorData],
     name: str,
     dvl: scales.Dvl,
-    tilt: axes.AccelTilt,
+    views: axes.ImuViews,
 ) -> None:
     """Each depth meter against the DVL ``name``'s vertical velocity: :func:`scales.depth_scale`."""
     dcfg = config.sensors[name]
@@ -437,7 +437,9 @@ def _check_depth_scale(
         cfg = config.sensors[dname]
         if d.kind != "depth" or not cfg.check_scale:
             continue
-        fit = scales.depth_scale(d.t, d.z[:, 0], dvl, tilt, cfg.lever_arm() - dcfg.lever_arm())
+        fit = scales.depth_scale(
+            d.t, d.z[:, 0], dvl, views.tilt(), cfg.lever_arm() - dcfg.lever_arm()
+        )
         if fit is None or not fit.outside(scales.DEPTH_BAND):
             continue
         cause = scales.depth_cause(fit)
