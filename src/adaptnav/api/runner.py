@@ -49,7 +49,7 @@ from adaptnav.mission import (
 )
 from adaptnav.mission.config import with_overrides
 from adaptnav.mission.loader import CONFIG_NAME, build_sensor_model
-from adaptnav.mission.tables import IMU_INCREMENT_COLUMNS, IMU_RATE_COLUMNS
+from adaptnav.mission.tables import imu_columns
 from adaptnav.models import errorstate
 from adaptnav.models.errorstate import ATT, BA, BG, N_STATES, POS, VEL
 from adaptnav.models.imu_noise import ImuNoise
@@ -301,7 +301,7 @@ def check_axes_at_rest(
     found = axes_at_rest(coarse, lat, heading, heading_sigma)
     if found is None:
         return
-    columns = IMU_RATE_COLUMNS if cfg.imu.format == "rates" else IMU_INCREMENT_COLUMNS
+    columns = imu_columns(cfg.imu.format)
     source = given.get("heading_from", "?")
     origin = f" The heading is from {source}." if found[0] == "horizontal" else ""
     field = {

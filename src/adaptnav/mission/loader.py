@@ -40,8 +40,6 @@ from adaptnav.mission.screening import (
     thinned_mask,
 )
 from adaptnav.mission.tables import (
-    IMU_INCREMENT_COLUMNS,
-    IMU_RATE_COLUMNS,
     TIME_COLUMN,
     TRUTH_COLUMNS,
     DroppedRow,
@@ -50,6 +48,7 @@ from adaptnav.mission.tables import (
     Table,
     check_order,
     flag,
+    imu_columns,
     present,
     read_table,
     show,
@@ -298,7 +297,7 @@ def _check_axes(
     found = next(axes.check_axes(views, refs), None)
     if found is None:
         return
-    columns = IMU_RATE_COLUMNS if config.imu.format == "rates" else IMU_INCREMENT_COLUMNS
+    columns = imu_columns(config.imu.format)
     s, sensor = found.at_zero, config.sensors[found.reference]
     if found.instrument == "reference":
         file, column = sensor.file, KINDS[sensor.kind].columns[found.axis]
@@ -503,9 +502,7 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     rates = cfg.format == "rates"
     if len(table) == 0:
         raise MissionError(f"{table.label} (imu): no data rows", file=table.label)
-    t, v, used = take_columns(
-        table, IMU_RATE_COLUMNS if rates else IMU_INCREMENT_COLUMNS, "imu", journal
-    )
+    t, v, used = take_columns(table, imu_columns(cfg.format), "imu", journal)
     check_order(table, t)
     rows = np.flatnonzero(_drop_duplicate_rows(table, t, v, journal))
     if not rates:

@@ -60,6 +60,13 @@ IMU_INCREMENT_COLUMNS = (
     "dvel_y_m_s",
     "dvel_z_m_s",
 )
+
+
+def imu_columns(fmt: str) -> tuple[str, ...]:
+    """The measurement columns of an IMU table of ``imu.format`` ``fmt``."""
+    return IMU_RATE_COLUMNS if fmt == "rates" else IMU_INCREMENT_COLUMNS
+
+
 TRUTH_COLUMNS = (
     "lat_rad",
     "lon_rad",
