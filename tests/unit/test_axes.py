@@ -169,8 +169,8 @@ def test_a_gnss_track_gives_the_course_that_a_flipped_gyro_z_contradicts() -> No
     north = np.cumsum(speed * np.cos(yaw) / RATE_HZ)
     east = np.cumsum(speed * np.sin(yaw) / RATE_HZ)
     tg = m["t"][::100]
-    lat = lat0 + north[::100] / axes.EARTH_RADIUS_M
-    lon = east[::100] / (axes.EARTH_RADIUS_M * math.cos(lat0))
+    lat = lat0 + north[::100] / float(earth.meridian_radius(lat0))
+    lon = east[::100] / (float(earth.transverse_radius(lat0)) * math.cos(lat0))
     tc, chi = axes.course(tg, lat, lon, sigma_m=0.05)
     ref = [axes.Reference("gnss", "course", 2, tc, chi)]
     assert _found(m, ref) == []

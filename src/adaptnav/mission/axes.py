@@ -52,6 +52,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from adaptnav.core import earth
+
 Array = NDArray[np.float64]
 
 MIN_SLOPE = 0.5
@@ -78,9 +80,6 @@ TILT_BLOCK_S = 0.1
 """Length of the blocks the accelerometers are averaged over for their tilt (s)."""
 TILT_GRAVITY = 9.8
 """Gravity the accelerometers' noise is scaled by into an angle (m/s²)."""
-EARTH_RADIUS_M = 6_371_000.0
-"""Radius of the sphere a GNSS track is flattened on for its course (m): a course's scale
-error from it is below 1 %."""
 
 
 @dataclass(frozen=True)
@@ -263,10 +262,10 @@ def best_slope(
 
 
 def flatten(lat: Array, lon: Array) -> tuple[Array, Array]:
-    """North and east (m) of fixes (rad) from the first, on a sphere about it."""
-    north = (lat - lat[0]) * EARTH_RADIUS_M
-    east = (lon - lon[0]) * EARTH_RADIUS_M * math.cos(float(lat[0]))
-    return np.asarray(north, dtype=float), np.asarray(east, dtype=float)
+    """North and east (m) of fixes (rad) from the first, in its local level frame
+    (:func:`adaptnav.core.earth.geodetic_to_ned` at zero height)."""
+    r_n = earth.geodetic_to_ned(lat, lon, 0.0, float(lat[0]), float(lon[0]), 0.0)
+    return np.asarray(r_n[:, 0], dtype=float), np.asarray(r_n[:, 1], dtype=float)
 
 
 def course(t: Array, lat: Array, lon: Array, sigma_m: float) -> tuple[Array, Array]:
@@ -274,7 +273,7 @@ def course(t: Array, lat: Array, lon: Array, sigma_m: float) -> tuple[Array, Arr
 
     Each chord spans readings i to i + m, m the fewest that cover :data:`CHORD_SIGMAS` σ at the
     track's median speed (at most :data:`MAX_CHORD_S`); a chord shorter than that (a stop) has
-    a NaN course. The track is flattened on a sphere about its first fix."""
+    a NaN course. The track is flattened in its first fix's local level frame."""
     ok = np.isfinite(t) & np.isfinite(lat) & np.isfinite(lon)
     t, lat, lon = t[ok], lat[ok], lon[ok]
     if t.size < 3:
