@@ -225,3 +225,20 @@ def test_chords_whose_carried_yaw_is_too_uncertain_do_not_count() -> None:
     assert _carried_turn(tabs, bias_deg_h=600.0) is None
     turn = _carried_turn(tabs, bias_deg_h=60.0)  # 10° at 9.9 min: all but the last chords
     assert turn is not None and turn.turned() and turn.t_to < 600.0
+
+
+def test_the_depth_at_fixes_pairs_only_readings_near_a_fix() -> None:
+    """An AUV that surfaces for fixes between dives: only the readings at the surface count,
+    and an atmosphere left in the readings shows whole (since 0.4.11)."""
+    t = np.arange(0.0, 3600.0, 1.0)
+    dive = 40.0 * np.clip(np.sin(2.0 * np.pi * t / 1200.0), 0.0, None)  # 0 at the surface
+    depth = 0.4 + dive
+    t_fix = t[dive == 0.0] + 0.3  # fixes only while surfaced, stamped 0.3 s after the depth
+    at = scales.depth_at_fixes(t, depth, t_fix, antenna_above_m=1.5)
+    assert at is not None and at.n == t_fix.size
+    assert at.depth_m == pytest.approx(0.4) and at.under_m == pytest.approx(0.4 - 1.5)
+    at = scales.depth_at_fixes(t, depth + scales.ATMOSPHERE_M, t_fix, antenna_above_m=1.5)
+    assert at is not None and at.under_m == pytest.approx(0.4 + 10.08 - 1.5)
+    assert "absolute pressure" in scales.surface_cause(at)
+    far = scales.depth_at_fixes(t[::5], depth[::5], t[::5][dive[::5] == 0.0] + 2.5, 1.5)
+    assert far is None  # no depth reading within a second of any fix

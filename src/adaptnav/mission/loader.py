@@ -196,6 +196,7 @@ def load_mission(path: str | Path) -> Mission:
     if config.imu.check_axes:
         _check_axes(config, views, sensors)
     _check_scales(config, views, sensors)
+    _check_depth_at_fixes(config, {**sensors, **off})
     truth = None
     if config.truth.file is not None:
         tb = table(config.truth.file)
@@ -339,6 +340,34 @@ def _check_scales(
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
         _check_dvl_track(config, sensors, name, dvl, views)
         _check_depth_scale(config, sensors, name, dvl, views)
+
+
+def _check_depth_at_fixes(config: MissionConfig, sensors: dict[str, SensorData]) -> None:
+    """Warn when a depth meter's readings at a GNSS receiver's fixes put its antenna more than
+    :data:`scales.AIR_MARGIN_M` under water (:func:`scales.depth_at_fixes`): an absolute
+    pressure (10 m), or a pressure unit, read as a depth; up to 0.4.10 nothing was said
+    (docs/robustness.md, 'A depth offset at the surface'). A warning, not an error: a USBL
+    configured as a ``gnss`` sensor fixes under water. ``scale_check = false`` skips it."""
+    for name, d in sensors.items():
+        cfg = config.sensors[name]
+        if d.kind != "depth" or not cfg.check_scale:
+            continue
+        for gname, g in sensors.items():
+            if g.kind != "gnss":
+                continue
+            above = float(cfg.lever_arm()[2] - config.sensors[gname].lever_arm()[2])
+            at = scales.depth_at_fixes(d.t, d.z[:, 0], g.t, max(above, 0.0))
+            if at is None or at.under_m <= scales.AIR_MARGIN_M:
+                continue
+            log.warning(
+                "%s: sensor %r reads %.3g m (median) at %d fixes of sensor %r (%s) from t = "
+                "%.1f to %.1f s, which puts its antenna %.3g m under water by the lever arms; a "
+                "GNSS receiver fixes only above it: %s If %r is a USBL, or the depth right, "
+                "set [sensors.%s] scale_check = false (docs/robustness.md, 'A depth offset at "
+                "the surface')",
+                cfg.file, name, at.depth_m, at.n, gname, config.sensors[gname].file,
+                at.t_from, at.t_to, at.under_m, scales.surface_cause(at), gname, name,
+            )  # fmt: skip
 
 
 SCALE_FIX = "Fix the table, or, if it is right, set [sensors.{}] scale_check = false"

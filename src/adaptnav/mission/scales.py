@@ -454,3 +454,68 @@ def turn_cause(fit: Fit, carried: bool = False) -> str:
     if carried:
         return "the DVL's mounting_rpy_deg (its yaw) not set, or initial.rpy_deg's yaw off?"
     return "the DVL's mounting_rpy_deg (its yaw) not set, or the heading sensor's north off?"
+
+
+ATMOSPHERE_M = 10.08
+"""One standard atmosphere (101.325 kPa) in metres of sea water (1025 kg/m³, 9.81 m/s²): what
+a depth meter that reads absolute pressure shows at the surface."""
+AIR_MARGIN_M = 2.0
+"""How far under the water a GNSS antenna may seem by the depth at its fixes before the depth
+is doubted (m): waves, pitch and a lever arm measured roughly."""
+FIX_PAIR_S = 1.0
+"""Largest time between a fix and the depth reading paired with it (s)."""
+MIN_FIXES = 20
+"""Fewest paired fixes the check needs."""
+
+
+@dataclass(frozen=True)
+class AtFixes:
+    """A depth meter's median reading ``depth_m`` (m, as read) at ``n`` GNSS fixes over
+    ``t_from``-``t_to``, and how far that puts the antenna under water, ``under_m``."""
+
+    depth_m: float
+    under_m: float
+    n: int
+    t_from: float
+    t_to: float
+
+
+def depth_at_fixes(
+    t_depth: Array, depth: Array, t_fix: Array, antenna_above_m: float
+) -> AtFixes | None:
+    """The depth read at a GNSS receiver's fixes: a receiver fixes only with its antenna above
+    the water, so the depth meter then reads at most ``antenna_above_m``, the antenna's height
+    above it (body z of the meter less the antenna's, lever arms FRD, level vehicle). Each fix is
+    paired with the nearest depth reading within :data:`FIX_PAIR_S`; ``under_m`` is the median
+    reading less ``antenna_above_m``. None: fewer than :data:`MIN_FIXES` pairs
+    (docs/robustness.md, 'A depth offset at the surface')."""
+    ok = np.isfinite(t_depth) & np.isfinite(depth)
+    t_depth, depth = t_depth[ok], depth[ok]
+    t_fix = t_fix[np.isfinite(t_fix)]
+    if t_depth.size == 0 or t_fix.size < MIN_FIXES:
+        return None
+    j = np.clip(np.searchsorted(t_depth, t_fix), 1, max(t_depth.size - 1, 1))
+    j = np.where(np.abs(t_depth[j - 1] - t_fix) <= np.abs(t_depth[j] - t_fix), j - 1, j)
+    j = np.minimum(j, t_depth.size - 1)
+    near = np.abs(t_depth[j] - t_fix) <= FIX_PAIR_S
+    if np.count_nonzero(near) < MIN_FIXES:
+        return None
+    d = float(np.median(depth[j[near]]))
+    t = t_fix[near]
+    return AtFixes(d, d - antenna_above_m, int(near.sum()), float(t[0]), float(t[-1]))
+
+
+def surface_cause(at: AtFixes) -> str:
+    """What a depth that puts a GNSS antenna under water points to, in words."""
+    above = max(at.depth_m - at.under_m, 0.0)  # at the surface it reads 0 to this
+    if 0.75 * ATMOSPHERE_M <= at.depth_m <= 1.25 * ATMOSPHERE_M + above:
+        return (
+            f"is the depth an absolute pressure (one atmosphere, about {ATMOSPHERE_M:.1f} m of "
+            "sea water, left in), or in kPa (about 10 per metre)? If the atmosphere, take it "
+            "off the table's depths (with heights from the depth alone, surface_h_m = "
+            f"{ATMOSPHERE_M:.1f} does the same)."
+        )
+    return (
+        "is the depth a pressure (in kPa: about 10 per metre; absolute: 101 kPa at the "
+        "surface), offset, or are the lever arms wrong?"
+    )
