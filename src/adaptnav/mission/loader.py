@@ -193,10 +193,7 @@ def load_mission(path: str | Path) -> Mission:
             sensors[name] = data
     noise = config.imu.noise.to_imu_noise()
     views = axes.ImuViews(imu.t, imu.dt, imu.dtheta, imu.dvel, (noise.arw, noise.vrw))
-    if config.imu.check_axes:
-        _check_axes(config, views, sensors)
-    _check_scales(config, views, sensors)
-    _check_depth_at_fixes(config, {**sensors, **off})
+    cross_check(config, views, sensors, off)
     truth = None
     if config.truth.file is not None:
         tb = table(config.truth.file)
@@ -265,6 +262,26 @@ def _check_time_span(imu: ImuData, data: SensorData, cfg: SensorConfig) -> None:
         file=cfg.file,
         imu_span=(imu.start, float(imu.t[-1])),
     )
+
+
+def cross_check(
+    config: MissionConfig,
+    views: axes.ImuViews,
+    sensors: dict[str, SensorData],
+    off: dict[str, SensorData] | None = None,
+) -> None:
+    """The cross-checks of the IMU's axes (unless ``imu.axis_check = false``) and of the DVL's
+    and depth's scales (per sensor ``scale_check``) against the aiding sensors: a MissionError
+    naming the file and column of the first finding (docs/robustness.md, 'IMU axes', 'DVL and
+    depth scales'); then the warning of a depth read under water at GNSS fixes, whose fixes
+    count from ``off`` sensors too ('A depth offset at the surface'). :func:`load_mission`
+    calls it on the whole mission; a stream on its first window (mission/live_cross.py,
+    docs/streaming.md, 'Cross-checks'), ``views`` then built from 0.1-s block sums of the
+    IMU."""
+    if config.imu.check_axes:
+        _check_axes(config, views, sensors)
+    _check_scales(config, views, sensors)
+    _check_depth_at_fixes(config, {**sensors, **(off or {})})
 
 
 def _axis_references(config: MissionConfig, sensors: dict[str, SensorData]) -> list[axes.Reference]:
