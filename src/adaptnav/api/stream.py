@@ -47,6 +47,7 @@ from adaptnav.mission import (
     load_config,
 )
 from adaptnav.mission.live import LiveScreen, Reading
+from adaptnav.mission.live_cross import CrossWatch
 from adaptnav.mission.live_imu import ImuWatch
 from adaptnav.mission.loader import CONFIG_NAME, MAX_ACCEL_M_S2, MAX_GYRO_RAD_S, true_north
 from adaptnav.mission.tables import DroppedRow
@@ -62,6 +63,10 @@ IMU = "imu"
 """The sensor name of IMU items (:class:`Item`)."""
 START_EPS_S = 1e-9
 """IMU samples stamped within this of the start are the alignment's (api.runner.run)."""
+CROSS_CHECK_S = 600.0
+"""The default time after the start (the alignment window's end, when the stream aligns) over
+which a stream gathers what the loader's cross-checks of the IMU's axes and the DVL's and
+depth's scales read, then makes them (s; docs/streaming.md, 'Cross-checks')."""
 
 
 class Item(NamedTuple):
@@ -89,7 +94,16 @@ class Stream:
             state from the first IMU interval's start, or the static alignment over the first
             ``alignment_s`` of IMU samples pushed.
         on_row: called with each solution row as it is determined (besides being returned).
+        cross_check_s: the seconds after the start (the alignment window's end when the stream
+            aligns) whose IMU (as 0.1-s block sums) and aiding readings are kept for the
+            loader's cross-checks of the IMU's axes and the DVL's and depth's scales, made once
+            they have passed (or at :meth:`close`, if sooner); a finding refuses the stream
+            (MissionError, docs/streaming.md, 'Cross-checks'). 0: not made; ``math.inf``: made
+            at :meth:`close` on everything.
     """
+
+    _refused: MissionError | None = None
+    """The cross-checks' finding, once made: every push after it is refused with it."""
 
     def __init__(
         self,
@@ -100,6 +114,7 @@ class Stream:
         epoch_policy: engine.EpochPolicy | None = None,
         initial: tuple[ArrayLike, ArrayLike, float] | None = None,
         on_row: Callable[[Row], None] | None = None,
+        cross_check_s: float = CROSS_CHECK_S,
     ) -> None:
         cfg, periods, self._root = _configuration(mission)
         s = settings if settings is not None else cfg.filter_settings()
@@ -140,6 +155,7 @@ class Stream:
         self._extra: list[dict[str, Any]] = []
         self._imu: deque[tuple[float, float, Array, Array]] = deque()
         self._watch = ImuWatch(cfg.imu)
+        self._cross = _cross_watch(cfg, periods, cross_check_s, aligning=initial is None)
         self._t_imu = -math.inf
         self._imu_start = math.nan
         """The start of the first IMU interval pushed (the batch run's ``ImuData.start``)."""
@@ -185,8 +201,12 @@ class Stream:
         where the loader would refuse the samples so far (:class:`ImuWatch`). A ``dt`` shorter
         than the time since the previous sample is stretched over the hole, as the loader
         stretches a row after lost ones (docs/streaming.md, 'IMU checks'). A sample stamped at
-        or before a given ``initial``'s t0 is skipped (docs/streaming.md)."""
+        or before a given ``initial``'s t0 is skipped (docs/streaming.md). Since 0.4.11 the
+        first sample past the cross-checks' window (``cross_check_s``) is refused with their
+        finding, if any (MissionError), and so is every push after it (docs/streaming.md,
+        'Cross-checks')."""
         self._check_open()
+        self._check_refused()
         tt = float(t)
         step = float(dt) if dt is not None else tt - self._t_imu
         if not math.isfinite(self._t_imu) and dt is None:
@@ -200,6 +220,9 @@ class Stream:
             )
         if not math.isfinite(float(dth.sum() + dv.sum())):  # a NaN or inf anywhere: NaN or inf
             raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
+        due = self._cross.due_at  # inf until known and once judged: one comparison a push
+        if tt - self._lag > due and self._hold > due:
+            self._judge(f"IMU sample t = {tt!r} s")  # the window's data are all in
         self._check_imu(tt, step, dth, dv)
         if step * (1.0 + 1e-9) < tt - self._t_imu < math.inf:
             # A hole before the interval: samples lost. Stretched over it at a constant rate,
@@ -207,6 +230,8 @@ class Stream:
             # the hole, the motion in it lost (up to 0.4.9).
             r = (tt - self._t_imu) / step
             dth, dv, step = dth * r, dv * r, tt - self._t_imu
+        if not self._cross.done:
+            self._cross.imu(tt, step, dth, dv)
         self._t_imu = tt
         if math.isnan(self._imu_start):
             self._imu_start = tt - step
@@ -246,6 +271,7 @@ class Stream:
         reading of the wrong size or a ``row`` that is not an integer >= 0 (to 0.4.7 -1 and 2.7
         were taken, the latter as 2)."""
         self._check_open()
+        self._check_refused()
         if sensor not in self._screens:
             raise KeyError(f"unknown sensor {sensor!r}; configured: {list(self._screens)}")
         if not math.isfinite(float(t)):  # it would hold its sensor's later readings back
@@ -278,7 +304,9 @@ class Stream:
         """End the stream: the screens release or drop what they held, the IMU samples still
         buffered are integrated, readings stamped after the last IMU sample are dropped (ledger)
         and the run's :class:`~adaptnav.api.results.Result` is returned (also :attr:`result`).
-        A stream that never started (alignment window not covered) is a MissionError."""
+        A stream that never started (alignment window not covered) is a MissionError; so is a
+        finding of the cross-checks when the stream ended before their window did (they are
+        made here, on what came; a second close() returns the run)."""
         if self.result is not None:
             return self.result
         for name, screen in self._screens.items():
@@ -293,6 +321,8 @@ class Stream:
                 f"(initial.alignment_s = {self.config.initial.alignment_s:g} s)",
                 file=CONFIG_NAME,
             )
+        if not self._cross.done and self._refused is None:
+            self._judge("the stream's close()")  # shorter than its window: judged on what came
         self._feed_imu(math.inf)
         nav.flush()
         self.result = self._result(nav.output())
@@ -311,11 +341,36 @@ class Stream:
         if self.result is not None:
             raise RuntimeError("the stream is closed")
 
+    def _check_refused(self) -> None:
+        if (r := self._refused) is not None:  # a fresh error: re-raising one grows its traceback
+            raise MissionError(str(r), file=r.file, line=r.line, field=r.field)
+
+    def _judge(self, at: str) -> None:
+        """The loader's cross-checks on the window's data (:class:`CrossWatch`); a finding is
+        the loader's MissionError prefixed with where the stream stands, and refuses the stream
+        from then on (docs/streaming.md, 'Cross-checks')."""
+        found = self._cross.verdict()
+        if found is None:
+            return
+        span = min(self._cross.window_s, self._t_imu - self._cross.start)
+        self._refused = MissionError(
+            f"{at}: the cross-checks over the stream's first {span:.6g} s: {found} Refused, and "
+            "so is every push after it: the rows so far were computed with it; close() gives the "
+            "run so far (docs/streaming.md, 'Cross-checks')",
+            file=found.file,
+            line=found.line,
+            field=found.field,
+        )
+        self._check_refused()
+
     def _route(self, sensor: str, released: list[Reading], dropped: list[DroppedRow]) -> None:
         """Each screened reading to its fate: dropped at the screen, of a sensor off or used to
         initialise (a GNSS sensor's fixes kept for the alignment), before the start, or queued."""
         self._extra += [runner.ledger_row(d.sensor, d.row, d.t, d.reason) for d in dropped]
         use = self.config.sensors[sensor].use
+        if not self._cross.done:
+            for r in released:
+                self._cross.reading(sensor, r)
         for r in released:
             if sensor in self._at_rest and self._nav is None:
                 self._at_rest[sensor].append(r)
@@ -499,6 +554,19 @@ def _configuration(
             )
         periods[n] = 1.0 / c.rate_hz
     return cfg, periods, root
+
+
+def _cross_watch(
+    cfg: MissionConfig, periods: dict[str, float], after_s: float, *, aligning: bool
+) -> CrossWatch:
+    """The cross-checks' window: ``after_s`` from the start, counted from the alignment window's
+    end when the stream aligns (at rest nothing turns, so nothing decides: the simulated
+    missions' 600 s alongside, docs/streaming.md, 'Cross-checks'). ValueError for a negative
+    or NaN ``after_s``."""
+    if not after_s >= 0.0:
+        raise ValueError(f"cross_check_s = {after_s!r}: seconds >= 0 (0: no cross-checks)")
+    lead = cfg.initial.alignment_s if aligning and cfg.initial.mode == "alignment" else 0.0
+    return CrossWatch(cfg, periods, lead + after_s if after_s > 0.0 else 0.0)
 
 
 def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:
