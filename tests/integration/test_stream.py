@@ -424,3 +424,24 @@ def test_lost_samples_with_dt_given_are_stretched_as_the_loader(
     assert a.shape == b.shape
     scale = np.maximum(np.nanmax(np.abs(b), axis=0), 1e-300)
     assert np.all(np.abs(a - b) <= 1e-9 * scale)
+
+
+def test_a_caller_that_reuses_one_buffer_gets_the_batch_run(mission: Mission) -> None:
+    """A driver fills one preallocated array per message and hands it over: the stream must
+    keep the values, not the array (up to 0.4.10 it kept the array for the samples it held,
+    those of the alignment window among them, and aligned on the last values written)."""
+    batch = api.run(mission, "robust")
+    buf, rows = np.empty(6), []
+    with Stream(mission, "robust") as stream:
+        for item in replay(mission):
+            n = item.z.size
+            buf[:n] = item.z
+            if item.sensor == "imu":
+                rows += stream.push_imu(item.t, buf[:3], buf[3:6], item.dt)
+            else:
+                rows += stream.push(item.sensor, item.t, buf[:n], row=item.row)
+            buf[:] = np.nan  # the driver's next message overwrites it
+    a, b = pd.DataFrame(rows).to_numpy(), batch.solution.to_numpy()
+    assert a.shape == b.shape
+    scale = np.maximum(np.nanmax(np.abs(b), axis=0), 1e-300)
+    assert np.all(np.abs(a - b) <= 1e-9 * scale)

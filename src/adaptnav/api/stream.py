@@ -211,8 +211,9 @@ class Stream:
         step = float(dt) if dt is not None else tt - self._t_imu
         if not math.isfinite(self._t_imu) and dt is None:
             step = 1.0 / self.config.imu.rate_hz
-        dth = np.asarray(dtheta, dtype=float).reshape(3)
-        dv = np.asarray(dvel, dtype=float).reshape(3)
+        # Copies: a driver may hand over one buffer it refills, and samples are held.
+        dth = np.array(dtheta, dtype=float).reshape(3)
+        dv = np.array(dvel, dtype=float).reshape(3)
         if not (tt > self._t_imu and step > 0.0 and math.isfinite(tt + step)):
             raise ValueError(
                 f"IMU sample t = {tt!r} s, dt = {step!r} s: the stamp must be finite and after "
@@ -279,7 +280,7 @@ class Stream:
         cfg = self.config.sensors[sensor]
         if cfg.use == "aid" and sensor not in self._aiding:
             raise KeyError(f"sensor {sensor!r} has no channel: the mission has no readings of it")
-        zz = np.atleast_1d(np.asarray(z, dtype=float))
+        zz = np.atleast_1d(np.array(z, dtype=float))  # a copy: readings are held
         if zz.shape != (cfg.dim,):
             raise ValueError(f"{sensor}: a reading has {cfg.dim} value(s) {cfg.columns}, got {zz}")
         if row is not None and (isinstance(row, bool) or not isinstance(row, int | np.integer)
