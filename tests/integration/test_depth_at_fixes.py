@@ -11,6 +11,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from adaptnav.api.stream import Stream, replay
 from adaptnav.mission import load_mission
 
 
@@ -65,3 +66,25 @@ def test_a_depth_in_kpa_on_a_surface_vessel_is_warned_about(
         load_mission(root)
     (line,) = _warned(caplog)
     assert "in kPa" in line, line
+
+
+def test_a_stream_warns_of_it_too_without_a_dvl(
+    demo: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A stream makes the check with its other cross-checks over its first window
+    (docs/streaming.md, 'Cross-checks'), even with no DVL beside the depth meter."""
+    root = _depth_times(demo, tmp_path, add=10.08)
+    toml = root / "mission.toml"
+    text = toml.read_text()
+    i = text.index('use = "aid"', text.index("[sensors.dvl]"))
+    toml.write_text(text[:i] + 'use = "off"' + text[i + len('use = "aid"') :])
+    mission = load_mission(root)
+    caplog.clear()
+    with (
+        caplog.at_level(logging.WARNING, logger="adaptnav.mission"),
+        Stream(mission, "robust") as stream,
+    ):
+        for item in replay(mission):
+            stream.push_item(item)
+    (line,) = _warned(caplog)
+    assert "sensor 'depth' reads 11.3 m" in line, line

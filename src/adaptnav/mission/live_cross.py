@@ -58,7 +58,14 @@ def _checked(config: MissionConfig) -> dict[str, str]:
     axis = config.imu.check_axes and any(k in AXIS_KINDS for k in on.values())
     dvl = any(k == "dvl" and config.sensors[n].check_scale for n, k in on.items())
     scale = dvl and any(k in ("gnss", "depth") for k in on.values())
-    kinds = (AXIS_KINDS if axis else ()) + (SCALE_KINDS if scale else ())
+    # A depth read under water at GNSS fixes (loader._check_depth_at_fixes), DVL or not.
+    depth = "gnss" in on.values() and any(
+        k == "depth" and config.sensors[n].check_scale for n, k in on.items()
+    )
+    kinds = (
+        (AXIS_KINDS if axis else ()) + (SCALE_KINDS if scale else ())
+        + (("depth", "gnss") if depth else ())
+    )  # fmt: skip
     return {n: k for n, k in on.items() if k in kinds}
 
 
