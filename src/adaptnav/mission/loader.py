@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from adaptnav.core import attitude
 from adaptnav.core.units import G0
-from adaptnav.mission import axes, scales
+from adaptnav.mission import axes, clocks, scales
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
@@ -303,13 +303,59 @@ def _axis_references(config: MissionConfig, sensors: dict[str, SensorData]) -> l
     return refs
 
 
+def _check_clocks(
+    config: MissionConfig,
+    views: axes.ImuViews,
+    sensors: dict[str, SensorData],
+    refs: list[axes.Reference],
+) -> None:
+    """A MissionError naming the sensor's file and t_s when its angle follows the gyro's
+    decisively better at an offset beyond max(1 s, two of its periods) than at its stamps as
+    they are (mission/clocks.py; docs/robustness.md, 'Sensor clocks'); a logged warning when
+    the offset lies beyond 1 s but within two periods. Since 0.4.11."""
+    for ref in refs:
+        found = clocks.clock_offset(views.gyro(ref.c_sb), ref.axis, ref.t, ref.value)
+        if found is None or not found.decisive() or abs(found.offset_s) <= axes.MAX_LAG_S:
+            continue
+        cfg = config.sensors[ref.name]
+        words = _clock_words(ref, found, cfg.latency_s or 0.0)
+        if not found.beyond(sensors[ref.name].period):
+            log.warning("%s: %s", cfg.file, words)
+            continue
+        raise MissionError(
+            f"{cfg.file}: {words} If the stamps are right, set imu.axis_check = false "
+            "(docs/robustness.md, 'Sensor clocks')",
+            file=cfg.file,
+            field=TIME_COLUMN,
+        )
+
+
+def _clock_words(ref: axes.Reference, found: clocks.ClockOffset, latency_s: float) -> str:
+    """What :func:`_check_clocks` says of ``ref``'s offset, and the fix."""
+    tau, gyro = found.offset_s, "xyz"[ref.axis]
+    when = "after" if tau > 0.0 else "before"
+    return (
+        f"the stamps of sensor {ref.name!r} lie {abs(tau):.1f} ± {found.se_s:.1f} s {when} its "
+        f"readings were taken: its {ref.angle} follows the gyro's {gyro} axis at that offset "
+        f"(slope {found.k:.3g}, 1 expected); at its stamps as they are, with that slope, the "
+        f"residual variance is {found.ratio:.3g} times as large, {found.share:.2g} × the "
+        f"rotation's variance more (likelihood ratio {found.log_lr:.0f}; the slope fitted there "
+        f"{found.k_zero:.3g}), from t = {ref.t[0]:.1f} to {ref.t[-1]:.1f} s. Set latency_s = "
+        f"{latency_s + tau:.1f} in [sensors.{ref.name}] (now {latency_s:g}), or set the "
+        "logger's clock right."
+    )
+
+
 def _check_axes(
     config: MissionConfig, views: axes.ImuViews, sensors: dict[str, SensorData]
 ) -> None:
     """A MissionError naming the IMU file and column (or the aiding sensor's, when the gyro and
     the accelerometers agree against it) if a gyro axis, or the accelerometers' levelling, does
-    not turn with an aiding sensor's angle (mission/axes.py; docs/robustness.md, 'IMU axes')."""
+    not turn with an aiding sensor's angle (mission/axes.py; docs/robustness.md, 'IMU axes').
+    The sensors' clocks first (:func:`_check_clocks`): an angle that follows the gyro's seconds
+    late is not a swapped axis."""
     refs = _axis_references(config, sensors)
+    _check_clocks(config, views, sensors, refs)
     if not refs:
         return
     found = next(axes.check_axes(views, refs), None)

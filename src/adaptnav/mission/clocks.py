@@ -1,0 +1,261 @@
+"""A sensor's clock against the IMU's: the time offset of an aiding sensor that sees rotation.
+
+A heading sensor whose stamps are 18 s after its readings were taken (a logger's clock set
+apart, a latency not written in ``latency_s``) passes the IMU-axes check (mission/axes.py): it
+tries lags within ±1 s only, and a vehicle that turns slowly still shows most of the
+reference's rotation at lag 0. The filter then takes an 18-s-old yaw as the present one
+(docs/robustness.md, 'Sensor clocks'). The same angle changes that judge an axis date the
+sensor: over a wide range of lags τ (±:data:`MAX_OFFSET_S`), the reference's angle changes are
+fitted on the gyro's taken τ earlier,
+
+    a_k = k b_k(τ) + c,        b_k(τ) = θ(g_{k+1} - τ) - θ(g_k - τ),
+
+on a uniform grid g of step h (the reference's period, between the IMU's and
+:data:`MAX_STEP_S`; the reference's angle, unwrapped, interpolated linearly onto it), θ the
+gyro's integral about the reference's axis (:class:`adaptnav.mission.axes.Gyro`), c a constant
+gyro bias. τ > 0: the reference's stamps are late by τ (its reading at stamp t was taken at
+t - τ, what ``latency_s = τ`` takes off). Every sum of the least-squares fit at every lag,
+Σ a b(τ), Σ b(τ)², Σ b(τ), Σ a², Σ a and the count over the intervals both sides cover, is a
+cross-correlation of a reference-side series with an IMU-side one, so all the lags cost six
+FFT correlations (NumPy's real FFT) instead of a fit per lag. The residual
+variance ``s²(τ) = RSS(τ) / (N(τ) - 2)`` is least at the offset; a parabola through its three
+grid values about the least one places it between grid points.
+
+The offset's σ is the nonlinear least squares' (Gauss-Newton): ``σ_τ² = 2 s² / RSS''(τ̂)``,
+RSS'' from the same parabola, times ``N / N_eff``, where ``N_eff = N (1 - ρ) / (1 + ρ)`` counts
+the independent residuals (ρ their lag-one correlation, if positive: a GNSS course interpolated
+between chords is correlated over a chord), and at least the grid's own ``h / √12``.
+
+The decision (:meth:`ClockOffset.decisive`) asks the offset to beat lag 0 decisively, since a
+wave's roll repeats every period and so gives a fit nearly as good one period away:
+
+* the variance ratio ``V = s²(0) / s²(τ̂) ≥`` :data:`MIN_RATIO` (the offset explains at least
+  half of what lag 0 leaves), and the likelihood ratio ``N_eff ln V ≥`` :data:`MIN_LOG_LR`
+  (χ²(1) beyond 5.5 σ, so that even after the ~10³ lags tried chance stays below 1e-4); a right
+  sensor has its least variance at lag 0 and V ≤ 1 at a wave's period;
+* the slope at the offset a right axis's: ``k`` within :data:`SLOPE_BAND` (a flipped or swapped
+  axis is the axis check's finding, not a clock's);
+* ``|τ̂| >`` :data:`CONFIDENCE` ``σ_τ``.
+
+The loader refuses such an offset when it lies beyond ``max(1 s, 2 periods)`` of the sensor
+(:meth:`ClockOffset.beyond`); within, it is a latency the axis check allows for, and a warning.
+
+Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls
+:func:`clock_offset` for each reference of the axis check and raises the MissionError.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptnav.mission import axes
+
+Array = NDArray[np.float64]
+
+MAX_OFFSET_S = 60.0
+"""Widest offset looked for either way (s): the configuration's bound on ``latency_s``."""
+MAX_STEP_S = 1.0
+"""Widest spacing of the lags tried (s): a grid coarser than that (a GNSS course between chords
+tens of seconds apart) is tried at phases this far apart."""
+GAP_PERIODS = 3.0
+"""A grid interval within a gap of the reference's readings longer than this many of its
+periods is left out (its interpolated change would be a ramp)."""
+MIN_SHARE = 0.25
+"""Least share of the reference's rotation (its variance over the grid's intervals at the
+offset, ``k² Σ (b - b̄)² / N``) that lag 0 leaves unexplained beyond what the offset does."""
+MIN_LOG_LR = 30.0
+"""Least likelihood ratio statistic ``N_eff ln V`` (χ²(1): one-sided p ≈ 2e-8)."""
+SLOPE_BAND = (0.8, 1.25)
+"""Slopes of a right axis: a compass's deviation, a drift angle, a pendulum's response."""
+CONFIDENCE = 4.0
+"""σ's the offset must lie from zero."""
+MIN_PERIODS = 2.0
+"""An offset within this many of the sensor's periods (or within ±1 s) is not refused."""
+
+
+@dataclass(frozen=True)
+class ClockOffset:
+    """A reference's time offset ``offset_s`` ± ``se_s`` against the IMU (> 0: its stamps are
+    late), the slope ``k`` there and ``k_zero`` at lag 0, the residual variance ratio ``ratio``
+    (lag 0 over the offset), the intervals ``n`` and ``n_eff`` of them independent."""
+
+    offset_s: float
+    se_s: float
+    k: float
+    k_zero: float
+    ratio: float
+    share: float
+    n: int
+    n_eff: float
+
+    @property
+    def log_lr(self) -> float:
+        """``N_eff ln V``: the likelihood ratio statistic of the offset against lag 0."""
+        return self.n_eff * math.log(max(self.ratio, 1e-300))
+
+    def decisive(self) -> bool:
+        """The offset beats lag 0 decisively at a right axis's slope (module docstring)."""
+        lo, hi = SLOPE_BAND
+        return (
+            self.share >= MIN_SHARE
+            and self.log_lr >= MIN_LOG_LR
+            and lo <= self.k <= hi
+            and abs(self.offset_s) > CONFIDENCE * self.se_s
+        )
+
+    def beyond(self, period_s: float) -> bool:
+        """The offset lies beyond ``max(axes.MAX_LAG_S, MIN_PERIODS × period_s)``."""
+        return abs(self.offset_s) > max(axes.MAX_LAG_S, MIN_PERIODS * period_s)
+
+
+@dataclass(frozen=True)
+class _Reference:
+    """The reference's changes ``a`` over a grid from ``t0`` by ``step`` (its period), ``m`` 1
+    where they count (0 over a gap)."""
+
+    t0: float
+    step: float
+    a: Array
+    m: Array
+
+    @classmethod
+    def of(cls, t: Array, angle: Array, imu_dt: float) -> _Reference:
+        """The readings ``angle`` at ``t``, unwrapped, interpolated linearly onto the grid."""
+        period = float(np.median(np.diff(t)))
+        step = max(period, imu_dt)
+        unwrapped = angle[0] + np.concatenate([[0.0], np.cumsum(axes.wrap(np.diff(angle)))])
+        g = t[0] + step * np.arange(int((t[-1] - t[0]) / step) + 1)
+        a = np.diff(np.interp(g, t, unwrapped))
+        # The reading interval that holds each grid interval's end: a long one is a gap.
+        i = np.clip(np.searchsorted(t, g[1:]), 1, t.size - 1)
+        m = (t[i] - t[i - 1] <= GAP_PERIODS * period).astype(float)
+        return cls(float(t[0]), step, a * m, m)
+
+    def imu(self, t: Array, theta: Array, tau: float, lags: int = 0) -> tuple[Array, Array]:
+        """The IMU's changes over the grid's intervals taken ``tau`` earlier, the grid extended
+        by ``lags`` steps either way, and 1 where the IMU covers them."""
+        ge = self.t0 - tau + self.step * np.arange(-lags, self.a.size + 1 + lags)
+        inside = (ge >= t[0]) & (ge <= t[-1])
+        covered = (inside[1:] & inside[:-1]).astype(float)
+        return np.diff(np.interp(ge, t, theta)) * covered, covered
+
+
+@dataclass(frozen=True)
+class _Scan:
+    """At each lag ``tau`` (s, ascending, evenly spaced) the count N and the centred sums
+    Σ (a - ā)², Σ (a - ā)(b - b̄), Σ (b - b̄)² of the fit ``a = k b + c``."""
+
+    tau: Array
+    n: Array
+    saa: Array
+    sab: Array
+    sbb: Array
+
+    @classmethod
+    def of(cls, ref: _Reference, t: Array, theta: Array, max_offset_s: float) -> _Scan:
+        """Every lag j h + φ within ±``max_offset_s``: per phase φ (a grid coarser than
+        :data:`MAX_STEP_S`, a GNSS course's, is tried at phases that far apart) six
+        correlations over the lags j."""
+        lags = math.ceil(max_offset_s / ref.step)
+        phases = math.ceil(ref.step / MAX_STEP_S - 1e-9)
+        x = np.stack([ref.a, ref.a**2, ref.a, ref.m, ref.m, ref.m])
+        rows = []
+        for p in range(phases):
+            phase = p * ref.step / phases
+            b, mi = ref.imu(t, theta, phase, lags)
+            sums = _correlate(x, np.stack([b, mi, mi, mi, b, b**2]))[:, ::-1]
+            tau = phase + ref.step * np.arange(-lags, lags + 1)
+            rows.append(np.vstack([tau, sums]))
+        tau, sab, saa, sa, n, sb, sbb = np.hstack(rows)[:, np.argsort(np.hstack(rows)[0])]
+        keep = np.abs(tau) <= max_offset_s
+        n = np.round(n)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            centred = (n, saa - sa**2 / n, sab - sa * sb / n, sbb - sb**2 / n)
+        return cls(tau[keep], *(v[keep] for v in centred))
+
+
+def _correlate(x: Array, y: Array) -> Array:
+    """``out[:, s] = Σ_q x[:, q] y[:, q + s]`` for s = 0 .. y's length - x's (row by row): the
+    circular correlation of a real FFT as long as y (a power of two), where no product wraps.
+    Reversed, index ``lags + j`` pairs reference interval q with the IMU's q - j."""
+    size = 1 << (y.shape[1] - 1).bit_length()
+    spectrum = np.conj(np.fft.rfft(x, size, axis=1)) * np.fft.rfft(y, size, axis=1)
+    return np.asarray(np.fft.irfft(spectrum, size, axis=1)[:, : y.shape[1] - x.shape[1] + 1])
+
+
+def clock_offset(
+    gyro: axes.Gyro, axis: int, t: Array, angle: Array, max_offset_s: float = MAX_OFFSET_S
+) -> ClockOffset | None:
+    """The time offset of the readings ``angle`` (rad) at ``t`` against the gyro's ``axis``
+    (module docstring). None: too few readings, or at lag 0 the fit undecided (the IMU's
+    changes not :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times their own noise: a vehicle
+    that does not turn has no clock to read)."""
+    ok = np.isfinite(t) & np.isfinite(angle)
+    t, angle = t[ok], angle[ok]
+    if t.size <= axes.MIN_INTERVALS:
+        return None
+    ref = _Reference.of(t, angle, float(gyro.t[-1] - gyro.t[0]) / max(gyro.t.size - 1, 1))
+    theta = np.ascontiguousarray(gyro.theta[:, axis])  # one copy of the column, not one a phase
+    scan = _Scan.of(ref, gyro.t, theta, max_offset_s)
+    n, saa, sab, sbb = scan.n, scan.saa, scan.sab, scan.sbb
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = sab / sbb
+        rss = np.maximum(saa - sab * k, 0.0)
+    noise = gyro.arw**2 * ref.step
+    valid = (n >= max(axes.MIN_INTERVALS, 0.5 * float(ref.m.sum()))) & (
+        sbb > axes.SIGNAL_FACTOR * noise * n
+    )
+    zero = int(np.argmin(np.abs(scan.tau)))
+    if not valid[zero]:
+        return None
+    var = np.where(valid, rss / np.maximum(n - 2.0, 1.0), np.inf)
+    j = int(np.argmin(var))
+    shift, curvature = _parabola(rss, j)
+    h = float(scan.tau[1] - scan.tau[0]) if scan.tau.size > 1 else ref.step
+    n_eff = _n_eff(ref, gyro.t, theta, float(scan.tau[j]), float(k[j]))
+    sigma2 = float(rss[j]) / max(float(n[j]) - 3.0, 1.0)
+    se = math.sqrt(2.0 * sigma2 / curvature) * h if curvature > 0.0 else math.inf
+    se = max(se * math.sqrt(float(n[j]) / n_eff), h / math.sqrt(12.0))
+    # Lag 0 judged as a right sensor would be there: with the slope found at the offset.
+    rss0 = float(saa[zero] - 2.0 * k[j] * sab[zero] + k[j] ** 2 * sbb[zero])
+    var0 = rss0 / max(float(n[zero]) - 1.0, 1.0)
+    signal = float(k[j] ** 2 * sbb[j] / n[j])
+    return ClockOffset(
+        offset_s=float(scan.tau[j]) + shift * h,
+        se_s=se,
+        k=float(k[j]),
+        k_zero=float(k[zero]),
+        ratio=var0 / float(var[j]) if var[j] > 0.0 else math.inf,
+        share=(var0 - float(var[j])) / signal if signal > 0.0 else 0.0,
+        n=int(n[j]),
+        n_eff=n_eff,
+    )
+
+
+def _parabola(rss: Array, j: int) -> tuple[float, float]:
+    """The vertex's shift (grid steps) of the parabola through ``rss`` at j - 1, j, j + 1, and
+    its second difference (0 at the edge or where it does not open upward)."""
+    if j == 0 or j == rss.size - 1 or not np.all(np.isfinite(rss[j - 1 : j + 2])):
+        return 0.0, 0.0
+    lo, mid, hi = (float(v) for v in rss[j - 1 : j + 2])
+    curvature = lo - 2.0 * mid + hi
+    if curvature <= 0.0:
+        return 0.0, 0.0
+    return float(np.clip(0.5 * (lo - hi) / curvature, -0.5, 0.5)), curvature
+
+
+def _n_eff(ref: _Reference, t: Array, theta: Array, tau: float, k: float) -> float:
+    """The residuals' count at lag ``tau``, shrunk by their lag-one correlation ρ when
+    positive: ``N (1 - ρ) / (1 + ρ)``."""
+    b, covered = ref.imu(t, theta, tau)
+    use = (ref.m * covered) > 0.0
+    r = ref.a[use] - k * b[use]
+    r -= float(r.mean())
+    denom = float(r @ r)
+    rho = float(r[1:] @ r[:-1]) / denom if denom > 0.0 else 0.0
+    rho = min(max(rho, 0.0), 0.99)
+    return float(r.size) * (1.0 - rho) / (1.0 + rho)
