@@ -10,8 +10,9 @@ fitted on the gyro's taken τ earlier,
 
     a_k = k b_k(τ) + c,        b_k(τ) = θ(g_{k+1} - τ) - θ(g_k - τ),
 
-on a uniform grid g of step h (the reference's period, between the IMU's and
-:data:`MAX_STEP_S`; the reference's angle, unwrapped, interpolated linearly onto it), θ the
+on a uniform grid g of step h (the reference's period, at least the IMU's and
+:data:`MIN_STEP_S`; the reference's angle, unwrapped, interpolated linearly onto it; a grid
+coarser than :data:`MAX_STEP_S` is tried at phases that far apart), θ the
 gyro's integral about the reference's axis (:class:`adaptnav.mission.axes.Gyro`), c a constant
 gyro bias. τ > 0: the reference's stamps are late by τ (its reading at stamp t was taken at
 t - τ, what ``latency_s = τ`` takes off). Every sum of the least-squares fit at every lag,
@@ -58,6 +59,9 @@ Array = NDArray[np.float64]
 
 MAX_OFFSET_S = 60.0
 """Widest offset looked for either way (s): the configuration's bound on ``latency_s``."""
+MIN_STEP_S = 0.1
+"""Finest grid step (s): a 100-Hz heading is interpolated onto 0.1 s, which dates to a tenth of
+a second as well, at a tenth of the cost (the FFTs' length)."""
 MAX_STEP_S = 1.0
 """Widest spacing of the lags tried (s): a grid coarser than that (a GNSS course between chords
 tens of seconds apart) is tried at phases this far apart."""
@@ -126,7 +130,7 @@ class _Reference:
     def of(cls, t: Array, angle: Array, imu_dt: float) -> _Reference:
         """The readings ``angle`` at ``t``, unwrapped, interpolated linearly onto the grid."""
         period = float(np.median(np.diff(t)))
-        step = max(period, imu_dt)
+        step = max(period, imu_dt, MIN_STEP_S)
         unwrapped = angle[0] + np.concatenate([[0.0], np.cumsum(axes.wrap(np.diff(angle)))])
         g = t[0] + step * np.arange(int((t[-1] - t[0]) / step) + 1)
         a = np.diff(np.interp(g, t, unwrapped))
