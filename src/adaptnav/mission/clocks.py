@@ -28,12 +28,18 @@ the independent residuals (ρ their lag-one correlation, if positive: a GNSS cou
 between chords is correlated over a chord), and at least the grid's own ``h / √12``.
 
 The decision (:meth:`ClockOffset.decisive`) asks the offset to beat lag 0 decisively, since a
-wave's roll repeats every period and so gives a fit nearly as good one period away:
+wave's roll repeats every period and so gives a fit nearly as good one period away. Lag 0 is
+judged as a right sensor would be there, with the slope found at τ̂ (its scale does not depend
+on its clock; with the slope free, a roll 18 s late on the demo's sea fits at lag 0 inverted,
+k = -0.85, and that fit explains most of it): ``s0² = Σ (a - ā - k̂ (b(0) - b̄))² / (N - 1)``.
 
-* the variance ratio ``V = s²(0) / s²(τ̂) ≥`` :data:`MIN_RATIO` (the offset explains at least
-  half of what lag 0 leaves), and the likelihood ratio ``N_eff ln V ≥`` :data:`MIN_LOG_LR`
-  (χ²(1) beyond 5.5 σ, so that even after the ~10³ lags tried chance stays below 1e-4); a right
-  sensor has its least variance at lag 0 and V ≤ 1 at a wave's period;
+* the likelihood ratio ``N_eff ln V ≥`` :data:`MIN_LOG_LR`, ``V = s0² / s²(τ̂)`` (χ²(1) beyond
+  5.5 σ, so that even after the ~10³ lags tried chance stays below 1e-4);
+* lag 0 leaves at least :data:`MIN_SHARE` of the rotation's variance, ``k̂² Σ (b - b̄)² / N``
+  at τ̂, unexplained beyond what τ̂ leaves: ``(s0² - s²(τ̂)) / (k̂² Σ (b - b̄)² / N)``, the
+  offset's size in the rotation, not in the sensor's own noise (a heading's noise can make
+  V small when the shift is plain). A right sensor has its least variance at lag 0, and a lag
+  a wave period away cannot beat it by a quarter of the rotation;
 * the slope at the offset a right axis's: ``k`` within :data:`SLOPE_BAND` (a flipped or swapped
   axis is the axis check's finding, not a clock's);
 * ``|τ̂| >`` :data:`CONFIDENCE` ``σ_τ``.
@@ -84,8 +90,10 @@ MIN_PERIODS = 2.0
 @dataclass(frozen=True)
 class ClockOffset:
     """A reference's time offset ``offset_s`` ± ``se_s`` against the IMU (> 0: its stamps are
-    late), the slope ``k`` there and ``k_zero`` at lag 0, the residual variance ratio ``ratio``
-    (lag 0 over the offset), the intervals ``n`` and ``n_eff`` of them independent."""
+    late), the slope ``k`` there and ``k_zero`` fitted at lag 0, the residual variance ratio
+    ``ratio`` (lag 0 with the slope ``k``, over the offset), the ``share`` of the rotation's
+    variance lag 0 misses beyond the offset, the intervals ``n`` and ``n_eff`` of them
+    independent (module docstring)."""
 
     offset_s: float
     se_s: float
