@@ -81,6 +81,10 @@ MIN_LOG_LR = 30.0
 """Least likelihood ratio statistic ``N_eff ln V`` (χ²(1): p ≈ 4e-8; times ~10³ lags, 5e-5)."""
 SLOPE_BAND = (0.8, 1.25)
 """Slopes of a right axis: a compass's deviation, a drift angle, a pendulum's response."""
+SLOPE_SURE = 0.1
+"""A slope farther than this from 1 at the offset makes it doubtful (:attr:`ClockOffset.alias`):
+right stamps give 0.93-1.00 on every right dataset measured, and a sea's components repeat well
+enough that stamps 70 or 90 s late (beyond the scan) fit at an alias within it with 0.81."""
 CONFIDENCE = 4.0
 """σ's the offset must lie from zero."""
 MIN_PERIODS = 2.0
@@ -118,6 +122,13 @@ class ClockOffset:
             and lo <= self.k <= hi
             and abs(self.offset_s) > CONFIDENCE * self.se_s
         )
+
+    @property
+    def alias(self) -> bool:
+        """The slope at the offset lies more than :data:`SLOPE_SURE` from 1: the stamps are off,
+        but the offset found may be an alias of the true one (a wave period away, or the true
+        one beyond ±:data:`MAX_OFFSET_S`)."""
+        return abs(self.k - 1.0) > SLOPE_SURE
 
     def beyond(self, period_s: float) -> bool:
         """The offset lies beyond ``max(axes.MAX_LAG_S, MIN_PERIODS × period_s)``."""

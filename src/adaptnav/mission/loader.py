@@ -334,6 +334,12 @@ def _clock_words(ref: axes.Reference, found: clocks.ClockOffset, latency_s: floa
     """What :func:`_check_clocks` says of ``ref``'s offset, and the fix."""
     tau, gyro = found.offset_s, "xyz"[ref.axis]
     when = "after" if tau > 0.0 else "before"
+    doubt = (
+        " The slope's distance from 1 says this lag may be an alias of the true offset (a wave "
+        f"period away, or beyond ±{clocks.MAX_OFFSET_S:g} s): check the logger's clock."
+        if found.alias
+        else ""
+    )
     return (
         f"the stamps of sensor {ref.name!r} lie {abs(tau):.1f} ± {found.se_s:.1f} s {when} its "
         f"readings were taken: its {ref.angle} follows the gyro's {gyro} axis at that offset "
@@ -342,7 +348,7 @@ def _clock_words(ref: axes.Reference, found: clocks.ClockOffset, latency_s: floa
         f"rotation's variance more (likelihood ratio {found.log_lr:.0f}; the slope fitted there "
         f"{found.k_zero:.3g}), from t = {ref.t[0]:.1f} to {ref.t[-1]:.1f} s. Set latency_s = "
         f"{latency_s + tau:.1f} in [sensors.{ref.name}] (now {latency_s:g}), or set the "
-        "logger's clock right."
+        f"logger's clock right.{doubt}"
     )
 
 
