@@ -186,12 +186,13 @@ def test_block_sums_are_the_loaders_tilt_and_gyro_integral(right: Mission) -> No
 
 
 def test_the_switches_and_a_zero_window_leave_nothing_to_watch(right: Mission) -> None:
-    """imu.axis_check = false with every DVL's scale_check = false, or cross_check_s = 0: the
-    watch keeps nothing; either switch alone leaves the other check's sensors."""
+    """imu.axis_check = false with every DVL's and depth meter's scale_check = false, or
+    cross_check_s = 0: the watch keeps nothing; either switch alone leaves the other check's
+    sensors."""
     cfg = right.config
     no_axes = cfg.model_copy(update={"imu": cfg.imu.model_copy(update={"axis_check": False})})
     sensors = {
-        n: s.model_copy(update={"scale_check": False}) if s.kind == "dvl" else s
+        n: s.model_copy(update={"scale_check": False}) if s.kind in ("dvl", "depth") else s
         for n, s in cfg.sensors.items()
     }
     no_scale = cfg.model_copy(update={"sensors": sensors})
