@@ -327,6 +327,17 @@ class ImuViews:
         self._gyros: dict[bytes, Gyro] = {}
         self._tilts: dict[bytes, AccelTilt] = {}
 
+    @property
+    def samples(self) -> tuple[Array, Array, Array, Array]:
+        """The IMU's ``(t, dt, dtheta, dvel)`` as given (mission/dvl_axes.py sums its own
+        blocks of them)."""
+        return self._imu
+
+    @property
+    def noise(self) -> tuple[float, float]:
+        """The IMU's (ARW rad/√s, VRW m/s/√s)."""
+        return self._noise
+
     @staticmethod
     def _key(c_sb: Array | None) -> bytes:
         level = c_sb is None or np.array_equal(c_sb, np.eye(3))

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from adaptnav.core import attitude
 from adaptnav.core.units import G0
-from adaptnav.mission import axes, clocks, scales
+from adaptnav.mission import axes, clocks, dvl_axes, scales
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
@@ -398,10 +398,12 @@ def _check_scales(
 ) -> None:
     """A MissionError naming the file and column if a DVL's speed or direction does not follow
     a GNSS track's, or a depth's changes the DVL's vertical velocity (mission/scales.py;
-    docs/robustness.md, 'DVL and depth scales'). ``scale_check = false`` on a sensor skips it."""
+    docs/robustness.md, 'DVL and depth scales'), or its axes the accelerometers (since
+    0.4.11: :func:`_check_dvl_axes`). ``scale_check = false`` on a sensor skips it."""
     names = [n for n, d in sensors.items() if d.kind == "dvl" and config.sensors[n].check_scale]
     if not names:
         return
+    blocks: list[dvl_axes.Blocks] = []  # summed once, for the first DVL that needs them
     for name in names:
         cfg, d = config.sensors[name], sensors[name]
         period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
@@ -409,6 +411,42 @@ def _check_scales(
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
         _check_dvl_track(config, sensors, name, dvl, views)
         _check_depth_scale(config, sensors, name, dvl, views)
+        if not blocks:
+            blocks.append(dvl_axes.Blocks.of(*views.samples))
+        _check_dvl_axes(config, name, d, period, blocks[0], views.noise[1])
+
+
+def _check_dvl_axes(
+    config: MissionConfig,
+    name: str,
+    d: SensorData,
+    period: float,
+    blocks: dvl_axes.Blocks,
+    vrw: float,
+) -> None:
+    """The DVL ``name``'s velocity changes against the accelerometers' in its own axes, with
+    no heading needed (:func:`dvl_axes.check_dvl_axes`; docs/robustness.md, 'DVL axes against
+    the accelerometers')."""
+    cfg = config.sensors[name]
+    ok = np.isfinite(d.t) & np.all(np.isfinite(d.z[:, :3]), axis=1)
+    readings = dvl_axes.Readings(
+        d.t[ok], d.z[ok, :3], cfg.sensor_from_body(), cfg.lever_arm(), period
+    )
+    found = dvl_axes.check_dvl_axes(blocks, readings, vrw)
+    if found is None:
+        return
+    column = ("vx_m_s", "vy_m_s", "vz_m_s")[found.axis]
+    s = found.fit.slope
+    raise MissionError(
+        f"{cfg.file}: the {'xyz'[found.axis]} axis of DVL {name!r} ({column}) against the "
+        f"accelerometers and the gyro from t = {found.t_from:.1f} to {found.t_to:.1f} s: "
+        f"{s.k:.3g} ± {s.se:.2g} m/s of the DVL's per m/s of the IMU's velocity change over "
+        f"{s.n} windows of {dvl_axes.WINDOW_S:g} s (1 expected; refused below "
+        f"{dvl_axes.MIN_SLOPE:g} even {dvl_axes.CONFIDENCE:g} σ up): {found.cause()} "
+        f"{SCALE_FIX.format(name)} (docs/robustness.md, 'DVL axes against the accelerometers')",
+        file=cfg.file,
+        field=column,
+    )
 
 
 def _check_depth_at_fixes(config: MissionConfig, sensors: dict[str, SensorData]) -> None:
