@@ -1,0 +1,175 @@
+"""The DVL's axes against the accelerometers (mission/dvl_axes.py; docs/robustness.md, 'DVL axes
+against the accelerometers'): a vehicle simulated in the navigation frame (its IMU's specific
+force ``C_bn (dv_n/dt - g_n)`` and its gyro from the Euler rates, Groves eq. 2.58 inverted), so
+that the check's body-frame kinematics are not what built the data."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from adaptnav.core import attitude
+from adaptnav.mission import MissionError, dvl_axes, load_mission
+from helpers.missions import config_dict, write_dir
+
+RATE_HZ = 100.0
+DVL_HZ = 5.0
+G = 9.81
+V = ["vx_m_s", "vy_m_s", "vz_m_s"]
+
+
+def _vehicle(
+    duration_s: float = 600.0, moving: bool = True, seed: int = 3
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """IMU (rates) and DVL tables of a vehicle that turns, pitches, rolls and changes its speed
+    (``moving``), or one that holds its speed, heading and attitude (only the sensors' noise)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, 1.0 / RATE_HZ)
+    a = 1.0 if moving else 0.0
+
+    def wave(amp: float, period: float) -> np.ndarray:
+        return np.asarray(a * amp * np.sin(2.0 * math.pi * t / period))
+
+    roll, pitch = np.radians(wave(4.0, 11.0)), np.radians(3.0 + wave(5.0, 37.0))
+    yaw = np.radians(wave(60.0, 200.0) + wave(20.0, 29.0))
+    v_b = np.column_stack([1.5 + wave(0.3, 45.0), wave(0.1, 23.0), wave(0.1, 17.0)])
+    c_nb = np.stack([attitude.euler_to_dcm(*e) for e in zip(roll, pitch, yaw, strict=True)])
+    v_n = np.einsum("nij,nj->ni", c_nb, v_b)
+    f_b = np.einsum("nji,nj->ni", c_nb, np.gradient(v_n, t, axis=0) - [0.0, 0.0, G])
+    dr, dp, dy = (np.gradient(x, t) for x in (roll, pitch, yaw))
+    w_b = np.column_stack(
+        [
+            dr - dy * np.sin(pitch),
+            dp * np.cos(roll) + dy * np.sin(roll) * np.cos(pitch),
+            -dp * np.sin(roll) + dy * np.cos(roll) * np.cos(pitch),
+        ]
+    )
+    imu = pd.DataFrame({"t_s": t})
+    for i, axis in enumerate("xyz"):
+        imu[f"gyro_{axis}_rad_s"] = w_b[:, i] + rng.normal(0.0, 1e-4, t.size)
+        imu[f"accel_{axis}_m_s2"] = f_b[:, i] + rng.normal(0.0, 2e-3, t.size)
+    td = np.arange(0.1, duration_s - 0.1, 1.0 / DVL_HZ)
+    dvl = pd.DataFrame({"t_s": td})
+    for i, col in enumerate(V):
+        dvl[col] = np.interp(td, t, v_b[:, i]) + rng.normal(0.0, 0.01, td.size)
+    return imu, dvl
+
+
+def _readings(dvl: pd.DataFrame) -> dvl_axes.Readings:
+    return dvl_axes.Readings(
+        dvl["t_s"].to_numpy(), dvl[V].to_numpy(), None, np.zeros(3), 1.0 / DVL_HZ
+    )
+
+
+def _blocks(imu: pd.DataFrame) -> dvl_axes.Blocks:
+    t = imu["t_s"].to_numpy() + 1.0 / RATE_HZ
+    dt = np.full(t.size, 1.0 / RATE_HZ)
+    gyro = imu[[f"gyro_{a}_rad_s" for a in "xyz"]].to_numpy()
+    accel = imu[[f"accel_{a}_m_s2" for a in "xyz"]].to_numpy()
+    return dvl_axes.Blocks.of(t, dt, gyro * dt[:, None], accel * dt[:, None])
+
+
+@pytest.fixture(scope="module")
+def moving() -> tuple[pd.DataFrame, pd.DataFrame]:
+    return _vehicle()
+
+
+def test_the_running_product_of_rotations_is_the_sequential_one() -> None:
+    rng = np.random.default_rng(0)
+    w = rng.normal(0.0, 0.05, (37, 3))
+    q = dvl_axes.cumulative(dvl_axes.rotvec_quat(w))
+    expect = np.array([1.0, 0.0, 0.0, 0.0])
+    for i in range(w.shape[0]):
+        expect = attitude.quat_mult(expect, attitude.rotvec_to_quat(w[i]))
+        assert np.allclose(q[i], expect, atol=1e-12)
+    v = rng.normal(size=(37, 3))
+    back = dvl_axes.rotate(q, dvl_axes.rotate(q, v), inverse=True)
+    assert np.allclose(back, v, atol=1e-12)
+    assert np.allclose(dvl_axes.rotate(q[:1], v[:1])[0], attitude.quat_to_dcm(q[0]) @ v[0])
+
+
+def test_a_right_dvl_follows_the_accelerometers_on_every_axis(
+    moving: tuple[pd.DataFrame, pd.DataFrame],
+) -> None:
+    imu, dvl = moving
+    blocks = _blocks(imu)
+    fits, _ = dvl_axes.fit_readings(blocks, _readings(dvl), 1e-4)
+    for f in fits:
+        assert f is not None and f.confirmed, f
+        assert abs(f.slope.k - 1.0) < 0.1, f  # the body's kinematics: 1, not a tuned number
+    assert dvl_axes.check_dvl_axes(blocks, _readings(dvl), 1e-4) is None
+
+
+@pytest.mark.parametrize(
+    ("slip", "axis", "name"),
+    [
+        (np.diag([-1.0, 1.0, 1.0]), 0, "x negated"),
+        (np.diag([1.0, -1.0, 1.0]), 1, "y negated"),
+        (np.diag([1.0, 1.0, -1.0]), 2, "z negated"),
+        (np.array([[0.0, 1, 0], [1, 0, 0], [0, 0, 1]]), 0, "x and y swapped"),
+    ],
+)
+def test_a_negated_or_swapped_axis_is_found_and_named(
+    moving: tuple[pd.DataFrame, pd.DataFrame], slip: np.ndarray, axis: int, name: str
+) -> None:
+    imu, dvl = moving
+    found = dvl_axes.check_dvl_axes(_blocks(imu), _readings(dvl).slipped(slip), 1e-4)
+    assert found is not None and found.axis == axis and found.slip == name, found
+    assert name in found.cause()
+
+
+def test_a_negated_axis_fits_below_zero(moving: tuple[pd.DataFrame, pd.DataFrame]) -> None:
+    """The y axis negated: its own fit is negative, refused on its own (the x axis, whose
+    prediction hardly uses the DVL's y, still fits)."""
+    imu, dvl = moving
+    slipped = _readings(dvl).slipped(np.diag([1.0, -1.0, 1.0]))
+    fits, _ = dvl_axes.fit_readings(_blocks(imu), slipped, 1e-4)
+    assert fits[1] is not None and fits[1].slope.upper < 0.0 and fits[1].refused
+    assert fits[0] is not None and fits[0].confirmed
+
+
+def test_a_vehicle_that_never_accelerates_decides_nothing() -> None:
+    """Straight, level, at a constant speed: the DVL's changes and the IMU's are noise, and a
+    negated x axis cannot be told (nothing is said rather than a guess)."""
+    imu, dvl = _vehicle(300.0, moving=False)
+    blocks = _blocks(imu)
+    for slip in (np.eye(3), np.diag([-1.0, 1.0, 1.0]), np.diag([1.0, -1.0, 1.0])):
+        assert dvl_axes.check_dvl_axes(blocks, _readings(dvl).slipped(slip), 1e-4) is None
+
+
+def test_a_dvl_in_knots_is_named_when_refused(
+    moving: tuple[pd.DataFrame, pd.DataFrame],
+) -> None:
+    imu, dvl = moving
+    knots = _readings(dvl).slipped(np.eye(3) * 1.943844)
+    found = dvl_axes.check_dvl_axes(_blocks(imu), knots, 1e-4)
+    assert found is not None and found.slip == "in knots", found
+
+
+def _mission(root: Path, dvl: pd.DataFrame, imu: pd.DataFrame, **dvl_extra: object) -> Path:
+    """A mission with the IMU and the DVL alone: no GNSS, depth or heading, no rpy_deg."""
+    sensors = {"dvl": {"kind": "dvl", "file": "dvl.csv", "sigma": [0.01, "m/s"], "rate_hz": DVL_HZ}}
+    sensors["dvl"].update(dvl_extra)
+    cfg = config_dict(sensors=sensors)
+    cfg["imu"]["noise"] = {"arw": [0.1, "deg/sqrt(h)"], "vrw": [60, "ug/sqrt(Hz)"]}
+    return write_dir(root, cfg, {"imu.csv": imu, "dvl.csv": dvl})
+
+
+def test_the_loader_refuses_a_dvl_going_astern_with_no_heading_known(
+    moving: tuple[pd.DataFrame, pd.DataFrame], tmp_path: Path
+) -> None:
+    """Up to 0.4.10 this loaded without a word: no GNSS, depth or heading beside the DVL."""
+    imu, dvl = moving
+    load_mission(_mission(tmp_path / "right", dvl, imu))
+    astern = dvl.assign(vx_m_s=-dvl["vx_m_s"])
+    with pytest.raises(MissionError) as err:
+        load_mission(_mission(tmp_path / "astern", astern, imu))
+    assert err.value.file == "dvl.csv" and err.value.field == "vx_m_s"
+    message = str(err.value)
+    assert "the x axis of DVL 'dvl' (vx_m_s)" in message and "x negated" in message, message
+    assert "scale_check = false" in message
+    load_mission(_mission(tmp_path / "off", astern, imu, scale_check=False))
