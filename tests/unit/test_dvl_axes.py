@@ -173,3 +173,13 @@ def test_the_loader_refuses_a_dvl_going_astern_with_no_heading_known(
     assert "the x axis of DVL 'dvl' (vx_m_s)" in message and "x negated" in message, message
     assert "scale_check = false" in message
     load_mission(_mission(tmp_path / "off", astern, imu, scale_check=False))
+
+
+def test_an_imu_shorter_than_two_blocks_decides_nothing(
+    moving: tuple[pd.DataFrame, pd.DataFrame],
+) -> None:
+    """No crash (a traceback at load) on an IMU log too short to sum: nothing is said."""
+    imu, dvl = moving
+    blocks = _blocks(imu.iloc[:5])
+    assert blocks.h.size == 0
+    assert dvl_axes.check_dvl_axes(blocks, _readings(dvl), 1e-4) is None

@@ -324,7 +324,8 @@ class DvlAxisFinding:
     fit); over ``t_from``-``t_to``."""
 
     axis: int
-    fit: AxisFit
+    fit: AxisFit | None
+    """None: the axis undecided as declared (a slip named)."""
     t_from: float
     t_to: float
     slip: str | None = None
@@ -332,7 +333,6 @@ class DvlAxisFinding:
     def cause(self) -> str:
         """What the slope points to, in words."""
         name = "xyz"[self.axis]
-        k = self.fit.slope.k
         if self.slip is not None and self.slip.startswith("in "):
             return f"its readings follow the accelerometers once taken {self.slip}: that unit?"
         if self.slip is not None:
@@ -340,6 +340,9 @@ class DvlAxisFinding:
                 f"its readings follow the accelerometers on every axis once taken as {self.slip}"
                 ": is the table's axis so, or its mounting_rpy_deg not set?"
             )
+        if self.fit is None:
+            return "it does not follow the accelerometers"
+        k = self.fit.slope.k
         if k > MAX_SLOPE:
             unit = axes_unit(k)
             what = f"in {unit}" if unit else "in another unit"
@@ -369,7 +372,7 @@ def check_dvl_axes(blocks: Blocks, dvl: Readings, vrw: float) -> DvlAxisFinding 
     axes are confirmed or nothing decides; else a likely slip confirmed in their stead, else
     the declared axis refused with the least of its slope. ``vrw``: the accelerometers'
     velocity random walk (m/s/√s), below which the prediction's changes decide nothing."""
-    if dvl.t.size < 2 * axes.MIN_INTERVALS:
+    if dvl.t.size < 2 * axes.MIN_INTERVALS or blocks.h.size < 2:
         return None
     fits, span = fit_readings(blocks, dvl, vrw)
     known = [f for f in fits if f is not None]
@@ -382,8 +385,7 @@ def check_dvl_axes(blocks: Blocks, dvl: Readings, vrw: float) -> DvlAxisFinding 
         alt, _ = fit_readings(blocks, dvl.slipped(slip), vrw)
         if all(f is not None and f.confirmed for f in alt):
             axis = int(np.flatnonzero(np.diag(slip) != 1.0)[0])
-            own = fits[axis] or next(f for f in alt if f is not None and f.axis == axis)
-            return DvlAxisFinding(axis, own, t_from, t_to, name)
+            return DvlAxisFinding(axis, fits[axis], t_from, t_to, name)
     found = [f for f in known if f.refused]
     if not found:
         return None

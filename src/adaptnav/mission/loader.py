@@ -436,14 +436,19 @@ def _check_dvl_axes(
     if found is None:
         return
     column = ("vx_m_s", "vy_m_s", "vz_m_s")[found.axis]
-    s = found.fit.slope
     lo, hi, n = dvl_axes.MIN_SLOPE, dvl_axes.MAX_SLOPE, dvl_axes.CONFIDENCE
     rule = "" if found.slip else f"; outside {lo:g}-{hi:g} even {n:g} σ in"
+    fit = "undecided as declared"
+    if found.fit is not None:
+        s = found.fit.slope
+        fit = (
+            f"{s.k:.3g} ± {s.se:.2g} m/s of the DVL's per m/s of the IMU's velocity change "
+            f"over {s.n} windows of {dvl_axes.WINDOW_S:g} s"
+        )
     raise MissionError(
         f"{cfg.file}: the {'xyz'[found.axis]} axis of DVL {name!r} ({column}) against the "
         f"accelerometers and the gyro from t = {found.t_from:.1f} to {found.t_to:.1f} s: "
-        f"{s.k:.3g} ± {s.se:.2g} m/s of the DVL's per m/s of the IMU's velocity change over "
-        f"{s.n} windows of {dvl_axes.WINDOW_S:g} s (1 expected{rule}): {found.cause()} "
+        f"{fit} (1 expected{rule}): {found.cause()} "
         f"{SCALE_FIX.format(name)} (docs/robustness.md, 'DVL axes against the accelerometers')",
         file=cfg.file,
         field=column,
