@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from adaptnav.core import attitude
-from adaptnav.mission import MissionError, dvl_axes, load_mission
+from adaptnav.mission import MissionError, axes, dvl_axes, load_mission
 from helpers.missions import config_dict, write_dir
 
 RATE_HZ = 100.0
@@ -183,3 +183,21 @@ def test_an_imu_shorter_than_two_blocks_decides_nothing(
     blocks = _blocks(imu.iloc[:5])
     assert blocks.h.size == 0
     assert dvl_axes.check_dvl_axes(blocks, _readings(dvl), 1e-4) is None
+
+
+@pytest.mark.parametrize(
+    ("k", "r", "follower", "refused"),
+    [
+        (0.3, 0.8, 0, False),  # follows the right way, weakly: a poor prediction, not a slip
+        (-0.9, -0.8, 0, True),  # the opposite way: negated
+        (0.0, 0.05, 1, True),  # the DVL's y follows x's prediction: swapped
+        (0.0, 0.05, 0, False),  # nothing follows it: undecided
+        (1.9, 0.9, 0, True),  # knots
+    ],
+)
+def test_an_axis_is_refused_only_with_a_slip_s_signature(
+    k: float, r: float, follower: int, refused: bool
+) -> None:
+    follower_r = 0.9 if follower else abs(r)
+    fit = dvl_axes.AxisFit(0, axes.Slope(k, 0.02, 100, 0.0), r, follower, follower_r)
+    assert fit.refused is refused

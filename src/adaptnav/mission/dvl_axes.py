@@ -37,15 +37,19 @@ error of the gravity). A right axis gives k ≈ 1; negated ≈ -1; swapped with 
 knots 1.94, cm/s 100. The fit's correlation ``r = t / sqrt(t² + n - 2)`` (``t = k / se``, over
 the intervals kept) says how well the DVL follows the prediction at all.
 
-**The rule.** An axis is refused when ``k + 4 se < 0.5`` and the prediction is clearly followed
-by a DVL axis: its own, anti-correlated, with ``|r| >=`` :data:`MIN_CORRELATION` (a negated
-axis), or another one (a swapped axis). A prediction that no DVL axis follows (a vehicle that
-never accelerates along it; the IMU's noise alone) decides nothing. An axis fitted above
-:data:`MAX_SLOPE` even 4 σ down is a unit (knots, ft/s, km/h, cm/s, mm/s). And since a DVL
-whose x is negated also corrupts the gravity's mean and the centripetal term, the declared axes
-may fit poorly without any axis deciding: when the declared axes are not confirmed (each axis
-``k - 4 se >= 0.5`` with ``r >=`` :data:`CONFIRM_CORRELATION`) but one of the readings' likely
-slips (:data:`SLIPS`: an axis negated, x and y swapped) is, the DVL is refused naming it.
+**The rule**, in order. (1) The declared axes are confirmed (each ``k - 4 se >= 0.5`` with
+``r >=`` :data:`CONFIRM_CORRELATION`, none above :data:`MAX_SLOPE` 4 σ down): nothing is said.
+(2) Else the readings' likely slips (:data:`SLIPS`: an axis negated, x and y swapped) are tried
+in turn, and one that makes every axis confirmed is named: the DVL's own readings shape the
+prediction (a negated x turns the centripetal term of every turn the wrong way on y, and
+spoils the gravity's mean), so the declared fits alone may decide nothing. (3) Else an axis is
+refused when ``k + 4 se < 0.5`` with a slip's signature: its own changes follow the prediction
+the opposite way (``r <= -``:data:`MIN_CORRELATION`: negated) or another DVL axis follows it
+with ``|r| >=`` :data:`MIN_CORRELATION`, better than its own (swapped); or when ``k - 4 se``
+exceeds :data:`MAX_SLOPE` (a unit, named where the readings divided by its ratio are
+confirmed). A prediction that no DVL axis follows (a vehicle that never accelerates along it;
+the IMU's noise alone) decides nothing, and an axis that follows it the right way but weakly
+(a poor prediction, not a slip) is not refused.
 
 Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls :func:`check_dvl_axes`
 and turns a finding into a MissionError naming the DVL's file and column.
@@ -269,11 +273,16 @@ class AxisFit:
 
     @property
     def refused(self) -> bool:
-        """Decided, and ``k + 4 se`` below :data:`MIN_SLOPE` or ``k - 4 se`` above
-        :data:`MAX_SLOPE`."""
+        """Decided, and ``k - 4 se`` above :data:`MAX_SLOPE` (a unit), or ``k + 4 se`` below
+        :data:`MIN_SLOPE` with a slip's signature: the axis follows its prediction the opposite
+        way (``r <= -MIN_CORRELATION``: negated) or another DVL axis follows it (swapped). An
+        axis that follows its prediction the right way but weakly (a poor prediction, not a
+        slip) is not refused."""
         s = self.slope
-        low = s.k + CONFIDENCE * s.se < MIN_SLOPE
-        return self.decided and (low or s.k - CONFIDENCE * s.se > MAX_SLOPE)
+        negated = self.r <= -MIN_CORRELATION
+        swapped = self.follower != self.axis and self.decided
+        low = s.k + CONFIDENCE * s.se < MIN_SLOPE and (negated or swapped)
+        return low or (self.decided and s.k - CONFIDENCE * s.se > MAX_SLOPE)
 
     @property
     def confirmed(self) -> bool:
