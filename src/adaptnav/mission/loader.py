@@ -436,8 +436,8 @@ def _check_dvl_axes(
     if found is None:
         return
     column = ("vx_m_s", "vy_m_s", "vz_m_s")[found.axis]
-    lo, hi, n = dvl_axes.MIN_SLOPE, dvl_axes.MAX_SLOPE, dvl_axes.CONFIDENCE
-    rule = "" if found.slip else f"; outside {lo:g}-{hi:g} even {n:g} σ in"
+    lo, n = dvl_axes.MIN_SLOPE, dvl_axes.CONFIDENCE
+    rule = "" if found.slip else f"; below {lo:g} even {n:g} σ up"
     fit = "undecided as declared"
     if found.fit is not None:
         s = found.fit.slope
