@@ -358,7 +358,7 @@ class DvlAxisFinding:
 def check_dvl_axes(blocks: Blocks, dvl: Readings, vrw: float) -> DvlAxisFinding | None:
     """What the DVL's readings point to (the module docstring's rule): None where the declared
     axes are confirmed or nothing decides; else a likely slip confirmed in their stead, else
-    the declared axis refused with the least of its slope. ``vrw``: the accelerometers'
+    the first declared axis refused beside two confirmed. ``vrw``: the accelerometers'
     velocity random walk (m/s/√s), below which the prediction's changes decide nothing."""
     if dvl.t.size < 2 * axes.MIN_INTERVALS or blocks.h.size < 2:
         return None
