@@ -367,15 +367,16 @@ def _psi_times(psi: Array, phi: Array, acc: Array) -> None:
 
 
 @jit
-def _factor(sm: Store, b: int, reset: int, e: Array, Ps: Array, work: Array) -> bool:
+def _factor(
+    sm: Store, b: int, reset: int, e: Array, Ps: Array, Pm: Array, L: Array, D: Array, T: Array
+) -> bool:
     """At update node b, from its smoothed error ``e`` and covariance ``Ps`` (taken in place to
     the coordinates before its feedback, equation (1)): with ``Δ = diag(P⁻)^(-1/2)``, the
-    Cholesky factor L of ``Δ P⁻ Δ`` into ``work[1]`` (its condition is ~1e2 where P⁻'s is
-    ~1e20), ``Δ (P⁻s - P⁻) Δ`` into ``work[3]``, Δ's diagonal into ``work[4][3]`` and
-    ``Δ e⁻`` (``e⁻ = dx + e``) into ``work[4][4]``. False if P⁻ is not positive definite.
-    ``work`` (6, W, W): scratch, zero from row and column n on; ``work[0]`` is overwritten."""
+    Cholesky factor L of ``Δ P⁻ Δ`` (its condition is ~1e2 where P⁻'s is ~1e20),
+    ``D = Δ (P⁻s - P⁻) Δ``, Δ's diagonal into ``T[3]`` and ``Δ e⁻`` (``e⁻ = dx + e``) into
+    ``T[4]``. False if P⁻ is not positive definite. All (W, W), zero from row and column n on;
+    ``Pm`` and ``T[:3]``: scratch."""
     n = e.shape[0]
-    Pm, L, D, T = work[0], work[1], work[3], work[4]
     r = sm[SM_PRIOR][b]
     dx = sm[SM_DX][r]
     _to_prior_coordinates(dx, reset, e, Ps, T[:3])
@@ -496,36 +497,57 @@ def backward(sm: Store, reset: int, threads: int = 1, chunk: int = 0, full: bool
 
     The chain of update nodes is sequential (each anchor starts from the smoothed update node
     after it): :func:`anchors` goes along it in runs of ``chunk`` update nodes (0:
-    :data:`CHUNK`). The nodes strictly between two update nodes need only their anchor, so
-    :func:`interiors` smooths a run's intervals as soon as its anchors are done, in ``threads``
-    threads (this one included; the kernels release the GIL). The result does not depend on
-    ``threads``: every node is computed by the same arithmetic."""
+    :data:`CHUNK`), leaving each b's factor in a buffer of the run. The nodes strictly between
+    two update nodes need only that factor, so :func:`interiors` smooths a run's intervals from
+    its buffer as soon as its anchors are done, in ``threads`` threads (this one included; the
+    kernels release the GIL). The result does not depend on ``threads``: every node is computed
+    by the same arithmetic."""
     counts = sm[SM_COUNT]
     counts[K_FAILED] = 0
     ups = np.flatnonzero(sm[SM_PRIOR][: counts[K_NODES]] >= 0).astype(np.int64)
     if ups.size == 0:
         return
     n = sm[SM_DX].shape[1]
-    e, kept = np.zeros(n), np.zeros((ups.size, n))
+    W = (n + 3) // 4 * 4
+    e = np.zeros(n)
     step = chunk if chunk > 0 else CHUNK
     runs = [(max(hi - step, 0), hi) for hi in range(int(ups.size), 0, -step)]
     if threads <= 1:
+        factors = np.zeros((step, 3, W, W))
         for lo, hi in runs:
-            anchors(sm, reset, ups, lo, hi, e, kept)
-            interiors(sm, reset, ups, lo, hi, kept, full)
+            anchors(sm, reset, ups, lo, hi, e, factors)
+            interiors(sm, ups, lo, hi, factors, full)
         return
-    ready: queue.SimpleQueue[tuple[int, int] | None] = queue.SimpleQueue()
+    _in_threads(sm, reset, ups, runs, threads, full)
+
+
+def _in_threads(
+    sm: Store, reset: int, ups: IntArray, runs: list[tuple[int, int]], threads: int, full: bool
+) -> None:
+    """:func:`backward`'s runs, the chain on this thread and the intervals on ``threads - 1``
+    more (and on this one once the chain is done); a run's factors live in one of
+    ``threads + 1`` buffers, taken by the chain and given back by whoever smoothed the run's
+    intervals, so at most that many runs wait between the two parts."""
+    n = sm[SM_DX].shape[1]
+    W = (n + 3) // 4 * 4
+    e = np.zeros(n)
+    free: queue.SimpleQueue[Array] = queue.SimpleQueue()
+    for _ in range(threads + 1):
+        free.put(np.zeros((runs[0][1] - runs[0][0], 3, W, W)))
+    ready: queue.SimpleQueue[tuple[int, int, Array] | None] = queue.SimpleQueue()
 
     def drain() -> None:
         while (run := ready.get()) is not None:
-            interiors(sm, reset, ups, *run, kept, full)
+            interiors(sm, ups, *run, full)
+            free.put(run[2])
 
     with ThreadPoolExecutor(threads - 1) as pool:
         helpers = [pool.submit(drain) for _ in range(threads - 1)]
         try:
-            for run in runs:
-                anchors(sm, reset, ups, *run, e, kept)
-                ready.put(run)
+            for lo, hi in runs:
+                factors = free.get()
+                anchors(sm, reset, ups, lo, hi, e, factors)
+                ready.put((lo, hi, factors))
         finally:
             for _ in range(threads):
                 ready.put(None)
@@ -539,66 +561,62 @@ CHUNK = 256
 
 
 @jit_nogil
-def anchors(sm: Store, reset: int, ups: IntArray, lo: int, hi: int, e: Array, kept: Array) -> None:
+def anchors(
+    sm: Store, reset: int, ups: IntArray, lo: int, hi: int, e: Array, factors: Array
+) -> None:
     """The backward pass's sequential part (:func:`backward`), for the update nodes
     ``b = ups[k]``, k from hi - 1 down to lo (``ups``: the update nodes, ascending), after the
-    runs above hi: at each b its factor (:func:`_factor`) and from it the smoothed x and P of
-    the update node a before b (or of node 0), which the factor at a starts from
-    (:func:`_smooth_from`, all of P^s); b's smoothed error into ``kept[k]`` for
-    :func:`interiors`, or NaN in its first element when b's P⁻ is not positive definite
-    (counted). Building ``Φ(b, a)`` it leaves ``Φ(b, j)`` in node j + 1's row of the store's Φ
-    for every j from a to b - 2 (each stored Φ serves one interval only). ``e``: the smoothed
-    error of ``ups[hi]`` (zero at the last update node), left as that of ``ups[lo]``."""
+    runs above hi: at each b its factor (:func:`_factor`: L, D and ``T``'s rows 3-4 into
+    ``factors[k - lo]``, for :func:`interiors`) and from it the smoothed x and P of the update
+    node a before b (or of node 0), which the factor at a starts from (:func:`_smooth_from`,
+    all of P^s); NaN in ``T[5, 0]`` when b's P⁻ is not positive definite (counted), else 0.
+    ``factors`` (≥ hi - lo, 3, W, W): zero from row and column n on. Building ``Φ(b, a)`` it
+    leaves ``Φ(b, j)`` in node j + 1's row of the store's Φ for every j from a to b - 2 (each
+    stored Φ serves one interval only). ``e``: the smoothed error of ``ups[hi]`` (zero at the
+    last update node), left as that of ``ups[lo]``."""
     counts = sm[SM_COUNT]
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     psi = np.zeros(sm[SM_PHI].shape[1])
-    Ps, work, scratch = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((5, W, W))
+    Ps, Pm, acc, scratch = np.zeros((W, W)), np.zeros((W, W)), np.zeros((W, W)), np.zeros((5, W, W))
     unpack(sm[SM_P][ups[hi - 1]], Ps, n)
     for k in range(hi - 1, lo - 1, -1):
         b = ups[k]
         if b == 0:
             break
         a = ups[k - 1] if k > 0 else 0
-        for i in range(n):
-            kept[k, i] = e[i]
-        if _factor(sm, b, reset, e, Ps, work):
+        L, D, T = factors[k - lo, 0], factors[k - lo, 1], factors[k - lo, 2]
+        if _factor(sm, b, reset, e, Ps, Pm, L, D, T):
+            T[5, 0] = 0.0
             psi[:] = sm[SM_PHI][b]
             for j in range(b - 2, a - 1, -1):
-                _psi_times(psi, sm[SM_PHI][j + 1], work[5])
+                _psi_times(psi, sm[SM_PHI][j + 1], acc)
                 sm[SM_PHI][j + 1, :] = psi  # Φ_{j+1} is used up: keep Φ(b, j) there instead
-            _smooth_from(sm, a, psi, work[1], work[3], work[4][3], work[4][4], e, scratch, True)
+            _smooth_from(sm, a, psi, L, D, T[3], T[4], e, scratch, True)
         else:
             counts[K_FAILED] += 1
             e[:] = 0.0
-            kept[k, 0] = math.nan
+            T[5, 0] = math.nan
         unpack(sm[SM_P][a], Ps, n)
 
 
 @jit_nogil
-def interiors(
-    sm: Store, reset: int, ups: IntArray, lo: int, hi: int, kept: Array, full: bool
-) -> None:
+def interiors(sm: Store, ups: IntArray, lo: int, hi: int, factors: Array, full: bool) -> None:
     """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
-    same range: for the update nodes ``b = ups[lo:hi]``, b's factor again (:func:`_factor`,
-    from its smoothed error in ``kept`` and its smoothed P in the store) and from it and the
-    ``Φ(b, j)`` that :func:`anchors` left in the store's Φ the nodes
+    same range: for the update nodes ``b = ups[lo:hi]``, from b's factor that :func:`anchors`
+    left in ``factors[k - lo]`` and the ``Φ(b, j)`` it left in the store's Φ, the nodes
     strictly between the update node before b (or node 0) and b (:func:`_smooth_from`: all of
     P^s or, without ``full``, its elements :func:`reported`); nothing when b's factor failed.
     Intervals are independent: calls on disjoint ranges may run at once."""
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     e = np.zeros(n)
-    Ps, work, scratch = np.zeros((W, W)), np.zeros((6, W, W)), np.zeros((5, W, W))
+    scratch = np.zeros((5, W, W))
     for k in range(lo, hi):
         b = ups[k]
         a = ups[k - 1] if k > 0 else 0
-        if b - a < 2 or math.isnan(kept[k, 0]):
+        L, D, T = factors[k - lo, 0], factors[k - lo, 1], factors[k - lo, 2]
+        if b - a < 2 or math.isnan(T[5, 0]):
             continue
-        for i in range(n):
-            e[i] = kept[k, i]
-        unpack(sm[SM_P][b], Ps, n)
-        _factor(sm, b, reset, e, Ps, work)
-        L, D, d, f = work[1], work[3], work[4][3], work[4][4]
         for j in range(b - 1, a, -1):  # Φ(b, j) where Φ_{j+1} was (anchors)
-            _smooth_from(sm, j, sm[SM_PHI][j + 1], L, D, d, f, e, scratch, full)
+            _smooth_from(sm, j, sm[SM_PHI][j + 1], L, D, T[3], T[4], e, scratch, full)
