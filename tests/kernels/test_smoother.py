@@ -298,6 +298,36 @@ def test_without_full_the_reported_elements_are_those_of_the_full_pass() -> None
     assert not np.array_equal(full[smk.SM_P][:N][inner][:, others], filtered[inner][:, others])
 
 
+@pytest.mark.parametrize(("threads", "chunk"), [(1, 0), (2, 2)])
+def test_the_pass_fills_the_output_rows_between_update_nodes_as_gather_would(
+    threads: int, chunk: int
+) -> None:
+    """``backward(..., rows=...)`` (what the engine runs since 0.4.11): the output rows whose
+    node lies strictly between two update nodes are written as the pass smooths them, equal to
+    what :func:`gather` reads from the smoothed store afterwards, and flagged done; every other
+    row (an update node's, those after the last update node, the earlier of two rows on one
+    node) is left alone for the caller to gather."""
+    nodes = _kalman(0.4)[0]
+    N, n = nodes.dx.shape
+    idx = np.insert(np.arange(N), 4, 3)  # node 3 has two rows, 3 and 4: the slot is row 4
+    slot = np.full(N, -1, dtype=np.int64)
+    slot[idx] = np.arange(idx.size)
+    columns = np.array([smk.packed_index(i, j, n) for i, j in smk.reported(n)], dtype=np.int64)
+    has_update = np.any(nodes.dx != 0.0, axis=1)
+    last = int(np.flatnonzero(has_update)[-1])
+    between = ~has_update[idx] & (idx > 0) & (idx < last) & (slot[idx] == np.arange(idx.size))
+    assert between.sum() >= 5 and not between[3] and between[4]
+    sm = _store(nodes)
+    X, C = np.full((idx.size, nodes.x.shape[1]), np.nan), np.full((idx.size, columns.size), np.nan)
+    done = np.zeros(idx.size, dtype=np.bool_)
+    smk.backward(sm, True, threads, chunk, full=False, rows=(slot, columns, X, C, done))
+    np.testing.assert_array_equal(done, between)
+    gx, gc = smk.gather(sm, idx, columns)
+    np.testing.assert_array_equal(X[done], gx[done])
+    np.testing.assert_array_equal(C[done], gc[done])
+    assert np.all(np.isnan(X[~done])) and np.all(np.isnan(C[~done]))
+
+
 def test_reset_inverse_undoes_the_reset_jacobian() -> None:
     from adaptnav.models.errorstate import (
         RESET_ATTITUDE,

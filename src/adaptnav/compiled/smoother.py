@@ -65,6 +65,11 @@ NODE_ARRAYS = (SM_T, SM_X, SM_P, SM_PHI, SM_PRIOR, SM_OUT)
 UPDATE_ARRAYS = (SM_DX, SM_PM)
 """The store's arrays with a row per update node."""
 _NO_DX, _NO_PRIOR = np.empty(0), np.empty((0, 0))
+Rows = tuple[IntArray, IntArray, Array, Array, NDArray[np.bool_]]
+"""Where :func:`backward` writes the output rows it smooths between update nodes: ``(slot
+(N,): each node's output row or -1, columns: packed P elements (:func:`packed_index`), X (R,
+16 + m), C (R, len(columns)), done (R,))``, :func:`gather`'s ``X`` and ``C`` filled as the pass
+goes and ``done`` set for the rows filled."""
 """:func:`node`'s arguments for a node without an update (constants: no allocation per row)."""
 
 
@@ -479,7 +484,14 @@ def reported(n: int) -> list[tuple[int, int]]:
     })  # fmt: skip
 
 
-def backward(sm: Store, reset: int, threads: int = 1, chunk: int = 0, full: bool = True) -> None:
+def backward(
+    sm: Store,
+    reset: int,
+    threads: int = 1,
+    chunk: int = 0,
+    full: bool = True,
+    rows: Rows | None = None,
+) -> None:
     """The RTS backward pass over the stored nodes, in place: each node's x becomes ``x^s``
     and its packed P becomes ``P^s`` (docs/smoothing.md, 'The backward pass').
 
@@ -501,7 +513,9 @@ def backward(sm: Store, reset: int, threads: int = 1, chunk: int = 0, full: bool
     two update nodes need only that factor, so :func:`interiors` smooths a run's intervals from
     its buffer as soon as its anchors are done, in ``threads`` threads (this one included; the
     kernels release the GIL). The result does not depend on ``threads``: every node is computed
-    by the same arithmetic."""
+    by the same arithmetic. ``rows``: the output rows to fill with the nodes between update
+    nodes as they are smoothed (:data:`Rows`; the caller gathers the rest), instead of reading
+    them back from the store afterwards, scattered over it."""
     counts = sm[SM_COUNT]
     counts[K_FAILED] = 0
     ups = np.flatnonzero(sm[SM_PRIOR][: counts[K_NODES]] >= 0).astype(np.int64)
@@ -510,19 +524,33 @@ def backward(sm: Store, reset: int, threads: int = 1, chunk: int = 0, full: bool
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     e = np.zeros(n)
+    out = rows if rows is not None else _NO_ROWS
     step = chunk if chunk > 0 else CHUNK
     runs = [(max(hi - step, 0), hi) for hi in range(int(ups.size), 0, -step)]
     if threads <= 1:
         factors = np.zeros((step, 3, W, W))
         for lo, hi in runs:
             anchors(sm, reset, ups, lo, hi, e, factors)
-            interiors(sm, ups, lo, hi, factors, full)
+            interiors(sm, ups, lo, hi, factors, full, *out)
         return
-    _in_threads(sm, reset, ups, runs, threads, full)
+    _in_threads(sm, reset, ups, runs, threads, full, out)
+
+
+_NO_ROWS: Rows = (
+    np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0)), np.empty((0, 0)),
+    np.empty(0, np.bool_),
+)  # fmt: skip
+""":data:`Rows` for a pass that fills none."""
 
 
 def _in_threads(
-    sm: Store, reset: int, ups: IntArray, runs: list[tuple[int, int]], threads: int, full: bool
+    sm: Store,
+    reset: int,
+    ups: IntArray,
+    runs: list[tuple[int, int]],
+    threads: int,
+    full: bool,
+    out: Rows,
 ) -> None:
     """:func:`backward`'s runs, the chain on this thread and the intervals on ``threads - 1``
     more (and on this one once the chain is done); a run's factors live in one of
@@ -538,8 +566,9 @@ def _in_threads(
 
     def drain() -> None:
         while (run := ready.get()) is not None:
-            interiors(sm, ups, *run, full)
-            free.put(run[2])
+            lo, hi, factors = run
+            interiors(sm, ups, lo, hi, factors, full, *out)
+            free.put(factors)
 
     with ThreadPoolExecutor(threads - 1) as pool:
         helpers = [pool.submit(drain) for _ in range(threads - 1)]
@@ -601,13 +630,27 @@ def anchors(
 
 
 @jit_nogil
-def interiors(sm: Store, ups: IntArray, lo: int, hi: int, factors: Array, full: bool) -> None:
+def interiors(
+    sm: Store,
+    ups: IntArray,
+    lo: int,
+    hi: int,
+    factors: Array,
+    full: bool,
+    slot: IntArray,
+    columns: IntArray,
+    X: Array,
+    C: Array,
+    done: NDArray[np.bool_],
+) -> None:
     """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
     same range: for the update nodes ``b = ups[lo:hi]``, from b's factor that :func:`anchors`
     left in ``factors[k - lo]`` and the ``Φ(b, j)`` it left in the store's Φ, the nodes
     strictly between the update node before b (or node 0) and b (:func:`_smooth_from`: all of
     P^s or, without ``full``, its elements :func:`reported`); nothing when b's factor failed.
-    Intervals are independent: calls on disjoint ranges may run at once."""
+    A node with an output row in ``slot`` (:data:`Rows`; ``slot`` may be empty) is copied to
+    its row of X and C as :func:`gather` would, while it is at hand. Intervals are
+    independent: calls on disjoint ranges may run at once."""
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     e = np.zeros(n)
@@ -620,3 +663,11 @@ def interiors(sm: Store, ups: IntArray, lo: int, hi: int, factors: Array, full: 
             continue
         for j in range(b - 1, a, -1):  # Φ(b, j) where Φ_{j+1} was (anchors)
             _smooth_from(sm, j, sm[SM_PHI][j + 1], L, D, T[3], T[4], e, scratch, full)
+            r = slot[j] if slot.shape[0] > 0 else -1
+            if r >= 0:
+                x, p = sm[SM_X][j], sm[SM_P][j]
+                for c in range(X.shape[1]):
+                    X[r, c] = x[c]
+                for c in range(columns.shape[0]):
+                    C[r, c] = p[columns[c]]
+                done[r] = True

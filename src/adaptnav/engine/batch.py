@@ -1449,8 +1449,6 @@ class Navigator:
         if self._smoothed is None:
             self._stop_prefault()  # the rows it has not reached are not needed
             threads = min(SMOOTHER_THREADS, coldstart.cores())
-            # the solution reports P^s's diagonal and P_CROSS_PAIRS only (smk.reported)
-            smk.backward(sm, self.config.reset_mode, threads, full=False)
             counts = sm[smk.SM_COUNT]
             nodes, priors = int(counts[smk.K_NODES]), int(counts[smk.K_PRIORS])
             rows = int(self._icur[I_N_OUT])
@@ -1461,7 +1459,17 @@ class Navigator:
                 *((i, i) for i in range(N_STATES, n)),
             ]  # fmt: skip
             columns = np.array([smk.packed_index(i, j, n) for i, j in pairs], dtype=np.int64)
-            x, p = smk.gather(sm, idx, columns)
+            slot = np.full(nodes, -1, dtype=np.int64)
+            slot[idx] = np.arange(rows)  # a node of two rows has the later: the other is gathered
+            x, p = np.empty((rows, sm[smk.SM_X].shape[1])), np.empty((rows, columns.size))
+            done = np.zeros(rows, dtype=np.bool_)
+            # the solution reports P^s's diagonal and P_CROSS_PAIRS only (smk.reported); the
+            # rows between update nodes are filled as the pass smooths them, the rest gathered
+            smk.backward(sm, self.config.reset_mode, threads, full=False,
+                         rows=(slot, columns, x, p, done))  # fmt: skip
+            rest = np.flatnonzero(~done)
+            if rest.size:
+                x[rest], p[rest] = smk.gather(sm, idx[rest], columns)
             per_node = sum(sm[k][:1].nbytes for k in smk.NODE_ARRAYS)
             per_update = sum(sm[k][:1].nbytes for k in smk.UPDATE_ARRAYS)
             self._smoothed = Smoothed(
