@@ -4,7 +4,8 @@ The mission and runs of bench/run.py's ``bench_smoother`` (1 h of 100-Hz IMU, 54
 the forward pass alone and the smoothed run alternating in one process (the order swapped every
 round) so that a slow spell of a shared machine hits both alike. Per round the ratio of the two
 times; the median over the rounds, and the bench's own figure (best forward time over best
-smoothed time). The smoothed run's phases come from run_batch's progress calls: the forward pass
+smoothed time); and the ratio of the process's CPU times (all its threads), which a loaded
+machine moves less than the wall-clock one. The smoothed run's phases come from run_batch's progress calls: the forward pass
 with its store ("filtering" to "smoothing") and the rest (backward pass, gather, output).
 
     .venv/bin/python bench/smoother_ratio.py [--rounds 7] [--kinds vb,robust] [--tag NAME]
@@ -25,15 +26,16 @@ from adaptnav.estimation.settings import FilterKind, FilterSettings
 from run import FILTER_NOISE, FilterMission, _filter_mission  # bench/run.py, beside this file
 
 
-def _timed(kind: FilterKind, m: FilterMission, smooth: bool) -> tuple[float, float]:
-    """Wall time of one run as bench/run.py's ``_run_filter`` makes it and, when smoothed, of
-    its part after the forward pass (from the "smoothing" progress call on)."""
+def _timed(kind: FilterKind, m: FilterMission, smooth: bool) -> tuple[float, float, float]:
+    """Wall time of one run as bench/run.py's ``_run_filter`` makes it, when smoothed that of
+    its part after the forward pass (from the "smoothing" progress call on), and the CPU time
+    of the process's threads over the run (less dependent on what else the machine runs)."""
     marks: dict[str, float] = {}
 
     def hear(phase: str) -> None:
         marks[phase] = time.perf_counter()
 
-    t0 = time.perf_counter()
+    c0, t0 = time.process_time(), time.perf_counter()
     channels = build_channels(FilterSettings(kind=kind), m.sensors)
     config = engine.EngineConfig(FILTER_NOISE, smooth=smooth)
     engine.run_batch(
@@ -41,7 +43,7 @@ def _timed(kind: FilterKind, m: FilterMission, smooth: bool) -> tuple[float, flo
         progress=hear,
     )  # fmt: skip
     t1 = time.perf_counter()
-    return t1 - t0, (t1 - marks["smoothing"]) if smooth else 0.0
+    return t1 - t0, (t1 - marks["smoothing"]) if smooth else 0.0, time.process_time() - c0
 
 
 def main() -> None:
@@ -56,15 +58,17 @@ def main() -> None:
     for kind in args.kinds.split(","):  # FilterKind names
         _timed(kind, warm, True)  # JIT warm-up (or loading the compiled code from the cache)
         _timed(kind, warm, False)
-        fwd, smo, tail = [], [], []
+        fwd, smo, tail, cpu_f, cpu_s = [], [], [], [], []
         for r in range(args.rounds):
             order = (False, True) if r % 2 == 0 else (True, False)
             for smooth in order:
-                total, rest = _timed(kind, mission, smooth)
+                total, rest, cpu = _timed(kind, mission, smooth)
                 (smo if smooth else fwd).append(total)
+                (cpu_s if smooth else cpu_f).append(cpu)
                 if smooth:
                     tail.append(rest)
         ratios = [f / s for f, s in zip(fwd, smo, strict=True)]
+        cpu = [f / s for f, s in zip(cpu_f, cpu_s, strict=True)]
         print(
             f"{args.tag} {kind}: ratio median {statistics.median(ratios):.3f} "
             f"(min {min(ratios):.3f}, max {max(ratios):.3f}, {args.rounds} rounds); "
