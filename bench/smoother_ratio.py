@@ -5,8 +5,9 @@ the forward pass alone and the smoothed run alternating in one process (the orde
 round) so that a slow spell of a shared machine hits both alike. Per round the ratio of the two
 times; the median over the rounds, and the bench's own figure (best forward time over best
 smoothed time); and the ratio of the process's CPU times (all its threads), which a loaded
-machine moves less than the wall-clock one. The smoothed run's phases come from run_batch's progress calls: the forward pass
-with its store ("filtering" to "smoothing") and the rest (backward pass, gather, output).
+machine moves less than the wall-clock one. The smoothed run's phases come from run_batch's
+progress calls: the forward pass with its store ("filtering" to "smoothing") and the rest
+(backward pass, gather, output).
 
     .venv/bin/python bench/smoother_ratio.py [--rounds 7] [--kinds vb,robust] [--tag NAME]
 
@@ -75,7 +76,9 @@ def main() -> None:
             f"best/best {min(fwd) / min(smo):.3f}; forward {min(fwd):.3f} s "
             f"(median {statistics.median(fwd):.3f}), smoothed {min(smo):.3f} s "
             f"(median {statistics.median(smo):.3f}), of which after the forward pass "
-            f"{min(tail):.3f} s (median {statistics.median(tail):.3f})",
+            f"{min(tail):.3f} s (median {statistics.median(tail):.3f}); CPU ratio median "
+            f"{statistics.median(cpu):.3f} (forward {min(cpu_f):.3f} s, smoothed "
+            f"{min(cpu_s):.3f} s, best of each)",
             flush=True,
         )
 
