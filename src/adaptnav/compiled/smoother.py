@@ -23,7 +23,10 @@ The backward pass (:func:`backward`) goes from update node to update node: a nod
 of them is corrected only by what the later one brings, through one gain over the interval
 (docs/smoothing.md, 'The backward pass'). The chain of update nodes (:func:`anchors`) is
 sequential; the nodes between them (:func:`interiors`) are smoothed in threads as the chain
-passes them; the pass keeps a further n float64 per update node while it runs.
+passes them, from the factors the chain formed (since 0.4.11; up to 0.4.10 the chain kept n
+float64 per update node and the interiors formed each factor again). While it runs the pass
+keeps those factors in at most ``threads + 1`` buffers of :data:`CHUNK` update nodes, 6 KB
+per update node (1.5 MB per buffer for the 15 core states).
 """
 
 from __future__ import annotations
@@ -530,6 +533,7 @@ def backward(
     if threads <= 1:
         factors = np.zeros((step, 3, W, W))
         for lo, hi in runs:
+            transitions(sm, ups, lo, hi)
             anchors(sm, reset, ups, lo, hi, e, factors)
             interiors(sm, ups, lo, hi, factors, full, *out)
         return
@@ -552,10 +556,12 @@ def _in_threads(
     full: bool,
     out: Rows,
 ) -> None:
-    """:func:`backward`'s runs, the chain on this thread and the intervals on ``threads - 1``
-    more (and on this one once the chain is done); a run's factors live in one of
-    ``threads + 1`` buffers, taken by the chain and given back by whoever smoothed the run's
-    intervals, so at most that many runs wait between the two parts."""
+    """:func:`backward`'s runs in ``threads`` threads: first the transitions of every interval
+    (:func:`transitions`, the update nodes shared out between the threads), then the chain on
+    this thread and the intervals on the others (and on this one once the chain is done); a
+    run's factors live in one of ``threads + 1`` buffers, taken by the chain and given back by
+    whoever smoothed the run's intervals, so at most that many runs wait between the two
+    parts."""
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
     e = np.zeros(n)
@@ -571,6 +577,13 @@ def _in_threads(
             free.put(factors)
 
     with ThreadPoolExecutor(threads - 1) as pool:
+        cuts = np.linspace(0, ups.size, threads + 1).astype(np.int64)
+        shares = [
+            pool.submit(transitions, sm, ups, cuts[i], cuts[i + 1]) for i in range(1, threads)
+        ]
+        transitions(sm, ups, cuts[0], cuts[1])
+        for f in shares:
+            f.result()
         helpers = [pool.submit(drain) for _ in range(threads - 1)]
         try:
             for lo, hi in runs:
@@ -590,6 +603,28 @@ CHUNK = 256
 
 
 @jit_nogil
+def transitions(sm: Store, ups: IntArray, lo: int, hi: int) -> None:
+    """For the update nodes ``b = ups[k]``, k from lo to hi - 1, the transitions
+    ``Φ(b, j) = Φ_b ⋯ Φ_{j+1}`` from every node j from the update node a before b (or node 0)
+    up to b - 2, each into node j + 1's row of the store's Φ, where ``Φ_{j+1}`` was (each stored
+    Φ serves one interval only, and is used up); node a + 1's row then holds ``Φ(b, a)``, as it
+    does already when b = a + 1. They depend on the forward pass only, not on what the backward
+    pass smooths, and the intervals share no row: calls on disjoint ranges may run at once,
+    before :func:`anchors` and :func:`interiors` (:func:`backward`) read them."""
+    psi = np.zeros(sm[SM_PHI].shape[1])
+    acc = np.zeros((1, CORE))
+    for k in range(lo, hi):
+        b = ups[k]
+        a = ups[k - 1] if k > 0 else 0
+        if b - a < 2:
+            continue
+        psi[:] = sm[SM_PHI][b]
+        for j in range(b - 2, a - 1, -1):
+            _psi_times(psi, sm[SM_PHI][j + 1], acc)
+            sm[SM_PHI][j + 1, :] = psi
+
+
+@jit_nogil
 def anchors(
     sm: Store, reset: int, ups: IntArray, lo: int, hi: int, e: Array, factors: Array
 ) -> None:
@@ -599,15 +634,14 @@ def anchors(
     ``factors[k - lo]``, for :func:`interiors`) and from it the smoothed x and P of the update
     node a before b (or of node 0), which the factor at a starts from (:func:`_smooth_from`,
     all of P^s); NaN in ``T[5, 0]`` when b's P⁻ is not positive definite (counted), else 0.
-    ``factors`` (≥ hi - lo, 3, W, W): zero from row and column n on. Building ``Φ(b, a)`` it
-    leaves ``Φ(b, j)`` in node j + 1's row of the store's Φ for every j from a to b - 2 (each
-    stored Φ serves one interval only). ``e``: the smoothed error of ``ups[hi]`` (zero at the
-    last update node), left as that of ``ups[lo]``."""
+    ``factors`` (≥ hi - lo, 3, W, W): zero from row and column n on. ``Φ(b, a)`` is node
+    a + 1's row of the store's Φ, as :func:`transitions` (over the same range, before) left it.
+    ``e``: the smoothed error of ``ups[hi]`` (zero at the last update node), left as that of
+    ``ups[lo]``."""
     counts = sm[SM_COUNT]
     n = sm[SM_DX].shape[1]
     W = (n + 3) // 4 * 4
-    psi = np.zeros(sm[SM_PHI].shape[1])
-    Ps, Pm, acc, scratch = np.zeros((W, W)), np.zeros((W, W)), np.zeros((W, W)), np.zeros((5, W, W))
+    Ps, Pm, scratch = np.zeros((W, W)), np.zeros((W, W)), np.zeros((5, W, W))
     unpack(sm[SM_P][ups[hi - 1]], Ps, n)
     for k in range(hi - 1, lo - 1, -1):
         b = ups[k]
@@ -617,11 +651,7 @@ def anchors(
         L, D, T = factors[k - lo, 0], factors[k - lo, 1], factors[k - lo, 2]
         if _factor(sm, b, reset, e, Ps, Pm, L, D, T):
             T[5, 0] = 0.0
-            psi[:] = sm[SM_PHI][b]
-            for j in range(b - 2, a - 1, -1):
-                _psi_times(psi, sm[SM_PHI][j + 1], acc)
-                sm[SM_PHI][j + 1, :] = psi  # Φ_{j+1} is used up: keep Φ(b, j) there instead
-            _smooth_from(sm, a, psi, L, D, T[3], T[4], e, scratch, True)
+            _smooth_from(sm, a, sm[SM_PHI][a + 1], L, D, T[3], T[4], e, scratch, True)
         else:
             counts[K_FAILED] += 1
             e[:] = 0.0
@@ -645,9 +675,10 @@ def interiors(
 ) -> None:
     """The backward pass's parallel part (:func:`backward`), after :func:`anchors` over the
     same range: for the update nodes ``b = ups[lo:hi]``, from b's factor that :func:`anchors`
-    left in ``factors[k - lo]`` and the ``Φ(b, j)`` it left in the store's Φ, the nodes
-    strictly between the update node before b (or node 0) and b (:func:`_smooth_from`: all of
-    P^s or, without ``full``, its elements :func:`reported`); nothing when b's factor failed.
+    left in ``factors[k - lo]`` and the ``Φ(b, j)`` that :func:`transitions` left in the
+    store's Φ, the nodes strictly between the update node before b (or node 0) and b
+    (:func:`_smooth_from`: all of P^s or, without ``full``, its elements :func:`reported`);
+    nothing when b's factor failed.
     A node with an output row in ``slot`` (:data:`Rows`; ``slot`` may be empty) is copied to
     its row of X and C as :func:`gather` would, while it is at hand. Intervals are
     independent: calls on disjoint ranges may run at once."""
@@ -661,7 +692,7 @@ def interiors(
         L, D, T = factors[k - lo, 0], factors[k - lo, 1], factors[k - lo, 2]
         if b - a < 2 or math.isnan(T[5, 0]):
             continue
-        for j in range(b - 1, a, -1):  # Φ(b, j) where Φ_{j+1} was (anchors)
+        for j in range(b - 1, a, -1):  # Φ(b, j) where Φ_{j+1} was (transitions)
             _smooth_from(sm, j, sm[SM_PHI][j + 1], L, D, T[3], T[4], e, scratch, full)
             r = slot[j] if slot.shape[0] > 0 else -1
             if r >= 0:
