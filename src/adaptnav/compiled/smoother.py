@@ -21,10 +21,12 @@ core, plus n + n(n+1)/2 float64 (1.1 KB) per update node.
 
 The backward pass (:func:`backward`) goes from update node to update node: a node between two
 of them is corrected only by what the later one brings, through one gain over the interval
-(docs/smoothing.md, 'The backward pass'). The chain of update nodes (:func:`anchors`) is
-sequential; the nodes between them (:func:`interiors`) are smoothed in threads as the chain
-passes them, from the factors the chain formed (since 0.4.11; up to 0.4.10 the chain kept n
-float64 per update node and the interiors formed each factor again). While it runs the pass
+(docs/smoothing.md, 'The backward pass'). The transitions over each interval
+(:func:`transitions`) depend on the forward pass only and are formed first, in threads; the
+chain of update nodes (:func:`anchors`) is sequential; the nodes between them
+(:func:`interiors`) are smoothed in threads as the chain passes them, from the factors the
+chain formed (since 0.4.11; up to 0.4.10 the chain formed the transitions as it went, kept n
+float64 per update node, and the interiors formed each factor again). While it runs the pass
 keeps those factors in at most ``threads + 1`` buffers of :data:`CHUNK` update nodes, 6 KB
 per update node (1.5 MB per buffer for the 15 core states).
 """
