@@ -153,9 +153,9 @@ class Dvl:
     def of(cls, t: Array, v_s: Array, c_sb: Array | None, period: float, sigma: float) -> Dvl:
         """From the sensor-frame readings ``v_s`` (n, 3) and ``C_sb``."""
         v = np.asarray(v_s, dtype=float)
-        v_b = v if c_sb is None else v @ np.asarray(c_sb, dtype=float)
-        ok = np.isfinite(t) & np.all(np.isfinite(v_b), axis=1)
-        return cls(np.asarray(t, dtype=float)[ok], v_b[ok], period, sigma)
+        ok = np.isfinite(t) & np.all(np.isfinite(v), axis=1)  # before turning: inf·0 is NaN
+        v_b = v[ok] if c_sb is None else v[ok] @ np.asarray(c_sb, dtype=float)
+        return cls(np.asarray(t, dtype=float)[ok], v_b, period, sigma)
 
     def covered(self, t0: Array, t1: Array) -> NDArray[np.bool_]:
         """Intervals (t0, t1] holding at least :data:`COVER_SHARE` of their nominal readings."""
