@@ -75,3 +75,16 @@ def test_frd_ned_meaning() -> None:
 )
 def test_wrap(angle: float, wrapped: float) -> None:
     assert float(at.wrap_angle(angle)) == pytest.approx(wrapped)
+
+
+def test_quat_mult_of_rows_is_each_row_s_product() -> None:
+    rng = np.random.default_rng(7)
+    p, q = rng.normal(size=(5, 4)), rng.normal(size=(5, 4))
+    rows = at.quat_mult(p, q)
+    assert rows.shape == (5, 4)
+    for i in range(5):
+        np.testing.assert_array_equal(rows[i], at.quat_mult(p[i], q[i]))
+    # p ⊗ q by the matrix of p's left product: an independent form of the product.
+    w, x, y, z = p[0]
+    left = np.array([[w, -x, -y, -z], [x, w, -z, y], [y, z, w, -x], [z, -y, x, w]])
+    np.testing.assert_allclose(rows[0], left @ q[0], rtol=1e-14, atol=1e-15)

@@ -26,9 +26,9 @@ def cross(a: Array, b: Array) -> Array:
 
 
 def quat_mult(p: ArrayLike, q: ArrayLike) -> Array:
-    """Hamilton product ``p ⊗ q``."""
-    pw, px, py, pz = np.asarray(p, dtype=float)
-    qw, qx, qy, qz = np.asarray(q, dtype=float)
+    """Hamilton product ``p ⊗ q``; of each pair of rows for arrays of quaternions (n, 4)."""
+    pw, px, py, pz = np.asarray(p, dtype=float).T
+    qw, qx, qy, qz = np.asarray(q, dtype=float).T
     return np.array(
         [
             pw * qw - px * qx - py * qy - pz * qz,
@@ -36,7 +36,7 @@ def quat_mult(p: ArrayLike, q: ArrayLike) -> Array:
             pw * qy - px * qz + py * qw + pz * qx,
             pw * qz + px * qy - py * qx + pz * qw,
         ]
-    )
+    ).T
 
 
 def quat_conj(q: ArrayLike) -> Array:

@@ -67,6 +67,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import uniform_filter1d
 
+from adaptnav.core.attitude import quat_mult
 from adaptnav.mission import axes
 
 Array = NDArray[np.float64]
@@ -96,21 +97,6 @@ SLIPS: dict[str, Array] = {
 }
 """The readings' likely slips, as the matrix that turns the table's readings into the right
 ones (each its own inverse); the first axis it changes is the one named."""
-
-
-def quat_mult(p: Array, q: Array) -> Array:
-    """Hamilton products ``p ⊗ q`` of quaternions (n, 4) [w, x, y, z] (core/attitude.py's,
-    row by row)."""
-    pw, px, py, pz = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
-    qw, qx, qy, qz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.column_stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ]
-    )
 
 
 def rotvec_quat(a: Array) -> Array:
