@@ -69,12 +69,12 @@ NODE_ARRAYS = (SM_T, SM_X, SM_P, SM_PHI, SM_PRIOR, SM_OUT)
 """The store's arrays with a row per node."""
 UPDATE_ARRAYS = (SM_DX, SM_PM)
 """The store's arrays with a row per update node."""
-_NO_DX, _NO_PRIOR = np.empty(0), np.empty((0, 0))
 Rows = tuple[IntArray, IntArray, Array, Array, NDArray[np.bool_]]
 """Where :func:`backward` writes the output rows it smooths between update nodes: ``(slot
 (N,): each node's output row or -1, columns: packed P elements (:func:`packed_index`), X (R,
 16 + m), C (R, len(columns)), done (R,))``, :func:`gather`'s ``X`` and ``C`` filled as the pass
 goes and ``done`` set for the rows filled."""
+_NO_DX, _NO_PRIOR = np.empty(0), np.empty((0, 0))
 """:func:`node`'s arguments for a node without an update (constants: no allocation per row)."""
 
 
