@@ -352,6 +352,8 @@ def check_dvl_axes(blocks: Blocks, dvl: Readings, vrw: float) -> DvlAxisFinding 
     known = [f for f in fits if f is not None]
     if len(known) == 3 and all(f.confirmed for f in known):
         return None
+    if not known:  # no axis's prediction above its noise (a vehicle at rest): no slip decides
+        return None
     t_from, t_to = float(span[0]), float(span[1])
     # The DVL's own readings shape the prediction's gravity and centripetal term: a wrong axis
     # can spoil the other axes' fits too, so a slip that makes every axis fit is named first.
