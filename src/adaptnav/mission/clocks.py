@@ -150,7 +150,7 @@ class _Reference:
         """The readings ``angle`` at ``t``, unwrapped, interpolated linearly onto the grid."""
         period = float(np.median(np.diff(t)))
         step = max(period, imu_dt, MIN_STEP_S)
-        unwrapped = angle[0] + np.concatenate([[0.0], np.cumsum(axes.wrap(np.diff(angle)))])
+        unwrapped = np.unwrap(angle)
         g = t[0] + step * np.arange(int((t[-1] - t[0]) / step) + 1)
         a = np.diff(np.interp(g, t, unwrapped))
         # The reading interval that holds each grid interval's end: a long one is a gap.
