@@ -403,7 +403,7 @@ def _check_scales(
     names = [n for n, d in sensors.items() if d.kind == "dvl" and config.sensors[n].check_scale]
     if not names:
         return
-    blocks: list[dvl_axes.Blocks] = []  # summed once, for the first DVL that needs them
+    blocks = dvl_axes.Blocks.of(*views.samples)  # the IMU's 0.1-s sums, once for every DVL
     for name in names:
         cfg, d = config.sensors[name], sensors[name]
         period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
@@ -411,9 +411,7 @@ def _check_scales(
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
         _check_dvl_track(config, sensors, name, dvl, views)
         _check_depth_scale(config, sensors, name, dvl, views)
-        if not blocks:
-            blocks.append(dvl_axes.Blocks.of(*views.samples))
-        _check_dvl_axes(config, name, d, period, blocks[0], views.noise[1])
+        _check_dvl_axes(config, name, d, period, blocks, views.noise[1])
 
 
 def _check_dvl_axes(
