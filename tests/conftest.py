@@ -8,7 +8,15 @@ in the :mod:`helpers` package (tests/helpers/), imported as ``from helpers impor
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+# pytest-xdist's workers (make test runs two) get COLUMNS=80 in their environment, where a
+# plain pytest has none: the CLI's tables and long paths would then wrap at 80 columns instead
+# of its own 120 for a pipe (cli/_app.py), and tests that look for a line would see it split.
+# Before helpers.cli imports the CLI, whose consoles read the width once.
+os.environ.pop("COLUMNS", None)
+os.environ.pop("LINES", None)
 
 import pytest
 
