@@ -406,7 +406,12 @@ def _check_scales(
     blocks = dvl_axes.Blocks.of(*views.samples)  # the IMU's 0.1-s sums, once for every DVL
     for name in names:
         cfg, d = config.sensors[name], sensors[name]
-        period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
+        ok = np.isfinite(d.t) & np.all(np.isfinite(d.z[:, :3]), axis=1)
+        if np.count_nonzero(ok) < 2:
+            # No velocity to integrate (every reading NaN in some axis, or dropped as lost
+            # lock): nothing to judge; up to 0.4.11 an IndexError.
+            continue
+        period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t[ok])))
         sigma = float(np.atleast_1d(cfg.sigma_si())[0])
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
         _check_dvl_track(config, sensors, name, dvl, views)

@@ -238,14 +238,16 @@ def through_origin(a: Array, b: Array) -> tuple[complex, float, int] | None:
     |residual| of a circular normal (1.1774 σ)."""
     cplx = bool(np.iscomplexobj(a) or np.iscomplexobj(b))
     a, b = np.asarray(a, dtype=complex), np.asarray(b, dtype=complex)
-    keep = np.ones(a.size, dtype=bool)
+    # A b of zeros (a DVL reading zeros throughout: bottom lock lost) has no k to give; up to
+    # 0.4.11 its 0/0 was a RuntimeWarning and a NaN fit.
+    keep = np.abs(b) > 0.0
     for _ in range(3):
         if np.count_nonzero(keep) < MIN_CHORDS:
             return None
         k = complex(np.vdot(b[keep], a[keep]) / np.vdot(b[keep], b[keep]).real)
         r = np.abs(a - k * b)
         s = float(np.median(r[keep])) / (1.1774 if cplx else 0.6745)
-        keep = r <= axes.OUTLIER_SIGMAS * s + 1e-15
+        keep = (r <= axes.OUTLIER_SIGMAS * s + 1e-15) & (np.abs(b) > 0.0)
     n = int(np.count_nonzero(keep))
     if n < MIN_CHORDS:
         return None
@@ -494,9 +496,11 @@ def depth_at_fixes(
     t_fix = t_fix[np.isfinite(t_fix)]
     if t_depth.size == 0 or t_fix.size < MIN_FIXES:
         return None
-    j = np.clip(np.searchsorted(t_depth, t_fix), 1, max(t_depth.size - 1, 1))
-    j = np.where(np.abs(t_depth[j - 1] - t_fix) <= np.abs(t_depth[j] - t_fix), j - 1, j)
-    j = np.minimum(j, t_depth.size - 1)
+    # The readings either side of each fix, one and the same where there is only one (up to
+    # 0.4.11 a depth meter of one reading was an IndexError here).
+    hi = np.minimum(np.searchsorted(t_depth, t_fix), t_depth.size - 1)
+    lo = np.maximum(hi - 1, 0)
+    j = np.where(np.abs(t_depth[lo] - t_fix) <= np.abs(t_depth[hi] - t_fix), lo, hi)
     near = np.abs(t_depth[j] - t_fix) <= FIX_PAIR_S
     if np.count_nonzero(near) < MIN_FIXES:
         return None

@@ -1,0 +1,93 @@
+"""Odd but real inputs to the load-time cross-checks (loader.cross_check: mission/clocks.py,
+axes.py, scales.py, dvl_axes.py), which the stream's window runs too (mission/live_cross.py):
+each either decides rightly or says nothing, never a traceback or a NumPy warning
+(docs/robustness.md, 'Odd inputs to the cross-checks').
+
+The loader-level cases change the simulated demo's loaded arrays in memory and call
+:func:`adaptnav.mission.loader.cross_check` on them, as the loader and the stream do."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adaptnav.mission import axes, load_mission, loader, scales
+from adaptnav.mission.loader import Mission, SensorData
+
+
+@pytest.fixture(scope="module")
+def demo_aided(demo: Path, tmp_path_factory: pytest.TempPathFactory) -> Mission:
+    """The demo with its heading sensor aiding (off as simulated), loaded once."""
+    root = tmp_path_factory.mktemp("odd") / "demo"
+    shutil.copytree(demo, root)
+    text = (demo / "mission.toml").read_text()
+    head, tail = text.split("[sensors.heading]", 1)
+    (root / "mission.toml").write_text(
+        head + "[sensors.heading]" + tail.replace('use = "off"', 'use = "aid"', 1)
+    )
+    return load_mission(root)
+
+
+def _check(m: Mission, sensors: dict[str, SensorData], dtheta: np.ndarray | None = None) -> None:
+    """The loader's cross-checks on ``sensors`` and the IMU (its Δθ replaced by ``dtheta``),
+    with every warning an error."""
+    imu = m.imu
+    noise = m.config.imu.noise.to_imu_noise()
+    d = imu.dtheta if dtheta is None else dtheta
+    views = axes.ImuViews(imu.t, imu.dt, d, imu.dvel, (noise.arw, noise.vrw))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        loader.cross_check(m.config, views, sensors)
+
+
+def _with(
+    m: Mission, name: str, keep: np.ndarray | None = None, z: np.ndarray | None = None
+) -> dict[str, SensorData]:
+    """The mission's sensors with ``name``'s readings cut to ``keep`` or values set to ``z``."""
+    d = m.sensors[name]
+    if keep is not None:
+        d = dataclasses.replace(d, t=d.t[keep], z=d.z[keep], rows=d.rows[keep])
+    if z is not None:
+        d = dataclasses.replace(d, z=z)
+    return {**m.sensors, name: d}
+
+
+def test_the_demo_with_its_heading_is_silent(demo_aided: Mission) -> None:
+    _check(demo_aided, demo_aided.sensors)
+
+
+def test_a_depth_meter_with_one_reading_is_paired_with_the_fixes_near_it() -> None:
+    # Up to 0.4.11 an IndexError: the neighbour above the only reading was looked up.
+    at = scales.depth_at_fixes(
+        np.array([100.5]), np.array([10.0]), 100.0 + 0.05 * np.arange(20), 0.5
+    )
+    assert at is not None and at.n == 20 and at.depth_m == 10.0 and at.under_m == 9.5
+    assert scales.depth_at_fixes(np.array([5.0]), np.array([10.0]), np.arange(100.0), 0.0) is None
+
+
+def test_a_depth_meter_with_one_reading_loads(demo_aided: Mission) -> None:
+    _check(demo_aided, _with(demo_aided, "depth", keep=np.array([700])))
+
+
+def test_a_dvl_reading_zeros_throughout_has_no_speed_to_judge(demo_aided: Mission) -> None:
+    # Up to 0.4.11: 0/0 in the speed fit, a RuntimeWarning and a NaN fit.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert scales.through_origin(np.ones(30), np.zeros(30)) is None
+        assert scales.through_origin(np.ones(30) + 1j, np.zeros(30, dtype=complex)) is None
+    zeros = np.zeros_like(demo_aided.sensors["dvl"].z)
+    _check(demo_aided, _with(demo_aided, "dvl", z=zeros))
+
+
+def test_a_dvl_with_no_whole_reading_is_not_judged(demo_aided: Mission) -> None:
+    # Every reading with a NaN axis (or dropped as lost lock): up to 0.4.11 an IndexError.
+    z = demo_aided.sensors["dvl"].z.copy()
+    z[:, 2] = math.nan
+    _check(demo_aided, _with(demo_aided, "dvl", z=z))
+    _check(demo_aided, _with(demo_aided, "dvl", keep=np.arange(0)))
