@@ -251,3 +251,14 @@ def test_the_error_doubts_an_offset_found_with_a_slope_far_from_one() -> None:
     assert "alias" not in loader._clock_words(ref, sure, 0.0)
     words = loader._clock_words(ref, doubtful, 0.2)
     assert "Set latency_s = 4.7 in [sensors.incl] (now 0.2)" in words and "alias" in words
+
+
+@pytest.mark.parametrize("late_s", [-60.0, 60.0])
+def test_an_offset_of_the_whole_latency_bound_is_dated(
+    motion: dict[str, np.ndarray], late_s: float
+) -> None:
+    # latency_s = 60 on right stamps: the offset lies on the ±60-s bound, where up to 0.4.11 the
+    # scan ended and its σ was infinite (the axis check then blamed the gyro).
+    found = _offset(motion, 2, late_s, 1.0)
+    assert abs(found.offset_s - late_s) < max(4.0 * found.se_s, 0.5), found
+    assert found.decisive() and abs(found.k - 1.0) < 0.05, found

@@ -91,3 +91,14 @@ def test_a_dvl_with_no_whole_reading_is_not_judged(demo_aided: Mission) -> None:
     z[:, 2] = math.nan
     _check(demo_aided, _with(demo_aided, "dvl", z=z))
     _check(demo_aided, _with(demo_aided, "dvl", keep=np.arange(0)))
+
+
+def test_an_inclinometer_pegged_at_90_degrees_at_the_end_is_not_dated_off(
+    demo_aided: Mission,
+) -> None:
+    # Its last 10 s at exactly 90° pitch. Up to 0.4.11 lag 0 was judged with that step and
+    # lag -18 s without it (the IMU no longer covers it there): "the stamps lie 18.3 s before
+    # its readings were taken", exit 2. Now both on the same intervals: nothing to date.
+    z = demo_aided.sensors["inclinometer"].z.copy()
+    z[-50:, 1] = math.pi / 2.0
+    _check(demo_aided, _with(demo_aided, "inclinometer", z=z))

@@ -87,6 +87,10 @@ right stamps give 0.93-1.00 on every right dataset measured, and a sea's compone
 enough that stamps 70 or 90 s late (beyond the scan) fit at an alias within it with 0.81."""
 CONFIDENCE = 4.0
 """σ's the offset must lie from zero."""
+EDGE_LAGS = 2
+"""Lags scanned past ±:data:`MAX_OFFSET_S` (in the scan's spacing): up to 0.4.11 an offset of
+exactly 60 s lay on the scan's edge, where the parabola has no neighbour, so its σ was infinite
+and the axis check then blamed the gyro (a heading with ``latency_s = 60`` on right stamps)."""
 MIN_PERIODS = 2.0
 """An offset within this many of the sensor's periods (or within ±1 s) is not refused."""
 
@@ -183,9 +187,12 @@ class _Scan:
         """Every lag j h + φ within ±``max_offset_s``: per phase φ (a grid coarser than
         :data:`MAX_STEP_S`, a GNSS course's, is tried at phases that far apart) six
         correlations over the lags j."""
-        lags = math.ceil(max_offset_s / ref.step)
         # A 1-Hz sensor whose clock runs a little slow (1.0002 s) is not split into two phases.
         phases = max(1, math.ceil(ref.step / MAX_STEP_S - 0.05))
+        # EDGE_LAGS spacings past the bound, so that an offset of exactly ±max_offset_s (a
+        # latency_s of 60 s on right stamps) has neighbours either side for its parabola.
+        span = max_offset_s + EDGE_LAGS * ref.step / phases
+        lags = math.ceil(span / ref.step)
         x = np.stack([ref.a, ref.a**2, ref.a, ref.m, ref.m, ref.m])
         rows = []
         for p in range(phases):
@@ -195,7 +202,7 @@ class _Scan:
             tau = phase + ref.step * np.arange(-lags, lags + 1)
             rows.append(np.vstack([tau, sums]))
         tau, sab, saa, sa, n, sb, sbb = np.hstack(rows)[:, np.argsort(np.hstack(rows)[0])]
-        keep = np.abs(tau) <= max_offset_s
+        keep = np.abs(tau) <= span + 1e-9
         n = np.round(n)
         with np.errstate(divide="ignore", invalid="ignore"):
             centred = (n, saa - sa**2 / n, sab - sa * sb / n, sbb - sb**2 / n)
@@ -240,24 +247,57 @@ def clock_offset(
     j = int(np.argmin(var))
     shift, curvature = _parabola(rss, j)
     h = float(scan.tau[1] - scan.tau[0]) if scan.tau.size > 1 else ref.step
-    n_eff = _n_eff(ref, gyro.t, theta, float(scan.tau[j]), float(k[j]))
     sigma2 = float(rss[j]) / max(float(n[j]) - 3.0, 1.0)
     se = math.sqrt(2.0 * sigma2 / curvature) * h if curvature > 0.0 else math.inf
-    se = max(se * math.sqrt(float(n[j]) / n_eff), h / math.sqrt(12.0))
-    # Lag 0 judged as a right sensor would be there: with the slope found at the offset.
-    rss0 = float(saa[zero] - 2.0 * k[j] * sab[zero] + k[j] ** 2 * sbb[zero])
-    var0 = rss0 / max(float(n[zero]) - 1.0, 1.0)
-    signal = float(k[j] ** 2 * sbb[j] / n[j])
+    both = _Both.of(ref, gyro.t, theta, float(scan.tau[j]))
+    se = max(se * math.sqrt(float(n[j]) / both.n_eff), h / math.sqrt(12.0))
     return ClockOffset(
         offset_s=float(scan.tau[j]) + shift * h,
         se_s=se,
-        k=float(k[j]),
+        k=both.k,
         k_zero=float(k[zero]),
-        ratio=var0 / float(var[j]) if var[j] > 0.0 else math.inf,
-        share=(var0 - float(var[j])) / signal if signal > 0.0 else 0.0,
-        n=int(n[j]),
-        n_eff=n_eff,
+        ratio=both.var0 / both.var if both.var > 0.0 else math.inf,
+        share=(both.var0 - both.var) / both.signal if both.signal > 0.0 else 0.0,
+        n=both.n,
+        n_eff=both.n_eff,
     )
+
+
+@dataclass(frozen=True)
+class _Both:
+    """The fit at the offset τ̂ and lag 0 judged on the same intervals, those the IMU covers
+    at both (module docstring): the slope ``k`` at τ̂, the residual variances ``var`` there and
+    ``var0`` at lag 0 with that slope, the rotation's ``signal`` ``k² Σ (b - b̄)² / N``, the
+    count ``n`` and ``n_eff`` of them independent. Up to 0.4.11 lag 0 was judged on every
+    interval and τ̂ on those it covers: a last 10 s of an inclinometer pegged at 90°, left
+    out only at τ̂ = -18 s, made that a clock offset decisively better than lag 0."""
+
+    k: float
+    var: float
+    var0: float
+    signal: float
+    n: int
+    n_eff: float
+
+    @classmethod
+    def of(cls, ref: _Reference, t: Array, theta: Array, tau: float) -> _Both:
+        """From the reference's changes and the IMU's at ``tau`` and at 0 (direct sums: two
+        lags, not a scan)."""
+        b, covered = ref.imu(t, theta, tau)
+        b0, covered0 = ref.imu(t, theta, 0.0)
+        use = (ref.m * covered * covered0) > 0.0
+        a, b, b0 = ref.a[use], b[use], b0[use]
+        n = int(a.size)
+        if n < 3:
+            return cls(math.nan, 0.0, 0.0, 0.0, n, float(n))
+        a, bc, b0c = a - a.mean(), b - b.mean(), b0 - b0.mean()
+        sbb = float(np.sum(bc * bc))
+        k = float(np.sum(a * bc)) / sbb if sbb > 0.0 else math.nan
+        r = a - k * bc
+        r0 = a - k * b0c
+        var = float(np.sum(r * r)) / (n - 2)
+        var0 = float(np.sum(r0 * r0)) / (n - 1)
+        return cls(k, var, var0, k * k * sbb / n, n, _n_eff(r))
 
 
 def _parabola(rss: Array, j: int) -> tuple[float, float]:
@@ -272,13 +312,10 @@ def _parabola(rss: Array, j: int) -> tuple[float, float]:
     return float(np.clip(0.5 * (lo - hi) / curvature, -0.5, 0.5)), curvature
 
 
-def _n_eff(ref: _Reference, t: Array, theta: Array, tau: float, k: float) -> float:
-    """The residuals' count at lag ``tau``, shrunk by their lag-one correlation ρ when
-    positive: ``N (1 - ρ) / (1 + ρ)``."""
-    b, covered = ref.imu(t, theta, tau)
-    use = (ref.m * covered) > 0.0
-    r = ref.a[use] - k * b[use]
-    r -= float(r.mean())
+def _n_eff(r: Array) -> float:
+    """The count of residuals ``r`` shrunk by their lag-one correlation ρ when positive:
+    ``N (1 - ρ) / (1 + ρ)``."""
+    r = r - float(r.mean())
     # Sums of products, not ``@``: a BLAS dot wakes its threads, 10 ms each on a busy machine.
     denom = float(np.sum(r * r))
     rho = float(np.sum(r[1:] * r[:-1])) / denom if denom > 0.0 else 0.0
