@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adaptnav.mission import axes, load_mission, loader, scales
+from adaptnav.mission import MissionError, axes, load_mission, loader, scales
 from adaptnav.mission.loader import Mission, SensorData
 
 
@@ -102,3 +102,30 @@ def test_an_inclinometer_pegged_at_90_degrees_at_the_end_is_not_dated_off(
     z = demo_aided.sensors["inclinometer"].z.copy()
     z[-50:, 1] = math.pi / 2.0
     _check(demo_aided, _with(demo_aided, "inclinometer", z=z))
+
+
+@pytest.mark.parametrize(
+    ("axis", "reference"), [(0, "'inclinometer'"), (1, "'inclinometer'"), (2, "'heading'")]
+)
+def test_a_dead_gyro_axis_is_named_not_the_dvl(
+    demo_aided: Mission, axis: int, reference: str
+) -> None:
+    # Up to 0.4.11 x and y were blamed on the DVL ("is the y axis negated?"), z was silent.
+    dtheta = demo_aided.imu.dtheta.copy()
+    dtheta[:, axis] = 0.0
+    with pytest.raises(MissionError) as err:
+        _check(demo_aided, demo_aided.sensors, dtheta)
+    column = f"dtheta_{'xyz'[axis]}_rad"
+    assert err.value.field == column and err.value.file == "imu.parquet"
+    assert f"({column}) reads one constant rate" in str(err.value) and reference in str(err.value)
+
+
+def test_a_gyro_that_reads_a_constant_against_a_still_reference_is_not_called_dead() -> None:
+    t = np.arange(0.0, 100.0, 0.01)
+    gyro = axes.Gyro.of(t[1:], np.full(t.size - 1, 0.01), np.zeros((t.size - 1, 3)))
+    ts = np.arange(0.5, 99.0, 1.0)
+    still = np.random.default_rng(3).normal(0.0, math.radians(0.5), ts.size)
+    assert axes.dead_axis(gyro, 2, ts, still, math.radians(0.5)) is None
+    turning = np.radians(np.linspace(0.0, 90.0, ts.size))
+    found = axes.dead_axis(gyro, 2, ts, turning, math.radians(0.5))
+    assert found is not None and found.rate == 0.0 and 85.0 < math.degrees(found.turn) < 90.0

@@ -360,6 +360,44 @@ class ImuViews:
         return self._tilts[key]
 
 
+DEAD_RATE = 1e-9
+"""A gyro axis whose rate (Δθ / Δt) varies by no more than this over every sample (rad/s,
+0.0002 °/h) reads nothing: a real gyro's noise and the earth's rate move it far more."""
+DEAD_TURN_SIGMAS = 20.0
+DEAD_TURN_RAD = math.radians(1.0)
+"""A reference turns when its angle's 1st-99th percentile range spans this many of its σ and
+at least this angle (white noise spans 4.7 σ; the rule holds only where the gyro reads nothing)."""
+
+
+@dataclass(frozen=True)
+class DeadAxis:
+    """A gyro ``axis`` that reads the constant ``rate`` (rad/s) on every sample while a
+    reference's angle turns through ``turn`` (rad, its 1st-99th percentile range)."""
+
+    axis: int
+    rate: float
+    turn: float
+
+
+def dead_axis(gyro: Gyro, axis: int, t: Array, angle: Array, sigma: float) -> DeadAxis | None:
+    """The gyro's ``axis`` dead against a reference (readings ``angle`` at ``t``, noise σ
+    ``sigma``, rad) that turns (:data:`DEAD_TURN_SIGMAS`, :data:`DEAD_TURN_RAD`). Such an axis
+    decides no fit (its changes are not above their noise), so up to 0.4.11 the axis check said
+    nothing and the DVL-axes check blamed the DVL for what the dead gyro x did to its
+    prediction ("is the y axis negated?"); a dead z was silent."""
+    rate = np.diff(gyro.theta[:, axis]) / np.diff(gyro.t)
+    if rate.size < 2 or float(np.ptp(rate)) > DEAD_RATE:
+        return None
+    ok = np.isfinite(t) & np.isfinite(angle)
+    if np.count_nonzero(ok) < MIN_INTERVALS:
+        return None
+    lo, hi = np.percentile(np.unwrap(angle[ok]), [1.0, 99.0])
+    turn = float(hi - lo)
+    if turn < max(DEAD_TURN_SIGMAS * sigma, DEAD_TURN_RAD):
+        return None
+    return DeadAxis(axis, float(np.median(rate)), turn)
+
+
 def check_axes(views: ImuViews, references: list[Reference]) -> Iterator[AxisFinding]:
     """Every reference whose angle the gyro's matching axis, or for a tilt the accelerometers'
     levelling, does not follow (the rule of the module's docstring), in the order given. A

@@ -364,6 +364,7 @@ def _check_axes(
     _check_clocks(config, views, sensors, refs)
     if not refs:
         return
+    _check_dead_gyro(config, views, refs)
     found = next(axes.check_axes(views, refs), None)
     if found is None:
         return
@@ -391,6 +392,35 @@ def _check_axes(
         file=file,
         field=column,
     )
+
+
+def _check_dead_gyro(
+    config: MissionConfig, views: axes.ImuViews, refs: list[axes.Reference]
+) -> None:
+    """A MissionError naming the IMU file and gyro column that reads one constant rate on every
+    sample while a heading sensor's yaw or an inclinometer's roll or pitch, mounted on the
+    body's axes, turns (:func:`axes.dead_axis`; docs/robustness.md, 'A dead gyro axis'). Since
+    0.4.12."""
+    for ref in refs:
+        if ref.angle == "course" or not (ref.c_sb is None or np.allclose(ref.c_sb, np.eye(3))):
+            continue
+        cfg = config.sensors[ref.name]
+        sigmas = np.atleast_1d(cfg.sigma_si())
+        sigma = float(sigmas[min(ref.tilt or 0, sigmas.size - 1)])
+        found = axes.dead_axis(views.gyro(), ref.axis, ref.t, ref.value, sigma)
+        if found is None:
+            continue
+        column = imu_columns(config.imu.format)[ref.axis]
+        raise MissionError(
+            f"{config.imu.file}: the gyro's {'xyz'[ref.axis]} axis ({column}) reads one "
+            f"constant rate, {found.rate:.3g} rad/s, on every sample, while the {ref.angle} of "
+            f"sensor {ref.name!r} ({cfg.file}) turns through {math.degrees(found.turn):.1f}° "
+            f"(1st to 99th percentile) from t = {ref.t[0]:.1f} to {ref.t[-1]:.1f} s: a dead "
+            "axis, or a column not logged (filled with a constant)? Fix the table, or, if it "
+            "is right, set imu.axis_check = false (docs/robustness.md, 'A dead gyro axis')",
+            file=config.imu.file,
+            field=column,
+        )
 
 
 def _check_scales(
