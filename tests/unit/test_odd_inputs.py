@@ -129,3 +129,28 @@ def test_a_gyro_that_reads_a_constant_against_a_still_reference_is_not_called_de
     turning = np.radians(np.linspace(0.0, 90.0, ts.size))
     found = axes.dead_axis(gyro, 2, ts, turning, math.radians(0.5))
     assert found is not None and found.rate == 0.0 and 85.0 < math.degrees(found.turn) < 90.0
+
+
+def test_a_two_hour_hole_in_the_imu_and_the_sensors_is_left_out_of_the_axis_fits(
+    demo_aided: Mission,
+) -> None:
+    # The loader stretches the row after lost samples over the hole (×720 001 for 2 h, with
+    # imu.max_gap_s raised): one interval of each reference then held a rotation that large,
+    # and its leverage set the fit's slope to 0 (up to 0.4.11: "the gyro's x axis ... does
+    # not turn with the roll of sensor 'inclinometer'", exit 2).
+    m, hole, k = demo_aided, 7200.0, 70_000
+    imu = m.imu
+    t, dt = imu.t.copy(), imu.dt.copy()
+    t[k:] += hole
+    dt[k] += hole
+    scale = np.ones((t.size, 1))
+    scale[k] = dt[k] / imu.dt[k]
+    moved = {
+        n: dataclasses.replace(d, t=np.where(d.t > imu.t[k - 1], d.t + hole, d.t))
+        for n, d in m.sensors.items()
+    }
+    noise = m.config.imu.noise.to_imu_noise()
+    views = axes.ImuViews(t, dt, imu.dtheta * scale, imu.dvel * scale, (noise.arw, noise.vrw))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        loader.cross_check(m.config, views, moved)

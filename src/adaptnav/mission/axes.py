@@ -47,6 +47,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -80,6 +81,10 @@ TILT_BLOCK_S = 0.1
 """Length of the blocks the accelerometers are averaged over for their tilt (s)."""
 TILT_GRAVITY = 9.8
 """Gravity the accelerometers' noise is scaled by into an angle (m/s²)."""
+IMU_HOLE_S = 1.0
+"""An IMU interval longer than this (s) is a hole (samples lost, the next row's increments
+stretched over it by the loader: a constant rate assumed, which a turning vehicle's rotation
+is not); the reference intervals that overlap one are left out of the axis fit."""
 
 
 @dataclass(frozen=True)
@@ -223,6 +228,21 @@ class Gyro:
         """Variance of the noise of the angle changes over intervals ``dt``: ``arw² Δt``."""
         return np.asarray(self.arw**2 * dt, dtype=float)
 
+    @cached_property
+    def holes(self) -> tuple[Array, Array]:
+        """Starts and ends (s) of the IMU's intervals longer than :data:`IMU_HOLE_S`."""
+        i = np.flatnonzero(np.diff(self.t) > IMU_HOLE_S)
+        return self.t[i], self.t[i + 1]
+
+    def across_hole(self, t0: Array, t1: Array) -> NDArray[np.bool_]:
+        """Each interval (t0, t1] that overlaps a hole (:attr:`holes`, disjoint and in order:
+        the last one starting before t1 is the only one that can reach past t0)."""
+        start, end = self.holes
+        if not start.size:
+            return np.zeros(t0.shape, dtype=bool)
+        k = np.searchsorted(start, t1, side="left")
+        return np.asarray((k > 0) & (end[np.maximum(k - 1, 0)] > t0), dtype=bool)
+
     def change(self, t0: Array, t1: Array, axis: int) -> Array:
         """∫ ω_axis dt over each (t0, t1] (NaN where outside the IMU's span)."""
         inside = (t0 >= self.t[0]) & (t1 <= self.t[-1])
@@ -252,7 +272,13 @@ def best_slope(
     found: list[Slope] = []
     # Lag 0 first: a right axis passes there, and the others need not be tried.
     for lag in sorted(_lags(), key=abs):
-        s = axis_slope(a, imu.change(t[:-1] - lag, t[1:] - lag, axis), dt, float(lag), noise)
+        t0, t1 = t[:-1] - lag, t[1:] - lag
+        b = imu.change(t0, t1, axis)
+        if isinstance(imu, Gyro):
+            # Up to 0.4.11 a 2-h hole's one stretched row (×720 000) was an interval whose
+            # leverage set the fit's slope to 0: "the gyro's x axis does not turn".
+            b = np.where(imu.across_hole(t0, t1), math.nan, b)
+        s = axis_slope(a, b, dt, float(lag), noise)
         if s is None:
             return None
         found.append(s)
