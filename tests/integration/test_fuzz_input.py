@@ -404,6 +404,25 @@ def all_implausible(root: Path, draw: Draw) -> Expect:
     return expect(f"{name}.csv", "error")
 
 
+def thinned_out(root: Path, draw: Draw) -> Expect:
+    """A sensor left with too little for the load's cross-checks: one depth reading, a DVL
+    with a column NaN throughout, or all zeros with zero_is_lost (every reading dropped). Up
+    to 0.4.11 each was an IndexError in the cross-checks: a traceback, exit 1."""
+    what = draw(st.sampled_from(["one depth", "dvl column nan", "dvl lost lock"]))
+    if what == "one depth":
+        df = badinput.read(root, "depth")
+        badinput.write(root, "depth", df.iloc[[_row(draw, df)]])
+        return expect("depth.csv", "fine")
+    df = badinput.read(root, "dvl")
+    if what == "dvl column nan":
+        df[str(draw(st.sampled_from(MEASUREMENT["dvl"])))] = math.nan
+    else:
+        df[MEASUREMENT["dvl"]] = 0.0
+        _toml(root, "zero_is_lost = false", "zero_is_lost = true")
+    badinput.write(root, "dvl", df)
+    return expect("dvl.csv", "ledger", "error", dvl=list(range(len(df))))
+
+
 def gnss_nan_window(root: Path, draw: Draw) -> Expect:
     df = badinput.read(root, "gps")
     what = draw(st.sampled_from(["nan", "implausible", "after the window"]))
@@ -550,12 +569,12 @@ def toml_not_utf8(root: Path, draw: Draw) -> Expect:
 CORRUPTIONS: dict[str, Callable[[Path, Draw], Expect]] = {
     f.__name__: f
     for f in (
-        nan_value, inf_value, huge_value, nan_imu, huge_imu, nan_time, repeated_stamp,
-        repeated_row, imu_repeated_stamp, negative_step, time_scaled, imu_gap, missing_column,
-        extra_columns, quoted_note, latin1_note, cr_line_breaks, reordered_columns,
-        degree_columns, wrong_units, swapped_time, empty_table, missing_file, binary_garbage,
-        cut_fields, short_line_inside, long_line_inside, other_separator, text_cell, bool_column,
-        repeated_header, blank_lines_bom_crlf, all_implausible, gnss_nan_window, sensor_time_shift,
+        nan_value, inf_value, huge_value, nan_imu, huge_imu, nan_time, repeated_stamp, repeated_row,
+        imu_repeated_stamp, negative_step, time_scaled, imu_gap, missing_column, extra_columns,
+        quoted_note, latin1_note, cr_line_breaks, reordered_columns, degree_columns, wrong_units,
+        swapped_time, empty_table, missing_file, binary_garbage, cut_fields, short_line_inside,
+        long_line_inside, other_separator, text_cell, bool_column, repeated_header,
+        blank_lines_bom_crlf, all_implausible, thinned_out, gnss_nan_window, sensor_time_shift,
         truth_corrupted, toml_syntax, toml_bad_type, toml_unknown_key, toml_missing_key,
         toml_table_path, toml_sensor_off, toml_not_utf8,
     )
