@@ -32,6 +32,9 @@ wave's roll repeats every period and so gives a fit nearly as good one period aw
 judged as a right sensor would be there, with the slope found at τ̂ (its scale does not depend
 on its clock; with the slope free, a roll 18 s late on the demo's sea fits at lag 0 inverted,
 k = -0.85, and that fit explains most of it): ``s0² = Σ (a - ā - k̂ (b(0) - b̄))² / (N - 1)``.
+Both ``s0²`` and ``s²(τ̂)`` (and k̂, the rotation's share, ``N_eff``) are summed over the same
+intervals, those the IMU covers at τ̂ and at 0 (:class:`_Both`; since 0.4.12, docs/robustness.md,
+'Sensor clocks'): a step the IMU covers at one lag only cannot make it win.
 
 * the likelihood ratio ``N_eff ln V ≥`` :data:`MIN_LOG_LR`, ``V = s0² / s²(τ̂)`` (χ²(1) beyond
   5.5 σ, so that even after the ~10³ lags tried chance stays below 1e-4);

@@ -1,0 +1,524 @@
+"""Odd but real inputs against the load-time cross-checks (loader.cross_check), one kind at a
+time: each case copies a mission folder (the simulated demo with its heading sensor aiding),
+changes its tables or mission.toml, and loads it with every warning an error. Prints per case
+the outcome (OK, MissionError and its words, or CRASH with the line it came from) and the
+warnings logged (docs/robustness.md, 'Odd inputs to the cross-checks').
+
+    adaptnav simulate demo --out DEMO   # then set [sensors.heading] use = "aid"
+    python scripts/odd_inputs_eval.py DEMO SCRATCH [REGEX]
+
+SCRATCH receives one folder per case, removed after it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+import shutil
+import sys
+import time
+import traceback
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from adaptnav.mission import load_mission
+from adaptnav.mission.config import MissionError
+
+DEMO = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("demo")
+OUT = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("odd-cases")
+
+
+class Grab(logging.Handler):
+    def __init__(self):
+        super().__init__()
+        self.msgs = []
+
+    def emit(self, r):
+        if r.levelno >= logging.WARNING:
+            self.msgs.append(r.getMessage())
+
+
+def rd(root, n):
+    return pd.read_parquet(root / f"{n}.parquet")
+
+
+def wr(root, n, df):
+    df.to_parquet(root / f"{n}.parquet", index=False)
+
+
+def toml(root, old, new, count=1):
+    p = root / "mission.toml"
+    s = p.read_text()
+    assert old in s, old
+    p.write_text(s.replace(old, new, count))
+
+
+def sect(root, name, line):
+    p = root / "mission.toml"
+    s = p.read_text()
+    s = s.replace(f"[sensors.{name}]\n", f"[sensors.{name}]\n{line}\n", 1)
+    p.write_text(s)
+
+
+def keep(root, n, idx):
+    df = rd(root, n)
+    wr(root, n, df.iloc[idx].reset_index(drop=True))
+
+
+def cut_all(root, t0, t1):
+    for n in ["imu", "heading", "dvl", "gps", "depth", "inclinometer", "truth"]:
+        df = rd(root, n)
+        wr(root, n, df[(df.t_s >= t0) & (df.t_s <= t1)].reset_index(drop=True))
+
+
+def wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+CASES = {}
+
+
+def case(name):
+    def deco(f):
+        CASES[name] = f
+        return f
+
+    return deco
+
+
+for s in ["heading", "inclinometer", "gps", "dvl", "depth"]:
+    for k in (1, 2, 3):
+
+        def f(root, s=s, k=k):
+            df = rd(root, s)
+            i = np.linspace(650, len(df) * 0.9, k).astype(int) if k > 1 else [len(df) * 3 // 4]
+            keep(root, s, list(np.array(i) * len(df) // len(df)))
+
+        CASES[f"{s}-{k}-readings"] = f
+
+for s, cols in [
+    ("heading", ["yaw_rad"]),
+    ("inclinometer", ["roll_rad", "pitch_rad"]),
+    ("gps", ["lat_rad", "lon_rad"]),
+    ("dvl", ["vx_m_s", "vy_m_s", "vz_m_s"]),
+    ("depth", ["depth_m"]),
+]:
+
+    def f(root, s=s, cols=cols):
+        df = rd(root, s)
+        m = np.ones(len(df), bool)
+        m[[len(df) * 3 // 4, len(df) * 3 // 4 + 1, len(df) * 3 // 4 + 5]] = False
+        df.loc[m, cols] = np.nan
+        wr(root, s, df)
+
+    CASES[f"{s}-nan-but-3"] = f
+
+for s in ["heading", "inclinometer", "gps", "dvl"]:
+
+    def f(root, s=s):
+        df = rd(root, s)
+        wr(root, s, df[df.t_s < 590].reset_index(drop=True))
+
+    CASES[f"{s}-only-in-alignment"] = f
+
+    def g(root, s=s):
+        df = rd(root, s)
+        df = df[df.t_s > 880].reset_index(drop=True)
+        wr(root, s, df)
+
+    CASES[f"{s}-last-26s-only"] = g
+
+
+@case("heading-after-imu-ends")
+def _(root):
+    df = rd(root, "heading")
+    df["t_s"] += 1000
+    wr(root, "heading", df)
+
+
+@case("dvl-ends-before-imu")
+def _(root):
+    df = rd(root, "dvl")
+    df["t_s"] -= 1000
+    wr(root, "dvl", df)
+
+
+@case("heading-gap-10min")
+def _(root):
+    df = rd(root, "heading")
+    wr(root, "heading", df[(df.t_s < 620) | (df.t_s > 880)].reset_index(drop=True))
+
+
+@case("all-aiding-gap-hours-imu-gap")
+def _(root):
+    # an IMU gap of 2 h with max_gap_s raised to allow it, all sensors shifted after it
+    toml(root, "rate_hz = 100.0\n", "rate_hz = 100.0\nmax_gap_s = 8000.0\n")
+    for n in ["imu", "heading", "dvl", "gps", "depth", "inclinometer", "truth"]:
+        df = rd(root, n)
+        df.loc[df.t_s > 700, "t_s"] += 7200
+        wr(root, n, df)
+
+
+@case("heading-constant")
+def _(root):
+    df = rd(root, "heading")
+    df["yaw_rad"] = 0.5
+    wr(root, "heading", df)
+
+
+@case("at-rest-whole-mission")
+def _(root):
+    cut_all(root, 0, 590)
+    toml(root, "alignment_s = 600.0", "alignment_s = 60.0")
+
+
+@case("heading-turned-150deg-off-the-track-near-180")
+def _(root):
+    df = rd(root, "heading")
+    off = np.pi - float(df.yaw_rad[df.t_s > 600].median())
+    df["yaw_rad"] = wrap(df.yaw_rad + off)
+    wr(root, "heading", df)
+    toml(
+        root,
+        "rpy_deg = [0.0, 0.0, 29.324648155956083]",
+        f"rpy_deg = [0.0, 0.0, {math.degrees(float(wrap(0.5118 + off))):.6f}]",
+    )
+
+
+@case("heading-turned-off-the-track-in-0-360")
+def _(root):
+    df = rd(root, "heading")
+    off = np.pi - float(df.yaw_rad[df.t_s > 600].median()) + np.pi
+    df["yaw_rad"] = np.mod(df.yaw_rad + off, 2 * np.pi)
+    wr(root, "heading", df)
+
+
+@case(
+    "heading-spin-fast"
+)  # gyro-consistent? no: heading sensor spinning 10 rad/s (bad), wraps many times
+def _(root):
+    df = rd(root, "heading")
+    df["yaw_rad"] = wrap(df.yaw_rad + 3.0 * df.t_s)
+    wr(root, "heading", df)
+
+
+@case("inclinometer-pitch-exactly-90")
+def _(root):
+    df = rd(root, "inclinometer")
+    df.loc[df.index[-50:], "pitch_rad"] = np.pi / 2
+    wr(root, "inclinometer", df)
+
+
+@case("inclinometer-pitch-all-90")
+def _(root):
+    df = rd(root, "inclinometer")
+    df["pitch_rad"] = np.pi / 2
+    df["roll_rad"] = 0.0
+    wr(root, "inclinometer", df)
+
+
+@case("dvl-all-zero")
+def _(root):
+    df = rd(root, "dvl")
+    df[["vx_m_s", "vy_m_s", "vz_m_s"]] = 0.0
+    wr(root, "dvl", df)
+
+
+@case("dvl-all-zero-zero_is_lost")
+def _(root):
+    df = rd(root, "dvl")
+    df[["vx_m_s", "vy_m_s", "vz_m_s"]] = 0.0
+    wr(root, "dvl", df)
+    toml(root, "zero_is_lost = false", "zero_is_lost = true")
+
+
+@case("dvl-1hz")
+def _(root):
+    keep(root, "dvl", list(range(0, len(rd(root, "dvl")), 3)))
+    toml(root, "rate_hz = 3.0", "rate_hz = 1.0")
+
+
+@case("dvl-50hz")
+def _(root):
+    df = rd(root, "dvl")
+    t = np.arange(df.t_s.iloc[0], df.t_s.iloc[-1], 0.02)
+    new = pd.DataFrame(
+        {
+            "t_s": t,
+            **{
+                c: np.interp(t, df.t_s, df[c]) + np.random.default_rng(1).normal(0, 0.01, t.size)
+                for c in ["vx_m_s", "vy_m_s", "vz_m_s"]
+            },
+        }
+    )
+    wr(root, "dvl", new)
+    toml(root, "rate_hz = 3.0", "rate_hz = 50.0")
+
+
+def imu_rebin(root, r):
+    df = rd(root, "imu")
+    n = len(df) // r * r
+    df = df.iloc[:n]
+    cols = [c for c in df.columns if c != "t_s"]
+    out = pd.DataFrame(
+        {"t_s": df.t_s.values[r - 1 :: r], **{c: df[c].values.reshape(-1, r).sum(1) for c in cols}}
+    )
+    wr(root, "imu", out)
+    toml(root, "rate_hz = 100.0", f"rate_hz = {100.0 / r}")
+
+
+@case("imu-10hz")
+def _(root):
+    imu_rebin(root, 10)
+
+
+@case("imu-1000hz")
+def _(root):
+    df = rd(root, "imu")
+    cols = [c for c in df.columns if c != "t_s"]
+    t = (df.t_s.values[:, None] - 0.01 + 0.001 * np.arange(1, 11)[None, :]).ravel()
+    out = pd.DataFrame({"t_s": t, **{c: np.repeat(df[c].values / 10, 10) for c in cols}})
+    wr(root, "imu", out)
+    toml(root, "rate_hz = 100.0", "rate_hz = 1000.0")
+
+
+@case("imu-nonuniform")
+def _(root):
+    df = rd(root, "imu")
+    rng = np.random.default_rng(3)
+    cols = [c for c in df.columns if c != "t_s"]
+    grp = np.cumsum(rng.integers(1, 4, len(df)))  # steps of 1-3 samples
+    g = np.repeat(np.arange(len(grp)), np.diff(np.concatenate([[0], grp])))[: len(df)]
+    out = df.groupby(g).agg({"t_s": "last", **{c: "sum" for c in cols}}).reset_index(drop=True)
+    wr(root, "imu", out)
+    toml(root, "rate_hz = 100.0\n", "rate_hz = 50.0\nmax_gap_s = 0.1\n")
+
+
+@case("heading-duplicate-stamps")
+def _(root):
+    df = rd(root, "heading")
+    wr(
+        root,
+        "heading",
+        pd.concat([df, df.iloc[::7]]).sort_values("t_s", kind="stable").reset_index(drop=True),
+    )
+
+
+@case("gps-duplicate-stamps")
+def _(root):
+    df = rd(root, "gps")
+    wr(
+        root,
+        "gps",
+        pd.concat([df, df.iloc[::5]]).sort_values("t_s", kind="stable").reset_index(drop=True),
+    )
+
+
+@case("dvl-duplicate-stamps")
+def _(root):
+    df = rd(root, "dvl")
+    wr(
+        root,
+        "dvl",
+        pd.concat([df, df.iloc[::5]]).sort_values("t_s", kind="stable").reset_index(drop=True),
+    )
+
+
+@case("heading-latency+60-stamped-60-late")
+def _(root):
+    df = rd(root, "heading")
+    df["t_s"] += 60
+    wr(root, "heading", df)
+    sect(root, "heading", "latency_s = 60.0")
+
+
+@case("heading-latency-60-stamped-60-early")
+def _(root):
+    df = rd(root, "heading")
+    df["t_s"] -= 60
+    wr(root, "heading", df)
+    sect(root, "heading", "latency_s = -60.0")
+
+
+@case("heading-latency+60-stamps-right")
+def _(root):
+    sect(root, "heading", "latency_s = 60.0")
+
+
+@case("mission-5s")
+def _(root):
+    cut_all(root, 700, 705)
+    toml(root, 'mode = "alignment"', 'mode = "state"')
+    toml(root, "alignment_s = 600.0\n", "")
+    toml(root, "h_m = 0.0", "lat_deg = 26.8\nlon_deg = 56.0\nh_m = 0.0")
+    toml(root, 'use = "init"', 'use = "aid"')
+
+
+@case("mission-30s")
+def _(root):
+    cut_all(root, 700, 730)
+    toml(root, 'mode = "alignment"', 'mode = "state"')
+    toml(root, "alignment_s = 600.0\n", "")
+    toml(root, "h_m = 0.0", "lat_deg = 26.8\nlon_deg = 56.0\nh_m = 0.0")
+    toml(root, 'use = "init"', 'use = "aid"')
+
+
+@case("gps-at-surface-depth-nan")
+def _(root):
+    df = rd(root, "depth")
+    df["depth_m"] = np.nan
+    df.loc[df.index[:3], "depth_m"] = 1.2
+    wr(root, "depth", df)
+
+
+@case("depth-all-nan")
+def _(root):
+    df = rd(root, "depth")
+    df["depth_m"] = np.nan
+    wr(root, "depth", df)
+
+
+@case("lever-arms-100m")
+def _(root):
+    s = (root / "mission.toml").read_text()
+    s = (
+        s.replace("lever_arm_m = [1.0, 0.0, 1.5]", "lever_arm_m = [100.0, 100.0, 100.0]")
+        .replace("lever_arm_m = [-2.0, 0.0, 1.2]", "lever_arm_m = [-100.0, 0.0, 100.0]")
+        .replace("lever_arm_m = [0.0, 0.0, -5.0]", "lever_arm_m = [0.0, 100.0, -100.0]")
+    )
+    (root / "mission.toml").write_text(s)
+
+
+for ax in "xyz":
+
+    def f(root, ax=ax):
+        df = rd(root, "imu")
+        df[f"dtheta_{ax}_rad"] = 0.0
+        wr(root, "imu", df)
+
+    CASES[f"imu-gyro-{ax}-all-zero"] = f
+
+
+@case("gps-constant-position")
+def _(root):
+    df = rd(root, "gps")
+    df["lat_rad"] = df.lat_rad.iloc[0]
+    df["lon_rad"] = df.lon_rad.iloc[0]
+    wr(root, "gps", df)
+
+
+@case("dvl-vz-nan")
+def _(root):
+    df = rd(root, "dvl")
+    df["vz_m_s"] = np.nan
+    wr(root, "dvl", df)
+
+
+@case("no-rate_hz")
+def _(root):
+    s = (root / "mission.toml").read_text()
+    s = re.sub(r"(\[sensors[^\]]*\][^\[]*?)rate_hz = [0-9.]+\n", r"\1", s)
+    (root / "mission.toml").write_text(s)
+
+
+@case("gps-use-off-depth-check")
+def _(root):
+    toml(root, 'use = "init"', 'use = "off"')
+    toml(root, 'mode = "alignment"', 'mode = "alignment"')
+
+
+@case("heading-degrees-in-rad-column")
+def _(root):
+    df = rd(root, "heading")
+    df["yaw_rad"] = np.degrees(df.yaw_rad)
+    wr(root, "heading", df)
+
+
+@case("dvl-readings-stamped-identical-all")
+def _(root):
+    df = rd(root, "dvl")
+    df = df.iloc[:5].copy()
+    df["t_s"] = 700.0
+    wr(root, "dvl", df)
+
+
+@case("heading-1-reading-in-window-plus-inclinometer-3")
+def _(root):
+    keep(root, "heading", [800])
+    keep(root, "inclinometer", [4000, 4001, 4002])
+
+
+@case("imu-2-samples")
+def _(root):
+    keep(root, "imu", [70000, 70001])
+    toml(root, 'mode = "alignment"', 'mode = "state"')
+    toml(root, "alignment_s = 600.0\n", "")
+    toml(root, "h_m = 0.0", "lat_deg = 26.8\nlon_deg = 56.0\nh_m = 0.0")
+    toml(root, 'use = "init"', 'use = "aid"')
+
+
+def run(name, f):
+    root = OUT / name
+    if root.exists():
+        shutil.rmtree(root)
+    shutil.copytree(DEMO, root)
+    f(root)
+    grab = Grab()
+    lg = logging.getLogger("adaptnav")
+    lg.addHandler(grab)
+    lg.setLevel(logging.WARNING)
+    t = time.time()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            load_mission(root)
+        res = "OK"
+    except MissionError as e:
+        res = "MissionError: " + str(e)[:300]
+    except Exception as e:
+        tb = traceback.extract_tb(e.__traceback__)
+        fr = [x for x in tb if "adaptnav" in x.filename][-1:]
+        res = f"CRASH {type(e).__name__}: {str(e)[:150]} at " + "; ".join(
+            f"{Path(x.filename).name}:{x.lineno} {x.name}" for x in fr
+        )
+    finally:
+        lg.removeHandler(grab)
+    dt = time.time() - t
+    w = list(grab.msgs)
+    shutil.rmtree(root)
+    return res, dt, w
+
+
+def imu_hole(root, t0, length, limit):
+    toml(root, "rate_hz = 100.0\n", f"rate_hz = 100.0\nmax_gap_s = {limit}\n")
+    df = rd(root, "imu")
+    wr(root, "imu", df[(df.t_s <= t0) | (df.t_s > t0 + length)].reset_index(drop=True))
+
+
+CASES["imu-hole-30s-under-way"] = lambda root: imu_hole(root, 750.0, 30.0, 60.0)
+CASES["imu-hole-30s-at-rest"] = lambda root: imu_hole(root, 300.0, 30.0, 60.0)
+CASES["imu-hole-5s-under-way"] = lambda root: imu_hole(root, 750.0, 5.0, 10.0)
+
+
+def _aid_hole(root):
+    for n in ["heading", "dvl", "gps", "depth", "inclinometer"]:
+        df = rd(root, n)
+        wr(root, n, df[(df.t_s <= 650) | (df.t_s > 850)].reset_index(drop=True))
+
+
+CASES["all-aiding-hole-200s-under-way"] = _aid_hole
+
+if __name__ == "__main__":
+    pat = sys.argv[3] if len(sys.argv) > 3 else ""
+    for name, f in CASES.items():
+        if pat and not re.search(pat, name):
+            continue
+        res, dt, w = run(name, f)
+        print(f"## {name} [{dt:.1f}s]\n   {res}")
+        for m in w:
+            print("   WARN:", m[:250])
+        sys.stdout.flush()
