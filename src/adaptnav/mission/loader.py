@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from adaptnav.core import attitude
 from adaptnav.core.units import G0
-from adaptnav.mission import axes, clocks, dvl_axes, scales
+from adaptnav.mission import axes, clocks, dvl_axes, gnss_clock, scales
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
@@ -280,6 +280,7 @@ def cross_check(
     IMU."""
     if config.imu.check_axes:
         _check_axes(config, views, sensors)
+        gnss_clock.check(config, views, sensors)  # a GNSS's positions against the DVL's track
     _check_scales(config, views, sensors)
     _check_depth_at_fixes(config, {**sensors, **(off or {})})
 

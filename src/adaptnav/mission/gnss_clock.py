@@ -1,0 +1,298 @@
+"""A GNSS receiver's clock against the DVL's dead reckoning: the offset of its stamps from its
+positions, where its course is too noisy to date (docs/robustness.md, 'Sensor clocks').
+
+:mod:`adaptnav.mission.clocks` dates a GNSS from its course over ground against the gyro. A
+surface fix of metres of σ on a vessel at 2 m/s leaves the course over its chords undecided
+(the demo, the paper's trials), so stamps 18 s late went unseen up to 0.4.11. The positions
+themselves still carry the clock: where the vehicle turns, starts or stops, the track
+dead-reckoned from the DVL moves τ seconds ahead of fixes stamped τ late. Since 0.4.12 the
+fixes' means over windows of :data:`WINDOW_S` (their positions linearly interpolated, boxed
+over the window) are fitted on the dead-reckoned track's, boxed the same way and taken τ
+earlier, over consecutive windows g_k = g_0 + k L:
+
+    a_k = w b_k(τ) + c,        b_k(τ) = D̄(g_{k+1} - τ) - D̄(g_k - τ),
+
+a_k the change of the fixes' mean (north + i east, m), D(t) the DVL's levelled horizontal
+velocity turned by the gyro's yaw since the IMU's start and integrated (:func:`dead_reckoned`),
+D̄ its mean over the window, w a complex slope and c a complex constant. w's angle takes the
+start's unknown heading and |w| the DVL's scale, so no heading is needed; c takes a steady
+current or a DVL bias. Only the changes between neighbouring windows are fitted, so the
+yaw's slow drift (the gyro's bias) and a scale error change w by nothing a lag can use: a
+straight track at a steady speed gives the same changes at every lag and dates nothing.
+
+The complex fit's sums are those of :mod:`adaptnav.mission.clocks`' real one, per pair of
+components: ``Σ conj(b) a = Σ (b_N a_N + b_E a_E) + i Σ (b_N a_E - b_E a_N)``, each a real
+correlation over the lags (``clocks._Scan``; four scans of six FFT correlations at phases
+1 s apart). The residual ``RSS(τ) = Σ |a - ā|² - |Σ conj(b - b̄)(a - ā)|² / Σ |b - b̄|²``,
+its least, the parabola through it and the σ by Gauss-Newton with N_eff are clocks.py's
+(``s² = RSS / (2N - 4)``: two real components, four real parameters; N and N_eff count
+the real residuals, two a window, as the likelihood ratio of a complex normal does). The rule
+(:func:`decisive`) is clocks.py's likelihood ratio, slope band and ``|τ| > 4 σ``; its share
+of the signal is not asked (:func:`decisive`).
+
+Pure NumPy, no I/O: :func:`check` is called by :func:`adaptnav.mission.loader.cross_check`
+and raises the MissionError naming the GNSS's file and ``t_s``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from adaptnav.mission import axes, clocks, scales
+from adaptnav.mission.config import MissionConfig, MissionError
+from adaptnav.mission.tables import TIME_COLUMN
+
+Array = NDArray[np.float64]
+CArray = NDArray[np.complex128]
+
+log = logging.getLogger("adaptnav.mission")
+
+WINDOW_S = 10.0
+"""Width of the windows the fixes are averaged over (s): a wave's roll of a high antenna
+(metres at 5-12 s) averages out, a turn of a minute does not."""
+WINDOW_PERIODS = 4.0
+"""A window holds at least this many of the receiver's periods (a slow receiver's windows
+are wider)."""
+
+
+class Readings(Protocol):
+    """A sensor's readings as the loader holds them (``loader.SensorData``)."""
+
+    @property
+    def kind(self) -> str: ...
+    @property
+    def t(self) -> Array: ...
+    @property
+    def z(self) -> Array: ...
+    @property
+    def period(self) -> float: ...
+
+
+def dead_reckoned(dvl: scales.Dvl, tilt: axes.AccelTilt, gyro: axes.Gyro) -> tuple[Array, CArray]:
+    """The DVL's track: its levelled horizontal velocity (north + i east in a frame whose yaw is
+    the gyro's integral since the IMU's start) integrated from its first reading, at its
+    readings' times (m). Levelled as in :func:`adaptnav.mission.scales.dvl_chords`."""
+    roll, pitch = scales.tilt_at(tilt, dvl.t)
+    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    v = dvl.v_b
+    level = (cp * v[:, 0] + sp * sr * v[:, 1] + sp * cr * v[:, 2]) + 1j * (
+        cr * v[:, 1] - sr * v[:, 2]
+    )
+    yaw = gyro.change(np.full(dvl.t.size, gyro.t[0]), dvl.t, 2)
+    inside = np.isfinite(yaw)
+    u = scales.integral(dvl.t[inside], level[inside] * np.exp(1j * yaw[inside]))
+    return dvl.t[inside], np.asarray(u, dtype=complex)
+
+
+def boxed(t: Array, x: CArray, width: float) -> tuple[Array, CArray]:
+    """The mean of ``x`` (linearly interpolated between its samples at ``t``) over
+    ``[s - width / 2, s + width / 2]`` at times s on a grid of :data:`clocks.MIN_STEP_S`: the
+    grid's trapezoidal integral's differences (``x`` is put on the grid first: the integral of
+    a sample interval seconds long is not linear within it)."""
+    h = clocks.MIN_STEP_S
+    f = t[0] + h * np.arange(int((t[-1] - t[0]) / h) + 1)
+    c = scales.integral(f, np.interp(f, t, x.real) + 1j * np.interp(f, t, x.imag))
+    half = max(1, round(0.5 * width / h))
+    mean = (c[2 * half :] - c[: -2 * half]) / (2 * half * h)
+    return f[half:-half], np.asarray(mean, dtype=complex)
+
+
+def _windows(t: Array, p: CArray, width: float, period: float) -> tuple[float, CArray, Array]:
+    """The fixes' window means' changes ``a`` over the grid g_k from its start (returned) by
+    ``width``, and 1 where no gap of more than clocks.GAP_PERIODS periods lies in the two
+    windows (a mean across a gap is a ramp)."""
+    s, mean = boxed(t, p, width)
+    g = s[0] + width * np.arange(int((s[-1] - s[0]) / width) + 1)
+    at = np.interp(g, s, mean.real) + 1j * np.interp(g, s, mean.imag)
+    gaps = np.diff(t) > clocks.GAP_PERIODS * period
+    # Count of gaps starting before each time: a window pair holds one when the counts differ.
+    before = np.concatenate([[0], np.cumsum(gaps)])
+    k0 = np.searchsorted(t, g[:-1] - 0.5 * width, side="right")
+    k1 = np.searchsorted(t, g[1:] + 0.5 * width, side="left")
+    m = (before[np.maximum(k1 - 1, 0)] - before[np.maximum(k0 - 1, 0)] == 0).astype(float)
+    a = np.diff(at)
+    return float(g[0]), np.asarray(a * m, dtype=complex), m
+
+
+def gnss_offset(
+    t: Array,
+    north: Array,
+    east: Array,
+    period: float,
+    track: tuple[Array, CArray],
+    max_offset_s: float = clocks.MAX_OFFSET_S,
+) -> clocks.ClockOffset | None:
+    """The offset of the fixes (``north``, ``east`` m at ``t``, receiver period ``period``)
+    against the dead-reckoned ``track`` (times, north + i east m) (module docstring): ``k``
+    and ``k_zero`` are |w| at the offset and at lag 0. None: too few windows, or the track's
+    changes between windows not above the fixes' own noise (a straight track at a steady
+    speed: no clock to read)."""
+    ok = np.isfinite(t) & np.isfinite(north) & np.isfinite(east)
+    t, p = t[ok], north[ok] + 1j * east[ok]
+    width = max(WINDOW_S, WINDOW_PERIODS * period)
+    if t.size < 2 or t[-1] - t[0] < (axes.MIN_INTERVALS + 2) * width:
+        return None
+    g0, a, m = _windows(t, p, width, period)
+    s, d = boxed(*track, width)
+    b_n, b_e = np.ascontiguousarray(d.real), np.ascontiguousarray(d.imag)
+    ref_n = clocks._Reference(g0, width, a.real, m)
+    ref_e = clocks._Reference(g0, width, a.imag, m)
+    nn, ee = (clocks._Scan.of(r, s, b, max_offset_s) for r, b in ((ref_n, b_n), (ref_e, b_e)))
+    ne, en = (clocks._Scan.of(r, s, b, max_offset_s) for r, b in ((ref_e, b_n), (ref_n, b_e)))
+    n, saa, sbb = nn.n + ee.n, nn.saa + ee.saa, nn.sbb + ee.sbb
+    sab = (nn.sab + ee.sab) + 1j * (ne.sab - en.sab)
+    return _judge(nn.tau, (n, saa, sab, sbb), (ref_n, ref_e), (s, d), _noise(t, p, width))
+
+
+def _noise(t: Array, p: CArray, width: float) -> float:
+    """The variance (m², both components) that the fixes' own white noise gives a change of
+    their window means: ``4 σ² / m``, m fixes a window, σ² (each component's) from the median
+    of the fixes' second differences' ``|d|²`` (``12 σ²`` on average over both components, of
+    which ln 2 is the median: a circular normal's), which a steady course and speed leave
+    out."""
+    d = p[2:] - 2.0 * p[1:-1] + p[:-2]
+    var = float(np.median(np.abs(d) ** 2)) / math.log(2.0) / 12.0 if d.size else 0.0
+    per = max(width / float(np.median(np.diff(t))), 1.0)
+    return 4.0 * var / per
+
+
+def _judge(
+    tau: Array,
+    sums: tuple[Array, Array, CArray, Array],
+    refs: tuple[clocks._Reference, clocks._Reference],
+    track: tuple[Array, CArray],
+    noise: float,
+) -> clocks.ClockOffset | None:
+    """The complex fit at every lag from its centred sums (module docstring)."""
+    n, saa, sab, sbb = sums
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = sab / sbb
+        rss = np.maximum(saa - np.abs(sab) ** 2 / sbb, 0.0)
+    windows = float(refs[0].m.sum())
+    valid = (n >= 2 * max(axes.MIN_INTERVALS, 0.5 * windows)) & (
+        sbb > axes.SIGNAL_FACTOR * noise * n / 2.0
+    )
+    zero = int(np.argmin(np.abs(tau)))
+    if not valid[zero]:
+        return None
+    var = np.where(valid, rss / np.maximum(n - 4.0, 1.0), np.inf)
+    j = int(np.argmin(var))
+    shift, curvature = clocks._parabola(rss, j)
+    h = float(tau[1] - tau[0]) if tau.size > 1 else refs[0].step
+    # Each window gives two real residuals (north, east), counted as clocks.py counts one.
+    n_eff = _n_eff(refs, track, float(tau[j]), complex(w[j])) * float(n[j])
+    sigma2 = float(rss[j]) / max(float(n[j]) - 5.0, 1.0)
+    se = math.sqrt(2.0 * sigma2 / curvature) * h if curvature > 0.0 else math.inf
+    se = max(se * math.sqrt(float(n[j]) / n_eff), h / math.sqrt(12.0))
+    # Lag 0 judged with the slope found at the offset, as clocks.py does.
+    wj = complex(w[j])
+    rss0 = float(saa[zero] - 2.0 * (wj.conjugate() * sab[zero]).real + abs(wj) ** 2 * sbb[zero])
+    var0 = rss0 / max(float(n[zero]) - 2.0, 1.0)
+    signal = float(abs(wj) ** 2 * sbb[j] / n[j])
+    return clocks.ClockOffset(
+        offset_s=float(tau[j]) + shift * h,
+        se_s=se,
+        k=abs(wj),
+        k_zero=float(abs(w[zero])),
+        ratio=var0 / float(var[j]) if var[j] > 0.0 else math.inf,
+        share=(var0 - float(var[j])) / signal if signal > 0.0 else 0.0,
+        n=int(n[j]),
+        n_eff=n_eff,
+    )
+
+
+def _n_eff(
+    refs: tuple[clocks._Reference, clocks._Reference],
+    track: tuple[Array, CArray],
+    tau: float,
+    w: complex,
+) -> float:
+    """The share of the windows' residuals at lag ``tau`` that are independent,
+    ``(1 - ρ) / (1 + ρ)``, ρ their lag-one correlation when positive (clocks._n_eff's, for a
+    complex residual)."""
+    s, d = track
+    b_n, covered = refs[0].imu(s, np.ascontiguousarray(d.real), tau)
+    b_e, _ = refs[0].imu(s, np.ascontiguousarray(d.imag), tau)
+    use = (refs[0].m * covered) > 0.0
+    r = (refs[0].a + 1j * refs[1].a)[use] - w * (b_n + 1j * b_e)[use]
+    r -= r.mean()
+    denom = float(np.sum(np.abs(r) ** 2))
+    rho = float(np.sum(r[1:] * np.conj(r[:-1])).real) / denom if denom > 0.0 else 0.0
+    rho = min(max(rho, 0.0), 0.99)
+    return (1.0 - rho) / (1.0 + rho)
+
+
+def decisive(found: clocks.ClockOffset) -> bool:
+    """The offset beats lag 0 decisively: clocks.py's likelihood ratio, slope band and
+    ``|τ| > 4 σ``. Not its share of the signal: a track's changes between windows are mostly
+    its speed's steps (a start from rest), which no lag changes, so an 18-s offset leaves only
+    0.09 of them unexplained on the demo."""
+    lo, hi = clocks.SLOPE_BAND
+    return (
+        found.log_lr >= clocks.MIN_LOG_LR
+        and lo <= found.k <= hi
+        and abs(found.offset_s) > clocks.CONFIDENCE * found.se_s
+    )
+
+
+def check(config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Readings]) -> None:
+    """Each GNSS receiver against the first DVL's dead-reckoned track (both ``use`` aid or
+    init): a MissionError naming its file and ``t_s`` when its fixes follow the track
+    decisively better at an offset beyond max(1 s, two of its periods) than as stamped, a
+    logged warning when beyond 1 s but within (docs/robustness.md, 'Sensor clocks'). Nothing
+    without a DVL (a car's GNSS is dated by its course: mission/clocks.py). Since 0.4.12."""
+    dvl_name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
+    if dvl_name is None:
+        return
+    d, dcfg = sensors[dvl_name], config.sensors[dvl_name]
+    if d.t.size < 2:
+        return
+    period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
+    dvl = scales.Dvl.of(d.t, d.z[:, :3], dcfg.sensor_from_body(), period, 0.0)
+    if dvl.t.size < 2:
+        return
+    track = dead_reckoned(dvl, views.tilt(), views.gyro())
+    for name, g in sensors.items():
+        if g.kind != "gnss" or g.t.size < 3:
+            continue
+        north, east = axes.flatten(g.z[:, 0], g.z[:, 1])
+        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t)))
+        found = gnss_offset(g.t, north, east, gp, track)
+        if found is None or not decisive(found) or abs(found.offset_s) <= axes.MAX_LAG_S:
+            continue
+        cfg = config.sensors[name]
+        words = _words(name, dvl_name, found, cfg.latency_s or 0.0, (g.t[0], g.t[-1]))
+        if not found.beyond(gp):
+            log.warning("%s: %s", cfg.file, words)
+            continue
+        raise MissionError(
+            f"{cfg.file}: {words} If the stamps are right, set imu.axis_check = false "
+            "(docs/robustness.md, 'Sensor clocks')",
+            file=cfg.file,
+            field=TIME_COLUMN,
+        )
+
+
+def _words(
+    name: str, dvl: str, found: clocks.ClockOffset, latency_s: float, span: tuple[float, float]
+) -> str:
+    """What :func:`check` says of GNSS ``name``'s offset against DVL ``dvl``, and the fix."""
+    tau = found.offset_s
+    when = "after" if tau > 0.0 else "before"
+    return (
+        f"the stamps of sensor {name!r} (lat_rad, lon_rad) lie {abs(tau):.1f} ± "
+        f"{found.se_s:.1f} s {when} its fixes were taken: its positions' changes over "
+        f"{found.n // 2} windows follow the track dead-reckoned from DVL {dvl!r} at that offset "
+        f"(scale {found.k:.3g}, 1 expected); as stamped, the residual variance is "
+        f"{found.ratio:.3g} times as large (likelihood ratio {found.log_lr:.0f}), from "
+        f"t = {span[0]:.1f} to {span[1]:.1f} s. Set latency_s = {latency_s + tau:.1f} in "
+        f"[sensors.{name}] (now {latency_s:g}), or set the logger's clock right (or, if the "
+        f"GNSS's clock is right, the DVL's stamps lie {abs(tau):.1f} s "
+        f"{'before' if tau > 0.0 else 'after'} its readings)."
+    )
