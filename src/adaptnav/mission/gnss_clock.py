@@ -111,11 +111,14 @@ def _windows(t: Array, p: CArray, width: float, period: float) -> tuple[float, C
     g = s[0] + width * np.arange(int((s[-1] - s[0]) / width) + 1)
     at = np.interp(g, s, mean.real) + 1j * np.interp(g, s, mean.imag)
     gaps = np.diff(t) > clocks.GAP_PERIODS * period
-    # Count of gaps starting before each time: a window pair holds one when the counts differ.
+    # before[i]: the gaps among the fix intervals ahead of fix i. A window pair spans
+    # [g_k - L/2, g_{k+1} + L/2]; the intervals it touches run from the one holding its
+    # start (fix k0 - 1 on) to the one holding its end (up to fix k1).
     before = np.concatenate([[0], np.cumsum(gaps)])
     k0 = np.searchsorted(t, g[:-1] - 0.5 * width, side="right")
     k1 = np.searchsorted(t, g[1:] + 0.5 * width, side="left")
-    m = (before[np.maximum(k1 - 1, 0)] - before[np.maximum(k0 - 1, 0)] == 0).astype(float)
+    touched = before[np.minimum(k1, t.size - 1)] - before[np.maximum(k0 - 1, 0)]
+    m = (touched == 0).astype(float)
     a = np.diff(at)
     return float(g[0]), np.asarray(a * m, dtype=complex), m
 
@@ -151,11 +154,11 @@ def gnss_offset(
 
 
 def _noise(t: Array, p: CArray, width: float) -> float:
-    """The variance (m², both components) that the fixes' own white noise gives a change of
-    their window means: ``4 σ² / m``, m fixes a window, σ² (each component's) from the median
-    of the fixes' second differences' ``|d|²`` (``12 σ²`` on average over both components, of
-    which ln 2 is the median: a circular normal's), which a steady course and speed leave
-    out."""
+    """The variance (m², both components) the fixes' white noise gives a change of their
+    window means, ``4 σ² / m`` (m fixes a window, σ² each component's). σ² is taken from the
+    fixes' second differences, which a steady course and speed leave at zero: their ``|d|²``
+    is ``12 σ²`` on average over both components, its median ``12 σ² ln 2`` (a circular
+    normal's)."""
     d = p[2:] - 2.0 * p[1:-1] + p[:-2]
     var = float(np.median(np.abs(d) ** 2)) / math.log(2.0) / 12.0 if d.size else 0.0
     per = max(width / float(np.median(np.diff(t))), 1.0)
