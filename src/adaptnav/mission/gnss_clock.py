@@ -270,7 +270,8 @@ def check(config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Rea
         if found is None or not decisive(found) or abs(found.offset_s) <= axes.MAX_LAG_S:
             continue
         cfg = config.sensors[name]
-        words = _words(name, dvl_name, found, cfg.latency_s or 0.0, (g.t[0], g.t[-1]))
+        width = max(WINDOW_S, WINDOW_PERIODS * gp)
+        words = _words(name, dvl_name, found, cfg.latency_s or 0.0, (g.t[0], g.t[-1], width))
         if not found.beyond(gp):
             log.warning("%s: %s", cfg.file, words)
             continue
@@ -283,19 +284,23 @@ def check(config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Rea
 
 
 def _words(
-    name: str, dvl: str, found: clocks.ClockOffset, latency_s: float, span: tuple[float, float]
+    name: str,
+    dvl: str,
+    found: clocks.ClockOffset,
+    latency_s: float,
+    span: tuple[float, float, float],
 ) -> str:
-    """What :func:`check` says of GNSS ``name``'s offset against DVL ``dvl``, and the fix."""
+    """What :func:`check` says of GNSS ``name``'s offset against DVL ``dvl``, and the fix;
+    ``span``: the fixes' first and last stamps and the windows' width (s)."""
     tau = found.offset_s
     when = "after" if tau > 0.0 else "before"
     return (
         f"the stamps of sensor {name!r} (lat_rad, lon_rad) lie {abs(tau):.1f} ± "
         f"{found.se_s:.1f} s {when} its fixes were taken: its positions' changes over "
-        f"{found.n // 2} windows follow the track dead-reckoned from DVL {dvl!r} at that offset "
-        f"(scale {found.k:.3g}, 1 expected); as stamped, the residual variance is "
-        f"{found.ratio:.3g} times as large (likelihood ratio {found.log_lr:.0f}), from "
-        f"t = {span[0]:.1f} to {span[1]:.1f} s. Set latency_s = {latency_s + tau:.1f} in "
-        f"[sensors.{name}] (now {latency_s:g}), or set the logger's clock right (or, if the "
-        f"GNSS's clock is right, the DVL's stamps lie {abs(tau):.1f} s "
-        f"{'before' if tau > 0.0 else 'after'} its readings)."
+        f"{found.n // 2} windows of {span[2]:g} s follow the track dead-reckoned from DVL "
+        f"{dvl!r}, turned by the gyro, at that offset (scale {found.k:.3g}, 1 expected); as "
+        f"stamped, the residual variance is {found.ratio:.3g} times as large (likelihood ratio "
+        f"{found.log_lr:.0f}), from t = {span[0]:.1f} to {span[1]:.1f} s. Set latency_s = "
+        f"{latency_s + tau:.1f} in [sensors.{name}] (now {latency_s:g}), or set the logger's "
+        "clock right."
     )
