@@ -139,7 +139,7 @@ def gnss_offset(
     ok = np.isfinite(t) & np.isfinite(north) & np.isfinite(east)
     t, p = t[ok], north[ok] + 1j * east[ok]
     width = max(WINDOW_S, WINDOW_PERIODS * period)
-    if t.size < 2 or t[-1] - t[0] < (axes.MIN_INTERVALS + 2) * width:
+    if not _long_enough(t, period) or track[0].size < 2:
         return None
     g0, a, m = _windows(t, p, width, period)
     s, d = boxed(*track, width)
@@ -151,6 +151,16 @@ def gnss_offset(
     n, saa, sbb = nn.n + ee.n, nn.saa + ee.saa, nn.sbb + ee.sbb
     sab = (nn.sab + ee.sab) + 1j * (ne.sab - en.sab)
     return _judge(nn.tau, (n, saa, sab, sbb), (ref_n, ref_e), (s, d), _noise(t, p, width))
+
+
+def _long_enough(t: Array, period: float) -> bool:
+    """Stamps ``t`` (finite ones) of a receiver of period ``period`` (NaN: their median
+    interval) span enough windows for a fit: :data:`axes.MIN_INTERVALS` pairs and two more."""
+    t = t[np.isfinite(t)]
+    if t.size < 3:
+        return False
+    step = period if math.isfinite(period) else float(np.median(np.diff(t)))
+    return float(t[-1] - t[0]) >= (axes.MIN_INTERVALS + 2) * max(WINDOW_S, WINDOW_PERIODS * step)
 
 
 def _noise(t: Array, p: CArray, width: float) -> float:
@@ -251,19 +261,20 @@ def check(config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Rea
     logged warning when beyond 1 s but within (docs/robustness.md, 'Sensor clocks'). Nothing
     without a DVL (a car's GNSS is dated by its course: mission/clocks.py). Since 0.4.12."""
     dvl_name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
-    if dvl_name is None:
+    long = [n for n, g in sensors.items() if g.kind == "gnss" and _long_enough(g.t, g.period)]
+    if dvl_name is None or not long or sensors[dvl_name].t.size < 2:
         return
     d, dcfg = sensors[dvl_name], config.sensors[dvl_name]
-    if d.t.size < 2:
-        return
     period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
     dvl = scales.Dvl.of(d.t, d.z[:, :3], dcfg.sensor_from_body(), period, 0.0)
-    if dvl.t.size < 2:
+    tilt = views.tilt()
+    if dvl.t.size < 2 or tilt.t.size < 2:
         return
-    track = dead_reckoned(dvl, views.tilt(), views.gyro())
-    for name, g in sensors.items():
-        if g.kind != "gnss" or g.t.size < 3:
-            continue
+    track = dead_reckoned(dvl, tilt, views.gyro())
+    if track[0].size < 2:
+        return
+    for name in long:
+        g = sensors[name]
         north, east = axes.flatten(g.z[:, 0], g.z[:, 1])
         gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t)))
         found = gnss_offset(g.t, north, east, gp, track)
