@@ -195,6 +195,10 @@ def test_an_imu_shorter_than_two_blocks_decides_nothing(
         (0.3, 0.8, 0, False),  # follows the right way, weakly: a poor prediction, not a slip
         (-0.9, -0.8, 0, True),  # the opposite way: negated
         (0.0, 0.05, 1, True),  # the DVL's y follows x's prediction: swapped
+        # follows its own the right way, weakly, another axis better: a share of that axis's
+        # changes in the prediction (paper-2's first 750 s as a stream: y 0.28, r 0.79), not a
+        # swap; refused as swapped up to 0.4.11
+        (0.28, 0.79, 1, False),
         (0.0, 0.05, 0, False),  # nothing follows it: undecided
         (1.9, 0.9, 0, False),  # a scale is not judged (its readings shape the prediction)
     ],

@@ -256,13 +256,20 @@ class AxisFit:
     @property
     def refused(self) -> bool:
         """``k + 4 se`` below :data:`MIN_SLOPE` with a slip's signature: the axis follows its
-        prediction the opposite way (``r <= -MIN_CORRELATION``: negated) or another DVL axis
-        follows it closely (``|r| >=`` :data:`CONFIRM_CORRELATION`: swapped). An axis that
-        follows its prediction the right way but weakly (a poor prediction, not a slip) is not
-        refused."""
+        prediction the opposite way (``r <= -MIN_CORRELATION``: negated) or not at all
+        (``|r| <`` :data:`MIN_CORRELATION`) while another DVL axis follows it closely (``|r| >=``
+        :data:`CONFIRM_CORRELATION`: swapped). An axis that follows its prediction the right way
+        but weakly (a poor prediction, not a slip) is not refused, whichever axis follows it
+        better: up to 0.4.11 it was, as swapped, when another did (paper-2's first 750 s as a
+        stream: y at 0.28, r 0.79, its prediction carrying a share of the surge the DVL's x
+        follows with r 0.95; docs/robustness.md, 'DVL axes against the accelerometers')."""
         s = self.slope
         negated = self.r <= -MIN_CORRELATION
-        swapped = self.follower != self.axis and self.follower_r >= CONFIRM_CORRELATION
+        swapped = (
+            self.follower != self.axis
+            and self.follower_r >= CONFIRM_CORRELATION
+            and abs(self.r) < MIN_CORRELATION
+        )
         return s.k + CONFIDENCE * s.se < MIN_SLOPE and (negated or swapped)
 
     @property
