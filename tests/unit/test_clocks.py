@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adaptnav.mission import MissionError, axes, clocks, load_mission
+from adaptnav.mission import MissionError, axes, clocks, load_mission, scales
+from helpers import diving
 
 RATE_HZ = 100.0
 DURATION_S = 900.0
@@ -248,8 +249,9 @@ def test_the_error_doubts_an_offset_found_with_a_slope_far_from_one() -> None:
     ref = axes.Reference("incl", "roll", 0, np.array([0.0, 900.0]), np.zeros(2))
     sure = clocks.ClockOffset(18.0, 0.1, 0.99, -0.85, 9.5, 3.7, 4500, 4500.0)
     doubtful = clocks.ClockOffset(4.5, 0.1, 0.81, 0.02, 4.1, 1.95, 4070, 629.0)
-    assert "alias" not in loader._clock_words(ref, sure, 0.0)
-    words = loader._clock_words(ref, doubtful, 0.2)
+    what, span = ("its roll follows the gyro's x axis", "rotation"), (0.0, 900.0)
+    assert "alias" not in loader._offset_words(ref.name, what, sure, 0.0, span)
+    words = loader._offset_words(ref.name, what, doubtful, 0.2, span)
     assert "Set latency_s = 4.7 in [sensors.incl] (now 0.2)" in words and "alias" in words
 
 
@@ -262,3 +264,45 @@ def test_an_offset_of_the_whole_latency_bound_is_dated(
     found = _offset(motion, 2, late_s, 1.0)
     assert abs(found.offset_s - late_s) < max(4.0 * found.se_s, 0.5), found
     assert found.decisive() and abs(found.k - 1.0) < 0.05, found
+
+
+# --- a depth meter against the DVL's vertical displacement (depth_offset) -------------------------
+
+
+def _depth_offset(tabs: dict[str, pd.DataFrame], late_s: float) -> clocks.ClockOffset | None:
+    """The depth of ``diving.tables`` stamped ``late_s`` late against its DVL (2 Hz, 0.02 m/s)
+    turned down by the accelerometers' levelled tilt."""
+    imu, dvl, depth = tabs["imu"], tabs["dvl"], tabs["depth"]
+    t = imu["t_s"].to_numpy()
+    dt = np.full(t.size, 1.0 / diving.RATE_HZ)
+    f = imu[[f"accel_{a}_m_s2" for a in "xyz"]].to_numpy()
+    tilt = axes.AccelTilt.of(t + dt, dt, f * dt[:, None])
+    v_s = dvl[["vx_m_s", "vy_m_s", "vz_m_s"]].to_numpy()
+    v = scales.Dvl.of(dvl["t_s"].to_numpy(), v_s, None, 0.5, 0.02)
+    d = depth["depth_m"].to_numpy()
+    return clocks.depth_offset(depth["t_s"].to_numpy() + late_s, d, v, tilt, np.zeros(3))
+
+
+@pytest.fixture(scope="module")
+def dive() -> dict[str, pd.DataFrame]:
+    return diving.tables()
+
+
+@pytest.mark.parametrize("late_s", [18.0, -10.0])
+def test_a_depth_stamped_seconds_off_is_dated_against_the_dvl(
+    dive: dict[str, pd.DataFrame], late_s: float
+) -> None:
+    """Up to 0.4.11 a depth seconds off was not dated. The yo-yo's depth (±7.4 m over 120 s)
+    against the DVL's velocity turned down by the pitch: its offset, with the slope 1."""
+    found = _depth_offset(dive, late_s)
+    assert found is not None and found.decisive() and found.beyond(1.0), found
+    assert abs(found.offset_s - late_s) < max(4.0 * found.se_s, 0.3), found
+    assert abs(found.k - 1.0) < 0.1, found
+    right = _depth_offset(dive, 0.0)
+    assert right is not None and not right.decisive() and abs(right.offset_s) < 0.3, right
+
+
+def test_a_vehicle_that_does_not_dive_has_no_depth_clock() -> None:
+    """A surface vessel's depth is its waves and noise: undecided, however its stamps lie."""
+    flat = diving.tables(duration_s=300.0, pitch_deg=0.0)
+    assert _depth_offset(flat, 18.0) is None and _depth_offset(flat, 0.0) is None

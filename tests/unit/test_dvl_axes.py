@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from adaptnav.core import attitude
-from adaptnav.mission import MissionError, axes, dvl_axes, load_mission
+from adaptnav.mission import MissionError, axes, clocks, dvl_axes, load_mission
 from helpers.missions import config_dict, write_dir
 
 RATE_HZ = 100.0
@@ -209,3 +209,48 @@ def test_an_axis_is_refused_only_with_a_slip_s_signature(
     follower_r = 0.9 if follower else abs(r)
     fit = dvl_axes.AxisFit(0, axes.Slope(k, 0.02, 100, 0.0), r, follower, follower_r)
     assert fit.refused is refused
+
+
+# --- the DVL's clock against the same prediction (mission/clocks.py, dvl_offset) ------------------
+
+
+@pytest.mark.parametrize("late_s", [5.0, 18.0, -10.0])
+def test_a_dvl_stamped_seconds_off_is_dated_to_its_offset(
+    moving: tuple[pd.DataFrame, pd.DataFrame], late_s: float
+) -> None:
+    """Up to 0.4.11 a DVL seconds off was not dated at all (the axis check above says nothing
+    of it); the prediction's changes now place its stamps, with the slope of a right DVL."""
+    imu, dvl = moving
+    found = clocks.dvl_offset(_blocks(imu), _readings(dvl.assign(t_s=dvl["t_s"] + late_s)), 1e-4)
+    assert found is not None and found.decisive(), found
+    assert abs(found.offset_s - late_s) < max(4.0 * found.se_s, 0.1), found
+    assert abs(found.k - 1.0) < 0.1 and found.beyond(1.0 / DVL_HZ), found
+
+
+def test_a_right_dvl_or_one_at_rest_has_no_offset(
+    moving: tuple[pd.DataFrame, pd.DataFrame],
+) -> None:
+    imu, dvl = moving
+    found = clocks.dvl_offset(_blocks(imu), _readings(dvl), 1e-4)
+    assert found is not None and not found.decisive(), found
+    assert abs(found.offset_s) <= 4.0 * found.se_s and abs(found.k - 1.0) < 0.1, found
+    still_imu, still_dvl = _vehicle(duration_s=200.0, moving=False)
+    # The noise of a still vehicle's prediction: VRW 60 µg/√Hz, the IMU's above.
+    assert clocks.dvl_offset(_blocks(still_imu), _readings(still_dvl), 6e-4) is None
+
+
+def test_the_loader_refuses_a_dvl_stamped_18_s_late_naming_the_latency(
+    moving: tuple[pd.DataFrame, pd.DataFrame], tmp_path: Path
+) -> None:
+    """Up to 0.4.11 this loaded without a word. Its first 300 s, to keep the load cheap;
+    ``scale_check = false`` skips the DVL's checks, this one with them (the astern test)."""
+    imu, dvl = moving
+    late = dvl[dvl["t_s"] < 300.0].assign(t_s=lambda d: d["t_s"] + 18.0)
+    with pytest.raises(MissionError) as err:
+        load_mission(_mission(tmp_path / "late", late, imu[imu["t_s"] < 300.0]))
+    assert err.value.file == "dvl.csv" and err.value.field == "t_s"
+    message = str(err.value)
+    assert message.startswith("dvl.csv: the stamps of sensor 'dvl' lie 1"), message
+    fix = float(message.split("Set latency_s = ")[1].split(" ")[0])
+    assert abs(fix - 18.0) < 0.3 and "in [sensors.dvl] (now 0)" in message, message
+    assert "[sensors.dvl] scale_check = false" in message, message

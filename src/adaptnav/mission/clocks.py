@@ -61,8 +61,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import median_filter
 
-from adaptnav.mission import axes
+from adaptnav.mission import axes, dvl_axes, scales
 
 Array = NDArray[np.float64]
 
@@ -94,6 +95,15 @@ EDGE_LAGS = 2
 """Lags scanned past ±:data:`MAX_OFFSET_S` (in the scan's spacing): up to 0.4.11 an offset of
 exactly 60 s lay on the scan's edge, where the parabola has no neighbour, so its σ was infinite
 and the axis check then blamed the gyro (a heading with ``latency_s = 60`` on right stamps)."""
+MIN_DIVE_M = 2.0
+"""Least span (m) of a depth's running median over :data:`DIVE_WINDOW_S` for its clock to be
+read: a surface vessel's depth is waves and noise, which repeat (paper-1's, spanning 0.97 m so,
+fits the DVL's vertical displacement 20 s off nearly as well as at its stamps); the A-KIT
+dives that are dated span 5-21 m."""
+DIVE_WINDOW_S = 60.0
+"""Window of the depth's running median (s) whose span :data:`MIN_DIVE_M` judges."""
+CLIP_SIGMAS = 20.0
+"""A DVL's or a depth's changes are clipped this many robust σ from their median."""
 MIN_PERIODS = 2.0
 """An offset within this many of the sensor's periods (or within ±1 s) is not refused."""
 
@@ -143,9 +153,27 @@ class ClockOffset:
 
 
 @dataclass(frozen=True)
+class Series:
+    """The IMU's side of a scan: a cumulative series ``values`` (n, m) at times ``t`` (n,)
+    whose changes the reference's m columns follow (the gyro's integral about an axis; the
+    DVL's velocity predicted by the accelerometers and the gyro, mission/dvl_axes.py; a depth
+    integrated from the DVL's vertical velocity), and ``noise``, the variance per second of
+    its changes (ARW², VRW², ...), below which a change decides nothing."""
+
+    t: Array
+    values: Array
+    noise: float
+
+    @property
+    def dt(self) -> float:
+        """The series' mean spacing (s)."""
+        return float(self.t[-1] - self.t[0]) / max(self.t.size - 1, 1)
+
+
+@dataclass(frozen=True)
 class _Reference:
-    """The reference's changes ``a`` over a grid from ``t0`` by ``step`` (its period), ``m`` 1
-    where they count (0 over a gap)."""
+    """The reference's changes ``a`` (m, grid intervals) over a grid from ``t0`` by ``step``
+    (its period), ``m`` 1 where they count (0 over a gap)."""
 
     t0: float
     step: float
@@ -153,31 +181,51 @@ class _Reference:
     m: Array
 
     @classmethod
-    def of(cls, t: Array, angle: Array, imu_dt: float) -> _Reference:
-        """The readings ``angle`` at ``t``, unwrapped, interpolated linearly onto the grid."""
+    def of(cls, t: Array, values: Array, imu_dt: float) -> _Reference:
+        """The readings ``values`` (n, m) at ``t`` interpolated linearly onto the grid."""
         period = float(np.median(np.diff(t)))
         step = max(period, imu_dt, MIN_STEP_S)
-        unwrapped = np.unwrap(angle)
         g = t[0] + step * np.arange(int((t[-1] - t[0]) / step) + 1)
-        a = np.diff(np.interp(g, t, unwrapped))
+        a = np.diff(np.stack([np.interp(g, t, v) for v in values.T]), axis=1)
         # The reading interval that holds each grid interval's end: a long one is a gap.
         i = np.clip(np.searchsorted(t, g[1:]), 1, t.size - 1)
         m = (t[i] - t[i - 1] <= GAP_PERIODS * period).astype(float)
         return cls(float(t[0]), step, a * m, m)
 
+    def robust(self, t: Array, theta: Array, max_offset_s: float) -> _Reference:
+        """Only the intervals the IMU's ``t`` covers at every lag within ±``max_offset_s`` (the
+        same intervals judged at each lag: a stretch of larger noise at one end would otherwise
+        favour the lags that slide it out), each column's changes clipped about their median
+        at :data:`CLIP_SIGMAS` × ``sqrt(σ_MAD² + s_b²)``: their robust σ (1.4826 MAD; a DVL's
+        noise, which can be a tenth of its motion's) with the spread ``s_b`` of the IMU's
+        changes of ``theta`` at lag 0 (the motion's, free of the sensor's outliers)."""
+        g = self.t0 + self.step * np.arange(self.a.shape[1] + 1)
+        m = self.m * ((g[:-1] - max_offset_s >= t[0]) & (g[1:] + max_offset_s <= t[-1]))
+        use = m > 0.0
+        if not np.any(use):
+            return _Reference(self.t0, self.step, self.a * m, m)
+        mid = np.median(self.a[:, use], axis=1, keepdims=True)
+        mad = np.median(np.abs(self.a[:, use] - mid), axis=1, keepdims=True)
+        spread = np.std(self.imu(t, theta, 0.0)[0][:, use], axis=1, keepdims=True)
+        bound = CLIP_SIGMAS * np.hypot(1.4826 * mad, spread)
+        return _Reference(self.t0, self.step, np.clip(self.a, mid - bound, mid + bound) * m, m)
+
     def imu(self, t: Array, theta: Array, tau: float, lags: int = 0) -> tuple[Array, Array]:
-        """The IMU's changes over the grid's intervals taken ``tau`` earlier, the grid extended
-        by ``lags`` steps either way, and 1 where the IMU covers them."""
-        ge = self.t0 - tau + self.step * np.arange(-lags, self.a.size + 1 + lags)
+        """The IMU's changes (m, intervals) of the columns of ``theta`` (n, m) over the grid's
+        intervals taken ``tau`` earlier, the grid extended by ``lags`` steps either way, and 1
+        where the IMU covers them."""
+        ge = self.t0 - tau + self.step * np.arange(-lags, self.a.shape[1] + 1 + lags)
         inside = (ge >= t[0]) & (ge <= t[-1])
         covered = (inside[1:] & inside[:-1]).astype(float)
-        return np.diff(np.interp(ge, t, theta)) * covered, covered
+        b = np.diff(np.stack([np.interp(ge, t, v) for v in theta.T]), axis=1)
+        return b * covered, covered
 
 
 @dataclass(frozen=True)
 class _Scan:
-    """At each lag ``tau`` (s, ascending, evenly spaced) the count N and the centred sums
-    Σ (a - ā)², Σ (a - ā)(b - b̄), Σ (b - b̄)² of the fit ``a = k b + c``."""
+    """At each lag ``tau`` (s, ascending, evenly spaced) the count N and the sums over the
+    columns of the centred Σ (a - ā)², Σ (a - ā)(b - b̄), Σ (b - b̄)² of the fit ``a = k b + c``
+    (one slope, a constant per column)."""
 
     tau: Array
     n: Array
@@ -189,27 +237,39 @@ class _Scan:
     def of(cls, ref: _Reference, t: Array, theta: Array, max_offset_s: float) -> _Scan:
         """Every lag j h + φ within ±``max_offset_s``: per phase φ (a grid coarser than
         :data:`MAX_STEP_S`, a GNSS course's, is tried at phases that far apart) six
-        correlations over the lags j."""
-        # A 1-Hz sensor whose clock runs a little slow (1.0002 s) is not split into two phases.
-        phases = max(1, math.ceil(ref.step / MAX_STEP_S - 0.05))
-        # EDGE_LAGS spacings past the bound, so that an offset of exactly ±max_offset_s (a
-        # latency_s of 60 s on right stamps) has neighbours either side for its parabola.
-        span = max_offset_s + EDGE_LAGS * ref.step / phases
+        correlations a column over the lags j, and :data:`EDGE_LAGS` spacings past them."""
+        phases = _phases(ref.step)
+        span = _span(ref.step, max_offset_s)
         lags = math.ceil(span / ref.step)
-        x = np.stack([ref.a, ref.a**2, ref.a, ref.m, ref.m, ref.m])
+        x = np.vstack([np.stack([a, a**2, a, ref.m, ref.m, ref.m]) for a in ref.a])
         rows = []
         for p in range(phases):
             phase = p * ref.step / phases
             b, mi = ref.imu(t, theta, phase, lags)
-            sums = _correlate(x, np.stack([b, mi, mi, mi, b, b**2]))[:, ::-1]
+            y = np.vstack([np.stack([c, mi, mi, mi, c, c**2]) for c in b])
+            sums = _correlate(x, y)[:, ::-1].reshape(ref.a.shape[0], 6, -1)
             tau = phase + ref.step * np.arange(-lags, lags + 1)
-            rows.append(np.vstack([tau, sums]))
-        tau, sab, saa, sa, n, sb, sbb = np.hstack(rows)[:, np.argsort(np.hstack(rows)[0])]
-        keep = np.abs(tau) <= span + 1e-9
+            rows.append(np.concatenate([np.broadcast_to(tau, sums[:, :1].shape), sums], axis=1))
+        both = np.concatenate(rows, axis=2)
+        tau, sab, saa, sa, n, sb, sbb = both[:, :, np.argsort(both[0, 0])].transpose(1, 0, 2)
+        keep = np.abs(tau[0]) <= span + 1e-9
         n = np.round(n)
         with np.errstate(divide="ignore", invalid="ignore"):
             centred = (n, saa - sa**2 / n, sab - sa * sb / n, sbb - sb**2 / n)
-        return cls(tau[keep], *(v[keep] for v in centred))
+        return cls(tau[0][keep], *(v.sum(axis=0)[keep] for v in centred))
+
+
+def _phases(step: float) -> int:
+    """The phases a grid of ``step`` is scanned at, :data:`MAX_STEP_S` apart at most."""
+    # A 1-Hz sensor whose clock runs a little slow (1.0002 s) is not split into two phases.
+    return max(1, math.ceil(step / MAX_STEP_S - 0.05))
+
+
+def _span(step: float, max_offset_s: float) -> float:
+    """The lags a scan of a grid of ``step`` reaches either way: ``max_offset_s`` and
+    :data:`EDGE_LAGS` of its spacings past it, so that an offset of exactly ±``max_offset_s``
+    (a ``latency_s`` of 60 s on right stamps) has neighbours either side for its parabola."""
+    return max_offset_s + EDGE_LAGS * step / _phases(step)
 
 
 def _correlate(x: Array, y: Array) -> Array:
@@ -225,34 +285,62 @@ def clock_offset(
     gyro: axes.Gyro, axis: int, t: Array, angle: Array, max_offset_s: float = MAX_OFFSET_S
 ) -> ClockOffset | None:
     """The time offset of the readings ``angle`` (rad) at ``t`` against the gyro's ``axis``
-    (module docstring). None: too few readings, or at lag 0 the fit undecided (the IMU's
-    changes not :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times their own noise: a vehicle
-    that does not turn has no clock to read)."""
+    (module docstring): :func:`series_offset` of the angle, unwrapped, against the gyro's
+    integral. None: too few readings, or at lag 0 the fit undecided (the IMU's changes not
+    :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times their own noise: a vehicle that does not
+    turn has no clock to read)."""
     ok = np.isfinite(t) & np.isfinite(angle)
-    t, angle = t[ok], angle[ok]
+    if np.count_nonzero(ok) <= axes.MIN_INTERVALS:
+        return None
+    theta = gyro.theta[:, axis : axis + 1]
+    series = Series(gyro.t, theta, gyro.arw**2)
+    return series_offset(series, t[ok], np.unwrap(angle[ok])[:, None], max_offset_s)
+
+
+def series_offset(
+    series: Series,
+    t: Array,
+    values: Array,
+    max_offset_s: float = MAX_OFFSET_S,
+    robust: bool = False,
+) -> ClockOffset | None:
+    """The time offset of the readings ``values`` (n, m) at ``t`` against the IMU-side
+    ``series``'s columns (module docstring; m > 1: one slope for all the columns, a constant
+    each). ``robust`` (a DVL's, a depth's): :meth:`_Reference.robust`, and only lags with a
+    positive slope (a yo-yo's depth half a period off fits inverted as well as at its offset;
+    a negated sensor is the axis or sign checks' finding). None: too few finite readings, or
+    the fit undecided at lag 0 (the series' changes not
+    :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times their noise)."""
+    ok = np.isfinite(t) & np.all(np.isfinite(values), axis=1)
+    t, values = t[ok], values[ok]
     if t.size <= axes.MIN_INTERVALS:
         return None
-    ref = _Reference.of(t, angle, float(gyro.t[-1] - gyro.t[0]) / max(gyro.t.size - 1, 1))
-    theta = np.ascontiguousarray(gyro.theta[:, axis])  # one copy of the column, not one a phase
-    scan = _Scan.of(ref, gyro.t, theta, max_offset_s)
+    ref = _Reference.of(t, values, series.dt)
+    theta = np.ascontiguousarray(series.values)  # one copy of the columns, not one a phase
+    if robust:
+        ref = ref.robust(series.t, theta, _span(ref.step, max_offset_s))
+    cols = ref.a.shape[0]
+    scan = _Scan.of(ref, series.t, theta, max_offset_s)
     n, saa, sab, sbb = scan.n, scan.saa, scan.sab, scan.sbb
     with np.errstate(divide="ignore", invalid="ignore"):
         k = sab / sbb
         rss = np.maximum(saa - sab * k, 0.0)
-    noise = gyro.arw**2 * ref.step
-    valid = (n >= max(axes.MIN_INTERVALS, 0.5 * float(ref.m.sum()))) & (
+    noise = series.noise * ref.step
+    valid = (n >= max(axes.MIN_INTERVALS, 0.5 * cols * float(ref.m.sum()))) & (
         sbb > axes.SIGNAL_FACTOR * noise * n
     )
     zero = int(np.argmin(np.abs(scan.tau)))
     if not valid[zero]:
         return None
-    var = np.where(valid, rss / np.maximum(n - 2.0, 1.0), np.inf)
+    valid &= (k > 0.0) | (not robust)
+    # Degrees of freedom: the slope and a constant per column.
+    var = np.where(valid, rss / np.maximum(n - 1.0 - cols, 1.0), np.inf)
     j = int(np.argmin(var))
     shift, curvature = _parabola(rss, j)
     h = float(scan.tau[1] - scan.tau[0]) if scan.tau.size > 1 else ref.step
-    sigma2 = float(rss[j]) / max(float(n[j]) - 3.0, 1.0)
+    sigma2 = float(rss[j]) / max(float(n[j]) - 2.0 - cols, 1.0)
     se = math.sqrt(2.0 * sigma2 / curvature) * h if curvature > 0.0 else math.inf
-    both = _Both.of(ref, gyro.t, theta, float(scan.tau[j]))
+    both = _Both.of(ref, series.t, theta, float(scan.tau[j]))
     se = max(se * math.sqrt(float(n[j]) / both.n_eff), h / math.sqrt(12.0))
     return ClockOffset(
         offset_s=float(scan.tau[j]) + shift * h,
@@ -269,11 +357,12 @@ def clock_offset(
 @dataclass(frozen=True)
 class _Both:
     """The fit at the offset τ̂ and lag 0 judged on the same intervals, those the IMU covers
-    at both (module docstring): the slope ``k`` at τ̂, the residual variances ``var`` there and
-    ``var0`` at lag 0 with that slope, the rotation's ``signal`` ``k² Σ (b - b̄)² / N``, the
-    count ``n`` and ``n_eff`` of them independent. Up to 0.4.11 lag 0 was judged on every
-    interval and τ̂ on those it covers: a last 10 s of an inclinometer pegged at 90°, left
-    out only at τ̂ = -18 s, made that a clock offset decisively better than lag 0."""
+    at both (module docstring): the slope ``k`` at τ̂ (one for every column, a constant each),
+    the residual variances ``var`` there and ``var0`` at lag 0 with that slope, the rotation's
+    ``signal`` ``k² Σ (b - b̄)² / N``, the count ``n`` (over the columns) and ``n_eff`` of them
+    independent. Up to 0.4.11 lag 0 was judged on every interval and τ̂ on those it covers: a
+    last 10 s of an inclinometer pegged at 90°, left out only at τ̂ = -18 s, made that a clock
+    offset decisively better than lag 0."""
 
     k: float
     var: float
@@ -284,23 +373,88 @@ class _Both:
 
     @classmethod
     def of(cls, ref: _Reference, t: Array, theta: Array, tau: float) -> _Both:
-        """From the reference's changes and the IMU's at ``tau`` and at 0 (direct sums: two
-        lags, not a scan)."""
+        """From the reference's changes (m, intervals) and the IMU's columns ``theta`` (n, m)
+        at ``tau`` and at 0 (direct sums: two lags, not a scan)."""
         b, covered = ref.imu(t, theta, tau)
         b0, covered0 = ref.imu(t, theta, 0.0)
         use = (ref.m * covered * covered0) > 0.0
-        a, b, b0 = ref.a[use], b[use], b0[use]
-        n = int(a.size)
-        if n < 3:
+        a, b, b0 = ref.a[:, use], b[:, use], b0[:, use]
+        cols, n = a.shape[0], int(a.size)
+        if a.shape[1] < 3:
             return cls(math.nan, 0.0, 0.0, 0.0, n, float(n))
-        a, bc, b0c = a - a.mean(), b - b.mean(), b0 - b0.mean()
+        a = a - a.mean(axis=1, keepdims=True)
+        bc = b - b.mean(axis=1, keepdims=True)
+        b0c = b0 - b0.mean(axis=1, keepdims=True)
         sbb = float(np.sum(bc * bc))
         k = float(np.sum(a * bc)) / sbb if sbb > 0.0 else math.nan
         r = a - k * bc
         r0 = a - k * b0c
-        var = float(np.sum(r * r)) / (n - 2)
-        var0 = float(np.sum(r0 * r0)) / (n - 1)
+        # Degrees of freedom: the slope and a constant per column (lag 0's slope is given).
+        var = float(np.sum(r * r)) / max(n - 1 - cols, 1)
+        var0 = float(np.sum(r0 * r0)) / max(n - cols, 1)
         return cls(k, var, var0, k * k * sbb / n, n, _n_eff(r))
+
+
+def dvl_offset(
+    blocks: dvl_axes.Blocks, dvl: dvl_axes.Readings, vrw: float, max_offset_s: float = MAX_OFFSET_S
+) -> ClockOffset | None:
+    """The time offset of a DVL's readings against the velocity the IMU predicts for them
+    (:func:`series_offset`, the three axes with one slope): ``U + ω × l`` at the blocks'
+    edges, turned into the DVL's axes (:func:`adaptnav.mission.dvl_axes.velocity_integral`),
+    whose changes a right DVL's velocity changes follow with k ≈ 1; ``vrw``: the
+    accelerometers' velocity random walk (m/s/√s). The prediction's centripetal and gravity
+    terms take the DVL's own readings: an offset beyond ±:data:`adaptnav.mission.axes.MAX_LAG_S`
+    is scanned again with them at their stamps less the offset (a DVL 18 s late on A-KIT 1
+    fits at 18.0 s with k 0.74 at its stamps, 0.9-1 so). None: undecided (a vehicle at
+    rest)."""
+    if dvl.t.size <= axes.MIN_INTERVALS or blocks.h.size < 2:
+        return None
+    found = _dvl_scan(blocks, dvl, vrw, 0.0, max_offset_s)
+    if found is None or abs(found.offset_s) <= axes.MAX_LAG_S:
+        return found
+    return _dvl_scan(blocks, dvl, vrw, found.offset_s, max_offset_s) or found
+
+
+def _dvl_scan(
+    blocks: dvl_axes.Blocks, dvl: dvl_axes.Readings, vrw: float, late_s: float, max_offset_s: float
+) -> ClockOffset | None:
+    """:func:`dvl_offset`'s scan, the prediction made with the readings taken ``late_s``
+    before their stamps."""
+    edges, u = dvl_axes.velocity_integral(blocks, dvl.t - late_s, dvl.body(), dvl.lever)
+    rate = blocks.dtheta / blocks.h[:, None]
+    w = np.column_stack([np.interp(edges, blocks.mid, rate[:, k]) for k in range(3)])
+    series = Series(edges, dvl.to_sensor(u + np.cross(w, dvl.lever)), vrw**2)
+    return series_offset(series, dvl.t, dvl.v_s, max_offset_s, robust=True)
+
+
+def depth_offset(
+    t: Array,
+    depth: Array,
+    dvl: scales.Dvl,
+    tilt: axes.AccelTilt,
+    lever_m: Array,
+    max_offset_s: float = MAX_OFFSET_S,
+) -> ClockOffset | None:
+    """The time offset of a depth meter's readings ``depth`` (m) at ``t`` against the DVL's
+    vertical displacement, ``W(t) = ∫ (C_nb v_b)_down dt`` with the accelerometers' levelled
+    tilt (the integral of mission/scales.py's depth scale check), the depth's lever arm
+    ``lever_m`` (its own less the DVL's, body, m) turned down and taken off. The DVL's own
+    noise, ``σ² T`` a second (period T), is the series' noise: a vehicle whose depth changes
+    less is undecided (None), and so is one whose depth's running median over
+    :data:`DIVE_WINDOW_S` spans less than :data:`MIN_DIVE_M` (a vehicle that does not dive)."""
+    ok = np.isfinite(t) & np.isfinite(depth)
+    t, depth = t[ok], depth[ok]
+    if dvl.t.size <= axes.MIN_INTERVALS or t.size <= axes.MIN_INTERVALS:
+        return None
+    size = max(1, round(DIVE_WINDOW_S / float(np.median(np.diff(t)))))
+    if float(np.ptp(median_filter(depth, size=size, mode="nearest"))) < MIN_DIVE_M:
+        return None
+    roll, pitch = scales.tilt_at(tilt, dvl.t)
+    w = scales.integral(dvl.t, scales.down(dvl.v_b, roll, pitch))
+    r_d, p_d = scales.tilt_at(tilt, t)
+    arm = scales.down(np.broadcast_to(np.asarray(lever_m, dtype=float), (t.size, 3)), r_d, p_d)
+    series = Series(dvl.t, w[:, None], dvl.sigma**2 * dvl.period)
+    return series_offset(series, t, (depth - arm)[:, None], max_offset_s, robust=True)
 
 
 def _parabola(rss: Array, j: int) -> tuple[float, float]:
@@ -316,11 +470,12 @@ def _parabola(rss: Array, j: int) -> tuple[float, float]:
 
 
 def _n_eff(r: Array) -> float:
-    """The count of residuals ``r`` shrunk by their lag-one correlation ρ when positive:
-    ``N (1 - ρ) / (1 + ρ)``."""
-    r = r - float(r.mean())
+    """The count of residuals ``r`` (a column's, or m columns' as (m, N)) shrunk by their
+    lag-one correlation ρ (within each column, pooled) when positive: ``N (1 - ρ) / (1 + ρ)``."""
+    r = np.atleast_2d(r)
+    r = r - r.mean(axis=1, keepdims=True)
     # Sums of products, not ``@``: a BLAS dot wakes its threads, 10 ms each on a busy machine.
     denom = float(np.sum(r * r))
-    rho = float(np.sum(r[1:] * r[:-1])) / denom if denom > 0.0 else 0.0
+    rho = float(np.sum(r[:, 1:] * r[:, :-1])) / denom if denom > 0.0 else 0.0
     rho = min(max(rho, 0.0), 0.99)
     return float(r.size) * (1.0 - rho) / (1.0 + rho)

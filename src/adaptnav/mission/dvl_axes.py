@@ -176,6 +176,18 @@ def predicted(blocks: Blocks, t: Array, v_b: Array, lever: Array) -> Array:
     """The body velocity's change predicted by the IMU (module docstring) at the DVL's point
     at times ``t`` (n, 3; body axes, from an arbitrary constant), for the DVL's body-frame
     readings ``v_b`` (n, 3) at ``t`` and its lever arm ``lever`` (m)."""
+    edges, u = velocity_integral(blocks, t, v_b, lever)
+    out = np.column_stack([np.interp(t, edges, u[:, k]) for k in range(3)])
+    rate = blocks.dtheta / blocks.h[:, None]
+    w_t = np.column_stack([np.interp(t, blocks.mid, rate[:, k]) for k in range(3)])
+    inside = (t >= edges[0]) & (t <= edges[-1])
+    return np.where(inside[:, None], out + np.cross(w_t, lever), math.nan)
+
+
+def velocity_integral(blocks: Blocks, t: Array, v_b: Array, lever: Array) -> tuple[Array, Array]:
+    """``U``, the sum of the predicted changes ``Δu_j`` (module docstring) at the IMU's point,
+    at the blocks' edges (m + 1,) from 0 at the first block's start (m + 1, 3), for the DVL's
+    body-frame readings ``v_b`` (n, 3) at ``t`` and its lever arm ``lever`` (m)."""
     mid, h = blocks.mid, blocks.h
     rate = blocks.dtheta / h[:, None]
     v = np.column_stack([np.interp(mid, t, v_b[:, k]) for k in range(3)])
@@ -183,11 +195,7 @@ def predicted(blocks: Blocks, t: Array, v_b: Array, lever: Array) -> Array:
     accel = np.gradient(v, mid, axis=0) + np.cross(rate, v)
     du = blocks.dvel + gravity(blocks, accel) * h[:, None] - np.cross(blocks.dtheta, v)
     edges = np.concatenate([[blocks.t_end[0] - h[0]], blocks.t_end])
-    u = np.vstack([np.zeros(3), np.cumsum(du, axis=0)])
-    out = np.column_stack([np.interp(t, edges, u[:, k]) for k in range(3)])
-    w_t = np.column_stack([np.interp(t, mid, rate[:, k]) for k in range(3)])
-    inside = (t >= edges[0]) & (t <= edges[-1])
-    return np.where(inside[:, None], out + np.cross(w_t, lever), math.nan)
+    return edges, np.vstack([np.zeros(3), np.cumsum(du, axis=0)])
 
 
 @dataclass(frozen=True)

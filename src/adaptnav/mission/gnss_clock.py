@@ -143,9 +143,11 @@ def gnss_offset(
         return None
     g0, a, m = _windows(t, p, width, period)
     s, d = boxed(*track, width)
-    b_n, b_e = np.ascontiguousarray(d.real), np.ascontiguousarray(d.imag)
-    ref_n = clocks._Reference(g0, width, a.real, m)
-    ref_e = clocks._Reference(g0, width, a.imag, m)
+    # One column each: clocks' scan takes a reference's changes (m, intervals) and the IMU
+    # side's columns (n, m).
+    b_n, b_e = np.ascontiguousarray(d.real[:, None]), np.ascontiguousarray(d.imag[:, None])
+    ref_n = clocks._Reference(g0, width, a.real[None, :], m)
+    ref_e = clocks._Reference(g0, width, a.imag[None, :], m)
     nn, ee = (clocks._Scan.of(r, s, b, max_offset_s) for r, b in ((ref_n, b_n), (ref_e, b_e)))
     ne, en = (clocks._Scan.of(r, s, b, max_offset_s) for r, b in ((ref_e, b_n), (ref_n, b_e)))
     n, saa, sbb = nn.n + ee.n, nn.saa + ee.saa, nn.sbb + ee.sbb
@@ -230,10 +232,10 @@ def _n_eff(
     ``(1 - ρ) / (1 + ρ)``, ρ their lag-one correlation when positive (clocks._n_eff's, for a
     complex residual)."""
     s, d = track
-    b_n, covered = refs[0].imu(s, np.ascontiguousarray(d.real), tau)
-    b_e, _ = refs[0].imu(s, np.ascontiguousarray(d.imag), tau)
+    b_n, covered = refs[0].imu(s, np.ascontiguousarray(d.real[:, None]), tau)
+    b_e, _ = refs[0].imu(s, np.ascontiguousarray(d.imag[:, None]), tau)
     use = (refs[0].m * covered) > 0.0
-    r = (refs[0].a + 1j * refs[1].a)[use] - w * (b_n + 1j * b_e)[use]
+    r = (refs[0].a[0] + 1j * refs[1].a[0])[use] - w * (b_n[0] + 1j * b_e[0])[use]
     r -= r.mean()
     denom = float(np.sum(np.abs(r) ** 2))
     rho = float(np.sum(r[1:] * np.conj(r[:-1])).real) / denom if denom > 0.0 else 0.0

@@ -316,24 +316,50 @@ def _check_clocks(
     the offset lies beyond 1 s but within two periods. Since 0.4.11."""
     for ref in refs:
         found = clocks.clock_offset(views.gyro(ref.c_sb), ref.axis, ref.t, ref.value)
-        if found is None or not found.decisive() or abs(found.offset_s) <= axes.MAX_LAG_S:
-            continue
-        cfg = config.sensors[ref.name]
-        words = _clock_words(ref, found, cfg.latency_s or 0.0)
-        if not found.beyond(sensors[ref.name].period):
-            log.warning("%s: %s", cfg.file, words)
-            continue
-        raise MissionError(
-            f"{cfg.file}: {words} If the stamps are right, set imu.axis_check = false "
-            "(docs/robustness.md, 'Sensor clocks')",
-            file=cfg.file,
-            field=TIME_COLUMN,
-        )
+        what = (f"its {ref.angle} follows the gyro's {'xyz'[ref.axis]} axis", "rotation")
+        span = (float(ref.t[0]), float(ref.t[-1]))
+        period = sensors[ref.name].period
+        _judge_clock(config, ref.name, period, found, what, span, "imu.axis_check = false")
 
 
-def _clock_words(ref: axes.Reference, found: clocks.ClockOffset, latency_s: float) -> str:
-    """What :func:`_check_clocks` says of ``ref``'s offset, and the fix."""
-    tau, gyro = found.offset_s, "xyz"[ref.axis]
+def _judge_clock(
+    config: MissionConfig,
+    name: str,
+    period: float,
+    found: clocks.ClockOffset | None,
+    what: tuple[str, str],
+    span: tuple[float, float],
+    switch: str,
+) -> None:
+    """The MissionError naming sensor ``name``'s file and t_s for an offset ``found`` beyond
+    max(1 s, two of its ``period``s), decisive (:meth:`clocks.ClockOffset.decisive`); the
+    logged warning for one beyond 1 s within two periods. ``what``: the sensor's series and
+    what it follows, and the motion whose variance the share counts; ``span``: the readings'
+    first and last time; ``switch``: what turns the check off."""
+    if found is None or not found.decisive() or abs(found.offset_s) <= axes.MAX_LAG_S:
+        return
+    cfg = config.sensors[name]
+    words = _offset_words(name, what, found, cfg.latency_s or 0.0, span)
+    if not found.beyond(period):
+        log.warning("%s: %s", cfg.file, words)
+        return
+    raise MissionError(
+        f"{cfg.file}: {words} If the stamps are right, set {switch} "
+        "(docs/robustness.md, 'Sensor clocks')",
+        file=cfg.file,
+        field=TIME_COLUMN,
+    )
+
+
+def _offset_words(
+    name: str,
+    what: tuple[str, str],
+    found: clocks.ClockOffset,
+    latency_s: float,
+    span: tuple[float, float],
+) -> str:
+    """What :func:`_judge_clock` says of sensor ``name``'s offset, and the fix."""
+    tau = found.offset_s
     when = "after" if tau > 0.0 else "before"
     doubt = (
         " The slope's distance from 1 says this lag may be an alias of the true offset (a wave "
@@ -341,14 +367,15 @@ def _clock_words(ref: axes.Reference, found: clocks.ClockOffset, latency_s: floa
         if found.alias
         else ""
     )
+    t0, t1 = span
     return (
-        f"the stamps of sensor {ref.name!r} lie {abs(tau):.1f} ± {found.se_s:.1f} s {when} its "
-        f"readings were taken: its {ref.angle} follows the gyro's {gyro} axis at that offset "
+        f"the stamps of sensor {name!r} lie {abs(tau):.1f} ± {found.se_s:.1f} s {when} its "
+        f"readings were taken: {what[0]} at that offset "
         f"(slope {found.k:.3g}, 1 expected); at its stamps as they are, with that slope, the "
         f"residual variance is {found.ratio:.3g} times as large, {found.share:.2g} × the "
-        f"rotation's variance more (likelihood ratio {found.log_lr:.0f}; the slope fitted there "
-        f"{found.k_zero:.3g}), from t = {ref.t[0]:.1f} to {ref.t[-1]:.1f} s. Set latency_s = "
-        f"{latency_s + tau:.1f} in [sensors.{ref.name}] (now {latency_s:g}), or set the "
+        f"{what[1]}'s variance more (likelihood ratio {found.log_lr:.0f}; the slope fitted there "
+        f"{found.k_zero:.3g}), from t = {t0:.1f} to {t1:.1f} s. Set latency_s = "
+        f"{latency_s + tau:.1f} in [sensors.{name}] (now {latency_s:g}), or set the "
         f"logger's clock right.{doubt}"
     )
 
@@ -445,16 +472,57 @@ def _check_scales(
         period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t[ok])))
         sigma = float(np.atleast_1d(cfg.sigma_si())[0])
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
+        readings = _dvl_readings(cfg, d, period)
+        _check_dvl_clocks(config, sensors, name, readings, blocks, dvl, views)
         _check_dvl_track(config, sensors, name, dvl, views)
         _check_depth_scale(config, sensors, name, dvl, views)
-        _check_dvl_axes(config, name, d, period, blocks, views.noise[1])
+        _check_dvl_axes(config, name, readings, blocks, views.noise[1])
+
+
+def _dvl_readings(cfg: SensorConfig, d: SensorData, period: float) -> dvl_axes.Readings:
+    """The DVL's finite readings in its own axes, its mounting and lever arm."""
+    ok = np.isfinite(d.t) & np.all(np.isfinite(d.z[:, :3]), axis=1)
+    return dvl_axes.Readings(d.t[ok], d.z[ok, :3], cfg.sensor_from_body(), cfg.lever_arm(), period)
+
+
+def _check_dvl_clocks(
+    config: MissionConfig,
+    sensors: dict[str, SensorData],
+    name: str,
+    readings: dvl_axes.Readings,
+    blocks: dvl_axes.Blocks,
+    dvl: scales.Dvl,
+    views: axes.ImuViews,
+) -> None:
+    """Since 0.4.12, the clocks of the DVL ``name`` and of each depth meter (its
+    ``scale_check`` on) before the other checks of the DVL, as :func:`_check_clocks` dates the
+    angles: the DVL's velocity against the changes the IMU predicts for it
+    (:func:`clocks.dvl_offset`), then a depth against the DVL's vertical displacement, on a
+    vehicle that dives (:func:`clocks.depth_offset`; docs/robustness.md, 'Sensor clocks')."""
+    found = clocks.dvl_offset(blocks, readings, views.noise[1])
+    what = ("its velocity follows the changes the accelerometers and the gyro predict", "motion")
+    span = (float(readings.t[0]), float(readings.t[-1])) if readings.t.size else (0.0, 0.0)
+    switch = f"[sensors.{name}] scale_check = false"
+    _judge_clock(config, name, readings.period, found, what, span, switch)
+    dcfg = config.sensors[name]
+    for dname, d in sensors.items():
+        cfg = config.sensors[dname]
+        if d.kind != "depth" or not cfg.check_scale or d.t.size == 0:
+            continue
+        lever = cfg.lever_arm() - dcfg.lever_arm()
+        found = clocks.depth_offset(d.t, d.z[:, 0], dvl, views.tilt(), lever)
+        follows = f"its depth follows the vertical displacement of DVL {name!r} ({dcfg.file})"
+        what = (follows, "depth change")
+        period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
+        span = (float(d.t[0]), float(d.t[-1]))
+        switch = f"[sensors.{dname}] scale_check = false"
+        _judge_clock(config, dname, period, found, what, span, switch)
 
 
 def _check_dvl_axes(
     config: MissionConfig,
     name: str,
-    d: SensorData,
-    period: float,
+    readings: dvl_axes.Readings,
     blocks: dvl_axes.Blocks,
     vrw: float,
 ) -> None:
@@ -462,10 +530,6 @@ def _check_dvl_axes(
     no heading needed (:func:`dvl_axes.check_dvl_axes`; docs/robustness.md, 'DVL axes against
     the accelerometers')."""
     cfg = config.sensors[name]
-    ok = np.isfinite(d.t) & np.all(np.isfinite(d.z[:, :3]), axis=1)
-    readings = dvl_axes.Readings(
-        d.t[ok], d.z[ok, :3], cfg.sensor_from_body(), cfg.lever_arm(), period
-    )
     found = dvl_axes.check_dvl_axes(blocks, readings, vrw)
     if found is None:
         return
