@@ -57,7 +57,7 @@ Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -100,6 +100,11 @@ MIN_DIVE_M = 2.0
 read: a surface vessel's depth is waves and noise, which repeat (paper-1's, spanning 0.97 m so,
 fits the DVL's vertical displacement 20 s off nearly as well as at its stamps); the A-KIT
 dives that are dated span 5-21 m."""
+DEPTH_RATIO = 2.0
+"""A depth's offset is material when lag 0 leaves twice its residual variance, whatever its
+share of the depth's changes: a steady dive's changes are its rate, which a few seconds' shift
+hardly moves (A-KIT 9, 30 m, stamped 5 s late: a share of 0.12, a ratio of 4.3, and the run
+1745 m off), while right stamps give a ratio of 1 (their least variance at lag 0)."""
 DIVE_WINDOW_S = 60.0
 """Window of the depth's running median (s) whose span :data:`MIN_DIVE_M` judges."""
 CLIP_SIGMAS = 20.0
@@ -114,7 +119,8 @@ class ClockOffset:
     late), the slope ``k`` there and ``k_zero`` fitted at lag 0, the residual variance ratio
     ``ratio`` (lag 0 with the slope ``k``, over the offset), the ``share`` of the rotation's
     variance lag 0 misses beyond the offset, the intervals ``n`` and ``n_eff`` of them
-    independent (module docstring)."""
+    independent (module docstring), and ``min_ratio``, a ratio that makes the offset material
+    whatever its share (a depth's: :data:`DEPTH_RATIO`)."""
 
     offset_s: float
     se_s: float
@@ -124,6 +130,7 @@ class ClockOffset:
     share: float
     n: int
     n_eff: float
+    min_ratio: float = math.inf
 
     @property
     def log_lr(self) -> float:
@@ -134,7 +141,7 @@ class ClockOffset:
         """The offset beats lag 0 decisively at a right axis's slope (module docstring)."""
         lo, hi = SLOPE_BAND
         return (
-            self.share >= MIN_SHARE
+            (self.share >= MIN_SHARE or self.ratio >= self.min_ratio)
             and self.log_lr >= MIN_LOG_LR
             and lo <= self.k <= hi
             and abs(self.offset_s) > CONFIDENCE * self.se_s
@@ -454,7 +461,8 @@ def depth_offset(
     r_d, p_d = scales.tilt_at(tilt, t)
     arm = scales.down(np.broadcast_to(np.asarray(lever_m, dtype=float), (t.size, 3)), r_d, p_d)
     series = Series(dvl.t, w[:, None], dvl.sigma**2 * dvl.period)
-    return series_offset(series, t, (depth - arm)[:, None], max_offset_s, robust=True)
+    found = series_offset(series, t, (depth - arm)[:, None], max_offset_s, robust=True)
+    return None if found is None else replace(found, min_ratio=DEPTH_RATIO)
 
 
 def _parabola(rss: Array, j: int) -> tuple[float, float]:
