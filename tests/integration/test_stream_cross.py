@@ -48,6 +48,11 @@ def _dvl_in_knots(m: Mission) -> Mission:
     return replace(m, sensors={**m.sensors, "dvl": replace(d, z=z)})
 
 
+def _dvl_late(m: Mission, late_s: float) -> Mission:
+    d = m.sensors["dvl"]
+    return replace(m, sensors={**m.sensors, "dvl": replace(d, t=d.t + late_s)})
+
+
 def _batch_error(demo: Path, tmp_path: Path, table: str, columns: list[str], factor: float) -> str:
     """The loader's error for the demo folder with ``columns`` of ``table`` scaled."""
     root = tmp_path / "faulted"
@@ -141,17 +146,18 @@ def test_the_right_demo_streams_without_a_word(right: Mission, window: float) ->
     np.testing.assert_array_equal(rows[0], rows[1])
 
 
-@pytest.mark.parametrize("fault", ["right", "gyro x", "gyro y", "gyro z", "knots"])
+@pytest.mark.parametrize("fault", ["right", "gyro x", "gyro y", "gyro z", "knots", "dvl late"])
 def test_the_watch_gives_the_batch_verdict_on_the_whole_mission(right: Mission, fault: str) -> None:
     """Fed the whole mission, the stream's block sums give the loader's verdict on the loader's
     own per-sample views, word for word (None: both silent; gyro z is seen by neither on the
-    demo, which has no heading sensor aiding)."""
+    demo, which has no heading sensor aiding; a DVL stamped 18 s late since 0.4.12)."""
     m = {
         "right": right,
         "gyro x": _gyro_negated(right, 0),
         "gyro y": _gyro_negated(right, 1),
         "gyro z": _gyro_negated(right, 2),
         "knots": _dvl_in_knots(right),
+        "dvl late": _dvl_late(right, 18.0),
     }[fault]
     noise = m.config.imu.noise.to_imu_noise()
     views = axes.ImuViews(m.imu.t, m.imu.dt, m.imu.dtheta, m.imu.dvel, (noise.arw, noise.vrw))
