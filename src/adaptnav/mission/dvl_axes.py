@@ -50,9 +50,11 @@ closely (``|r| >=`` :data:`CONFIRM_CORRELATION`: swapped). A prediction that no 
 follows (a vehicle that never accelerates along it; the IMU's noise alone) decides nothing, an
 axis that follows it the right way but weakly (a poor prediction, not a slip) is not refused,
 and a DVL whose stamps are off by many seconds (its changes matched with the wrong ones:
-chance correlations of the waves) confirms nothing and is not judged. The DVL's scale is not
-judged: its readings enter the prediction (the centripetal term, the gravity's mean), which
-then partly follows a wrong unit; a DVL above :data:`MAX_SLOPE` is only not confirmed.
+chance correlations of the waves) confirms nothing and is not judged (since 0.4.12 the loader
+dates the DVL first, against the same prediction: mission/clocks.py, :func:`velocity_integral`).
+The DVL's scale is not judged: its readings enter the prediction (the centripetal term, the
+gravity's mean), which then partly follows a wrong unit; a DVL above :data:`MAX_SLOPE` is only
+not confirmed.
 
 Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls :func:`check_dvl_axes`
 and turns a finding into a MissionError naming the DVL's file and column.
