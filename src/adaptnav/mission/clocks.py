@@ -114,9 +114,9 @@ exactly 60 s lay on the scan's edge, where the parabola has no neighbour, so its
 and the axis check then blamed the gyro (a heading with ``latency_s = 60`` on right stamps)."""
 MIN_DIVE_M = 2.0
 """Least span (m) of a depth's running median over :data:`DIVE_WINDOW_S` for its clock to be
-read: a surface vessel's depth is waves and noise, which repeat (paper-1's, spanning 0.97 m so,
-fits the DVL's vertical displacement 20 s off nearly as well as at its stamps); the A-KIT
-dives that are dated span 5-21 m."""
+read: a surface vessel's depth is waves and noise, which repeat (paper-1's, spanning 1.2 m so,
+fits the DVL's vertical displacement 20 s off nearly as well as at its stamps; the demos'
+span 0.25-1.26 m); the A-KIT dives that are dated span 5.1-26 m."""
 DEPTH_RATIO = 2.0
 """A depth's offset is material when lag 0 leaves twice its residual variance, whatever its
 share of the depth's changes: a steady dive's changes are its rate, which a few seconds' shift
@@ -128,8 +128,8 @@ CLIP_SIGMAS = 20.0
 """A DVL's or a depth's changes are clipped this many of ``sqrt(σ_MAD² + s_b²)`` from their
 median (:meth:`_Reference.robust`): the demo's DVL outliers of 0.5-3 m/s against its motion's
 0.01-0.03 m/s a period. Tighter bounds clip the motion too, in the DVL's noisy stretches (3-10
-× its σ): the slope of right stamps fell to 0.81-0.93 at 6, 0.85-0.95 at 10, 0.89-0.95 at 20
-on demo seeds 1-3."""
+× its σ): the slope of right stamps was 0.81-0.91 at 6, 0.85-0.93 at 10, 0.90-0.95 at 20 on
+demo seeds 1-3."""
 MIN_PERIODS = 2.0
 """An offset within this many of the sensor's periods (or within ±1 s) is not refused."""
 
@@ -347,6 +347,8 @@ def series_offset(
     theta = np.ascontiguousarray(series.values)  # one copy of the columns, not one a phase
     if robust:
         ref = ref.robust(series.t, theta, _span(ref.step, max_offset_s))
+        if _still(ref, series, theta):  # the scan's own test at lag 0, before its FFTs
+            return None
     cols = ref.a.shape[0]
     scan = _Scan.of(ref, series.t, theta, max_offset_s)
     n, saa, sab, sbb = scan.n, scan.saa, scan.sab, scan.sbb
@@ -421,6 +423,22 @@ class _Both:
         var = float(np.sum(r * r)) / max(n - 1 - cols, 1)
         var0 = float(np.sum(r0 * r0)) / max(n - cols, 1)
         return cls(k, var, var0, k * k * sbb / n, n, _n_eff(r))
+
+
+def _still(ref: _Reference, series: Series, theta: Array) -> bool:
+    """At lag 0, the series' changes over the intervals judged are too few or not
+    :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times their noise (a vehicle at rest): what
+    :func:`series_offset` finds at lag 0 after its scan, from direct sums (make bench's day at
+    rest: the DVL's scan of 259 k readings, 1.5 s, left out)."""
+    b, covered = ref.imu(series.t, theta, 0.0)
+    use = (ref.m * covered) > 0.0
+    n = float(np.count_nonzero(use)) * b.shape[0]
+    if n < max(axes.MIN_INTERVALS, 0.5 * b.shape[0] * float(ref.m.sum())):
+        return True
+    centred = b[:, use] - b[:, use].mean(axis=1, keepdims=True)
+    return bool(
+        float(np.sum(centred * centred)) <= axes.SIGNAL_FACTOR * series.noise * ref.step * n
+    )
 
 
 def dvl_offset(
