@@ -68,7 +68,10 @@ gravity's mean), so an offset found beyond 1 s is scanned again with them moved 
 Pure NumPy, no I/O: :func:`adaptnav.mission.loader.load_mission` calls
 :func:`clock_offset` for each reference of the axis check, :func:`dvl_offset` and
 :func:`depth_offset` for each DVL and depth meter whose ``scale_check`` is on, and raises the
-MissionError.
+MissionError. The scan's parts, :class:`Reference`, :class:`Scan`, :func:`parabola` and
+:func:`n_eff`, are public since 0.4.12 for :mod:`adaptnav.mission.gnss_clock`, which dates a
+GNSS's positions with a complex slope (a rotation and a scale) that :func:`series_offset`'s one
+real slope cannot fit.
 """
 
 from __future__ import annotations
@@ -126,7 +129,7 @@ DIVE_WINDOW_S = 60.0
 """Window of the depth's running median (s) whose span :data:`MIN_DIVE_M` judges."""
 CLIP_SIGMAS = 20.0
 """A DVL's or a depth's changes are clipped this many of ``sqrt(σ_MAD² + s_b²)`` from their
-median (:meth:`_Reference.robust`): the demo's DVL outliers of 0.5-3 m/s against its motion's
+median (:meth:`Reference.robust`): the demo's DVL outliers of 0.5-3 m/s against its motion's
 0.01-0.03 m/s a period. Tighter bounds clip the motion too, in the DVL's noisy stretches (3-10
 × its σ): the slope of right stamps was 0.81-0.91 at 6, 0.85-0.93 at 10, 0.90-0.95 at 20 on
 demo seeds 1-3."""
@@ -199,9 +202,11 @@ class Series:
 
 
 @dataclass(frozen=True)
-class _Reference:
-    """The reference's changes ``a`` (m, grid intervals) over a grid from ``t0`` by ``step``
-    (its period), ``m`` 1 where they count (0 over a gap)."""
+class Reference:
+    """The reference's changes ``a`` (m columns, grid intervals) over a grid from ``t0`` by
+    ``step`` (its period), ``m`` (grid intervals) 1 where they count (0 over a gap): the sensor's
+    side of the fit ``a_k = k b_k(τ) + c`` (module docstring). Built by :meth:`of` from readings,
+    or directly from changes already on a grid (mission/gnss_clock.py's window means)."""
 
     t0: float
     step: float
@@ -209,7 +214,7 @@ class _Reference:
     m: Array
 
     @classmethod
-    def of(cls, t: Array, values: Array, imu_dt: float) -> _Reference:
+    def of(cls, t: Array, values: Array, imu_dt: float) -> Reference:
         """The readings ``values`` (n, m) at ``t`` interpolated linearly onto the grid."""
         period = float(np.median(np.diff(t)))
         step = max(period, imu_dt, MIN_STEP_S)
@@ -220,7 +225,7 @@ class _Reference:
         m = (t[i] - t[i - 1] <= GAP_PERIODS * period).astype(float)
         return cls(float(t[0]), step, a * m, m)
 
-    def robust(self, t: Array, theta: Array, max_offset_s: float) -> _Reference:
+    def robust(self, t: Array, theta: Array, max_offset_s: float) -> Reference:
         """Only the intervals the IMU's ``t`` covers at every lag within ±``max_offset_s`` (the
         same intervals judged at each lag: a stretch of larger noise at one end would otherwise
         favour the lags that slide it out), each column's changes clipped about their median
@@ -231,12 +236,12 @@ class _Reference:
         m = self.m * ((g[:-1] - max_offset_s >= t[0]) & (g[1:] + max_offset_s <= t[-1]))
         use = m > 0.0
         if not np.any(use):
-            return _Reference(self.t0, self.step, self.a * m, m)
+            return Reference(self.t0, self.step, self.a * m, m)
         mid = np.median(self.a[:, use], axis=1, keepdims=True)
         mad = np.median(np.abs(self.a[:, use] - mid), axis=1, keepdims=True)
         spread = np.std(self.imu(t, theta, 0.0)[0][:, use], axis=1, keepdims=True)
         bound = CLIP_SIGMAS * np.hypot(1.4826 * mad, spread)
-        return _Reference(self.t0, self.step, np.clip(self.a, mid - bound, mid + bound) * m, m)
+        return Reference(self.t0, self.step, np.clip(self.a, mid - bound, mid + bound) * m, m)
 
     def imu(self, t: Array, theta: Array, tau: float, lags: int = 0) -> tuple[Array, Array]:
         """The IMU's changes (m, intervals) of the columns of ``theta`` (n, m) over the grid's
@@ -250,10 +255,11 @@ class _Reference:
 
 
 @dataclass(frozen=True)
-class _Scan:
-    """At each lag ``tau`` (s, ascending, evenly spaced) the count N and the sums over the
-    columns of the centred Σ (a - ā)², Σ (a - ā)(b - b̄), Σ (b - b̄)² of the fit ``a = k b + c``
-    (one slope, a constant per column)."""
+class Scan:
+    """At each lag ``tau`` (s, ascending, evenly spaced, ±``max_offset_s`` and
+    :data:`EDGE_LAGS` spacings past it) the count N and the sums over the columns of the
+    centred Σ (a - ā)², Σ (a - ā)(b - b̄), Σ (b - b̄)² of the fit ``a = k b + c`` (one slope, a
+    constant per column), from six FFT correlations a column and phase (module docstring)."""
 
     tau: Array
     n: Array
@@ -262,7 +268,7 @@ class _Scan:
     sbb: Array
 
     @classmethod
-    def of(cls, ref: _Reference, t: Array, theta: Array, max_offset_s: float) -> _Scan:
+    def of(cls, ref: Reference, t: Array, theta: Array, max_offset_s: float) -> Scan:
         """Every lag j h + φ within ±``max_offset_s``: per phase φ (a grid coarser than
         :data:`MAX_STEP_S`, a GNSS course's, is tried at phases that far apart) six
         correlations a column over the lags j, and :data:`EDGE_LAGS` spacings past them."""
@@ -334,7 +340,7 @@ def series_offset(
 ) -> ClockOffset | None:
     """The time offset of the readings ``values`` (n, m) at ``t`` against the IMU-side
     ``series``'s columns (module docstring; m > 1: one slope for all the columns, a constant
-    each). ``robust`` (a DVL's, a depth's): :meth:`_Reference.robust`, and only lags with a
+    each). ``robust`` (a DVL's, a depth's): :meth:`Reference.robust`, and only lags with a
     positive slope (a yo-yo's depth half a period off fits inverted as well as at its offset;
     a negated sensor is the axis or sign checks' finding). None: too few finite readings, or
     the fit undecided at lag 0 (the series' changes not
@@ -343,14 +349,14 @@ def series_offset(
     t, values = t[ok], values[ok]
     if t.size <= axes.MIN_INTERVALS:
         return None
-    ref = _Reference.of(t, values, series.dt)
+    ref = Reference.of(t, values, series.dt)
     theta = np.ascontiguousarray(series.values)  # one copy of the columns, not one a phase
     if robust:
         ref = ref.robust(series.t, theta, _span(ref.step, max_offset_s))
         if _still(ref, series, theta):  # the scan's own test at lag 0, before its FFTs
             return None
     cols = ref.a.shape[0]
-    scan = _Scan.of(ref, series.t, theta, max_offset_s)
+    scan = Scan.of(ref, series.t, theta, max_offset_s)
     n, saa, sab, sbb = scan.n, scan.saa, scan.sab, scan.sbb
     with np.errstate(divide="ignore", invalid="ignore"):
         k = sab / sbb
@@ -366,7 +372,7 @@ def series_offset(
     # Degrees of freedom: the slope and a constant per column.
     var = np.where(valid, rss / np.maximum(n - 1.0 - cols, 1.0), np.inf)
     j = int(np.argmin(var))
-    shift, curvature = _parabola(rss, j)
+    shift, curvature = parabola(rss, j)
     h = float(scan.tau[1] - scan.tau[0]) if scan.tau.size > 1 else ref.step
     sigma2 = float(rss[j]) / max(float(n[j]) - 2.0 - cols, 1.0)
     se = math.sqrt(2.0 * sigma2 / curvature) * h if curvature > 0.0 else math.inf
@@ -402,7 +408,7 @@ class _Both:
     n_eff: float
 
     @classmethod
-    def of(cls, ref: _Reference, t: Array, theta: Array, tau: float) -> _Both:
+    def of(cls, ref: Reference, t: Array, theta: Array, tau: float) -> _Both:
         """From the reference's changes (m, intervals) and the IMU's columns ``theta`` (n, m)
         at ``tau`` and at 0 (direct sums: two lags, not a scan)."""
         b, covered = ref.imu(t, theta, tau)
@@ -422,10 +428,10 @@ class _Both:
         # Degrees of freedom: the slope and a constant per column (lag 0's slope is given).
         var = float(np.sum(r * r)) / max(n - 1 - cols, 1)
         var0 = float(np.sum(r0 * r0)) / max(n - cols, 1)
-        return cls(k, var, var0, k * k * sbb / n, n, _n_eff(r))
+        return cls(k, var, var0, k * k * sbb / n, n, n_eff(r))
 
 
-def _still(ref: _Reference, series: Series, theta: Array) -> bool:
+def _still(ref: Reference, series: Series, theta: Array) -> bool:
     """At lag 0, the series' changes over the intervals judged are too few or not
     :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times their noise (a vehicle at rest): what
     :func:`series_offset` finds at lag 0 after its scan, from direct sums (make bench's day at
@@ -504,9 +510,11 @@ def depth_offset(
     return None if found is None else replace(found, min_ratio=DEPTH_RATIO)
 
 
-def _parabola(rss: Array, j: int) -> tuple[float, float]:
-    """The vertex's shift (grid steps) of the parabola through ``rss`` at j - 1, j, j + 1, and
-    its second difference (0 at the edge or where it does not open upward)."""
+def parabola(rss: Array, j: int) -> tuple[float, float]:
+    """The vertex's shift (grid steps) of the parabola through ``rss`` at j - 1, j, j + 1,
+    ``(RSS_{j-1} - RSS_{j+1}) / (2 RSS'')`` clipped to ±1/2, and its second difference
+    ``RSS'' = RSS_{j-1} - 2 RSS_j + RSS_{j+1}`` (0 at the edge or where it does not open upward):
+    the offset between grid points and its σ's curvature (module docstring)."""
     if j == 0 or j == rss.size - 1 or not np.all(np.isfinite(rss[j - 1 : j + 2])):
         return 0.0, 0.0
     lo, mid, hi = (float(v) for v in rss[j - 1 : j + 2])
@@ -516,9 +524,10 @@ def _parabola(rss: Array, j: int) -> tuple[float, float]:
     return float(np.clip(0.5 * (lo - hi) / curvature, -0.5, 0.5)), curvature
 
 
-def _n_eff(r: Array) -> float:
+def n_eff(r: Array) -> float:
     """The count of residuals ``r`` (a column's, or m columns' as (m, N)) shrunk by their
-    lag-one correlation ρ (within each column, pooled) when positive: ``N (1 - ρ) / (1 + ρ)``."""
+    lag-one correlation ρ (within each column, pooled) when positive: ``N (1 - ρ) / (1 + ρ)``
+    (module docstring; a complex residual is its real and imaginary parts as two columns)."""
     r = np.atleast_2d(r)
     r = r - r.mean(axis=1, keepdims=True)
     # Sums of products, not ``@``: a BLAS dot wakes its threads, 10 ms each on a busy machine.

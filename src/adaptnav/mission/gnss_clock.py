@@ -22,7 +22,7 @@ straight track at a steady speed gives the same changes at every lag and dates n
 
 The complex fit's sums are those of :mod:`adaptnav.mission.clocks`' real one, per pair of
 components: ``Σ conj(b) a = Σ (b_N a_N + b_E a_E) + i Σ (b_N a_E - b_E a_N)``, each a real
-correlation over the lags (``clocks._Scan``; four scans of six FFT correlations at phases
+correlation over the lags (``clocks.Scan``; four scans of six FFT correlations at phases
 1 s apart). The residual ``RSS(τ) = Σ |a - ā|² - |Σ conj(b - b̄)(a - ā)|² / Σ |b - b̄|²``,
 its least, the parabola through it and the σ by Gauss-Newton with N_eff are clocks.py's
 (``s² = RSS / (2N - 4)``: two real components, four real parameters; N and N_eff count
@@ -146,10 +146,10 @@ def gnss_offset(
     # One column each: clocks' scan takes a reference's changes (m, intervals) and the IMU
     # side's columns (n, m).
     b_n, b_e = np.ascontiguousarray(d.real[:, None]), np.ascontiguousarray(d.imag[:, None])
-    ref_n = clocks._Reference(g0, width, a.real[None, :], m)
-    ref_e = clocks._Reference(g0, width, a.imag[None, :], m)
-    nn, ee = (clocks._Scan.of(r, s, b, max_offset_s) for r, b in ((ref_n, b_n), (ref_e, b_e)))
-    ne, en = (clocks._Scan.of(r, s, b, max_offset_s) for r, b in ((ref_e, b_n), (ref_n, b_e)))
+    ref_n = clocks.Reference(g0, width, a.real[None, :], m)
+    ref_e = clocks.Reference(g0, width, a.imag[None, :], m)
+    nn, ee = (clocks.Scan.of(r, s, b, max_offset_s) for r, b in ((ref_n, b_n), (ref_e, b_e)))
+    ne, en = (clocks.Scan.of(r, s, b, max_offset_s) for r, b in ((ref_e, b_n), (ref_n, b_e)))
     n, saa, sbb = nn.n + ee.n, nn.saa + ee.saa, nn.sbb + ee.sbb
     sab = (nn.sab + ee.sab) + 1j * (ne.sab - en.sab)
     return _judge(nn.tau, (n, saa, sab, sbb), (ref_n, ref_e), (s, d), _noise(t, p, width))
@@ -180,7 +180,7 @@ def _noise(t: Array, p: CArray, width: float) -> float:
 def _judge(
     tau: Array,
     sums: tuple[Array, Array, CArray, Array],
-    refs: tuple[clocks._Reference, clocks._Reference],
+    refs: tuple[clocks.Reference, clocks.Reference],
     track: tuple[Array, CArray],
     noise: float,
 ) -> clocks.ClockOffset | None:
@@ -198,7 +198,7 @@ def _judge(
         return None
     var = np.where(valid, rss / np.maximum(n - 4.0, 1.0), np.inf)
     j = int(np.argmin(var))
-    shift, curvature = clocks._parabola(rss, j)
+    shift, curvature = clocks.parabola(rss, j)
     h = float(tau[1] - tau[0]) if tau.size > 1 else refs[0].step
     # Each window gives two real residuals (north, east), counted as clocks.py counts one.
     n_eff = _n_eff(refs, track, float(tau[j]), complex(w[j])) * float(n[j])
@@ -223,24 +223,23 @@ def _judge(
 
 
 def _n_eff(
-    refs: tuple[clocks._Reference, clocks._Reference],
+    refs: tuple[clocks.Reference, clocks.Reference],
     track: tuple[Array, CArray],
     tau: float,
     w: complex,
 ) -> float:
     """The share of the windows' residuals at lag ``tau`` that are independent,
-    ``(1 - ρ) / (1 + ρ)``, ρ their lag-one correlation when positive (clocks._n_eff's, for a
-    complex residual)."""
+    ``(1 - ρ) / (1 + ρ)``, ρ their lag-one correlation when positive: :func:`clocks.n_eff` of
+    the complex residual's real and imaginary parts, whose pooled ρ is
+    ``Re Σ r_{k+1} conj(r_k) / Σ |r_k|²``."""
     s, d = track
     b_n, covered = refs[0].imu(s, np.ascontiguousarray(d.real[:, None]), tau)
     b_e, _ = refs[0].imu(s, np.ascontiguousarray(d.imag[:, None]), tau)
     use = (refs[0].m * covered) > 0.0
     r = (refs[0].a[0] + 1j * refs[1].a[0])[use] - w * (b_n[0] + 1j * b_e[0])[use]
-    r -= r.mean()
-    denom = float(np.sum(np.abs(r) ** 2))
-    rho = float(np.sum(r[1:] * np.conj(r[:-1])).real) / denom if denom > 0.0 else 0.0
-    rho = min(max(rho, 0.0), 0.99)
-    return (1.0 - rho) / (1.0 + rho)
+    if r.size == 0:
+        return 1.0
+    return clocks.n_eff(np.stack([r.real, r.imag])) / (2.0 * float(r.size))
 
 
 def decisive(found: clocks.ClockOffset) -> bool:
