@@ -140,3 +140,22 @@ def test_gnss_stamped_seconds_late_is_refused_at_load_naming_the_latency(
     fix = float(text.split("Set latency_s = ")[1].split(" ")[0])
     assert abs(fix - 18.0) < 2.0 and "in [sensors.gps]" in text, text
     assert err.value.field == "t_s" and err.value.file == "gps.parquet"
+
+
+def test_a_dvl_seconds_off_is_named_before_the_gnss_is_dated_against_its_track(
+    demo: Path, tmp_path: Path
+) -> None:
+    # The GNSS is dated against the DVL's track: the demo's DVL 10 s early moved that track,
+    # and the right GPS was refused as "4.9 s late" before the DVL's own clock was judged.
+    root = tmp_path / "mission"
+    shutil.copytree(demo, root)
+    dvl = pd.read_parquet(root / "dvl.parquet")
+    dvl["t_s"] = dvl["t_s"] - 10.0
+    dvl.to_parquet(root / "dvl.parquet")
+    with pytest.raises(MissionError) as err:
+        load_mission(root)
+    text = str(err.value)
+    assert text.startswith("dvl.parquet: the stamps of sensor 'dvl' lie "), text
+    assert "before its readings were taken" in text and err.value.field == "t_s", text
+    fix = float(text.split("Set latency_s = ")[1].split(" ")[0])
+    assert abs(fix + 10.0) < 0.3, text

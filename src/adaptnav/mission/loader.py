@@ -280,8 +280,15 @@ def cross_check(
     IMU."""
     if config.imu.check_axes:
         _check_axes(config, views, sensors)
-        gnss_clock.check(config, views, sensors)  # a GNSS's positions against the DVL's track
-    _check_scales(config, views, sensors)
+    dvls = _judged_dvls(config, views, sensors)
+    for name, (readings, blocks, dvl) in dvls.items():
+        _check_dvl_clocks(config, sensors, name, readings, blocks, dvl, views)
+    if config.imu.check_axes:
+        # After the DVL's clock: the GNSS is dated against the DVL's track, which a DVL seconds
+        # off moves (the demo's DVL 10 s early made its right GPS "4.9 s late").
+        gnss_clock.check(config, views, sensors)
+    for name, judged in dvls.items():
+        _check_scales(config, views, sensors, name, judged)
     _check_depth_at_fixes(config, {**sensors, **(off or {})})
 
 
@@ -453,19 +460,18 @@ def _check_dead_gyro(
         )
 
 
-def _check_scales(
+def _judged_dvls(
     config: MissionConfig, views: axes.ImuViews, sensors: dict[str, SensorData]
-) -> None:
-    """A MissionError naming the file and column if a DVL's speed or direction does not follow
-    a GNSS track's, or a depth's changes the DVL's vertical velocity (mission/scales.py;
-    docs/robustness.md, 'DVL and depth scales'), or its axes the accelerometers (since
-    0.4.11: :func:`_check_dvl_axes`). ``scale_check = false`` on a sensor skips it."""
-    names = [n for n, d in sensors.items() if d.kind == "dvl" and config.sensors[n].check_scale]
-    if not names:
-        return
-    blocks = dvl_axes.Blocks.of(*views.samples)  # the IMU's 0.1-s sums, once for every DVL
-    for name in names:
-        cfg, d = config.sensors[name], sensors[name]
+) -> dict[str, tuple[dvl_axes.Readings, dvl_axes.Blocks, scales.Dvl]]:
+    """The DVLs whose ``scale_check`` is on and that have two whole readings or more, by name:
+    their finite readings in their own axes, the IMU's 0.1-s block sums (made once, for every
+    DVL) and their :class:`scales.Dvl`."""
+    out: dict[str, tuple[dvl_axes.Readings, dvl_axes.Blocks, scales.Dvl]] = {}
+    blocks: dvl_axes.Blocks | None = None
+    for name, d in sensors.items():
+        cfg = config.sensors[name]
+        if d.kind != "dvl" or not cfg.check_scale:
+            continue
         ok = np.isfinite(d.t) & np.all(np.isfinite(d.z[:, :3]), axis=1)
         if np.count_nonzero(ok) < 2:
             # No velocity to integrate (every reading NaN in some axis, or dropped as lost
@@ -474,11 +480,29 @@ def _check_scales(
         period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t[ok])))
         sigma = float(np.atleast_1d(cfg.sigma_si())[0])
         dvl = scales.Dvl.of(d.t, d.z[:, :3], cfg.sensor_from_body(), period, sigma)
-        readings = _dvl_readings(cfg, d, period)
-        _check_dvl_clocks(config, sensors, name, readings, blocks, dvl, views)
-        _check_dvl_track(config, sensors, name, dvl, views)
-        _check_depth_scale(config, sensors, name, dvl, views)
-        _check_dvl_axes(config, name, readings, blocks, views.noise[1])
+        if blocks is None:
+            blocks = dvl_axes.Blocks.of(*views.samples)
+        out[name] = (_dvl_readings(cfg, d, period), blocks, dvl)
+    return out
+
+
+def _check_scales(
+    config: MissionConfig,
+    views: axes.ImuViews,
+    sensors: dict[str, SensorData],
+    name: str,
+    judged: tuple[dvl_axes.Readings, dvl_axes.Blocks, scales.Dvl],
+) -> None:
+    """A MissionError naming the file and column if DVL ``name``'s speed or direction does not
+    follow a GNSS track's, or a depth's changes its vertical velocity (mission/scales.py;
+    docs/robustness.md, 'DVL and depth scales'), or its axes the accelerometers (since
+    0.4.11: :func:`_check_dvl_axes`); ``judged``: from :func:`_judged_dvls` and the IMU's
+    blocks. Its clock and the depths' (:func:`_check_dvl_clocks`) are judged before, and
+    before the GNSS's (mission/gnss_clock.py). ``scale_check = false`` on a sensor skips it."""
+    readings, blocks, dvl = judged
+    _check_dvl_track(config, sensors, name, dvl, views)
+    _check_depth_scale(config, sensors, name, dvl, views)
+    _check_dvl_axes(config, name, readings, blocks, views.noise[1])
 
 
 def _dvl_readings(cfg: SensorConfig, d: SensorData, period: float) -> dvl_axes.Readings:
