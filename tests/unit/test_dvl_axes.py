@@ -239,6 +239,19 @@ def test_a_dvl_stamped_seconds_off_is_dated_to_its_offset(
     assert abs(found.k - 1.0) < 0.1 and found.beyond(1.0 / DVL_HZ), found
 
 
+@pytest.mark.parametrize("late_s", [60.0, -60.0])
+def test_a_dvl_off_by_the_whole_latency_bound_is_dated(
+    moving: tuple[pd.DataFrame, pd.DataFrame], late_s: float
+) -> None:
+    """The angles' scan reaches two spacings past ±60 s (clocks.EDGE_LAGS), and so, merged,
+    does the DVL's: on a scan that ended at 60 s the offset had no neighbour for its parabola,
+    an infinite σ, and was not decisive (a DVL with ``latency_s = 60`` on right stamps)."""
+    imu, dvl = moving
+    found = clocks.dvl_offset(_blocks(imu), _readings(dvl.assign(t_s=dvl["t_s"] + late_s)), 1e-4)
+    assert found is not None and math.isfinite(found.se_s) and found.decisive(), found
+    assert abs(found.offset_s - late_s) < max(4.0 * found.se_s, 0.1), found
+
+
 def test_a_right_dvl_or_one_at_rest_has_no_offset(
     moving: tuple[pd.DataFrame, pd.DataFrame],
 ) -> None:
