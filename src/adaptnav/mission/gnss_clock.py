@@ -30,28 +30,27 @@ the real residuals, two a window, as the likelihood ratio of a complex normal do
 (:func:`decisive`) is clocks.py's likelihood ratio, slope band and ``|τ| > 4 σ``; its share
 of the signal is not asked (:func:`decisive`).
 
-Pure NumPy, no I/O: :func:`check` is called by :func:`adaptnav.mission.loader.cross_check`
-and raises the MissionError naming the GNSS's file and ``t_s``.
+Pure NumPy, no I/O: :func:`check` is called by :func:`adaptnav.mission.loader.cross_check`,
+which warns of each :class:`Finding` or raises the MissionError naming the GNSS's file and
+``t_s``, as for the other clocks.
 """
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from adaptnav.mission import axes, clocks, scales
-from adaptnav.mission.config import MissionConfig, MissionError
-from adaptnav.mission.tables import TIME_COLUMN
+from adaptnav.mission.config import MissionConfig
 
 Array = NDArray[np.float64]
 CArray = NDArray[np.complex128]
 
-log = logging.getLogger("adaptnav.mission")
 
 WINDOW_S = 10.0
 """Width of the windows the fixes are averaged over (s): a wave's roll of a high antenna
@@ -255,25 +254,39 @@ def decisive(found: clocks.ClockOffset) -> bool:
     )
 
 
-def check(config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Readings]) -> None:
+@dataclass(frozen=True)
+class Finding:
+    """GNSS ``name``'s decisive offset ``found`` beyond ±:data:`adaptnav.mission.axes.MAX_LAG_S`,
+    its ``period`` (s) and what the loader says of it (``words``, with the fix)."""
+
+    name: str
+    found: clocks.ClockOffset
+    period: float
+    words: str
+
+
+def check(
+    config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Readings]
+) -> list[Finding]:
     """Each GNSS receiver against the first DVL's dead-reckoned track (both ``use`` aid or
-    init): a MissionError naming its file and ``t_s`` when its fixes follow the track
-    decisively better at an offset beyond max(1 s, two of its periods) than as stamped, a
-    logged warning when beyond 1 s but within (docs/robustness.md, 'Sensor clocks'). Nothing
-    without a DVL (a car's GNSS is dated by its course: mission/clocks.py). Since 0.4.12."""
+    init) whose fixes follow the track decisively better at an offset beyond 1 s than as
+    stamped: the loader refuses it beyond two of its periods, else warns (docs/robustness.md,
+    'Sensor clocks'). Nothing without a DVL (a car's GNSS is dated by its course:
+    mission/clocks.py). Since 0.4.12."""
     dvl_name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
     long = [n for n, g in sensors.items() if g.kind == "gnss" and _long_enough(g.t, g.period)]
     if dvl_name is None or not long or sensors[dvl_name].t.size < 2:
-        return
+        return []
     d, dcfg = sensors[dvl_name], config.sensors[dvl_name]
     period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
     dvl = scales.Dvl.of(d.t, d.z[:, :3], dcfg.sensor_from_body(), period, 0.0)
     tilt = views.tilt()
     if dvl.t.size < 2 or tilt.t.size < 2:
-        return
+        return []
     track = dead_reckoned(dvl, tilt, views.gyro())
     if track[0].size < 2:
-        return
+        return []
+    out = []
     for name in long:
         g = sensors[name]
         north, east = axes.flatten(g.z[:, 0], g.z[:, 1])
@@ -281,18 +294,11 @@ def check(config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Rea
         found = gnss_offset(g.t, north, east, gp, track)
         if found is None or not decisive(found) or abs(found.offset_s) <= axes.MAX_LAG_S:
             continue
-        cfg = config.sensors[name]
         width = max(WINDOW_S, WINDOW_PERIODS * gp)
-        words = _words(name, dvl_name, found, cfg.latency_s or 0.0, (g.t[0], g.t[-1], width))
-        if not found.beyond(gp):
-            log.warning("%s: %s", cfg.file, words)
-            continue
-        raise MissionError(
-            f"{cfg.file}: {words} If the stamps are right, set imu.axis_check = false "
-            "(docs/robustness.md, 'Sensor clocks')",
-            file=cfg.file,
-            field=TIME_COLUMN,
-        )
+        latency = config.sensors[name].latency_s or 0.0
+        words = _words(name, dvl_name, found, latency, (g.t[0], g.t[-1], width))
+        out.append(Finding(name, found, gp, words))
+    return out
 
 
 def _words(

@@ -286,7 +286,10 @@ def cross_check(
     if config.imu.check_axes:
         # After the DVL's clock: the GNSS is dated against the DVL's track, which a DVL seconds
         # off moves (the demo's DVL 10 s early made its right GPS "4.9 s late").
-        gnss_clock.check(config, views, sensors)
+        for f in gnss_clock.check(config, views, sensors):
+            _clock_verdict(
+                config, f.name, f.words, f.found.beyond(f.period), "imu.axis_check = false"
+            )
     for name, judged in dvls.items():
         _check_scales(config, views, sensors, name, judged)
     _check_depth_at_fixes(config, {**sensors, **(off or {})})
@@ -347,9 +350,16 @@ def _judge_clock(
     first and last time; ``switch``: what turns the check off."""
     if found is None or not found.decisive() or abs(found.offset_s) <= axes.MAX_LAG_S:
         return
+    words = _offset_words(name, what, found, config.sensors[name].latency_s or 0.0, span)
+    _clock_verdict(config, name, words, found.beyond(period), switch)
+
+
+def _clock_verdict(config: MissionConfig, name: str, words: str, beyond: bool, switch: str) -> None:
+    """Sensor ``name``'s clock offset, said in ``words``: the MissionError naming its file and
+    t_s when the offset lies ``beyond`` max(1 s, two of its periods), else a logged warning;
+    ``switch``: what turns the check off."""
     cfg = config.sensors[name]
-    words = _offset_words(name, what, found, cfg.latency_s or 0.0, span)
-    if not found.beyond(period):
+    if not beyond:
         log.warning("%s: %s", cfg.file, words)
         return
     raise MissionError(
