@@ -6,6 +6,8 @@ short IMU (rates, 100 Hz) and DVL (3 Hz) tables; ``write_dir`` writes a mission 
 
 from __future__ import annotations
 
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -77,3 +79,15 @@ def write_dir(root: Path, cfg: dict[str, Any], files: dict[str, pd.DataFrame | s
 
 def csv_text(df: pd.DataFrame) -> str:
     return str(df.to_csv(index=False))
+
+
+def with_column(
+    source: Path, root: Path, table: str, column: str, value: Callable[[pd.Series], pd.Series]
+) -> Path:
+    """A copy of mission folder ``source`` at ``root`` whose Parquet ``table``'s ``column`` is
+    ``value`` of what it was (stamps moved, a column scaled or negated)."""
+    shutil.copytree(source, root)
+    df = pd.read_parquet(root / table)
+    df[column] = value(df[column])
+    df.to_parquet(root / table)
+    return root

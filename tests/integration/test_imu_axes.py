@@ -10,15 +10,11 @@ import pandas as pd
 import pytest
 
 from helpers.cli import cli, error_line
+from helpers.missions import with_column
 
 
 def _changed(demo: Path, tmp_path: Path, table: str, column: str, factor: float) -> Path:
-    root = tmp_path / "mission"
-    shutil.copytree(demo, root)
-    df = pd.read_parquet(root / table)
-    df[column] = df[column] * factor
-    df.to_parquet(root / table)
-    return root
+    return with_column(demo, tmp_path / "mission", table, column, lambda c: c * factor)
 
 
 @pytest.mark.parametrize(

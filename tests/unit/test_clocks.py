@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ import pytest
 
 from adaptnav.mission import MissionError, axes, clocks, load_mission, scales
 from helpers import diving
+from helpers.missions import with_column
 
 RATE_HZ = 100.0
 DURATION_S = 900.0
@@ -190,11 +190,7 @@ def _shifted(
     demo: Path, tmp_path: Path, table: str, late_s: float, axis_check: bool = True
 ) -> Path:
     """The demo with its heading sensor aiding and ``table``'s stamps ``late_s`` later."""
-    root = tmp_path / "mission"
-    shutil.copytree(demo, root)
-    df = pd.read_parquet(root / table)
-    df["t_s"] = df["t_s"] + late_s
-    df.to_parquet(root / table)
+    root = with_column(demo, tmp_path / "mission", table, "t_s", lambda t: t + late_s)
     toml = root / "mission.toml"
     text = toml.read_text()
     heading = text.index("[sensors.heading]")

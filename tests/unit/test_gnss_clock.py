@@ -11,14 +11,13 @@ simulated demo's GPS table."""
 from __future__ import annotations
 
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from adaptnav.mission import MissionError, clocks, gnss_clock, load_mission
+from helpers.missions import with_column
 
 DURATION_S = 1500.0
 STEP_S = 0.1
@@ -127,11 +126,7 @@ def test_gnss_stamped_seconds_late_is_refused_at_load_naming_the_latency(
     demo: Path, tmp_path: Path
 ) -> None:
     # Up to 0.4.11 the demo's GPS 18 s late loaded: its course is undecided at 2.9 m σ.
-    root = tmp_path / "mission"
-    shutil.copytree(demo, root)
-    gps = pd.read_parquet(root / "gps.parquet")
-    gps["t_s"] = gps["t_s"] + 18.0
-    gps.to_parquet(root / "gps.parquet")
+    root = with_column(demo, tmp_path / "mission", "gps.parquet", "t_s", lambda t: t + 18.0)
     with pytest.raises(MissionError) as err:
         load_mission(root)
     text = str(err.value)
@@ -147,11 +142,7 @@ def test_a_dvl_seconds_off_is_named_before_the_gnss_is_dated_against_its_track(
 ) -> None:
     # The GNSS is dated against the DVL's track: the demo's DVL 10 s early moved that track,
     # and the right GPS was refused as "4.9 s late" before the DVL's own clock was judged.
-    root = tmp_path / "mission"
-    shutil.copytree(demo, root)
-    dvl = pd.read_parquet(root / "dvl.parquet")
-    dvl["t_s"] = dvl["t_s"] - 10.0
-    dvl.to_parquet(root / "dvl.parquet")
+    root = with_column(demo, tmp_path / "mission", "dvl.parquet", "t_s", lambda t: t - 10.0)
     with pytest.raises(MissionError) as err:
         load_mission(root)
     text = str(err.value)
