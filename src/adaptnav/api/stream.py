@@ -59,6 +59,8 @@ __all__ = ["IMU", "Item", "Stream", "replay"]
 Array = NDArray[np.float64]
 Row = dict[str, float]
 """A solution row: column of the batch solution table → value."""
+Vec3 = tuple[float, float, float]
+"""An IMU sample's Δθ or Δv as plain floats (the stream's per-sample work is on floats)."""
 IMU = "imu"
 """The sensor name of IMU items (:class:`Item`)."""
 START_EPS_S = 1e-9
@@ -153,7 +155,7 @@ class Stream:
         self._at_rest: dict[str, list[Reading]] = {n: [] for n in firsts if n is not None}
         self._early: list[tuple[str, Reading]] = []
         self._extra: list[dict[str, Any]] = []
-        self._imu: deque[tuple[float, float, Array, Array]] = deque()
+        self._imu: deque[tuple[float, float, Vec3, Vec3]] = deque()
         self._watch = ImuWatch(cfg.imu)
         self._cross = _cross_watch(cfg, periods, cross_check_s, aligning=initial is None)
         self._t_imu = -math.inf
@@ -211,16 +213,18 @@ class Stream:
         step = float(dt) if dt is not None else tt - self._t_imu
         if not math.isfinite(self._t_imu) and dt is None:
             step = 1.0 / self.config.imu.rate_hz
-        # Copies: a driver may hand over one buffer it refills, and samples are held.
-        dth = np.array(dtheta, dtype=float).reshape(3)
-        dv = np.array(dvel, dtype=float).reshape(3)
+        # Plain floats, copied (a driver may hand over one buffer it refills, and samples are
+        # held): NumPy's calls on three numbers took a third of a push (docs/streaming.md).
+        dth, dv = _vec3(dtheta), _vec3(dvel)
         if not (tt > self._t_imu and step > 0.0 and math.isfinite(tt + step)):
             raise ValueError(
                 f"IMU sample t = {tt!r} s, dt = {step!r} s: the stamp must be finite and after "
                 f"the previous sample's ({self._t_imu!r} s), dt > 0"
             )
-        if not math.isfinite(float(dth.sum() + dv.sum())):  # a NaN or inf anywhere: NaN or inf
-            raise ValueError(f"IMU sample t = {tt!r} s: non-finite increment {dth}, {dv}")
+        if not math.isfinite(sum(dth) + sum(dv)):  # a NaN or inf anywhere: NaN or inf
+            raise ValueError(
+                f"IMU sample t = {tt!r} s: non-finite increment {np.array(dth)}, {np.array(dv)}"
+            )
         due = self._cross.due_at  # inf until known and once judged: one comparison a push
         if tt - self._lag > due and self._hold > due:
             self._judge(f"IMU sample t = {tt!r} s")  # the window's data are all in
@@ -230,7 +234,7 @@ class Stream:
             # as the loader stretches a row after lost or dropped ones; the engine would jump
             # the hole, the motion in it lost (up to 0.4.9).
             r = (tt - self._t_imu) / step
-            dth, dv, step = dth * r, dv * r, tt - self._t_imu
+            dth, dv, step = _scaled(dth, r), _scaled(dv, r), tt - self._t_imu
         if not self._cross.done:
             self._cross.imu(tt, step, dth, dv)
         self._t_imu = tt
@@ -241,7 +245,7 @@ class Stream:
         self._imu.append((tt, step, dth, dv))
         return self._advance()
 
-    def _check_imu(self, t: float, dt: float, dth: Array, dv: Array) -> None:
+    def _check_imu(self, t: float, dt: float, dth: Vec3, dv: Vec3) -> None:
         """The loader's IMU checks on one sample (:meth:`push_imu`)."""
         since = t - self._t_imu
         limit = self.config.imu.gap_limit_s
@@ -250,13 +254,12 @@ class Stream:
                 f"IMU sample t = {t!r} s, dt = {dt!r} s: {since:.6g} s after the previous "
                 f"sample: a gap over imu.max_gap_s = {limit:.6g} s, or an interval overlapping it"
             )
-        # Plain floats: NumPy's calls on six numbers took 18 µs of a 22-µs push (make bench).
-        values = dth.tolist() + dv.tolist()
-        g, a = max(map(abs, values[:3])), max(map(abs, values[3:]))
+        values = dth + dv
+        g, a = max(map(abs, dth)), max(map(abs, dv))
         if g > MAX_GYRO_RAD_S * dt or a > MAX_ACCEL_M_S2 * dt:
             raise ValueError(
-                f"IMU sample t = {t!r} s: a rate beyond 20 rad/s or 20 g ({dth / dt} rad/s, "
-                f"{dv / dt} m/s²): wrong units?"
+                f"IMU sample t = {t!r} s: a rate beyond 20 rad/s or 20 g ({np.array(dth) / dt} "
+                f"rad/s, {np.array(dv) / dt} m/s²): wrong units?"
             )
         self._watch.check(t, dt, values)  # frozen, saturated, not the specific force
 
@@ -568,6 +571,17 @@ def _cross_watch(
         raise ValueError(f"cross_check_s = {after_s!r}: seconds >= 0 (0: no cross-checks)")
     lead = cfg.initial.alignment_s if aligning and cfg.initial.mode == "alignment" else 0.0
     return CrossWatch(cfg, periods, lead + after_s if after_s > 0.0 else 0.0)
+
+
+def _vec3(v: ArrayLike) -> Vec3:
+    """Three floats of ``v`` (ValueError for another size), a copy."""
+    x, y, z = np.asarray(v, dtype=float).reshape(3).tolist()
+    return x, y, z
+
+
+def _scaled(v: Vec3, r: float) -> Vec3:
+    """``v × r`` (as NumPy's product, element by element)."""
+    return v[0] * r, v[1] * r, v[2] * r
 
 
 def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +42,8 @@ from adaptnav.mission.live import Reading
 from adaptnav.mission.loader import SensorData, cross_check
 
 Array = NDArray[np.float64]
+Vec3 = Sequence[float]
+"""An IMU sample's Δθ or Δv: three floats (the stream's), or an array of three."""
 
 PER_FROM = 100
 """IMU samples whose median interval sets the samples per block (1 s at 100 Hz)."""
@@ -91,7 +94,7 @@ class CrossWatch:
         lags' (:data:`~adaptnav.mission.axes.MAX_LAG_S`); inf while unknown, and once judged."""
         self._per = 0
         self._flush_at = PER_FROM
-        self._pending: list[tuple[float, float, Array, Array]] = []
+        self._pending: list[tuple[float, float, Vec3, Vec3]] = []
         self._blocks = array("d")
         self._readings: dict[str, list[Reading]] = {n: [] for n in self._kinds}
 
@@ -100,7 +103,7 @@ class CrossWatch:
         """Bytes of the IMU's block sums held (the samples not yet summed aside)."""
         return self._blocks.itemsize * len(self._blocks)
 
-    def imu(self, t: float, dt: float, dtheta: Array, dvel: Array) -> None:
+    def imu(self, t: float, dt: float, dtheta: Vec3, dvel: Vec3) -> None:
         """One IMU interval ``(t - dt, t]`` as integrated (after any stretch over a hole).
         Kept as it is and summed with the next ones every :data:`PER_FROM` samples: one
         vectorised sum costs less per sample than a running sum in Python (docs/streaming.md,
@@ -134,8 +137,8 @@ class CrossWatch:
         if n:
             rows = np.column_stack([
                 stamps[per - 1 : n : per], np.array(dt[:n]).reshape(-1, per).sum(axis=1),
-                np.concatenate(dth[:n]).reshape(-1, per, 3).sum(axis=1),
-                np.concatenate(dv[:n]).reshape(-1, per, 3).sum(axis=1),
+                np.array(dth[:n], dtype=float).reshape(-1, per, 3).sum(axis=1),
+                np.array(dv[:n], dtype=float).reshape(-1, per, 3).sum(axis=1),
             ])  # fmt: skip
             self._blocks.frombytes(np.ascontiguousarray(rows, dtype=np.float64).tobytes())
         self._pending = pending[n:] if inside == len(pending) else []

@@ -85,9 +85,8 @@ class ImuWatch:
         self._forces: list[float] | None = []
         self._window_end = math.nan
 
-    def check(self, t: float, dt: float, values: list[float]) -> None:
+    def check(self, t: float, dt: float, vals: tuple[float, ...]) -> None:
         """Take the sample (t, dt, Δθ then Δv) or raise ValueError, nothing changed."""
-        vals = tuple(values)
         repeat = vals == self._last
         if repeat and self._stuck_s > 0.0 and t - self._run_t >= self._stuck_s:
             raise ValueError(self._frozen(t))
