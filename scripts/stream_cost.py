@@ -1,0 +1,94 @@
+"""Where a ``push_imu`` of a stream spends its time (docs/streaming.md, 'Latency').
+
+The bench's mission (bench/stream_bench.py, seeded) replayed through a Stream (robust, a given
+start) twice, the second time with the parts of a push wrapped in timers: the median of each
+part's calls and its total per IMU push (µs). The wrappers add a few tenths of a µs each, so
+the parts are an upper bound and ``push_imu`` less its parts is its own code. Run it with the
+code to measure on the path (``PYTHONPATH`` to a ``git archive`` of another commit's ``src``
+to compare)::
+
+    .venv/bin/python scripts/stream_cost.py [SCRATCH_FOLDER]
+
+SCRATCH_FOLDER keeps the generated mission between runs (default: a temporary folder).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adaptnav import api
+from adaptnav.api.stream import IMU, Item, Stream, replay
+from adaptnav.engine.batch import Navigator
+from adaptnav.mission import Mission, load_mission
+from adaptnav.mission.live_cross import CrossWatch
+from adaptnav.mission.live_imu import ImuWatch
+
+PARTS: tuple[tuple[type, str], ...] = (
+    (Stream, "push_imu"),
+    (Stream, "_check_imu"),
+    (ImuWatch, "check"),
+    (CrossWatch, "imu"),
+    (Stream, "_advance"),
+    (Navigator, "feed_imu_sample"),
+    (Stream, "_new_rows"),
+)
+
+
+def _timed(f: Callable[..., Any], into: list[float]) -> Callable[..., Any]:
+    def g(*args: Any, **kwargs: Any) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return f(*args, **kwargs)
+        finally:
+            into.append(time.perf_counter() - t0)
+
+    return g
+
+
+def replayed(m: Mission, items: list[Item]) -> list[float]:
+    """Each push_imu's wall-clock time (s) over the replay."""
+    out = []
+    with Stream(m, "robust", initial=api.initial_state(m)[:3]) as s:
+        for item in items:
+            t0 = time.perf_counter()
+            s.push_item(item)
+            if item.sensor == IMU:
+                out.append(time.perf_counter() - t0)
+    return out
+
+
+def main(folder: Path) -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+    import stream_bench
+
+    root = folder / "stream-cost-mission"
+    m = load_mission(root) if root.exists() else stream_bench.ten_minutes(root)
+    items = list(replay(m))
+    replayed(m, items)  # compile and warm
+    pushes = replayed(m, items)
+    print(f"push_imu median {1e6 * np.median(pushes):.2f} µs ({len(pushes)} pushes, unwrapped)")
+    times: dict[str, list[float]] = {}
+    for cls, name in PARTS:
+        setattr(cls, name, _timed(getattr(cls, name), times.setdefault(name, [])))
+    replayed(m, items)
+    for name, v in times.items():
+        us = 1e6 * np.asarray(v)
+        print(
+            f"  {name:16s} {len(us):6d} calls, median {np.median(us):6.2f} µs, "
+            f"{us.sum() / len(pushes):6.2f} µs per push_imu"
+        )
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1:
+        main(Path(sys.argv[1]))
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            main(Path(tmp))
