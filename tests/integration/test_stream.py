@@ -180,8 +180,16 @@ def test_imu_samples_the_loader_refuses_are_refused(mission: Mission) -> None:
         stream.push_imu(t + 1e6, np.zeros(3), [0.0, 0.0, -0.098])
     with pytest.raises(ValueError, match="an interval overlapping it"):
         stream.push_imu(t + 0.01, np.zeros(3), [0.0, 0.0, -0.098], dt=5.0)
-    with pytest.raises(ValueError, match="a rate beyond 20 rad/s or 20 g"):
+    rate = "a rate beyond 20 rad/s or 20 g ([0. 0. 0.] rad/s, [1.e+10 0.e+00 0.e+00] m/s²)"
+    with pytest.raises(ValueError, match=re.escape(rate)):
         stream.push_imu(t + 0.01, np.zeros(3), [1e8, 0.0, 0.0])
+    # The values named as NumPy prints them, also since the checks run on plain floats (0.4.12).
+    with pytest.raises(
+        ValueError, match=re.escape("non-finite increment [ 0. nan  0.], [0. 0. 0.]")
+    ):
+        stream.push_imu(t + 0.01, [0.0, math.nan, 0.0], np.zeros(3))
+    with pytest.raises(ValueError, match="cannot reshape array of size 4"):
+        stream.push_imu(t + 0.01, np.zeros(4), [0.0, 0.0, -0.098])
     with pytest.raises(ValueError, match="not a finite time"):
         stream.push("dvl", math.inf, [0.5, 0.0, 0.0])
     assert len(stream.push_imu(t + 0.01, np.zeros(3), [0.0, 0.0, -0.098])) == 0
