@@ -8,8 +8,13 @@ code to measure on the path (``PYTHONPATH`` to a ``git archive`` of another comm
 to compare)::
 
     .venv/bin/python scripts/stream_cost.py [SCRATCH_FOLDER]
+    .venv/bin/python scripts/stream_cost.py --rows MISSION OUT.npz
+    .venv/bin/python scripts/stream_cost.py --same A.npz B.npz
 
 SCRATCH_FOLDER keeps the generated mission between runs (default: a temporary folder).
+``--rows``: a mission's stream rows (robust; given start, aligned, and aligned with every 997th
+IMU sample left out, so stretched over the holes) saved for ``--same``, which says whether two
+codes' rows are bit-identical (every value, NaN equal to NaN).
 """
 
 from __future__ import annotations
@@ -86,8 +91,35 @@ def main(folder: Path) -> None:
         )
 
 
+def rows(folder: Path, out: Path) -> None:
+    """The three replays' rows of a mission (``--rows``)."""
+    m = load_mission(folder)
+    items = list(replay(m))
+    holed = [it for k, it in enumerate(items) if not (it.sensor == IMU and k % 997 == 500)]
+    runs = {"given": (api.initial_state(m)[:3], items), "aligned": (None, items)}
+    runs["holed"] = (None, holed)
+    saved = {}
+    for name, (start, its) in runs.items():
+        with Stream(m, "robust", initial=start) as s:
+            got = [row for item in its for row in s.push_item(item)]
+        saved[name] = np.array([list(r.values()) for r in got])
+        print(f"{folder.name} {name}: {len(got)} rows")
+    np.savez(out, **saved)
+
+
+def same(a: Path, b: Path) -> None:
+    """Whether two ``--rows`` files hold the same rows, bit for bit (``--same``)."""
+    old, new = np.load(a), np.load(b)
+    for k in old.files:
+        print(f"{k}: {old[k].shape} {np.array_equal(old[k], new[k], equal_nan=True)}")
+
+
 if __name__ == "__main__":
-    if len(sys.argv) > 1:
+    if sys.argv[1:2] == ["--rows"]:
+        rows(Path(sys.argv[2]), Path(sys.argv[3]))
+    elif sys.argv[1:2] == ["--same"]:
+        same(Path(sys.argv[2]), Path(sys.argv[3]))
+    elif len(sys.argv) > 1:
         main(Path(sys.argv[1]))
     else:
         with tempfile.TemporaryDirectory() as tmp:
