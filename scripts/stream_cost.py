@@ -10,11 +10,13 @@ to compare)::
     .venv/bin/python scripts/stream_cost.py [SCRATCH_FOLDER]
     .venv/bin/python scripts/stream_cost.py --rows MISSION OUT.npz
     .venv/bin/python scripts/stream_cost.py --same A.npz B.npz
+    .venv/bin/python scripts/stream_cost.py --call MISSION
 
 SCRATCH_FOLDER keeps the generated mission between runs (default: a temporary folder).
 ``--rows``: a mission's stream rows (robust; given start, aligned, and aligned with every 997th
 IMU sample left out, so stretched over the holes) saved for ``--same``, which says whether two
-codes' rows are bit-identical (every value, NaN equal to NaN).
+codes' rows are bit-identical (every value, NaN equal to NaN). ``--call``: the engine's compiled
+loop called with no IMU sample, mid-stream (the cost of the call itself, its 33 arguments).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from __future__ import annotations
 import sys
 import tempfile
 import time
+import timeit
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -114,9 +117,32 @@ def same(a: Path, b: Path) -> None:
         print(f"{k}: {old[k].shape} {np.array_equal(old[k], new[k], equal_nan=True)}")
 
 
+def call(folder: Path) -> None:
+    """The time of an empty call of the engine's compiled loop (``--call``)."""
+    from adaptnav.engine import batch
+
+    m = load_mission(folder)
+    s = Stream(m, "robust", initial=api.initial_state(m)[:3])
+    for item in list(replay(m))[:20000]:
+        s.push_item(item)
+    n, none, none3 = s._nav, np.zeros(0), np.zeros((0, 3))
+    assert n is not None
+    args = (
+        n.x, n._P, none, none, none3, none3, n._q_t, n._q_idx, n._grid, n._cur, n._rates,
+        n._icur, n._q, n._tau_a, n._tau_g, n._tau_f, n.config.covariance_block_s, n._out_t,
+        n._out_x, n._out_p, n._st_sensor, n._st_z, n._s_int, n._s_flt, n._s_state, n._rings,
+        n._kind, n.config.reset_mode, n._python_lin, n._lg_int, n._lg_flt, n._ws, n._sm,
+    )  # fmt: skip
+    k = 20000
+    best = min(timeit.repeat(lambda: batch._navigate(*args), number=k, repeat=3))
+    print(f"_navigate with no sample ({len(args)} arguments): {1e6 * best / k:.2f} µs a call")
+
+
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--rows"]:
         rows(Path(sys.argv[2]), Path(sys.argv[3]))
+    elif sys.argv[1:2] == ["--call"]:
+        call(Path(sys.argv[2]))
     elif sys.argv[1:2] == ["--same"]:
         same(Path(sys.argv[2]), Path(sys.argv[3]))
     elif len(sys.argv) > 1:
