@@ -113,7 +113,7 @@ def main() -> None:
 
 def _fields(name: str, found: clocks.ClockOffset) -> str:
     keys = ("offset_s", "se_s", "k", "k_zero", "ratio", "share", "n", "n_eff")
-    rule = gnss_clock.decisive(found) if name == "gnss_offset" else found.decisive()
+    rule = found.decisive()
     values = ", ".join(f"{k} {float(getattr(found, k)):.6g}" for k in keys)
     return f"{values}, decisive {rule}"
 

@@ -83,7 +83,7 @@ def test_right_stamps_are_silent_even_with_a_drifting_heading(seed: int, outage:
     # them, and a lag cannot take them up. k: the fixes' metres per metre of the track. An
     # outage of the fixes is left out, not bridged by a ramp.
     found = _offset(seed, 0.0, drift_deg=5.0, outage=outage)
-    assert found is not None and not gnss_clock.decisive(found), found
+    assert found is not None and not found.decisive(), found
     assert abs(found.offset_s) < 4.0 * found.se_s and abs(found.k * 1.03 - 1.0) < 0.02, found
 
 
@@ -94,7 +94,7 @@ def test_fixes_stamped_seconds_off_are_dated_to_their_offset(
     seed: int, late_s: float, outage: bool
 ) -> None:
     found = _offset(seed, late_s, outage=outage)
-    assert found is not None and gnss_clock.decisive(found), found
+    assert found is not None and found.decisive(), found
     assert abs(found.offset_s - late_s) < max(3.0 * found.se_s, 1.0), found
     assert found.beyond(1.0)
 
@@ -109,7 +109,7 @@ def test_a_straight_track_at_a_steady_speed_dates_nothing() -> None:
     stamps, north, east = _fixes(t, p, rng, 18.0)
     keep = stamps >= 220.0
     found = gnss_clock.gnss_offset(stamps[keep], north[keep], east[keep], 1.0, track)
-    assert found is None or not gnss_clock.decisive(found), found
+    assert found is None or not found.decisive(), found
 
 
 def test_window_means_are_exact_across_a_long_sample_interval() -> None:

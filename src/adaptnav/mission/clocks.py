@@ -494,10 +494,10 @@ def depth_offset(
     and added: it moves with the vehicle's attitude, so with the lag (taken off the readings
     at their stamps instead, it is turned by the tilt of a time τ off when they are off: on
     A-KIT 9, 1.84 m forward, stamps 5 and 18 s late and 10 s early then read 4.63, 17.70 and
-    10.34 s, against 5.08, 18.11 and 9.92 s so). The DVL's own
-    noise, ``σ² T`` a second (period T), is the series' noise: a vehicle whose depth changes
-    less is undecided (None), and so is one whose depth's running median over
-    :data:`DIVE_WINDOW_S` spans less than :data:`MIN_DIVE_M` (a vehicle that does not dive)."""
+    10.34 s, against 5.08, 18.11 and 9.92 s so). The DVL's own noise, ``σ² T`` a second
+    (period T), is the series' noise: a vehicle whose depth changes less is undecided (None),
+    and so is one whose depth's running median over :data:`DIVE_WINDOW_S` spans less than
+    :data:`MIN_DIVE_M` (a vehicle that does not dive)."""
     ok = np.isfinite(t) & np.isfinite(depth)
     t, depth = t[ok], depth[ok]
     if dvl.t.size <= axes.MIN_INTERVALS or t.size <= axes.MIN_INTERVALS:

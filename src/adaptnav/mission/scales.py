@@ -174,6 +174,14 @@ def down(v_b: Array, roll: Array, pitch: Array) -> Array:
     return np.asarray(-sp * v_b[:, 0] + sr * cp * v_b[:, 1] + cr * cp * v_b[:, 2], dtype=float)
 
 
+def level(v_b: Array, roll: Array, pitch: Array) -> NDArray[np.complex128]:
+    """The horizontal components of body vectors ``v_b`` (n, 3) at the tilt given, as
+    forward + i right in the level frame of the body's yaw (NED, FRD)."""
+    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    forward = cp * v_b[:, 0] + sp * sr * v_b[:, 1] + sp * cr * v_b[:, 2]
+    return np.asarray(forward + 1j * (cr * v_b[:, 1] - sr * v_b[:, 2]), dtype=complex)
+
+
 def integral(t: Array, v: Array) -> Array:
     """The trapezoidal integral of ``v`` from ``t[0]`` at each ``t`` (``v`` (n,) or (n, k))."""
     steps = 0.5 * (v[1:] + v[:-1]) * np.diff(t).reshape((-1,) + (1,) * (v.ndim - 1))
@@ -287,14 +295,9 @@ def dvl_chords(
 ) -> tuple[Array, Array]:
     """The DVL's displacement over each chord (north + i east in a frame whose yaw is the
     gyro's integral from its start) and the gyro's yaw at each chord's start (rad)."""
-    roll, pitch = tilt_at(tilt, dvl.t)
-    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
-    v = dvl.v_b
-    level = (cp * v[:, 0] + sp * sr * v[:, 1] + sp * cr * v[:, 2]) + 1j * (
-        cr * v[:, 1] - sr * v[:, 2]
-    )
+    horizontal = level(dvl.v_b, *tilt_at(tilt, dvl.t))
     yaw = gyro.change(np.full(dvl.t.size, gyro.t[0]), dvl.t, 2)
-    u = integral(dvl.t, level * np.exp(1j * np.nan_to_num(yaw)))
+    u = integral(dvl.t, horizontal * np.exp(1j * np.nan_to_num(yaw)))
     t0, t1 = track.t0, track.t1
     inside = (t0 >= max(dvl.t[0], gyro.t[0])) & (t1 <= min(dvl.t[-1], gyro.t[-1]))
     inside &= dvl.covered(t0, t1)
