@@ -298,34 +298,26 @@ def _(root):
     toml(root, "rate_hz = 100.0\n", "rate_hz = 50.0\nmax_gap_s = 0.1\n")
 
 
+def duplicated(root, table, every):
+    """Every ``every``-th row of ``table`` repeated after itself (stamps duplicated)."""
+    df = rd(root, table)
+    both = pd.concat([df, df.iloc[::every]]).sort_values("t_s", kind="stable")
+    wr(root, table, both.reset_index(drop=True))
+
+
 @case("heading-duplicate-stamps")
 def _(root):
-    df = rd(root, "heading")
-    wr(
-        root,
-        "heading",
-        pd.concat([df, df.iloc[::7]]).sort_values("t_s", kind="stable").reset_index(drop=True),
-    )
+    duplicated(root, "heading", 7)
 
 
 @case("gps-duplicate-stamps")
 def _(root):
-    df = rd(root, "gps")
-    wr(
-        root,
-        "gps",
-        pd.concat([df, df.iloc[::5]]).sort_values("t_s", kind="stable").reset_index(drop=True),
-    )
+    duplicated(root, "gps", 5)
 
 
 @case("dvl-duplicate-stamps")
 def _(root):
-    df = rd(root, "dvl")
-    wr(
-        root,
-        "dvl",
-        pd.concat([df, df.iloc[::5]]).sort_values("t_s", kind="stable").reset_index(drop=True),
-    )
+    duplicated(root, "dvl", 5)
 
 
 @case("heading-latency+60-stamped-60-late")
@@ -349,22 +341,23 @@ def _(root):
     sect(root, "heading", "latency_s = 60.0")
 
 
-@case("mission-5s")
-def _(root):
-    cut_all(root, 700, 705)
+def short_mission(root, seconds):
+    """The demo cut to ``seconds`` from t = 700 s, started from a given state (no alignment)."""
+    cut_all(root, 700, 700 + seconds)
     toml(root, 'mode = "alignment"', 'mode = "state"')
     toml(root, "alignment_s = 600.0\n", "")
     toml(root, "h_m = 0.0", "lat_deg = 26.8\nlon_deg = 56.0\nh_m = 0.0")
     toml(root, 'use = "init"', 'use = "aid"')
+
+
+@case("mission-5s")
+def _(root):
+    short_mission(root, 5)
 
 
 @case("mission-30s")
 def _(root):
-    cut_all(root, 700, 730)
-    toml(root, 'mode = "alignment"', 'mode = "state"')
-    toml(root, "alignment_s = 600.0\n", "")
-    toml(root, "h_m = 0.0", "lat_deg = 26.8\nlon_deg = 56.0\nh_m = 0.0")
-    toml(root, 'use = "init"', 'use = "aid"')
+    short_mission(root, 30)
 
 
 @case("gps-at-surface-depth-nan")
