@@ -17,4 +17,4 @@ Conventions (the full contract is ``docs/conventions.md``):
 * Measurement residual ``y = z - h(x_hat)``, ``H = d h(x_hat (+) dx) / d dx``.
 """
 
-__version__ = "0.4.12"
+__version__ = "0.4.13"

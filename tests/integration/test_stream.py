@@ -377,6 +377,20 @@ def test_a_quantized_imu_at_rest_is_not_saturated_on_a_stream(mission: Mission) 
         stream.push_imu(imu.t[k], imu.dtheta[k], dv[k], dt=imu.dt[k])
 
 
+def test_an_imu_at_rest_below_its_step_is_not_saturated_on_a_stream(mission: Mission) -> None:
+    """The golden IMU's dvel_x at rest alternating between two output steps (0.01 and 0.02 m/s²
+    over 0.01 s), the one farther from zero on two samples in three: a pile-up by count in
+    every prefix from the 15th sample, one step from the rest. Up to 0.4.12 the stream refused
+    it there ("clipped at the IMU's range", docs/streaming.md); a span of one step is not a
+    range's end (fewer than loader.SATURATION_LEVELS values)."""
+    imu = mission.imu
+    dv = imu.dvel[:600].copy()
+    dv[:, 0] = np.resize([2e-4, 2e-4, 1e-4], 600)
+    stream = Stream(mission, "meskf")
+    for k in range(600):
+        stream.push_imu(imu.t[k], imu.dtheta[k], dv[k], dt=imu.dt[k])
+
+
 @pytest.mark.parametrize(("scale", "gravity"), [(1.0 / 9.80665, 1.0), (1.0, 0.0)])
 def test_accelerations_in_g_or_without_gravity_are_refused(
     mission: Mission, scale: float, gravity: float

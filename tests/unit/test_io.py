@@ -810,6 +810,33 @@ def test_a_quantized_imu_at_rest_is_not_saturated(tmp_path: Path) -> None:
     assert len(load_mission(root).imu) == n - 1
 
 
+@pytest.mark.parametrize("column", ["accel_z_m_s2", "gyro_y_rad_s"])
+def test_an_imu_at_rest_below_its_step_is_not_saturated(tmp_path: Path, column: str) -> None:
+    """An IMU at rest whose noise is below its output step (0.01 m/s², 1e-4 rad/s): the column
+    alternates between two steps, the one farther from zero on two rows in three, a pile-up by
+    count at a step next to the rest, not at the end of a range. Up to 0.4.12 refused ("clipped
+    at the IMU's range"); a column clipped in motion still is (the next test)."""
+    n, step = 2631, (0.01 if column.startswith("accel") else 1e-4)
+    rates = imu_rates(n)
+    base = -G0 if column.startswith("accel") else 0.0
+    far = -step if column.startswith("accel") else step  # away from zero
+    rates[column] = base + np.resize([far, far, 0.0], n)
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == n - 1
+
+
+def test_a_quantized_gyro_clipped_in_motion_is_still_saturated(tmp_path: Path) -> None:
+    """A gyro quantized at 1e-4 rad/s swinging ±0.2 rad/s (2000 steps each way) clipped at
+    +0.1 rad/s: its values span 3000 steps, the pile-up at the clip is refused."""
+    n = 2000
+    rates = imu_rates(n)
+    swing = np.round(0.2 * np.sin(np.arange(n) * 0.05) / 1e-4) * 1e-4
+    rates["gyro_y_rad_s"] = np.minimum(swing, 0.1)
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": rates, "dvl.csv": dvl_table()})
+    msg = load_error(root)
+    assert "gyro_y_rad_s: " in msg and "hold the column's largest value, 0.1: clipped" in msg
+
+
 @pytest.mark.parametrize(
     ("scale", "gravity", "refused"),
     [(1.0 / G0, 1.0, True), (1.0, 0.0, True), (1.0e3, 1.0, True), (1.0, 1.0, False)],

@@ -11,8 +11,10 @@ of the samples taken so far, that sample its last row:
 * **saturated**: a column whose largest or smallest value so far (not 0) is held by
   ``imu.saturation_rows`` samples or more and by at least
   :data:`~adaptnav.mission.loader.SATURATION_PILEUP` times as many as the next value inward
-  (``loader._check_saturated``), tracked as the values come: per column and side the extreme,
-  the next value inward and their counts (a new extreme makes the old one the next inward);
+  in a column of :data:`~adaptnav.mission.loader.SATURATION_LEVELS` distinct values or more so
+  far, the two next values inward then apart (``loader._check_saturated``), tracked as the
+  values come: per column and side the extreme, the next value inward and their counts (a new
+  extreme makes the old one the next inward);
 * **not the specific force**: the median |Δv|/dt of the samples of the first
   :data:`GRAVITY_WINDOW_S` outside :data:`~adaptnav.mission.loader.GRAVITY_BAND` × g (the
   loader takes the whole table's; ``loader._check_gravity``), judged once, at the first sample
@@ -31,7 +33,11 @@ import statistics
 
 from adaptnav.core.units import G0
 from adaptnav.mission.config import ImuConfig
-from adaptnav.mission.loader import GRAVITY_BAND, SATURATION_PILEUP, specific_force_words
+from adaptnav.mission.loader import (
+    GRAVITY_BAND,
+    SATURATION_PILEUP,
+    specific_force_words,
+)
 from adaptnav.mission.tables import IMU_INCREMENT_COLUMNS
 
 GRAVITY_WINDOW_S = 1.0
@@ -128,12 +134,14 @@ class ImuWatch:
     def _judge_extremes(self, t: float, sides: list[tuple[int, Side, Side]]) -> None:
         rows = self._rows
         for c, *both in sides:
+            # Four values or more: the next values inward of the two ends differ.
+            wide = -both[1][2] < both[0][2]
             for side, (top, n, nxt, m, first), sign in zip(
                 ("largest", "smallest"), both, (1.0, -1.0), strict=True
             ):
                 if (
                     top != 0.0 and n >= rows and m > 0 and n >= SATURATION_PILEUP * m
-                    and top - nxt > ROUNDING * abs(top)
+                    and top - nxt > ROUNDING * abs(top) and wide
                 ):  # fmt: skip
                     raise ValueError(
                         f"IMU sample t = {t!r} s, {IMU_INCREMENT_COLUMNS[c]}: {n} samples, the "

@@ -88,6 +88,12 @@ LOST_SAMPLE_BLOCK = 1 << 16
 SATURATION_PILEUP = 2
 """An IMU column's extreme value held on at least this many times as many rows as the next value
 inward is a pile-up, the mark of clipping (:func:`_check_saturated`)."""
+SATURATION_LEVELS = 4
+"""A pile-up is judged only in a column that takes at least this many distinct values: an IMU at
+rest whose noise is below its output step alternates between two or three steps, and may
+pile up at the one farther from zero; clipping cuts off a motion that runs over many steps
+(since 0.4.13). Four is the fewest a stream's watch can tell at no cost: the next values inward
+of both extremes then differ (``live_imu.ImuWatch``)."""
 CHECK_BLOCK = 1 << 20
 """IMU rows checked at a time for wrong units: temporaries of 48 MB, not of the whole table."""
 
@@ -1125,7 +1131,9 @@ def _check_saturated(
     rows as hold the next value inward. Clipped at the IMU's range, the motion beyond it lost
     (docs/robustness.md, 'A saturated IMU'). A quantized IMU at rest also repeats its extreme
     values, but fewer times than the values next to them (a tail: since 0.4.9 not refused, as
-    the check's first version did). ``limit`` 0: not checked."""
+    the check's first version did); one whose noise is below its step may pile up at the step
+    farther from zero, in a column of fewer than :data:`SATURATION_LEVELS` values (since 0.4.13
+    not refused). ``limit`` 0: not checked."""
     if limit <= 0:
         return
     for c in range(v.shape[1]):
@@ -1141,6 +1149,8 @@ def _check_saturated(
                 nxt = float(np.min(col, where=col > value, initial=np.inf))
             if n < SATURATION_PILEUP * int(np.count_nonzero(col == nxt)):
                 continue
+            if not _levels_at_least(col, SATURATION_LEVELS):
+                continue  # an IMU at rest, its noise below its step
             where = np.flatnonzero(at)
             a, b = int(where[0]), int(where[-1])
             raise table.error(
@@ -1153,6 +1163,18 @@ def _check_saturated(
                 "through it wrong; if the values are right, set imu.saturation_rows above "
                 f"{n} (0: not checked)",
             )
+
+
+def _levels_at_least(col: Array, k: int) -> bool:
+    """Whether ``col`` takes ``k`` distinct values or more: the few values at each end are
+    stepped over first (a pile-up is rare: one pass per value, no sort of a day of IMU)."""
+    hi = np.inf
+    for _ in range(k - 1):
+        below = col < hi
+        if not below.any():
+            return False
+        hi = float(np.max(col, where=below, initial=-np.inf))
+    return bool(np.any(col < hi))
 
 
 def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -> SensorData | None:
