@@ -88,3 +88,24 @@ def test_a_stream_warns_of_it_too_without_a_dvl(
             stream.push_item(item)
     (line,) = _warned(caplog)
     assert "sensor 'depth' reads 11.3 m" in line, line
+
+
+def test_a_gnss_lever_arm_with_its_z_sign_slipped_is_warned_about(
+    demo: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The demo's antenna 5 m above the IMU written as 5 m below it (lever z +5 where -5 is):
+    by the lever arms it sits 3.8 m below the depth meter (z 1.2 m), which reads 1.2 m, under
+    water at the surface, so the antenna is 5.0 m under water while it fixes. Up to 0.4.12 a
+    negative antenna height above the meter was taken as 0 and nothing was said (1.2 m read,
+    within the 2-m margin); the run's heights then disagree with the GNSS's by 10 m."""
+    root = _depth_times(demo, tmp_path)
+    toml = root / "mission.toml"
+    text = toml.read_text()
+    i = text.index("lever_arm_m = [0.0, 0.0, -5.0]", text.index("[sensors.gps]"))
+    toml.write_text(text[:i] + "lever_arm_m = [0.0, 0.0, 5.0]" + text[i + 30 :])
+    with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
+        load_mission(root)
+    (line,) = _warned(caplog)
+    assert "reads 1.22 m" in line and "antenna 5.02 m under water" in line, line
+    assert "the antenna 3.8 m below the depth meter" in line, line
+    assert "is a lever arm's z sign wrong?" in line, line

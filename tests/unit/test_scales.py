@@ -242,3 +242,15 @@ def test_the_depth_at_fixes_pairs_only_readings_near_a_fix() -> None:
     assert "absolute pressure" in scales.surface_cause(at)
     far = scales.depth_at_fixes(t[::5], depth[::5], t[::5][dive[::5] == 0.0] + 2.5, 1.5)
     assert far is None  # no depth reading within a second of any fix
+
+
+def test_an_antenna_below_the_depth_meter_is_under_water_where_the_meter_is() -> None:
+    """Lever arms that put the antenna 3.8 m below the depth meter: where the meter reads 1.2 m
+    (under water) the antenna is 5 m down; where it reads 0 (in air, however high) nothing is
+    bounded. Up to 0.4.12 the loader passed the height clipped at 0: 1.2 m under."""
+    t = np.arange(0.0, 600.0, 1.0)
+    at = scales.depth_at_fixes(t, np.full(t.size, 1.2), t + 0.2, antenna_above_m=-3.8)
+    assert at is not None and at.under_m == pytest.approx(5.0)
+    assert "3.8 m below the depth meter" in scales.surface_cause(at)
+    dry = scales.depth_at_fixes(t, np.zeros(t.size), t + 0.2, antenna_above_m=-3.8)
+    assert dry is not None and dry.under_m == pytest.approx(0.0)

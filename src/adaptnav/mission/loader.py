@@ -613,7 +613,7 @@ def _check_depth_at_fixes(config: MissionConfig, sensors: dict[str, SensorData])
             if g.kind != "gnss":
                 continue
             above = float(cfg.lever_arm()[2] - config.sensors[gname].lever_arm()[2])
-            at = scales.depth_at_fixes(d.t, d.z[:, 0], g.t, max(above, 0.0))
+            at = scales.depth_at_fixes(d.t, d.z[:, 0], g.t, above)
             if at is None or at.under_m <= scales.AIR_MARGIN_M:
                 continue
             log.warning(

@@ -467,6 +467,11 @@ a depth meter that reads absolute pressure shows at the surface."""
 AIR_MARGIN_M = 2.0
 """How far under the water a GNSS antenna may seem by the depth at its fixes before the depth
 is doubted (m): waves, pitch and a lever arm measured roughly."""
+SUBMERGED_M = 0.5
+"""A depth meter reading this much or more at the fixes is under water, and the antenna's depth
+is its reading less the antenna's height above it, whatever that height's sign; below, the
+meter may be in air (reading 0), where an antenna below it by the lever arms bounds nothing
+(m; since 0.4.13)."""
 FIX_PAIR_S = 1.0
 """Largest time between a fix and the depth reading paired with it (s)."""
 MIN_FIXES = 20
@@ -483,6 +488,7 @@ class AtFixes:
     n: int
     t_from: float
     t_to: float
+    antenna_above_m: float = 0.0
 
 
 def depth_at_fixes(
@@ -492,8 +498,11 @@ def depth_at_fixes(
     the water, so the depth meter then reads at most ``antenna_above_m``, the antenna's height
     above it (body z of the meter less the antenna's, lever arms FRD, level vehicle). Each fix is
     paired with the nearest depth reading within :data:`FIX_PAIR_S`; ``under_m`` is the median
-    reading less ``antenna_above_m``. None: fewer than :data:`MIN_FIXES` pairs
-    (docs/robustness.md, 'A depth offset at the surface')."""
+    reading less ``antenna_above_m``, taken as 0 where it is negative (an antenna below the
+    meter) unless the meter reads :data:`SUBMERGED_M` or more: a meter in air reads 0 however
+    high it is (up to 0.4.12 a negative height was always taken as 0, so a lever arm's z sign
+    slipped went unseen). None: fewer than :data:`MIN_FIXES` pairs (docs/robustness.md, 'A
+    depth offset at the surface')."""
     ok = np.isfinite(t_depth) & np.isfinite(depth)
     t_depth, depth = t_depth[ok], depth[ok]
     t_fix = t_fix[np.isfinite(t_fix)]
@@ -509,12 +518,27 @@ def depth_at_fixes(
         return None
     d = float(np.median(depth[j[near]]))
     t = t_fix[near]
-    return AtFixes(d, d - antenna_above_m, int(near.sum()), float(t[0]), float(t[-1]))
+    bound = antenna_above_m if d >= SUBMERGED_M else max(antenna_above_m, 0.0)
+    return AtFixes(d, d - bound, int(near.sum()), float(t[0]), float(t[-1]), antenna_above_m)
 
 
 def surface_cause(at: AtFixes) -> str:
     """What a depth that puts a GNSS antenna under water points to, in words."""
-    above = max(at.depth_m - at.under_m, 0.0)  # at the surface it reads 0 to this
+    if at.antenna_above_m < 0.0 and at.depth_m >= SUBMERGED_M:
+        words = (
+            f"the lever arms put the antenna {-at.antenna_above_m:.3g} m below the depth meter "
+            "(body FRD, z down: an antenna above the meter has the smaller z): is a lever "
+            "arm's z sign wrong?"
+        )
+        if at.depth_m <= AIR_MARGIN_M:  # the reading alone would not have been doubted
+            return words
+        return f"{words} Or {_depth_cause(at, 0.0)}"
+    return _depth_cause(at, max(at.antenna_above_m, 0.0))
+
+
+def _depth_cause(at: AtFixes, above: float) -> str:
+    """The depth's own causes: an atmosphere left in (``above``: the antenna's height above the
+    meter, at the surface it reads 0 to this), a pressure unit, an offset."""
     if 0.75 * ATMOSPHERE_M <= at.depth_m <= 1.25 * ATMOSPHERE_M + above:
         return (
             f"is the depth an absolute pressure (one atmosphere, about {ATMOSPHERE_M:.1f} m of "
