@@ -454,6 +454,19 @@ def _(root):
     toml(root, 'use = "init"', 'use = "aid"')
 
 
+def gps_mirrored(root, seconds):
+    """The GPS's longitude negated (a track mirrored), its fixes kept over the last ``seconds``
+    only (docs/robustness.md, 'A GNSS track mirrored')."""
+    df = rd(root, "gps")
+    df["lon_rad"] = -df["lon_rad"]
+    wr(root, "gps", df[df.t_s > df.t_s.iloc[-1] - seconds].reset_index(drop=True))
+
+
+CASES["gps-lon-negated"] = lambda root: gps_mirrored(root, math.inf)
+CASES["gps-lon-negated-last-240s-only"] = lambda root: gps_mirrored(root, 240.0)
+CASES["gps-lon-negated-last-60s-only"] = lambda root: gps_mirrored(root, 60.0)
+
+
 def run(name, f):
     root = OUT / name
     if root.exists():

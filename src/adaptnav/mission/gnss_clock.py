@@ -98,7 +98,7 @@ def boxed(t: Array, x: CArray, width: float) -> tuple[Array, CArray]:
     return f[half:-half], np.asarray(mean, dtype=complex)
 
 
-def _windows(t: Array, p: CArray, width: float, period: float) -> tuple[float, CArray, Array]:
+def windows(t: Array, p: CArray, width: float, period: float) -> tuple[float, CArray, Array]:
     """The fixes' window means' changes ``a`` over the grid g_k from its start (returned) by
     ``width``, and 1 where no gap of more than clocks.GAP_PERIODS periods lies in the two
     windows (a mean across a gap is a ramp)."""
@@ -134,9 +134,9 @@ def gnss_offset(
     ok = np.isfinite(t) & np.isfinite(north) & np.isfinite(east)
     t, p = t[ok], north[ok] + 1j * east[ok]
     width = max(WINDOW_S, WINDOW_PERIODS * period)
-    if not _long_enough(t, period) or track[0].size < 2:
+    if not long_enough(t, period) or track[0].size < 2:
         return None
-    g0, a, m = _windows(t, p, width, period)
+    g0, a, m = windows(t, p, width, period)
     s, d = boxed(*track, width)
     # One column each: clocks' scan takes a reference's changes (m, intervals) and the IMU
     # side's columns (n, m).
@@ -147,10 +147,10 @@ def gnss_offset(
     ne, en = (clocks.Scan.of(r, s, b, max_offset_s) for r, b in ((ref_e, b_n), (ref_n, b_e)))
     n, saa, sbb = nn.n + ee.n, nn.saa + ee.saa, nn.sbb + ee.sbb
     sab = (nn.sab + ee.sab) + 1j * (ne.sab - en.sab)
-    return _judge(nn.tau, (n, saa, sab, sbb), (ref_n, ref_e), (s, d), _noise(t, p, width))
+    return _judge(nn.tau, (n, saa, sab, sbb), (ref_n, ref_e), (s, d), fix_noise(t, p, width))
 
 
-def _long_enough(t: Array, period: float) -> bool:
+def long_enough(t: Array, period: float) -> bool:
     """Stamps ``t`` (finite ones) of a receiver of period ``period`` (NaN: their median
     interval) span enough windows for a fit: :data:`axes.MIN_INTERVALS` pairs and two more."""
     t = t[np.isfinite(t)]
@@ -160,7 +160,7 @@ def _long_enough(t: Array, period: float) -> bool:
     return float(t[-1] - t[0]) >= (axes.MIN_INTERVALS + 2) * max(WINDOW_S, WINDOW_PERIODS * step)
 
 
-def _noise(t: Array, p: CArray, width: float) -> float:
+def fix_noise(t: Array, p: CArray, width: float) -> float:
     """The variance (m², both components) the fixes' white noise gives a change of their
     window means, ``4 σ² / m`` (m fixes a window, σ² each component's). σ² is taken from the
     fixes' second differences, which a steady course and speed leave at zero: their ``|d|²``
@@ -262,7 +262,7 @@ def check(
     'Sensor clocks'). Nothing without a DVL (a car's GNSS is dated by its course:
     mission/clocks.py). Since 0.4.12."""
     dvl_name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
-    long = [n for n, g in sensors.items() if g.kind == "gnss" and _long_enough(g.t, g.period)]
+    long = [n for n, g in sensors.items() if g.kind == "gnss" and long_enough(g.t, g.period)]
     if dvl_name is None or not long or sensors[dvl_name].t.size < 2:
         return []
     d, dcfg = sensors[dvl_name], config.sensors[dvl_name]

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from adaptnav.core import attitude
 from adaptnav.core.units import G0
-from adaptnav.mission import axes, clocks, dvl_axes, gnss_clock, scales
+from adaptnav.mission import axes, clocks, dvl_axes, gnss_clock, gnss_mirror, scales
 from adaptnav.mission import truth as reference
 from adaptnav.mission.config import (
     SENSOR_LIMITS,
@@ -290,6 +290,10 @@ def cross_check(
     for name, (readings, blocks, dvl) in dvls.items():
         _check_dvl_clocks(config, sensors, name, readings, blocks, dvl, views)
     if config.imu.check_axes:
+        # The track's shape before its clock: a mirrored track dated against the DVL's would
+        # give an offset of no meaning. A mirror is told by the gyro's turns, so only with the
+        # IMU's axes checked (a gyro's z negated mirrors the dead reckoning instead).
+        _check_gnss_mirror(config, views, sensors)
         # After the DVL's clock: the GNSS is dated against the DVL's track, which a DVL seconds
         # off moves (the demo's DVL 10 s early made its right GPS "4.9 s late").
         for f in gnss_clock.check(config, views, sensors):
@@ -299,6 +303,55 @@ def cross_check(
     for name, judged in dvls.items():
         _check_scales(config, views, sensors, name, judged)
     _check_depth_at_fixes(config, {**sensors, **(off or {})})
+
+
+def _check_gnss_mirror(
+    config: MissionConfig, views: axes.ImuViews, sensors: dict[str, SensorData]
+) -> None:
+    """A MissionError naming the GNSS's file and its lat_rad, lon_rad columns when its track is
+    the mirror image of the DVL's dead reckoning (:func:`gnss_mirror.check`; since 0.4.13, up to
+    0.4.12 the demo so ran 3 933 km off, exit 0; docs/robustness.md, 'A GNSS track mirrored').
+    ``scale_check = false`` on the receiver skips it."""
+    for f in gnss_mirror.check(config, views, sensors):
+        file, m = config.sensors[f.name].file, f.mirror
+        if f.earth is not None and f.earth.flipped():
+            _gyro_or_latitude(config, f)
+        raise MissionError(
+            f"{file}: the GNSS track is the mirror image of the DVL's dead reckoning: latitude "
+            f"and longitude swapped, or a hemisphere's sign (E/W, N/S) lost? The changes of the "
+            f"fixes of sensor {f.name!r} (lat_rad, lon_rad) over {m.n // 2} windows from t = "
+            f"{m.t_from:.1f} to {m.t_to:.1f} s follow the track dead-reckoned from DVL "
+            f"{f.dvl!r} ({config.sensors[f.dvl].file}), turned by the gyro, mirrored (scale "
+            f"{m.k:.3g}) with {m.ratio:.3g} times less residual variance than as they are "
+            f"(scale {m.k_direct:.3g}; likelihood ratio {m.log_lr:.0f}, "
+            f"{gnss_mirror.MIN_LOG_LR:g} asked). Fix the table (or the gyro's z axis, if "
+            f"negated), or, if it is right, set [sensors.{f.name}] scale_check = false "
+            "(docs/robustness.md, 'A GNSS track mirrored')",
+            file=file,
+            field="lat_rad",
+        )
+
+
+def _gyro_or_latitude(config: MissionConfig, f: gnss_mirror.Finding) -> None:
+    """The MissionError naming the gyro's z column when GNSS ``f.name``'s track is the mirror
+    image of the DVL's dead reckoning and the gyro's earth rate at rest has the sign of the
+    other hemisphere: its z axis negated (which mirrors the dead reckoning) or the fixes'
+    latitude negated (which moves the earth rate expected) tell the same at load."""
+    assert f.earth is not None
+    e, column = f.earth, imu_columns(config.imu.format)[2]
+    gnss = config.sensors[f.name].file
+    raise MissionError(
+        f"{config.imu.file}: the gyro's z axis ({column}) or the latitude of sensor "
+        f"{f.name!r} ({gnss}, lat_rad): over the alignment's first {e.span_s:g} s at rest the "
+        f"gyros measure a vertical (down) earth rate of {e.rate:.3e} rad/s where "
+        f"{e.expected:.3e} ± {e.sigma:.1e} is expected at the fixes' latitude, and the fixes' "
+        f"track is the mirror image of the DVL's dead reckoning, turned by the gyro (likelihood "
+        f"ratio {f.mirror.log_lr:.0f}): is the gyro's z axis negated, or the latitude's sign "
+        "lost (S written as N)? Fix the table, or, if it is right, set imu.axis_check = false "
+        "(docs/robustness.md, 'A GNSS track mirrored')",
+        file=config.imu.file,
+        field=column,
+    )
 
 
 def _axis_references(config: MissionConfig, sensors: dict[str, SensorData]) -> list[axes.Reference]:
