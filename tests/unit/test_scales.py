@@ -9,6 +9,7 @@ found and named."""
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -254,3 +255,13 @@ def test_an_antenna_below_the_depth_meter_is_under_water_where_the_meter_is() ->
     assert "3.8 m below the depth meter" in scales.surface_cause(at)
     dry = scales.depth_at_fixes(t, np.zeros(t.size), t + 0.2, antenna_above_m=-3.8)
     assert dry is not None and dry.under_m == pytest.approx(0.0)
+
+
+def test_off_course_is_beyond_the_tolerance_and_four_sigma_from_zero() -> None:
+    """The load's warning of a heading a few degrees off (since 0.4.13): beyond
+    scales.WARN_TURN_DEG (2°) and beyond 4 σ, by hand."""
+    fit = partial(scales.Fit, 1.0, 0.01, 12, 0.0, 1.0)
+    assert fit(5.1, 1.1).off_course()  # 5.1 > 2 and > 4.4
+    assert not fit(3.1, 1.1).off_course()  # within 4 σ of zero
+    assert not fit(1.5, 0.1).off_course()  # decided, but under 2°
+    assert fit(-2.5, 0.2).off_course() and not fit(-2.5, 0.2).turned()

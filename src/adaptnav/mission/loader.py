@@ -730,6 +730,52 @@ def _check_dvl_track(
                 file=file,
                 field="vx_m_s",
             )
+        if turn is not None and turn.off_course():
+            _warn_off_course(config, sensors, name, (against, by), turn)
+
+
+def _warn_off_course(
+    config: MissionConfig,
+    sensors: dict[str, SensorData],
+    name: str,
+    words: tuple[str, str],
+    turn: scales.Fit,
+) -> None:
+    """Warn that DVL ``name``'s direction, turned by the heading (``words``: the GNSS track it
+    is judged against, and the heading), lies a few degrees off the GNSS course, decided
+    (:meth:`scales.Fit.off_course`; since 0.4.13, up to 0.4.12 a 5° declination not set on the
+    demo ran 17.8 m RMS against 3.5 m right, silent): a heading sensor's ``declination_deg`` or
+    ``initial.rpy_deg``'s yaw, and the DVL's ``mounting_rpy_deg`` yaw, named with the value
+    that would take the angle off (each the value now plus the angle: the heading, or the
+    DVL's body direction, is that much short). Not an error: a water-track DVL's drift angle
+    in a current gives a few degrees too (docs/robustness.md, 'A heading a few degrees off the
+    GNSS course')."""
+    against, by = words
+    a, dcfg = turn.angle_deg, config.sensors[name]
+    mount = dcfg.mounting_rpy_deg[2] if dcfg.mounting_rpy_deg is not None else 0.0
+    sensor = next((d for d in sensors.values() if d.kind == "heading"), None)
+    if sensor is not None:
+        hcfg = config.sensors[sensor.name]
+        now = hcfg.declination_deg or 0.0
+        heading = (
+            f"a magnetic heading whose declination is not set: declination_deg = {now + a:.1f} in "
+            f"[sensors.{sensor.name}] (now {now:g}; the readings are taken as true headings "
+            "less it)"
+        )
+    else:
+        rpy = config.initial.rpy_deg
+        yaw = rpy[2] if rpy is not None else 0.0
+        heading = f"initial.rpy_deg's yaw off: {yaw + a:.1f}° (now {yaw:.1f}°)"
+    log.warning(
+        "%s: the direction of DVL %r (vx_m_s, vy_m_s), turned by %s, against the course of %s "
+        "from t = %.1f to %.1f s: %+.1f° ± %.2g° off over %d chords (0 expected; beyond %g° and "
+        "%g σ): %s, or the DVL's mounting_rpy_deg yaw not set: %.1f° in [sensors.%s] (now %g)? "
+        "A water-track DVL's drift angle in a current gives a few degrees too. If it is "
+        "right, set [sensors.%s] scale_check = false (docs/robustness.md, 'A heading a few "
+        "degrees off the GNSS course')",
+        dcfg.file, name, by, against, turn.t_from, turn.t_to, a, turn.angle_se_deg, turn.n,
+        scales.WARN_TURN_DEG, scales.CONFIDENCE, heading, mount + a, name, mount, name,
+    )  # fmt: skip
 
 
 def _dvl_heading(

@@ -69,6 +69,11 @@ SPEED_BAND = (0.7, 1.4)
 """The GNSS track's metres per metre of the DVL's displacement a right pair may show."""
 MAX_TURN_DEG = 30.0
 """Largest angle between the DVL's direction (turned by the heading) and the GNSS course."""
+WARN_TURN_DEG = 2.0
+"""Angle between the DVL's direction (turned by the heading) and the GNSS course beyond which,
+decided at :data:`CONFIDENCE` σ, the loader warns (since 0.4.13): a declination or a DVL yaw
+mounting not set. Right missions measure within 0.7° (docs/robustness.md, 'A heading a few
+degrees off the GNSS course')."""
 MAX_YAW_SIGMA_DEG = 10.0
 """Largest σ of a yaw carried by the gyro from the start's heading for a chord to count (°)."""
 CONFIDENCE = axes.CONFIDENCE
@@ -129,6 +134,12 @@ class Fit:
     def turned(self) -> bool:
         """``|angle|`` beyond :data:`MAX_TURN_DEG` even ``CONFIDENCE`` σ down."""
         return abs(self.angle_deg) - CONFIDENCE * self.angle_se_deg > MAX_TURN_DEG
+
+    def off_course(self) -> bool:
+        """``|angle|`` beyond :data:`WARN_TURN_DEG` and not zero even ``CONFIDENCE`` σ in:
+        a turn of a few degrees, decided (since 0.4.13)."""
+        a = abs(self.angle_deg)
+        return a > WARN_TURN_DEG and a > CONFIDENCE * self.angle_se_deg
 
 
 def likely_unit(k: float, units: dict[str, float]) -> str | None:
