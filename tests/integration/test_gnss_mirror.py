@@ -44,6 +44,17 @@ def test_mirrored_gnss_coordinates_are_refused_naming_file_and_columns(
     assert err.value.file == "gps.parquet" and err.value.field == "lat_rad"
 
 
+def test_a_mirrored_track_whose_first_fix_is_missing_is_refused(demo: Path, tmp_path: Path) -> None:
+    """The fixes' local frame starts at the first finite fix (an empty or inf first one would
+    leave no track to judge, and inf a RuntimeWarning)."""
+    root = _gps(demo, tmp_path, "lon negated")
+    df = pd.read_parquet(root / "gps.parquet")
+    df.loc[0, "lat_rad"] = math.nan
+    df.to_parquet(root / "gps.parquet")
+    with pytest.raises(MissionError, match="the GNSS track is the mirror image"):
+        load_mission(root)
+
+
 def test_a_latitude_negated_or_a_gyro_z_negated_is_refused_naming_both(
     demo: Path, tmp_path: Path
 ) -> None:

@@ -206,9 +206,13 @@ def check(
     out = []
     for name in judged:
         g = sensors[name]
-        north, east = axes.flatten(g.z[:, 0], g.z[:, 1])
-        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t)))
-        found = mirror_fit(g.t, north, east, gp, track)
+        # Finite fixes only: the frame's origin is the first, and an inf has no cosine.
+        ok = np.isfinite(g.t) & np.isfinite(g.z[:, 0]) & np.isfinite(g.z[:, 1])
+        if np.count_nonzero(ok) < 3:
+            continue
+        north, east = axes.flatten(g.z[ok, 0], g.z[ok, 1])
+        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t[ok])))
+        found = mirror_fit(g.t[ok], north, east, gp, track)
         if found is not None and found.mirrored():
             lat = float(np.nanmedian(g.z[:, 0]))
             out.append(Finding(name, dvl_name, found, _earth(config, views, lat)))
