@@ -176,6 +176,10 @@ def test_a_gnss_track_gives_the_course_that_a_flipped_gyro_z_contradicts() -> No
     assert _found(m, ref) == []
     flipped = dict(m, dtheta=m["dtheta"] * np.array([1.0, 1.0, -1.0]))
     assert [f.angle for f in _found(flipped, ref)] == ["course"]
+    # The GNSS's longitude negated mirrors the course instead (since 0.4.13 the words say so).
+    tc, chi = axes.course(tg, lat, -lon, sigma_m=0.05)
+    (found,) = _found(m, [axes.Reference("gnss", "course", 2, tc, chi)])
+    assert found.angle == "course" and "track mirrored" in found.cause(), found.cause()
 
 
 # --- the earth rate at rest ------------------------------------------------------------------

@@ -145,13 +145,21 @@ class AxisFinding:
                 "follow them: are its roll and pitch swapped, or in the wrong unit?"
             )
         other = " (or the reference's sense)" if self.angle in ("yaw", "course") else ""
+        # Since 0.4.13: a GNSS's coordinates swapped or a hemisphere's sign lost mirror its
+        # track, so that its course turns the other way, or not with the gyro at all.
+        mirror = (
+            " Or is the GNSS's track mirrored: latitude and longitude swapped, or a "
+            "hemisphere's sign (E/W, N/S) lost?"
+            if self.angle == "course"
+            else ""
+        )
         if k < -MIN_SLOPE:
             if self.instrument == "accelerometer":
                 return (
                     "it turns the opposite way: is an axis's sign flipped (y or z for the roll, "
                     "x for the pitch), or are y and z swapped?"
                 )
-            return f"it turns the opposite way: is the axis's sign flipped{other}?"
+            return f"it turns the opposite way: is the axis's sign flipped{other}?{mirror}"
         if self.instrument == "gyro" and abs(k * deg - 1.0) + CONFIDENCE * se * deg < 0.5:
             return (
                 f"it turns {1.0 / k:.3g} times as far as the reference: rates in deg/s "
@@ -159,7 +167,7 @@ class AxisFinding:
             )
         return (
             "it does not turn with the reference: are two axes swapped, or the sensor's stamps "
-            "off by more than a second (latency_s)?"
+            f"off by more than a second (latency_s)?{mirror}"
         )
 
 
