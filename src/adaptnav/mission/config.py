@@ -465,13 +465,15 @@ class SensorConfig(_Model):
     long gap the filter's own velocity is too uncertain to tell it from the drift
     (docs/robustness.md, 'After a gap'). None: 10 s (``DVL_AFTER_GAP_S``); 0: off."""
     scale_check: StrictBool | None = None
-    """DVL and depth meter only: compare the readings' scale with the other sensors' at load
+    """DVL, depth meter and GNSS: compare the readings' scale with the other sensors' at load
     (a depth's changes with the DVL's vertical velocity on a vehicle that dives, a DVL's speed
     and direction with a GNSS track and a heading sensor) and refuse one clearly off (knots,
     feet, kPa, an axis negated or swapped; since 0.4.10) or, false, do not; on a depth meter
     also the warning when its readings at a GNSS receiver's fixes put the antenna under water
-    (since 0.4.11, 'A depth offset at the surface'); None → true (docs/robustness.md, 'DVL and
-    depth scales')."""
+    (since 0.4.11, 'A depth offset at the surface'); on a DVL also the warning of its direction
+    a few degrees off a GNSS course, on a GNSS receiver the check of its track mirrored against
+    the DVL's dead reckoning (since 0.4.13, 'A heading a few degrees off the GNSS course', 'A
+    GNSS track mirrored'); None → true (docs/robustness.md, 'DVL and depth scales')."""
     declination_deg: Annotated[float, Field(ge=-90.0, le=90.0, allow_inf_nan=False)] | None = None
     """Heading sensor only: the magnetic declination (deg, east positive: magnetic north lies
     east of true north) of a magnetic compass, whose readings are then magnetic headings; each
