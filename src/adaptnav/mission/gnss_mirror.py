@@ -29,6 +29,13 @@ N_eff the mirrored fit's real residuals, two a window, shrunk by their lag-one c
 DVL's 1, stretched by a swap's axis scaling). The track's changes must spread by
 :data:`adaptnav.mission.axes.SIGNAL_FACTOR` times the fixes' own noise, as gnss_clock asks.
 
+A gyro whose z axis is negated mirrors the dead reckoning instead, and looks the same. Where
+the mission aligns at rest, :func:`earth_rate` sets the gyro's mean rate about the local
+vertical against the earth rate's down component ``-Ω sin L`` at the fixes' latitude: of the
+other sign (:meth:`EarthRate.flipped`), the gyro's z or the latitude's sign is wrong (a
+latitude negated both mirrors the fixes and moves the rate expected), and the loader names
+both.
+
 Pure NumPy, no I/O: :func:`check` is called by :func:`adaptnav.mission.loader.cross_check`
 after the DVL's clock and before the GNSS's, which raises the MissionError naming the GNSS's
 file and its ``lat_rad``, ``lon_rad`` columns. Since 0.4.13.
