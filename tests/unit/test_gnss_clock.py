@@ -11,6 +11,7 @@ simulated demo's GPS table."""
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -110,6 +111,23 @@ def test_a_straight_track_at_a_steady_speed_dates_nothing() -> None:
     keep = stamps >= 220.0
     found = gnss_clock.gnss_offset(stamps[keep], north[keep], east[keep], 1.0, track)
     assert found is None or not found.decisive(), found
+
+
+@pytest.mark.parametrize("keep", ["three readings", "last 26 s"])
+def test_a_dvl_track_too_short_for_the_fixes_dates_nothing(keep: str) -> None:
+    """A DVL left with three readings (the rest NaN) or only its last 26 s beside 25 min of
+    fixes: too short a track for a fit, nothing said. Up to 0.4.12 an IndexError in the scan
+    (three readings: no window of the track) or a RuntimeWarning of NaN sums (26 s), found by
+    scripts/odd_inputs_eval.py's dvl-nan-but-3 and dvl-last-26s-only."""
+    rng = np.random.default_rng(5)
+    t, p = _track(rng)
+    stamps, north, east = _fixes(t, p, rng, 0.0)
+    tt, pp = _dead_reckoned(t, p, rng)
+    short = slice(11000, 11003) if keep == "three readings" else slice(-260, None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        found = gnss_clock.gnss_offset(stamps, north, east, 1.0, (tt[short], pp[short]))
+    assert found is None
 
 
 def test_window_means_are_exact_across_a_long_sample_interval() -> None:

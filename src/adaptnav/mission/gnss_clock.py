@@ -136,8 +136,12 @@ def gnss_offset(
     width = max(WINDOW_S, WINDOW_PERIODS * period)
     if not long_enough(t, period) or track[0].size < 2:
         return None
-    g0, a, m = windows(t, p, width, period)
     s, d = boxed(*track, width)
+    if s.size < 2 or float(s[-1] - s[0]) < (axes.MIN_INTERVALS + 2) * width:
+        # A DVL track shorter than the fixes need (three readings left, or its last 26 s):
+        # up to 0.4.12 an IndexError or a NaN in the scan's sums.
+        return None
+    g0, a, m = windows(t, p, width, period)
     # One column each: clocks' scan takes a reference's changes (m, intervals) and the IMU
     # side's columns (n, m).
     b_n, b_e = np.ascontiguousarray(d.real[:, None]), np.ascontiguousarray(d.imag[:, None])
