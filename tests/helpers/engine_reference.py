@@ -27,6 +27,7 @@ from adaptnav.engine.batch import (
     EngineConfig,
     EngineOutput,
     SensorChannel,
+    hole_event,
     nominal_R,
 )
 from adaptnav.estimation import health
@@ -105,6 +106,9 @@ class Navigator:
             self._tau_f = math.inf
         self._have_rates = False
         self._intervals_done = 0
+        self._holes: dict[int, Array] = {}
+        self._hole_events: list[dict[str, Any]] = []
+        self._open_hole: Array | None = None
         self._states: list[Any] = [c.strategy.initial_state(nominal_R(c.model)) for c in channels]
         self._last_epoch = [math.nan] * len(channels)
         self._rejected_since = [math.nan] * len(channels)  # the guard's lockout clock
@@ -126,11 +130,30 @@ class Navigator:
         heapq.heappush(self._pending, (float(t), i, self._seq, row, np.asarray(z, dtype=float)))
         self._seq += 1
 
-    def feed_imu(self, t: ArrayLike, dt: ArrayLike, dtheta: ArrayLike, dvel: ArrayLike) -> None:
+    def feed_imu(
+        self,
+        t: ArrayLike,
+        dt: ArrayLike,
+        dtheta: ArrayLike,
+        dvel: ArrayLike,
+        holes: tuple[ArrayLike, ArrayLike] | None = None,
+    ) -> None:
         """Integrate IMU intervals ``(t_k - dt_k, t_k]`` with increments, processing every queued
-        reading they cover, in time order."""
+        reading they cover, in time order. ``holes``: indices of intervals stretched over lost
+        samples and the variances of their motion (velocity, attitude; body axes), added over
+        the interval as white noise of PSD var / dt (adaptnav.engine.batch._hole_psd)."""
+        self._holes = (
+            {}
+            if holes is None
+            else {
+                int(k): np.asarray(v, dtype=float)
+                for k, v in zip(np.asarray(holes[0]).tolist(), np.asarray(holes[1]), strict=True)
+            }
+        )
         tk = np.atleast_1d(np.asarray(t, dtype=float))
         dts = np.broadcast_to(np.asarray(dt, dtype=float), tk.shape).copy()
+        for k, v in self._holes.items():
+            self._hole_events.append(hole_event(float(tk[k]), float(dts[k]), v.tolist()))
         dth = np.ascontiguousarray(np.atleast_2d(np.asarray(dtheta, dtype=float)))
         dv = np.ascontiguousarray(np.atleast_2d(np.asarray(dvel, dtype=float)))
         start, n = 0, tk.size
@@ -152,6 +175,7 @@ class Navigator:
             k = int(np.searchsorted(tk, self._pending[0][0], side="left"))
             self._bulk(tk, dts, dth, dv, start, k)
             self._begin_interval(float(tk[k] - dts[k]), float(dts[k]), dth[k], dv[k])
+            self._open_hole = self._holes.get(k)
             start = k + 1
 
     def _epoch_in_open_interval(self) -> None:
@@ -172,6 +196,14 @@ class Navigator:
 
     # --- propagation --------------------------------------------------------------------------
 
+    def _q_of(self, hole: Array | None, dt: float) -> Array:
+        """Q's PSDs over an interval of length dt: with a hole's variances spread over it."""
+        if hole is None:
+            return self._q
+        q = self._q.copy()
+        q[:6] += hole / dt
+        return q
+
     def _begin_interval(self, t_start: float, dt: float, dtheta: Array, dvel: Array) -> None:
         w, f = dtheta / dt, dvel / dt
         if not self._have_rates:
@@ -187,8 +219,8 @@ class Navigator:
         if tau > self._offset:
             kernels.propagate_partial(
                 self.x, self.P, self._w_prev, self._f_prev, self._w_cur, self._f_cur,
-                self._dt, self._offset, tau, self._q, self._tau_a, self._tau_g, self._f_lp,
-                self._tau_f,
+                self._dt, self._offset, tau, self._q_of(self._open_hole, self._dt),
+                self._tau_a, self._tau_g, self._f_lp, self._tau_f,
             )  # fmt: skip
             self._offset = tau
         self.t = self._t_start + tau if tau < self._dt else self._t_start + self._dt
@@ -199,7 +231,8 @@ class Navigator:
             self._record()
 
     def _bulk(self, tk: Array, dts: Array, dth: Array, dv: Array, a: int, b: int) -> None:
-        """Whole intervals a..b-1, in compiled runs that end on output epochs."""
+        """Whole intervals a..b-1, in compiled runs that end on output epochs and around each
+        hole (its own run, with its Q: :meth:`_q_of`)."""
         if b <= a:
             return
         if not self._have_rates:
@@ -210,10 +243,13 @@ class Navigator:
         while i < b:
             to_output = every - self._intervals_done % every
             j = min(b, i + to_output)
+            hole = self._holes.get(i)  # a hole alone, with its own Q; else up to the next one
+            j = i + 1 if hole is not None else min([j, *(h for h in self._holes if i < h < j)])
             wp, fp = self._w_cur.copy(), self._f_cur.copy()
             kernels.propagate_run(
                 self.x, self.P, dth[i:j], dv[i:j], dts[i:j], wp, fp,
-                self._q, self._tau_a, self._tau_g, self._f_lp, self._tau_f, 0.0,
+                self._q_of(hole, float(dts[i])), self._tau_a, self._tau_g, self._f_lp,
+                self._tau_f, 0.0,
             )  # fmt: skip
             self._w_cur, self._f_cur = wp, fp
             self._dt = self._offset = float(dts[j - 1])
@@ -456,7 +492,7 @@ class Navigator:
             self.x.copy(),
             self.P.copy(),
             P_cross=np.asarray(r.sol_cross).reshape(-1, 9),
-            events=list(r.events),
+            events=sorted(self._hole_events + r.events, key=lambda e: float(e["t"])),
             q_scale=self._beta,
         )
 
@@ -472,6 +508,7 @@ def run_batch(
     dtheta: ArrayLike,
     dvel: ArrayLike,
     readings: Mapping[str, tuple[ArrayLike, ArrayLike]],
+    imu_holes: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> EngineOutput:
     """Run a whole mission: every reading queued, then the IMU fed through one Navigator.
 
@@ -483,6 +520,6 @@ def run_batch(
         zs = np.asarray(z, dtype=float).reshape(ts.size, -1)
         for row in range(ts.size):
             nav.feed_measurement(name, float(ts[row]), zs[row], row)
-    nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
+    nav.feed_imu(imu_t, imu_dt, dtheta, dvel, imu_holes)
     nav.flush()
     return nav.output()

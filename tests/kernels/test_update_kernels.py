@@ -535,6 +535,44 @@ def test_batch_engine_equals_the_readable_engine(
     _compare(out, ref)
 
 
+def _with_holes(ds: synthetic.Dataset) -> tuple[tuple[Any, ...], tuple[Any, Any]]:
+    """The mission's IMU with three holes, as the loader leaves them (mission.imu_holes): 4, 1
+    and 150 samples lost before rows 400, 1200 and 2000, the rows after them stretched over the
+    hole; and variances of their unknown motion (velocity, attitude)."""
+    n = ds.imu_t.size
+    dts = np.broadcast_to(ds.dt, (n,)).copy()
+    lost = {400: 4, 1200: 1, 2000: 150}
+    keep = np.ones(n, dtype=bool)
+    for k, m in lost.items():
+        keep[k - m : k] = False
+        dts[k] *= m + 1
+    dth, dv = ds.dtheta * (dts / ds.dt)[:, None], ds.dvel * (dts / ds.dt)[:, None]
+    at = np.flatnonzero(np.isin(np.arange(n)[keep], list(lost)))
+    var = np.array([[1e-4, 2e-4, 3e-4, 1e-6, 2e-6, 4e-6]]) * np.array([[1.0], [0.2], [30.0]])
+    return (ds.imu_t[keep], dts[keep], dth[keep], dv[keep]), (at, var)
+
+
+@pytest.mark.parametrize(("kind", "policy"), [("meskf", "exact"), ("vb", "grid")])
+def test_imu_holes_equal_the_readable_engine(kind: str, policy: str) -> None:
+    """The variances of an IMU hole's unknown motion added over its interval as process noise
+    (docs/robustness.md, 'The σ over a hole'): the compiled loop as the readable engine, with
+    readings inside the 1.5-s hole splitting it; each hole an event."""
+    ds, readings = _mission(11)
+    imu, holes = _with_holes(ds)
+    cfg = _every_step(epoch_policy=policy, output_every=7)
+    args = (ds.x0_hat, ds.P0, ds.t0, *imu, readings)
+    out = engine.run_batch(cfg, _channels(kind, ds, False), *args, imu_holes=holes)
+    ref = engine_reference.run_batch(cfg, _channels(kind, ds, False), *args, imu_holes=holes)
+    _compare(out, ref)
+    assert [e["event"] for e in out.events].count(engine.HOLE_EVENT) == 3
+    inside = (readings["dvl"][0] > imu[0][holes[0][2]] - 1.5) & (
+        readings["dvl"][0] < imu[0][holes[0][2]]
+    )
+    assert inside.sum() >= 2  # readings in the long hole
+    plain = engine.run_batch(cfg, _channels(kind, ds, False), *args)
+    assert np.all(out.P_diag[-1, 6:9] > plain.P_diag[-1, 6:9])  # the holes did count
+
+
 # A guard wide open to rejections (p = 0.2) and a divergence guard with a short lockout (0.1 s;
 # 0.4 s after a step, health.is_step) and a low NIS threshold, so that on 30 s every path
 # fires: guard rejections, lockouts, NIS events.

@@ -1054,6 +1054,7 @@ def _run_engine(
         return engine.run_batch(
             config, feed.channels, x0, P0, t0, imu.t[nav_from:], imu.dt[nav_from:],
             imu.dtheta[nav_from:], imu.dvel[nav_from:], feed.readings, progress,
+            imu.holes.after(nav_from) if len(imu.holes) else None,
         )  # fmt: skip
     except engine.PoleError as exc:
         raise FilterError(f"{m.root / CONFIG_NAME}: the {kind} filter stopped: {exc}",
@@ -1087,9 +1088,15 @@ def _with_file_rows(
     elif tables:
         ledger = tables[0]
 
+    holes = m.imu.holes
+    hole_ends = m.imu.t[holes.index]
+
     def file_row(rec: dict[str, Any]) -> dict[str, Any]:
         if rec["sensor"] in rows_of and rec["row"] >= 0:
             return {**rec, "row": int(rows_of[rec["sensor"]][rec["row"]])}
+        if rec["event"] == engine.HOLE_EVENT:  # the IMU file's row after the hole
+            j = min(int(np.searchsorted(hole_ends, rec["t"])), len(holes) - 1)
+            return {**rec, "row": int(holes.row[j])}
         return rec
 
     # Events name the reading that triggered them: the same mapping.

@@ -46,6 +46,7 @@ from adaptnav.mission import (
     calibration,
     load_config,
 )
+from adaptnav.mission.imu_holes import NEAR_S, recent_variance
 from adaptnav.mission.live import LiveScreen, Reading
 from adaptnav.mission.live_cross import CrossWatch
 from adaptnav.mission.live_imu import ImuWatch
@@ -159,13 +160,13 @@ class Stream:
         self._watch = ImuWatch(cfg.imu)
         self._cross = _cross_watch(cfg, periods, cross_check_s, aligning=initial is None)
         self._t_imu = -math.inf
+        self._recent, self._hole_var = _hole_buffers(cfg.imu.rate_hz)
         self._imu_start = math.nan
         """The start of the first IMU interval pushed (the batch run's ``ImuData.start``)."""
         self._nav: engine.Navigator | None = None
         self._t0 = math.nan
         self._info: dict[str, Any] = {}
-        self._seen = 0
-        self._fed = 0
+        self._seen = self._fed = 0
         self._started = math.nan
         self._hold = math.inf
         """The oldest stamp a screen holds back (inf: none): the IMU must not pass it."""
@@ -229,11 +230,13 @@ class Stream:
         if tt - self._lag > due and self._hold > due:
             self._judge(f"IMU sample t = {tt!r} s")  # the window's data are all in
         self._check_imu(tt, step, dth, dv)
+        self._recent.append((dth, dv))
         if step * (1.0 + 1e-9) < tt - self._t_imu < math.inf:
             # A hole before the interval: samples lost. Stretched over it at a constant rate,
             # as the loader stretches a row after lost or dropped ones; the engine would jump
             # the hole, the motion in it lost (up to 0.4.9).
             r = (tt - self._t_imu) / step
+            self._hole_at(tt, r)
             dth, dv, step = _scaled(dth, r), _scaled(dv, r), tt - self._t_imu
         if not self._cross.done:
             self._cross.imu(tt, step, dth, dv)
@@ -244,6 +247,18 @@ class Stream:
             return []  # before a given start: not integrated, as the batch run's nav_from
         self._imu.append((tt, step, dth, dv))
         return self._advance()
+
+    def _hole_at(self, t: float, ratio: float) -> None:
+        """The variances of the unknown motion over the hole before the sample stamped t,
+        stretched by ``ratio``, for the engine (:meth:`Navigator.feed_imu_sample`'s ``hole``),
+        from the samples of the last :data:`~adaptnav.mission.imu_holes.NEAR_S` seconds
+        (mission.imu_holes.recent_variance; docs/streaming.md, 'IMU checks'). Since 0.4.13; up
+        to 0.4.12 P grew over the hole by the IMU's white noise alone."""
+        m = round(ratio)
+        if m < 2:
+            return
+        held = np.array(self._recent)  # (n, 2, 3): Δθ, Δv per sample, the last one this one
+        self._hole_var[t] = recent_variance(held[:, 0], held[:, 1], m, 1)
 
     def _check_imu(self, t: float, dt: float, dth: Vec3, dv: Vec3) -> None:
         """The loader's IMU checks on one sample (:meth:`push_imu`)."""
@@ -416,7 +431,10 @@ class Stream:
         while imu and imu[0][0] < before:
             t, dt, dth, dv = imu.popleft()
             try:
-                nav.feed_imu_sample(t, dt, dth, dv)
+                if self._hole_var:  # an interval stretched over lost samples is queued
+                    nav.feed_imu_sample(t, dt, dth, dv, self._hole_var.pop(t, None))
+                else:
+                    nav.feed_imu_sample(t, dt, dth, dv)
             except engine.PoleError as exc:  # as the batch run says it (runner._run_engine)
                 raise runner.FilterError(
                     f"{CONFIG_NAME}: the {self.settings.kind} filter stopped: {exc}",
@@ -590,6 +608,13 @@ def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:
         name, kind, np.array([r.t for r in readings]), np.array([r.z for r in readings]),
         np.array([r.row for r in readings], dtype=np.int64),
     )  # fmt: skip
+
+
+def _hole_buffers(rate_hz: float) -> tuple[deque[tuple[Vec3, Vec3]], dict[float, Array]]:
+    """A stream's samples' own increments over the last :data:`NEAR_S` seconds and the
+    variances of the holes it has seen by the stamp of the sample after each, not yet fed to
+    the engine (:meth:`Stream._hole_at`)."""
+    return deque(maxlen=math.ceil(NEAR_S * rate_hz) + 1), {}
 
 
 def replay(mission: Mission) -> Iterator[Item]:

@@ -194,6 +194,27 @@ _EVENTS: dict[int, tuple[str, str]] = {
     uk.EVENT_Q: ("q_scale", "innovations correlated: the IMU white noise in Q scaled by "
                  "the factor"),
 }  # fmt: skip
+HOLE_EVENT = "imu_hole"
+"""Event of an IMU interval stretched over lost samples whose unknown motion was added to P."""
+_NO_HOLE_K = np.zeros(0, dtype=np.int64)
+_NO_HOLE_Q = np.zeros((0, 6))
+_ONE_HOLE_K = np.zeros(1, dtype=np.int64)
+
+
+def hole_event(t: float, dt: float, var: Sequence[float]) -> dict[str, Any]:
+    """The event row of an IMU hole: the interval's end t, ``statistic`` its length (s), and
+    the σ (root of the summed variances over the three axes) added to the velocity (m/s) and
+    attitude (degrees) errors (docs/robustness.md, 'The σ over a hole')."""
+    sv, sa = math.sqrt(sum(var[:3])), math.degrees(math.sqrt(sum(var[3:6])))
+    detail = (
+        f"IMU samples lost: the {dt:.6g}-s interval's motion unknown, P grown by σ = {sa:.3g}° "
+        f"in attitude and {sv:.3g} m/s in velocity (the mission's own IMU over as long)"
+    )
+    return dict(
+        zip(EVENT_KEYS, (t, "imu", -1, HOLE_EVENT, dt, math.nan, math.nan, detail), strict=True)
+    )
+
+
 COVARIANCE_BLOCK_S = 0.1
 """Default span of a covariance block (EngineConfig.covariance_block_s; docs/filters.md,
 'Covariance blocks')."""
@@ -386,10 +407,13 @@ def _grow(a: NDArray[Any], need: int) -> NDArray[Any]:
 # rates of the previous and current interval ``rates`` (uk.R_*), and the counters ``icur``.
 
 I_START, I_DONE, I_HAVE_RATES, I_CLOSE, I_N_OUT, I_EVERY, I_HEAD, I_END, I_N_LEDGER = range(9)
+I_HOLE = 9
 """``icur``: next interval of the chunk, intervals completed, rates known, an epoch completed the
 interval, output rows, output decimation, first queued reading, end of the epoch's group,
-ledger rows."""
-N_ICUR = 9
+ledger rows, the chunk's next IMU hole (:func:`_hole_psd`)."""
+N_ICUR = 10
+NO_HOLE = 1 << 62
+"""The next hole's interval index when there is none left in the chunk."""
 _ADVANCE_DONE, _ADVANCE_LATE, _ADVANCE_EPOCH = 0, 1, 2
 NAV_DONE, NAV_PYTHON, NAV_SINGULAR, NAV_NOT_FINITE, NAV_POLE = 0, 1, 2, 3, 4
 _MAX_LAT = earth.MAX_LAT_RAD  # a compile-time constant of the loop
@@ -499,6 +523,33 @@ def _close_block(
 
 
 @jit
+def _hole_psd(
+    q_psd: Array, hole_k: IntArray, hole_q: Array, idx: int, dt: float, icur: IntArray
+) -> tuple[Array, int]:
+    """The PSDs of a step of interval ``idx`` (of length dt) and the chunk's next hole from it
+    on. At an IMU hole h (``hole_k[h] == idx``: an interval stretched over lost samples), the
+    variances of its unknown motion ``hole_q[h]`` (velocity, attitude; body axes,
+    mission.imu_holes) spread over the interval as white noise: ``q_psd[:6] + hole_q[h] / dt``,
+    so that the interval's steps add them to P as process noise (S T over a step of span T,
+    turned into the navigation frame with the step's attitude; docs/robustness.md, 'The σ over
+    a hole'). Moves the pointer ``icur[I_HOLE]`` past the holes before idx. Called only when
+    ``idx`` has reached the next hole: never on a run without holes."""
+    h = icur[I_HOLE]
+    nh = hole_k.shape[0]
+    while h < nh and hole_k[h] < idx:
+        h += 1
+    icur[I_HOLE] = h
+    if h == nh:
+        return q_psd, NO_HOLE
+    if hole_k[h] != idx:
+        return q_psd, hole_k[h]
+    q = q_psd.copy()
+    for c in range(6):
+        q[c] += hole_q[h, c] / dt
+    return q, idx
+
+
+@jit
 def _advance(
     x: Array,
     P: Array,
@@ -506,6 +557,8 @@ def _advance(
     dts: Array,
     dth: Array,
     dv: Array,
+    hole_k: IntArray,
+    hole_q: Array,
     t_next: float,
     grid: bool,
     cur: Array,
@@ -538,8 +591,14 @@ def _advance(
     ``F T`` and ``½ S T`` to the open block (``wsp``, ``N``, its span in ``cur[C_BLOCK]``), which
     is closed once it spans ``block_s`` (0: every step), before an output row and before an
     update; a block still open when the chunk is used up stays open for the next call (P is then
-    as of the block's start until :func:`finish_block`)."""
+    as of the block's start until :func:`finish_block`).
+
+    ``hole_k`` (sorted) and ``hole_q``: the chunk's intervals stretched over lost IMU samples
+    and their variances (:func:`_hole_psd`); empty without holes, when the loop only compares
+    each step's interval index with :data:`NO_HOLE`."""
     n = tk.shape[0]
+    h = icur[I_HOLE]
+    hole_next = hole_k[h] if h < hole_k.shape[0] else NO_HOLE
     wk, q_psd = _engine_work(P, q_psd, rates, wsp)
     Pw = wk[3]
     extra = P.shape[0] > N_STATES  # declared state blocks (errorstate.StateLayout)
@@ -622,8 +681,12 @@ def _advance(
                 decay, T_last = (math.exp(-T / tau_a), math.exp(-T / tau_g), decay_f), T
             if abs(state[0] - ref[0]) >= 0.5 * _SERIES_LAT:
                 ref = _lat_ref(state[0])
+            q_step = q_psd
+            idx = k if whole else icur[I_START] - 1
+            if idx >= hole_next:  # an IMU hole, or past one (rare)
+                q_step, hole_next = _hole_psd(q_psd, hole_k, hole_q, idx, dt, icur)
             state = uk.step(
-                state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_psd, f_lp, N
+                state, ref, wk, wp, fp, wc, fc, dt, ta, tb, decay, inv_tau, q_step, f_lp, N
             )
             cur[uk.C_BLOCK] += T
             if block_full(cur[uk.C_BLOCK], block_s):
@@ -693,6 +756,8 @@ def _navigate(
     dts: Array,
     dth: Array,
     dv: Array,
+    hole_k: IntArray,
+    hole_q: Array,
     q_t: Array,
     q_idx: IntArray,
     grid: bool,
@@ -742,8 +807,8 @@ def _navigate(
         head = icur[I_HEAD]
         t_next = q_t[head] if head < nq else math.inf
         status = _advance(
-            x, P, tk, dts, dth, dv, t_next, grid, cur, rates, icur, q_psd, tau_a, tau_g, tau_f,
-            block_s, out_t, out_x, out_p, sm, ws[uk.WS_PROP], ws[uk.WS_NOISE],
+            x, P, tk, dts, dth, dv, hole_k, hole_q, t_next, grid, cur, rates, icur, q_psd,
+            tau_a, tau_g, tau_f, block_s, out_t, out_x, out_p, sm, ws[uk.WS_PROP], ws[uk.WS_NOISE],
         )  # fmt: skip
         if not _finite(x):
             return NAV_NOT_FINITE
@@ -890,6 +955,7 @@ class Navigator:
         self._out_p = np.zeros((64, layout.n + N_CROSS))
         # One IMU interval for feed_imu_sample: t, dt (1,), dtheta, dvel (1, 3).
         self._one = (np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)))
+        self._hole_events: list[dict[str, Any]] = []
 
     def _build_tables(self) -> None:
         """Per-sensor settings, linearisations and initial adaptation states, packed."""
@@ -1072,9 +1138,21 @@ class Navigator:
             self._st_z = _grow(self._st_z, k + n)
         return k
 
-    def feed_imu(self, t: ArrayLike, dt: ArrayLike, dtheta: ArrayLike, dvel: ArrayLike) -> None:
+    def feed_imu(
+        self,
+        t: ArrayLike,
+        dt: ArrayLike,
+        dtheta: ArrayLike,
+        dvel: ArrayLike,
+        holes: tuple[ArrayLike, ArrayLike] | None = None,
+    ) -> None:
         """Integrate IMU intervals ``(t_k - dt_k, t_k]`` with increments, processing every queued
-        reading they cover, in time order."""
+        reading they cover, in time order. ``holes``: the indices (into this chunk, sorted) of
+        intervals stretched over lost samples and the variances of their unknown motion (n, 6):
+        velocity (m²/s²) then attitude (rad²), body axes (mission.imu_holes); each is added to P
+        over its interval as process noise and recorded as an event ``imu_hole``
+        (docs/robustness.md, 'The σ over a hole'). Since 0.4.13; up to 0.4.12 P grew over such
+        an interval by the IMU's white noise alone."""
         tk = np.require(np.atleast_1d(np.asarray(t, dtype=float)), np.float64, ["C", "W"])
         dts = np.broadcast_to(np.asarray(dt, dtype=float), tk.shape).copy()
         dth = np.require(np.atleast_2d(np.asarray(dtheta, dtype=float)), np.float64, ["C", "W"])
@@ -1085,24 +1163,55 @@ class Navigator:
                 f"IMU: t must be (N,), dtheta and dvel (N, 3); got {tk.shape}, {dth.shape}, "
                 f"{dv.shape}"
             )
-        self._run(tk, dts, dth, dv)
+        hole_k, hole_q = self._holes(tk, dts, holes)
+        self._run(tk, dts, dth, dv, hole_k, hole_q)
 
-    def feed_imu_sample(self, t: float, dt: float, dtheta: ArrayLike, dvel: ArrayLike) -> None:
+    def _holes(
+        self, tk: Array, dts: Array, holes: tuple[ArrayLike, ArrayLike] | None
+    ) -> tuple[IntArray, Array]:
+        """The chunk's holes as the compiled loop takes them, checked, and their events."""
+        if holes is None:
+            return _NO_HOLE_K, _NO_HOLE_Q
+        k = np.ascontiguousarray(np.asarray(holes[0], dtype=np.int64).reshape(-1))
+        q = np.ascontiguousarray(np.asarray(holes[1], dtype=float).reshape(-1, 6))
+        if k.size != q.shape[0] or np.any(np.diff(k) <= 0) or np.any((k < 0) | (k >= tk.size)):
+            raise ValueError("IMU holes: sorted indices into the chunk, one row of 6 each")
+        if not np.all(np.isfinite(q) & (q >= 0.0)):
+            raise ValueError("IMU holes: variances must be finite and >= 0")
+        for j, v in zip(k.tolist(), q.tolist(), strict=True):
+            self._hole_events.append(hole_event(float(tk[j]), float(dts[j]), v))
+        return k, q
+
+    def feed_imu_sample(
+        self,
+        t: float,
+        dt: float,
+        dtheta: ArrayLike,
+        dvel: ArrayLike,
+        hole: ArrayLike | None = None,
+    ) -> None:
         """:meth:`feed_imu` of one interval ``(t - dt, t]``, for a caller that has its samples one
         at a time (adaptnav.api.stream): the same loop, without the conversions of a chunk's
-        arrays (docs/streaming.md, 'Latency')."""
+        arrays (docs/streaming.md, 'Latency'). ``hole``: the interval's 6 variances when it is
+        stretched over lost samples (:meth:`feed_imu`'s ``holes``)."""
         one = self._one
         one[0][0], one[1][0] = t, dt
         one[2][0], one[3][0] = dtheta, dvel
-        self._run(*one)
+        if hole is None:
+            self._run(*one, _NO_HOLE_K, _NO_HOLE_Q)
+        else:  # an interval stretched over lost samples (api.Stream.push_imu)
+            self._run(*one, *self._holes(one[0], one[1], (_ONE_HOLE_K, hole)))
 
-    def _run(self, tk: Array, dts: Array, dth: Array, dv: Array) -> None:
+    def _run(
+        self, tk: Array, dts: Array, dth: Array, dv: Array, hole_k: IntArray, hole_q: Array
+    ) -> None:
         """The compiled loop over the IMU chunk, returning to Python only for the epochs of
         sensors linearised by their ``evaluate``."""
         if self._smoothed is not None:
             raise RuntimeError("the navigator has been smoothed: it takes no more IMU data")
         n = tk.size
         self._icur[I_START] = 0
+        self._icur[I_HOLE] = 0
         self._reserve_output(n // self.config.output_every + 2)
         self._sort_queue()
         self._compile_cold(tk, dts, dth, dv)
@@ -1111,8 +1220,8 @@ class Navigator:
             self._reserve_ledger(pending)
             self._reserve_nodes(n // self.config.output_every + 2, pending)
             status = _navigate(
-                self.x, self._P, tk, dts, dth, dv, self._q_t, self._q_idx, self._grid, self._cur,
-                self._rates, self._icur, self._q, self._tau_a, self._tau_g,
+                self.x, self._P, tk, dts, dth, dv, hole_k, hole_q, self._q_t, self._q_idx,
+                self._grid, self._cur, self._rates, self._icur, self._q, self._tau_a, self._tau_g,
                 self._tau_f, self.config.covariance_block_s, self._out_t,
                 self._out_x, self._out_p, self._st_sensor, self._st_z, self._s_int,
                 self._s_flt, self._s_state, self._rings, self._kind,
@@ -1143,7 +1252,8 @@ class Navigator:
         """Arguments of the types :func:`_navigate` calls :func:`_advance` with."""
         ws = self._ws
         return (
-            self.x, self._P, tk, dts, dth, dv, 0.0, self._grid, self._cur, self._rates,
+            self.x, self._P, tk, dts, dth, dv, _NO_HOLE_K, _NO_HOLE_Q, 0.0, self._grid,
+            self._cur, self._rates,
             self._icur, self._q, self._tau_a, self._tau_g, self._tau_f,
             self.config.covariance_block_s, self._out_t, self._out_x, self._out_p, self._sm,
             ws[uk.WS_PROP], ws[uk.WS_NOISE],
@@ -1233,10 +1343,11 @@ class Navigator:
         self._lg_flt = _grow(self._lg_flt, need)
 
     def _events(self) -> list[dict[str, Any]]:
-        """The event rows so far as dicts (keys :data:`EVENT_KEYS`)."""
+        """The event rows so far as dicts (keys :data:`EVENT_KEYS`), the IMU holes' among them
+        in time order."""
         n = int(self._icur[I_N_LEDGER])
         li, lf = self._lg_int[:n], self._lg_flt[:n]
-        out = []
+        out = list(self._hole_events)
         for r in np.flatnonzero(li[:, uk.L_CODE] >= uk.EVENT_NIS).tolist():
             idx = int(li[r, uk.L_STORE])
             event, detail = _EVENTS[int(li[r, uk.L_CODE])]
@@ -1258,6 +1369,8 @@ class Navigator:
                     )
                 )
             )
+        if self._hole_events:  # stable: an event at a hole's end before the epoch's there
+            out.sort(key=lambda e: float(e["t"]))
         return out
 
     def _ledger(self) -> LedgerRows:
@@ -1597,6 +1710,7 @@ def run_batch(
     dvel: ArrayLike,
     readings: Mapping[str, tuple[ArrayLike, ...]],
     progress: Progress | None = None,
+    imu_holes: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> EngineOutput:
     """Run a whole mission: every reading queued, then the IMU fed through one Navigator.
 
@@ -1605,14 +1719,15 @@ def run_batch(
     ``"filtering"`` before the IMU is fed and, for a smoothed run, ``"smoothing"`` before the
     backward pass. The IMU goes in one piece either way: fed in 50 chunks (for a progress bar)
     a run differed from the one-piece run by up to 5e-16 in the solution (probably the series
-    reference latitude, which the compiled loop takes afresh on each call).
+    reference latitude, which the compiled loop takes afresh on each call). ``imu_holes``:
+    :meth:`Navigator.feed_imu`'s ``holes``.
     """
     say = progress or (lambda _phase: None)
     nav = Navigator(config, channels, x0, P0, t0)
     for name, (t, z, *r_diag) in readings.items():
         nav.feed_measurements(name, t, z, r_diag=r_diag[0] if r_diag else None)
     say("filtering")
-    nav.feed_imu(imu_t, imu_dt, dtheta, dvel)
+    nav.feed_imu(imu_t, imu_dt, dtheta, dvel, imu_holes)
     nav.flush()
     if config.smooth:
         say("smoothing")

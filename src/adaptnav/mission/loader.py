@@ -31,6 +31,7 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
+from adaptnav.mission.imu_holes import WIDE_HOLE_RAD, ImuHoles, find_holes
 from adaptnav.mission.imu_stamps import fit_stamp_grid
 from adaptnav.mission.screening import (
     AFTER_GAP_MADS,
@@ -107,6 +108,9 @@ class ImuData:
     dt: Array
     dtheta: Array
     dvel: Array
+    holes: ImuHoles = field(default_factory=ImuHoles.none)
+    """The intervals stretched over lost or dropped samples and what their motion can be
+    (:mod:`adaptnav.mission.imu_holes`; docs/robustness.md, 'The σ over a hole')."""
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -928,7 +932,29 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     # gravity and the measured specific force stay integrated over the same time.
     dt = np.concatenate([own_dt[:1], gaps])
     scale = (dt / own_dt)[:, None]
-    return ImuData(tk.copy(), dt, v[:, :3] * scale, v[:, 3:] * scale)
+    holes = find_holes(v[:, :3], v[:, 3:], own_dt, dt, rows, med)
+    _warn_wide_holes(table, holes, dt)
+    return ImuData(tk.copy(), dt, v[:, :3] * scale, v[:, 3:] * scale, holes)
+
+
+def _warn_wide_holes(table: Table, holes: ImuHoles, dt: Array) -> None:
+    """A warning for each hole whose motion leaves the attitude unknown beyond
+    :data:`~adaptnav.mission.imu_holes.WIDE_HOLE_RAD` on an axis: the engine adds it to P, but
+    the filter's error model is linear in small angles (docs/robustness.md, 'The σ over a
+    hole')."""
+    sd = np.sqrt(holes.var[:, 3:].max(axis=1)) if len(holes) else np.zeros(0)
+    for j in np.flatnonzero(sd > WIDE_HOLE_RAD).tolist():
+        r = int(holes.row[j])
+        log.warning(
+            "%s: %.6g s of IMU samples lost before %s: the motion in such a hole, by the "
+            "mission's own IMU, leaves the attitude unknown by %.3g° (σ), beyond the small "
+            "angles of the filter's error model: the run after it may be far off its σ "
+            "(lower imu.max_gap_s to refuse such holes); docs/robustness.md, 'The σ over a hole'",
+            table.label,
+            float(dt[holes.index[j]]),
+            table.where(r),
+            math.degrees(float(sd[j])),
+        )
 
 
 def _jittered_stamps(
