@@ -17,7 +17,8 @@ Each case's line is followed by the run without a hole ("clean") scored at the s
 Run it from two checkouts (PYTHONPATH=OLD/src) to compare versions. SCRATCH receives one
 folder per case, removed after it. ``--trapezoid`` prints instead the RMS repair error of the
 mission's own IMU for the stretch of the next sample and for the mean of the samples either
-side (mission.imu_holes), per hole length.
+side (mission.imu_holes), per hole length; ``--lost`` the cases of 'IMU samples lost' (rows
+lost within the default max_gap_s).
 """
 
 from __future__ import annotations
@@ -130,6 +131,30 @@ def window(
     return out
 
 
+def lost_rows(src: Path, scratch: Path, kind: str) -> None:
+    """The cases of docs/robustness.md, 'IMU samples lost' (default max_gap_s): one row lost
+    at 700 s, four in a row there, 1 % of the rows after 601 s lost (isolated, seed 1)."""
+    imu = pd.read_parquet(src / "imu.parquet")
+    t = imu.t_s.to_numpy()
+    at = int(np.searchsorted(t, 700.0))
+    after = np.flatnonzero(t > 601.0)[:-1]
+    rng = np.random.default_rng(1)
+    picks = np.sort(rng.choice(after.size // 2, after.size // 100, replace=False))
+    cases = {"none": [], "1 at 700 s": [at], "4 at 700 s": list(range(at, at + 4)),
+             "1 % isolated": after[2 * picks].tolist()}  # fmt: skip
+    root = scratch / "lost"
+    for name, drop in cases.items():
+        make_hole(src, root, 0.0, 0.0)
+        imu.drop(index=drop).reset_index(drop=True).to_parquet(root / "imu.parquet")
+        m = load(root)
+        met = evaluate.evaluate(api.run(m, kind), m.truth)
+        print(
+            f"{name}\tRMSE {met.rmse_m:.3f} m\tNEES position {met.mean_nees_position:.3g}"
+            f"\tvelocity {met.mean_nees_velocity:.3g}\tattitude {met.mean_nees_attitude:.3g}"
+        )
+    shutil.rmtree(root)
+
+
 def trapezoid(root: Path) -> None:
     """RMS repair error (per axis, mean over axes) of the next sample stretched against the
     mean of the samples either side, over the mission's windows (module docstring)."""
@@ -156,6 +181,9 @@ def main() -> None:
     src, scratch = Path(sys.argv[1]), Path(sys.argv[2])
     if "--trapezoid" in sys.argv:
         trapezoid(src)
+        return
+    if "--lost" in sys.argv:
+        lost_rows(src, scratch, sys.argv[3] if len(sys.argv) > 3 else "robust")
         return
     args = [a for a in sys.argv[3:] if not a.startswith("--")]
     kind = args[0] if args else "robust"

@@ -230,14 +230,17 @@ class Stream:
         if tt - self._lag > due and self._hold > due:
             self._judge(f"IMU sample t = {tt!r} s")  # the window's data are all in
         self._check_imu(tt, step, dth, dv)
-        self._recent.append((dth, dv))
+        self._recent.append((dth, dv, step))
         if step * (1.0 + 1e-9) < tt - self._t_imu < math.inf:
-            # A hole before the interval: samples lost. Stretched over it at a constant rate,
-            # as the loader stretches a row after lost or dropped ones; the engine would jump
-            # the hole, the motion in it lost (up to 0.4.9).
-            r = (tt - self._t_imu) / step
-            self._hole_at(tt, r)
-            dth, dv, step = _scaled(dth, r), _scaled(dv, r), tt - self._t_imu
+            # A hole before the interval: samples lost. Filled at the mean of the rates either
+            # side, as the loader fills the hole before a row after lost or dropped ones (up to
+            # 0.4.12 stretched at a constant rate; up to 0.4.9 the engine jumped the hole).
+            since = tt - self._t_imu
+            self._hole_at(tt, since / step)
+            p_th, p_dv, p_step = self._recent[-2] if len(self._recent) > 1 else self._recent[-1]
+            lost = since - step
+            dth, dv = _filled(dth, p_th, p_step, step, lost), _filled(dv, p_dv, p_step, step, lost)
+            step = since
         if not self._cross.done:
             self._cross.imu(tt, step, dth, dv)
         self._t_imu = tt
@@ -257,8 +260,9 @@ class Stream:
         m = round(ratio)
         if m < 2:
             return
-        held = np.array(self._recent)  # (n, 2, 3): Δθ, Δv per sample, the last one this one
-        self._hole_var[t] = recent_variance(held[:, 0], held[:, 1], m, 1)
+        # (n, 6): Δθ, Δv per sample, the last one this one
+        held = np.array([(*th, *dv) for th, dv, _ in self._recent])
+        self._hole_var[t] = recent_variance(held[:, :3], held[:, 3:], m, 1)
 
     def _check_imu(self, t: float, dt: float, dth: Vec3, dv: Vec3) -> None:
         """The loader's IMU checks on one sample (:meth:`push_imu`)."""
@@ -597,9 +601,13 @@ def _vec3(v: ArrayLike) -> Vec3:
     return x, y, z
 
 
-def _scaled(v: Vec3, r: float) -> Vec3:
-    """``v × r`` (as NumPy's product, element by element)."""
-    return v[0] * r, v[1] * r, v[2] * r
+def _filled(v: Vec3, before: Vec3, dt_before: float, dt: float, lost: float) -> Vec3:
+    """A sample's increments ``v`` over its own ``dt`` and the ``lost`` time before it at the
+    mean of its rate and that of the sample ``before`` (over ``dt_before``): the trapezoid of
+    rates, as the loader fills a hole (mission.loader._filled), element by element."""
+    return tuple(  # type: ignore[return-value]
+        v[c] + lost * (0.5 * (before[c] / dt_before + v[c] / dt)) for c in range(3)
+    )
 
 
 def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:
@@ -610,8 +618,11 @@ def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:
     )  # fmt: skip
 
 
-def _hole_buffers(rate_hz: float) -> tuple[deque[tuple[Vec3, Vec3]], dict[float, Array]]:
-    """A stream's samples' own increments over the last :data:`NEAR_S` seconds and the
+def _hole_buffers(
+    rate_hz: float,
+) -> tuple[deque[tuple[Vec3, Vec3, float]], dict[float, Array]]:
+    """A stream's samples' own increments and intervals over the last :data:`NEAR_S` seconds
+    and the
     variances of the holes it has seen by the stamp of the sample after each, not yet fed to
     the engine (:meth:`Stream._hole_at`)."""
     return deque(maxlen=math.ceil(NEAR_S * rate_hz) + 1), {}
