@@ -24,20 +24,37 @@ def _quadratic_error(m: int, k: int) -> float:
     return total - tail - (m - k) * 0.5 * (1.0 + tail / k)
 
 
+def test_a_ramp_gives_the_error_of_the_stretch_by_hand() -> None:
+    """A hole within the default max_gap_s (m <= 5) is stretched. Increments on a ramp
+    x_j = a + b j: over a window of m rows whose last k hold the repair's increments,
+    Σ x - (m/k) Σ_last_k x = b m (k - m) / 2 (the sums of j by hand), in every window."""
+    n, a, b = 400, 0.3, 0.002
+    x = a + b * np.arange(n, dtype=float)
+    dth = np.stack([x, 2 * x, np.zeros(n)], axis=1)
+    dv = np.stack([np.zeros(n), x, -x], axis=1)
+    for m, k in ((2, 1), (5, 1), (4, 3)):
+        sq, ends = repair_errors(dth, dv, m, k)
+        e = b * m * (k - m) / 2
+        want = np.array([0.0, e, -e, e, 2 * e, 0.0]) ** 2  # velocity, then attitude
+        np.testing.assert_allclose(sq, np.broadcast_to(want, sq.shape), rtol=1e-9, atol=1e-20)
+        assert ends[0] == m and np.all(np.diff(ends) == m)
+
+
 def test_a_quadratic_gives_the_error_of_the_filling_by_hand() -> None:
-    """Increments x_j = c j² (a steadily changing rate of turn): the same e in every window,
-    its square the mean; a ramp alone (k = 1) costs nothing."""
+    """A longer hole is filled with the trapezoid. Increments x_j = c j² (a steadily changing
+    rate of turn): the same e in every window, its square the mean; a ramp alone (k = 1)
+    costs nothing."""
     n, c = 400, 1e-7
     j = np.arange(n, dtype=float)
     dth = np.stack([c * j * j, 0.3 + 0.002 * j, np.zeros(n)], axis=1)
     dv = np.stack([np.zeros(n), -c * j * j, 2 * c * j * j], axis=1)
-    for m in (2, 5, 40):
+    for m in (6, 10, 40):
         sq, ends = repair_errors(dth, dv, m, 1)
         e = c * _quadratic_error(m, 1)
         want = np.array([0.0, e, 2 * e, e, 0.0, 0.0]) ** 2  # velocity, then attitude
         np.testing.assert_allclose(sq, np.broadcast_to(want, sq.shape), rtol=1e-6, atol=1e-24)
         assert ends[0] == m and np.all(np.diff(ends) == (m if (n - 1) // m >= 8 else 1))
-    assert _quadratic_error(5, 1) == -20.0  # 30 - 16 - 4 (1 + 16) / 2
+    assert _quadratic_error(6, 1) == -35.0  # 55 - 25 - 5 (1 + 25) / 2
 
 
 def test_rows_holding_part_of_the_hole() -> None:
@@ -46,7 +63,7 @@ def test_rows_holding_part_of_the_hole() -> None:
     n = 300
     x = np.arange(n, dtype=float) * 1e-5
     dth = np.stack([x, x, x], axis=1)
-    for m, k in ((3, 2), (7, 3)):
+    for m, k in ((7, 2), (12, 5)):
         tail = sum(range(m - k, m))
         e = 1e-5 * ((m - 1) * m / 2 - tail - (m - k) * 0.5 * (-1.0 + tail / k))
         sq, _ = repair_errors(dth, dth, m, k)
@@ -63,12 +80,12 @@ def test_a_constant_rate_costs_nothing() -> None:
 
 def test_holes_are_found_with_their_periods_rows_and_local_motion() -> None:
     """Two holes: 4 periods lost before index 300 (m = 5, k = 1) and 1 before index 2500
-    (m = 2). The motion is still but for a steadily changing rate of the x gyro from 200 to
-    400; the table is short (30 s), so every window is near both holes: each takes the mean
-    square of the filling's error over the table."""
-    n, p, c = 3000, 0.01, 1e-8
+    (m = 2). The motion is still but for a ramp of the x gyro from 200 to 400; the table is
+    short (30 s), so every window is near both holes: each takes the mean square of the
+    stretch's error over the table."""
+    n, p, c = 3000, 0.01, 1e-4
     dth, dv = np.zeros((n, 3)), np.zeros((n, 3))
-    dth[200:400, 0] = c * np.arange(200) ** 2
+    dth[200:400, 0] = c * np.arange(200)
     own = np.full(n, p)
     dt = own.copy()
     dt[300], dt[2500] = 5 * p, 2 * p
@@ -78,7 +95,7 @@ def test_holes_are_found_with_their_periods_rows_and_local_motion() -> None:
     assert holes.periods.tolist() == [5, 2] and holes.held.tolist() == [1, 1]
     sq5, ends5 = repair_errors(dth, dv, 5, 1)
     inside = (ends5 >= 205) & (ends5 < 400)
-    assert sq5[inside, 3] == pytest.approx((c * _quadratic_error(5, 1)) ** 2, rel=1e-9)
+    assert sq5[inside, 3] == pytest.approx((c * 5 * (1 - 5) / 2) ** 2, rel=1e-9)
     assert holes.var[0, 3] == pytest.approx(sq5[:, 3].mean(), rel=1e-12)
     sq2, _ = repair_errors(dth, dv, 2, 1)
     assert holes.var[1, 3] == pytest.approx(sq2[:, 3].mean(), rel=1e-12)

@@ -573,21 +573,35 @@ def _increments_mission(tmp_path: Path, inc: pd.DataFrame, **imu: Any) -> Path:
 def test_increments_after_lost_samples_are_stretched(tmp_path: Path) -> None:
     # Two samples lost (rows 40, 41): row 42's increments cover its own T, not the 3 T since
     # row 39. Up to 0.4.8 they were taken over 3 T (gravity integrated over 3 T against a
-    # specific force of one: 0.2 m/s down), from 0.4.9 to 0.4.12 scaled by 3, as after a NaN
-    # row; since 0.4.13 the 2 T lost are filled at the mean rate of rows 39 and 42 (the
-    # trapezoid): row 42's own increments plus those of rows 39 and 42.
+    # specific force of one: 0.2 m/s down), since 0.4.9 scaled by 3, as after a NaN row.
     inc = _noisy_increments()
     root = _increments_mission(tmp_path, inc.drop(index=[40, 41]))
     m = load_mission(root)
     assert len(m.imu) == 78
     assert m.imu.dt[40] == pytest.approx(3 * T)
-    for got, cols in ((m.imu.dvel[40], slice(4, 7)), (m.imu.dtheta[40], slice(1, 4))):
-        want = 2 * inc.iloc[42, cols].to_numpy() + inc.iloc[39, cols].to_numpy()
-        np.testing.assert_allclose(got, want, rtol=1e-9)
+    np.testing.assert_allclose(m.imu.dvel[40], 3 * inc.iloc[42, 4:].to_numpy(), rtol=1e-12)
+    np.testing.assert_allclose(m.imu.dtheta[40], 3 * inc.iloc[42, 1:4].to_numpy(), rtol=1e-12)
     (r,) = m.repairs
     assert (r.file, r.line, r.field) == ("imu.csv", 42, "t_s")
     assert r.action == "stretched increments over lost samples"
     assert "about 2 sample(s) lost" in r.detail
+
+
+def test_a_hole_beyond_the_default_gap_is_filled_with_the_trapezoid(tmp_path: Path) -> None:
+    # Rows 30-39 lost (10 T, max_gap_s raised to 20 T): since 0.4.13 the 10 T are filled at
+    # the mean of the rates of rows 29 and 40, the trapezoid of rates (row 40's own increments
+    # plus 5 times rows 29's and 40's); up to 0.4.12 row 40's increments times 11 (its rate
+    # over the whole hole). A hole within the default max_gap_s is stretched as before (the
+    # tests above).
+    inc = _noisy_increments()
+    root = _increments_mission(tmp_path, inc.drop(index=range(30, 40)), max_gap_s=20 * T)
+    m = load_mission(root)
+    assert m.imu.dt[30] == pytest.approx(11 * T)
+    for got, cols in ((m.imu.dvel[30], slice(4, 7)), (m.imu.dtheta[30], slice(1, 4))):
+        want = 6 * inc.iloc[40, cols].to_numpy() + 5 * inc.iloc[29, cols].to_numpy()
+        np.testing.assert_allclose(got, want, rtol=1e-9)
+    (r,) = m.repairs
+    assert "filled at the mean of the rates either side" in r.detail
 
 
 @pytest.mark.parametrize("jitter", [0.0, 0.2])
@@ -603,9 +617,7 @@ def test_increments_after_a_sample_lost_before_the_last_row(tmp_path: Path, jitt
     assert (r.line, r.action) == (len(inc), "stretched increments over lost samples")  # CSV line
     assert "about 1 sample(s) lost" in r.detail
     assert m.imu.dt[-1] == pytest.approx(2 * T, rel=0.02)
-    # filled at the mean rate of the rows either side (since 0.4.13; the row doubled before)
-    want = inc.iloc[-1, 4:].to_numpy() + 0.5 * (inc.iloc[-3, 4:] + inc.iloc[-1, 4:]).to_numpy()
-    np.testing.assert_allclose(m.imu.dvel[-1], want, rtol=0.02, atol=1e-8)
+    np.testing.assert_allclose(m.imu.dvel[-1], 2 * inc.iloc[-1, 4:].to_numpy(), rtol=0.02)
 
 
 def _rows_40_41_lost(
@@ -623,13 +635,10 @@ def test_increments_of_part_of_a_hole_are_stretched_over_it(tmp_path: Path) -> N
     # Row 40 lost, row 41's increments added to row 42 (an IMU that accumulates until read,
     # after a lost sample): row 42 holds 2 T of increments over the 3 T since row 39. Since
     # 0.4.9 (second version) taken as 2 T and scaled by 3/2; the first version knew only 1 T
-    # or the whole interval and kept 3 T (a 0.1-m/s down-velocity step on the demo). Since
-    # 0.4.13 the T lost is filled at the mean of row 39's rate and row 42's (its 2 T's):
-    # 1.25 times row 42's increments plus half row 39's.
+    # or the whole interval and kept 3 T (a 0.1-m/s down-velocity step on the demo).
     inc, cols, m = _rows_40_41_lost(tmp_path, accumulated_from=41)
     assert m.imu.dt[40] == pytest.approx(3 * T)
-    want = 1.25 * inc.loc[42, cols[3:]].to_numpy() + 0.5 * inc.loc[39, cols[3:]].to_numpy()
-    np.testing.assert_allclose(m.imu.dvel[40], want, rtol=1e-9)
+    np.testing.assert_allclose(m.imu.dvel[40], 1.5 * inc.loc[42, cols[3:]].to_numpy(), rtol=1e-12)
     (r,) = m.repairs
     assert r.action == "stretched increments over lost samples"
     assert "about 1 sample(s) lost" in r.detail and "scaled by 1.5" in r.detail
@@ -751,9 +760,7 @@ def test_jittered_stamps_with_lost_samples(tmp_path: Path) -> None:
         "stretched increments over lost samples",
     ]
     assert m.imu.dt[200] == pytest.approx(3 * T, rel=0.02)
-    # the 2 T lost filled at the mean rate of rows 199 and 202 (since 0.4.13; tripled before)
-    want = 2 * inc.iloc[202, 4:].to_numpy() + inc.iloc[199, 4:].to_numpy()
-    np.testing.assert_allclose(m.imu.dvel[200], want, rtol=0.02, atol=1e-8)
+    np.testing.assert_allclose(m.imu.dvel[200], 3 * inc.iloc[202, 4:].to_numpy(), rtol=0.02)
     assert np.max(np.abs(m.imu.t - np.delete(grid, [200, 201]))) < 0.05 * T
 
 

@@ -46,7 +46,7 @@ from adaptnav.mission import (
     calibration,
     load_config,
 )
-from adaptnav.mission.imu_holes import NEAR_S, recent_variance
+from adaptnav.mission.imu_holes import NEAR_S, recent_variance, trapezoid
 from adaptnav.mission.live import LiveScreen, Reading
 from adaptnav.mission.live_cross import CrossWatch
 from adaptnav.mission.live_imu import ImuWatch
@@ -232,14 +232,18 @@ class Stream:
         self._check_imu(tt, step, dth, dv)
         self._recent.append((dth, dv, step))
         if step * (1.0 + 1e-9) < tt - self._t_imu < math.inf:
-            # A hole before the interval: samples lost. Filled at the mean of the rates either
-            # side, as the loader fills the hole before a row after lost or dropped ones (up to
-            # 0.4.12 stretched at a constant rate; up to 0.4.9 the engine jumped the hole).
+            # A hole before the interval: samples lost. Stretched over it at a constant rate, or
+            # beyond the default max_gap_s filled at the mean of the rates either side, as the
+            # loader does (since 0.4.13; up to 0.4.9 the engine jumped the hole).
             since = tt - self._t_imu
             self._hole_at(tt, since / step)
-            p_th, p_dv, p_step = self._recent[-2] if len(self._recent) > 1 else self._recent[-1]
-            lost = since - step
-            dth, dv = _filled(dth, p_th, p_step, step, lost), _filled(dv, p_dv, p_step, step, lost)
+            if trapezoid(round(since / step)):  # a long hole: the trapezoid of rates
+                p_th, p_dv, p_step = self._recent[-2] if len(self._recent) > 1 else self._recent[-1]
+                lost = since - step
+                dth = _filled(dth, p_th, p_step, step, lost)
+                dv = _filled(dv, p_dv, p_step, step, lost)
+            else:
+                dth, dv = _scaled(dth, since / step), _scaled(dv, since / step)
             step = since
         if not self._cross.done:
             self._cross.imu(tt, step, dth, dv)
@@ -599,6 +603,11 @@ def _vec3(v: ArrayLike) -> Vec3:
     """Three floats of ``v`` (ValueError for another size), a copy."""
     x, y, z = np.asarray(v, dtype=float).reshape(3).tolist()
     return x, y, z
+
+
+def _scaled(v: Vec3, r: float) -> Vec3:
+    """``v × r`` (as NumPy's product, element by element)."""
+    return v[0] * r, v[1] * r, v[2] * r
 
 
 def _filled(v: Vec3, before: Vec3, dt_before: float, dt: float, lost: float) -> Vec3:

@@ -1,22 +1,25 @@
-"""IMU holes: what the motion over a filled interval can be (docs/robustness.md, 'The σ over a
-hole').
+"""IMU holes: what the motion over a stretched or filled interval can be (docs/robustness.md,
+'The σ over a hole').
 
-Where samples are lost (or dropped for a non-finite value) the loader fills the hole before
-the next row with the mean of the rates of the rows either side, the trapezoid of rates
-(loader._filled). The motion in the hole is unknown; its error is that of the filling. For a
-hole of m periods whose row holds the increments of its last k (the row after lost samples:
-k = 1), the error of the repair is, per axis,
+Where samples are lost (or dropped for a non-finite value) the loader stretches the next
+row's increments over the hole (a hole within the default ``imu.max_gap_s``) or fills the
+lost time with the mean of the rates of the rows either side, the trapezoid of rates (a
+longer one, :func:`trapezoid`; loader._filled). The motion in the hole is unknown; its error
+is that of the repair. For a hole of m periods whose row holds the increments of its last k
+(the row after lost samples: k = 1), the error of the repair is, per axis,
 
-    e = Σ_{j=1..m} x_j - [T_k + (m - k) (x_0 + T_k / k) / 2],   T_k = Σ_{j=m-k+1..m} x_j
+    e = Σ_{j=1..m} x_j - (m / k) T_k                                   (stretched)
+    e = Σ_{j=1..m} x_j - [T_k + (m - k) (x_0 + T_k / k) / 2]           (filled)
 
-(x the increments of one period, x_0 the row before the hole; the first sum what happened,
-the bracket what the repair makes of it). Its mean square over the table, in non-overlapping
-windows of m rows, is the variance the engine adds to P over the interval: the gyro's to the
-attitude error, the accelerometers' to the velocity error (body axes; the engine turns them
-into the navigation frame with the step's attitude). The mean is taken over every window and
-over those near the hole (the larger of the two): the mission's own IMU says how fast it turns
-and accelerates in windows as long as the hole, and where. No guess, no setting. Cost: one
-pass over the table per distinct (m, k), only when there are holes.
+with T_k = Σ_{j=m-k+1..m} x_j (x the increments of one period, x_0 the row before the hole;
+the first sum what happened, the rest what the repair makes of it). Its mean square over the
+table, in non-overlapping windows of m rows, is the variance the engine adds to P over the
+interval: the gyro's to the attitude error, the accelerometers' to the velocity error (body
+axes; the engine turns them into the navigation frame with the step's attitude). The mean
+is taken over every window and over those near the hole (the larger of the two): the
+mission's own IMU says how fast it turns and accelerates in windows as long as the hole, and
+where. No guess, no setting. Cost: one pass over the table per distinct (m, k), only when
+there are holes.
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from adaptnav.mission.config import DEFAULT_GAP_PERIODS
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -74,14 +79,22 @@ class ImuHoles:
         return self.index[keep] - start, np.ascontiguousarray(self.var[keep])
 
 
+def trapezoid(m: int) -> bool:
+    """Whether a hole of m periods is filled with the trapezoid of rates (beyond the default
+    ``imu.max_gap_s``, :data:`~adaptnav.mission.config.DEFAULT_GAP_PERIODS` periods) rather
+    than stretched at the next row's rate (docs/robustness.md, 'The σ over a hole')."""
+    return m > DEFAULT_GAP_PERIODS
+
+
 def repair_errors(
     dtheta: Array, dvel: Array, m: int, k: int, tiled: bool | None = None
 ) -> tuple[Array, IntArray]:
     """The squares of ``e`` (module docstring) per axis over the table's windows of m rows
     after its first (each needs the row before it), (W, 6), velocity then attitude, and the
-    windows' last rows (W,). ``dtheta``, ``dvel``: (N, 3), one period each. Non-overlapping
-    windows (``tiled``; by default when there are :data:`MIN_WINDOWS` of them), or every
-    window of a short table."""
+    windows' last rows (W,): of the trapezoid's filling when :func:`trapezoid` (m), else of
+    the stretch. ``dtheta``, ``dvel``: (N, 3), one period each. Non-overlapping windows
+    (``tiled``; by default when there are :data:`MIN_WINDOWS` of them), or every window of a
+    short table."""
     n = dtheta.shape[0]
     if n < m + 1:
         return np.zeros((0, 6)), np.zeros(0, dtype=np.int64)
@@ -96,8 +109,11 @@ def repair_errors(
         np.cumsum(x, axis=0, out=s[1:])
         total = s[starts + m] - s[starts]
         tail = s[starts + m] - s[starts + m - k]
-        before = s[starts] - s[starts - 1]
-        e = total - tail - (m - k) * 0.5 * (before + tail / k)
+        if trapezoid(m):
+            before = s[starts] - s[starts - 1]
+            e = total - tail - (m - k) * 0.5 * (before + tail / k)
+        else:
+            e = total - (m / k) * tail
         out[:, 3 * c : 3 * c + 3] = e * e
     return out, (starts + m - 1).astype(np.int64)
 

@@ -31,7 +31,7 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
-from adaptnav.mission.imu_holes import WIDE_HOLE_RAD, ImuHoles, find_holes
+from adaptnav.mission.imu_holes import WIDE_HOLE_RAD, ImuHoles, find_holes, trapezoid
 from adaptnav.mission.imu_stamps import fit_stamp_grid
 from adaptnav.mission.screening import (
     AFTER_GAP_MADS,
@@ -939,15 +939,16 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
 
 def _filled(v: Array, own_dt: Array, dt: Array, holes: ImuHoles) -> tuple[Array, Array]:
     """The increments over the intervals ``dt``: a row's own over its own interval, scaled by
-    the ratio of the two (1 but at the holes); at a hole (samples lost or dropped before the
-    row), the row's own increments plus the lost time at the mean of the rates of the rows
-    either side, the trapezoid of rates (docs/robustness.md, 'The σ over a hole'). Since
-    0.4.13; up to 0.4.12 the row's own rate over the whole interval (the row's increments
-    scaled by the ratio), from 1.6 (1 s lost) to 2 (10 s) times the error of the trapezoid on
-    the demo's and paper-1's own IMU."""
+    the ratio of the two (1 but at the holes: the row's rate over the hole, a constant rate);
+    at a hole beyond the default ``imu.max_gap_s`` (imu_holes.trapezoid), the row's own
+    increments plus the lost time at the mean of the rates of the rows either side, the
+    trapezoid of rates (docs/robustness.md, 'The σ over a hole'). Since 0.4.13; up to 0.4.12
+    every hole was stretched at the row's rate, 1.3 (60 s lost) to 6 (1 s) times the RMS error
+    of the trapezoid on the demo's and paper-1's own IMU."""
     scale = (dt / own_dt)[:, None]
     out = v[:, :3] * scale, v[:, 3:] * scale
-    j = holes.index[holes.index > 0]
+    long = np.array([trapezoid(int(m)) for m in holes.periods.tolist()], dtype=bool)
+    j = holes.index[long & (holes.index > 0)]
     lost = (dt[j] - own_dt[j])[:, None]
     for c, x in enumerate(out):
         cols = slice(3 * c, 3 * c + 3)
@@ -1110,9 +1111,14 @@ def _lost_samples(
             TIME_COLUMN,
             "stretched increments over lost samples",
             f"{own_dt[k]:.6g} s since the previous row, and increments of {p:.6g} s: about "
-            f"{round((own_dt[k] - p) / local):d} sample(s) lost, the hole filled at the mean of "
-            f"the rates either side (up to 0.4.12 the row's increments scaled by "
-            f"{own_dt[k] / p:.4g}, a constant rate)",
+            f"{round((own_dt[k] - p) / local):d} sample(s) lost, the row's increments scaled "
+            f"by {own_dt[k] / p:.4g} (constant rate over the hole)"
+            + (
+                " or, beyond the default max_gap_s, the hole filled at the mean of the rates "
+                "either side"
+                if trapezoid(round(own_dt[k] / local))
+                else ""
+            ),
         )
         own_dt[k] = p
 
