@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -226,6 +227,37 @@ def test_a_table_stamped_seconds_off_is_refused_at_load_naming_the_latency(
 def test_right_stamps_and_axis_check_false_load(demo: Path, tmp_path: Path) -> None:
     assert load_mission(_shifted(demo, tmp_path / "a", "heading.parquet", 0.0)).sensors
     assert load_mission(_shifted(demo, tmp_path / "b", "heading.parquet", 18.0, False)).sensors
+
+
+def _holed(demo: Path, root: Path, t0: float, length: float) -> Path:
+    """The demo with its IMU rows in (t0, t0 + length] lost and ``imu.max_gap_s`` above it."""
+    shutil.copytree(demo, root)
+    toml = root / "mission.toml"
+    toml.write_text(toml.read_text().replace("[imu]\n", f"[imu]\nmax_gap_s = {length + 1}\n", 1))
+    imu = pd.read_parquet(root / "imu.parquet")
+    keep = (imu.t_s <= t0 + 1e-9) | (imu.t_s > t0 + length + 1e-9)
+    imu[keep].reset_index(drop=True).to_parquet(root / "imu.parquet", index=False)
+    return root
+
+
+@pytest.mark.parametrize(("table", "late_s"), [(None, 0.0), ("inclinometer", 18.0), ("dvl", 18.0)])
+def test_an_imu_hole_is_left_out_of_the_clocks_fits(
+    demo: Path, tmp_path: Path, table: str | None, late_s: float
+) -> None:
+    """60 s of the demo's IMU lost at 830 s (``max_gap_s`` raised): the gyro's integral is a
+    ramp across the hole, and up to 0.4.12 the right inclinometer was refused as "stamped 54.9
+    s after its readings". The intervals whose lags reach the hole are left out
+    (clocks.Reference.without_holes): the right mission loads, and stamps 18 s late are still
+    dated."""
+    root = _holed(demo, tmp_path / "m", 830.0, 60.0)
+    if table is None:
+        assert load_mission(root).sensors
+        return
+    df = pd.read_parquet(root / f"{table}.parquet")
+    df["t_s"] += late_s
+    df.to_parquet(root / f"{table}.parquet", index=False)
+    with pytest.raises(MissionError, match=f"'{table}' lie 18.0 ± 0.1 s after"):
+        load_mission(root)
 
 
 def test_an_offset_within_two_periods_of_a_slow_sensor_is_a_warning(

@@ -225,6 +225,28 @@ class Reference:
         m = (t[i] - t[i - 1] <= GAP_PERIODS * period).astype(float)
         return cls(float(t[0]), step, a * m, m)
 
+    def without_holes(self, t: Array, span: float) -> Reference:
+        """Without the intervals whose lags within ±``span`` reach a hole of the series'
+        stamps ``t``: an interval longer than :data:`adaptnav.mission.axes.IMU_HOLE_S` and
+        :data:`GAP_PERIODS` of the series' median spacing (IMU samples lost, bridged by the
+        loader's repair at a rate assumed; a DVL's gap under a depth's series), across which
+        the series' change is a ramp. The same intervals are left out at every lag, as
+        :meth:`robust` leaves the ends (since 0.4.13: up to 0.4.12 the demo with 60 s of IMU
+        lost at 830 s and ``imu.max_gap_s`` raised was refused: its inclinometer "stamped
+        54.9 s after its readings")."""
+        gaps = np.diff(t)
+        if gaps.size == 0:
+            return self
+        i = np.flatnonzero(gaps > max(axes.IMU_HOLE_S, GAP_PERIODS * float(np.median(gaps))))
+        if not i.size:
+            return self
+        g = self.t0 + self.step * np.arange(self.a.shape[1] + 1)
+        start, end = t[i], t[i + 1]  # disjoint and in order: the last starting before an
+        k = np.searchsorted(start, g[1:] + span, side="left")  # interval's end is the only
+        hit = (k > 0) & (end[np.maximum(k - 1, 0)] > g[:-1] - span)  # one reaching its start
+        m = self.m * ~hit
+        return Reference(self.t0, self.step, self.a * m, m)
+
     def robust(self, t: Array, theta: Array, max_offset_s: float) -> Reference:
         """Only the intervals the IMU's ``t`` covers at every lag within ±``max_offset_s`` (the
         same intervals judged at each lag: a stretch of larger noise at one end would otherwise
@@ -350,6 +372,7 @@ def series_offset(
     if t.size <= axes.MIN_INTERVALS:
         return None
     ref = Reference.of(t, values, series.dt)
+    ref = ref.without_holes(series.t, _span(ref.step, max_offset_s))
     theta = np.ascontiguousarray(series.values)  # one copy of the columns, not one a phase
     if robust:
         ref = ref.robust(series.t, theta, _span(ref.step, max_offset_s))
