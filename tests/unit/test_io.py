@@ -791,6 +791,69 @@ def test_frozen_imu_is_an_error(tmp_path: Path) -> None:
     assert "every IMU value unchanged for 1.21 s" in load_error(root)
 
 
+@pytest.mark.parametrize(
+    ("column", "held"),
+    [("dtheta_z_rad", "zero"), ("dtheta_x_rad", "last"), ("dvel_x_m_s", "last")],
+)
+def test_one_stuck_imu_channel_is_an_error(tmp_path: Path, column: str, held: str) -> None:
+    """One channel of a noisy increments table held (at 0, or at row 399's value) from row 400
+    to the end, 6 s, while the other five move: refused naming the column, its first repeated
+    line and the span (up to 0.4.12 only all six frozen at once were: the demo with its gyro x
+    zero from 750 s ran with exit 0). ``imu.channel_stuck_s`` above the span, or ``stuck_s = 0``
+    (the default is tied to it), takes it."""
+    inc = _noisy_increments(1000)
+    value = 0.0 if held == "zero" else float(inc.loc[399, column])
+    inc.loc[400:, column] = value
+    first = 402 if held == "zero" else 401  # CSV line of the value's first row (row 0: line 2)
+    root = _increments_mission(tmp_path, inc)
+    msg = load_error(root)
+    assert msg.startswith(f"imu.csv line {first + 1}, {column}: unchanged at "), msg
+    t0 = 10.0 + (first - 2) * T
+    assert f"for {19.99 - t0:.6g} s, from imu.csv line {first} (t = {t0:.2f}".rstrip("0") in msg
+    assert "to imu.csv line 1001 (t = 19.99" in msg
+    assert "changed on 100% of those samples" in msg and "a channel stuck or dead" in msg
+    assert f"set imu.channel_stuck_s above {19.99 - t0:.6g} s" in msg
+    assert len(load_mission(_increments_mission(tmp_path, inc, channel_stuck_s=7.0)).imu) == 1000
+    assert len(load_mission(_increments_mission(tmp_path, inc, stuck_s=0.0)).imu) == 1000
+
+
+def test_a_channel_stuck_shorter_than_the_limit_is_taken(tmp_path: Path) -> None:
+    # 4.99 s held, the default limit 5 s (5 × stuck_s); and with stuck_s = 0.5, 2.5 s: refused.
+    inc = _noisy_increments(1000)
+    inc.loc[500:, "dvel_z_m_s"] = -G0 * T
+    assert len(load_mission(_increments_mission(tmp_path, inc)).imu) == 1000
+    msg = load_error(_increments_mission(tmp_path, inc, stuck_s=0.5))
+    assert msg.startswith("imu.csv line 503, dvel_z_m_s: unchanged at "), msg
+
+
+def test_a_quantized_imu_at_rest_is_not_a_stuck_channel(tmp_path: Path) -> None:
+    """Gyros quantized at 1e-3 rad/s, ten times their noise: at rest (8 s) each reads 0 on every
+    sample, then turning they change on most samples; the accelerometers (fine steps) move
+    throughout. Each gyro is unchanged for 8 s, but so are the others of its triad: coarse
+    steps, not a stuck channel. A gyro whose steps are that coarse throughout (it repeats on
+    most samples elsewhere too) is not one either."""
+    n, q = 1500, 1e-3
+    rates = imu_rates(n)
+    rng = np.random.default_rng(17)
+    t = rates["t_s"].to_numpy() - 10.0
+    moving = t >= 8.0
+    for j, c in enumerate(["gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s"]):
+        true = np.where(moving, 0.05 * np.sin(2.0 * np.pi * 0.5 * t + j), 0.0)
+        rates[c] = q * np.round((true + rng.normal(0.0, 1e-4, n)) / q)
+    acc = ["accel_x_m_s2", "accel_y_m_s2", "accel_z_m_s2"]
+    rates[acc] = rates[acc].to_numpy() + rng.normal(0.0, 1e-2, (n, 3))
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == n - 1
+    # gyro x quantized throughout (it repeats on about 60 % of its samples), 0 on rows
+    # 200-1199, beside y and z with fine steps
+    rates["gyro_x_rad_s"] = q * np.round(rng.normal(0.0, 4e-4, n) / q)
+    rates.loc[200:1199, "gyro_x_rad_s"] = 0.0
+    fine = ["gyro_y_rad_s", "gyro_z_rad_s"]
+    rates[fine] = rates[fine].to_numpy() + rng.normal(0.0, 1e-4, (n, 2))
+    root = write_dir(tmp_path, config_dict(), {"imu.csv": rates, "dvl.csv": dvl_table()})
+    assert len(load_mission(root).imu) == n - 1
+
+
 def test_saturated_imu_column_is_an_error(tmp_path: Path) -> None:
     # gyro_z clipped at 0.3 rad/s on 12 rows of a seeded noisy rate table (up to 0.4.8 taken
     # as it was: the demo's gyros clipped at 0.05 rad/s gave an attitude NEES of 636, exit 0).

@@ -51,6 +51,10 @@ DEFAULT_GAP_PERIODS = 5.0
 DEFAULT_IMU_STUCK_S = 1.0
 """Default ``imu.stuck_s``: a real IMU's six values never all repeat for a second
 (docs/robustness.md, 'A frozen IMU')."""
+CHANNEL_STUCK_FACTOR = 5.0
+"""Default ``imu.channel_stuck_s``: this many times ``imu.stuck_s`` (5 s by default). One IMU
+value alone repeats longer than all six do (a coarse output step), but in the A-KIT segments at
+most for 0.29 s, in the RTKLIB car's IMU 0.03 s (docs/robustness.md, 'One IMU channel stuck')."""
 DEFAULT_SATURATION_ROWS = 10
 """Default ``imu.saturation_rows``: a real IMU column reaches its extreme value once or twice
 (docs/robustness.md, 'A saturated IMU')."""
@@ -317,6 +321,10 @@ class ImuConfig(_Model):
     stuck_s: NonNegative | None = None
     """Longest time every IMU value may stay unchanged before the IMU is taken as frozen (an
     error); None → :data:`DEFAULT_IMU_STUCK_S`; 0: not checked."""
+    channel_stuck_s: NonNegative | None = None
+    """Longest time one IMU value may stay unchanged while the others of its triad change and
+    it changes elsewhere, before the channel is taken as stuck (an error; since 0.4.13); None →
+    :data:`CHANNEL_STUCK_FACTOR` × the ``stuck_s`` in force; 0: not checked."""
     saturation_rows: Annotated[int, Field(ge=0)] | None = None
     """Rows at a column's largest or smallest value that make it saturated (an error); None →
     :data:`DEFAULT_SATURATION_ROWS`; 0: not checked."""
@@ -345,6 +353,14 @@ class ImuConfig(_Model):
     def stuck_limit_s(self) -> float:
         """``stuck_s`` or, if not given, :data:`DEFAULT_IMU_STUCK_S` (0: off)."""
         return self.stuck_s if self.stuck_s is not None else DEFAULT_IMU_STUCK_S
+
+    @property
+    def channel_stuck_limit_s(self) -> float:
+        """``channel_stuck_s`` or, if not given, :data:`CHANNEL_STUCK_FACTOR` ×
+        :attr:`stuck_limit_s` (0: off, also when ``stuck_s = 0`` turns the frozen check off)."""
+        if self.channel_stuck_s is not None:
+            return self.channel_stuck_s
+        return CHANNEL_STUCK_FACTOR * self.stuck_limit_s
 
     @property
     def saturation_limit(self) -> int:

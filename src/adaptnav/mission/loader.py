@@ -914,6 +914,7 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
     gaps = np.diff(tk)
     _check_gaps(table, tk, gaps, rows, cfg.gap_limit_s)
     _check_frozen(table, tk, v, rows, used, cfg.stuck_limit_s)
+    _check_channel_stuck(table, tk, v, rows, used, cfg.channel_stuck_limit_s)
     _check_saturated(table, tk, v, rows, used, cfg.saturation_limit)
     med = float(np.median(gaps)) if gaps.size else 1.0 / cfg.rate_hz
     if abs(med * cfg.rate_hz - 1.0) > RATE_MISMATCH:
@@ -1271,6 +1272,96 @@ def _check_frozen(
         f"(t = {show(tk[a])} s) to {table.where(int(rows[b]))} (t = {show(tk[b])} s): a frozen "
         "IMU or driver repeating its last sample? Remove those rows (a gap, imu.max_gap_s) or, "
         f"if they are right, set imu.stuck_s above {tk[b] - tk[a]:.6g} s (0: not checked)",
+    )
+
+
+CHANNEL_QUANTISED_SHARE = 0.5
+"""A channel that repeats its value on this share of its samples or more is coarse against its
+noise (a quantised output), not stuck; so is a span in which the other channels of its triad do
+(:func:`_check_channel_stuck`). The A-KIT gyros repeat on at most 22 % of their samples."""
+CHANNEL_MIN_ELSEWHERE = 100
+"""Fewest samples outside a channel's long runs for its repeats elsewhere to be judged: a
+column constant throughout is not this check's (a dead gyro axis: ``axes.dead_axis``)."""
+
+
+@dataclass(frozen=True)
+class StuckChannel:
+    """Column ``column`` of an IMU table unchanged on rows ``a``..``b`` (0-based, of the kept
+    rows) while its triad's other channels change on ``others`` of those samples (share, the
+    most changing of the two) and it repeats on ``elsewhere`` of its samples outside its long
+    runs (share)."""
+
+    column: int
+    a: int
+    b: int
+    others: float
+    elsewhere: float
+
+
+def _repeats(x: Array) -> NDArray[np.bool_]:
+    """``x[k] == x[k - 1]`` for each k (False for the first)."""
+    same = np.zeros(x.size, dtype=bool)
+    np.equal(x[1:], x[:-1], out=same[1:])
+    return same
+
+
+def stuck_channel(tk: Array, v: Array, limit: float) -> StuckChannel | None:
+    """The first IMU channel (column of ``v``, six: Δθ or ω, then Δv or f) unchanged for
+    ``limit`` seconds or longer while another channel of its triad changes on more than
+    :data:`CHANNEL_QUANTISED_SHARE` of those samples and the channel itself repeats on less
+    than that share of its samples elsewhere (docs/robustness.md, 'One IMU channel stuck')."""
+    found: list[StuckChannel] = []
+    for c in range(v.shape[1]):
+        same = _repeats(v[:, c])
+        edge = np.diff(same.view(np.int8), append=np.int8(0))
+        first, last = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
+        long = np.flatnonzero(tk[last] - tk[first] >= limit)
+        if not long.size:
+            continue
+        held = int(sum(int(last[i] - first[i]) for i in long))  # repeats in the long runs
+        outside = same.size - 1 - held
+        if outside < CHANNEL_MIN_ELSEWHERE:
+            continue
+        elsewhere = (int(np.count_nonzero(same)) - held) / outside
+        if elsewhere >= CHANNEL_QUANTISED_SHARE:
+            continue
+        triad = [d for d in range(3 * (c // 3), 3 * (c // 3) + 3) if d != c]
+        for i in long:
+            a, b = int(first[i]), int(last[i])
+            moving = max(1.0 - float(np.mean(_repeats(v[a : b + 1, d])[1:])) for d in triad)
+            if moving > 1.0 - CHANNEL_QUANTISED_SHARE:
+                found.append(StuckChannel(c, a, b, moving, elsewhere))
+                break
+    return min(found, key=lambda f: f.a) if found else None
+
+
+def _check_channel_stuck(
+    table: Table, tk: Array, v: Array, rows: NDArray[np.int64], used: list[str], limit: float
+) -> None:
+    """A MissionError naming the column and the first and last rows of one IMU channel stuck
+    (:func:`stuck_channel`): a real IMU's noise moves every channel at every sample unless its
+    output step is coarse against it (docs/robustness.md, 'One IMU channel stuck'). Up to 0.4.12
+    only every value frozen at once was refused (:func:`_check_frozen`). ``limit`` 0: not
+    checked."""
+    if limit <= 0.0 or len(v) < 3:
+        return
+    found = stuck_channel(tk, v, limit)
+    if found is None:
+        return
+    a, b, c = found.a, found.b, found.column
+    col = used[1 + c]
+    triad = [used[1 + d] for d in range(3 * (c // 3), 3 * (c // 3) + 3) if d != c]
+    span = tk[b] - tk[a]
+    raise table.error(
+        int(rows[a + 1]),
+        col,
+        f"unchanged at {show(v[a, c])} for {span:.6g} s, from {table.where(int(rows[a]))} (t = "
+        f"{show(tk[a])} s) to {table.where(int(rows[b]))} (t = {show(tk[b])} s), while "
+        f"{' or '.join(triad)} changed on {found.others:.0%} of those samples and {col} itself "
+        f"repeats on {found.elsewhere:.1%} of its samples elsewhere: a channel stuck or dead "
+        "(its last value, or 0, repeated)? Remove those rows, or cut the mission before them; "
+        f"if they are right (an output step coarse against the noise), set imu.channel_stuck_s "
+        f"above {span:.6g} s (0: not checked)",
     )
 
 
