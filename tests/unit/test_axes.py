@@ -23,14 +23,16 @@ DURATION_S = 300.0
 
 
 def _motion(
-    seed: int = 3, periods: tuple[float, float, float] = (7.0, 11.0, 40.0)
+    seed: int = 3,
+    periods: tuple[float, float, float] = (7.0, 11.0, 40.0),
+    duration: float = DURATION_S,
 ) -> dict[str, np.ndarray]:
     """Roll, pitch and yaw sines (amplitudes 3°, 2°, 20°) sampled at the IMU's rate, the
     increments of small angles (each axis's angle change; the rule takes rates for Euler rates at
     small roll and pitch), the specific force of the levelled body at rest plus the tilt, and a
     heading and inclinometer reading the true angles with noise."""
     rng = np.random.default_rng(seed)
-    t = np.arange(0.0, DURATION_S + 1e-9, 1.0 / RATE_HZ)
+    t = np.arange(0.0, duration + 1e-9, 1.0 / RATE_HZ)
     amp = np.radians([3.0, 2.0, 20.0])
     ang = np.column_stack(
         [a * np.sin(2 * math.pi * t / p) for a, p in zip(amp, periods, strict=True)]
@@ -42,7 +44,7 @@ def _motion(
         [g * np.sin(pitch), -g * np.sin(roll) * np.cos(pitch), -g * np.cos(roll) * np.cos(pitch)]
     )
     dvel = f / RATE_HZ + rng.normal(0.0, 1e-5, f.shape)
-    ts = np.arange(0.2, DURATION_S, 0.2)
+    ts = np.arange(0.2, duration, 0.2)
     true = np.column_stack([np.interp(ts, t, ang[:, i]) for i in range(3)])
     return {
         "t": t[1:],
@@ -241,3 +243,53 @@ def test_the_accelerometers_at_rest_must_point_up() -> None:
     upside = replace(info, mean_specific_force=-info.mean_specific_force)
     found = axes_at_rest(upside, lat, yaw, math.radians(1.0))
     assert found is not None and found[0] == "accel"
+
+
+SIGMAS = {"yaw": math.radians(0.5), "roll": math.radians(0.1), "pitch": math.radians(0.1)}
+"""The noise σ of :func:`_motion`'s heading and inclinometer (rad)."""
+
+
+def _segments(m: dict[str, np.ndarray]) -> list[axes.SegmentFinding]:
+    views = axes.ImuViews(m["t"], m["dt"], m["dtheta"], m["dvel"], NOISE)
+    found = [axes.segment_finding(views, r, SIGMAS[r.angle]) for r in _refs(m)]
+    return [f for f in found if f is not None]
+
+
+@pytest.mark.parametrize("how", ["zero", "noise", "held"])
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_a_gyro_axis_that_fails_mid_mission_is_found_in_its_span(axis: int, how: str) -> None:
+    """720 s of readings (0.2 to 720.2 s: six spans of 120 s); from 360.2 s one gyro axis
+    reads 0, its white noise only, or its last increment (a constant rate, which the fit's bias
+    term takes): the whole mission's fit still passes it (up to 0.4.12 nothing else looked),
+    the spans name it from 360.2 s to the end, following before."""
+    m = _motion(duration=720.4)
+    after = m["t"] > 360.2
+    if how == "noise":
+        rng = np.random.default_rng(5)
+        m["dtheta"][after, axis] = rng.normal(0.0, NOISE[0] / math.sqrt(RATE_HZ), after.sum())
+    else:
+        held = 0.0 if how == "zero" else m["dtheta"][np.argmax(after) - 1, axis]
+        m["dtheta"][after, axis] = held
+    assert not [f for f in _found(m) if f.instrument == "gyro"]
+    (f,) = _segments(m)
+    assert (f.axis, f.angle) == (axis, ["roll", "pitch", "yaw"][axis])
+    assert f.follows_to == pytest.approx(360.2)
+    assert (f.t_from, f.t_to) == (pytest.approx(360.2), pytest.approx(720.2))
+    assert (f.slope is None) != (f.quiet is None)
+    if f.quiet is not None:
+        assert f.quiet.ratio < 0.05  # a fiftieth of the rotation, at most: noise or nothing
+    assert "1 expected" not in f.words()
+
+
+def test_a_right_gyro_follows_in_every_span_and_a_still_one_is_not_judged() -> None:
+    """The right IMU over 720 s: no span fails. Still (no motion at all, the gyro's noise
+    only) beside a reference noisier than its σ says (0.5° against 0.1°, white): the
+    reference's angle about its line is 5 σ, but it moves from reading to reading as much as
+    white noise does (√2 times that), so it is not taken for a rotation the gyro misses."""
+    assert not _segments(_motion(duration=720.4))
+    m = _motion(duration=720.4)
+    rng = np.random.default_rng(9)
+    m["dtheta"] = rng.normal(0.0, NOISE[0] / math.sqrt(RATE_HZ), m["dtheta"].shape)
+    m["incl"] = rng.normal(0.0, math.radians(0.5), m["incl"].shape)
+    m["yaw"] = rng.normal(0.0, math.radians(2.5), m["yaw"].shape)
+    assert not _segments(m)

@@ -251,6 +251,13 @@ class Gyro:
         k = np.searchsorted(start, t1, side="left")
         return np.asarray((k > 0) & (end[np.maximum(k - 1, 0)] > t0), dtype=bool)
 
+    def window(self, t0: float, t1: float) -> Gyro:
+        """The integral over the samples from just before ``t0`` to just after ``t1`` (views,
+        no copy): a segment's fits interpolate in it, not in a day of samples."""
+        i0 = max(int(np.searchsorted(self.t, t0, side="right")) - 1, 0)
+        i1 = min(int(np.searchsorted(self.t, t1, side="left")) + 1, self.t.size)
+        return Gyro(self.t[i0:i1], self.theta[i0:i1], self.arw)
+
     def change(self, t0: Array, t1: Array, axis: int) -> Array:
         """∫ ω_axis dt over each (t0, t1] (NaN where outside the IMU's span)."""
         inside = (t0 >= self.t[0]) & (t1 <= self.t[-1])
@@ -496,3 +503,145 @@ class AccelTilt:
         col = self.angles[:, axis]
         out = np.interp(t1, self.t, col) - np.interp(t0, self.t, col)
         return np.where(inside, out, math.nan)
+
+
+SEGMENT_S = 120.0
+"""Length (s) of the consecutive spans a reference is cut into for :func:`segment_finding`: a
+few minutes hold enough intervals for a fit (a heading at 1 Hz: 300) and name where an axis
+stopped within them."""
+QUIET_SIGMAS = 3.0
+"""A span's reference turns, for :func:`quiet_axis`, when the robust σ of its angle about a
+line is this many times its noise (the reference's σ and the gyro's random walk over the span):
+white noise's is 1."""
+QUIET_SMOOTH = 1.0
+"""... and when the robust σ of its changes from reading to reading is at most this many times
+that σ about the line: a rotation moves the angle smoothly, white noise (a reference noisier
+than its configured σ) gives √2."""
+
+
+@dataclass(frozen=True)
+class Quiet:
+    """A gyro axis that shows ``ratio`` of a reference's rotation over ``n`` readings: the
+    robust σ of its integrated angle about a line over the reference's, its noise taken out."""
+
+    ratio: float
+    n: int
+
+
+@dataclass(frozen=True)
+class SegmentFinding:
+    """The gyro's ``axis`` against ``reference``'s ``angle``: it follows (decided, the rule of
+    the module's docstring) up to ``follows_to`` (s; None: no span before) and fails from
+    ``t_from`` to ``t_to``: a fitted :class:`Slope` below the rule (``slope``), or changes at
+    the level of the gyro's noise while the reference turns (``quiet``)."""
+
+    axis: int
+    reference: str
+    angle: str
+    t_from: float
+    t_to: float
+    follows_to: float | None
+    slope: Slope | None
+    quiet: Quiet | None
+
+    def words(self) -> str:
+        """How far it follows the reference, in words."""
+        if self.slope is not None:
+            s = self.slope
+            return f"slope {s.k:.2g} ± {s.se:.2g}, {s.n} intervals"
+        q = self.quiet
+        assert q is not None
+        return (
+            f"its angle about a line {q.ratio:.2g} times the sensor's over {q.n} readings: it "
+            "shows none of the sensor's rotation"
+        )
+
+
+def _about_line(t: Array, x: Array) -> float:
+    """σ, from the median absolute deviation, of ``x`` less its least-squares line in ``t``."""
+    d = x - np.polyval(np.polyfit(t - t[0], x, 1), t - t[0])
+    return 1.4826 * float(np.median(np.abs(d - np.median(d))))
+
+
+def quiet_axis(gyro: Gyro, axis: int, t: Array, angle: Array, sigma: float) -> Quiet | None:
+    """The gyro's ``axis`` reading only its noise (or nothing) while a reference (readings
+    ``angle`` at ``t``, noise σ ``sigma``, rad) turns, over one span: about their lines (a
+    steady turn and a gyro bias taken out), the reference's angle has a robust σ
+    :data:`QUIET_SIGMAS` times its noise (σ, and the gyro's random walk ``ARW √T`` over the
+    span), moves smoothly (:data:`QUIET_SMOOTH`: not a noise larger than σ) and spans
+    :data:`DEAD_TURN_RAD`, and the gyro's integrated angle less than
+    :data:`MIN_SLOPE` of it (the reference's noise taken out: ``sqrt(s_ref² - σ²)``). The
+    slope fit cannot decide there (the gyro's changes are not above its noise,
+    :data:`SIGNAL_FACTOR`), which is what a failed axis reads. Amplitudes, not a fit: a
+    reference's latency does not matter. None: the reference does not turn, or the gyro
+    follows it."""
+    ok = np.isfinite(t) & np.isfinite(angle)
+    t, angle = t[ok], np.unwrap(angle[ok])
+    if t.size <= MIN_INTERVALS or not (t[0] >= gyro.t[0] and t[-1] <= gyro.t[-1]):
+        return None
+    theta = np.interp(t, gyro.t, gyro.theta[:, axis])
+    walk = gyro.arw * math.sqrt(float(t[-1] - t[0]))
+    sa, sb = _about_line(t, angle), _about_line(t, theta)
+    step = 1.4826 * float(np.median(np.abs(np.diff(angle) - np.median(np.diff(angle)))))
+    if sa < QUIET_SIGMAS * math.hypot(sigma, walk) or step > QUIET_SMOOTH * sa:
+        return None
+    d = angle - np.polyval(np.polyfit(t - t[0], angle, 1), t - t[0])
+    lo, hi = np.percentile(d, [1.0, 99.0])
+    shown = math.sqrt(sa**2 - sigma**2)
+    if hi - lo < DEAD_TURN_RAD or sb >= MIN_SLOPE * shown:
+        return None
+    return Quiet(sb / shown, int(t.size))
+
+
+def _segment_verdict(
+    gyro: Gyro, ref: Reference, t: Array, angle: Array, sigma: float | None
+) -> tuple[bool, Slope | None, Quiet | None] | None:
+    """(follows, the failing slope, the failing quiet) of one span; None: undecided."""
+    s = best_slope(gyro, ref.axis, t, angle)
+    if s is not None:
+        return s[0].upper >= MIN_SLOPE, (s[0] if s[0].upper < MIN_SLOPE else None), None
+    if sigma is None:
+        return None
+    q = quiet_axis(gyro, ref.axis, t, angle, sigma)
+    return None if q is None else (False, None, q)
+
+
+def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> SegmentFinding | None:
+    """A gyro axis that follows a reference over the whole mission's fit (:func:`check_axes`)
+    but not over a part of it: the reference's readings cut into consecutive spans of about
+    :data:`SEGMENT_S`, each judged only where it decides, by the rule of the module's docstring
+    (:func:`best_slope`) or, where the gyro shows nothing above its noise, by
+    :func:`quiet_axis` (``sigma``: the reference's noise, rad; None: not judged so, as a GNSS
+    course's). The first failing span and those failing after it, up to one that follows.
+    Up to 0.4.12 an axis that failed mid-mission (zeroed, or reading its noise) was averaged
+    away by the whole mission's fit (docs/robustness.md, 'A gyro axis that fails
+    mid-mission')."""
+    ok = np.isfinite(ref.t) & np.isfinite(ref.value)
+    t, angle = ref.t[ok], ref.value[ok]
+    if t.size < 2:
+        return None
+    n = int((t[-1] - t[0]) // SEGMENT_S)
+    if n < 2:
+        return None  # one span: the whole mission's fit
+    edges = np.searchsorted(t, np.linspace(t[0], t[-1], n + 1)[1:-1])
+    gyro = views.gyro(ref.c_sb)
+    bounds = list(zip([0, *edges.tolist()], [*edges.tolist(), t.size - 1], strict=True))
+    follows_to: float | None = None
+    bad: list[tuple[float, float, Slope | None, Quiet | None]] = []
+    for i, j in bounds:
+        ts, us = t[i : j + 1], angle[i : j + 1]  # the reading at a bound ends one, starts next
+        v = _segment_verdict(gyro.window(ts[0] - MAX_LAG_S, ts[-1] + MAX_LAG_S), ref, ts, us, sigma)
+        if v is None:
+            continue
+        if v[0]:
+            if bad:
+                break
+            follows_to = float(ts[-1])
+        else:
+            bad.append((float(ts[0]), float(ts[-1]), v[1], v[2]))
+    if not bad:
+        return None
+    first = bad[0]
+    return SegmentFinding(
+        ref.axis, ref.name, ref.angle, first[0], bad[-1][1], follows_to, first[2], first[3]
+    )

@@ -477,6 +477,7 @@ def _check_axes(
     _check_dead_gyro(config, views, refs)
     found = next(axes.check_axes(views, refs), None)
     if found is None:
+        _check_segments(config, views, refs)
         return
     columns = imu_columns(config.imu.format)
     s, sensor = found.at_zero, config.sensors[found.reference]
@@ -504,6 +505,42 @@ def _check_axes(
     )
 
 
+def _reference_sigma(config: MissionConfig, ref: axes.Reference) -> float | None:
+    """A heading's or an inclinometer's σ (rad) for its angle; None for a GNSS course (its
+    noise is the chords', not the configured σ)."""
+    if ref.angle == "course":
+        return None
+    sigmas = np.atleast_1d(config.sensors[ref.name].sigma_si())
+    return float(sigmas[min(ref.tilt or 0, sigmas.size - 1)])
+
+
+def _check_segments(
+    config: MissionConfig, views: axes.ImuViews, refs: list[axes.Reference]
+) -> None:
+    """A MissionError naming the IMU file, the gyro column and the span where an axis stops
+    following an aiding sensor's angle that the whole mission's fit passed
+    (:func:`axes.segment_finding`; docs/robustness.md, 'A gyro axis that fails mid-mission').
+    Since 0.4.13."""
+    for ref in refs:
+        found = axes.segment_finding(views, ref, _reference_sigma(config, ref))
+        if found is None:
+            continue
+        column = imu_columns(config.imu.format)[found.axis]
+        cfg = config.sensors[found.reference]
+        since = "" if found.follows_to is None else f"up to t = {found.follows_to:.1f} s, "
+        raise MissionError(
+            f"{config.imu.file}: the gyro's {'xyz'[found.axis]} axis ({column}) follows the "
+            f"{found.angle} of sensor {found.reference!r} ({cfg.file}) {since}but not from t = "
+            f"{found.t_from:.1f} to {found.t_to:.1f} s: {found.words()} (1 expected, below "
+            f"{axes.MIN_SLOPE:g}), in spans of {axes.SEGMENT_S:g} s: an axis that failed (dead, "
+            "or reading only its noise)? Remove those rows, or cut the mission before them; if "
+            "the table is right, set imu.axis_check = false (docs/robustness.md, 'A gyro axis "
+            "that fails mid-mission')",
+            file=config.imu.file,
+            field=column,
+        )
+
+
 def _check_dead_gyro(
     config: MissionConfig, views: axes.ImuViews, refs: list[axes.Reference]
 ) -> None:
@@ -515,8 +552,8 @@ def _check_dead_gyro(
         if ref.angle == "course" or not (ref.c_sb is None or np.allclose(ref.c_sb, np.eye(3))):
             continue
         cfg = config.sensors[ref.name]
-        sigmas = np.atleast_1d(cfg.sigma_si())
-        sigma = float(sigmas[min(ref.tilt or 0, sigmas.size - 1)])
+        sigma = _reference_sigma(config, ref)
+        assert sigma is not None  # not a course
         found = axes.dead_axis(views.gyro(), ref.axis, ref.t, ref.value, sigma)
         if found is None:
             continue
