@@ -336,6 +336,41 @@ def test_a_frozen_imu_is_refused_once_it_has_lasted_stuck_s(mission: Mission) ->
         off.push_imu(imu.t[j], imu.dtheta[min(j, a)], imu.dvel[min(j, a)], dt=imu.dt[j])
 
 
+@pytest.mark.parametrize(("column", "held"), [(2, "zero"), (3, "last")])
+def test_one_stuck_channel_is_refused_once_it_has_lasted_channel_stuck_s(
+    mission: Mission, column: int, held: str
+) -> None:
+    """The golden IMU's dtheta_z at 0 (or its dvel_x at its value of the sample at 100 s) from
+    the sample after 100 s on, the other five as they are: the samples up to
+    imu.channel_stuck_s (5 s = 5 stuck_s) after the value's first are taken, the first one at
+    5 s is refused naming the column, the span and the setting, the stream unchanged (up to
+    0.4.12 a stream took them all, as the loader took such a table; loader.stuck_channel
+    refuses it since 0.4.13). With channel_stuck_s = 0 the stream takes them."""
+    start = api.initial_state(mission)[:3]
+    imu = mission.imu
+    k0 = int(np.searchsorted(imu.t, start[2] + 1e-9))
+    a = int(np.searchsorted(imu.t, 100.0))
+    v = np.column_stack([imu.dtheta, imu.dvel])
+    first = a + 1 if held == "zero" else a  # the held value's first sample
+    v[a + 1 :, column] = 0.0 if held == "zero" else v[a, column]
+    stream = Stream(mission, "meskf", initial=start)
+    k = k0
+    while imu.t[k] - imu.t[first] < 5.0 - 1e-9:
+        stream.push_imu(imu.t[k], v[k, :3], v[k, 3:], dt=imu.dt[k])
+        k += 1
+    now = stream.t
+    name = ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dvel_x_m_s"][column]
+    with pytest.raises(ValueError, match=f"IMU sample t = .*, {name}: unchanged at ") as err:
+        stream.push_imu(imu.t[k], v[k, :3], v[k, 3:], dt=imu.dt[k])
+    msg = str(err.value)
+    assert f"since the sample at t = {float(imu.t[first])!r} s" in msg
+    assert "a channel stuck or dead" in msg and "set imu.channel_stuck_s above 5" in msg
+    assert stream.t == now
+    off = Stream(_with_imu(mission, channel_stuck_s=0.0), "meskf", initial=start)
+    for j in range(k0, k + 100):
+        off.push_imu(imu.t[j], v[j, :3], v[j, 3:], dt=imu.dt[j])
+
+
 def test_a_clipped_gyro_is_refused_as_saturated(mission: Mission) -> None:
     """The golden IMU's dtheta_z clipped at half its largest value (the 3°/s turn's): the
     sample at which 10 samples hold the column's largest value so far, twice as many as the

@@ -8,6 +8,14 @@ of the samples taken so far, that sample its last row:
 
 * **frozen**: all six values exactly those of the sample before, over a run lasting
   ``imu.stuck_s`` or more from its first sample (``loader._check_frozen``);
+* **one channel stuck**: one value exactly that of the sample before, over a run lasting
+  ``imu.channel_stuck_s`` or more from its first sample, while another channel of its triad
+  changed on more than :data:`~adaptnav.mission.loader.CHANNEL_QUANTISED_SHARE` of the run's
+  samples and the channel itself repeated on less than that share of the samples before the run
+  (at least :data:`~adaptnav.mission.loader.CHANNEL_MIN_ELSEWHERE` of them;
+  ``loader.stuck_channel``, which counts the samples after the run too): per channel the stamp
+  of its run's first sample and its repeats so far, the triad's counts taken at the run's first
+  repeat;
 * **saturated**: a column whose largest or smallest value so far (not 0) is held by
   ``imu.saturation_rows`` samples or more and by at least
   :data:`~adaptnav.mission.loader.SATURATION_PILEUP` times as many as the next value inward
@@ -34,6 +42,8 @@ import statistics
 from adaptnav.core.units import G0
 from adaptnav.mission.config import ImuConfig
 from adaptnav.mission.loader import (
+    CHANNEL_MIN_ELSEWHERE,
+    CHANNEL_QUANTISED_SHARE,
     GRAVITY_BAND,
     SATURATION_PILEUP,
     specific_force_words,
@@ -73,8 +83,8 @@ def _rise(s: Side, x: float, t: float) -> Side | None:
 
 class ImuWatch:
     """The loader's checks of an IMU table, on one sample at a time (the module's docstring).
-    :meth:`check` raises or takes the sample; ``cfg`` gives ``stuck_s`` and
-    ``saturation_rows`` (0: that check off)."""
+    :meth:`check` raises or takes the sample; ``cfg`` gives ``stuck_s``,
+    ``channel_stuck_s`` and ``saturation_rows`` (0: that check off)."""
 
     def __init__(self, cfg: ImuConfig) -> None:
         self._stuck_s = cfg.stuck_limit_s
@@ -90,6 +100,20 @@ class ImuWatch:
         self._ceil = [-math.inf] * 6
         self._forces: list[float] | None = []
         self._window_end = math.nan
+        self._chan_s = cfg.channel_stuck_limit_s
+        self._n = 0
+        """Samples taken."""
+        self._reps = [0] * 6
+        """Per channel, the samples taken that repeated the one before in that channel."""
+        self._since = [math.nan] * 6
+        """Per channel in a run, the stamp of its first sample (its value's first)."""
+        self._snap: list[tuple[int, tuple[int, ...]] | None] = [None] * 6
+        """Per channel in a run, at its first repeat: that sample's index and the repeats
+        before it (:attr:`_reps`); None: not in a run."""
+        self._runs = False
+        """Some channel's :attr:`_snap` is set."""
+        self._prev_t = math.nan
+        """The stamp of the sample before."""
 
     def check(self, t: float, dt: float, vals: tuple[float, ...]) -> None:
         """Take the sample (t, dt, Δθ then Δv) or raise ValueError, nothing changed."""
@@ -101,14 +125,77 @@ class ImuWatch:
         # extreme would be called saturated before it is called frozen.
         if not (repeat and self._stuck_s > 0.0):
             self._judge_extremes(t, sides)
+        chan, last = self._chan_s > 0.0, self._last
+        # On a noisy IMU no channel repeats the sample before: six comparisons, nothing more
+        # (written out: a third of any(map(operator.eq, ...))'s time).
+        same = (
+            chan and bool(last)
+            and (vals[0] == last[0] or vals[1] == last[1] or vals[2] == last[2]
+                 or vals[3] == last[3] or vals[4] == last[4] or vals[5] == last[5])
+        )  # fmt: skip
+        if same:
+            self._channels(t, vals)
         if self._forces is not None:
             self._gravity(t, dt, vals)  # the last check: it takes the sample's force
+        if same:
+            self._count(vals)
+        elif chan and self._runs:
+            self._snap, self._runs = [None] * 6, False
+        self._n += 1
+        self._prev_t = t
         if not repeat:
             self._run_t = t
         self._last = vals
         for c, hi, lo in sides:
             self._hi[c], self._lo[c] = hi, lo
             self._ceil[c], self._floor[c] = hi[2], -lo[2]
+
+    def _channels(self, t: float, vals: tuple[float, ...]) -> None:
+        """Raise ValueError if a channel that repeats the sample before has stuck (the module's
+        docstring)."""
+        last, snap, limit = self._last, self._snap, self._chan_s
+        for c in range(6):
+            if vals[c] == last[c]:
+                since = self._since[c] if snap[c] is not None else self._prev_t
+                if t - since >= limit:
+                    self._judge_channel(t, vals, c, since)
+
+    def _judge_channel(self, t: float, vals: tuple[float, ...], c: int, since: float) -> None:
+        n0, before = self._snap[c] or (self._n, tuple(self._reps))
+        run = self._n - n0 + 1  # the run's repeats, this sample's included
+        if n0 - 1 < CHANNEL_MIN_ELSEWHERE:
+            return
+        elsewhere = before[c] / (n0 - 1)
+        triad = [d for d in range(3 * (c // 3), 3 * (c // 3) + 3) if d != c]
+        held = [self._reps[d] - before[d] + (vals[d] == self._last[d]) for d in triad]
+        moving = 1.0 - min(held) / run
+        if elsewhere >= CHANNEL_QUANTISED_SHARE or moving <= 1.0 - CHANNEL_QUANTISED_SHARE:
+            return
+        names = IMU_INCREMENT_COLUMNS
+        d = t - since
+        raise ValueError(
+            f"IMU sample t = {t!r} s, {names[c]}: unchanged at {vals[c]!r} for {d:.6g} s, since "
+            f"the sample at t = {since!r} s, while {' or '.join(names[e] for e in triad)}"
+            f" changed on {moving:.0%} of those samples and {names[c]} itself repeated on "
+            f"{elsewhere:.1%} of the samples before: a channel stuck or dead (its last value, or "
+            "0, repeated)? Refused (the samples before it were taken: a stream cannot look "
+            "ahead); if they are right (an output step coarse against the noise), set "
+            f"imu.channel_stuck_s above {d:.6g} s (0: not checked)"
+        )
+
+    def _count(self, vals: tuple[float, ...]) -> None:
+        """The channels' runs and repeats once a sample that repeats some is taken: a run
+        starts at the sample before its first repeat."""
+        last, reps, snap = self._last, self._reps, self._snap
+        before = tuple(reps)
+        for c in range(6):
+            if vals[c] != last[c]:
+                snap[c] = None
+            else:
+                if snap[c] is None:
+                    snap[c], self._since[c] = (self._n, before), self._prev_t
+                reps[c] += 1
+        self._runs = True
 
     def _frozen(self, t: float) -> str:
         d = t - self._run_t
