@@ -12,6 +12,11 @@ code::
     git archive <0.4.12 commit> src | tar -x -C /tmp/old
     PYTHONPATH=/tmp/old/src python scripts/channel_faults_eval.py DEMO --run
     python scripts/channel_faults_eval.py DEMO --run
+
+``--right MISSION ...``: right data instead, one line each: the load's verdict and time, each
+IMU column's longest run of one value (s) and share of samples repeating the one before, and
+per angle of a sensor that sees rotation its spans (``axes.segment_finding``'s): how many
+decide, the lowest ``k + 4 se`` of those that do, and how many open the quiet rule's gates.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ import pandas as pd
 
 from adaptnav import api
 from adaptnav.analysis.evaluate import evaluate
-from adaptnav.mission import MissionError, load_mission
+from adaptnav.mission import Mission, MissionError, axes, load_mission, loader
 
 CASES = (
     "dtheta_x_rad zero",
@@ -82,6 +87,62 @@ def _verdict(root: Path, run: bool) -> str:
     return out
 
 
+def _runs(m: Mission) -> str:
+    """Each IMU column's longest run of one value (s) and share of repeats, in the table's
+    values (rates or increments: what the loader compares)."""
+    df = m.tables["imu"]
+    t = df["t_s"].to_numpy()
+    words = []
+    for column in loader.imu_columns(m.config.imu.format):
+        x = df[column].to_numpy()
+        same = np.r_[False, x[1:] == x[:-1]]
+        edge = np.diff(same.view(np.int8), append=np.int8(0))
+        first, last = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
+        longest = float(np.max(t[last] - t[first])) if first.size else 0.0
+        words.append(f"{longest:.3g} s/{same.mean():.0%}")
+    return "runs " + " ".join(words)
+
+
+def _spans(m: Mission) -> str:
+    """Per angle: spans deciding, the lowest k + 4 se, spans opening the quiet gates."""
+    noise = m.config.imu.noise.to_imu_noise()
+    views = axes.ImuViews(m.imu.t, m.imu.dt, m.imu.dtheta, m.imu.dvel, (noise.arw, noise.vrw))
+    words = []
+    for ref in loader._axis_references(m.config, m.sensors):
+        sigma = loader._reference_sigma(m.config, ref)
+        ok = np.isfinite(ref.t) & np.isfinite(ref.value)
+        t, angle = ref.t[ok], np.unwrap(ref.value[ok])
+        n = int((t[-1] - t[0]) // axes.SEGMENT_S) if t.size > 1 else 0
+        if n < 2:
+            continue
+        edges = np.searchsorted(t, np.linspace(t[0], t[-1], n + 1)[1:-1]).tolist()
+        ups, gated = [], 0
+        for i, j in zip([0, *edges], [*edges, t.size - 1], strict=True):
+            ts, us = t[i : j + 1], angle[i : j + 1]
+            g = views.gyro(ref.c_sb).window(ts[0] - axes.MAX_LAG_S, ts[-1] + axes.MAX_LAG_S)
+            s = axes.best_slope(g, ref.axis, ts, us)
+            if s is not None:
+                ups.append(s[0].upper)
+            elif sigma is not None and ts.size > axes.MIN_INTERVALS:
+                sa = axes._about_line(ts, us)
+                walk = g.arw * math.sqrt(float(ts[-1] - ts[0]))
+                step = 1.4826 * float(np.median(np.abs(np.diff(us) - np.median(np.diff(us)))))
+                turns = sa >= axes.QUIET_SIGMAS * math.hypot(sigma, walk)
+                gated += int(turns and step <= axes.QUIET_SMOOTH * sa)
+        low = f"{min(ups):.2f}" if ups else "-"
+        words.append(f"{ref.angle} {len(ups)}/{n} decide, lowest upper {low}, gated {gated}")
+    return "; ".join(words) or "no angle"
+
+
+def right(folders: Sequence[Path]) -> None:
+    """The ``--right`` lines (the module's docstring)."""
+    for folder in folders:
+        verdict = _verdict(folder, False)
+        m = load_mission(folder) if verdict.startswith("loads") else None
+        extra = f"; {_runs(m)}; {_spans(m)}" if m is not None else ""
+        print(f"{folder.name}: {verdict}{extra}", flush=True)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("mission", type=Path)
@@ -89,7 +150,11 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument("--cases", default=",".join(CASES), help="comma-separated 'column how'")
     p.add_argument("--run", action="store_true", help="run the robust filter on each load")
     p.add_argument("--scratch", type=Path, default=None, help="where the copies go [a temp dir]")
+    p.add_argument("--right", nargs="*", type=Path, help="right missions: their figures")
     a = p.parse_args(argv)
+    if a.right is not None:
+        right([a.mission, *a.right])
+        return
     print(f"{a.mission.name} right: {_verdict(a.mission, a.run)}", flush=True)
     with tempfile.TemporaryDirectory(dir=a.scratch) as scratch:
         for case in a.cases.split(","):
