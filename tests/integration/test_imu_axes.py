@@ -101,8 +101,8 @@ FAULT_S = 750.0
 
 def _failed_from(demo: Path, tmp_path: Path, column: str, how: str, heading: bool) -> Path:
     """The demo whose IMU ``column`` reads 0 or only its white noise (the ARW, 0.0667 °/√h, or
-    the VRW, 55 µg/√Hz, at 100 Hz; seed 4) from :data:`FAULT_S` on, its heading sensor aiding
-    or not."""
+    the VRW, 55 µg/√Hz, at 100 Hz; seed 4) from :data:`FAULT_S` on ("none": as it is), its
+    heading sensor aiding or not."""
     arw, vrw = math.radians(0.0667) / 60.0, 55e-6 * 9.80665
     sigma = (arw if column.startswith("dtheta") else vrw) * math.sqrt(0.01)
     root = tmp_path / "mission"
@@ -110,8 +110,9 @@ def _failed_from(demo: Path, tmp_path: Path, column: str, how: str, heading: boo
     df = pd.read_parquet(root / "imu.parquet")
     after = df["t_s"].to_numpy() >= FAULT_S
     noise = np.random.default_rng(4).normal(0.0, sigma, int(after.sum()))
-    df.loc[after, column] = 0.0 if how == "zero" else noise
-    df.to_parquet(root / "imu.parquet")
+    if how != "none":
+        df.loc[after, column] = 0.0 if how == "zero" else noise
+        df.to_parquet(root / "imu.parquet")
     if heading:
         toml = root / "mission.toml"
         text = toml.read_text()
@@ -160,3 +161,22 @@ def test_an_imu_channel_zero_from_mid_mission_is_refused_with_its_rows(
     assert line.startswith(f"error: imu.parquet row 75000, {column}: unchanged at 0"), line
     assert "for 156.4 s, from imu.parquet row 74999 (t = 750" in line
     assert "to imu.parquet row 90639 (t = 906.4" in line and "a channel stuck or dead" in line
+
+
+def test_the_right_demo_has_no_stuck_channel_and_follows_in_every_span(
+    demo: Path, tmp_path: Path
+) -> None:
+    """Right data stay silent: the demo with its heading sensor aiding loads; no IMU column
+    repeats a value (its noise moves each at every sample) and every span of every angle that
+    decides follows (k + 4 se ≥ 0.5), none failing by the quiet rule."""
+    from adaptnav.mission import axes, load_mission, loader
+
+    m = load_mission(_failed_from(demo, tmp_path, "dtheta_x_rad", "none", True))
+    v = np.column_stack([m.imu.dtheta, m.imu.dvel])
+    assert loader.stuck_channel(m.imu.t, v, 1e-9) is None
+    noise = m.config.imu.noise.to_imu_noise()
+    views = axes.ImuViews(m.imu.t, m.imu.dt, m.imu.dtheta, m.imu.dvel, (noise.arw, noise.vrw))
+    refs = loader._axis_references(m.config, m.sensors)
+    assert {r.angle for r in refs} >= {"roll", "pitch", "yaw"}
+    for ref in refs:
+        assert axes.segment_finding(views, ref, loader._reference_sigma(m.config, ref)) is None
