@@ -15,8 +15,9 @@ code::
 
 ``--right MISSION ...``: right data instead, one line each: the load's verdict and time, each
 IMU column's longest run of one value (s) and share of samples repeating the one before, and
-per angle of a sensor that sees rotation its spans (``axes.segment_finding``'s): how many
-decide, the lowest ``k + 4 se`` of those that do, and how many open the quiet rule's gates.
+per angle of a sensor that sees rotation its spans (``axes.segment_finding``'s), for the gyro
+and (an inclinometer's) the accelerometers' levelling: how many follow, fail and are undecided,
+and the lowest ``k + 4 se`` of those whose slope decides.
 """
 
 from __future__ import annotations
@@ -104,33 +105,36 @@ def _runs(m: Mission) -> str:
 
 
 def _spans(m: Mission) -> str:
-    """Per angle: spans deciding, the lowest k + 4 se, spans opening the quiet gates."""
+    """Per angle and instrument (the gyro; for an inclinometer the accelerometers' levelling
+    too): the spans that follow, fail and are undecided (``axes._segment_verdict``), and the
+    lowest ``k + 4 se`` of the spans whose slope decides."""
     noise = m.config.imu.noise.to_imu_noise()
     views = axes.ImuViews(m.imu.t, m.imu.dt, m.imu.dtheta, m.imu.dvel, (noise.arw, noise.vrw))
     words = []
     for ref in loader._axis_references(m.config, m.sensors):
         sigma = loader._reference_sigma(m.config, ref)
-        ok = np.isfinite(ref.t) & np.isfinite(ref.value)
-        t, angle = ref.t[ok], np.unwrap(ref.value[ok])
-        n = int((t[-1] - t[0]) // axes.SEGMENT_S) if t.size > 1 else 0
-        if n < 2:
+        spans = axes._spans(ref)
+        if not spans:
             continue
-        edges = np.searchsorted(t, np.linspace(t[0], t[-1], n + 1)[1:-1]).tolist()
-        ups, gated = [], 0
-        for i, j in zip([0, *edges], [*edges, t.size - 1], strict=True):
-            ts, us = t[i : j + 1], angle[i : j + 1]
-            g = views.gyro(ref.c_sb).window(ts[0] - axes.MAX_LAG_S, ts[-1] + axes.MAX_LAG_S)
-            s = axes.best_slope(g, ref.axis, ts, us)
-            if s is not None:
-                ups.append(s[0].upper)
-            elif sigma is not None and ts.size > axes.MIN_INTERVALS:
-                sa = axes._about_line(ts, us)
-                walk = g.arw * math.sqrt(float(ts[-1] - ts[0]))
-                step = 1.4826 * float(np.median(np.abs(np.diff(us) - np.median(np.diff(us)))))
-                turns = sa >= axes.QUIET_SIGMAS * math.hypot(sigma, walk)
-                gated += int(turns and step <= axes.QUIET_SMOOTH * sa)
-        low = f"{min(ups):.2f}" if ups else "-"
-        words.append(f"{ref.angle} {len(ups)}/{n} decide, lowest upper {low}, gated {gated}")
+        imus: list[tuple[str, axes.Gyro | axes.AccelTilt, int]] = [
+            ("gyro", views.gyro(ref.c_sb), ref.axis)
+        ]
+        if ref.tilt is not None:
+            imus.append(("accel", views.tilt(ref.c_sb), ref.tilt))
+        for name, imu, axis in imus:
+            counts, ups = [0, 0, 0], []
+            for ts, us in spans:
+                part = imu.window(ts[0] - 1.0, ts[-1] + 1.0) if isinstance(imu, axes.Gyro) else imu
+                v = axes._segment_verdict(part, axis, ts, us, sigma)
+                counts[0 if v is None else 1 if v[0] else 2] += 1
+                s = axes.best_slope(part, axis, ts, us)
+                if s is not None:
+                    ups.append(s[0].upper)
+            low = f"{min(ups):.2f}" if ups else "-"
+            words.append(
+                f"{ref.angle}/{name} {counts[1]} follow, {counts[2]} fail, {counts[0]} undecided"
+                f" (lowest upper {low})"
+            )
     return "; ".join(words) or "no angle"
 
 

@@ -282,14 +282,46 @@ def test_a_gyro_axis_that_fails_mid_mission_is_found_in_its_span(axis: int, how:
 
 
 def test_a_right_gyro_follows_in_every_span_and_a_still_one_is_not_judged() -> None:
-    """The right IMU over 720 s: no span fails. Still (no motion at all, the gyro's noise
-    only) beside a reference noisier than its σ says (0.5° against 0.1°, white): the
-    reference's angle about its line is 5 σ, but it moves from reading to reading as much as
-    white noise does (√2 times that), so it is not taken for a rotation the gyro misses."""
+    """The right IMU over 720 s: no span fails. Still (no motion at all, the gyro's and the
+    accelerometers' noise only) beside a reference noisier than its σ says (0.5° against 0.1°,
+    white): the reference's angle about its line is 5 σ, but it moves from reading to reading
+    as much as white noise does (√2 times that), so it is not taken for a rotation the IMU
+    misses."""
     assert not _segments(_motion(duration=720.4))
     m = _motion(duration=720.4)
     rng = np.random.default_rng(9)
     m["dtheta"] = rng.normal(0.0, NOISE[0] / math.sqrt(RATE_HZ), m["dtheta"].shape)
+    level = np.array([0.0, 0.0, -9.81]) / RATE_HZ
+    m["dvel"] = level + rng.normal(0.0, NOISE[1] / math.sqrt(RATE_HZ), m["dvel"].shape)
     m["incl"] = rng.normal(0.0, math.radians(0.5), m["incl"].shape)
     m["yaw"] = rng.normal(0.0, math.radians(2.5), m["yaw"].shape)
     assert not _segments(m)
+
+
+@pytest.mark.parametrize(("column", "angle"), [(0, "pitch"), (1, "roll")])
+def test_an_accelerometer_axis_reading_only_noise_mid_mission_is_found(
+    column: int, angle: str
+) -> None:
+    """The accelerometer x (or y) reading only its white noise from 360.2 s: the levelled pitch
+    (or roll) stops following the inclinometer's while the gyro still does; the spans name the
+    accelerometers, following up to 360.2 s (up to 0.4.12 nothing looked at spans)."""
+    m = _motion(duration=720.4)
+    after = m["t"] > 360.2
+    rng = np.random.default_rng(6)
+    m["dvel"][after, column] = rng.normal(0.0, NOISE[1] / math.sqrt(RATE_HZ), after.sum())
+    (f,) = _segments(m)
+    assert (f.instrument, f.angle) == ("accelerometer", angle)
+    assert f.follows_to == pytest.approx(360.2)
+    # the span 360.2-480.2 s may be undecided: its first levelled block straddles the failure
+    assert f.t_from in (pytest.approx(360.2), pytest.approx(480.2))
+
+
+def test_an_inclinometer_that_fails_mid_mission_is_blamed_not_the_imu() -> None:
+    """The inclinometer's roll reading only its noise from 360.2 s while the gyro and the
+    accelerometers go on turning: both stop following it from the same span, so the sensor is
+    blamed, as the whole mission's fit blames a reference both instruments contradict."""
+    m = _motion(duration=720.4)
+    late = m["ts"] > 360.2
+    m["incl"][late, 0] = np.random.default_rng(8).normal(0.0, SIGMAS["roll"], late.sum())
+    (f,) = _segments(m)
+    assert (f.instrument, f.angle, f.t_from) == ("reference", "roll", pytest.approx(360.2))

@@ -530,11 +530,13 @@ class Quiet:
 
 @dataclass(frozen=True)
 class SegmentFinding:
-    """The gyro's ``axis`` against ``reference``'s ``angle``: it follows (decided, the rule of
-    the module's docstring) up to ``follows_to`` (s; None: no span before) and fails from
+    """The ``instrument`` (the gyro's ``axis``, the accelerometers' levelling, or the reference
+    when both disagree with it) against ``reference``'s ``angle``: it follows (decided, the rule
+    of the module's docstring) up to ``follows_to`` (s; None: no span before) and fails from
     ``t_from`` to ``t_to``: a fitted :class:`Slope` below the rule (``slope``), or changes at
-    the level of the gyro's noise while the reference turns (``quiet``)."""
+    the level of the IMU's noise while the reference turns (``quiet``)."""
 
+    instrument: Instrument
     axis: int
     reference: str
     angle: str
@@ -563,27 +565,32 @@ def _about_line(t: Array, x: Array) -> float:
     return 1.4826 * float(np.median(np.abs(d - np.median(d))))
 
 
-def quiet_axis(gyro: Gyro, axis: int, t: Array, angle: Array, sigma: float) -> Quiet | None:
-    """The gyro's ``axis`` reading only its noise (or nothing) while a reference (readings
-    ``angle`` at ``t``, noise σ ``sigma``, rad) turns, over one span: about their lines (a
-    steady turn and a gyro bias taken out), the reference's angle has a robust σ
-    :data:`QUIET_SIGMAS` times its noise (σ, and the gyro's random walk ``ARW √T`` over the
-    span), moves smoothly (:data:`QUIET_SMOOTH`: not a noise larger than σ) and spans
-    :data:`DEAD_TURN_RAD`, and the gyro's integrated angle less than
-    :data:`MIN_SLOPE` of it (the reference's noise taken out: ``sqrt(s_ref² - σ²)``). The
-    slope fit cannot decide there (the gyro's changes are not above its noise,
-    :data:`SIGNAL_FACTOR`), which is what a failed axis reads. Amplitudes, not a fit: a
-    reference's latency does not matter. None: the reference does not turn, or the gyro
-    follows it."""
+def quiet_axis(
+    imu: Gyro | AccelTilt, axis: int, t: Array, angle: Array, sigma: float
+) -> Quiet | None:
+    """The IMU's angle ``axis`` (the gyro's integral, or the accelerometers' levelled roll or
+    pitch) showing only its noise (or nothing) while a reference (readings ``angle`` at ``t``,
+    noise σ ``sigma``, rad) turns, over one span: about their lines (a steady turn and a bias
+    taken out), the reference's angle has a robust σ :data:`QUIET_SIGMAS` times its noise (σ,
+    and the IMU angle's: the gyro's random walk ``ARW √T`` over the span, the levelled angle's
+    block σ), moves smoothly (:data:`QUIET_SMOOTH`: not a noise larger than σ) and spans
+    :data:`DEAD_TURN_RAD`, and the IMU's angle less than :data:`MIN_SLOPE` of it (the
+    reference's noise taken out: ``sqrt(s_ref² - σ²)``). The slope fit cannot decide there (the
+    IMU's changes are not above their noise, :data:`SIGNAL_FACTOR`), which is what a failed axis
+    reads. Amplitudes, not a fit: a reference's latency does not matter. None: the reference
+    does not turn, or the IMU follows it."""
     ok = np.isfinite(t) & np.isfinite(angle)
     t, angle = t[ok], np.unwrap(angle[ok])
-    if t.size <= MIN_INTERVALS or not (t[0] >= gyro.t[0] and t[-1] <= gyro.t[-1]):
+    if t.size <= MIN_INTERVALS or not (t[0] >= imu.t[0] and t[-1] <= imu.t[-1]):
         return None
-    theta = np.interp(t, gyro.t, gyro.theta[:, axis])
-    walk = gyro.arw * math.sqrt(float(t[-1] - t[0]))
-    sa, sb = _about_line(t, angle), _about_line(t, theta)
+    if isinstance(imu, Gyro):
+        own = np.interp(t, imu.t, imu.theta[:, axis])
+        noise = imu.arw * math.sqrt(float(t[-1] - t[0]))
+    else:
+        own, noise = np.interp(t, imu.t, imu.angles[:, axis]), imu.block_sigma
+    sa, sb = _about_line(t, angle), _about_line(t, own)
     step = 1.4826 * float(np.median(np.abs(np.diff(angle) - np.median(np.diff(angle)))))
-    if sa < QUIET_SIGMAS * math.hypot(sigma, walk) or step > QUIET_SMOOTH * sa:
+    if sa < QUIET_SIGMAS * math.hypot(sigma, noise) or step > QUIET_SMOOTH * sa:
         return None
     d = angle - np.polyval(np.polyfit(t - t[0], angle, 1), t - t[0])
     lo, hi = np.percentile(d, [1.0, 99.0])
@@ -594,43 +601,41 @@ def quiet_axis(gyro: Gyro, axis: int, t: Array, angle: Array, sigma: float) -> Q
 
 
 def _segment_verdict(
-    gyro: Gyro, ref: Reference, t: Array, angle: Array, sigma: float | None
+    imu: Gyro | AccelTilt, axis: int, t: Array, angle: Array, sigma: float | None
 ) -> tuple[bool, Slope | None, Quiet | None] | None:
-    """(follows, the failing slope, the failing quiet) of one span; None: undecided."""
-    s = best_slope(gyro, ref.axis, t, angle)
+    """(follows, the failing slope, the failing quiet) of one span; None: undecided. A span
+    follows only when its slope is above :data:`MIN_SLOPE` even :data:`CONFIDENCE` standard
+    errors down: one that holds a failure near its start can pass the rule with a wide
+    interval (k = 0.12 ± 0.22), which is no sign that the axis follows there; such a span is
+    undecided. The quiet rule is tried only where the slope cannot decide at all (the IMU's
+    changes at their noise): a span whose slope decides but widely, e.g. a vessel getting
+    under way, its pendulum inclinometer tilted by the surge as the gyro is not, is left
+    alone."""
+    s = best_slope(imu, axis, t, angle)
     if s is not None:
-        return s[0].upper >= MIN_SLOPE, (s[0] if s[0].upper < MIN_SLOPE else None), None
+        if s[0].upper < MIN_SLOPE:
+            return False, s[0], None
+        return (True, None, None) if s[0].k - CONFIDENCE * s[0].se >= MIN_SLOPE else None
     if sigma is None:
         return None
-    q = quiet_axis(gyro, ref.axis, t, angle, sigma)
+    q = quiet_axis(imu, axis, t, angle, sigma)
     return None if q is None else (False, None, q)
 
 
-def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> SegmentFinding | None:
-    """A gyro axis that follows a reference over the whole mission's fit (:func:`check_axes`)
-    but not over a part of it: the reference's readings cut into consecutive spans of about
-    :data:`SEGMENT_S`, each judged only where it decides, by the rule of the module's docstring
-    (:func:`best_slope`) or, where the gyro shows nothing above its noise, by
-    :func:`quiet_axis` (``sigma``: the reference's noise, rad; None: not judged so, as a GNSS
-    course's). The first failing span and those failing after it, up to one that follows.
-    Up to 0.4.12 an axis that failed mid-mission (zeroed, or reading its noise) was averaged
-    away by the whole mission's fit (docs/robustness.md, 'A gyro axis that fails
-    mid-mission')."""
-    ok = np.isfinite(ref.t) & np.isfinite(ref.value)
-    t, angle = ref.t[ok], ref.value[ok]
-    if t.size < 2:
-        return None
-    n = int((t[-1] - t[0]) // SEGMENT_S)
-    if n < 2:
-        return None  # one span: the whole mission's fit
-    edges = np.searchsorted(t, np.linspace(t[0], t[-1], n + 1)[1:-1])
-    gyro = views.gyro(ref.c_sb)
-    bounds = list(zip([0, *edges.tolist()], [*edges.tolist(), t.size - 1], strict=True))
+Failure = tuple[float | None, float, float, Slope | None, Quiet | None]
+"""Where an IMU angle stops following a reference: (the end of the last span that follows
+before, the first failing span's start, the last failing span's end, its slope, its quiet)."""
+
+
+def _first_failure(
+    spans: list[tuple[Array, Array]], imu: Gyro | AccelTilt, axis: int, sigma: float | None
+) -> Failure | None:
+    """The first span that fails and those failing after it, up to one that follows."""
     follows_to: float | None = None
     bad: list[tuple[float, float, Slope | None, Quiet | None]] = []
-    for i, j in bounds:
-        ts, us = t[i : j + 1], angle[i : j + 1]  # the reading at a bound ends one, starts next
-        v = _segment_verdict(gyro.window(ts[0] - MAX_LAG_S, ts[-1] + MAX_LAG_S), ref, ts, us, sigma)
+    for ts, us in spans:
+        part = imu.window(ts[0] - MAX_LAG_S, ts[-1] + MAX_LAG_S) if isinstance(imu, Gyro) else imu
+        v = _segment_verdict(part, axis, ts, us, sigma)
         if v is None:
             continue
         if v[0]:
@@ -641,7 +646,46 @@ def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> Seg
             bad.append((float(ts[0]), float(ts[-1]), v[1], v[2]))
     if not bad:
         return None
-    first = bad[0]
-    return SegmentFinding(
-        ref.axis, ref.name, ref.angle, first[0], bad[-1][1], follows_to, first[2], first[3]
-    )
+    return follows_to, bad[0][0], bad[-1][1], bad[0][2], bad[0][3]
+
+
+def _spans(ref: Reference) -> list[tuple[Array, Array]]:
+    """A reference's finite readings cut into consecutive spans of about :data:`SEGMENT_S`
+    (the reading at a bound ends one and starts the next); none if there are fewer than two."""
+    ok = np.isfinite(ref.t) & np.isfinite(ref.value)
+    t, angle = ref.t[ok], ref.value[ok]
+    n = int((t[-1] - t[0]) // SEGMENT_S) if t.size > 1 else 0
+    if n < 2:
+        return []  # one span: the whole mission's fit
+    edges = np.searchsorted(t, np.linspace(t[0], t[-1], n + 1)[1:-1]).tolist()
+    pairs = zip([0, *edges], [*edges, t.size - 1], strict=True)
+    return [(t[i : j + 1], angle[i : j + 1]) for i, j in pairs]
+
+
+def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> SegmentFinding | None:
+    """A gyro axis, or for an inclinometer's angle the accelerometers' levelling, that follows a
+    reference over the whole mission's fit (:func:`check_axes`) but not over a part of it: the
+    reference's readings cut into consecutive spans of about :data:`SEGMENT_S` (:func:`_spans`),
+    each judged only where it decides, by the rule of the module's docstring
+    (:func:`best_slope`) or, where the IMU's angle shows nothing above its noise, by
+    :func:`quiet_axis` (``sigma``: the reference's noise, rad; None: not judged so, as a GNSS
+    course's). The first failing span and those failing after it, up to one that follows; when
+    the gyro and the accelerometers both fail from the same span, the reference is blamed (as
+    :func:`check_axes` does). Up to 0.4.12 an axis that failed mid-mission (zeroed, or reading
+    its noise) was averaged away by the whole mission's fit (docs/robustness.md, 'A gyro axis
+    that fails mid-mission')."""
+    spans = _spans(ref)
+    if not spans:
+        return None
+    gyro = _first_failure(spans, views.gyro(ref.c_sb), ref.axis, sigma)
+    tilt = None
+    if ref.tilt is not None:
+        tilt = _first_failure(spans, views.tilt(ref.c_sb), ref.tilt, sigma)
+    if gyro is None and tilt is None:
+        return None
+    inst: Instrument = "gyro" if tilt is None else "accelerometer" if gyro is None else "reference"
+    if inst == "reference" and gyro is not None and tilt is not None and gyro[1] != tilt[1]:
+        inst = "gyro" if gyro[1] < tilt[1] else "accelerometer"  # the first to fail
+    f = gyro if inst != "accelerometer" else tilt
+    assert f is not None
+    return SegmentFinding(inst, ref.axis, ref.name, ref.angle, f[1], f[2], f[0], f[3], f[4])

@@ -517,7 +517,8 @@ def _reference_sigma(config: MissionConfig, ref: axes.Reference) -> float | None
 def _check_segments(
     config: MissionConfig, views: axes.ImuViews, refs: list[axes.Reference]
 ) -> None:
-    """A MissionError naming the IMU file, the gyro column and the span where an axis stops
+    """A MissionError naming the IMU file and column (a gyro axis, the accelerometers' levelled
+    roll or pitch) or, when both disagree with it, the sensor's, and the span where it stops
     following an aiding sensor's angle that the whole mission's fit passed
     (:func:`axes.segment_finding`; docs/robustness.md, 'A gyro axis that fails mid-mission').
     Since 0.4.13."""
@@ -525,20 +526,50 @@ def _check_segments(
         found = axes.segment_finding(views, ref, _reference_sigma(config, ref))
         if found is None:
             continue
-        column = imu_columns(config.imu.format)[found.axis]
-        cfg = config.sensors[found.reference]
-        since = "" if found.follows_to is None else f"up to t = {found.follows_to:.1f} s, "
+        file, what, column = _segment_words(config, found)
+        other = _segment_other(config, found)
+        follows = (
+            f"does not follow {other}"
+            if found.follows_to is None
+            else f"follows {other} up to t = {found.follows_to:.1f} s, but not"
+        )
         raise MissionError(
-            f"{config.imu.file}: the gyro's {'xyz'[found.axis]} axis ({column}) follows the "
-            f"{found.angle} of sensor {found.reference!r} ({cfg.file}) {since}but not from t = "
-            f"{found.t_from:.1f} to {found.t_to:.1f} s: {found.words()} (1 expected, below "
-            f"{axes.MIN_SLOPE:g}), in spans of {axes.SEGMENT_S:g} s: an axis that failed (dead, "
-            "or reading only its noise)? Remove those rows, or cut the mission before them; if "
-            "the table is right, set imu.axis_check = false (docs/robustness.md, 'A gyro axis "
-            "that fails mid-mission')",
-            file=config.imu.file,
+            f"{file}: {what} {follows} from t = {found.t_from:.1f} to {found.t_to:.1f} s: "
+            f"{found.words()} (1 expected, below "
+            f"{axes.MIN_SLOPE:g}), in spans of {axes.SEGMENT_S:g} s: "
+            + (
+                "is the sensor's angle right?"
+                if found.instrument == "reference"
+                else "an axis that failed (dead, or reading only its noise)?"
+            )
+            + " Remove those rows, or cut the mission before them; if the tables are right, set "
+            "imu.axis_check = false (docs/robustness.md, 'A gyro axis that fails mid-mission')",
+            file=file,
             field=column,
         )
+
+
+def _segment_words(config: MissionConfig, found: axes.SegmentFinding) -> tuple[str, str, str]:
+    """(file, what, column) of the instrument a span finding blames."""
+    columns = imu_columns(config.imu.format)
+    if found.instrument == "gyro":
+        column = columns[found.axis]
+        return config.imu.file, f"the gyro's {'xyz'[found.axis]} axis ({column})", column
+    if found.instrument == "accelerometer":
+        # The levelled roll, atan2(-f_y, -f_z), moves with y or z; the pitch with x.
+        column = f"{columns[4]}, {columns[5]}" if found.angle == "roll" else columns[3]
+        return config.imu.file, f"the accelerometers' {found.angle} ({column})", column
+    sensor = config.sensors[found.reference]
+    column = KINDS[sensor.kind].columns[found.axis]
+    return sensor.file, f"the {found.angle} of sensor {found.reference!r} ({column})", column
+
+
+def _segment_other(config: MissionConfig, found: axes.SegmentFinding) -> str:
+    """What a span finding's instrument is judged against, in words."""
+    if found.instrument == "reference":
+        return "the gyro's and the accelerometers'"
+    sensor = config.sensors[found.reference]
+    return f"the {found.angle} of sensor {found.reference!r} ({sensor.file})"
 
 
 def _check_dead_gyro(
