@@ -1,5 +1,5 @@
 """One IMU channel stuck, dead or reading only noise for part of a mission (docs/robustness.md,
-'One IMU channel stuck', 'A gyro axis that fails mid-mission').
+'One IMU channel stuck', 'An IMU axis that fails mid-mission').
 
 Each case copies a mission folder (the simulated demo, an increments IMU) and changes one
 column of its IMU table from ``--from`` seconds on: zeroed, held at its last value, or replaced

@@ -182,3 +182,19 @@ def test_the_right_demo_has_no_stuck_channel_and_follows_in_every_span(
     assert {r.angle for r in refs} >= {"roll", "pitch", "yaw"}
     for ref in refs:
         assert axes.segment_finding(views, ref, loader._reference_sigma(m.config, ref)) is None
+
+
+def test_an_accelerometer_reading_only_noise_from_mid_mission_is_named_with_its_span(
+    demo: Path, tmp_path: Path
+) -> None:
+    """Up to 0.4.12 the demo with its dvel_x reading only its noise (the VRW) from 750 s ran
+    with exit 0, 17.6 m RMSE (2.6 m right); since 0.4.13 the accelerometers' pitch is named
+    against the inclinometer's, from the first span of 120-240 s after the failure."""
+    root = _failed_from(demo, tmp_path, "dvel_x_m_s", "noise", False)
+    line = error_line(cli("run", root, "--out", tmp_path / "r"))
+    words = "error: imu.parquet: the accelerometers' pitch (dvel_x_m_s) follows the pitch of "
+    assert line.startswith(words + "sensor 'inclinometer' (inclinometer.parquet) up to t = ")
+    found = re.search(r"but not from t = ([\d.]+) to ([\d.]+) s", line)
+    assert found is not None, line
+    assert FAULT_S <= float(found.group(1)) <= FAULT_S + 240.0
+    assert float(found.group(2)) > 900.0  # the demo ends at 906.4 s

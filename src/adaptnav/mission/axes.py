@@ -672,7 +672,7 @@ def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> Seg
     course's). The first failing span and those failing after it, up to one that follows; when
     the gyro and the accelerometers both fail from the same span, the reference is blamed (as
     :func:`check_axes` does). Up to 0.4.12 an axis that failed mid-mission (zeroed, or reading
-    its noise) was averaged away by the whole mission's fit (docs/robustness.md, 'A gyro axis
+    its noise) was averaged away by the whole mission's fit (docs/robustness.md, 'An IMU axis
     that fails mid-mission')."""
     spans = _spans(ref)
     if not spans:

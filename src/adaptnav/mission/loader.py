@@ -520,7 +520,7 @@ def _check_segments(
     """A MissionError naming the IMU file and column (a gyro axis, the accelerometers' levelled
     roll or pitch) or, when both disagree with it, the sensor's, and the span where it stops
     following an aiding sensor's angle that the whole mission's fit passed
-    (:func:`axes.segment_finding`; docs/robustness.md, 'A gyro axis that fails mid-mission').
+    (:func:`axes.segment_finding`; docs/robustness.md, 'An IMU axis that fails mid-mission').
     Since 0.4.13."""
     for ref in refs:
         found = axes.segment_finding(views, ref, _reference_sigma(config, ref))
@@ -543,7 +543,7 @@ def _check_segments(
                 else "an axis that failed (dead, or reading only its noise)?"
             )
             + " Remove those rows, or cut the mission before them; if the tables are right, set "
-            "imu.axis_check = false (docs/robustness.md, 'A gyro axis that fails mid-mission')",
+            "imu.axis_check = false (docs/robustness.md, 'An IMU axis that fails mid-mission')",
             file=file,
             field=column,
         )
