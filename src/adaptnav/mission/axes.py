@@ -511,8 +511,8 @@ few minutes hold enough intervals for a fit (a heading at 1 Hz: 300) and name wh
 stopped within them."""
 QUIET_SIGMAS = 3.0
 """A span's reference turns, for :func:`quiet_axis`, when the robust σ of its angle about a
-line is this many times its noise (the reference's σ and the gyro's random walk over the span):
-white noise's is 1."""
+line is this many times its noise (the reference's σ and the IMU angle's: the gyro's random walk
+over the span, the levelled angle's block σ): white noise's is 1."""
 QUIET_SMOOTH = 1.0
 """... and when the robust σ of its changes from reading to reading is at most this many times
 that σ about the line: a rotation moves the angle smoothly, white noise (a reference noisier
@@ -521,8 +521,9 @@ than its configured σ) gives √2."""
 
 @dataclass(frozen=True)
 class Quiet:
-    """A gyro axis that shows ``ratio`` of a reference's rotation over ``n`` readings: the
-    robust σ of its integrated angle about a line over the reference's, its noise taken out."""
+    """An IMU angle (a gyro axis's integral, the accelerometers' levelled roll or pitch) that
+    shows ``ratio`` of a reference's rotation over ``n`` readings: the robust σ of its angle
+    about a line over the reference's, the reference's noise taken out."""
 
     ratio: float
     n: int
@@ -554,8 +555,8 @@ class SegmentFinding:
         q = self.quiet
         assert q is not None
         return (
-            f"its angle about a line {q.ratio:.2g} times the sensor's over {q.n} readings: it "
-            "shows none of the sensor's rotation"
+            f"its angle about a line {q.ratio:.2g} times the sensor's over {q.n} readings, at "
+            "the level of its own noise: it does not see the sensor's rotation"
         )
 
 
