@@ -140,3 +140,54 @@ def test_a_hole_beyond_small_angles_is_warned(
     assert len(words) == 1
     assert f"before imu.parquet row {int(m.imu.holes.row[0])}" in words[0]  # 0-based
     assert "60.01 s of IMU samples lost" in words[0]
+
+
+def _as_rates(demo: Path, root: Path) -> Path:
+    """The demo's IMU in rates (``imu.format`` rates): each row's increments over its interval
+    divided by it, the mean rate, stamped at the interval's middle, where the mean rate is the
+    rate to within h² ω̈ / 24 (the trajectory's rates, the same IMU errors)."""
+    shutil.copytree(demo, root)
+    imu = pd.read_parquet(root / "imu.parquet")
+    t = imu.t_s.to_numpy()
+    dt = np.diff(t, prepend=t[0] - 0.01)
+    out = pd.DataFrame({"t_s": t - 0.5 * dt})
+    for a in "xyz":
+        out[f"gyro_{a}_rad_s"] = imu[f"dtheta_{a}_rad"].to_numpy() / dt
+    for a in "xyz":
+        out[f"accel_{a}_m_s2"] = imu[f"dvel_{a}_m_s"].to_numpy() / dt
+    out.to_parquet(root / "imu.parquet", index=False)
+    toml = root / "mission.toml"
+    toml.write_text(toml.read_text().replace('format = "increments"', 'format = "rates"', 1))
+    return root
+
+
+def test_a_hole_in_an_imu_in_rates_leaves_the_nees_bounded(demo: Path, tmp_path: Path) -> None:
+    """The demo in rates with the samples of (T0, T0 + 10 s] lost: the loader integrates the
+    hole by the trapezoid of the rates either side, and since 0.4.13 adds the trapezoid's error
+    over 10 s, by the mission's own rates, to P (up to 0.4.12 the white noise alone: attitude
+    NEES 2.9e5 at the hole's end, 342 m RMS). The attitude NEES stays within the χ² bound over
+    the next 60 s, the hole is a repair on the row after it and an event."""
+    root = _holed(_as_rates(demo, tmp_path / "rates"), tmp_path)
+    m = load_mission(root)
+    res = api.run(m, "robust")
+    assert m.truth is not None
+    nees = _after_hole(res.solution, m.truth, "attitude", 60.0)
+    assert nees.size > 500 and np.nanmax(nees) < CHI2_3_999, np.nanmax(nees)
+    assert evaluate.evaluate(res, m.truth).rmse_m < 2 * 2.63
+    assert (res.events["event"] == HOLE_EVENT).sum() == 1
+    assert len(m.imu.holes) == 1 and int(m.imu.holes.periods[0]) == 1001
+    table = pd.read_parquet(root / "imu.parquet")
+    row = int(m.imu.holes.row[0])
+    assert table.t_s.iloc[row] == pytest.approx(T0 + LENGTH + 0.005)
+    assert table.t_s.iloc[row - 1] == pytest.approx(T0 - 0.005)
+    assert m.imu.t[m.imu.holes.index[0]] == table.t_s.iloc[row]  # the interval ending there
+    fixes = [r for r in m.repairs if r.action == "hole filled by the trapezoid of rates"]
+    assert len(fixes) == 1 and fixes[0].line == row  # Parquet: the 0-based row
+
+
+def test_an_imu_in_rates_without_a_hole_has_none(demo: Path, tmp_path: Path) -> None:
+    """The demo in rates loses no sample: no hole, no repair, no event (its run takes the
+    path of 0.4.12: the engine is given no hole list)."""
+    m = load_mission(_as_rates(demo, tmp_path / "rates"))
+    assert len(m.imu.holes) == 0
+    assert not [r for r in m.repairs if "trapezoid of rates" in r.action]

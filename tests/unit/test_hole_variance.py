@@ -8,6 +8,7 @@ import pytest
 
 from adaptnav.mission.imu_holes import (
     find_holes,
+    find_rate_holes,
     recent_variance,
     repair_errors,
 )
@@ -120,3 +121,36 @@ def test_local_motion_raises_the_variance_above_the_whole_tables() -> None:
     assert holes.var[0, 3] > 5 * sq[:, 3].mean()
     near = np.abs(ends - at) <= 12000  # within 120 s, to the runs of an eighth of that
     assert holes.var[0, 3] == pytest.approx(sq[near, 3].mean(), rel=0.1)
+
+
+def test_rate_holes_take_the_error_of_the_trapezoid_of_rates_by_hand() -> None:
+    """An IMU in rates (since 0.4.13): the hole between samples i and i + 1 is interval i, its
+    row the file row of sample i + 1. Rates ω_u = c u² on the z gyro: the trapezoid across m
+    periods from sample s against the trapezoids of each period, per unit p c,
+    Σ_{u=s+1}^{s+m-1} u² - (m - 1)(s² + (s + m)²)/2 = -(m - 1) m (m + 1)/6 whatever s (by hand:
+    the terms in s cancel; m = 2, s = 0: 1 - 4/2 = -1); a linear rate (the accelerometers'
+    ramp) is integrated exactly. An interval of 1.4 periods (a late stamp) is no hole."""
+    n, p, c = 3000, 0.01, 1e-6
+    u = np.arange(n, dtype=float)
+    gyro = np.stack([np.zeros(n), np.zeros(n), c * u * u], axis=1)
+    accel = np.stack([0.2 + 0.001 * u, np.zeros(n), np.full(n, -9.8)], axis=1)
+    gaps = np.full(n - 1, p)
+    gaps[299], gaps[2499], gaps[1000] = 5 * p, 2 * p, 1.4 * p
+    rows = np.arange(n) + 7
+    holes = find_rate_holes(gyro, accel, gaps, rows, p)
+    assert holes.index.tolist() == [299, 2499] and holes.row.tolist() == [307, 2507]
+    assert holes.periods.tolist() == [5, 2] and holes.held.tolist() == [1, 1]
+    for j, m in enumerate((5, 2)):
+        e = p * c * (m - 1) * m * (m + 1) / 6
+        assert holes.var[j, 5] == pytest.approx(e * e, rel=1e-6)
+    assert np.all(holes.var[:, :5] < 1e-24)  # the ramp and the constants: rounding only
+    assert holes.var[0, 5] == pytest.approx((20 * p * c) ** 2, rel=1e-6)  # m = 5: 4·5·6/6
+
+
+def test_an_imu_in_rates_without_holes_has_none() -> None:
+    """Regular and slightly irregular stamps (up to 0.45 period late) are no hole."""
+    n, p = 2000, 0.01
+    rng = np.random.default_rng(3)
+    gyro, accel = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    gaps = p * (1.0 + rng.uniform(-0.45, 0.45, n - 1))
+    assert len(find_rate_holes(gyro, accel, gaps, np.arange(n), p)) == 0

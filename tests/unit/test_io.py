@@ -1067,9 +1067,12 @@ def test_imu_nan_row_dropped_then_gap_checked(
     with caplog.at_level(logging.WARNING, logger="adaptnav.mission"):
         m = load_mission(root)
     assert len(m.imu) == 48 and m.imu.dt[6] == pytest.approx(2 * T)
-    (r,) = m.repairs
+    r, hole = m.repairs
     assert (r.line, r.field, r.action) == (9, "gyro_y_rad_s", "dropped row with non-finite value")
     assert "imu.csv line 9, gyro_y_rad_s: dropped row" in caplog.text
+    # since 0.4.13 the hole it leaves in an IMU in rates is a repair too, on the row after it
+    assert (hole.line, hole.action) == (10, "hole filled by the trapezoid of rates")
+    assert "about 1 sample(s) lost or dropped" in hole.detail
     imu.loc[8:12, "accel_x_m_s2"] = np.nan  # now 6 rows in a row: a 70 ms hole
     root = write_dir(tmp_path, config_dict(), {"imu.csv": imu})
     msg = load_error(root)

@@ -20,6 +20,11 @@ is taken over every window and over those near the hole (the larger of the two):
 mission's own IMU says how fast it turns and accelerates in windows as long as the hole, and
 where. No guess, no setting. Cost: one pass over the table per distinct (m, k), only when
 there are holes.
+
+An IMU in rates (``imu.format`` rates) has its holes integrated by the trapezoid of the rates
+either side (models.strapdown.rates_to_increments): with x = p ω (p the period), the filled
+error above with k = 1, x_0 the sample before the hole, x_m the one after
+(:func:`find_rate_holes`; since 0.4.13).
 """
 
 from __future__ import annotations
@@ -87,14 +92,20 @@ def trapezoid(m: int) -> bool:
 
 
 def repair_errors(
-    dtheta: Array, dvel: Array, m: int, k: int, tiled: bool | None = None
+    dtheta: Array,
+    dvel: Array,
+    m: int,
+    k: int,
+    tiled: bool | None = None,
+    fill: bool | None = None,
 ) -> tuple[Array, IntArray]:
     """The squares of ``e`` (module docstring) per axis over the table's windows of m rows
     after its first (each needs the row before it), (W, 6), velocity then attitude, and the
     windows' last rows (W,): of the trapezoid's filling when :func:`trapezoid` (m), else of
     the stretch. ``dtheta``, ``dvel``: (N, 3), one period each. Non-overlapping windows
     (``tiled``; by default when there are :data:`MIN_WINDOWS` of them), or every window of a
-    short table."""
+    short table. ``fill``: the trapezoid's error whatever m (an IMU in rates,
+    :func:`find_rate_holes`); by default :func:`trapezoid` (m) decides."""
     n = dtheta.shape[0]
     if n < m + 1:
         return np.zeros((0, 6)), np.zeros(0, dtype=np.int64)
@@ -103,13 +114,14 @@ def repair_errors(
     # windows [j, j + m) for j in starts, the row before each j - 1
     starts = np.arange(1, n - m + 1, m if tiled else 1)
     out = np.empty((starts.size, 6))
+    filled = trapezoid(m) if fill is None else fill
     for c, x in enumerate((dvel, dtheta)):
         s = np.empty((n + 1, 3))
         s[0] = 0.0
         np.cumsum(x, axis=0, out=s[1:])
         total = s[starts + m] - s[starts]
         tail = s[starts + m] - s[starts + m - k]
-        if trapezoid(m):
+        if filled:
             before = s[starts] - s[starts - 1]
             e = total - tail - (m - k) * 0.5 * (before + tail / k)
         else:
@@ -119,16 +131,17 @@ def repair_errors(
 
 
 def blocked_errors(
-    dtheta: Array, dvel: Array, m: int, k: int, block: int
+    dtheta: Array, dvel: Array, m: int, k: int, block: int, fill: bool | None = None
 ) -> tuple[Array, IntArray, IntArray]:
     """:func:`repair_errors` summed over runs of ``block`` consecutive windows: the sums
     (B, 6), the windows in each (B,) and the last row of each run's last window (B,). The
     table is taken :data:`CHUNK_ROWS` rows at a time, so that the temporaries stay small (a
-    day at 200 Hz, m = 2: 8.6 million windows, summed without holding them)."""
+    day at 200 Hz, m = 2: 8.6 million windows, summed without holding them). ``fill``: as
+    :func:`repair_errors`'s."""
     n = dtheta.shape[0]
     w = (n - 1) // m  # windows after the first row
     if w < MIN_WINDOWS:  # a short table: every window
-        sq, ends = repair_errors(dtheta, dvel, m, k)
+        sq, ends = repair_errors(dtheta, dvel, m, k, fill=fill)
         return sq, np.ones(ends.size, dtype=np.int64), ends
     per = block * max(1, CHUNK_ROWS // (block * m))  # windows per chunk, whole runs
     sums: list[Array] = []
@@ -137,7 +150,7 @@ def blocked_errors(
     for w0 in range(0, w, per):
         w1 = min(w0 + per, w)
         rows = slice(w0 * m, w1 * m + 1)  # the chunk's windows and the row before the first
-        sq, last = repair_errors(dtheta[rows], dvel[rows], m, k, tiled=True)
+        sq, last = repair_errors(dtheta[rows], dvel[rows], m, k, tiled=True, fill=fill)
         runs = np.arange(0, w1 - w0, block)
         sums.append(np.add.reduceat(sq, runs, axis=0))
         counts.append(np.diff(np.append(runs, w1 - w0)))
@@ -177,13 +190,57 @@ def find_holes(
         return ImuHoles.none()
     m = np.maximum(np.rint(dt[idx] / period), 2).astype(np.int64)
     k = np.clip(np.rint(own_dt[idx] / period), 1, m - 1).astype(np.int64)
-    var = np.zeros((idx.size, 6))
+    var = _variances(dtheta, dvel, idx, m, k, period, None)
+    return ImuHoles(idx.astype(np.int64), rows[idx].astype(np.int64), m, k, var)
+
+
+def find_rate_holes(
+    gyro: Array, accel: Array, gaps: Array, rows: IntArray, period: float
+) -> ImuHoles:
+    """The holes of an IMU in rates: the intervals ``gaps`` between kept samples longer than
+    1 + :data:`HOLE_MARGIN` periods, m = rint(gap / period) (at least 2). Interval i (of
+    ``gaps``, and of the loader's ImuData) lies between samples i and i + 1; its ``row`` is
+    the file row of sample i + 1, the one after the hole. The loader integrates a hole by the
+    trapezoid of the rates either side (models.strapdown.rates_to_increments); its error over
+    m periods from sample s, per axis, with x = p ω (p the period, ω the rates)
+
+        e = Σ_{i=s}^{s+m-1} (x_i + x_{i+1}) / 2 - m (x_s + x_{s+m}) / 2
+          = Σ_{i=s+1}^{s+m-1} x_i - (m - 1) (x_s + x_{s+m}) / 2
+
+    which is the filled repair's error (module docstring) with k = 1 and x_0 = x_s: the same
+    windows, :func:`blocked_errors` with ``fill``, and the same variances
+    (docs/robustness.md, 'The σ over a hole'). Since 0.4.13; up to 0.4.12 a rates IMU's holes
+    grew P by the white noise alone."""
+    idx = np.flatnonzero(gaps > (1.0 + HOLE_MARGIN) * period)
+    if not idx.size:
+        return ImuHoles.none()
+    m = np.maximum(np.rint(gaps[idx] / period), 2).astype(np.int64)
+    k = np.ones(idx.size, dtype=np.int64)
+    x_th, x_v = gyro * period, accel * period
+    var = _variances(x_th, x_v, idx + 1, m, k, period, True)
+    return ImuHoles(idx.astype(np.int64), rows[idx + 1].astype(np.int64), m, k, var)
+
+
+def _variances(
+    dtheta: Array,
+    dvel: Array,
+    at: IntArray,
+    m: IntArray,
+    k: IntArray,
+    period: float,
+    fill: bool | None,
+) -> Array:
+    """:func:`hole_variances` of the holes whose windows end at rows ``at``, m periods long
+    and k held, the windows' errors computed once per distinct (m, k), in runs of an eighth
+    of the reach (:data:`NEAR_WINDOWS` windows or :data:`NEAR_S` seconds)."""
+    var = np.zeros((at.size, 6))
     for mm, kk in set(zip(m.tolist(), k.tolist(), strict=True)):
         reach = max(NEAR_WINDOWS * mm, round(NEAR_S / period))
-        runs = blocked_errors(dtheta, dvel, mm, kk, max(1, reach // mm // NEAR_WINDOWS))
+        block = max(1, reach // mm // NEAR_WINDOWS)
+        runs = blocked_errors(dtheta, dvel, mm, kk, block, fill)
         these = (m == mm) & (k == kk)
-        var[these] = hole_variances(*runs, idx[these], reach)
-    return ImuHoles(idx.astype(np.int64), rows[idx].astype(np.int64), m, k, var)
+        var[these] = hole_variances(*runs, at[these], reach)
+    return var
 
 
 def recent_variance(dtheta: Array, dvel: Array, m: int, k: int) -> Array:

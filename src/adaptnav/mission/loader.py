@@ -31,7 +31,13 @@ from adaptnav.mission.config import (
     load_config,
     write_config,
 )
-from adaptnav.mission.imu_holes import WIDE_HOLE_RAD, ImuHoles, find_holes, trapezoid
+from adaptnav.mission.imu_holes import (
+    WIDE_HOLE_RAD,
+    ImuHoles,
+    find_holes,
+    find_rate_holes,
+    trapezoid,
+)
 from adaptnav.mission.imu_stamps import fit_stamp_grid
 from adaptnav.mission.screening import (
     AFTER_GAP_MADS,
@@ -994,8 +1000,13 @@ def _load_imu(table: Table, config: MissionConfig, journal: Journal) -> ImuData:
             1.0 / cfg.rate_hz,
         )
     if rates:
+        # A hole (samples lost or dropped) is integrated by the trapezoid of the rates either
+        # side; since 0.4.13 P grows over it by what that misses (up to 0.4.12: white noise).
+        holes = find_rate_holes(v[:, :3], v[:, 3:], gaps, rows, med)
+        _warn_wide_holes(table, holes, gaps)
+        _journal_rate_holes(table, holes, gaps, journal)
         dtheta, dvel = rates_to_increments(v[:, :3], v[:, 3:], gaps)
-        return ImuData(tk[1:].copy(), gaps, dtheta, dvel)
+        return ImuData(tk[1:].copy(), gaps, dtheta, dvel, holes)
     # A row dropped for NaN leaves a hole: the next interval is stretched back to the previous
     # kept sample and the hole filled (_filled), so that gravity and the measured specific
     # force stay integrated over the same time.
@@ -1024,6 +1035,28 @@ def _filled(v: Array, own_dt: Array, dt: Array, holes: ImuHoles) -> tuple[Array,
         mean = 0.5 * (v[j - 1, cols] / own_dt[j - 1, None] + v[j, cols] / own_dt[j, None])
         x[j] = v[j, cols] + lost * mean
     return out
+
+
+def _journal_rate_holes(table: Table, holes: ImuHoles, gaps: Array, journal: Journal) -> None:
+    """A repair for each hole of an IMU in rates, on the row after it: the hole integrated by
+    the trapezoid of the rates either side, with the σ the engine adds to P over it
+    (docs/robustness.md, 'The σ over a hole'). Since 0.4.13; up to 0.4.12 such a hole was
+    integrated the same way, but silently and with P grown by the white noise alone."""
+    sd = np.sqrt(holes.var)
+    for j in range(len(holes)):
+        r = int(holes.row[j])
+        att = ", ".join(f"{math.degrees(float(x)):.3g}" for x in sd[j, 3:])
+        vel = ", ".join(f"{float(x):.3g}" for x in sd[j, :3])
+        journal.repair(
+            table.label,
+            int(table.lines[r]),
+            TIME_COLUMN,
+            "hole filled by the trapezoid of rates",
+            f"{float(gaps[holes.index[j]]):.6g} s since the previous sample, about "
+            f"{int(holes.periods[j]) - 1:d} sample(s) lost or dropped: the rates either side "
+            f"integrated across it, its error's σ (body x, y, z) added to P: attitude {att}°, "
+            f"velocity {vel} m/s",
+        )
 
 
 def _warn_wide_holes(table: Table, holes: ImuHoles, dt: Array) -> None:
