@@ -18,7 +18,9 @@ Run it from two checkouts (PYTHONPATH=OLD/src) to compare versions. SCRATCH rece
 folder per case, removed after it. ``--trapezoid`` prints instead the RMS repair error of the
 mission's own IMU for the stretch of the next sample and for the mean of the samples either
 side (mission.imu_holes), per hole length; ``--lost`` the cases of 'IMU samples lost' (rows
-lost within the default max_gap_s).
+lost within the default max_gap_s). ``--rates`` first re-expresses the mission's IMU as rates
+(:func:`as_rates`; an IMU in rates, whose holes the loader integrates by the trapezoid of the
+rates either side) and runs the cases on that.
 """
 
 from __future__ import annotations
@@ -52,6 +54,27 @@ def make_hole(src: Path, dst: Path, t0: float, length: float) -> None:
     df = pd.read_parquet(dst / "imu.parquet")
     keep = (df.t_s <= t0 + 1e-9) | (df.t_s > t0 + length + 1e-9)
     df[keep].reset_index(drop=True).to_parquet(dst / "imu.parquet", index=False)
+
+
+def as_rates(src: Path, dst: Path) -> None:
+    """A copy of ``src`` with its IMU in rates: each row's increments over its interval, the
+    mean rates there, stamped at the interval's middle (where the mean rate is the rate, to
+    within h² ω̈ / 24: the trajectory's rates with the same IMU errors); ``imu.format``
+    rates."""
+    make_hole(src, dst, 0.0, 0.0)
+    df = pd.read_parquet(dst / "imu.parquet")
+    t = df.t_s.to_numpy()
+    dt = np.diff(t, prepend=t[0] - float(np.median(np.diff(t))))
+    out = pd.DataFrame({"t_s": t - 0.5 * dt})
+    for a in "xyz":
+        out[f"gyro_{a}_rad_s"] = df[f"dtheta_{a}_rad"].to_numpy() / dt
+    for a in "xyz":
+        out[f"accel_{a}_m_s2"] = df[f"dvel_{a}_m_s"].to_numpy() / dt
+    out.to_parquet(dst / "imu.parquet", index=False)
+    p = dst / "mission.toml"
+    s = p.read_text()
+    assert 'format = "increments"' in s
+    p.write_text(s.replace('format = "increments"', 'format = "rates"', 1))
 
 
 def errors(result: api.Result, truth: pd.DataFrame, block: str) -> tuple[Array, Array, Array]:
@@ -179,6 +202,10 @@ def trapezoid(root: Path) -> None:
 
 def main() -> None:
     src, scratch = Path(sys.argv[1]), Path(sys.argv[2])
+    if "--rates" in sys.argv:
+        scratch.mkdir(parents=True, exist_ok=True)
+        as_rates(src, scratch / "rates-src")
+        src = scratch / "rates-src"
     if "--trapezoid" in sys.argv:
         trapezoid(src)
         return
