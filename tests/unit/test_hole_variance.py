@@ -154,3 +154,22 @@ def test_an_imu_in_rates_without_holes_has_none() -> None:
     gyro, accel = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
     gaps = p * (1.0 + rng.uniform(-0.45, 0.45, n - 1))
     assert len(find_rate_holes(gyro, accel, gaps, np.arange(n), p)) == 0
+
+
+def test_jittered_rate_stamps_are_no_hole() -> None:
+    """A ROS 2 driver's stamps jittered by up to 0.7 of a period, a late stamp followed by an
+    early one (intervals 1.6 p then 0.4 p): each long interval lies beside a short one, no
+    sample is lost, and nothing is a hole (the first 0.4.13 version made every one of them a
+    2-period hole with a σ and a repair). A sample really lost between regular ones is."""
+    n, p = 2000, 0.01
+    rng = np.random.default_rng(8)
+    gyro, accel = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    late = rng.uniform(0.5, 0.7, n)
+    late[::2] = 0.0  # every other sample late by 0.5-0.7 period
+    t = p * (np.arange(n) + late)
+    gaps = np.diff(t)
+    assert np.count_nonzero(gaps > 1.5 * p) > 300  # the first rule's "holes"
+    assert len(find_rate_holes(gyro, accel, gaps, np.arange(n), p)) == 0
+    regular = np.full(n - 1, p)
+    regular[700] = 2 * p
+    assert find_rate_holes(gyro, accel, regular, np.arange(n), p).index.tolist() == [700]

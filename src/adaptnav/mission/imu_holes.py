@@ -42,6 +42,11 @@ IntArray = NDArray[np.int64]
 
 HOLE_MARGIN = 0.5
 """An interval is a hole when it exceeds the span of its increments by this many periods."""
+WHOLE_PERIODS = 0.25
+"""A rates IMU's interval is a hole only within this many periods of a whole number of them."""
+REGULAR_SHARE = 0.75
+"""... and only with the intervals either side longer than this share of a period (jittered
+stamps: a long interval beside a short one; loader._lost_samples asks the same)."""
 MIN_WINDOWS = 8
 """Fewer windows than this in the table: the windows are overlapping ones (a short table)."""
 WIDE_HOLE_RAD = math.radians(30.0)
@@ -198,7 +203,9 @@ def find_rate_holes(
     gyro: Array, accel: Array, gaps: Array, rows: IntArray, period: float
 ) -> ImuHoles:
     """The holes of an IMU in rates: the intervals ``gaps`` between kept samples longer than
-    1 + :data:`HOLE_MARGIN` periods, m = rint(gap / period) (at least 2). Interval i (of
+    1 + :data:`HOLE_MARGIN` periods, within :data:`WHOLE_PERIODS` of a whole number of them
+    and with the intervals either side over :data:`REGULAR_SHARE` of a period (not jittered
+    stamps), m = rint(gap / period) (at least 2). Interval i (of
     ``gaps``, and of the loader's ImuData) lies between samples i and i + 1; its ``row`` is
     the file row of sample i + 1, the one after the hole. The loader integrates a hole by the
     trapezoid of the rates either side (models.strapdown.rates_to_increments); its error over
@@ -211,7 +218,17 @@ def find_rate_holes(
     windows, :func:`blocked_errors` with ``fill``, and the same variances
     (docs/robustness.md, 'The σ over a hole'). Since 0.4.13; up to 0.4.12 a rates IMU's holes
     grew P by the white noise alone."""
-    idx = np.flatnonzero(gaps > (1.0 + HOLE_MARGIN) * period)
+    ratio = gaps / period
+    # Jittered stamps give a long interval beside a short one, not samples lost: a hole is
+    # regular either side and within a quarter period of whole periods (as loader's
+    # _lost_samples asks of an increments IMU's).
+    before = np.concatenate([gaps[1:2], gaps[:-1]]) if gaps.size > 1 else gaps
+    after = np.concatenate([gaps[1:], gaps[-2:-1]]) if gaps.size > 1 else gaps
+    idx = np.flatnonzero(
+        (ratio > 1.0 + HOLE_MARGIN)
+        & (np.abs(ratio - np.rint(ratio)) < WHOLE_PERIODS)
+        & (np.minimum(before, after) > REGULAR_SHARE * period)
+    )
     if not idx.size:
         return ImuHoles.none()
     m = np.maximum(np.rint(gaps[idx] / period), 2).astype(np.int64)
