@@ -546,7 +546,8 @@ def _check_segments(
             + (
                 "is the sensor's angle right?"
                 if found.instrument == "reference"
-                else "an axis that failed (dead, or reading only its noise)?"
+                else "an axis that failed (dead, or reading only its noise)? Or the sensor's "
+                "readings wrong there (a compass disturbed by steel nearby)?"
             )
             + " Remove those rows, or cut the mission before them; if the tables are right, set "
             "imu.axis_check = false (docs/robustness.md, 'An IMU axis that fails mid-mission')",
