@@ -257,6 +257,25 @@ class Finding:
     words: str
 
 
+def dvl_track(
+    config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Readings]
+) -> tuple[str, tuple[Array, CArray]] | None:
+    """The first DVL's name and its dead-reckoned track (:func:`dead_reckoned`: times, north +
+    i east m), which the GNSS's checks by its positions take; None: no DVL, or too few of its
+    readings or of the accelerometers' tilt blocks for a track."""
+    name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
+    if name is None or sensors[name].t.size < 2:
+        return None
+    d, dcfg = sensors[name], config.sensors[name]
+    period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
+    dvl = scales.Dvl.of(d.t, d.z[:, :3], dcfg.sensor_from_body(), period, 0.0)
+    tilt = views.tilt()
+    if dvl.t.size < 2 or tilt.t.size < 2:
+        return None
+    track = dead_reckoned(dvl, tilt, views.gyro())
+    return None if track[0].size < 2 else (name, track)
+
+
 def check(
     config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Readings]
 ) -> list[Finding]:
@@ -265,19 +284,11 @@ def check(
     stamped: the loader refuses it beyond two of its periods, else warns (docs/robustness.md,
     'Sensor clocks'). Nothing without a DVL (a car's GNSS is dated by its course:
     mission/clocks.py). Since 0.4.12."""
-    dvl_name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
     long = [n for n, g in sensors.items() if g.kind == "gnss" and long_enough(g.t, g.period)]
-    if dvl_name is None or not long or sensors[dvl_name].t.size < 2:
+    first = dvl_track(config, views, sensors) if long else None
+    if first is None:
         return []
-    d, dcfg = sensors[dvl_name], config.sensors[dvl_name]
-    period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
-    dvl = scales.Dvl.of(d.t, d.z[:, :3], dcfg.sensor_from_body(), period, 0.0)
-    tilt = views.tilt()
-    if dvl.t.size < 2 or tilt.t.size < 2:
-        return []
-    track = dead_reckoned(dvl, tilt, views.gyro())
-    if track[0].size < 2:
-        return []
+    dvl_name, track = first
     out = []
     for name in long:
         g = sensors[name]

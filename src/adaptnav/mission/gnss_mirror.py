@@ -194,22 +194,14 @@ def check(
 ) -> list[Finding]:
     """Each GNSS receiver (its ``scale_check`` on) whose track is decisively the mirror image
     of the first DVL's dead-reckoned track (module docstring). Nothing without a DVL."""
-    dvl_name = next((n for n, d in sensors.items() if d.kind == "dvl"), None)
     judged = [
         n for n, g in sensors.items()
         if g.kind == "gnss" and config.sensors[n].check_scale and g.t.size > 2
     ]  # fmt: skip
-    if dvl_name is None or not judged or sensors[dvl_name].t.size < 2:
+    first = gnss_clock.dvl_track(config, views, sensors) if judged else None
+    if first is None:
         return []
-    d, dcfg = sensors[dvl_name], config.sensors[dvl_name]
-    period = d.period if math.isfinite(d.period) else float(np.median(np.diff(d.t)))
-    dvl = scales.Dvl.of(d.t, d.z[:, :3], dcfg.sensor_from_body(), period, 0.0)
-    tilt = views.tilt()
-    if dvl.t.size < 2 or tilt.t.size < 2:
-        return []
-    track = gnss_clock.dead_reckoned(dvl, tilt, views.gyro())
-    if track[0].size < 2:
-        return []
+    dvl_name, track = first
     out = []
     for name in judged:
         g = sensors[name]
