@@ -16,7 +16,7 @@ SCRATCH_FOLDER keeps the generated mission between runs (default: a temporary fo
 ``--rows``: a mission's stream rows (robust; given start, aligned, and aligned with every 997th
 IMU sample left out, so stretched over the holes) saved for ``--same``, which says whether two
 codes' rows are bit-identical (every value, NaN equal to NaN). ``--call``: the engine's compiled
-loop called with no IMU sample, mid-stream (the cost of the call itself, its 33 arguments).
+loop called with no IMU sample, mid-stream (the cost of the call itself, its 35 arguments).
 """
 
 from __future__ import annotations
@@ -128,7 +128,8 @@ def call(folder: Path) -> None:
     n, none, none3 = s._nav, np.zeros(0), np.zeros((0, 3))
     assert n is not None
     args = (
-        n.x, n._P, none, none, none3, none3, n._q_t, n._q_idx, n._grid, n._cur, n._rates,
+        n.x, n._P, none, none, none3, none3, batch._NO_HOLE_K, batch._NO_HOLE_Q, n._q_t,
+        n._q_idx, n._grid, n._cur, n._rates,
         n._icur, n._q, n._tau_a, n._tau_g, n._tau_f, n.config.covariance_block_s, n._out_t,
         n._out_x, n._out_p, n._st_sensor, n._st_z, n._s_int, n._s_flt, n._s_state, n._rings,
         n._kind, n.config.reset_mode, n._python_lin, n._lg_int, n._lg_flt, n._ws, n._sm,
