@@ -154,3 +154,23 @@ def test_a_two_hour_hole_in_the_imu_and_the_sensors_is_left_out_of_the_axis_fits
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         loader.cross_check(m.config, views, moved)
+
+
+@pytest.mark.parametrize(("table", "column"), [("gps", "lon_rad"), ("gps", "lat_rad")])
+def test_a_reading_of_inf_is_dropped_as_implausible(
+    demo: Path, tmp_path: Path, table: str, column: str
+) -> None:
+    # Up to 0.4.12 a GNSS fix of inf went on to the GNSS clock check, a RuntimeWarning of an
+    # invalid value in geodetic_to_ecef (odd_inputs_eval's gps-one-lon-inf, helper aud2).
+    import pandas as pd
+
+    root = tmp_path / "demo"
+    shutil.copytree(demo, root)
+    df = pd.read_parquet(root / f"{table}.parquet")
+    df.loc[700, column] = math.inf
+    df.to_parquet(root / f"{table}.parquet", index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(root)
+    assert 700 not in m.sensors[table].rows
+    assert any(d.row == 700 and "= inf outside" in d.reason for d in m.dropped)

@@ -1549,6 +1549,10 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                  cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
+    # ±inf is no reading (an overflow): dropped as implausible, before anything computes with it
+    # (up to 0.4.12 a GNSS fix of inf crashed the GNSS clock check in geodetic_to_ecef).
+    raw, infinite = z, np.isinf(z)
+    z = np.where(infinite, math.nan, z)
     if declination := cfg.declination_rad():
         z = true_north(z, declination)
         log.info("sensor %r: magnetic headings turned to true north by %+g° (declination_deg)",
@@ -1564,10 +1568,11 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             DroppedRow(name, int(r), float(t[r]), "duplicate timestamp"),
         )
     _drop_lost_lock(table, name, cfg, t, z, keep, journal)
+    outside = outside | infinite
     for r in np.flatnonzero(keep & outside.any(axis=1)):
         keep[r] = False
         c = int(np.flatnonzero(outside[r])[0])
-        reason = implausible_reason(cfg, c, float(z[r, c]), limits)
+        reason = implausible_reason(cfg, c, float(raw[r, c]), limits)
         journal.drop(
             table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
         )
