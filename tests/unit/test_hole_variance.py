@@ -173,3 +173,32 @@ def test_jittered_rate_stamps_are_no_hole() -> None:
     regular = np.full(n - 1, p)
     regular[700] = 2 * p
     assert find_rate_holes(gyro, accel, regular, np.arange(n), p).index.tolist() == [700]
+
+
+def test_a_hole_longer_than_the_table_is_known_no_better_than_its_longest_windows() -> None:
+    """A hole of 1000 periods in a table of 400 rows (max_gap_s raised; a stream keeps only
+    the last 120 s): no window of its length fits. A longer hole is no better known than a
+    shorter one, so its variances are at least those of the longest windows the rows hold
+    twice over (199 rows), and an angle at most π (unknown). Up to the first 0.4.13 version:
+    zeros, no σ added and no wide-hole warning (odd_inputs_eval's imu-hole-3000s-max-gap-huge,
+    helper aud2)."""
+    n, p = 400, 0.01
+    u = np.arange(n)
+    dth, dv = np.zeros((n, 3)), np.zeros((n, 3))
+    dth[:, 0] = 1e-3 * np.sin(2 * np.pi * u / 170)  # waves
+    dv[:, 1] = 1e-3 * np.cos(2 * np.pi * u / 230)
+    own = np.full(n, p)
+    dt = own.copy()
+    dt[200] = 1000 * p
+    holes = find_holes(dth, dv, own, dt, np.arange(n), p)
+    assert holes.periods.tolist() == [1000]
+    sq, _ = repair_errors(dth, dv, (n - 1) // 2, 1)
+    longest = sq.mean(axis=0)
+    assert longest[1] > 0.0 and longest[3] > 0.0
+    assert holes.var[0, 1] >= longest[1] and holes.var[0, 3] >= longest[3]
+    assert np.all(holes.var[0, 3:] <= np.pi**2)
+    # The stream's twin over the same samples.
+    recent = recent_variance(dth, dv, 1000, 1)
+    assert recent[1] >= longest[1] and recent[3] >= longest[3]
+    big = recent_variance(100.0 * dth, dv, 10**6, 1)
+    assert big[3] == pytest.approx(np.pi**2)

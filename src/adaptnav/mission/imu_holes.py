@@ -238,6 +238,27 @@ def find_rate_holes(
     return ImuHoles(idx.astype(np.int64), rows[idx + 1].astype(np.int64), m, k, var)
 
 
+def windows_for(m: int, k: int, n: int) -> tuple[int, float]:
+    """The windows' length for a hole of m periods (k held) measured on n rows, and the factor
+    on their variances: m and 1 when the rows hold a window of m (n >= m + 1); else the
+    longest the rows hold twice over, m' = (n - 1) // 2, its variances times (m / m')² (a rate
+    held wrong over the hole: its error grows as the hole's length squared); (0, 0) when no
+    window longer than k fits. Since 0.4.13: before, a hole longer than the table (or, on a
+    stream, than the last 120 s) had no window and a σ of 0 (helper aud2's audit)."""
+    if n >= m + 1:
+        return m, 1.0
+    fit = (n - 1) // 2
+    return (fit, (m / fit) ** 2) if fit > k else (0, 0.0)
+
+
+def capped(var: Array) -> Array:
+    """Variances (..., 6) with the attitude's (the last three) at most π²: an angle unknown
+    beyond ±180° is simply unknown (the scaled variances of :func:`windows_for`)."""
+    out = np.array(var, dtype=float)
+    out[..., 3:] = np.minimum(out[..., 3:], math.pi**2)
+    return out
+
+
 def _variances(
     dtheta: Array,
     dvel: Array,
@@ -252,17 +273,31 @@ def _variances(
     of the reach (:data:`NEAR_WINDOWS` windows or :data:`NEAR_S` seconds)."""
     var = np.zeros((at.size, 6))
     for mm, kk in set(zip(m.tolist(), k.tolist(), strict=True)):
-        reach = max(NEAR_WINDOWS * mm, round(NEAR_S / period))
-        block = max(1, reach // mm // NEAR_WINDOWS)
-        runs = blocked_errors(dtheta, dvel, mm, kk, block, fill)
+        # A hole longer than the table: the longest windows it holds, scaled (windows_for).
+        w, scale = windows_for(mm, kk, dtheta.shape[0])
+        if not w:
+            continue
+        reach = max(NEAR_WINDOWS * w, round(NEAR_S / period))
+        block = max(1, reach // w // NEAR_WINDOWS)
+        filled = trapezoid(mm) if fill is None else fill
+        runs = blocked_errors(dtheta, dvel, w, kk, block, filled)
         these = (m == mm) & (k == kk)
-        var[these] = hole_variances(*runs, at[these], reach)
+        found = hole_variances(*runs, at[these], reach)
+        var[these] = found if w == mm else capped(scale * found)
     return var
 
 
 def recent_variance(dtheta: Array, dvel: Array, m: int, k: int) -> Array:
     """The variances of a hole of m periods whose sample holds k, from the samples before it
     alone (a stream's, api.Stream.push_imu): the mean square of the repair's error over their
-    windows (:func:`repair_errors`); zeros when they are fewer than m."""
-    sq, _ = repair_errors(dtheta, dvel, m, k)
-    return sq.mean(axis=0) if sq.shape[0] else np.zeros(6)
+    windows (:func:`repair_errors`); when they are fewer than m, over the longest windows they
+    hold, scaled (:func:`windows_for`; up to the first 0.4.13 version zeros: a stream's hole
+    longer than the 120 s it keeps had a σ of 0); zeros with no window at all."""
+    w, scale = windows_for(m, k, dtheta.shape[0])
+    if not w:
+        return np.zeros(6)
+    sq, _ = repair_errors(dtheta, dvel, w, k, fill=trapezoid(m))
+    if not sq.shape[0]:
+        return np.zeros(6)
+    mean = sq.mean(axis=0)
+    return mean if w == m else capped(scale * mean)
