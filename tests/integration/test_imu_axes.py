@@ -99,16 +99,18 @@ FAULT_S = 750.0
 """Where the demo's gyro or accelerometer channel fails: under way (from 600 s), its middle."""
 
 
-def _failed_from(demo: Path, tmp_path: Path, column: str, how: str, heading: bool) -> Path:
+def _failed_from(
+    demo: Path, tmp_path: Path, column: str, how: str, heading: bool, start: float = FAULT_S
+) -> Path:
     """The demo whose IMU ``column`` reads 0 or only its white noise (the ARW, 0.0667 °/√h, or
-    the VRW, 55 µg/√Hz, at 100 Hz; seed 4) from :data:`FAULT_S` on ("none": as it is), its
-    heading sensor aiding or not."""
+    the VRW, 55 µg/√Hz, at 100 Hz; seed 4) from ``start`` on ("none": as it is), its heading
+    sensor aiding or not."""
     arw, vrw = math.radians(0.0667) / 60.0, 55e-6 * 9.80665
     sigma = (arw if column.startswith("dtheta") else vrw) * math.sqrt(0.01)
     root = tmp_path / "mission"
     shutil.copytree(demo, root)
     df = pd.read_parquet(root / "imu.parquet")
-    after = df["t_s"].to_numpy() >= FAULT_S
+    after = df["t_s"].to_numpy() >= start
     noise = np.random.default_rng(4).normal(0.0, sigma, int(after.sum()))
     if how != "none":
         df.loc[after, column] = 0.0 if how == "zero" else noise
@@ -198,3 +200,27 @@ def test_an_accelerometer_reading_only_noise_from_mid_mission_is_named_with_its_
     assert found is not None, line
     assert FAULT_S <= float(found.group(1)) <= FAULT_S + 240.0
     assert float(found.group(2)) > 900.0  # the demo ends at 906.4 s
+
+
+@pytest.mark.parametrize(
+    ("column", "words"),
+    [
+        ("dtheta_x_rad", "the gyro's x axis (dtheta_x_rad) follows the roll"),
+        ("dtheta_y_rad", "the gyro's y axis (dtheta_y_rad) follows the pitch"),
+    ],
+)
+def test_an_axis_failing_in_the_last_span_is_named_by_its_tail(
+    demo: Path, tmp_path: Path, column: str, words: str
+) -> None:
+    """From 830 s, within the demo's last span (776.8-906.2 s): the span follows on its good
+    54 s and no span after it tells. Up to the first 0.4.13 version gyro x so was blamed on the
+    DVL ("the y axis of DVL 'dvl'"; from 800 s "the stamps of sensor 'dvl' lie 47.0 s after")
+    and gyro y loaded with exit 0 (helper aud2's audit); now the span's second half, judged
+    alone, names the axis from 841.6 s."""
+    root = _failed_from(demo, tmp_path, column, "noise", False, start=830.0)
+    line = error_line(cli("run", root, "--out", tmp_path / "r"))
+    assert line.startswith("error: imu.parquet: " + words), line
+    found = re.search(r"up to t = ([\d.]+) s, but not from t = ([\d.]+) to ([\d.]+) s", line)
+    assert found is not None, line
+    assert float(found.group(1)) <= 830.0 <= float(found.group(2)) <= 860.0
+    assert float(found.group(3)) > 900.0
