@@ -1549,16 +1549,13 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                  cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
-    # ±inf is no reading (an overflow): dropped as implausible, before anything computes with it
-    # (up to 0.4.12 a GNSS fix of inf crashed the GNSS clock check in geodetic_to_ecef).
-    raw, infinite = z, np.isinf(z)
-    z = np.where(infinite, math.nan, z)
+    raw, z = z, np.where(np.isinf(z), math.nan, z)  # ±inf: no reading, dropped as outside
     if declination := cfg.declination_rad():
         z = true_north(z, declination)
         log.info("sensor %r: magnetic headings turned to true north by %+g° (declination_deg)",
                  name, cfg.declination_deg)  # fmt: skip
     if cfg.limits is None:
-        _check_kind_units(table, name, cfg, z, outside, used[1:])
+        _check_kind_units(table, name, cfg, z, outside & np.isfinite(raw), used[1:])
     keep = np.ones(t.size, dtype=bool)
     for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
         keep[r] = False
@@ -1568,7 +1565,6 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
             DroppedRow(name, int(r), float(t[r]), "duplicate timestamp"),
         )
     _drop_lost_lock(table, name, cfg, t, z, keep, journal)
-    outside = outside | infinite
     for r in np.flatnonzero(keep & outside.any(axis=1)):
         keep[r] = False
         c = int(np.flatnonzero(outside[r])[0])
@@ -1789,7 +1785,7 @@ ANGLE_MAJORITY = 0.5
 def _check_plausible(
     table: Table, name: str, z: Array, limits: Array, columns: list[str]
 ) -> NDArray[np.bool_]:
-    """Which finite values lie outside ``limits`` (n, d). A column whose every finite value
+    """Which values lie outside ``limits`` (n, d), ±inf included. A column whose every finite value
     does is an error (wrong units, or the wrong column): the readings are not just bad. So is an
     angle column (``_rad``) more than :data:`ANGLE_MAJORITY` of whose values do: degrees in a
     radians column put every heading above 6.28° outside, and the readings left (the ones
@@ -1817,7 +1813,9 @@ def _check_plausible(
             f"wrong units (degrees in a radians column?) or the wrong column? If the range is "
             f"wrong, set [sensors.{name}] limits (docs/robustness.md)",
         )
-    return outside
+    # ±inf is no reading (an overflow): dropped as implausible before anything computes with it
+    # (up to 0.4.12 a GNSS fix of inf crashed the GNSS clock check in geodetic_to_ecef).
+    return outside | np.isinf(z)
 
 
 ABOVE_SURFACE_M = -1.0
