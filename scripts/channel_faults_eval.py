@@ -113,7 +113,7 @@ def _spans(m: Mission) -> str:
     words = []
     for ref in loader._axis_references(m.config, m.sensors):
         sigma = loader._reference_sigma(m.config, ref)
-        spans = axes._spans(ref)
+        spans = axes._spans(ref, views.gyro(ref.c_sb))
         if not spans:
             continue
         imus: list[tuple[str, axes.Gyro | axes.AccelTilt, int]] = [

@@ -174,3 +174,42 @@ def test_a_reading_of_inf_is_dropped_as_implausible(
         m = load_mission(root)
     assert 700 not in m.sensors[table].rows
     assert any(d.row == 700 and "= inf outside" in d.reason for d in m.dropped)
+
+
+@pytest.mark.parametrize(("start", "length"), [(700.0, 100.0), (650.0, 150.0)])
+def test_a_long_imu_hole_under_way_blames_no_right_sensor(
+    demo: Path, tmp_path: Path, start: float, length: float
+) -> None:
+    # The demo (heading aiding) with its IMU rows of a long hole lost, imu.max_gap_s raised:
+    # the gyro's angle over the hole is the repair's line, and the yaw after it is turned by
+    # the rotation lost. Up to the first 0.4.13 version: 100 s at 700 s refused the right GPS
+    # as "the mirror image of the DVL's dead reckoning" (the track across the hole), 150 s at
+    # 650 s the right inclinometer ("does not follow the gyro's and the accelerometers'": its
+    # readings inside the hole). Now the loader warns of the hole only (helper aud2's audit).
+    import pandas as pd
+
+    root = tmp_path / "demo"
+    shutil.copytree(demo, root)
+    toml = root / "mission.toml"
+    head, tail = toml.read_text().split("[sensors.heading]", 1)
+    text = head + "[sensors.heading]" + tail.replace('use = "off"', 'use = "aid"', 1)
+    toml.write_text(text.replace("rate_hz = 100.0\n", "rate_hz = 100.0\nmax_gap_s = 400.0\n", 1))
+    imu = pd.read_parquet(root / "imu.parquet")
+    keep = (imu["t_s"] <= start) | (imu["t_s"] > start + length)
+    imu[keep].reset_index(drop=True).to_parquet(root / "imu.parquet", index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mission(root)
+    assert len(m.imu.holes) == 1
+
+
+def test_the_dead_reckoned_track_is_its_longest_part_between_imu_holes() -> None:
+    from adaptnav.mission import gnss_clock
+
+    t = np.arange(0.0, 100.0, 1.0)
+    p = (t + 0j).astype(complex)
+    # holes 20-30 s and 70-75 s: the parts 0-20, 30-70, 75-99; the longest is 30-70 s
+    kt, kp = gnss_clock.unbroken((t, p), np.array([20.0, 70.0]), np.array([30.0, 75.0]))
+    assert kt[0] == 30.0 and kt[-1] == 70.0 and np.array_equal(kp.real, kt)
+    same = gnss_clock.unbroken((t, p), np.zeros(0), np.zeros(0))
+    assert same[0] is t

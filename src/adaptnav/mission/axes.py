@@ -251,6 +251,17 @@ class Gyro:
         k = np.searchsorted(start, t1, side="left")
         return np.asarray((k > 0) & (end[np.maximum(k - 1, 0)] > t0), dtype=bool)
 
+    def in_hole(self, t: Array) -> NDArray[np.bool_]:
+        """Each time ``t`` strictly inside a hole (:attr:`holes`): the IMU's angle there is the
+        repair's, a straight line, not the vehicle's."""
+        start, end = self.holes
+        k = np.searchsorted(start, t, side="right") - 1
+        return (
+            np.asarray((k >= 0) & (t < end[np.maximum(k, 0)]), dtype=bool)
+            if start.size
+            else (np.zeros(t.shape, dtype=bool))
+        )
+
     def window(self, t0: float, t1: float) -> Gyro:
         """The integral over the samples from just before ``t0`` to just after ``t1`` (views,
         no copy): a segment's fits interpolate in it, not in a day of samples."""
@@ -684,10 +695,12 @@ def _tail_failure(
     return None
 
 
-def _spans(ref: Reference) -> list[tuple[Array, Array]]:
+def _spans(ref: Reference, gyro: Gyro) -> list[tuple[Array, Array]]:
     """A reference's finite readings cut into consecutive spans of about :data:`SEGMENT_S`
-    (the reading at a bound ends one and starts the next); none if there are fewer than two."""
-    ok = np.isfinite(ref.t) & np.isfinite(ref.value)
+    (the reading at a bound ends one and starts the next); none if there are fewer than two.
+    Readings within an IMU hole are left out: the IMU's angle there is a line (since 0.4.13,
+    helper aud2's audit: the demo with 150 s lost at 650 s had its right inclinometer blamed)."""
+    ok = np.isfinite(ref.t) & np.isfinite(ref.value) & ~gyro.in_hole(ref.t)
     t, angle = ref.t[ok], ref.value[ok]
     n = int((t[-1] - t[0]) // SEGMENT_S) if t.size > 1 else 0
     if n < 2:
@@ -709,7 +722,7 @@ def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> Seg
     :func:`check_axes` does). Up to 0.4.12 an axis that failed mid-mission (zeroed, or reading
     its noise) was averaged away by the whole mission's fit (docs/robustness.md, 'An IMU axis
     that fails mid-mission')."""
-    spans = _spans(ref)
+    spans = _spans(ref, views.gyro(ref.c_sb))
     if not spans:
         return None
     gyro = _first_failure(spans, views.gyro(ref.c_sb), ref.axis, sigma)

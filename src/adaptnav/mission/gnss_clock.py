@@ -272,8 +272,26 @@ def dvl_track(
     tilt = views.tilt()
     if dvl.t.size < 2 or tilt.t.size < 2:
         return None
-    track = dead_reckoned(dvl, tilt, views.gyro())
+    gyro = views.gyro()
+    track = unbroken(dead_reckoned(dvl, tilt, gyro), *gyro.holes)
     return None if track[0].size < 2 else (name, track)
+
+
+def unbroken(track: tuple[Array, CArray], start: Array, end: Array) -> tuple[Array, CArray]:
+    """The longest part (in time) of ``track`` (times, north + i east m) between the IMU's holes
+    (``start``, ``end``, s; :attr:`adaptnav.mission.axes.Gyro.holes`): across a hole the gyro's
+    yaw is the repair's, and the track after it is turned by the rotation lost, which no one
+    slope fits (since 0.4.13, helper aud2's audit: the demo with 100 s of IMU lost at 700 s had
+    its right GNSS refused as mirrored)."""
+    t, p = track
+    if not start.size or not t.size:
+        return track
+    piece = np.searchsorted(end, t, side="right")  # the holes ended by t
+    ok = (piece >= start.size) | (t <= start[np.minimum(piece, start.size - 1)])
+    ids = np.unique(piece[ok])
+    spans = [float(np.ptp(t[ok & (piece == i)])) for i in ids]
+    keep = ok & (piece == ids[int(np.argmax(spans))]) if ids.size else ok
+    return t[keep], np.asarray(p[keep], dtype=complex)
 
 
 def check(
