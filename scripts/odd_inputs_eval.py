@@ -518,6 +518,306 @@ def _aid_hole(root):
 
 CASES["all-aiding-hole-200s-under-way"] = _aid_hole
 
+
+# Since 0.4.13: the inputs against the checks new in 0.4.13 (helper aud2's audit).
+
+
+def imu_drop(root, keep_mask, limit):
+    toml(root, "rate_hz = 100.0\n", f"rate_hz = 100.0\nmax_gap_s = {limit}\n")
+    df = rd(root, "imu")
+    wr(root, "imu", df[keep_mask(df)].reset_index(drop=True))
+
+
+CASES["imu-hole-2s-at-start"] = lambda root: imu_drop(
+    root, lambda df: (df.index == 0) | (df.index > 200), 10.0
+)
+CASES["imu-hole-2s-at-end"] = lambda root: imu_drop(
+    root, lambda df: (df.index < len(df) - 201) | (df.index == len(df) - 1), 10.0
+)
+CASES["imu-holes-back-to-back"] = lambda root: imu_drop(
+    root,
+    lambda df: ~(((df.t_s > 750) & (df.t_s < 751.995)) | ((df.t_s > 752.005) & (df.t_s < 754))),
+    10.0,
+)
+
+
+@case("imu-hole-3000s-max-gap-huge")
+def _(root):
+    toml(root, "rate_hz = 100.0\n", "rate_hz = 100.0\nmax_gap_s = 1e9\n")
+    for n in ["imu", "heading", "dvl", "gps", "depth", "inclinometer", "truth"]:
+        df = rd(root, n)
+        df.loc[df.t_s > 700, "t_s"] += 3000
+        wr(root, n, df)
+
+
+@case("imu-hole-1.5-periods")
+def _(root):
+    df = rd(root, "imu")
+    df = df.drop(index=75000).reset_index(drop=True)
+    df.loc[75000, "t_s"] -= 0.005
+    wr(root, "imu", df)
+
+
+@case("imu-nan-rows-around-hole")
+def _(root):
+    toml(root, "rate_hz = 100.0\n", "rate_hz = 100.0\nmax_gap_s = 10.0\n")
+    df = rd(root, "imu")
+    df = df[(df.t_s <= 750) | (df.t_s > 752)].reset_index(drop=True)
+    i = int(np.searchsorted(df.t_s.values, 750.0))
+    df.loc[i - 2 : i + 2, "dtheta_x_rad"] = np.nan
+    wr(root, "imu", df)
+
+
+def to_rates(root):
+    df = rd(root, "imu")
+    dt = 0.01
+    out = pd.DataFrame({"t_s": df.t_s - dt / 2})
+    for a, b in [("dtheta", "gyro"), ("dvel", "accel")]:
+        for ax in "xyz":
+            unit = "rad_s" if b == "gyro" else "m_s2"
+            src = f"{a}_{ax}_rad" if a == "dtheta" else f"{a}_{ax}_m_s"
+            out[f"{b}_{ax}_{unit}"] = df[src] / dt
+    wr(root, "imu", out)
+    toml(root, 'format = "increments"', 'format = "rates"')
+
+
+CASES["imu-rates"] = to_rates
+
+
+def rates_drop(root, keep_mask, limit):
+    to_rates(root)
+    imu_drop(root, keep_mask, limit)
+
+
+CASES["imu-rates-hole-at-start"] = lambda root: rates_drop(
+    root, lambda df: (df.index == 0) | (df.index > 200), 10.0
+)
+CASES["imu-rates-hole-at-end"] = lambda root: rates_drop(
+    root, lambda df: (df.index < len(df) - 201) | (df.index == len(df) - 1), 10.0
+)
+CASES["imu-rates-holes-back-to-back"] = lambda root: rates_drop(
+    root,
+    lambda df: ~(((df.t_s > 750) & (df.t_s < 751.99)) | ((df.t_s > 752.0) & (df.t_s < 754))),
+    10.0,
+)
+CASES["imu-rates-hole-60s"] = lambda root: rates_drop(
+    root, lambda df: (df.t_s < 750) | (df.t_s > 810), 100.0
+)
+CASES["imu-rates-hole-1s-max-gap-huge"] = lambda root: rates_drop(
+    root, lambda df: (df.t_s < 750) | (df.t_s > 751), 1e9
+)
+
+
+@case("imu-accel-x-constant-throughout")
+def _(root):
+    df = rd(root, "imu")
+    df["dvel_x_m_s"] = float(df.dvel_x_m_s.mean())
+    wr(root, "imu", df)
+
+
+@case("imu-gyro-y-constant-nonzero-throughout")
+def _(root):
+    df = rd(root, "imu")
+    df["dtheta_y_rad"] = 1e-7
+    wr(root, "imu", df)
+
+
+def quantised(root, qg, qa):
+    df = rd(root, "imu")
+    for c in ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"]:
+        df[c] = np.round(df[c] / qg) * qg
+    for c in ["dvel_x_m_s", "dvel_y_m_s", "dvel_z_m_s"]:
+        df[c] = np.round(df[c] / qa) * qa
+    wr(root, "imu", df)
+
+
+CASES["imu-quantised-1e-6rad-1e-4ms"] = lambda root: quantised(root, 1e-6, 1e-4)
+CASES["imu-quantised-1e-5rad-1e-3ms"] = lambda root: quantised(root, 1e-5, 1e-3)
+CASES["imu-quantised-1e-4rad-1e-2ms"] = lambda root: quantised(root, 1e-4, 1e-2)
+
+
+def stuck_for(root, col, t0, seconds):
+    df = rd(root, "imu")
+    m = (df.t_s >= t0) & (df.t_s <= t0 + seconds + 1e-9)
+    df.loc[m, col] = df.loc[m, col].iloc[0]
+    wr(root, "imu", df)
+
+
+CASES["imu-gyro-z-stuck-exactly-5s"] = lambda root: stuck_for(root, "dtheta_z_rad", 750.0, 5.0)
+CASES["imu-gyro-z-stuck-4.99s"] = lambda root: stuck_for(root, "dtheta_z_rad", 750.0, 4.99)
+CASES["imu-gyro-z-stuck-5s-at-start"] = lambda root: stuck_for(root, "dtheta_z_rad", 0.0, 5.0)
+CASES["imu-gyro-z-stuck-5s-at-end"] = lambda root: stuck_for(root, "dtheta_z_rad", 901.0, 6.0)
+
+
+@case("imu-gyro-x-noise-only-last-100s")
+def _(root):
+    df = rd(root, "imu")
+    m = df.t_s > 806
+    df.loc[m, "dtheta_x_rad"] = np.random.default_rng(1).normal(0, 2e-6, int(m.sum()))
+    wr(root, "imu", df)
+
+
+@case("heading-declination-0-360")
+def _(root):
+    df = rd(root, "heading")
+    df["yaw_rad"] = np.mod(df.yaw_rad - math.radians(2.0), 2 * np.pi)
+    wr(root, "heading", df)
+    sect(root, "heading", "declination_deg = 2.0")
+
+
+@case("heading-declination-not-set-3deg")
+def _(root):
+    df = rd(root, "heading")
+    df["yaw_rad"] = wrap(df.yaw_rad - math.radians(3.0))
+    wr(root, "heading", df)
+
+
+def dvl_lost(root, share, zero_is_lost):
+    df = rd(root, "dvl")
+    n = int(len(df) * share)
+    df.loc[df.index[-n:], ["vx_m_s", "vy_m_s", "vz_m_s"]] = 0.0
+    wr(root, "dvl", df)
+    if zero_is_lost:
+        toml(root, "zero_is_lost = false", "zero_is_lost = true")
+
+
+CASES["dvl-zeros-last-90pct"] = lambda root: dvl_lost(root, 0.9, False)
+CASES["dvl-zeros-last-90pct-zero_is_lost"] = lambda root: dvl_lost(root, 0.9, True)
+CASES["dvl-zeros-last-30pct"] = lambda root: dvl_lost(root, 0.3, False)
+
+
+@case("dvl-constant-with-spikes")
+def _(root):
+    df = rd(root, "dvl")
+    df[["vx_m_s", "vy_m_s", "vz_m_s"]] = [1.0, 0.0, 0.0]
+    df.loc[df.index[::50], "vx_m_s"] = 5.0
+    wr(root, "dvl", df)
+
+
+@case("dvl-3-readings-with-spike")
+def _(root):
+    keep(root, "dvl", [2000, 2001, 2002])
+    df = rd(root, "dvl")
+    df.loc[1, "vx_m_s"] = 20.0
+    wr(root, "dvl", df)
+
+
+@case("gps-3-fixes-lon-negated")
+def _(root):
+    keep(root, "gps", [800, 801, 802])
+    df = rd(root, "gps")
+    df["lon_rad"] = -df["lon_rad"]
+    wr(root, "gps", df)
+
+
+@case("gps-lat-negated")
+def _(root):
+    df = rd(root, "gps")
+    df["lat_rad"] = -df["lat_rad"]
+    wr(root, "gps", df)
+
+
+@case("gps-all-fixes-at-rest-lon-negated")
+def _(root):
+    df = rd(root, "gps")
+    df["lon_rad"] = -df["lon_rad"]
+    wr(root, "gps", df[df.t_s < 590].reset_index(drop=True))
+
+
+@case("gps-nan-rows-and-inf")
+def _(root):
+    df = rd(root, "gps")
+    df.loc[df.index[::3], "lat_rad"] = np.nan
+    df.loc[df.index[700], "lon_rad"] = np.inf
+    wr(root, "gps", df)
+
+
+@case("gps-antenna-lever-100m-up")
+def _(root):
+    toml(root, "lever_arm_m = [0.0, 0.0, -5.0]", "lever_arm_m = [0.0, 0.0, -100.0]")
+
+
+@case("gps-period-nan-no-rate")
+def _(root):
+    s = (root / "mission.toml").read_text()
+    s = s.replace("rate_hz = 1.0\nlever_arm_m = [0.0, 0.0, -5.0]", "lever_arm_m = [0.0, 0.0, -5.0]")
+    (root / "mission.toml").write_text(s)
+    df = rd(root, "gps")
+    df["lon_rad"] = -df["lon_rad"]
+    wr(root, "gps", df)
+
+
+@case("at-rest-whole-mission-gps-lon-negated")
+def _(root):
+    cut_all(root, 0, 590)
+    toml(root, "alignment_s = 600.0", "alignment_s = 60.0")
+    df = rd(root, "gps")
+    df["lon_rad"] = -df["lon_rad"]
+    wr(root, "gps", df)
+
+
+@case("depth-negative-all-surface")
+def _(root):
+    df = rd(root, "depth")
+    df["depth_m"] = df.depth_m - 3.0
+    wr(root, "depth", df)
+
+
+@case("gps-one-lon-inf")
+def _(root):
+    df = rd(root, "gps")
+    df.loc[df.index[700], "lon_rad"] = np.inf
+    wr(root, "gps", df)
+
+
+@case("gps-one-lat-inf")
+def _(root):
+    df = rd(root, "gps")
+    df.loc[df.index[700], "lat_rad"] = np.inf
+    wr(root, "gps", df)
+
+
+@case("heading-one-inf-declination")
+def _(root):
+    df = rd(root, "heading")
+    df.loc[df.index[700], "yaw_rad"] = -np.inf
+    wr(root, "heading", df)
+    sect(root, "heading", "declination_deg = 2.0")
+
+
+@case("dvl-one-inf")
+def _(root):
+    df = rd(root, "dvl")
+    df.loc[df.index[2000], "vy_m_s"] = np.inf
+    wr(root, "dvl", df)
+
+
+@case("depth-one-inf")
+def _(root):
+    df = rd(root, "depth")
+    df.loc[df.index[700], "depth_m"] = np.inf
+    wr(root, "depth", df)
+
+
+for t_hole, length in [(700, 60), (700, 100), (700, 150), (740, 60), (650, 150), (800, 60)]:
+    CASES[f"imu-hole-{length}s-at-{t_hole}s-under-way"] = (
+        lambda root, t_hole=t_hole, length=length: imu_hole(root, t_hole, length, 400.0)
+    )
+
+
+for t_fail in (780, 800, 830, 860):
+    for col in ("dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dvel_x_m_s"):
+
+        def f(root, t_fail=t_fail, col=col):
+            df = rd(root, "imu")
+            m = df.t_s > t_fail
+            sd = 2e-6 if "theta" in col else 6e-5
+            df.loc[m, col] = np.random.default_rng(1).normal(0, sd, int(m.sum()))
+            wr(root, "imu", df)
+
+        CASES[f"imu-{col}-noise-only-from-{t_fail}"] = f
+
+
 if __name__ == "__main__":
     pat = sys.argv[3] if len(sys.argv) > 3 else ""
     for name, f in CASES.items():
