@@ -213,3 +213,30 @@ def test_the_dead_reckoned_track_is_its_longest_part_between_imu_holes() -> None
     assert kt[0] == 30.0 and kt[-1] == 70.0 and np.array_equal(kp.real, kt)
     same = gnss_clock.unbroken((t, p), np.zeros(0), np.zeros(0))
     assert same[0] is t
+
+
+def test_a_heading_carried_across_an_imu_hole_is_not_off_the_course(
+    demo: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # The demo (heading sensor off: the start's yaw carried by the gyro) with 60 s of IMU lost
+    # at 700 s, imu.max_gap_s raised: the yaw carried after the hole misses the turn lost in
+    # it. Up to the first 0.4.13 version the load warned of the DVL's direction off the GNSS
+    # course ('initial.rpy_deg's yaw off', 'A heading a few degrees off the GNSS course'); the
+    # carried yaw now ends at the IMU's first hole (helper aud2's audit).
+    import logging
+
+    import pandas as pd
+
+    root = tmp_path / "demo"
+    shutil.copytree(demo, root)
+    toml = root / "mission.toml"
+    toml.write_text(
+        toml.read_text().replace("rate_hz = 100.0\n", "rate_hz = 100.0\nmax_gap_s = 400.0\n", 1)
+    )
+    imu = pd.read_parquet(root / "imu.parquet")
+    keep = (imu["t_s"] <= 700.0) | (imu["t_s"] > 760.0)
+    imu[keep].reset_index(drop=True).to_parquet(root / "imu.parquet", index=False)
+    with caplog.at_level(logging.WARNING, logger="adaptnav"):
+        load_mission(root)
+    assert "samples lost" in caplog.text
+    assert "off the course" not in caplog.text and "the direction of DVL" not in caplog.text

@@ -171,7 +171,7 @@ def earth_rate(
     if span_s <= 0.0 or not math.isfinite(lat) or gyro.t[-1] - gyro.t[0] < span_s:
         return None
     turn = scales.carried_yaw(gyro, tilt, 0.0, scales.StartYaw(0.0, 0.0, 0.0, 0.0))
-    if turn.t.size < 2:
+    if turn.t.size < 2 or turn.t[-1] < gyro.t[0] + span_s:  # a hole within the span
         return None
     rate = float(np.interp(gyro.t[0] + span_s, turn.t, turn.yaw) - turn.yaw[0]) / span_s
     sigma = math.hypot(bias_sigma, views.noise[0] / math.sqrt(span_s))

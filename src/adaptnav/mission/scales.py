@@ -371,8 +371,13 @@ def carried_yaw(gyro: axes.Gyro, tilt: axes.AccelTilt, lat: float, start: StartY
     """The start's yaw carried forward by the gyro (module docstring) at the IMU's start and
     the accelerometers' block times, with its σ. ``lat``: the latitude (rad) the earth rate's
     down component ``-Ω sin L`` is taken at. Each step's rate about the vertical is the gyro's
-    increment between block times turned down at the blocks' mean roll and pitch."""
-    inside = (tilt.t > gyro.t[0]) & (tilt.t <= gyro.t[-1])
+    increment between block times turned down at the blocks' mean roll and pitch. It ends at
+    the IMU's first hole (:attr:`axes.Gyro.holes`): after it the yaw carried misses the rotation
+    lost in it (since the audit of 0.4.13: the demo with 150 s of IMU lost at 700 s was warned
+    of a DVL +95° off the course, 'initial.rpy_deg's yaw off')."""
+    holes = gyro.holes[0]
+    end = float(holes[0]) if holes.size else float(gyro.t[-1])
+    inside = (tilt.t > gyro.t[0]) & (tilt.t <= end)
     ang = tilt.angles[inside]
     if ang.shape[0] < 2:
         return Heading(np.empty(0), np.empty(0), np.empty(0))
