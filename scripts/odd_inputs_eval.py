@@ -785,6 +785,13 @@ def _(root):
     sect(root, "heading", "declination_deg = 2.0")
 
 
+@case("heading-one-inf")
+def _(root):
+    df = rd(root, "heading")
+    df.loc[df.index[700], "yaw_rad"] = np.inf
+    wr(root, "heading", df)
+
+
 @case("dvl-one-inf")
 def _(root):
     df = rd(root, "dvl")

@@ -156,24 +156,36 @@ def test_a_two_hour_hole_in_the_imu_and_the_sensors_is_left_out_of_the_axis_fits
         loader.cross_check(m.config, views, moved)
 
 
-@pytest.mark.parametrize(("table", "column"), [("gps", "lon_rad"), ("gps", "lat_rad")])
-def test_a_reading_of_inf_is_dropped_as_implausible(
-    demo: Path, tmp_path: Path, table: str, column: str
+@pytest.mark.parametrize(
+    ("table", "column", "declared"),
+    [("gps", "lon_rad", False), ("gps", "lat_rad", False), ("heading", "yaw_rad", True),
+     ("heading", "yaw_rad", False)],
+)  # fmt: skip
+def test_a_reading_of_inf_is_left_to_the_engine_by_the_checks(
+    demo: Path, tmp_path: Path, table: str, column: str, declared: bool
 ) -> None:
-    # Up to 0.4.12 a GNSS fix of inf went on to the GNSS clock check, a RuntimeWarning of an
-    # invalid value in geodetic_to_ecef (odd_inputs_eval's gps-one-lon-inf, helper aud2).
+    # ±inf is kept by the loader for the engine to drop as non-finite (tests/unit/
+    # test_live_screen.py). Up to the audit of 0.4.13 the checks met it: a GNSS fix of inf was
+    # a RuntimeWarning in geodetic_to_ecef (the GNSS clock check), a heading of inf in the
+    # direction fit's unwrap, with declination_deg set in true_north (odd_inputs_eval's
+    # gps-one-lon-inf, heading-one-inf, heading-one-inf-declination; helper aud2).
     import pandas as pd
 
     root = tmp_path / "demo"
     shutil.copytree(demo, root)
+    toml = root / "mission.toml"
+    head, tail = toml.read_text().split("[sensors.heading]", 1)
+    if declared:
+        tail = "\ndeclination_deg = 2.0" + tail
+    toml.write_text(head + "[sensors.heading]" + tail.replace('use = "off"', 'use = "aid"', 1))
     df = pd.read_parquet(root / f"{table}.parquet")
     df.loc[700, column] = math.inf
     df.to_parquet(root / f"{table}.parquet", index=False)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         m = load_mission(root)
-    assert 700 not in m.sensors[table].rows
-    assert any(d.row == 700 and "= inf outside" in d.reason for d in m.dropped)
+    k = int(np.flatnonzero(m.sensors[table].rows == 700)[0])
+    assert np.isinf(m.sensors[table].z[k]).any()
 
 
 @pytest.mark.parametrize(("start", "length"), [(700.0, 100.0), (650.0, 150.0)])

@@ -310,9 +310,12 @@ def check(
     out = []
     for name in long:
         g = sensors[name]
-        north, east = axes.flatten(g.z[:, 0], g.z[:, 1])
-        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t)))
-        found = gnss_offset(g.t, north, east, gp, track)
+        # Finite fixes only: the frame's origin is the first, and ±inf (kept by the loader for
+        # the engine to drop) has no cosine (up to the audit of 0.4.13 a RuntimeWarning).
+        ok = np.isfinite(g.t) & np.isfinite(g.z[:, 0]) & np.isfinite(g.z[:, 1])
+        north, east = axes.flatten(g.z[ok, 0], g.z[ok, 1])
+        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t[ok])))
+        found = gnss_offset(g.t[ok], north, east, gp, track)
         if found is None or not found.decisive() or abs(found.offset_s) <= axes.MAX_LAG_S:
             continue
         width = max(WINDOW_S, WINDOW_PERIODS * gp)

@@ -1549,13 +1549,12 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
                  cfg.latency_s)  # fmt: skip
     limits = cfg.limits_si()
     outside = _check_plausible(table, name, z, limits, used[1:])
-    raw, z = z, np.where(np.isinf(z), math.nan, z)  # ±inf: no reading, dropped as outside
     if declination := cfg.declination_rad():
         z = true_north(z, declination)
         log.info("sensor %r: magnetic headings turned to true north by %+g° (declination_deg)",
                  name, cfg.declination_deg)  # fmt: skip
     if cfg.limits is None:
-        _check_kind_units(table, name, cfg, z, outside & np.isfinite(raw), used[1:])
+        _check_kind_units(table, name, cfg, z, outside, used[1:])
     keep = np.ones(t.size, dtype=bool)
     for r in np.flatnonzero(np.diff(t) == 0.0) + 1:
         keep[r] = False
@@ -1568,7 +1567,7 @@ def _load_sensor(table: Table, name: str, cfg: SensorConfig, journal: Journal) -
     for r in np.flatnonzero(keep & outside.any(axis=1)):
         keep[r] = False
         c = int(np.flatnonzero(outside[r])[0])
-        reason = implausible_reason(cfg, c, float(raw[r, c]), limits)
+        reason = implausible_reason(cfg, c, float(z[r, c]), limits)
         journal.drop(
             table.label, table.where(int(r)), DroppedRow(name, int(r), float(t[r]), reason)
         )
@@ -1605,8 +1604,12 @@ def _check_rate(table: Table, name: str, t: Array, period: float) -> None:
 def true_north(z: Array, declination: float) -> Array:
     """Headings ``z`` (rad) of a magnetic compass as true ones, ``wrap(z + D)`` in (-π, π]
     for the declination D (rad, east positive; ``declination_deg``, docs/data-format.md); NaN
-    stays NaN. ``-D`` turns true headings back into the compass's."""
-    return np.asarray(attitude.wrap_angle(np.asarray(z, dtype=float) + declination), dtype=float)
+    stays NaN, ±inf ±inf (up to the audit of 0.4.13 a RuntimeWarning). ``-D`` turns true
+    headings back into the compass's."""
+    z = np.asarray(z, dtype=float)
+    # ±inf stays as it is, the engine's to drop as non-finite (np.remainder of inf warns).
+    turned = attitude.wrap_angle(np.where(np.isfinite(z), z, 0.0) + declination)
+    return np.asarray(np.where(np.isfinite(z), turned, z), dtype=float)
 
 
 def _drop_lost_lock(
@@ -1785,7 +1788,7 @@ ANGLE_MAJORITY = 0.5
 def _check_plausible(
     table: Table, name: str, z: Array, limits: Array, columns: list[str]
 ) -> NDArray[np.bool_]:
-    """Which values lie outside ``limits`` (n, d), ±inf included. A column whose every finite value
+    """Which finite values lie outside ``limits`` (n, d). A column whose every finite value
     does is an error (wrong units, or the wrong column): the readings are not just bad. So is an
     angle column (``_rad``) more than :data:`ANGLE_MAJORITY` of whose values do: degrees in a
     radians column put every heading above 6.28° outside, and the readings left (the ones
@@ -1813,9 +1816,7 @@ def _check_plausible(
             f"wrong units (degrees in a radians column?) or the wrong column? If the range is "
             f"wrong, set [sensors.{name}] limits (docs/robustness.md)",
         )
-    # ±inf is no reading (an overflow): dropped as implausible before anything computes with it
-    # (up to 0.4.12 a GNSS fix of inf crashed the GNSS clock check in geodetic_to_ecef).
-    return outside | np.isinf(z)
+    return outside
 
 
 ABOVE_SURFACE_M = -1.0

@@ -434,13 +434,17 @@ def direction(
     ``times``): ψ the ``heading`` at each chord's start, ψ_g the gyro's yaw ``yaw0`` there (the
     frame of :func:`dvl_chords`). With the heading's σ, only chords whose σ at their end is
     within :data:`MAX_YAW_SIGMA_DEG` count, and the largest σ among them joins the fit's."""
-    if heading.t.size < 2:
+    # Finite readings only: ±inf (kept by the loader for the engine to drop) would unwrap every
+    # reading after it to NaN, and warn (up to the audit of 0.4.13 a RuntimeWarning).
+    ok = np.isfinite(heading.t) & np.isfinite(heading.yaw)
+    if np.count_nonzero(ok) < 2:
         return None
     t0, t1 = times
-    psi = np.interp(t0, heading.t, np.unwrap(heading.yaw), left=math.nan, right=math.nan)
+    ht = heading.t[ok]
+    psi = np.interp(t0, ht, np.unwrap(heading.yaw[ok]), left=math.nan, right=math.nan)
     sig = np.zeros(t0.size)
     if heading.sigma is not None:
-        sig = np.interp(t1, heading.t, heading.sigma, left=math.inf, right=math.inf)
+        sig = np.interp(t1, ht, heading.sigma[ok], left=math.inf, right=math.inf)
         psi = np.where(sig <= math.radians(MAX_YAW_SIGMA_DEG), psi, math.nan)
     h = np.exp(1j * (psi - yaw0)) * d
     fin = np.isfinite(h)
