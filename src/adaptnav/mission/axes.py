@@ -508,6 +508,13 @@ class AccelTilt:
         """Variance of the noise of the angle changes, two blocks' each: ``2 σ_block²``."""
         return np.full(dt.shape, 2.0 * self.block_sigma**2)
 
+    def window(self, t0: float, t1: float) -> AccelTilt:
+        """The blocks from just before ``t0`` to just after ``t1`` (views, no copy): a span's
+        fits interpolate in them, not in a day of blocks (as :meth:`Gyro.window`)."""
+        i0 = max(int(np.searchsorted(self.t, t0, side="right")) - 1, 0)
+        i1 = min(int(np.searchsorted(self.t, t1, side="left")) + 1, self.t.size)
+        return AccelTilt(self.t[i0:i1], self.angles[i0:i1], self.block_sigma)
+
     def change(self, t0: Array, t1: Array, axis: int) -> Array:
         """The levelled angle ``axis`` (0 roll, 1 pitch) at t1 less that at t0 (NaN outside)."""
         inside = (t0 >= self.t[0]) & (t1 <= self.t[-1])
@@ -665,8 +672,9 @@ def _first_failure(
 def _span_verdict(
     imu: Gyro | AccelTilt, axis: int, ts: Array, us: Array, sigma: float | None
 ) -> tuple[bool, Slope | None, Quiet | None] | None:
-    """:func:`_segment_verdict` on the readings ``us`` at ``ts``, the gyro cut to them."""
-    part = imu.window(ts[0] - MAX_LAG_S, ts[-1] + MAX_LAG_S) if isinstance(imu, Gyro) else imu
+    """:func:`_segment_verdict` on the readings ``us`` at ``ts``, the IMU's angles cut to them
+    (a day's 864 000 tilt blocks interpolated at every span took 2.5 s of a day's load)."""
+    part = imu.window(ts[0] - MAX_LAG_S, ts[-1] + MAX_LAG_S)
     return _segment_verdict(part, axis, ts, us, sigma)
 
 
