@@ -630,10 +630,9 @@ def _sensor_data(name: str, kind: str, readings: list[Reading]) -> SensorData:
 def _hole_buffers(
     rate_hz: float,
 ) -> tuple[deque[tuple[Vec3, Vec3, float]], dict[float, Array]]:
-    """A stream's samples' own increments and intervals over the last :data:`NEAR_S` seconds
-    and the
-    variances of the holes it has seen by the stamp of the sample after each, not yet fed to
-    the engine (:meth:`Stream._hole_at`)."""
+    """A stream's samples' own increments and intervals over the last :data:`NEAR_S` seconds,
+    and the variances of the holes it has seen by the stamp of the sample after each, not yet
+    fed to the engine (:meth:`Stream._hole_at`)."""
     return deque(maxlen=math.ceil(NEAR_S * rate_hz) + 1), {}
 
 
