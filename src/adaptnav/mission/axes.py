@@ -730,10 +730,11 @@ def segment_finding(views: ImuViews, ref: Reference, sigma: float | None) -> Seg
     :func:`check_axes` does). Up to 0.4.12 an axis that failed mid-mission (zeroed, or reading
     its noise) was averaged away by the whole mission's fit (docs/robustness.md, 'An IMU axis
     that fails mid-mission')."""
-    spans = _spans(ref, views.gyro(ref.c_sb))
+    turned = views.gyro(ref.c_sb)
+    spans = _spans(ref, turned)
     if not spans:
         return None
-    gyro = _first_failure(spans, views.gyro(ref.c_sb), ref.axis, sigma)
+    gyro = _first_failure(spans, turned, ref.axis, sigma)
     tilt = None
     if ref.tilt is not None:
         tilt = _first_failure(spans, views.tilt(ref.c_sb), ref.tilt, sigma)

@@ -235,7 +235,9 @@ class Reference:
         lost at 830 s and ``imu.max_gap_s`` raised was refused: its inclinometer "stamped
         54.9 s after its readings")."""
         gaps = np.diff(t)
-        if gaps.size == 0:
+        # A hole is longer than IMU_HOLE_S whatever the spacing: the median (a sort of a day of
+        # IMU stamps) only where some interval is.
+        if not np.any(gaps > axes.IMU_HOLE_S):
             return self
         i = np.flatnonzero(gaps > max(axes.IMU_HOLE_S, GAP_PERIODS * float(np.median(gaps))))
         if not i.size:

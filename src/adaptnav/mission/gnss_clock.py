@@ -294,6 +294,20 @@ def unbroken(track: tuple[Array, CArray], start: Array, end: Array) -> tuple[Arr
     return t[keep], np.asarray(p[keep], dtype=complex)
 
 
+def local_fixes(g: Readings) -> tuple[Array, Array, Array, float] | None:
+    """A receiver's finite fixes as the checks by its positions take them: their times, north
+    and east (m, :func:`adaptnav.mission.axes.flatten`'s frame) and the receiver's period (its
+    median interval when ``rate_hz`` is not given). Finite only: the frame's origin is the
+    first fix, and ±inf (kept by the loader for the engine to drop) has no cosine (up to the
+    audit of 0.4.13 a RuntimeWarning). None: fewer than three."""
+    ok = np.isfinite(g.t) & np.isfinite(g.z[:, 0]) & np.isfinite(g.z[:, 1])
+    if np.count_nonzero(ok) < 3:
+        return None
+    north, east = axes.flatten(g.z[ok, 0], g.z[ok, 1])
+    period = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t[ok])))
+    return g.t[ok], north, east, period
+
+
 def check(
     config: MissionConfig, views: axes.ImuViews, sensors: Mapping[str, Readings]
 ) -> list[Finding]:
@@ -310,12 +324,11 @@ def check(
     out = []
     for name in long:
         g = sensors[name]
-        # Finite fixes only: the frame's origin is the first, and ±inf (kept by the loader for
-        # the engine to drop) has no cosine (up to the audit of 0.4.13 a RuntimeWarning).
-        ok = np.isfinite(g.t) & np.isfinite(g.z[:, 0]) & np.isfinite(g.z[:, 1])
-        north, east = axes.flatten(g.z[ok, 0], g.z[ok, 1])
-        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t[ok])))
-        found = gnss_offset(g.t[ok], north, east, gp, track)
+        fixes = local_fixes(g)
+        if fixes is None:
+            continue
+        found = gnss_offset(*fixes, track)
+        gp = fixes[3]
         if found is None or not found.decisive() or abs(found.offset_s) <= axes.MAX_LAG_S:
             continue
         width = max(WINDOW_S, WINDOW_PERIODS * gp)

@@ -205,13 +205,8 @@ def check(
     out = []
     for name in judged:
         g = sensors[name]
-        # Finite fixes only: the frame's origin is the first, and an inf has no cosine.
-        ok = np.isfinite(g.t) & np.isfinite(g.z[:, 0]) & np.isfinite(g.z[:, 1])
-        if np.count_nonzero(ok) < 3:
-            continue
-        north, east = axes.flatten(g.z[ok, 0], g.z[ok, 1])
-        gp = g.period if math.isfinite(g.period) else float(np.median(np.diff(g.t[ok])))
-        found = mirror_fit(g.t[ok], north, east, gp, track)
+        fixes = gnss_clock.local_fixes(g)
+        found = None if fixes is None else mirror_fit(*fixes, track)
         if found is not None and found.mirrored():
             lat = float(np.nanmedian(g.z[:, 0]))
             out.append(Finding(name, dvl_name, found, _earth(config, views, lat)))
